@@ -1,0 +1,10 @@
+"""Benchmarks behind `mrss bench NAME`: each module NAME has `run(quick) -> BenchReport`."""
+
+from __future__ import annotations
+
+BENCHES: dict[str, str] = {
+    "bus": "bus message throughput and round-trip latency vs MQTT",
+    "restart": "time from SIGKILL to a restarted component answering",
+    "reasoner": "AgentSpeak interpreter throughput vs python-agentspeak",
+    "e2e": "latency from percept to the first skill start",
+}

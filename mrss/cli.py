@@ -1,0 +1,92 @@
+"""The `mrss` command: one verb per job, each implemented in `mrss.commands.<verb>`."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from mrss import __version__
+from mrss.errors import UnknownProjectError
+from mrss.projects import project_path
+
+
+@dataclass(frozen=True)
+class Verb:
+    """A CLI verb: its help line, whether it takes a project, and whether it is built."""
+
+    name: str
+    help: str
+    takes_project: bool = False
+    built: bool = False
+
+
+VERBS: tuple[Verb, ...] = (
+    Verb("supervise", "run a project's whole system under the root supervisor", True),
+    Verb("tui", "open the monitoring and debug dashboard", True),
+    Verb("new", "create a project folder from the template"),
+    Verb("check", "load and validate a project without starting robots", True),
+    Verb("test", "run a project's test procedures", True),
+    Verb("agent", "run one AgentSpeak agent standalone with a console host"),
+    Verb("send", "publish a message (e.g. a percept) on a running system's bus"),
+    Verb("record", "record a running system's bus traffic to a file"),
+    Verb("replay", "replay a recorded bus session"),
+    Verb("sim", "run a simulated robot (uav, ugv)"),
+    Verb("bench", "run a benchmark (bus, restart, reasoner, e2e)", built=True),
+)
+
+NOT_BUILT_EXIT = 2
+
+
+def _verb_module(name: str) -> str:
+    return f"mrss.commands.{name}"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with one sub-parser per verb."""
+    parser = argparse.ArgumentParser(
+        prog="mrss", description="MRSS: multi-robot support system for disaster response."
+    )
+    parser.add_argument("--version", action="version", version=f"mrss {__version__}")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB")
+    for verb in VERBS:
+        p = sub.add_parser(verb.name, help=verb.help, description=verb.help)
+        if verb.built or _module_exists(verb.name):
+            module = importlib.import_module(_verb_module(verb.name))
+            module.configure(p)
+        else:
+            if verb.takes_project:
+                p.add_argument("project", nargs="?", help="project name (projects/<name>/)")
+            p.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    return parser
+
+
+def _module_exists(name: str) -> bool:
+    return importlib.util.find_spec(_verb_module(name)) is not None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `mrss` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.verb is None:
+        parser.print_help()
+        return NOT_BUILT_EXIT
+    verb = next(v for v in VERBS if v.name == args.verb)
+    try:
+        if not (verb.built or _module_exists(verb.name)):
+            print(f"mrss {verb.name}: not yet available in this version", file=sys.stderr)
+            return NOT_BUILT_EXIT
+        if verb.takes_project and getattr(args, "project", None) is not None:
+            project_path(args.project)
+        module = importlib.import_module(_verb_module(verb.name))
+        result: int = module.run(args)
+        return result
+    except UnknownProjectError as exc:
+        print(f"mrss {verb.name}: {exc}", file=sys.stderr)
+        return NOT_BUILT_EXIT
+    except KeyboardInterrupt:
+        return 130

@@ -1,0 +1,33 @@
+"""`mrss bench NAME [--quick] [--json]`: run one benchmark and print its table."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from mrss.bench import BENCHES
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    names = ", ".join(f"{k} ({v})" for k, v in BENCHES.items())
+    parser.add_argument("name", help=f"benchmark to run: {names}")
+    parser.add_argument("--quick", action="store_true", help="small sizes, for CI smoke runs")
+    parser.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.name not in BENCHES:
+        print(f"mrss bench: unknown benchmark {args.name!r}; known: {', '.join(BENCHES)}",
+              file=sys.stderr)
+        return 2
+    try:
+        module = importlib.import_module(f"mrss.bench.{args.name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"mrss.bench.{args.name}":
+            raise
+        print(f"mrss bench {args.name}: not yet available in this version", file=sys.stderr)
+        return 2
+    report = module.run(quick=args.quick)
+    print(report.to_json() if args.json else report.to_text())
+    return 0

@@ -1,0 +1,430 @@
+"""Every message on the MRSS bus: one frozen dataclass per kind, the envelope, the codec.
+
+A bus message is two frames, `[topic, msgpack(envelope)]`, where the envelope is
+`{v, id, ts, src, inc, kind, body}`: schema version, message id, send time, sending
+component, the sender's incarnation (so a dead incarnation's late messages can be
+dropped), message kind, and the kind's fields. `decode` validates all of it and raises
+`DecodeError` with the reason for anything else; it never raises anything but that.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import types
+import typing
+import uuid as uuidlib
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any, ClassVar, Union
+
+import msgpack
+
+from mrss.errors import DecodeError
+
+SCHEMA_VERSION = 1
+
+JsonValue = Any  # msgpack-able: None, bool, int, float, str, bytes, list, dict
+
+
+class Topic(StrEnum):
+    """Topic prefixes; subscribers filter by prefix."""
+
+    PERCEPT = "percept"
+    ACTION_REQUEST = "action.request"
+    ACTION_ACK = "action.ack"
+    ACTION_STATUS = "action.status"
+    ACTION_CONTROL = "action.control"
+    DL_REQUEST = "dl.request"
+    DL_REPLY = "dl.reply"
+    ROBOT = "robot."
+    SUP = "sup."
+    LOG = "log."
+    MIND = "mind."
+    CTL = "ctl."
+
+
+class ActionState(StrEnum):
+    """States of an action in the RCL (DESIGN.md, "Actions")."""
+
+    PENDING = "pending"
+    RUNNING = "running"
+    SUSPENDED = "suspended"
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
+    CANCELLED = "cancelled"
+
+    @property
+    def terminal(self) -> bool:
+        return self in (ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED)
+
+
+CONTROL_COMMANDS = ("cancel", "suspend", "resume", "succeed", "fail")
+CONTROL_TARGETS = ("action", "goal", "robot")
+
+
+class Message:
+    """Base of all message bodies: a `kind` name and a `topic` to publish on."""
+
+    kind: ClassVar[str]
+
+    def topic(self) -> str:
+        return self.kind
+
+    def validate(self) -> None:
+        """Checks beyond field types; raise DecodeError."""
+
+
+@dataclass(frozen=True)
+class Percept(Message):
+    """An outside event for the reasoner, as an AgentSpeak literal string."""
+
+    kind: ClassVar[str] = "percept"
+    literal: str
+    op: str = "add"  # "add" | "remove"
+
+    def validate(self) -> None:
+        if self.op not in ("add", "remove"):
+            raise DecodeError(f"percept op must be 'add' or 'remove', not {self.op!r}")
+        if not self.literal.strip():
+            raise DecodeError("percept literal is empty")
+
+
+@dataclass(frozen=True)
+class ActionRequest(Message):
+    """An environment action of the agent, to be refined into skills by the RCL."""
+
+    kind: ClassVar[str] = "action.request"
+    uuid: str
+    name: str
+    args: list[JsonValue]
+    robot: str = ""
+    goal: str = ""
+    priority: int = 0
+    literal: str = ""
+
+    def validate(self) -> None:
+        _nonempty(self.uuid, "uuid")
+        _nonempty(self.name, "name")
+
+
+@dataclass(frozen=True)
+class ActionAck(Message):
+    """The RCL has the action (reliable channel acknowledgement)."""
+
+    kind: ClassVar[str] = "action.ack"
+    uuid: str
+
+
+@dataclass(frozen=True)
+class ActionStatus(Message):
+    """A transition of an action; terminal ones release the reasoner's latch."""
+
+    kind: ClassVar[str] = "action.status"
+    uuid: str
+    state: str
+    reason: str = ""
+    progress: dict[str, JsonValue] = field(default_factory=dict)
+    robot: str = ""
+
+    def validate(self) -> None:
+        _nonempty(self.uuid, "uuid")
+        if self.state not in {s.value for s in ActionState}:
+            raise DecodeError(f"unknown action state {self.state!r}")
+
+
+@dataclass(frozen=True)
+class ActionControl(Message):
+    """Goal management (rcl_goal_management): a command for an action, goal or robot."""
+
+    kind: ClassVar[str] = "action.control"
+    command: str
+    target: str
+    target_kind: str = "action"
+
+    def validate(self) -> None:
+        if self.command not in CONTROL_COMMANDS:
+            raise DecodeError(f"unknown control command {self.command!r}")
+        if self.target_kind not in CONTROL_TARGETS:
+            raise DecodeError(f"unknown control target kind {self.target_kind!r}")
+        _nonempty(self.target, "target")
+
+
+@dataclass(frozen=True)
+class DataRequest(Message):
+    """A grounding request or external function call for the data layer."""
+
+    kind: ClassVar[str] = "dl.request"
+    request_id: str
+    function: str
+    args: list[JsonValue] = field(default_factory=list)
+
+    def validate(self) -> None:
+        _nonempty(self.request_id, "request_id")
+        _nonempty(self.function, "function")
+
+
+@dataclass(frozen=True)
+class DataReply(Message):
+    """The data layer's answer to a request: a result, or an error text."""
+
+    kind: ClassVar[str] = "dl.reply"
+    request_id: str
+    ok: bool
+    result: JsonValue = None
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class RobotState(Message):
+    """A robot's availability and link state, as the RCL or a link sees it."""
+
+    kind: ClassVar[str] = "robot.state"
+    robot: str
+    available: bool
+    link: str = "up"  # "up" | "down"
+    reason: str = ""
+    attributes: dict[str, JsonValue] = field(default_factory=dict)
+
+    def topic(self) -> str:
+        return f"robot.{self.robot}.state"
+
+
+@dataclass(frozen=True)
+class RobotData(Message):
+    """Telemetry from a robot (position, battery, ...) for the data layer and TUI."""
+
+    kind: ClassVar[str] = "robot.data"
+    robot: str
+    data: dict[str, JsonValue]
+
+    def topic(self) -> str:
+        return f"robot.{self.robot}.data"
+
+
+@dataclass(frozen=True)
+class SupEvent(Message):
+    """A supervision event: start, exit, restart, escalate, give_up, quarantine, release."""
+
+    kind: ClassVar[str] = "sup.event"
+    event: str
+    child: str
+    supervisor: str = ""
+    pid: int = 0
+    reason: str = ""
+    count: int = 0
+    detail: dict[str, JsonValue] = field(default_factory=dict)
+
+    def topic(self) -> str:
+        return f"sup.{self.event}"
+
+
+@dataclass(frozen=True)
+class Heartbeat(Message):
+    """A component is alive; the supervisor counts missed ones as a hang."""
+
+    kind: ClassVar[str] = "sup.heartbeat"
+    component: str
+    pid: int
+
+    def topic(self) -> str:
+        return f"sup.heartbeat.{self.component}"
+
+
+@dataclass(frozen=True)
+class LogRecord(Message):
+    """One log line of a component, for the TUI and the log file alike."""
+
+    kind: ClassVar[str] = "log.record"
+    component: str
+    level: str
+    message: str
+
+    def topic(self) -> str:
+        return f"log.{self.component}"
+
+
+@dataclass(frozen=True)
+class MindSnapshot(Message):
+    """The reasoner's beliefs, intentions and pending events, for the mind inspector."""
+
+    kind: ClassVar[str] = "mind.snapshot"
+    agent: str
+    beliefs: list[str]
+    intentions: list[dict[str, JsonValue]]
+    events: list[str]
+
+    def topic(self) -> str:
+        return f"mind.{self.agent}"
+
+
+@dataclass(frozen=True)
+class Command(Message):
+    """An operator command from the TUI or `mrss send` (e.g. inject a fault)."""
+
+    kind: ClassVar[str] = "ctl.command"
+    command: str
+    target: str = ""
+    args: dict[str, JsonValue] = field(default_factory=dict)
+
+    def topic(self) -> str:
+        return f"ctl.{self.command}"
+
+
+KINDS: dict[str, type[Message]] = {
+    cls.kind: cls
+    for cls in (
+        Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, DataRequest,
+        DataReply, RobotState, RobotData, SupEvent, Heartbeat, LogRecord, MindSnapshot,
+        Command,
+    )
+}
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A decoded bus message: header fields plus the validated body."""
+
+    topic: str
+    id: str
+    ts: float
+    src: str
+    inc: int
+    body: Message
+    v: int = SCHEMA_VERSION
+
+    @property
+    def kind(self) -> str:
+        return self.body.kind
+
+
+def new_id() -> str:
+    """A fresh message or action id."""
+    return uuidlib.uuid4().hex
+
+
+def encode(
+    body: Message, *, src: str, inc: int = 0, msg_id: str | None = None,
+    topic: str | None = None,
+) -> tuple[bytes, bytes]:
+    """The two frames of `body` as sent on the bus: topic and msgpack envelope."""
+    env = {
+        "v": SCHEMA_VERSION,
+        "id": msg_id or new_id(),
+        "ts": time.time(),
+        "src": src,
+        "inc": inc,
+        "kind": body.kind,
+        "body": _body_dict(body),
+    }
+    return (topic or body.topic()).encode(), msgpack.packb(env, use_bin_type=True)
+
+
+def _body_dict(body: Message) -> dict[str, Any]:
+    return {f.name: getattr(body, f.name) for f in dataclasses.fields(body)}  # type: ignore[arg-type]
+
+
+_ENVELOPE_FIELDS: dict[str, tuple[type, ...]] = {
+    "v": (int,), "id": (str,), "ts": (float, int), "src": (str,), "inc": (int,),
+    "kind": (str,), "body": (dict,),
+}
+
+
+def decode(topic: bytes, payload: bytes) -> Envelope:
+    """Validate and decode one bus message; anything malformed raises DecodeError."""
+    try:
+        topic_text = topic.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DecodeError("topic is not UTF-8") from exc
+    try:
+        env = msgpack.unpackb(payload, raw=False, strict_map_key=True)
+    except Exception as exc:  # msgpack raises many types for garbage input
+        raise DecodeError(f"not msgpack: {exc.__class__.__name__}", topic=topic_text) from exc
+    if not isinstance(env, dict):
+        raise DecodeError("envelope is not a map", topic=topic_text)
+    for key, types_ in _ENVELOPE_FIELDS.items():
+        if key not in env:
+            raise DecodeError(f"envelope lacks {key!r}", topic=topic_text)
+        value = env[key]
+        if isinstance(value, bool) or not isinstance(value, types_):
+            raise DecodeError(f"envelope {key!r} has type {type(value).__name__}",
+                              topic=topic_text)
+    if env["v"] != SCHEMA_VERSION:
+        raise DecodeError(f"schema version {env['v']} is not {SCHEMA_VERSION}", topic=topic_text)
+    cls = KINDS.get(env["kind"])
+    if cls is None:
+        raise DecodeError(f"unknown kind {env['kind']!r}", topic=topic_text)
+    try:
+        body = build(cls, env["body"])
+    except DecodeError as exc:
+        raise DecodeError(exc.reason, topic=topic_text) from None
+    if not topic_text.startswith(body.topic()) and topic_text != body.topic():
+        raise DecodeError(f"kind {cls.kind!r} does not belong on this topic", topic=topic_text)
+    return Envelope(topic=topic_text, id=env["id"], ts=float(env["ts"]), src=env["src"],
+                    inc=env["inc"], body=body)
+
+
+_M = typing.TypeVar("_M", bound=Message)
+
+
+def build(cls: type[_M], fields: dict[str, Any]) -> _M:
+    """Build and validate a message of type `cls` from a field map (DecodeError if bad)."""
+    hints = _hints(cls)
+    known = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    extra = set(fields) - set(known)
+    if extra:
+        raise DecodeError(f"{cls.kind}: unknown field(s) {sorted(map(str, extra))}")
+    values: dict[str, Any] = {}
+    for name, f in known.items():
+        if name not in fields:
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                raise DecodeError(f"{cls.kind}: missing field {name!r}")
+            continue
+        value = fields[name]
+        if not _type_ok(value, hints[name]):
+            raise DecodeError(
+                f"{cls.kind}: field {name!r} has type {type(value).__name__}"
+            )
+        values[name] = value
+    msg = cls(**values)
+    msg.validate()
+    return msg
+
+
+_HINT_CACHE: dict[type, dict[str, Any]] = {}
+
+
+def _hints(cls: type) -> dict[str, Any]:
+    if cls not in _HINT_CACHE:
+        _HINT_CACHE[cls] = typing.get_type_hints(cls)
+    return _HINT_CACHE[cls]
+
+
+def _type_ok(value: Any, hint: Any) -> bool:
+    if hint is Any:
+        return True
+    origin = typing.get_origin(hint)
+    if origin in (Union, types.UnionType):
+        return any(_type_ok(value, h) for h in typing.get_args(hint))
+    if hint is type(None):
+        return value is None
+    if origin is list:
+        (item,) = typing.get_args(hint)
+        return isinstance(value, list) and all(_type_ok(v, item) for v in value)
+    if origin is dict:
+        key, item = typing.get_args(hint)
+        return isinstance(value, dict) and all(
+            _type_ok(k, key) and _type_ok(v, item) for k, v in value.items()
+        )
+    if hint is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if isinstance(hint, type):
+        return isinstance(value, hint)
+    return False
+
+
+def _nonempty(value: str, name: str) -> None:
+    if not value:
+        raise DecodeError(f"field {name!r} is empty")

@@ -1,0 +1,130 @@
+"""Helpers for tests and test procedures: condition waits, free ports, a private broker."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TypeVar
+
+T = TypeVar("T")
+
+
+class WaitTimeout(AssertionError):
+    """A condition did not hold within its timeout."""
+
+
+def wait_until(
+    condition: Callable[[], T], timeout: float = 10.0, interval: float = 0.005,
+    message: str = "condition",
+) -> T:
+    """Poll `condition` until it returns a truthy value; return it, or raise WaitTimeout."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() >= deadline:
+            raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s")
+        time.sleep(interval)
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port on `host` that nothing listens on right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+def find_mosquitto() -> str | None:
+    """The mosquitto binary: on PATH, or in /usr/sbin where Debian installs it."""
+    found = shutil.which("mosquitto")
+    if found:
+        return found
+    for candidate in ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto"):
+        if os.access(candidate, os.X_OK):
+            return candidate
+    return None
+
+
+@dataclass(frozen=True)
+class BrokerInfo:
+    """A running MQTT broker for a test: where it listens and what it is."""
+
+    host: str
+    port: int
+    kind: str  # "mosquitto" | "amqtt"
+
+    @property
+    def url(self) -> str:
+        return f"mqtt://{self.host}:{self.port}"
+
+
+def _wait_port(host: str, port: int, timeout: float) -> None:
+    def accepting() -> bool:
+        try:
+            with socket.create_connection((host, port), timeout=0.2):
+                return True
+        except OSError:
+            return False
+
+    wait_until(accepting, timeout=timeout, interval=0.02, message=f"broker on {host}:{port}")
+
+
+@contextmanager
+def mosquitto_broker(binary: str, host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
+    """A private Mosquitto on a free loopback port, stopped on exit even after a failure."""
+    port = free_port(host)
+    with tempfile.TemporaryDirectory(prefix="mrss-mosq-") as tmp:
+        conf = Path(tmp) / "mosquitto.conf"
+        conf.write_text(
+            f"listener {port} {host}\nallow_anonymous true\npersistence false\n"
+            "log_type error\nlog_type warning\n"
+        )
+        proc = subprocess.Popen(
+            [binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+        )
+        try:
+            _wait_port(host, port, timeout=10.0)
+            yield BrokerInfo(host, port, "mosquitto")
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+            if proc.stderr:
+                proc.stderr.close()
+
+
+@contextmanager
+def amqtt_broker(host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
+    """An embedded amqtt broker in a child process on a free loopback port."""
+    port = free_port(host)
+    proc = subprocess.Popen(
+        [sys.executable, "-m",
+         "mrss.broker", "--host", host, "--port", str(port)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )
+    try:
+        _wait_port(host, port, timeout=20.0)
+        yield BrokerInfo(host, port, "amqtt")
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        if proc.stderr:
+            proc.stderr.close()

@@ -1,0 +1,59 @@
+"""The `mrss` command: version, verbs, not-yet-built verbs and unknown projects."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from mrss import __version__
+from mrss.cli import VERBS, main
+
+DESIGN_VERBS = {"supervise", "tui", "new", "check", "test", "agent", "send", "record",
+                "replay", "sim", "bench"}
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "mrss", *args], capture_output=True,
+                          text=True, timeout=60)
+
+
+def test_version_prints_package_version() -> None:
+    out = run_cli("--version")
+    assert out.returncode == 0
+    assert out.stdout.strip() == f"mrss {__version__}"
+
+
+def test_help_lists_every_design_verb() -> None:
+    out = run_cli("--help")
+    assert out.returncode == 0
+    for verb in DESIGN_VERBS:
+        assert verb in out.stdout
+    assert {v.name for v in VERBS} == DESIGN_VERBS
+
+
+@pytest.mark.parametrize("verb", sorted(DESIGN_VERBS))
+def test_each_verb_has_its_own_help(verb: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([verb, "--help"])
+    assert exit_info.value.code == 0
+    assert f"mrss {verb}" in capsys.readouterr().out
+
+
+def test_unbuilt_verb_says_so_and_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    unbuilt = [v for v in VERBS if not v.built and not _importable(v.name)]
+    for verb in unbuilt:
+        assert main([verb.name]) == 2
+        assert "not yet available" in capsys.readouterr().err
+
+
+def test_unknown_benchmark_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "nonesuch"]) == 2
+    assert "unknown benchmark" in capsys.readouterr().err
+
+
+def _importable(name: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(f"mrss.commands.{name}") is not None
