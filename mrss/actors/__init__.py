@@ -1,0 +1,1 @@
+"""Actors inside MRSS components: the Robot Communication Layer (rcl, robot, skill)."""

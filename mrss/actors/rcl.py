@@ -1,0 +1,309 @@
+"""The Robot Communication Layer core: accept actions, route them to robot actors, report.
+
+Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
+management through `control`, and statuses leave through the injected `publish` callable,
+so the same object runs in-process in tests and behind the bus (`RclService`). Rules:
+- a request is validated by the project's `action_cb`; a malformed one is FAILED at once,
+  its reason logged and in the status;
+- a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
+- every status is committed to the ActionJournal before it is published;
+- on `start`, every non-terminal action of the journal is resumed or explicitly failed;
+- a crashed robot actor is restarted from the journal (at most `max_robot_restarts`
+  in `restart_period` seconds; beyond that its actions fail and the robot is unavailable).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Mapping
+from typing import Any, NamedTuple
+
+import pykka
+
+from mrss.actors.journal import ActionJournal
+from mrss.actors.resources import ResourceBroker
+from mrss.actors.robot import BY_CONTROL, Control, RobotActor, SetTeleop, StartAction
+from mrss.api import Action, RobotCommLayer, check_json
+from mrss.errors import ActionError, DecodeError
+from mrss.messages import (
+    ActionControl,
+    ActionRequest,
+    ActionState,
+    ActionStatus,
+    Message,
+    RobotState,
+    build,
+)
+
+log = logging.getLogger("mrss.rcl")
+
+Publish = Callable[[Message], object]
+
+
+class _Entry(NamedTuple):
+    robot: str
+    goal: str
+    state: ActionState
+
+
+class RclCore:
+    """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
+
+    def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
+                 robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
+                 restart_period: float = 60.0) -> None:
+        self.layer, self.journal, self.publish = layer, journal, publish
+        self.links = dict(robots)
+        self.broker = ResourceBroker(self._preempt, self._resume_preempted)
+        self.max_robot_restarts, self.restart_period = max_robot_restarts, restart_period
+        self._lock = threading.RLock()
+        self._index: dict[str, _Entry] = {}
+        self._robots: dict[str, pykka.ActorRef[RobotActor]] = {}
+        self._unavailable: dict[str, str] = {}
+        self._crashes: dict[str, deque[float]] = {}
+        self._running = False
+
+    # -- lifecycle of the core ----------------------------------------------------------
+    def start(self) -> None:
+        """Start one actor per robot, then resume or fail what the journal left open."""
+        teleop = self.journal.teleop_robots()
+        with self._lock:
+            self._running = True
+            for robot in self.links:
+                self._robots[robot] = self._spawn(robot, robot in teleop)
+        self._restore(self.journal.open_actions())
+
+    def stop(self) -> None:
+        """Stop every robot actor (and its skills); open actions stay in the journal."""
+        with self._lock:
+            self._running = False
+            refs = list(self._robots.values())
+            self._robots.clear()
+        for ref in refs:
+            try:
+                ref.stop(block=True, timeout=self.layer.interrupt_timeout + 2.0)
+            except pykka.Timeout:
+                log.error("robot actor %s did not stop in time", ref)
+
+    def _spawn(self, robot: str, teleop: bool) -> pykka.ActorRef[RobotActor]:
+        ref: pykka.ActorRef[RobotActor] = RobotActor.start(
+            robot, self.links[robot], self.layer, self.broker, self._emit,
+            self.journal.save_progress, teleop, self._robot_crashed)
+        return ref
+
+    def _restore(self, entries: list[Any]) -> None:
+        for action, suspended_by in entries:
+            if action.robot not in self._robots:
+                self._fail_unrouted(action, f"robot {action.robot!r} is not configured "
+                                            "after an RCL restart")
+            elif not self.layer.resume_after_restart(action.copy()):
+                self._fail_unrouted(action, "RCL restarted; the project does not resume "
+                                            f"{action.name!r} actions")
+            else:
+                with self._lock:
+                    self._index[action.uuid] = _Entry(action.robot, action.goal, action.state)
+                log.info("restoring action %s (%s) on %s", action.uuid, action.state.value,
+                         action.robot)
+                self._tell(action.robot, StartAction(action, suspended_by, restored=True))
+
+    # -- requests -------------------------------------------------------------------------
+    def submit_fields(self, fields: Mapping[str, Any]) -> None:
+        """Accept a raw action.request body; a malformed one is rejected with its reason."""
+        try:
+            request = build(ActionRequest, dict(fields))
+        except DecodeError as exc:
+            uuid = fields.get("uuid")
+            if isinstance(uuid, str) and uuid:
+                self._reject(uuid, fields, exc.reason)
+            else:
+                log.warning("dropped an action request without a uuid: %s", exc.reason)
+            return
+        self.submit(request)
+
+    def submit(self, request: ActionRequest) -> None:
+        """Accept an action request once per uuid; refine and run it on its robot."""
+        with self._lock:
+            if self._repeat(request.uuid):
+                return
+            try:
+                request.validate()
+                action = self.layer.action_cb(request)
+                if action.uuid != request.uuid:
+                    raise ActionError("action_cb changed the uuid", uuid=request.uuid)
+                check_json(action.args, "action arguments")
+                if action.robot not in self.links:
+                    raise ActionError(f"unknown robot {action.robot!r} (known: "
+                                      f"{', '.join(sorted(self.links)) or 'none'})")
+                if action.robot in self._unavailable:
+                    raise ActionError(f"robot {action.robot} unavailable: "
+                                      f"{self._unavailable[action.robot]}")
+            except Exception as exc:
+                reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
+                self._reject(request.uuid, _fields(request), reason)
+                return
+            action.state, action.reason = ActionState.PENDING, ""
+            self._emit(action.copy(), "")
+            self._tell(action.robot, StartAction(action))  # under the lock: before controls
+
+    def _repeat(self, uuid: str) -> bool:
+        """A uuid seen before: re-send its last status (the sender may have missed it)."""
+        entry = self.journal.get(uuid)
+        if entry is None:
+            return False
+        log.info("duplicate action request %s ignored (%s)", uuid, entry.action.state.value)
+        self._publish(entry.action)
+        return True
+
+    def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str) -> None:
+        log.warning("rejected action request %s: %s", uuid, reason)
+        with self._lock:
+            if self.journal.get(uuid) is not None:
+                return
+            action = Action(uuid=uuid, name=str(fields.get("name", "")))
+            for key in ("robot", "goal"):
+                if isinstance(fields.get(key), str):
+                    setattr(action, key, fields[key])
+            action.transition(ActionState.FAILED, f"rejected: {reason}")
+            self._emit(action, "")
+
+    # -- goal management, teleop, availability -------------------------------------------
+    def control(self, control: ActionControl) -> list[str]:
+        """Apply cancel/suspend/resume/succeed/fail to an action, a goal or a robot."""
+        control.validate()
+        with self._lock:
+            targets = [u for u, e in self._index.items()
+                       if (control.target_kind == "action" and u == control.target)
+                       or (control.target_kind == "goal" and e.goal == control.target)
+                       or (control.target_kind == "robot" and e.robot == control.target)]
+            robots = {u: self._index[u].robot for u in targets}
+        if not targets:
+            log.warning("%s %s %r: no active action", control.command, control.target_kind,
+                        control.target)
+        for uuid in targets:
+            self._tell(robots[uuid], Control(uuid, control.command, by=BY_CONTROL))
+        return targets
+
+    def set_teleop(self, robot: str, on: bool) -> None:
+        """Teleop on suspends every action of `robot`; off resumes them from progress."""
+        if robot not in self.links:
+            raise ActionError(f"teleop for unknown robot {robot!r}")
+        self.journal.set_teleop(robot, on)
+        self._tell(robot, SetTeleop(on))
+        self._robot_state(robot, teleop=on)
+
+    def set_available(self, robot: str, available: bool, reason: str = "") -> None:
+        """Mark `robot` (un)available; new actions for an unavailable robot are rejected."""
+        with self._lock:
+            if available:
+                self._unavailable.pop(robot, None)
+            else:
+                self._unavailable[robot] = reason or "unavailable"
+        self._robot_state(robot)
+
+    def state(self, uuid: str) -> ActionState | None:
+        """The last journaled state of an action (None if never seen)."""
+        entry = self.journal.get(uuid)
+        return entry.action.state if entry else None
+
+    def active(self) -> dict[str, ActionState]:
+        """Every non-terminal action and its state."""
+        with self._lock:
+            return {u: e.state for u, e in self._index.items()}
+
+    # -- plumbing ---------------------------------------------------------------------------
+    def _emit(self, action: Action, suspended_by: str) -> None:
+        """Journal (committed) first, then publish: a status is never out before it's safe."""
+        self.journal.record(action, suspended_by)
+        with self._lock:
+            if action.terminal:
+                self._index.pop(action.uuid, None)
+            else:
+                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state)
+        self._publish(action)
+
+    def _publish(self, action: Action) -> None:
+        status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
+                              progress=dict(action.progress), robot=action.robot)
+        try:
+            self.publish(status)
+        except Exception as exc:  # the journal has it; a reconnecting sender re-asks
+            log.error("publishing status of %s failed: %r", action.uuid, exc)
+
+    def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
+        attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
+        with self._lock:
+            reason = self._unavailable.get(robot, "")
+        try:
+            self.publish(RobotState(robot=robot, available=not reason, reason=reason,
+                                    attributes=attrs))
+        except Exception as exc:
+            log.error("publishing state of robot %s failed: %r", robot, exc)
+
+    def _fail_unrouted(self, action: Action, reason: str) -> None:
+        log.warning("failing action %s: %s", action.uuid, reason)
+        action.transition(ActionState.FAILED, reason)
+        try:
+            self.layer.on_action_end(action.copy())
+        except Exception as exc:
+            log.error("on_action_end(%s) raised %r", action.uuid, exc)
+        self._emit(action, "")
+
+    def _tell(self, robot: str, message: object) -> None:
+        with self._lock:
+            ref = self._robots.get(robot)
+        if ref is None:
+            log.warning("no robot actor for %s (RCL stopped?): %r dropped", robot, message)
+            return
+        try:
+            ref.tell(message)
+        except pykka.ActorDeadError:
+            log.warning("robot actor %s is dead; %r waits for its restart", robot, message)
+
+    def _preempt(self, uuid: str, resource: str) -> None:
+        self._control_one(uuid, "suspend", f"pre-empted: {resource} is needed by a "
+                          "higher-priority action", f"resource:{resource}")
+
+    def _resume_preempted(self, uuid: str, resource: str) -> None:
+        self._control_one(uuid, "resume", "", f"resource:{resource}")
+
+    def _control_one(self, uuid: str, command: str, reason: str, by: str) -> None:
+        with self._lock:
+            entry = self._index.get(uuid)
+        if entry is not None:
+            self._tell(entry.robot, Control(uuid, command, reason, by))
+
+    def _robot_crashed(self, robot: str) -> None:
+        """Supervision of robot actors: restart from the journal, within an intensity."""
+        now = time.monotonic()
+        with self._lock:
+            if not self._running:
+                return
+            crashes = self._crashes.setdefault(robot, deque())
+            crashes.append(now)
+            while crashes and now - crashes[0] > self.restart_period:
+                crashes.popleft()
+            give_up = len(crashes) > self.max_robot_restarts
+            entries = [e for e in self.journal.open_actions() if e.action.robot == robot]
+            for entry in entries:
+                self.broker.forget_action(entry.action.uuid)
+            if give_up:
+                self._robots.pop(robot, None)
+                self._unavailable[robot] = "robot actor keeps crashing"
+            else:
+                self._robots[robot] = self._spawn(robot, robot in self.journal.teleop_robots())
+        if give_up:
+            log.error("robot actor %s crashed %d times in %.0fs: giving up", robot,
+                      len(crashes), self.restart_period)
+            for entry in entries:
+                self._fail_unrouted(entry.action, f"robot actor {robot} keeps crashing")
+            self._robot_state(robot)
+            return
+        log.error("robot actor %s crashed; restarted from the journal", robot)
+        self._restore(entries)
+
+
+def _fields(request: ActionRequest) -> dict[str, Any]:
+    return {"name": request.name, "robot": request.robot, "goal": request.goal}

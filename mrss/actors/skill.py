@@ -1,0 +1,227 @@
+"""One pykka actor per running skill; the skill's own code runs on a worker thread it owns.
+
+`run` may block on a robot link, so the actor never calls it on its own thread: the
+worker drives START -> RUN -> FINISH and reports, while the actor stays free to take an
+`Interrupt` (set the flag, move to INTERRUPT, call `terminate()`), even if `run` never
+returns. A skill that raises is restarted from START up to its `max_restarts`, then fails
+with the exception's message; nothing escapes to the robot actor.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import pykka
+
+from mrss.actors.resources import Holder, ResourceBroker
+from mrss.api import Action, Skill, SkillInterrupted, SkillOutcome, SkillState
+from mrss.messages import JsonValue
+
+log = logging.getLogger("mrss.rcl.skill")
+
+RESTART_BACKOFF = 0.05  # seconds before the first restart; doubles, capped at 2 s
+
+
+@dataclass(frozen=True)
+class SkillEnded:
+    """To the robot actor: skill `index` of run `run` of action `uuid` is over."""
+
+    uuid: str
+    run: int
+    index: int
+    outcome: SkillOutcome
+    reason: str
+
+
+@dataclass(frozen=True)
+class ProgressRecorded:
+    """To the robot actor: a skill recorded progress for its action."""
+
+    uuid: str
+    run: int
+    values: dict[str, JsonValue]
+
+
+@dataclass(frozen=True)
+class Interrupt:
+    """To a skill actor: stop the skill now (suspend, cancel, pre-emption, shutdown)."""
+
+
+@dataclass(frozen=True)
+class _WorkerDone:
+    outcome: SkillOutcome
+    reason: str
+
+
+Report = Callable[[object], None]
+
+
+class SkillRunner:
+    """The runtime a skill sees (mrss.api.SkillRuntime): link, flag, progress, resources."""
+
+    def __init__(self, action: Action, run: int, index: int, link: Any,
+                 broker: ResourceBroker, report: Report) -> None:
+        self.action = action
+        self.link = link
+        self.run = run
+        self.index = index
+        self.interrupt_event = threading.Event()
+        self.lock = threading.Lock()
+        self.token = f"{action.uuid}/{run}/{index}"
+        self._broker = broker
+        self._report = report
+
+    def record_progress(self, values: Mapping[str, JsonValue]) -> None:
+        try:
+            self._report(ProgressRecorded(self.action.uuid, self.run, dict(values)))
+        except pykka.ActorDeadError:
+            log.warning("skill %s: progress %r lost, robot actor stopped", self.token, values)
+
+    def acquire(self, resource: str, timeout: float | None) -> None:
+        holder = Holder(self.token, self.action.uuid, self.action.priority)
+        self._broker.acquire(resource, holder, self.interrupt_event, timeout)
+
+    def release(self, resource: str) -> None:
+        self._broker.release(resource, self.token)
+
+    def release_all(self) -> None:
+        self._broker.release_token(self.token)
+
+    def interrupt(self) -> None:
+        self.interrupt_event.set()
+        self._broker.wake(self.token)
+
+
+class SkillActor(pykka.ThreadingActor):
+    """Owns one skill's worker thread; reports SkillEnded to its robot actor."""
+
+    use_daemon_thread = True  # an abandoned skill must never keep the process alive
+
+    def __init__(self, skill: Skill, runner: SkillRunner, report: Report) -> None:
+        super().__init__()
+        self.skill = skill
+        self.runner = runner
+        self.report = report
+        skill._bind(runner)
+        self._worker = threading.Thread(
+            target=self._work, name=f"skill-{skill.name}-{runner.token}", daemon=True)
+
+    def on_start(self) -> None:
+        self._worker.start()
+
+    def on_receive(self, message: Any) -> Any:
+        if isinstance(message, Interrupt):
+            self._interrupt()
+        elif isinstance(message, _WorkerDone):
+            try:
+                self.report(SkillEnded(self.runner.action.uuid, self.runner.run,
+                                       self.runner.index, message.outcome, message.reason))
+            except pykka.ActorDeadError:
+                log.info("skill %s ended after its robot actor stopped", self.runner.token)
+            self.stop()
+        else:
+            log.warning("skill actor %s: unexpected message %r", self.runner.token, message)
+        return None
+
+    def _interrupt(self) -> None:
+        with self.runner.lock:
+            if self.skill.state in (SkillState.START, SkillState.RUN):
+                self.skill._set_state(SkillState.INTERRUPT)
+            else:
+                return
+        self.runner.interrupt()
+        try:
+            self.skill.terminate()
+        except Exception as exc:  # project code: log, the worker still ends the skill
+            log.error("skill %s: terminate() raised %s: %s", self.skill.name,
+                      type(exc).__name__, exc)
+
+    def _work(self) -> None:
+        try:
+            outcome, reason = drive(self.skill, self.runner)
+        except BaseException as exc:  # noqa: BLE001 - never lose the report
+            outcome, reason = SkillOutcome.FAILED, f"{self.skill.name}: {exc!r}"
+        finally:
+            self.runner.release_all()
+        try:
+            self.actor_ref.tell(_WorkerDone(outcome, reason))
+        except pykka.ActorDeadError:
+            log.info("skill %s ended after being abandoned (%s)", self.runner.token, outcome)
+
+
+def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
+    """Run the skill's state machine to FINISH on this thread; return outcome and reason."""
+    restarts = 0
+    while True:
+        outcome, reason, crashed = _attempt(skill, runner)
+        if crashed and restarts < skill.max_restarts and not runner.interrupt_event.is_set():
+            restarts += 1
+            log.warning("skill %s: %s; restart %d of %d", skill.name, reason, restarts,
+                        skill.max_restarts)
+            _finish(skill, runner, SkillOutcome.FAILED, reason)
+            runner.release_all()
+            with runner.lock:
+                skill._set_state(SkillState.START)
+            if runner.interrupt_event.wait(min(2.0, RESTART_BACKOFF * 2 ** (restarts - 1))):
+                with runner.lock:
+                    if skill.state is SkillState.START:
+                        skill._set_state(SkillState.INTERRUPT)
+                    skill._set_state(SkillState.FINISH)
+                return _finish(skill, runner, SkillOutcome.INTERRUPTED, "")
+            continue
+        return _finish(skill, runner, outcome, reason)
+
+
+def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
+    """One pass START -> RUN -> FINISH; (outcome, reason, crashed)."""
+    outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False
+    try:
+        for resource in skill.resources:
+            skill.acquire(resource)
+        if not runner.interrupt_event.is_set():
+            skill.start()
+        with runner.lock:
+            go = skill.state is SkillState.START
+            if go:
+                skill._set_state(SkillState.RUN)
+        if go:
+            outcome, reason = _normalise(skill, skill.run())
+    except SkillInterrupted:
+        outcome = SkillOutcome.INTERRUPTED
+    except Exception as exc:
+        outcome, crashed = SkillOutcome.FAILED, True
+        reason = f"{skill.name} raised {type(exc).__name__}: {exc}"
+    with runner.lock:
+        if skill.state is SkillState.INTERRUPT:
+            outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False
+        skill._set_state(SkillState.FINISH)
+    return outcome, reason, crashed
+
+
+def _normalise(skill: Skill, result: SkillOutcome | bool | None) -> tuple[SkillOutcome, str]:
+    if isinstance(result, SkillOutcome):
+        outcome = result
+    else:
+        outcome = SkillOutcome.FAILED if result is False else SkillOutcome.SUCCEEDED
+    if outcome is SkillOutcome.SUCCEEDED:
+        return outcome, ""
+    return outcome, skill.reason or f"{skill.name} {outcome.value}"
+
+
+def _finish(skill: Skill, runner: SkillRunner, outcome: SkillOutcome,
+            reason: str) -> tuple[SkillOutcome, str]:
+    """Call the skill's `finish` hook; a raising hook turns success into failure."""
+    skill.outcome, skill.reason = outcome, reason
+    try:
+        skill.finish(outcome)
+    except Exception as exc:
+        log.error("skill %s: finish() raised %s: %s", skill.name, type(exc).__name__, exc)
+        if outcome is SkillOutcome.SUCCEEDED:
+            outcome = SkillOutcome.FAILED
+            reason = f"{skill.name}.finish raised {type(exc).__name__}: {exc}"
+            skill.outcome, skill.reason = outcome, reason
+    return outcome, reason

@@ -1,0 +1,304 @@
+"""What a project imports: actions, skills, resources and the Robot Communication Layer base.
+
+A project's `rcl.py` subclasses `RobotCommLayer` (the recipes that refine an action into
+skills), its `skills.py` subclasses `Skill`. Everything else in MRSS may change without
+notice; this module is the contract (DESIGN.md, "Actions" and "Skills"; paper IV-E, V).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import threading
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any, ClassVar, Protocol
+
+from mrss.errors import ActionError, MrssError
+from mrss.messages import ActionRequest, ActionState, JsonValue
+
+__all__ = [
+    "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Resource",
+    "RobotCommLayer", "Skill", "SkillInterrupted", "SkillOutcome", "SkillState",
+]
+
+_P, _R, _S = ActionState.PENDING, ActionState.RUNNING, ActionState.SUSPENDED
+_OK, _KO, _CA = ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED
+
+#: The one table of legal action transitions; terminal states lead nowhere.
+ACTION_TRANSITIONS: Mapping[ActionState, frozenset[ActionState]] = {
+    _P: frozenset({_R, _S, _OK, _KO, _CA}),  # SUSPENDED: arrived while its robot is in teleop
+    _R: frozenset({_S, _OK, _KO, _CA}),
+    _S: frozenset({_R, _OK, _KO, _CA}),      # RUNNING again: resumed, refined from progress
+    _OK: frozenset(), _KO: frozenset(), _CA: frozenset(),
+}
+
+
+def check_action_transition(old: ActionState, new: ActionState, uuid: str = "") -> None:
+    """Raise ActionError unless `old -> new` is in ACTION_TRANSITIONS."""
+    if new not in ACTION_TRANSITIONS[old]:
+        raise ActionError(f"illegal transition {old.value} -> {new.value}", uuid=uuid or None)
+
+
+def check_json(value: Any, what: str) -> None:
+    """Raise ActionError unless `value` can go into the journal and on the bus."""
+    try:
+        json.dumps(value)
+    except (TypeError, ValueError) as exc:
+        raise ActionError(f"{what} is not JSON-compatible: {exc}") from None
+
+
+@dataclass
+class Action:
+    """An environment action of the agent, as the RCL tracks it."""
+
+    uuid: str
+    name: str
+    args: list[JsonValue] = field(default_factory=list)
+    robot: str = ""
+    goal: str = ""
+    priority: int = 0
+    state: ActionState = ActionState.PENDING
+    progress: dict[str, JsonValue] = field(default_factory=dict)
+    literal: str = ""
+    reason: str = ""
+
+    @property
+    def terminal(self) -> bool:
+        return self.state.terminal
+
+    def transition(self, new: ActionState, reason: str = "") -> None:
+        """Move to `new` (ActionError if the table forbids it) and record why."""
+        check_action_transition(self.state, new, self.uuid)
+        self.state = new
+        self.reason = reason
+
+    def copy(self) -> Action:
+        """An independent snapshot (args and progress copied)."""
+        return dataclasses.replace(self, args=list(self.args), progress=dict(self.progress))
+
+
+@dataclass(frozen=True)
+class Resource:
+    """A named thing only one action may use at a time (airspace, a camera, a robot's motion).
+
+    With `per_robot`, the name is qualified by the skill's robot: "ugv1/motion".
+    """
+
+    name: str
+    per_robot: bool = False
+
+    def qualified(self, robot: str) -> str:
+        return f"{robot}/{self.name}" if self.per_robot else self.name
+
+
+class SkillState(StrEnum):
+    """States of a skill (paper IV-E)."""
+
+    START = "start"
+    RUN = "run"
+    INTERRUPT = "interrupt"
+    FINISH = "finish"
+
+
+#: The one table of legal skill transitions. FINISH -> START is a restart after a crash.
+SKILL_TRANSITIONS: Mapping[SkillState, frozenset[SkillState]] = {
+    SkillState.START: frozenset({SkillState.RUN, SkillState.INTERRUPT, SkillState.FINISH}),
+    SkillState.RUN: frozenset({SkillState.INTERRUPT, SkillState.FINISH}),
+    SkillState.INTERRUPT: frozenset({SkillState.FINISH}),
+    SkillState.FINISH: frozenset({SkillState.START}),
+}
+
+
+class SkillOutcome(StrEnum):
+    """How a skill ended."""
+
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+
+
+class SkillInterrupted(MrssError):
+    """Raised inside a skill by `acquire` when the skill is interrupted while it waits."""
+
+
+class SkillRuntime(Protocol):
+    """What the RCL gives a running skill (internal; projects use Skill's methods)."""
+
+    action: Action
+    link: Any
+    interrupt_event: threading.Event
+
+    def record_progress(self, values: Mapping[str, JsonValue]) -> None: ...
+
+    def acquire(self, resource: str, timeout: float | None) -> None: ...
+
+    def release(self, resource: str) -> None: ...
+
+
+class Skill:
+    """Base of project skills: implement `run`, and `start`, `finish`, `terminate` as needed.
+
+    The RCL calls `start()`, then `run()` once on the skill's own thread, then
+    `finish(outcome)`. `run` may block on the robot link; it returns None or True
+    (succeeded), False or a SkillOutcome. An exception fails the skill with its message
+    (after `max_restarts` re-runs from START). To interrupt (suspend, cancel, pre-emption)
+    the RCL sets `interrupted` and calls `terminate()` from another thread: stop the
+    robot there so `run` returns soon. Whatever `run` returns then, the outcome is
+    INTERRUPTED. Progress recorded with `record_progress` is kept across suspension and
+    restarts, and given back through `action.progress` when the action is refined again.
+    """
+
+    #: Resources acquired before `start` and released after `finish`.
+    resources: ClassVar[tuple[Resource | str, ...]] = ()
+    #: How many times a skill that raised is started again before it fails its action.
+    max_restarts: ClassVar[int] = 0
+
+    _runtime: SkillRuntime | None = None
+    _progress: dict[str, JsonValue]
+    state: SkillState = SkillState.START
+    outcome: SkillOutcome | None = None
+    reason: str = ""
+
+    # -- to implement --------------------------------------------------------------
+    def start(self) -> None:
+        """Prepare (acquire resources, read progress, send the first command)."""
+
+    def run(self) -> SkillOutcome | bool | None:
+        """Do the work; may block. None/True: succeeded, False: failed."""
+        raise NotImplementedError(f"{type(self).__name__}.run")
+
+    def finish(self, outcome: SkillOutcome) -> None:
+        """Clean up after the skill ended with `outcome`."""
+
+    def terminate(self) -> None:
+        """Make a blocked `run` return now (called from another thread on interrupt)."""
+
+    # -- given -----------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return type(self).__name__
+
+    @property
+    def action(self) -> Action:
+        """The action this skill belongs to (a snapshot taken when it was refined)."""
+        return self._rt().action
+
+    @property
+    def robot(self) -> str:
+        return self._rt().action.robot
+
+    @property
+    def link(self) -> Any:
+        """The robot's link object (whatever the project's robot link is), or None."""
+        return self._rt().link
+
+    @property
+    def progress(self) -> Mapping[str, JsonValue]:
+        """The action's progress so far: kept across suspension, resume and restarts."""
+        self._rt()
+        return self._progress
+
+    @property
+    def interrupted(self) -> bool:
+        return self._rt().interrupt_event.is_set()
+
+    def record_progress(self, **values: JsonValue) -> None:
+        """Remember progress (e.g. `waypoint=3`); journaled, survives suspension/restarts."""
+        check_json(values, f"{self.name} progress")
+        self._progress.update(values)
+        self._rt().record_progress(values)
+
+    def wait(self, seconds: float) -> bool:
+        """Sleep up to `seconds`, waking early on interrupt; True when interrupted."""
+        return self._rt().interrupt_event.wait(seconds)
+
+    def acquire(self, resource: Resource | str, timeout: float | None = None) -> None:
+        """Wait until this action holds `resource` (pre-empting lower-priority holders).
+
+        Raises SkillInterrupted if the skill is interrupted while waiting, ActionError
+        when `timeout` passes first.
+        """
+        self._rt().acquire(self.resource_name(resource), timeout)
+
+    def release(self, resource: Resource | str) -> None:
+        """Give `resource` back (all are released when the skill finishes anyway)."""
+        self._rt().release(self.resource_name(resource))
+
+    def resource_name(self, resource: Resource | str) -> str:
+        if isinstance(resource, Resource):
+            return resource.qualified(self.robot)
+        return resource
+
+    def _rt(self) -> SkillRuntime:
+        if self._runtime is None:
+            raise ActionError(f"skill {self.name} is not running under an RCL")
+        return self._runtime
+
+    def _bind(self, runtime: SkillRuntime) -> None:
+        """Attach the skill to its runtime (called by the RCL before `start`)."""
+        self._runtime = runtime
+        self._progress = dict(runtime.action.progress)
+        self.state, self.outcome, self.reason = SkillState.START, None, ""
+
+    def _set_state(self, new: SkillState) -> None:
+        """Move to `new`; ActionError if SKILL_TRANSITIONS forbids it."""
+        if new not in SKILL_TRANSITIONS[self.state]:
+            raise ActionError(f"skill {self.name}: illegal transition {self.state} -> {new}")
+        self.state = new
+
+
+class RobotCommLayer:
+    """Base of a project's Robot Communication Layer: the recipes and action conventions.
+
+    Methods are called from the RCL's robot actors, one thread per robot: keep shared
+    state thread-safe.
+    """
+
+    #: Seconds an interrupted skill gets to return before it is abandoned.
+    interrupt_timeout: float = 5.0
+
+    def refine_action(self, action: Action) -> list[Skill]:
+        """The skills that carry out `action` (read `action.progress` to resume)."""
+        raise ActionError(f"no recipe for action {action.name!r}", uuid=action.uuid)
+
+    def check_action_status(
+        self, action: Action, skill_outcomes: Sequence[SkillOutcome | None],
+    ) -> ActionState | None:
+        """The action's end state given each skill's outcome (None: still running).
+
+        Default AND: SUCCEEDED when all skills succeeded, FAILED as soon as one did not.
+        Return None to keep running.
+        """
+        if any(o in (SkillOutcome.FAILED, SkillOutcome.INTERRUPTED) for o in skill_outcomes):
+            return ActionState.FAILED
+        if all(o is SkillOutcome.SUCCEEDED for o in skill_outcomes):
+            return ActionState.SUCCEEDED
+        return None
+
+    def action_cb(self, request: ActionRequest) -> Action:
+        """Turn a request into an Action; default reads `name(robot_id, goal_id, ...)`.
+
+        Explicit `robot`/`goal` fields of the request win over the arguments.
+        Raise ActionError to reject a malformed request.
+        """
+        args = list(request.args)
+        robot = request.robot or (args[0] if args else "")
+        goal = request.goal or (args[1] if len(args) > 1 else "")
+        if not isinstance(robot, str) or not robot:
+            raise ActionError(
+                f"{request.name}: no robot id (expected {request.name}(robot_id, goal_id, ...))",
+                uuid=request.uuid)
+        if not isinstance(goal, str):
+            goal = json.dumps(goal)
+        check_json(args, f"{request.name} arguments")
+        return Action(uuid=request.uuid, name=request.name, args=args, robot=robot, goal=goal,
+                      priority=request.priority, literal=request.literal)
+
+    def on_action_end(self, action: Action) -> None:
+        """Store data about a finished action (called before its end status goes out)."""
+
+    def resume_after_restart(self, action: Action) -> bool:
+        """Whether an action left running by a dead RCL is resumed (True) or failed."""
+        return True

@@ -1,0 +1,22 @@
+"""Fixtures for RCL tests: simulated robots, a journal file, an RCL core started in-process."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from rcl_sim import RclEnv, SimRobot
+
+
+@pytest.fixture()
+def rcl_env(tmp_path: Path) -> Iterator[RclEnv]:
+    env = RclEnv(tmp_path / "journal.sqlite3",
+                 {"ugv1": SimRobot("ugv1"), "uav1": SimRobot("uav1")})
+    try:
+        yield env
+    finally:
+        for robot in env.robots.values():  # unblock any motion left waiting
+            robot.halt()
+        env.stop()
+        assert not env.statuses.check_failures, env.statuses.check_failures

@@ -1,0 +1,138 @@
+"""An action's life through the RCL in-process: request, skills, statuses, end."""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+from rcl_sim import RclEnv, request_fields
+
+from mrss.messages import ActionRequest
+from mrss.testing import wait_until
+
+
+def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:
+    rcl_env.robots["ugv1"].auto = True
+    core = rcl_env.start()
+    core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1", "p2", "p3"]))
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"), message="a1 succeeded")
+    assert rcl_env.statuses.states("a1") == ["pending", "running", "succeeded"]
+    assert rcl_env.robots["ugv1"].visited == ["p1", "p2", "p3"]
+    last = rcl_env.statuses.last("a1")
+    assert last is not None and last.progress == {"waypoint": 3} and last.robot == "ugv1"
+    assert [a.uuid for a in rcl_env.layer.ended] == ["a1"]
+    assert rcl_env.layer.ended[0].state.value == "succeeded"
+    assert core.active() == {}
+
+
+def test_every_status_is_journaled_before_it_is_published(rcl_env: RclEnv) -> None:
+    rcl_env.robots["ugv1"].auto = True
+    core = rcl_env.start()
+    core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"))
+    assert rcl_env.statuses.check_failures == []
+    assert rcl_env.journal is not None
+    journaled = [s.value for s, _ in rcl_env.journal.transitions("a1")]
+    assert journaled == rcl_env.statuses.states("a1")
+
+
+def test_skill_that_raises_fails_its_action_with_the_message(rcl_env: RclEnv) -> None:
+    rcl_env.robots["ugv1"].auto = True
+    core = rcl_env.start()
+    core.submit_fields(request_fields("c1", "crash", "ugv1", "g1", "motor overheated"))
+    wait_until(rcl_env.statuses.reached("c1", "failed"))
+    last = rcl_env.statuses.last("c1")
+    assert last is not None and "RuntimeError: motor overheated" in last.reason
+    # the robot actor survived: the same robot still runs the next action
+    core.submit_fields(request_fields("a2", "patrol", "ugv1", "g2", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a2", "succeeded"))
+
+
+def test_crashing_skill_is_restarted_per_its_policy(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit_fields(request_fields("f1", "flaky", "ugv1", "g1"))
+    wait_until(rcl_env.statuses.reached("f1", "succeeded"))
+    assert rcl_env.statuses.states("f1") == ["pending", "running", "succeeded"]
+
+
+def test_skill_returning_failure_fails_the_action_with_its_reason(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit_fields(request_fields("r1", "refuse", "ugv1", "g1"))
+    wait_until(rcl_env.statuses.reached("r1", "failed"))
+    last = rcl_env.statuses.last("r1")
+    assert last is not None and last.reason == "target out of reach"
+
+
+def test_action_without_skills_succeeds(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit_fields(request_fields("n1", "noop", "uav1", "g1"))
+    wait_until(rcl_env.statuses.reached("n1", "succeeded"))
+
+
+@pytest.mark.parametrize(("fields", "reason"), [
+    ({"uuid": "m1", "name": "patrol", "args": "ugv1"}, "field 'args' has type str"),
+    ({"uuid": "m1", "name": "patrol", "args": [], "priority": "high"}, "'priority'"),
+    ({"uuid": "m1", "name": "", "args": ["ugv1", "g"]}, "field 'name' is empty"),
+    ({"uuid": "m1", "name": "patrol", "args": []}, "no robot id"),
+    ({"uuid": "m1", "name": "patrol", "args": [7, "g"]}, "no robot id"),
+    ({"uuid": "m1", "name": "patrol", "args": ["ugv9", "g"]}, "unknown robot 'ugv9'"),
+    ({"uuid": "m1", "name": "patrol", "args": ["ugv1"], "colour": 1}, "unknown field"),
+    ({"uuid": "m1", "name": "dance", "args": ["ugv1", "g"]}, "no recipe for action 'dance'"),
+])
+def test_malformed_request_is_failed_with_a_logged_reason(
+    rcl_env: RclEnv, caplog: pytest.LogCaptureFixture, fields: dict[str, object], reason: str,
+) -> None:
+    core = rcl_env.start()
+    with caplog.at_level(logging.WARNING, logger="mrss.rcl"):
+        core.submit_fields(fields)
+        wait_until(rcl_env.statuses.reached("m1", "failed"))
+    last = rcl_env.statuses.last("m1")
+    assert last is not None and reason in last.reason
+    assert any(reason in r.getMessage() for r in caplog.records), caplog.text
+    assert rcl_env.robots["ugv1"].visited == []
+
+
+def test_request_without_uuid_is_dropped_and_logged(
+    rcl_env: RclEnv, caplog: pytest.LogCaptureFixture,
+) -> None:
+    core = rcl_env.start()
+    with caplog.at_level(logging.WARNING, logger="mrss.rcl"):
+        core.submit_fields({"name": "patrol", "args": ["ugv1", "g"]})
+    assert "without a uuid" in caplog.text
+    assert rcl_env.statuses.items == []
+
+
+def test_duplicate_uuid_is_not_run_twice(rcl_env: RclEnv) -> None:
+    rcl_env.robots["ugv1"].auto = True
+    core = rcl_env.start()
+    core.submit(ActionRequest(uuid="d1", name="patrol", args=["ugv1", "g1", ["p1"]]))
+    wait_until(rcl_env.statuses.reached("d1", "succeeded"))
+    core.submit(ActionRequest(uuid="d1", name="patrol", args=["ugv1", "g1", ["p1"]]))
+    # the duplicate only re-sends the final status: no new run, no new transition
+    wait_until(lambda: len(rcl_env.statuses.of("d1")) == 4)
+    assert rcl_env.statuses.states("d1") == ["pending", "running", "succeeded", "succeeded"]
+    assert rcl_env.robots["ugv1"].visited == ["p1"]
+    assert [a.uuid for a in rcl_env.layer.refined] == ["d1"]
+
+
+def test_duplicate_of_a_running_action_does_not_start_it_again(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    robot = rcl_env.robots["ugv1"]
+    core.submit_fields(request_fields("d2", "patrol", "ugv1", "g1", ["p1"]))
+    wait_until(lambda: robot.is_moving_to("p1"))
+    core.submit_fields(request_fields("d2", "patrol", "ugv1", "g1", ["p1"]))
+    robot.arrive()
+    wait_until(rcl_env.statuses.reached("d2", "succeeded"))
+    assert len(rcl_env.layer.refined) == 1 and robot.visited == ["p1"]
+
+
+def test_unavailable_robot_rejects_new_actions(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.set_available("uav1", False, "link down")
+    core.submit_fields(request_fields("u1", "noop", "uav1", "g1"))
+    wait_until(rcl_env.statuses.reached("u1", "failed"))
+    last = rcl_env.statuses.last("u1")
+    assert last is not None and "uav1 unavailable: link down" in last.reason
+    core.set_available("uav1", True)
+    core.submit_fields(request_fields("u2", "noop", "uav1", "g1"))
+    wait_until(rcl_env.statuses.reached("u2", "succeeded"))
