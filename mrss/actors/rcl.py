@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 
 import pykka
 
-from mrss.actors.journal import ActionJournal
+from mrss.actors.journal import ActionJournal, JournalEntry
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.robot import BY_CONTROL, Control, RobotActor, SetTeleop, StartAction
 from mrss.api import Action, RobotCommLayer, check_json
@@ -94,7 +94,7 @@ class RclCore:
             self.journal.save_progress, teleop, self._robot_crashed)
         return ref
 
-    def _restore(self, entries: list[Any]) -> None:
+    def _restore(self, entries: list[JournalEntry], why: str = "an RCL restart") -> None:
         for action, suspended_by in entries:
             if action.robot not in self._robots:
                 self._fail_unrouted(action, f"robot {action.robot!r} is not configured "
@@ -107,7 +107,7 @@ class RclCore:
                     self._index[action.uuid] = _Entry(action.robot, action.goal, action.state)
                 log.info("restoring action %s (%s) on %s", action.uuid, action.state.value,
                          action.robot)
-                self._tell(action.robot, StartAction(action, suspended_by, restored=True))
+                self._tell(action.robot, StartAction(action, suspended_by, restored=why))
 
     # -- requests -------------------------------------------------------------------------
     def submit_fields(self, fields: Mapping[str, Any]) -> None:
@@ -259,8 +259,18 @@ class RclCore:
             return
         try:
             ref.tell(message)
+            return
         except pykka.ActorDeadError:
-            log.warning("robot actor %s is dead; %r waits for its restart", robot, message)
+            with self._lock:  # a crash handler may have replaced it meanwhile
+                fresh = self._robots.get(robot)
+        if fresh is not None and fresh is not ref:
+            try:
+                fresh.tell(message)
+                return
+            except pykka.ActorDeadError:
+                pass
+        log.warning("robot actor %s is dead; %r dropped (the journal restores actions)",
+                    robot, message)
 
     def _preempt(self, uuid: str, resource: str) -> None:
         self._control_one(uuid, "suspend", f"pre-empted: {resource} is needed by a "
@@ -302,7 +312,7 @@ class RclCore:
             self._robot_state(robot)
             return
         log.error("robot actor %s crashed; restarted from the journal", robot)
-        self._restore(entries)
+        self._restore(entries, f"robot actor {robot} crashed")
 
 
 def _fields(request: ActionRequest) -> dict[str, Any]:

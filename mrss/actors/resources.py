@@ -154,6 +154,13 @@ class ResourceBroker:
             st = self._resources.get(resource)
             return {h.uuid for h in st.holders.values()} if st else set()
 
+    def waiting(self, resource: str) -> list[str]:
+        """Uuids of the actions waiting for `resource`, in the order they will get it."""
+        with self._lock:
+            st = self._resources.get(resource)
+            ws = sorted(st.waiters, key=lambda w: (-w.holder.priority, w.seq)) if st else []
+            return [w.holder.uuid for w in ws]
+
     def _grantable(self, st: _ResourceState, holder: Holder) -> bool:
         if st.holders:
             return all(h.uuid == holder.uuid for h in st.holders.values())

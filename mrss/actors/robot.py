@@ -48,11 +48,11 @@ def _rank(cause: str) -> int:
 
 @dataclass(frozen=True)
 class StartAction:
-    """Take on an action: new (PENDING) or restored from the journal (`restored`)."""
+    """Take on an action: new (PENDING), or restored from the journal (`restored` says why)."""
 
     action: Action
     suspended_by: str = ""
-    restored: bool = False
+    restored: str = ""
 
 
 @dataclass(frozen=True)
@@ -134,7 +134,10 @@ class RobotActor(pykka.ThreadingActor):
             if t.stopping and t.stopping.timer:
                 t.stopping.timer.cancel()
         for ref in refs:
-            ref.tell(Interrupt())
+            try:
+                ref.tell(Interrupt())
+            except pykka.ActorDeadError:
+                pass  # that skill has just ended
         futures = [ref.stop(block=False) for ref in refs]
         try:
             pykka.get_all(futures, timeout=self.layer.interrupt_timeout)
@@ -156,15 +159,15 @@ class RobotActor(pykka.ThreadingActor):
             keep = t.suspended_by == BY_CONTROL or (self.teleop and
                                                     t.suspended_by == BY_TELEOP)
             if keep:  # re-announce: it is not forgotten
-                t.action.reason = f"still suspended after an RCL restart ({t.suspended_by})"
+                t.action.reason = f"still suspended ({t.suspended_by}) after {msg.restored}"
                 self.emit(t.action.copy(), t.suspended_by)
             else:
                 t.suspended_by = ""
-                self._run(t, "resumed after an RCL restart")
+                self._run(t, f"resumed after {msg.restored}")
         elif self.teleop:
             self._suspend_now(t, "robot in teleop", BY_TELEOP)
         else:
-            self._run(t, "resumed after an RCL restart" if msg.restored else "")
+            self._run(t, f"resumed after {msg.restored}" if msg.restored else "")
 
     def _run(self, t: _Tracked, reason: str) -> None:
         """Refine the action (again, from its progress) and start its skills."""
@@ -244,7 +247,10 @@ class RobotActor(pykka.ThreadingActor):
         t.stopping.timer.daemon = True
         t.stopping.timer.start()
         for ref in running:
-            ref.tell(Interrupt())
+            try:
+                ref.tell(Interrupt())
+            except pykka.ActorDeadError:
+                pass  # ended meanwhile: its SkillEnded is on the way
 
     def _tell_deadline(self, uuid: str, run: int) -> None:
         try:

@@ -12,7 +12,7 @@ from rcl_sim import RclEnv, SimRobot
 @pytest.fixture()
 def rcl_env(tmp_path: Path) -> Iterator[RclEnv]:
     env = RclEnv(tmp_path / "journal.sqlite3",
-                 {"ugv1": SimRobot("ugv1"), "uav1": SimRobot("uav1")})
+                 {"ugv1": SimRobot("ugv1"), "ugv2": SimRobot("ugv2"), "uav1": SimRobot("uav1")})
     try:
         yield env
     finally:

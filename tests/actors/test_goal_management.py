@@ -1,0 +1,151 @@
+"""Goal management (cancel/suspend/resume/succeed/fail) and teleop on a running RCL."""
+
+from __future__ import annotations
+
+from rcl_sim import RclEnv, request_fields
+
+from mrss.actors.rcl import RclCore
+from mrss.messages import ActionControl
+from mrss.testing import wait_until
+
+
+def _patrol(rcl_env: RclEnv, core: RclCore, uuid: str, robot: str = "ugv1",
+            goal: str = "g1", waypoints: tuple[str, ...] = ("p1", "p2", "p3", "p4")) -> None:
+    core.submit_fields(request_fields(uuid, "patrol", robot, goal, list(waypoints)))
+    wait_until(rcl_env.statuses.reached(uuid, "running"))
+
+
+def test_suspend_keeps_progress_and_resume_continues_from_it(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    robot = rcl_env.robots["ugv1"]
+    _patrol(rcl_env, core, "a1")
+    robot.arrive(2)
+    wait_until(lambda: robot.is_moving_to("p3"), message="ugv1 heading to p3")
+    assert core.control(ActionControl("suspend", "a1")) == ["a1"]
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    suspended = rcl_env.statuses.last("a1")
+    assert suspended is not None and suspended.progress == {"waypoint": 2}
+    assert robot.halts == 1 and robot.visited == ["p1", "p2"]
+
+    core.control(ActionControl("resume", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "running"))
+    wait_until(lambda: robot.is_moving_to("p3"), message="resumed at p3, not p1")
+    assert rcl_env.layer.refined[-1].progress == {"waypoint": 2}
+    robot.arrive(2)
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"))
+    assert robot.visited == ["p1", "p2", "p3", "p4"]
+    assert rcl_env.statuses.states("a1") == [
+        "pending", "running", "suspended", "running", "succeeded"]
+
+
+def test_cancel_stops_the_robot_and_ends_the_action(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    robot = rcl_env.robots["ugv1"]
+    _patrol(rcl_env, core, "a1")
+    wait_until(lambda: robot.is_moving_to("p1"))
+    core.control(ActionControl("cancel", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "cancelled"))
+    assert robot.halts == 1 and robot.visited == []
+    assert rcl_env.layer.ended[-1].uuid == "a1"
+    assert core.active() == {}
+
+
+def test_succeed_and_fail_commands_end_actions_directly(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1", robot="ugv1")
+    _patrol(rcl_env, core, "a2", robot="uav1")
+    core.control(ActionControl("succeed", "a1"))
+    core.control(ActionControl("fail", "a2"))
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"))
+    wait_until(rcl_env.statuses.reached("a2", "failed"))
+    last = rcl_env.statuses.last("a2")
+    assert last is not None and "fail by goal management" in last.reason
+
+
+def test_cancel_of_a_suspended_action(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1")
+    core.control(ActionControl("suspend", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    core.control(ActionControl("cancel", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "cancelled"))
+
+
+def test_goal_and_robot_targets_reach_every_matching_action(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1", robot="ugv1", goal="area")
+    _patrol(rcl_env, core, "a2", robot="uav1", goal="area")
+    _patrol(rcl_env, core, "a3", robot="ugv2", goal="other")
+    assert sorted(core.control(ActionControl("suspend", "area", "goal"))) == ["a1", "a2"]
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    wait_until(rcl_env.statuses.reached("a2", "suspended"))
+    assert core.active()["a3"].value == "running"
+    assert core.control(ActionControl("cancel", "ugv2", "robot")) == ["a3"]
+    wait_until(rcl_env.statuses.reached("a3", "cancelled"))
+    assert sorted(core.active()) == ["a1", "a2"]
+
+
+def test_control_for_an_unknown_target_changes_nothing(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1")
+    assert core.control(ActionControl("cancel", "nope")) == []
+    assert core.control(ActionControl("cancel", "ugv9", "robot")) == []
+    assert core.active()["a1"].value == "running"
+
+
+def test_teleop_suspends_every_action_and_resumes_them_from_progress(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    robot = rcl_env.robots["ugv1"]
+    _patrol(rcl_env, core, "a1", waypoints=("p1", "p2", "p3"))
+    robot.arrive(1)
+    wait_until(lambda: robot.is_moving_to("p2"))
+    core.set_teleop("ugv1", True)
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    # a resume from the reasoner does not override the operator's teleop
+    core.control(ActionControl("resume", "a1"))
+    # an action that arrives during teleop waits suspended (handled after the resume)
+    core.submit_fields(request_fields("a2", "noop", "ugv1", "g2"))
+    wait_until(rcl_env.statuses.reached("a2", "suspended"))
+    assert rcl_env.statuses.states("a1") == ["pending", "running", "suspended"]
+
+    core.set_teleop("ugv1", False)
+    wait_until(rcl_env.statuses.reached("a2", "succeeded"))
+    wait_until(lambda: robot.is_moving_to("p2"), message="a1 resumed at p2")
+    robot.arrive(2)
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"))
+    assert robot.visited == ["p1", "p2", "p3"]
+    teleop_flags = [m.attributes.get("teleop") for m in rcl_env.statuses.others
+                    if getattr(m, "robot", "") == "ugv1"]
+    assert teleop_flags == [True, False]
+
+
+def test_teleop_does_not_resume_an_action_suspended_by_goal_management(
+    rcl_env: RclEnv,
+) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1")
+    core.control(ActionControl("suspend", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    core.set_teleop("ugv1", True)
+    core.set_teleop("ugv1", False)
+    core.submit_fields(request_fields("a2", "noop", "ugv1", "g2"))  # flushes the inbox
+    wait_until(rcl_env.statuses.reached("a2", "succeeded"))
+    assert {u: s.value for u, s in core.active().items()} == {"a1": "suspended"}
+
+
+def test_skill_ignoring_its_interrupt_is_abandoned(rcl_env: RclEnv) -> None:
+    import threading
+
+    from rcl_sim import Stubborn
+
+    release = threading.Event()
+    rcl_env.layer.interrupt_timeout = 0.3
+    rcl_env.layer.recipes["stubborn"] = lambda a: [Stubborn(release)]
+    core = rcl_env.start()
+    try:
+        core.submit_fields(request_fields("s1", "stubborn", "ugv1", "g1"))
+        wait_until(rcl_env.statuses.reached("s1", "running"))
+        core.control(ActionControl("cancel", "s1"))
+        wait_until(rcl_env.statuses.reached("s1", "cancelled"))
+    finally:
+        release.set()

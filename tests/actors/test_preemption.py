@@ -1,0 +1,103 @@
+"""Resources across actions: pre-emption by priority, resumption, waiting for equals."""
+
+from __future__ import annotations
+
+from rcl_sim import RclEnv, request_fields
+
+from mrss.actors.rcl import RclCore
+from mrss.messages import ActionControl
+from mrss.testing import wait_until
+
+
+def _hold(core: RclCore, uuid: str, robot: str, waypoint: str, priority: int) -> None:
+    core.submit_fields(request_fields(uuid, "hold", robot, "g-" + uuid, "airspace", waypoint,
+                                      priority=priority))
+
+
+def test_higher_priority_preempts_and_the_lower_resumes_when_free(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+    _hold(core, "low", "ugv1", "x", priority=1)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    assert core.broker.holders("airspace") == {"low"}
+
+    _hold(core, "high", "uav1", "y", priority=5)
+    wait_until(rcl_env.statuses.reached("low", "suspended"))
+    suspended = rcl_env.statuses.last("low")
+    assert suspended is not None and "pre-empted: airspace" in suspended.reason
+    assert ugv.halts == 1
+    wait_until(lambda: uav.is_moving_to("y"))
+    assert core.broker.holders("airspace") == {"high"}
+
+    uav.arrive()
+    wait_until(rcl_env.statuses.reached("high", "succeeded"))
+    wait_until(lambda: ugv.is_moving_to("x"), message="low resumed once airspace was free")
+    assert rcl_env.statuses.states("low") == ["pending", "running", "suspended", "running"]
+    ugv.arrive()
+    wait_until(rcl_env.statuses.reached("low", "succeeded"))
+    assert core.broker.holders("airspace") == set()
+
+
+def test_equal_priority_waits_without_preempting(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+    _hold(core, "first", "ugv1", "x", priority=3)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    _hold(core, "second", "uav1", "y", priority=3)
+    wait_until(lambda: core.broker.waiting("airspace") == ["second"])
+    assert not uav.is_moving_to("y") and core.broker.holders("airspace") == {"first"}
+    ugv.arrive()
+    wait_until(rcl_env.statuses.reached("first", "succeeded"))
+    wait_until(lambda: uav.is_moving_to("y"))
+    uav.arrive()
+    wait_until(rcl_env.statuses.reached("second", "succeeded"))
+    assert "suspended" not in rcl_env.statuses.states("first")
+    assert ugv.halts == 0
+
+
+def test_lower_priority_waits_and_waiters_are_served_by_priority(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    ugv, uav, ugv2 = rcl_env.robots["ugv1"], rcl_env.robots["uav1"], rcl_env.robots["ugv2"]
+    _hold(core, "owner", "ugv1", "x", priority=5)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    _hold(core, "low", "uav1", "y", priority=1)
+    wait_until(lambda: core.broker.waiting("airspace") == ["low"])
+    _hold(core, "mid", "ugv2", "z", priority=3)
+    wait_until(lambda: core.broker.waiting("airspace") == ["mid", "low"])
+    ugv.arrive()
+    wait_until(lambda: ugv2.is_moving_to("z"), message="mid served before low")
+    assert core.broker.waiting("airspace") == ["low"]
+    ugv2.arrive()
+    wait_until(lambda: uav.is_moving_to("y"))
+    uav.arrive()
+    wait_until(rcl_env.statuses.reached("low", "succeeded"))
+
+
+def test_cancelled_preemptor_lets_the_preempted_action_resume(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    ugv = rcl_env.robots["ugv1"]
+    _hold(core, "low", "ugv1", "x", priority=1)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    _hold(core, "high", "uav1", "y", priority=5)
+    wait_until(rcl_env.statuses.reached("low", "suspended"))
+    core.control(ActionControl("cancel", "high"))
+    wait_until(rcl_env.statuses.reached("high", "cancelled"))
+    wait_until(lambda: ugv.is_moving_to("x"))
+    wait_until(rcl_env.statuses.reached("low", "running"))
+
+
+def test_preempted_action_suspended_by_control_stays_suspended(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+    _hold(core, "low", "ugv1", "x", priority=1)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    _hold(core, "high", "uav1", "y", priority=5)
+    wait_until(rcl_env.statuses.reached("low", "suspended"))
+    core.control(ActionControl("suspend", "low"))  # the reasoner takes ownership
+    uav.arrive()
+    wait_until(rcl_env.statuses.reached("high", "succeeded"))
+    core.submit_fields(request_fields("flush", "noop", "ugv1", "g"))
+    wait_until(rcl_env.statuses.reached("flush", "succeeded"))
+    assert core.active()["low"].value == "suspended"
+    core.control(ActionControl("resume", "low"))
+    wait_until(lambda: ugv.is_moving_to("x"))
