@@ -23,7 +23,8 @@ CREATE TABLE IF NOT EXISTS actions (
     uuid TEXT PRIMARY KEY, name TEXT NOT NULL, args TEXT NOT NULL, robot TEXT NOT NULL,
     goal TEXT NOT NULL, priority INTEGER NOT NULL, literal TEXT NOT NULL, state TEXT NOT NULL,
     reason TEXT NOT NULL, progress TEXT NOT NULL, suspended_by TEXT NOT NULL,
-    created REAL NOT NULL, updated REAL NOT NULL
+    created REAL NOT NULL, updated REAL NOT NULL,
+    requester TEXT NOT NULL, requester_inc INTEGER NOT NULL
 );
 CREATE INDEX IF NOT EXISTS actions_state ON actions(state);
 CREATE TABLE IF NOT EXISTS transitions (
@@ -37,11 +38,22 @@ CREATE TABLE IF NOT EXISTS robots (robot TEXT PRIMARY KEY, teleop INTEGER NOT NU
 _TERMINAL = tuple(s.value for s in ActionState if s.terminal)
 
 
+class Requester(NamedTuple):
+    """Who asked for an action: the sending component and its incarnation."""
+
+    src: str = ""
+    inc: int = 0
+
+
+NOBODY = Requester()
+
+
 class JournalEntry(NamedTuple):
-    """An action as last journaled, with why it is suspended ("" when it is not)."""
+    """An action as last journaled, why it is suspended ("" if not), who asked for it."""
 
     action: Action
     suspended_by: str
+    requester: Requester
 
 
 class ActionJournal:
@@ -61,21 +73,26 @@ class ActionJournal:
         with self._lock:
             self._db.close()
 
-    def record(self, action: Action, suspended_by: str = "") -> int:
-        """Write the action's current state as a transition and commit; returns its seq."""
+    def record(self, action: Action, suspended_by: str = "",
+               requester: Requester = NOBODY) -> int:
+        """Write the action's current state as a transition and commit; returns its seq.
+
+        `requester` is stored when the action is first recorded.
+        """
         now = time.time()
         progress = json.dumps(action.progress)
         with self._lock:
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 self._db.execute(
-                    "INSERT INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) "
+                    "INSERT INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) "
                     "ON CONFLICT(uuid) DO UPDATE SET state=excluded.state, "
                     "reason=excluded.reason, progress=excluded.progress, "
                     "suspended_by=excluded.suspended_by, updated=excluded.updated",
                     (action.uuid, action.name, json.dumps(action.args), action.robot,
                      action.goal, action.priority, action.literal, action.state.value,
-                     action.reason, progress, suspended_by, now, now))
+                     action.reason, progress, suspended_by, now, now, requester.src,
+                     requester.inc))
                 cur = self._db.execute(
                     "INSERT INTO transitions (uuid, state, reason, progress, ts) "
                     "VALUES (?,?,?,?,?)",
@@ -114,6 +131,13 @@ class ActionJournal:
                 (uuid,)).fetchall()
         return [(ActionState(s), r) for s, r in rows]
 
+    def incarnations(self) -> dict[str, int]:
+        """The newest incarnation of each requester that ever sent an action."""
+        with self._lock:
+            rows = self._db.execute("SELECT requester, MAX(requester_inc) FROM actions "
+                                    "WHERE requester != '' GROUP BY requester").fetchall()
+        return {src: int(inc) for src, inc in rows}
+
     def set_teleop(self, robot: str, on: bool) -> None:
         with self._lock:
             self._db.execute("INSERT INTO robots VALUES (?,?) ON CONFLICT(robot) "
@@ -127,8 +151,8 @@ class ActionJournal:
 
 def _entry(row: tuple[Any, ...]) -> JournalEntry:
     (uuid, name, args, robot, goal, priority, literal, state, reason, progress,
-     suspended_by, _created, _updated) = row
+     suspended_by, _created, _updated, requester, requester_inc) = row
     action = Action(uuid=uuid, name=name, args=json.loads(args), robot=robot, goal=goal,
                     priority=priority, state=ActionState(state), progress=json.loads(progress),
                     literal=literal, reason=reason)
-    return JournalEntry(action, suspended_by)
+    return JournalEntry(action, suspended_by, Requester(requester, requester_inc))

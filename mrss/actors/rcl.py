@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 
 import pykka
 
-from mrss.actors.journal import ActionJournal, JournalEntry
+from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.robot import BY_CONTROL, Control, RobotActor, SetTeleop, StartAction
 from mrss.api import Action, RobotCommLayer, check_json
@@ -47,6 +47,7 @@ class _Entry(NamedTuple):
     robot: str
     goal: str
     state: ActionState
+    requester: Requester
 
 
 class RclCore:
@@ -64,6 +65,7 @@ class RclCore:
         self._robots: dict[str, pykka.ActorRef[RobotActor]] = {}
         self._unavailable: dict[str, str] = {}
         self._crashes: dict[str, deque[float]] = {}
+        self._incarnations: dict[str, int] = {}
         self._running = False
 
     # -- lifecycle of the core ----------------------------------------------------------
@@ -72,6 +74,7 @@ class RclCore:
         teleop = self.journal.teleop_robots()
         with self._lock:
             self._running = True
+            self._incarnations = self.journal.incarnations()
             for robot in self.links:
                 self._robots[robot] = self._spawn(robot, robot in teleop)
         self._restore(self.journal.open_actions())
@@ -95,7 +98,7 @@ class RclCore:
         return ref
 
     def _restore(self, entries: list[JournalEntry], why: str = "an RCL restart") -> None:
-        for action, suspended_by in entries:
+        for action, suspended_by, requester in entries:
             if action.robot not in self._robots:
                 self._fail_unrouted(action, f"robot {action.robot!r} is not configured "
                                             "after an RCL restart")
@@ -104,7 +107,8 @@ class RclCore:
                                             f"{action.name!r} actions")
             else:
                 with self._lock:
-                    self._index[action.uuid] = _Entry(action.robot, action.goal, action.state)
+                    self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
+                                                      requester)
                 log.info("restoring action %s (%s) on %s", action.uuid, action.state.value,
                          action.robot)
                 self._tell(action.robot, StartAction(action, suspended_by, restored=why))
@@ -123,12 +127,22 @@ class RclCore:
             return
         self.submit(request)
 
-    def submit(self, request: ActionRequest) -> None:
-        """Accept an action request once per uuid; refine and run it on its robot."""
+    def submit(self, request: ActionRequest, requester: Requester | None = None) -> None:
+        """Accept an action request once per uuid; refine and run it on its robot.
+
+        `requester` (the sender's component name and incarnation, from the envelope)
+        lets the RCL refuse a dead incarnation's late requests and cancel its orphans.
+        """
+        requester = requester or NOBODY
+        if requester.src:
+            self.saw_incarnation(requester.src, requester.inc)
         with self._lock:
             if self._repeat(request.uuid):
                 return
             try:
+                if requester.inc < self._incarnations.get(requester.src, requester.inc):
+                    raise ActionError(f"sent by {requester.src} incarnation {requester.inc},"
+                                      f" which is gone (now {self._incarnations[requester.src]})")
                 request.validate()
                 action = self.layer.action_cb(request)
                 if action.uuid != request.uuid:
@@ -142,10 +156,10 @@ class RclCore:
                                       f"{self._unavailable[action.robot]}")
             except Exception as exc:
                 reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
-                self._reject(request.uuid, _fields(request), reason)
+                self._reject(request.uuid, _fields(request), reason, requester)
                 return
             action.state, action.reason = ActionState.PENDING, ""
-            self._emit(action.copy(), "")
+            self._emit(action.copy(), "", requester)
             self._tell(action.robot, StartAction(action))  # under the lock: before controls
 
     def _repeat(self, uuid: str) -> bool:
@@ -157,7 +171,8 @@ class RclCore:
         self._publish(entry.action)
         return True
 
-    def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str) -> None:
+    def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
+                requester: Requester = NOBODY) -> None:
         log.warning("rejected action request %s: %s", uuid, reason)
         with self._lock:
             if self.journal.get(uuid) is not None:
@@ -167,7 +182,7 @@ class RclCore:
                 if isinstance(fields.get(key), str):
                     setattr(action, key, fields[key])
             action.transition(ActionState.FAILED, f"rejected: {reason}")
-            self._emit(action, "")
+            self._emit(action, "", requester)
 
     # -- goal management, teleop, availability -------------------------------------------
     def control(self, control: ActionControl) -> list[str]:
@@ -185,6 +200,25 @@ class RclCore:
         for uuid in targets:
             self._tell(robots[uuid], Control(uuid, control.command, by=BY_CONTROL))
         return targets
+
+    def saw_incarnation(self, src: str, inc: int) -> list[str]:
+        """`src` now runs as incarnation `inc`: cancel what its older incarnations asked for.
+
+        Nobody waits for those actions any more, so no robot should keep working on them.
+        Returns the uuids being cancelled.
+        """
+        with self._lock:
+            if inc <= self._incarnations.get(src, -1):
+                return []
+            self._incarnations[src] = inc
+            orphans = {u: e for u, e in self._index.items()
+                       if e.requester.src == src and e.requester.inc < inc}
+        for uuid, entry in orphans.items():
+            log.warning("cancelling action %s: orphaned by %s incarnation %d", uuid, src,
+                        entry.requester.inc)
+            self._tell(entry.robot, Control(uuid, "cancel", f"orphaned: {src} incarnation "
+                                            f"{entry.requester.inc} is gone", BY_CONTROL))
+        return sorted(orphans)
 
     def set_teleop(self, robot: str, on: bool) -> None:
         """Teleop on suspends every action of `robot`; off resumes them from progress."""
@@ -214,14 +248,20 @@ class RclCore:
             return {u: e.state for u, e in self._index.items()}
 
     # -- plumbing ---------------------------------------------------------------------------
-    def _emit(self, action: Action, suspended_by: str) -> None:
+    def _emit(self, action: Action, suspended_by: str,
+              requester: Requester | None = None) -> None:
         """Journal (committed) first, then publish: a status is never out before it's safe."""
-        self.journal.record(action, suspended_by)
+        with self._lock:
+            known = self._index.get(action.uuid)
+        if requester is None:
+            requester = known.requester if known else NOBODY
+        self.journal.record(action, suspended_by, requester)
         with self._lock:
             if action.terminal:
                 self._index.pop(action.uuid, None)
             else:
-                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state)
+                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
+                                                  requester)
         self._publish(action)
 
     def _publish(self, action: Action) -> None:

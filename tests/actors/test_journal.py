@@ -33,7 +33,8 @@ def test_journal_keeps_transitions_and_reloads_open_actions(tmp_path: Path) -> N
     try:
         opened = reopened.open_actions()
         assert [e.action.uuid for e in opened] == ["a", "c"]
-        restored, by = opened[0]
+        restored, by, requester = opened[0]
+        assert requester == ("", 0)
         assert restored == Action(uuid="a", name="cover", args=["uav1", "g", {"k": [1, 2]}],
                                   robot="uav1", goal="g", priority=2, state=ActionState.RUNNING,
                                   progress={"waypoint": 4}, literal="cover(uav1,g)")
