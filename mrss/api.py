@@ -259,6 +259,17 @@ class RobotCommLayer:
     #: Seconds an interrupted skill gets to return before it is abandoned.
     interrupt_timeout: float = 5.0
 
+    def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
+        """The link object skills of `robot` use (`Skill.link`), from its project.toml
+        options; None by default (skills then talk to the robot some other way)."""
+        return None
+
+    def disconnect_robot(self, robot: str, link: Any) -> None:
+        """Close a link made by `connect_robot` (default: its `close()` if it has one)."""
+        close = getattr(link, "close", None)
+        if callable(close):
+            close()
+
     def refine_action(self, action: Action) -> list[Skill]:
         """The skills that carry out `action` (read `action.progress` to resume)."""
         raise ActionError(f"no recipe for action {action.name!r}", uuid=action.uuid)

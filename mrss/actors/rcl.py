@@ -69,15 +69,23 @@ class RclCore:
         self._running = False
 
     # -- lifecycle of the core ----------------------------------------------------------
-    def start(self) -> None:
-        """Start one actor per robot, then resume or fail what the journal left open."""
+    def start(self, *, new_run: bool = False) -> None:
+        """Start one actor per robot, then resume or fail what the journal left open.
+
+        `new_run`: the whole system (re)started, not just this RCL, so nobody waits for
+        the actions left open: they are failed, and old incarnation numbers forgotten.
+        """
         teleop = self.journal.teleop_robots()
         with self._lock:
             self._running = True
-            self._incarnations = self.journal.incarnations()
+            self._incarnations = {} if new_run else self.journal.incarnations()
             for robot in self.links:
                 self._robots[robot] = self._spawn(robot, robot in teleop)
-        self._restore(self.journal.open_actions())
+        if new_run:
+            for entry in self.journal.open_actions():
+                self._fail_unrouted(entry.action, "left over from a previous run of MRSS")
+        else:
+            self._restore(self.journal.open_actions())
 
     def stop(self) -> None:
         """Stop every robot actor (and its skills); open actions stay in the journal."""
@@ -231,11 +239,14 @@ class RclCore:
     def set_available(self, robot: str, available: bool, reason: str = "") -> None:
         """Mark `robot` (un)available; new actions for an unavailable robot are rejected."""
         with self._lock:
+            before = self._unavailable.get(robot)
             if available:
                 self._unavailable.pop(robot, None)
             else:
                 self._unavailable[robot] = reason or "unavailable"
-        self._robot_state(robot)
+            changed = before != self._unavailable.get(robot)
+        if changed:
+            self._robot_state(robot)
 
     def state(self, uuid: str) -> ActionState | None:
         """The last journaled state of an action (None if never seen)."""

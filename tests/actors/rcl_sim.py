@@ -229,12 +229,12 @@ class RclEnv:
     journal: ActionJournal | None = None
     check_journal_first: bool = True
 
-    def start(self, robots: dict[str, SimRobot] | None = None) -> RclCore:
+    def start(self, robots: dict[str, SimRobot] | None = None, new_run: bool = False) -> RclCore:
         self.journal = ActionJournal(self.journal_path)
         self.statuses.check = self._journaled_before_publish if self.check_journal_first else None
         links = robots if robots is not None else self.robots
         self.core = RclCore(self.layer, self.journal, self.statuses, links)
-        self.core.start()
+        self.core.start(new_run=new_run)
         return self.core
 
     def stop(self) -> None:

@@ -52,3 +52,16 @@ def test_first_request_of_a_new_incarnation_cancels_orphans_even_after_restart(
     entry = rcl_env.journal.get("new1")
     assert entry is not None and entry.requester == Requester("reasoner", 5)
 
+
+
+def test_a_new_run_fails_what_a_previous_run_left_open(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit(_req("old1", "ugv1"), Requester("reasoner", 7))
+    wait_until(rcl_env.statuses.reached("old1", "running"))
+    rcl_env.stop()
+    core = rcl_env.start(new_run=True)
+    wait_until(rcl_env.statuses.reached("old1", "failed"))
+    last = rcl_env.statuses.last("old1")
+    assert last is not None and "previous run" in last.reason
+    core.submit(_req("new1", "ugv1"), Requester("reasoner", 1))  # numbering starts over
+    wait_until(rcl_env.statuses.reached("new1", "running"))
