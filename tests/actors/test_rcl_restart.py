@@ -99,6 +99,11 @@ class _DiskHiccup(ActionJournal):
         super().save_progress(uuid, progress)
 
 
+def _progress(journal: ActionJournal, uuid: str) -> object:
+    entry = journal.get(uuid)
+    return entry.action.progress if entry else None
+
+
 def test_crashed_robot_actor_is_restarted_from_the_journal(rcl_env: RclEnv) -> None:
     journal = _DiskHiccup(rcl_env.journal_path)
     ugv = rcl_env.robots["ugv1"]
@@ -108,6 +113,7 @@ def test_crashed_robot_actor_is_restarted_from_the_journal(rcl_env: RclEnv) -> N
         core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1", "p2", "p3"]))
         ugv.arrive()
         wait_until(lambda: ugv.is_moving_to("p2"))
+        wait_until(lambda: _progress(journal, "a1") == {"waypoint": 1})
         journal.fail_next = True
         ugv.arrive()  # reaching p2 records progress: the write fails, the robot actor dies
         wait_until(lambda: any("crashed" in s.reason for s in rcl_env.statuses.of("a1")))
