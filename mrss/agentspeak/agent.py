@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.compile import compile_program
+from mrss.agentspeak.errors import SyntaxProblem
 from mrss.agentspeak.intentions import RUNNABLE
 from mrss.agentspeak.parser import parse_literal, parse_program
 from mrss.agentspeak.registry import Registry
@@ -64,7 +65,9 @@ class Agent(Runtime):
                 raise ValueError("Agent needs a source text or a file")
             source = Path(file).read_text(encoding="utf-8")
         self.file = str(file) if file is not None else "<string>"
-        compiled = compile_program(parse_program(source, self.file), self.registry, source)
+        problems: list[SyntaxProblem] = []
+        program = parse_program(source, self.file, collect=problems)
+        compiled = compile_program(program, self.registry, source, problems)
         for lit in compiled.beliefs:
             self.bb.add(lit, front=False)
         for extra in beliefs:
@@ -198,9 +201,10 @@ class Agent(Runtime):
             return True
 
     def is_idle(self) -> bool:
-        """Nothing to do now and nothing in progress (no action or `.wait` pending)."""
-        return not self.has_work() and not self.pending_actions and self.next_deadline() is None \
-            and not self.event_waiters
+        """Nothing to do now and nothing that will make work by itself: no environment
+        action in progress and no `.wait` deadline. (Intentions waiting for an event
+        or a condition only wake on new input, so they do not count.)"""
+        return not self.has_work() and not self.pending_actions and self.next_deadline() is None
 
     # ------------------------------------------------------------------ inspection
     def snapshot(self) -> dict[str, Any]:

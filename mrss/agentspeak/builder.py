@@ -60,8 +60,9 @@ def _unescape(s: str) -> str:
 class TreeBuilder(Transformer):  # type: ignore[type-arg]
     """Turns one statement's parse tree into templates; variables become slots."""
 
-    def __init__(self, line0: int, problems: list[tuple[int, int, str]]) -> None:
+    def __init__(self, line0: int, problems: list[tuple[int, int, str]], col0: int = 1) -> None:
         super().__init__()
+        self.col0 = col0
         self.scope: dict[str, Slot] = {}
         self.nslots = 0
         self.line0 = line0
@@ -79,6 +80,10 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def _line(self, meta: Any) -> int:
         return int(self.line0 + getattr(meta, "line", 1) - 1)
+
+    def _col(self, meta: Any) -> int:
+        col = int(getattr(meta, "column", 1))
+        return col + self.col0 - 1 if getattr(meta, "line", 1) == 1 else col
 
     # terms
     def number(self, c: list[Token]) -> Term:
@@ -166,7 +171,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         t = c[0]
         if type(t) is Struct:
             kind = "ia" if t.functor.startswith(".") else "action"
-            return BodyItem(kind, t, line)
+            return BodyItem(kind, t, line, self._col(meta))
         self.problems.append((meta.line, meta.column, "expected a body formula (an action, "
                               "internal action, goal, belief update or condition)"))
         return BodyItem("constraint", t, line)
@@ -239,6 +244,9 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def label(self, c: list[Any]) -> tuple[str, Any, Any]:
         lit = next((x for x in c if type(x) is Struct), None)
         ann: Any = next((x[1] for x in c if isinstance(x, tuple)), [])
+        if lit is not None and lit.annots:  # `@l[atomic]` parses as a literal with annots
+            ann = list(lit.annots) + list(ann)
+            lit = Struct(lit.functor, lit.args, (), lit.neg)
         return ("label", lit, tuple(ann))
 
     def trigger(self, c: list[Any]) -> tuple[str, int, Term]:

@@ -77,9 +77,9 @@ class _Compiler:
         self.lines = lines
         self.problems: list[SyntaxProblem] = []
 
-    def problem(self, line: int, message: str) -> None:
+    def problem(self, line: int, message: str, col: int = 0) -> None:
         src = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
-        col = len(src) - len(src.lstrip()) + 1
+        col = col or len(src) - len(src.lstrip()) + 1
         self.problems.append(SyntaxProblem(self.program.file, line, col, message, src))
 
     def query(self, t: Term, line: int) -> Query:
@@ -97,17 +97,17 @@ class _Compiler:
             for a in t.args:
                 self._check_ias(a, line)
 
-    def _ia(self, lit: Struct, line: int) -> Any:
+    def _ia(self, lit: Struct, line: int, col: int = 0) -> Any:
         ia = self.registry.get(lit.functor)
         if ia is None:
-            self.problem(line, f"unknown internal action {lit.functor}")
+            self.problem(line, f"unknown internal action {lit.functor}", col)
             return None
         n = len(lit.args)
         if n < ia.min_args or (ia.max_args is not None and n > ia.max_args):
             self.problem(line, f"{lit.functor} takes {ia.min_args}"
                          + ("" if ia.max_args == ia.min_args else
                             f" to {ia.max_args if ia.max_args is not None else 'any'}")
-                         + f" arguments, not {n}")
+                         + f" arguments, not {n}", col)
             return None
         return ia
 
@@ -165,7 +165,7 @@ class _Compiler:
         elif kind == "replace":
             code.append(ReplaceBelief(with_self_source(t), line))
         elif kind == "ia":
-            ia = self._ia(t, line)
+            ia = self._ia(t, line, node.col)
             if ia is None:
                 return
             queries = {i: self.query(t.args[i], line) for i in ia.formula_args
@@ -216,12 +216,15 @@ class _Compiler:
         return out
 
 
-def compile_program(program: Program, registry: Registry, text: str = "") -> Compiled:
-    """Compile a parsed program; raise `AslSyntaxError` listing every problem."""
+def compile_program(program: Program, registry: Registry, text: str = "",
+                    problems: list[SyntaxProblem] | None = None) -> Compiled:
+    """Compile a parsed program; raise `AslSyntaxError` listing every problem (those
+    already found by the parser, passed in `problems`, included)."""
     c = _Compiler(program, registry, text.splitlines())
     out = c.run()
-    if c.problems:
-        raise AslSyntaxError(sorted(c.problems, key=lambda p: (p.line, p.col)))
+    found = list(problems or []) + c.problems
+    if found:
+        raise AslSyntaxError(sorted(found, key=lambda p: (p.line, p.col)))
     return out
 
 

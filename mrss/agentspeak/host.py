@@ -4,6 +4,7 @@ console host used by `mrss agent`, which prints each action and succeeds at once
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Callable, Hashable
 from typing import TYPE_CHECKING
 
@@ -30,3 +31,17 @@ class ConsoleHost:
 
     def cancel(self, handle: Hashable) -> None:
         self.out(f"cancel: action {handle}")
+
+
+def run_standalone(agent: Agent, max_time: float | None = None) -> bool:
+    """Run `agent` until it is idle (True) or `max_time` seconds pass (False), sleeping
+    on `wait_for_work` while it waits for timers or actions."""
+    start = time.monotonic()
+    while True:
+        agent.run_until_idle()
+        if agent.is_idle():
+            return True
+        waited = time.monotonic() - start
+        if max_time is not None and waited >= max_time:
+            return False
+        agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))

@@ -127,10 +127,12 @@ def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | N
     return None
 
 
-def parse_program(text: str, file: str = "<string>") -> Program:
-    """Parse a whole source; raise `AslSyntaxError` listing every error found."""
+def parse_program(text: str, file: str = "<string>",
+                  collect: list[SyntaxProblem] | None = None) -> Program:
+    """Parse a whole source; raise `AslSyntaxError` listing every error found (or, with
+    `collect`, append them there and return the statements that parsed)."""
     lines = text.splitlines()
-    problems: list[SyntaxProblem] = []
+    problems: list[SyntaxProblem] = [] if collect is None else collect
     program = Program(file)
 
     def add(line: int, col: int, message: str) -> None:
@@ -146,7 +148,7 @@ def parse_program(text: str, file: str = "<string>") -> Program:
         statement = None
         try:
             tree = _lark().parse(chunk)
-            statement = TreeBuilder(line0, local).transform(tree)
+            statement = TreeBuilder(line0, local, col0).transform(tree)
         except lark.exceptions.UnexpectedInput as exc:
             line = getattr(exc, "line", -1)
             col = getattr(exc, "column", -1)
@@ -163,7 +165,7 @@ def parse_program(text: str, file: str = "<string>") -> Program:
             add(line0 + line - 1, col + (col0 - 1 if line == 1 else 0), message)
         if statement is not None and not local:
             program.statements.append(statement)
-    if problems:
+    if problems and collect is None:
         raise AslSyntaxError(problems)
     return program
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.errors import AslRuntimeError
-from mrss.agentspeak.terms import Term, term_str
-from mrss.agentspeak.unify import undo, unify
+from mrss.agentspeak.terms import Term, term_str, value
+from mrss.agentspeak.unify import resolve, undo, unify
 
 if TYPE_CHECKING:
     from mrss.agentspeak.intentions import IntendedMeans, Intention
@@ -36,6 +36,7 @@ class InternalAction:
     max_args: int | None = None
     formula_args: frozenset[int] = frozenset()
     body_only: bool = False  # e.g. .wait: meaningless in a plan context
+    raw_args: frozenset[int] = frozenset()  # passed unresolved: use ctx.resolve per use
 
 
 class Registry:
@@ -47,11 +48,12 @@ class Registry:
 
     def register(self, name: str, fn: IAFunction, *, min_args: int = 0,
                  max_args: int | None = None, formula_args: tuple[int, ...] = (),
-                 body_only: bool = False) -> InternalAction:
+                 body_only: bool = False, raw_args: tuple[int, ...] = ()) -> InternalAction:
         """Add (or replace) internal action `name` (it must start with a dot)."""
         if not name.startswith("."):
             raise ValueError(f"internal action names start with a dot: {name!r}")
-        ia = InternalAction(name, fn, min_args, max_args, frozenset(formula_args), body_only)
+        ia = InternalAction(name, fn, min_args, max_args, frozenset(formula_args), body_only,
+                            frozenset(raw_args))
         self._actions[name] = ia
         return ia
 
@@ -107,6 +109,10 @@ class IAContext:
 
         q = query if isinstance(query, Query) else compile_query(query, self.runtime.registry)
         return q.solve(self.runtime, self.frame)
+
+    def resolve(self, template: Term) -> Term:
+        """The current value of an argument passed unresolved (`raw_args`)."""
+        return value(resolve(template, self.frame))
 
     def error(self, message: str) -> AslRuntimeError:
         """An error to raise for bad arguments: fails the intention with `ia_failed`."""

@@ -306,12 +306,14 @@ class Runtime:
 
     def ia_args(self, ia: InternalAction, args: tuple[Term, ...], queries: dict[int, Query],
                 frame: list[Any] | None) -> list[Any]:
-        if not ia.formula_args:
+        if not ia.formula_args and not ia.raw_args:
             return [resolve(a, frame) for a in args]
         out: list[Any] = []
         for i, a in enumerate(args):
             if i in queries:
                 out.append(queries[i])
+            elif i in ia.raw_args:
+                out.append(a)
             elif i in ia.formula_args:
                 t = resolve(a, frame)
                 out.append(compile_query(t, self.registry) if type(t) is Struct else t)

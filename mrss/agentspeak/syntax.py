@@ -20,6 +20,7 @@ class BodyItem:
     kind: str
     term: Term
     line: int
+    col: int = 1
 
 
 @dataclass

@@ -10,12 +10,11 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import time
 from pathlib import Path
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.errors import AslSyntaxError
-from mrss.agentspeak.host import ConsoleHost
+from mrss.agentspeak.host import ConsoleHost, run_standalone
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -45,14 +44,7 @@ def run(args: argparse.Namespace) -> int:
         print(str(exc), file=sys.stderr)
         return 2
     host.agent = agent
-    start = time.monotonic()
-    while True:
-        agent.run_until_idle()
-        if agent.is_idle():
-            return 0
-        waited = time.monotonic() - start
-        if args.max_time is not None and waited >= args.max_time:
-            print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
-            return 1
-        remaining = 1.0 if args.max_time is None else min(1.0, args.max_time - waited)
-        agent.wait_for_work(remaining)
+    if run_standalone(agent, args.max_time):
+        return 0
+    print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
+    return 1

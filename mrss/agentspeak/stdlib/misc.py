@@ -108,11 +108,11 @@ def abolish(ctx: IAContext, args: list[Any]) -> bool:
     return True
 
 
-@STDLIB.action(".findall", min_args=3, max_args=3, formula_args=(1,))
+@STDLIB.action(".findall", min_args=3, max_args=3, formula_args=(1,), raw_args=(0,))
 def findall(ctx: IAContext, args: list[Any]) -> bool:
     """`.findall(T, Query, L)`: L is the list of T for every solution of Query."""
     template, query, out = args
-    found = tuple(value(template) for _ in ctx.solve(query))
+    found = tuple(ctx.resolve(template) for _ in ctx.solve(query))
     return ctx.unify(out, found)
 
 
