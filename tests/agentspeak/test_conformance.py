@@ -33,7 +33,14 @@ def test_conformance_program_prints_expected_output(name: str) -> None:
 
 
 def test_conformance_suite_covers_every_internal_action_of_the_issue() -> None:
-    required = [".print", ".wait", ".drop_intention", ".intend", ".desire", ".drop_desire", ".succeed_goal", ".fail_goal", ".suspend", ".resume", ".drop_all_intentions", ".drop_all_desires", ".findall", ".count", ".member", ".length", ".nth", ".sort", ".reverse", ".delete", ".max", ".min", ".range", ".concat", ".substring", ".time", ".date", ".random", ".my_name", ".abolish", ".fail", "math.abs", "math.round", "math.floor", "math.ceil", "math.sqrt", "math.max", "math.min"]
+    required = [
+        ".print", ".wait", ".drop_intention", ".intend", ".desire", ".drop_desire",
+        ".succeed_goal", ".fail_goal", ".suspend", ".resume", ".drop_all_intentions",
+        ".drop_all_desires", ".findall", ".count", ".member", ".length", ".nth", ".sort",
+        ".reverse", ".delete", ".max", ".min", ".range", ".concat", ".substring", ".time",
+        ".date", ".random", ".my_name", ".abolish", ".fail", "math.abs", "math.round",
+        "math.floor", "math.ceil", "math.sqrt", "math.max", "math.min",
+    ]
     text = "\n".join(p.read_text(encoding="utf-8") for p in HERE.glob("*.asl"))
     missing = [r for r in required if r + "(" not in text and r + ";" not in text
                and r + "." not in text and r + "\n" not in text]
