@@ -186,15 +186,17 @@ class Agent(Runtime):
         return deadline is not None and deadline <= self.clock()
 
     def wait_for_work(self, timeout: float | None = None) -> bool:
-        """Block until there is work (new input, or a `.wait` deadline reached) or the
-        timeout passes; True if there is work."""
-        end = None if timeout is None else self.clock() + timeout
+        """Block until there is work (new input, or a `.wait` deadline reached) or
+        `timeout` real seconds pass; True if there is work."""
+        end = None if timeout is None else time.monotonic() + timeout
         with self._cond:
             while not self.has_work():
+                remaining = None if end is None else end - time.monotonic()
                 deadline = self.next_deadline()
-                limit = end if deadline is None else (
-                    deadline if end is None else min(end, deadline))
-                remaining = None if limit is None else limit - self.clock()
+                if deadline is not None:
+                    until_deadline = max(deadline - self.clock(), 0.0)
+                    remaining = until_deadline if remaining is None else min(remaining,
+                                                                             until_deadline)
                 if remaining is not None and remaining <= 0:
                     return self.has_work()
                 self._cond.wait(remaining)
