@@ -26,7 +26,6 @@ from mrss.agentspeak.snapshot import take_snapshot
 from mrss.agentspeak.terms import (
     ADD_BEL,
     DEL_BEL,
-    PERCEPT,
     SOURCE_PERCEPT,
     Struct,
 )
@@ -102,7 +101,7 @@ class Agent(Runtime):
         """Stop perceiving `literal`: its `source(percept)` goes, posting `-literal`."""
         self._put(("-", parse_literal(literal), None, None))
 
-    def post_goal_text(self, literal: str | Struct) -> None:
+    def add_goal(self, literal: str | Struct) -> None:
         """An external achievement goal `+!literal` (starts a new intention)."""
         self._put(("!", parse_literal(literal), None, None))
 
@@ -225,6 +224,3 @@ class Agent(Runtime):
             self.trail.clear()
             return True
         return False
-
-    def percept_source(self) -> Struct:
-        return PERCEPT

@@ -7,6 +7,7 @@ Callers that want only the first solution stop iterating and keep the bindings.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
@@ -169,18 +170,34 @@ def _check_bound(v: Term, t: Term) -> None:
         raise AslRuntimeError(f"unbound variable {term_str(v)} in comparison {term_str(t)}")
 
 
+_ORDER = {"<": operator.lt, ">": operator.gt, "<=": operator.le, ">=": operator.ge}
+
+
 class RelQuery(Query):
     """`=` (unification), `==`, `\\==`, and the order comparisons."""
 
-    __slots__ = ("op", "left", "right", "term")
+    __slots__ = ("op", "left", "right", "term", "cmp", "lslot", "rslot")
 
     def __init__(self, op: str, left: Term, right: Term, term: Term) -> None:
         self.op = op
         self.left = left
         self.right = right
         self.term = term
+        self.cmp = _ORDER.get(op)
+        self.lslot = left.index if type(left) is Slot else -1  # type: ignore[union-attr]
+        self.rslot = right.index if type(right) is Slot else -1  # type: ignore[union-attr]
 
     def solve(self, rt: Runtime, frame: Any) -> Iterator[None]:
+        cmp = self.cmp
+        if cmp is not None:  # fast path: numbers in slots or constants
+            a: Any = frame[self.lslot] if self.lslot >= 0 else self.left
+            b: Any = frame[self.rslot] if self.rslot >= 0 else self.right
+            ta = type(a)
+            tb = type(b)
+            if (ta is int or ta is float) and (tb is int or tb is float):
+                if cmp(a, b):
+                    yield
+                return
         op = self.op
         if op == "=":
             trail = rt.trail
@@ -199,7 +216,7 @@ class RelQuery(Query):
             _check_bound(a, self.term)
             _check_bound(b, self.term)
             if is_number(a) and is_number(b):
-                c = -1 if a < b else (1 if a > b else 0)  # type: ignore[operator]
+                c = -1 if a < b else (1 if a > b else 0)
             else:
                 c = compare(a, b)
             ok = (c < 0 if op == "<" else c > 0 if op == ">" else c <= 0 if op == "<="

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from mrss.agentspeak.terms import OP_TEXT, Struct, Term, term_str
+from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
 
 if TYPE_CHECKING:
     from mrss.agentspeak.formulas import Query
@@ -16,7 +16,7 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames")
+                 "file", "index", "annots", "varnames", "arg_slots")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
@@ -33,6 +33,13 @@ class Plan:
         self.line = line
         self.file = file
         self.index = 0
+        # a trigger whose arguments are distinct variables, without annotations, matches
+        # any event of its predicate: binding is a plain copy into the frame
+        self.arg_slots: tuple[int, ...] | None = None
+        if not trigger.annots and all(type(a) is Slot for a in trigger.args):
+            idx = tuple(a.index for a in trigger.args if type(a) is Slot)
+            if len(set(idx)) == len(idx):
+                self.arg_slots = idx
 
     @property
     def key(self) -> PlanKey:

@@ -149,7 +149,12 @@ class Runtime:
             mark0 = len(trail)
             for plan in plans:
                 frame = [None] * plan.nslots
-                if not unify(plan.trigger, frame, lit, trail):
+                slots = plan.arg_slots
+                if slots is not None:
+                    args = lit.args
+                    for i in range(len(slots)):
+                        frame[slots[i]] = args[i]
+                elif not unify(plan.trigger, frame, lit, trail):
                     undo(trail, mark0)
                     continue
                 relevant = True
