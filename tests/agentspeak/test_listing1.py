@@ -8,6 +8,7 @@ extra initial beliefs. The listing text itself is unchanged.
 from __future__ import annotations
 
 import itertools
+import json
 import logging
 import threading
 from collections.abc import Hashable
@@ -80,6 +81,8 @@ def test_listing1_parses_unchanged_and_starts_a_cover_action() -> None:
     assert 'currenttask("dl",g1,3)[source(self)]' in beliefs
     assert not any(b.startswith('available("dl")') for b in beliefs)
     snap = agent.snapshot()
+    assert json.loads(json.dumps(snap)) == snap          # plain data, ready for the bus
+    assert snap["actions"] == [{"handle": "1", "intention": snap["intentions"][0]["id"]}]
     [it] = snap["intentions"]
     assert it["state"] == "waiting_action"
     assert [f["trigger"] for f in it["stack"]] == [
