@@ -1,0 +1,1 @@
+"""Supervision: OTP-style restart policies for component processes and pykka actors."""
