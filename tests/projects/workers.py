@@ -7,6 +7,7 @@ seconds in stop, `grandchild` to spawn a helper process that it owns.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import threading
@@ -37,7 +38,7 @@ class Worker(Component):
         if opts.get("finish_after") is not None:
             self.timer = threading.Timer(float(opts["finish_after"]), ctx.finish)
             self.timer.start()
-        (ctx.run_dir / f"{ctx.name}.{ctx.incarnation}.started").write_text(str(ctx.options))
+        (ctx.run_dir / f"{ctx.name}.{ctx.incarnation}.started").write_text(str(os.getpid()))
 
     def stop(self) -> None:
         assert self.ctx is not None
