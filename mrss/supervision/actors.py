@@ -33,11 +33,13 @@ from mrss.supervision.supervised import (
     ActorContext,
     BlockFor,
     ChildDown,
+    ChildUp,
     CrashNow,
     LinkDown,
     Liveness,
     SupervisedActor,
 )
+from mrss.supervision.threads import SCHEDULER, Scheduled
 
 __all__ = [
     "ActorContext", "ActorStart", "ActorSupervisor", "BlockFor", "CrashNow", "LinkDown",
@@ -71,6 +73,13 @@ def actor_child(
 class _RestartDue:
     token: int
     ids: tuple[str, ...]
+
+@dataclass(frozen=True)
+class _StartCheck:
+    child: str
+    inc: int
+    limit: float
+
 
 @dataclass(frozen=True)
 class _ReleaseDue:
@@ -110,7 +119,7 @@ class ActorSupervisor(SupervisedActor):
         self._children: dict[str, _Child] = {}
         self._policy = RestartPolicy(spec, clock=clock, rand=rand)
         self._tokens = 0
-        self._timers: list[threading.Timer] = []
+        self._timers: list[Scheduled] = []
         self._watchdog_stop = threading.Event()
         self._watchdog: threading.Thread | None = None
         self._given_up = False
@@ -180,10 +189,14 @@ class ActorSupervisor(SupervisedActor):
             self._stop_child(child)
 
     def on_receive(self, message: Any) -> Any:
-        if isinstance(message, ChildDown):
+        if isinstance(message, ChildUp):
+            self._child_up(message)
+        elif isinstance(message, ChildDown):
             self._child_down(message)
+        elif isinstance(message, _StartCheck):
+            self._start_check(message)
         elif isinstance(message, _RestartDue):
-            self._start_group(message.ids, message.token)
+            self._start_group(message.ids, message.token, wait=len(message.ids) > 1)
         elif isinstance(message, _ReleaseDue):
             self._release(message)
         else:
@@ -191,6 +204,19 @@ class ActorSupervisor(SupervisedActor):
         return None
 
     # -- decisions -------------------------------------------------------------------------
+    def _child_up(self, msg: ChildUp) -> None:
+        c = self._children.get(msg.child)
+        if c is not None and c.incarnation == msg.inc and c.state is ChildState.STARTING:
+            c.state, c.up_since = ChildState.RUNNING, self._clock()
+            self._policy.child_started(msg.child)
+            self.events.emit(ev.START, msg.child, pid=os.getpid(), inc=c.incarnation)
+
+    def _start_check(self, msg: _StartCheck) -> None:
+        c = self._children.get(msg.child)
+        if c is not None and c.incarnation == msg.inc and c.state is ChildState.STARTING:
+            self._child_down(ChildDown(msg.child, msg.inc, ExitReason(
+                Cause.HUNG, f"start hook still running after {msg.limit:g}s")))
+
     def _child_down(self, msg: ChildDown) -> None:
         c = self._children.get(msg.child)
         if c is None or msg.inc != c.incarnation or c.state not in (
@@ -231,7 +257,7 @@ class ActorSupervisor(SupervisedActor):
         self.events.emit(ev.RESTART, d.child, reason=str(d.reason), count=d.count,
                          delay=round(d.delay, 3), group=list(d.restart))
         if d.delay <= 0:
-            self._start_group(d.restart, token)
+            self._start_group(d.restart, token, wait=len(d.restart) > 1)
         else:
             self._later(d.delay, _RestartDue(token, d.restart))
 
@@ -261,14 +287,20 @@ class ActorSupervisor(SupervisedActor):
         self._start_child(msg.child)
 
     # -- starting and stopping ---------------------------------------------------------------
-    def _start_group(self, ids: Sequence[str], token: int) -> None:
+    def _start_group(self, ids: Sequence[str], token: int, wait: bool = True) -> None:
         for cid in ids:
             c = self._children.get(cid)
             if c is not None and c.state is ChildState.WAITING and c.token == token \
                     and not self._given_up:
-                self._start_child(cid)
+                self._start_child(cid, wait)
 
-    def _start_child(self, child: str) -> None:
+    def _start_child(self, child: str, wait: bool = True) -> None:
+        """Start a new incarnation; with `wait`, block until its start hook is done.
+
+        Siblings started in sequence wait, so each finds the earlier ones set up; a lone
+        restart does not, so the supervisor keeps serving while the child sets up
+        (ChildUp marks it running; a _StartCheck enforces the time limit).
+        """
         c = self._children[child]
         c.incarnation += 1
         live = Liveness()
@@ -284,14 +316,15 @@ class ActorSupervisor(SupervisedActor):
             self.actor_ref.tell(ChildDown(child, c.incarnation, ExitReason.crashed(exc)))
             return
         limit = c.spec.start.watchdog or c.spec.start.start_timeout
+        if not wait:
+            self._later(limit, _StartCheck(child, c.incarnation, limit))
+            return
         if not live.settled.wait(limit):
             self.actor_ref.tell(ChildDown(child, c.incarnation, ExitReason(
                 Cause.HUNG, f"start hook still running after {limit:g}s")))
             return
         if live.started_ok:
-            c.state, c.up_since = ChildState.RUNNING, self._clock()
-            self._policy.child_started(child)
-            self.events.emit(ev.START, child, pid=os.getpid(), inc=c.incarnation)
+            self._child_up(ChildUp(child, c.incarnation))
 
     def _stop_child(self, child: str) -> None:
         c = self._children[child]
@@ -346,10 +379,8 @@ class ActorSupervisor(SupervisedActor):
             except pykka.ActorDeadError:
                 pass
 
-        timer = threading.Timer(delay, fire)
-        timer.daemon = True
-        self._timers = [t for t in self._timers if t.is_alive()] + [timer]
-        timer.start()
+        self._timers = [t for t in self._timers if not t.cancelled and t.due > self._clock()]
+        self._timers.append(SCHEDULER.call_later(delay, fire))
 
     def _start_watchdog(self, shortest: float) -> None:
         interval = max(0.001, shortest / 4)

@@ -27,6 +27,7 @@ from types import FrameType
 from mrss.errors import SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
+from mrss.supervision.threads import tune_interpreter
 
 EXIT_FAILED = 1
 EXIT_INJECTED = 70
@@ -132,6 +133,7 @@ def run_component(
     target: str, name: str, incarnation: int, context_json: str, control_fd: int | None,
 ) -> int:
     """Run one component incarnation to its end; returns the process exit code."""
+    tune_interpreter()
     channel = socket.socket(fileno=control_fd) if control_fd is not None else None
     try:
         ctx = ComponentContext.from_json(name, incarnation, context_json)

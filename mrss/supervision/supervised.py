@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import pykka
 
 from mrss.supervision.reason import Cause, ExitReason
+from mrss.supervision.threads import ACTOR_THREADS
 
 if TYPE_CHECKING:
     from mrss.supervision.events import SupEvents
@@ -36,6 +37,14 @@ class ChildDown:
     child: str
     inc: int
     reason: ExitReason
+
+
+@dataclass(frozen=True)
+class ChildUp:
+    """Message to a supervisor: incarnation `inc` of `child` finished its start hook."""
+
+    child: str
+    inc: int
 
 
 class InjectedFault(Exception):  # noqa: N818 - it is the fault, raised on purpose
@@ -108,6 +117,9 @@ class SupervisedActor(pykka.ThreadingActor):
         self.ctx = ctx or ActorContext.standalone(type(self).__name__)
         self.ctx.liveness.actor = self
 
+    def _start_actor_loop(self) -> None:
+        ACTOR_THREADS.submit(self._actor_loop)  # a pre-started thread: fast restarts
+
     # -- hooks for subclasses ----------------------------------------------------------
     def setup(self) -> None:
         """Start hook, run in the actor's thread before any message: (re)build state."""
@@ -132,6 +144,8 @@ class SupervisedActor(pykka.ThreadingActor):
         finally:
             live.busy_since = None
             live.settled.set()
+        if self.ctx.supervisor is not None and not live.abandoned:
+            self.ctx.supervisor.tell(ChildUp(self.ctx.child, self.ctx.incarnation))
 
     def on_stop(self) -> None:
         try:
