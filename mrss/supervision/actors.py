@@ -18,7 +18,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import pykka
 
@@ -27,10 +27,11 @@ from mrss.supervision import events as ev
 from mrss.supervision.events import Publish, SupEvents
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
-from mrss.supervision.spec import ChildKind, ChildSpec, Restart, SupervisorSpec
+from mrss.supervision.spec import ChildKind, ChildSpec, SupervisorSpec
 from mrss.supervision.status import ChildState, ChildStatus
 from mrss.supervision.supervised import (
     ActorContext,
+    ActorStart,
     BlockFor,
     ChildDown,
     ChildUp,
@@ -38,6 +39,7 @@ from mrss.supervision.supervised import (
     LinkDown,
     Liveness,
     SupervisedActor,
+    actor_child,
 )
 from mrss.supervision.threads import SCHEDULER, Scheduled
 
@@ -45,29 +47,6 @@ __all__ = [
     "ActorContext", "ActorStart", "ActorSupervisor", "BlockFor", "CrashNow", "LinkDown",
     "SupervisedActor", "actor_child",
 ]
-
-ActorFactory = Callable[[ActorContext], pykka.ActorRef[Any]]
-
-@dataclass(frozen=True)
-class ActorStart:
-    """How to start an actor child: a factory taking its context, plus limits.
-
-    `watchdog` is the seconds one handler (or the start hook) may block before the
-    child counts as hung; `start_timeout` bounds the start hook when there is none.
-    """
-
-    factory: ActorFactory
-    watchdog: float | None = None
-    start_timeout: float = 5.0
-
-def actor_child(
-    id: str, factory: ActorFactory, *, restart: Restart | str = Restart.PERMANENT,
-    shutdown: float | Literal["kill"] = 5.0, kind: ChildKind | str = ChildKind.WORKER,
-    watchdog: float | None = None, start_timeout: float = 5.0,
-) -> ChildSpec[ActorStart]:
-    """A ChildSpec for an actor, e.g. `actor_child("uav1", lambda c: Robot.start(c))`."""
-    return ChildSpec(id, ActorStart(factory, watchdog, start_timeout),
-                     restart=Restart(restart), shutdown=shutdown, kind=ChildKind(kind))
 
 @dataclass(frozen=True)
 class _RestartDue:

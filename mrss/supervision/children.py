@@ -69,6 +69,18 @@ class Proc:
     def alive(self) -> bool:
         return self.state in (ChildState.STARTING, ChildState.RUNNING, ChildState.STOPPING)
 
+    def deadline(self, heartbeat_limit: float) -> float:
+        """When this child next needs the loop's attention (inf if it does not)."""
+        if self.state is ChildState.STARTING and not self.killed:
+            return self.spawned_at + self.spec.start.start_timeout
+        if self.state is ChildState.RUNNING and not self.killed:
+            return self.last_beat + heartbeat_limit
+        if self.state is ChildState.STOPPING and self.kill_at is not None:
+            return self.kill_at
+        if self.state in (ChildState.WAITING, ChildState.QUARANTINED):
+            return self.not_before
+        return float("inf")
+
     def signal(self, sig: int) -> None:
         """Signal the incarnation; SIGKILL takes its whole process group with it."""
         if sig == signal.SIGKILL:

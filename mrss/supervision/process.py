@@ -14,13 +14,10 @@ from __future__ import annotations
 import logging
 import os
 import random
-import selectors
 import signal
 import threading
 import time
-from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 
 from mrss.errors import SupervisionError
 from mrss.supervision import control
@@ -29,27 +26,13 @@ from mrss.supervision.children import ComponentStart, Proc, ProcessSettings
 from mrss.supervision.component import ComponentContext
 from mrss.supervision.events import Publish, SupEvents
 from mrss.supervision.launchers import ExecLauncher, ForkLauncher, Launcher
+from mrss.supervision.loop import EventLoop
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildKind, ChildSpec, Strategy, SupervisorSpec
-from mrss.supervision.status import ChildState, ChildStatus
+from mrss.supervision.status import ChildState, ChildStatus, Outcome
 
 log = logging.getLogger("mrss.supervision.process")
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """How the root supervisor ended: stopped on request, or gave up on a child."""
-
-    gave_up: bool
-    child: str = ""
-    reason: str = ""
-    note: str = ""
-
-    def __str__(self) -> str:
-        if not self.gave_up:
-            return "stopped"
-        return f"gave up: child {self.child!r} failed ({self.reason}); {self.note}"
 
 
 class ProcessSupervisor:
@@ -73,11 +56,7 @@ class ProcessSupervisor:
         self._policy = RestartPolicy(spec, (p.spec for p in self._procs.values()),
                                      clock=clock, rand=rand)
         self._lock = threading.RLock()
-        self._commands: deque[Callable[[], None]] = deque()
-        self._wake_r, self._wake_w = os.pipe()
-        os.set_blocking(self._wake_r, False)
-        os.set_blocking(self._wake_w, False)
-        self._selector = selectors.DefaultSelector()
+        self._loop = EventLoop()
         self._launcher: Launcher | None = None
         self._by_pid: dict[int, Proc] = {}
         self._stop_queue: list[str] = []
@@ -93,7 +72,6 @@ class ProcessSupervisor:
     # -- running ---------------------------------------------------------------------------
     def run(self) -> Outcome:
         """Run the loop in this thread until stopped or given up."""
-        self._selector.register(self._wake_r, selectors.EVENT_READ, self._drain_commands)
         try:
             self._launcher = self._make_launcher()
             while self._outcome is None:
@@ -123,7 +101,7 @@ class ProcessSupervisor:
 
     def request_stop(self) -> None:
         """Stop every child in reverse order, then end the loop (safe in signal handlers)."""
-        self._submit(self._begin_shutdown)
+        self._loop.submit(self._begin_shutdown)
 
     def stop(self, timeout: float | None = 60.0) -> Outcome | None:
         self.request_stop()
@@ -135,7 +113,7 @@ class ProcessSupervisor:
     def outcome(self) -> Outcome | None:
         return self._outcome
 
-    # -- queries and faults (any thread) -----------------------------------------------------
+    # -- queries and faults (any thread) ----------------------------------------------------
     def tree(self) -> ChildStatus:
         """The live tree: this supervisor and its component children, as plain data."""
         with self._lock:
@@ -171,7 +149,7 @@ class ProcessSupervisor:
             if p is not None and p.state is ChildState.RUNNING and p.sock is not None:
                 control.send(p.sock, control.PING, token)
 
-        self._submit(send)
+        self._loop.submit(send)
         ok = done.wait(timeout)
         with self._lock:
             self._pings.pop(token, None)
@@ -184,7 +162,7 @@ class ProcessSupervisor:
             if p is not None and p.sock is not None and p.alive:
                 control.send(p.sock, control.CRASH)
         self._get(child)
-        self._submit(send)
+        self._loop.submit(send)
 
     def set_faults(self, child: str, **faults: object) -> None:
         """Faults for the child's next incarnation only (e.g. slow_start=seconds)."""
@@ -194,53 +172,28 @@ class ProcessSupervisor:
     # -- the loop ----------------------------------------------------------------------------
     def _step(self) -> None:
         timeout = self._next_deadline(self._clock())
-        ready = self._selector.select(timeout)
+        ready = self._loop.wait(timeout)
         with self._lock:
-            for key, _ in ready:
-                key.data()
+            for callback in ready:
+                callback()
             assert self._launcher is not None
             self._launcher.flush()
             now = self._clock()
             self._timers(now)
             self._advance(now)
 
-    def _submit(self, command: Callable[[], None]) -> None:
-        self._commands.append(command)
-        try:
-            os.write(self._wake_w, b"x")
-        except (BlockingIOError, OSError):
-            pass  # already awake, or closed because the loop ended
-
-    def _drain_commands(self) -> None:
-        try:
-            while os.read(self._wake_r, 4096):
-                pass
-        except BlockingIOError:
-            pass
-        while self._commands:
-            self._commands.popleft()()
-
     def _make_launcher(self) -> Launcher:
         if self.settings.launcher == "exec":
-            return ExecLauncher(self._selector, self._on_exit)
+            return ExecLauncher(self._loop.selector, self._on_exit)
         modules = sorted({p.spec.start.module for p in self._procs.values()})
-        launcher = ForkLauncher(self._selector, self._on_exit, preload=modules,
+        launcher = ForkLauncher(self._loop.selector, self._on_exit, preload=modules,
                                 path=[self.settings.project_dir])
         launcher.start()
         return launcher
 
     def _next_deadline(self, now: float) -> float:
         limit = self.settings.heartbeat_interval * self.settings.heartbeat_misses
-        times = [now + 1.0]
-        for p in self._procs.values():
-            if p.state is ChildState.STARTING and not p.killed:
-                times.append(p.spawned_at + p.spec.start.start_timeout)
-            elif p.state is ChildState.RUNNING and not p.killed:
-                times.append(p.last_beat + limit)
-            elif p.state is ChildState.STOPPING and p.kill_at is not None:
-                times.append(p.kill_at)
-            elif p.state in (ChildState.WAITING, ChildState.QUARANTINED):
-                times.append(p.not_before)
+        times = [now + 1.0, *(p.deadline(limit) for p in self._procs.values())]
         return max(0.0, min(times) - now)
 
     def _timers(self, now: float) -> None:
@@ -324,7 +277,7 @@ class ProcessSupervisor:
             p.pidfd = -1  # already gone: its exit report is on the way
         self._by_pid[pid] = p
         inc = p.incarnation
-        self._selector.register(ours, selectors.EVENT_READ, lambda: self._on_control(p, inc))
+        self._loop.register(ours, lambda: self._on_control(p, inc))
 
     def _on_control(self, p: Proc, inc: int) -> None:
         if p.incarnation != inc or p.sock is None:
@@ -337,7 +290,7 @@ class ProcessSupervisor:
             except OSError:
                 packet = b""
             if not packet:  # its end closed: the exit report follows
-                self._selector.unregister(p.sock)
+                self._loop.unregister(p.sock)
                 p.sock.close()
                 p.sock = None
                 return
@@ -377,7 +330,7 @@ class ProcessSupervisor:
             if p.sock is not None:
                 self._on_control(p, p.incarnation)  # read its last words ("fail ...")
             if p.sock is not None:
-                self._selector.unregister(p.sock)
+                self._loop.unregister(p.sock)
             p.close()
             if p.state is ChildState.STOPPING:
                 self._stopped(p, status)
@@ -450,9 +403,7 @@ class ProcessSupervisor:
                 p.close()
             if self._launcher is not None:
                 self._launcher.close()
-        self._selector.close()
-        os.close(self._wake_r)
-        os.close(self._wake_w)
+        self._loop.close()
 
     def _get(self, child: str) -> Proc:
         try:

@@ -51,3 +51,18 @@ class ChildStatus:
             if found is not None:
                 return found
         return None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How the root supervisor ended: stopped on request, or gave up on a child."""
+
+    gave_up: bool
+    child: str = ""
+    reason: str = ""
+    note: str = ""
+
+    def __str__(self) -> str:
+        if not self.gave_up:
+            return "stopped"
+        return f"gave up: child {self.child!r} failed ({self.reason}); {self.note}"

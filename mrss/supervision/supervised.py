@@ -12,12 +12,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import pykka
 
 from mrss.supervision.reason import Cause, ExitReason
+from mrss.supervision.spec import ChildKind, ChildSpec, Restart
 from mrss.supervision.threads import ACTOR_THREADS
 
 if TYPE_CHECKING:
@@ -210,3 +212,27 @@ class SupervisedActor(pykka.ThreadingActor):
             pass
         self.actor_stopped.set()
         pykka.ActorRegistry.unregister(self.actor_ref)
+
+
+ActorFactory = Callable[[ActorContext], pykka.ActorRef[Any]]
+
+@dataclass(frozen=True)
+class ActorStart:
+    """How to start an actor child: a factory taking its context, plus limits.
+
+    `watchdog` is the seconds one handler (or the start hook) may block before the
+    child counts as hung; `start_timeout` bounds the start hook when there is none.
+    """
+
+    factory: ActorFactory
+    watchdog: float | None = None
+    start_timeout: float = 5.0
+
+def actor_child(
+    id: str, factory: ActorFactory, *, restart: Restart | str = Restart.PERMANENT,
+    shutdown: float | Literal["kill"] = 5.0, kind: ChildKind | str = ChildKind.WORKER,
+    watchdog: float | None = None, start_timeout: float = 5.0,
+) -> ChildSpec[ActorStart]:
+    """A ChildSpec for an actor, e.g. `actor_child("uav1", lambda c: Robot.start(c))`."""
+    return ChildSpec(id, ActorStart(factory, watchdog, start_timeout),
+                     restart=Restart(restart), shutdown=shutdown, kind=ChildKind(kind))
