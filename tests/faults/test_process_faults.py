@@ -123,3 +123,19 @@ def test_fork_server_loss_restarts_its_children(make_tree: MakeTree) -> None:
     wait_until(lambda: tree.all_running() and tree.incarnations() == {"a": 2, "b": 2},
                timeout=15)
     assert all(e.reason.startswith("killed") for e in tree.log.of("exit"))
+
+
+def test_quarantined_component_is_retried_after_probation_while_others_run(
+        make_tree: MakeTree) -> None:
+    from mrss.supervision.spec import OnExceeded
+
+    tree = make_tree(worker("uav_link"), worker("ugv_link"), intensity=0,
+                     on_exceeded=OnExceeded.QUARANTINE, probation=0.5)
+    faults.kill(tree.sup, "uav_link")
+    (q,) = tree.log.wait_for("quarantine", "uav_link")
+    assert q.reason == "killed: SIGKILL" and q.detail["probation"] == 0.5
+    assert tree.sup.tree().find("uav_link").state == "quarantined"  # type: ignore[union-attr]
+    assert tree.sup.ping("ugv_link") and tree.incarnations()["ugv_link"] == 1
+    tree.log.wait_for("release", "uav_link", timeout=10)
+    wait_until(lambda: tree.all_running() and tree.incarnations()["uav_link"] == 2, timeout=10)
+    assert tree.log.of("give_up") == []

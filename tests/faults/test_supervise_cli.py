@@ -102,3 +102,10 @@ def test_killing_a_component_beyond_intensity_makes_supervise_exit_nonzero(
         "mrss supervise: demo: gave up: child 'alpha' failed (killed: SIGKILL); "
         "more than 3 restarts in 10s")
     assert not (tmp_path / "alpha.5.started").exists()
+
+
+def test_bad_config_exits_two_naming_file_and_key(tmp_path: Path) -> None:
+    result = subprocess.run([sys.executable, "-m", "mrss", "supervise", "broken"], env=env(),
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert "project.toml:7: key 'components.alpha.restart'" in result.stderr
