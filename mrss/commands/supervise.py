@@ -2,8 +2,9 @@
 
 Starts the enabled components in file order, each after the previous one is ready;
 on SIGINT/SIGTERM stops them in reverse order within their shutdown limits and exits
-0. If the root supervisor gives up (restart intensity exceeded) it stops everything and
-exits 1 with a message naming the child and its last reason. Bad config exits 2.
+0 (a second signal kills what is left at once). If the root supervisor gives up
+(restart intensity exceeded) it stops everything and exits 1 with a message naming the
+child and its last reason. Bad config exits 2.
 """
 
 from __future__ import annotations
@@ -85,8 +86,11 @@ def run(args: argparse.Namespace) -> int:
 def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> int:
     sup = build_supervisor(config, run_dir, launcher=launcher)
 
+    interrupts = []
+
     def on_signal(signum: int, frame: FrameType | None) -> None:
-        sup.request_stop()
+        interrupts.append(signum)
+        sup.request_stop(force=len(interrupts) > 1)  # a second signal kills at once
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)

@@ -99,9 +99,12 @@ class ProcessSupervisor:
         self._done.wait(timeout)
         return self._outcome
 
-    def request_stop(self) -> None:
-        """Stop every child in reverse order, then end the loop (safe in signal handlers)."""
-        self._loop.submit(self._begin_shutdown)
+    def request_stop(self, force: bool = False) -> None:
+        """Stop every child in reverse order, then end the loop (safe in signal handlers).
+
+        With `force` (a second Ctrl-C) every child still alive is killed at once.
+        """
+        self._loop.submit(self._kill_all if force else self._begin_shutdown)
 
     def stop(self, timeout: float | None = 60.0) -> Outcome | None:
         self.request_stop()
@@ -384,7 +387,16 @@ class ProcessSupervisor:
 
     def _begin_shutdown(self) -> None:
         if self._finishing is None:
+            log.info("%s: stopping every child in reverse order", self.name)
             self._finish(Outcome(False))
+
+    def _kill_all(self) -> None:
+        self._begin_shutdown()
+        for p in self._procs.values():
+            if p.alive and not p.killed:
+                p.state = ChildState.STOPPING
+                p.verdict = ExitReason(Cause.SHUTDOWN, "killed (forced stop)")
+                p.signal(signal.SIGKILL)
 
     def _finish(self, outcome: Outcome) -> None:
         self._finishing = outcome

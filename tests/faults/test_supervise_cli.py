@@ -109,3 +109,24 @@ def test_bad_config_exits_two_naming_file_and_key(tmp_path: Path) -> None:
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
     assert "project.toml:7: key 'components.alpha.restart'" in result.stderr
+
+
+def test_second_signal_kills_a_child_that_is_slow_to_stop(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    (tmp_path / "slowstop").mkdir()
+    (tmp_path / "slowstop" / "project.toml").write_text(
+        '[components.slow]\nmodule = "tests.projects.workers:Worker"\n'
+        'shutdown = 60.0\nstop_delay = 60\n')
+    log = tmp_path / "stderr.log"
+    with log.open("w") as err_file:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "mrss", "supervise", "slowstop", "--run-dir", str(tmp_path)],
+            env={**os.environ, "MRSS_PROJECTS": str(tmp_path)}, stdout=subprocess.DEVNULL,
+            stderr=err_file, text=True)
+    supervise.append(proc)
+    wait_until(lambda: "start slow" in log.read_text(), timeout=20)
+    proc.send_signal(signal.SIGINT)
+    wait_until(lambda: "stopping every child" in log.read_text(), timeout=10)
+    proc.send_signal(signal.SIGINT)  # the child takes 60 s to stop: the second one kills it
+    assert proc.wait(timeout=20) == 0
+    assert "reason='shutdown: killed (forced stop)'" in log.read_text()
