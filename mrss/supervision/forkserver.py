@@ -9,15 +9,15 @@ SOCK_SEQPACKET pair, imports the component modules ahead of time, then serves:
   server -> supervisor: {"op": "spawned", "req": N, "pid": P} | {"op": "error", ...}
                         {"op": "exit", "pid": P, "status": S}  (raw waitpid status)
 
-Forked children get their own process group and die with the server (PDEATHSIG), and
-the server exits when the supervisor's end closes. It never creates threads or sockets
-beyond its channel before forking, so children start from a clean template.
+Forked children get their own process group; the server exits when the supervisor's end
+closes, and a child whose supervisor is gone stops itself (its control channel closes).
+It never creates threads or sockets beyond its channel before forking, so children start
+from a clean template.
 """
 
 from __future__ import annotations
 
 import argparse
-import ctypes
 import importlib
 import json
 import logging
@@ -31,16 +31,7 @@ from typing import Any
 
 log = logging.getLogger("mrss.supervision.forkserver")
 
-PR_SET_PDEATHSIG = 1
 PRELOAD = ("mrss.supervision.component_main", "mrss.messages", "pykka", "msgpack", "zmq")
-
-
-def _die_with_parent() -> None:
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass  # not Linux: the child still exits when its control channel closes
 
 
 def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: int) -> None:
@@ -53,7 +44,6 @@ def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: 
         os.close(wake[0])
         os.close(wake[1])
         os.setpgid(0, 0)
-        _die_with_parent()
         from mrss.supervision.component_main import run_component
 
         logging.getLogger().handlers.clear()

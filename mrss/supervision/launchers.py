@@ -208,7 +208,7 @@ class ForkLauncher(Launcher):
             self.on_exit(pid, reason)
 
     def _server_lost(self, why: str) -> None:
-        """The fork server died: its children die with it (PDEATHSIG); report them."""
+        """The fork server died: kill its children (their exit status is lost with it)."""
         log.error("fork server lost (%s); its children are gone", why)
         if self._sock is not None:
             try:
@@ -222,10 +222,12 @@ class ForkLauncher(Launcher):
             self._server.wait()
             self._server = None
         for pid in sorted(self._children):
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+            for kill in (os.killpg, os.kill):
+                try:
+                    kill(pid, signal.SIGKILL)
+                    break
+                except (ProcessLookupError, PermissionError):
+                    pass
             self._exits.append((pid, ExitReason(Cause.KILLED, f"fork server lost ({why})")))
         self._children.clear()
 

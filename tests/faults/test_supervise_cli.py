@@ -130,3 +130,18 @@ def test_second_signal_kills_a_child_that_is_slow_to_stop(
     proc.send_signal(signal.SIGINT)  # the child takes 60 s to stop: the second one kills it
     assert proc.wait(timeout=20) == 0
     assert "reason='shutdown: killed (forced stop)'" in log.read_text()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("launcher", ["fork", "exec"])
+def test_components_do_not_outlive_a_killed_root_supervisor(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path, launcher: str) -> None:
+    proc = start(supervise, "demo", tmp_path, "--launcher", launcher)
+    wait_until(lambda: all((tmp_path / f"{c}.1.started").exists()
+                           for c in ("alpha", "beta", "gamma")), timeout=20)
+    tree = psutil.Process(proc.pid).children(recursive=True)
+    assert len(tree) >= 4  # three components and beta's helper
+    proc.kill()
+    proc.wait(timeout=10)
+    _, alive = psutil.wait_procs(tree, timeout=10)
+    assert alive == []
