@@ -17,6 +17,7 @@ import sys
 import tempfile
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 from mrss.config import ProjectConfig, load_project
 from mrss.errors import ConfigError
@@ -51,12 +52,16 @@ def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
 
 def build_supervisor(
     config: ProjectConfig, run_dir: Path, *, launcher: str | None = None,
-    publish: Publish | None = None,
+    publish: Publish | None = None, bus: dict[str, Any] | None = None,
 ) -> ProcessSupervisor:
-    """The root supervisor for a validated project."""
+    """The root supervisor for a validated project.
+
+    `publish` receives every sup.* event (a bus Publisher's `publish`); `bus` is the
+    endpoints dict handed to every component as `ctx.bus`.
+    """
     s = config.supervisor
     settings = ProcessSettings(
-        project_dir=config.directory, run_dir=run_dir,
+        project_dir=config.directory, run_dir=run_dir, bus=dict(bus or {}),
         heartbeat_interval=s.heartbeat_interval, heartbeat_misses=s.heartbeat_misses,
         launcher="exec" if (launcher or s.launcher) == "exec" else "fork",
     )
