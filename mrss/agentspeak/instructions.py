@@ -206,7 +206,7 @@ class Action(Instr):
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
         lit: Any = resolve(self.lit, im.frame)
-        if not lit.ground and not is_ground(lit):
+        if not lit.ground and lit.functor not in rt.open_actions and not is_ground(lit):
             free = _first_free(lit)
             raise AslRuntimeError(f"unbound variable {term_str(free) if free else '?'} in "
                                   f"action {term_str(lit)}", error="action_failed")

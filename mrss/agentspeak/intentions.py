@@ -57,7 +57,7 @@ class Intention:
     """A stack of intended means run one body formula per turn, round-robin."""
 
     __slots__ = ("id", "stack", "state", "suspended", "dropped", "in_queue", "wait",
-                 "action", "line", "gen")
+                 "action", "action_lit", "line", "gen")
 
     def __init__(self, ident: int) -> None:
         self.id = ident
@@ -68,6 +68,7 @@ class Intention:
         self.in_queue = False
         self.wait: WaitInfo | None = None
         self.action: Any = None  # host handle of the running environment action
+        self.action_lit: Any = None  # the action literal as sent (free variables kept)
         self.line = 0            # source line of the formula it is blocked on
         self.gen = 0             # bumped by stack surgery; stale events are ignored
 

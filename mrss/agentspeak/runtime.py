@@ -46,7 +46,11 @@ log = logging.getLogger("mrss.agentspeak")
 class Host(Protocol):
     """Where environment actions go. `execute` returns a handle; the host later calls
     `agent.complete_action(handle, success)` (from any thread). `cancel` is called
-    when the intention waiting on the action is dropped."""
+    when the intention waiting on the action is dropped.
+
+    A host may declare `open_actions`, a set of action functors whose arguments may
+    hold free variables (e.g. MRSS's `query(Function, Args, Result)`): their
+    completion may carry a result term, unified with the action literal."""
 
     def execute(self, action: Struct, intention_id: int) -> Hashable: ...
 
@@ -71,7 +75,8 @@ class Runtime:
         self.runq: deque[Intention] = deque()
         self.intentions: dict[int, Intention] = {}
         self.pending_actions: dict[Hashable, Intention] = {}
-        self.completed: deque[tuple[Hashable, bool, str | None]] = deque()
+        self.completed: deque[tuple[Hashable, bool, str | None, Term | None]] = deque()
+        self.open_actions: frozenset[str] = frozenset(getattr(host, "open_actions", ()))
         self.timers: list[tuple[float, int, Intention, int]] = []
         self.event_waiters: list[Intention] = []
         self.atomic: Intention | None = None
@@ -251,14 +256,19 @@ class Runtime:
                                   error="action_failed") from exc
         it.state = WAIT_ACTION
         it.action = handle
+        it.action_lit = lit
         it.line = line
         self.pending_actions[handle] = it
 
-    def process_completion(self, handle: Hashable, ok: bool, reason: str | None) -> None:
+    def process_completion(self, handle: Hashable, ok: bool, reason: str | None,
+                           result: Term | None = None) -> None:
         it = self.pending_actions.pop(handle, None)
         if it is None or it.dropped:
             return  # dropped or unknown: late feedback is ignored
         it.action = None
+        lit, it.action_lit = it.action_lit, None
+        if ok and result is not None and lit is not None and not unify(lit, None, result, []):
+            ok, reason = False, f"result {term_str(result)} does not match {term_str(lit)}"
         if ok:
             self.make_runnable(it)
             self.pop_finished(it)

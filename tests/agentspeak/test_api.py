@@ -65,3 +65,44 @@ def test_next_deadline_reports_the_earliest_wait() -> None:
     assert agent.wait_for_work(0.01)
     agent.run_until_idle()
     assert agent.next_deadline() == 53.0
+
+
+class QueryHost(FailingHost):
+    open_actions = frozenset({"query"})
+
+
+def test_open_action_binds_its_free_variables_from_the_result() -> None:
+    host = QueryHost()
+    out: list[str] = []
+    src = """+!g <- query(nearest_base, [uav1], B); .print("base ", B).
+-!g[error(E)] <- .print("failed ", E)."""
+    agent = Agent(src, host=host, out=out.append)
+    agent.add_goal("g")
+    agent.run_until_idle()
+    assert host.actions[0].startswith("query(nearest_base,[uav1],")
+    agent.complete_action(1, True, result="query(nearest_base, [uav1], base2)")
+    agent.run_until_idle()
+    assert out == ["base base2"]
+
+
+def test_open_action_result_that_does_not_match_fails_the_action() -> None:
+    host = QueryHost()
+    out: list[str] = []
+    src = """+!g <- query(f, [], 7); .print("ok").
+-!g[error(E)] <- .print("failed ", E)."""
+    agent = Agent(src, host=host, out=out.append)
+    agent.add_goal("g")
+    agent.run_until_idle()
+    agent.complete_action(1, True, result="query(f, [], 8)")
+    agent.run_until_idle()
+    assert out == ["failed action_failed"]
+
+
+def test_free_variable_in_an_ordinary_action_still_fails() -> None:
+    host = QueryHost()
+    out: list[str] = []
+    agent = Agent("+!g <- move(X).\n-!g[error(E)] <- .print(E).", host=host, out=out.append)
+    agent.add_goal("g")
+    agent.run_until_idle()
+    assert host.actions == []
+    assert out == ["action_failed"]
