@@ -12,12 +12,13 @@ See docs/bus.md.
 """
 
 from mrss.bus.endpoints import BusEndpoints
-from mrss.bus.proxy import run_proxy
+from mrss.bus.proxy import ProxyThread, run_proxy
 from mrss.bus.publisher import Publisher
 from mrss.bus.reliable_receiver import ReliableReceiver
 from mrss.bus.reliable_sender import ReliableSender
 from mrss.bus.subscriber import Subscriber
 
 __all__ = [
-    "BusEndpoints", "Publisher", "ReliableReceiver", "ReliableSender", "Subscriber", "run_proxy",
+    "BusEndpoints", "ProxyThread", "Publisher", "ReliableReceiver", "ReliableSender",
+    "Subscriber", "run_proxy",
 ]

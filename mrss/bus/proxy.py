@@ -83,6 +83,47 @@ def run_proxy(
             path.unlink(missing_ok=True)
 
 
+class ProxyThread:
+    """A proxy on a background thread of this process, e.g. for tests: a context manager."""
+
+    def __init__(self, endpoints: BusEndpoints, *, context: sockets.Context | None = None,
+                 ) -> None:
+        self.endpoints = endpoints
+        self._context = context
+        self._stop = threading.Event()
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="mrss-bus-proxy-main",
+                                        daemon=True)
+
+    def _run(self) -> None:
+        try:
+            run_proxy(self.endpoints, stop=self._stop, ready=self._ready.set,
+                      context=self._context)
+        except BaseException as exc:
+            self._error = exc
+            self._ready.set()
+
+    def start(self, timeout: float = 10.0) -> ProxyThread:
+        """Start and wait until bound; re-raises the proxy's BusError."""
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise BusError(f"bus proxy did not start within {timeout}s")
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=10)
+
+    def __enter__(self) -> ProxyThread:
+        return self.start()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+
 def _forward(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket) -> None:
     try:
         zmq.proxy_steerable(frontend, backend, None, control)

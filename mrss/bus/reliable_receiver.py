@@ -80,6 +80,11 @@ class ReliableReceiver:
         self._thread.start()
 
     @property
+    def sessions(self) -> int:
+        """How many sender sessions are remembered (bounded by `max_sessions`)."""
+        return len(self._sessions)
+
+    @property
     def dropped(self) -> int:
         """How many malformed messages were dropped."""
         return self._drops.dropped

@@ -68,6 +68,7 @@ class ReliableSender:
         self._next_seq = 1
         self._base = 1  # lowest unacknowledged sequence number
         self._last_progress = time.monotonic()
+        self.resent = 0  # how many times a message went out again
         self._closed = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True,
                                         name=f"mrss-reliable-tx-{channel}")
@@ -165,6 +166,7 @@ class ReliableSender:
             if now - out.sent_at >= self._resend_after:
                 self._transmit(seq, out, now)
                 resent += 1
+        self.resent += resent
         log.debug("channel %r: resent %d message(s) after %.2fs without ack", self.channel,
                   resent, self._resend_after)
         self._last_progress = now
