@@ -131,6 +131,8 @@ class Subscriber:
 
         An exception in the callback is logged and the thread carries on.
         """
+        if self._closed:
+            raise BusError("subscriber is closed")
         if self._thread is not None:
             raise BusError("subscriber already has a callback thread")
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from mrss.bus import BusEndpoints, ProxyThread
-from tests.bus.bus_procs import BusProcess, Spawn
+from tests.bus.bus_helpers import BusProcess, Spawn
 
 
 @pytest.fixture()

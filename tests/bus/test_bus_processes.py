@@ -8,7 +8,7 @@ import pytest
 
 from mrss.bus import BusEndpoints
 from mrss.testing import wait_until
-from tests.bus.bus_procs import BusProcess, Spawn
+from tests.bus.bus_helpers import BusProcess, Spawn
 
 
 def _seqs(sub: BusProcess, robot: str) -> list[int]:

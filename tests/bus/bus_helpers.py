@@ -1,13 +1,17 @@
-"""Bus processes for the tests: children whose stdout lines are collected as they come."""
+"""Helpers for bus tests: child processes with collected stdout, joining pub and sub."""
 
 from __future__ import annotations
 
+import itertools
 import signal
 import subprocess
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 
+from mrss.bus import Publisher, Subscriber
+from mrss.messages import Message
 from mrss.testing import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,3 +74,24 @@ class BusProcess:
 
 
 Spawn = Callable[..., BusProcess]
+
+
+def sync(pub: Publisher, sub: Subscriber, make: Callable[[int], Message],
+         timeout: float = 10.0) -> None:
+    """Publish `make(k)` for k = 1, 2, ... until `sub` receives one.
+
+    PUB/SUB joins take a moment; after this the path pub -> proxy -> sub is up. Messages
+    of one publisher arrive in order, so no older sync message can arrive after this.
+    """
+    counter = itertools.count(1)
+
+    def arrived() -> bool:
+        want = make(next(counter))
+        pub.publish(want)
+        deadline = time.monotonic() + 0.05
+        while (env := sub.recv(timeout=max(0.0, deadline - time.monotonic()))) is not None:
+            if env.body == want:
+                return True
+        return False
+
+    wait_until(arrived, timeout, interval=0, message="publisher and subscriber joined")
