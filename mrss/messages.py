@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import threading
 import time
 import types
 import typing
@@ -333,20 +334,31 @@ def encode(
         "kind": body.kind,
         "body": _body_dict(body),
     }
-    return (topic or body.topic()).encode(), msgpack.packb(env, use_bin_type=True)
+    packer = getattr(_PACKERS, "packer", None)
+    if packer is None:
+        packer = _PACKERS.packer = msgpack.Packer(use_bin_type=True)
+    return (topic or body.topic()).encode(), packer.pack(env)
+
+
+# One msgpack Packer per thread: cheaper than a new one for every message.
+_PACKERS = threading.local()
 
 
 def _body_dict(body: Message) -> dict[str, Any]:
+    fields: dict[str, Any] | None = getattr(body, "__dict__", None)
+    if fields is not None and len(fields) == len(_schema(type(body)).names):
+        return fields  # a dataclass instance's own map: exactly its fields, in order
     return {name: getattr(body, name) for name in _schema(type(body)).names}
 
 
+# The envelope's keys and the exact types each may have (bool is not an int here).
 _ENVELOPE_FIELDS: dict[str, tuple[type, ...]] = {
     "v": (int,), "id": (str,), "ts": (float, int), "src": (str,), "inc": (int,),
     "kind": (str,), "body": (dict,),
 }
 
 
-def decode(topic: bytes, payload: bytes) -> Envelope:
+def decode(topic: bytes, payload: bytes | bytearray | memoryview) -> Envelope:
     """Validate and decode one bus message; anything malformed raises DecodeError."""
     try:
         topic_text = bytes(topic).decode("utf-8")
@@ -373,29 +385,47 @@ def _no_ext(code: int, data: bytes) -> Any:
 
 
 def _envelope(topic: str, env: Any) -> Envelope:
-    if not isinstance(env, dict):
+    if type(env) is not dict:
         raise DecodeError("envelope is not a map")
-    if len(env) != len(_ENVELOPE_FIELDS):
-        extra = sorted(map(str, set(env) - set(_ENVELOPE_FIELDS)))
-        if extra:
-            raise DecodeError(f"envelope has unknown key(s) {extra}")
-    for key, types_ in _ENVELOPE_FIELDS.items():
-        if key not in env:
-            raise DecodeError(f"envelope lacks {key!r}")
-        value = env[key]
-        if isinstance(value, bool) or not isinstance(value, types_):
-            raise DecodeError(f"envelope {key!r} has type {type(value).__name__}")
-    if env["v"] != SCHEMA_VERSION:
-        raise DecodeError(f"schema version {env['v']} is not {SCHEMA_VERSION}")
-    cls = KINDS.get(env["kind"])
+    try:
+        version, kind, ts = env["v"], env["kind"], env["ts"]
+        well_typed = (
+            len(env) == len(_ENVELOPE_FIELDS) and type(version) is int
+            and type(env["id"]) is str and (type(ts) is float or type(ts) is int)
+            and type(env["src"]) is str and type(env["inc"]) is int and type(kind) is str
+            and type(env["body"]) is dict
+        )
+    except KeyError:
+        well_typed = False
+    if not well_typed:
+        _envelope_fault(env)
+    if version != SCHEMA_VERSION:
+        raise DecodeError(f"schema version {version} is not {SCHEMA_VERSION}")
+    cls = KINDS.get(kind)
     if cls is None:
-        raise DecodeError(f"unknown kind {env['kind']!r}")
+        raise DecodeError(f"unknown kind {kind!r}")
     body = build(cls, env["body"])
     expected = body.topic()
     if topic != expected and not topic.startswith(expected + "."):
         raise DecodeError(f"kind {cls.kind!r} does not belong on this topic")
-    return Envelope(topic=topic, id=env["id"], ts=float(env["ts"]), src=env["src"],
-                    inc=env["inc"], body=body)
+    # Validated above; fill the frozen dataclass directly (its __init__ costs twice as much).
+    result: Envelope = object.__new__(Envelope)
+    result.__dict__.update(topic=topic, id=env["id"], ts=float(env["ts"]), src=env["src"],
+                           inc=env["inc"], body=body, v=SCHEMA_VERSION)
+    return result
+
+
+def _envelope_fault(env: dict[Any, Any]) -> typing.NoReturn:
+    """Raise DecodeError naming what is wrong with an envelope's keys or types."""
+    extra = sorted(map(str, set(env) - set(_ENVELOPE_FIELDS)))
+    if extra:
+        raise DecodeError(f"envelope has unknown key(s) {extra}")
+    for key, types_ in _ENVELOPE_FIELDS.items():
+        if key not in env:
+            raise DecodeError(f"envelope lacks {key!r}")
+        if type(env[key]) not in types_:
+            raise DecodeError(f"envelope {key!r} has type {type(env[key]).__name__}")
+    raise AssertionError("envelope fault not found")  # pragma: no cover
 
 
 _M = typing.TypeVar("_M", bound=Message)
@@ -404,18 +434,25 @@ _M = typing.TypeVar("_M", bound=Message)
 def build(cls: type[_M], fields: dict[str, Any]) -> _M:
     """Build and validate a message of type `cls` from a field map (DecodeError if bad)."""
     schema = _schema(cls)
-    if not isinstance(fields, dict):
+    if type(fields) is not dict:
         raise DecodeError(f"{cls.kind}: body is not a map")
-    extra = [k for k in fields if k not in schema.checks]
-    if extra:
-        raise DecodeError(f"{cls.kind}: unknown field(s) {sorted(map(str, extra))}")
-    for name in schema.required:
-        if name not in fields:
-            raise DecodeError(f"{cls.kind}: missing field {name!r}")
+    checks = schema.checks
     for name, value in fields.items():
-        if not schema.checks[name](value):
+        check = checks.get(name)
+        if check is None:
+            extra = sorted(map(str, set(fields) - set(checks)))
+            raise DecodeError(f"{cls.kind}: unknown field(s) {extra}")
+        if not check(value):
             raise DecodeError(f"{cls.kind}: field {name!r} has type {type(value).__name__}")
-    msg = cls(**fields)
+    if len(fields) == len(checks) and schema.plain_init:
+        # Every field present and type-checked: fill the frozen instance directly.
+        msg: _M = object.__new__(cls)
+        msg.__dict__.update(fields)
+    else:
+        for name in schema.required:
+            if name not in fields:
+                raise DecodeError(f"{cls.kind}: missing field {name!r}")
+        msg = cls(**fields)
     msg.validate()
     return msg
 
@@ -430,6 +467,7 @@ class _Schema:
     names: tuple[str, ...]
     required: frozenset[str]
     checks: dict[str, Check]
+    plain_init: bool  # __init__ only stores the fields (no __post_init__)
 
 
 _SCHEMAS: dict[type, _Schema] = {}
@@ -447,6 +485,7 @@ def _schema(cls: type) -> _Schema:
                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
             ),
             checks={f.name: _checker(hints[f.name]) for f in fields},
+            plain_init=not hasattr(cls, "__post_init__"),
         )
         _SCHEMAS[cls] = schema
     return schema
@@ -476,12 +515,24 @@ def _checker(hint: Any) -> Check:
         return lambda v: type(v) is list and all(item(x) for x in v)
     if origin is dict:
         key_hint, value_hint = typing.get_args(hint)
+        if key_hint is str and value_hint is Any:
+            return _plain_map
         key, value = _checker(key_hint), _checker(value_hint)
         return lambda v: type(v) is dict and all(key(k) and value(x) for k, x in v.items())
     raise TypeError(f"no bus type check for {hint!r}")
 
 
-_SCALARS = (str, int, float, bool, bytes, type(None))
+_SCALARS = frozenset({str, int, float, bool, bytes, type(None)})
+
+
+def _plain_map(value: Any) -> bool:
+    """Whether `value` is a str-keyed map of plain data (the common telemetry shape)."""
+    if type(value) is not dict:
+        return False
+    for k, v in value.items():
+        if type(k) is not str or (type(v) not in _SCALARS and not _plain(v)):
+            return False
+    return True
 
 
 def _plain(value: Any) -> bool:

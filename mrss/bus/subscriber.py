@@ -20,6 +20,15 @@ log = sockets.log
 
 # How long a blocked recv waits before it looks whether close() was called.
 _SLICE = 0.05
+_NOBLOCK, _RCVMORE, _POLLIN = int(zmq.NOBLOCK), int(zmq.RCVMORE), int(zmq.POLLIN)
+
+
+def _recv_multipart(sock: sockets.Socket) -> list[bytes]:
+    """All frames of the next message (zmq.Again if none); leaner than recv_multipart."""
+    frames = [sock.recv(_NOBLOCK)]
+    while sock.getsockopt(_RCVMORE):
+        frames.append(sock.recv(_NOBLOCK))
+    return frames
 
 
 class Subscriber:
@@ -89,13 +98,14 @@ class Subscriber:
 
     def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
         """One multipart message, or None after at most one time slice."""
+        sock = self._sock
         try:
-            return self._sock.recv_multipart(zmq.NOBLOCK)
+            return _recv_multipart(sock)
         except zmq.Again:
             pass
         wait = _SLICE if deadline is None else min(_SLICE, deadline - time.monotonic())
-        if wait > 0 and self._sock.poll(int(wait * 1000) or 1, zmq.POLLIN):
-            return self._sock.recv_multipart(zmq.NOBLOCK)
+        if wait > 0 and sock.poll(int(wait * 1000) or 1, _POLLIN):
+            return _recv_multipart(sock)
         return None
 
     def __iter__(self) -> Iterator[Envelope]:
