@@ -164,6 +164,7 @@ def near_valid(draw: st.DrawFn) -> tuple[bytes, bytes]:
     return topic, packed
 
 
+@pytest.mark.slow
 @settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(frames=near_valid())
 def test_near_valid_envelopes_raise_only_decode_error(frames: tuple[bytes, bytes]) -> None:

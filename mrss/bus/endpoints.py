@@ -48,7 +48,7 @@ class BusEndpoints:
     @classmethod
     def tcp_loopback(cls) -> BusEndpoints:
         """TCP on 127.0.0.1 with two ports free right now (for tests and benchmarks)."""
-        return cls.tcp("127.0.0.1", _free_port(), _free_port())
+        return cls.tcp("127.0.0.1", *_free_ports(2))
 
     def to_dict(self) -> dict[str, str]:
         """A plain map, e.g. for a child process's command line or context."""
@@ -101,8 +101,13 @@ def _check_endpoint(endpoint: str, key: str) -> None:
                 raise ConfigError(f"{host!r} is not an IP address", key=f"bus.{key}") from None
 
 
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
+def _free_ports(count: int) -> list[int]:
+    """`count` distinct TCP ports on 127.0.0.1 that nothing listens on right now."""
+    held = [socket.socket(socket.AF_INET, socket.SOCK_STREAM) for _ in range(count)]
+    try:
+        for s in held:
+            s.bind(("127.0.0.1", 0))
+        return [int(s.getsockname()[1]) for s in held]
+    finally:
+        for s in held:
+            s.close()

@@ -152,7 +152,8 @@ class ReliableSender:
         self._base = top + 1
         self._last_progress = now
         self._resend_after = self._initial_resend
-        for seq in range(old_limit, min(self._base + self._window, self._next_seq)):
+        for seq in range(max(old_limit, self._base),
+                         min(self._base + self._window, self._next_seq)):
             self._transmit(seq, self._pending[seq], now)
         if not self._pending:
             self._all_acked.notify_all()

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from mrss.bus import BusEndpoints, ProxyThread
+from mrss.errors import BusError
 from tests.bus.bus_helpers import BusProcess, Spawn
 
 
@@ -59,5 +60,20 @@ def spawn() -> Iterator[Spawn]:
 @pytest.fixture()
 def proxy_thread(endpoints: BusEndpoints) -> Iterator[BusEndpoints]:
     """A proxy on a thread of the test process; yields its endpoints."""
-    with ProxyThread(endpoints):
+    proxy = ProxyThread(endpoints)
+    for _ in range(3):
+        try:
+            proxy.start()
+            break
+        except BusError:
+            if not endpoints.frontend.startswith("tcp://"):
+                raise
+            # Another process on this busy machine took a free port first: pick again.
+            endpoints = BusEndpoints.tcp_loopback()
+            proxy = ProxyThread(endpoints)
+    else:
+        raise AssertionError("no free loopback ports for the proxy")
+    try:
         yield endpoints
+    finally:
+        proxy.stop()

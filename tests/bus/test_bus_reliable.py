@@ -9,7 +9,14 @@ from collections.abc import Iterator
 import pytest
 import zmq
 
-from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, ReliableSender, wire
+from mrss.bus import (
+    BusEndpoints,
+    Publisher,
+    ReliableReceiver,
+    ReliableSender,
+    Subscriber,
+    wire,
+)
 from mrss.errors import BusError, ConfigError
 from mrss.messages import ActionControl, ActionRequest, Envelope, encode
 from mrss.testing import wait_until
@@ -173,3 +180,19 @@ def test_bad_channel_names_and_closed_senders_are_errors(ep: BusEndpoints) -> No
     tx.close()
     with pytest.raises(BusError, match="closed"):
         tx.send(_request("late"))
+
+
+def test_a_monitor_sees_reliable_messages_as_ordinary_envelopes(ep: BusEndpoints) -> None:
+    handled = Handled()
+    with Subscriber(ep, prefixes=[""]) as monitor:
+        assert monitor.wait_connected(5)
+        with ReliableReceiver(ep, src="rx", handler=handled), \
+                ReliableSender(ep, src="tx") as tx:
+            msg_id = tx.send(_request("u1"))
+            assert tx.flush(timeout=10)
+        seen = []
+        while (env := monitor.recv(timeout=0.3)) is not None:
+            seen.append(env)
+    assert msg_id in {env.id for env in seen}
+    assert all(env.topic == "action.request" and env.body == _request("u1") for env in seen)
+    assert monitor.dropped == 0  # acks and the channel's framing are not "malformed"
