@@ -6,7 +6,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from rcl_sim import RclEnv, SimRobot
+
+from tests.actors.rcl_sim import RclEnv, SimRobot
 
 
 @pytest.fixture()

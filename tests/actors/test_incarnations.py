@@ -3,11 +3,10 @@ from a dead incarnation are refused, also across an RCL restart."""
 
 from __future__ import annotations
 
-from rcl_sim import RclEnv
-
 from mrss.actors.journal import Requester
 from mrss.messages import ActionRequest
 from mrss.testing import wait_until
+from tests.actors.rcl_sim import RclEnv
 
 
 def _req(uuid: str, robot: str) -> ActionRequest:

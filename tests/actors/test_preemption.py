@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from rcl_sim import RclEnv, request_fields
-
 from mrss.actors.rcl import RclCore
 from mrss.messages import ActionControl
 from mrss.testing import wait_until
+from tests.actors.rcl_sim import RclEnv, request_fields
 
 
 def _hold(core: RclCore, uuid: str, robot: str, waypoint: str, priority: int) -> None:

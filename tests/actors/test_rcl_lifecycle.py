@@ -5,10 +5,10 @@ from __future__ import annotations
 import logging
 
 import pytest
-from rcl_sim import RclEnv, request_fields
 
 from mrss.messages import ActionRequest
 from mrss.testing import wait_until
+from tests.actors.rcl_sim import RclEnv, request_fields
 
 
 def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:

@@ -5,12 +5,11 @@ from __future__ import annotations
 import sqlite3
 from typing import Any
 
-from rcl_sim import RclEnv, SimRobot, request_fields
-
 from mrss.actors.journal import ActionJournal
 from mrss.actors.rcl import RclCore
 from mrss.messages import ActionControl, ActionRequest
 from mrss.testing import wait_until
+from tests.actors.rcl_sim import RclEnv, SimRobot, request_fields
 
 
 def test_rcl_restart_resumes_or_fails_every_open_action(rcl_env: RclEnv) -> None:

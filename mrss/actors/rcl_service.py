@@ -1,0 +1,157 @@
+"""The RCL as a bus component: RclCore behind the reliable action channel and the bus.
+
+- `action.request` arrives on the reliable channel "action" (ReliableReceiver: repeated
+  until acknowledged, handled once per message id; RclCore de-duplicates by uuid on top);
+- `action.control` (goal management) and `ctl.teleop` (Command, target = robot,
+  args {"on": bool}) arrive on a Subscriber; so do `sup.heartbeat.*`, whose envelope
+  incarnation tells the RCL that a requester restarted (its orphans are cancelled);
+- `action.status` and `robot.<id>.state` leave through the component's Publisher,
+  each action status after its journal commit.
+
+Options (project.toml, the component's table): `layer` ("rcl.py:ClassName" relative to
+the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (robot id
+-> link options for `connect_robot`), `journal` (path; default <run_dir>/<name>-journal
+.sqlite3), `durable` (fsync every transition), `max_robot_restarts`, `restart_period`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import inspect
+import logging
+import sys
+from pathlib import Path
+from typing import Any, Protocol
+
+from mrss.actors.journal import ActionJournal, Requester
+from mrss.actors.rcl import RclCore
+from mrss.api import RobotCommLayer
+from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
+from mrss.errors import ConfigError, MrssError
+from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
+
+log = logging.getLogger("mrss.rcl")
+
+ACTION_CHANNEL = "action"
+
+
+class ServiceContext(Protocol):
+    """What the RCL needs to start: mrss.supervision's ComponentContext provides it."""
+
+    name: str
+    incarnation: int
+    project_dir: Path
+    run_dir: Path
+    bus: dict[str, Any]
+    options: dict[str, Any]
+
+    @property
+    def publisher(self) -> Any: ...
+
+
+def load_layer(project_dir: Path, spec: str = "") -> RobotCommLayer:
+    """Instantiate the project's RobotCommLayer from "file.py:Class" (default rcl.py)."""
+    file_name, _, class_name = (spec or "rcl.py").partition(":")
+    path = project_dir / file_name
+    if not path.is_file():
+        raise ConfigError("no such file", file=str(path), key="layer")
+    if str(project_dir) not in sys.path:  # rcl.py may import its sibling skills.py
+        sys.path.insert(0, str(project_dir))
+    module_name = f"mrss_project_{project_dir.name}_{path.stem}"
+    module_spec = importlib.util.spec_from_file_location(module_name, path)
+    if module_spec is None or module_spec.loader is None:
+        raise ConfigError("cannot import", file=str(path), key="layer")
+    module = importlib.util.module_from_spec(module_spec)
+    sys.modules[module_name] = module
+    module_spec.loader.exec_module(module)
+    classes = [c for _, c in inspect.getmembers(module, inspect.isclass)
+               if issubclass(c, RobotCommLayer) and c is not RobotCommLayer
+               and c.__module__ == module_name and (not class_name or c.__name__ == class_name)]
+    if len(classes) != 1:
+        what = f"class {class_name!r}" if class_name else "exactly one RobotCommLayer subclass"
+        raise ConfigError(f"expected {what}, found {[c.__name__ for c in classes]}",
+                          file=str(path), key="layer")
+    layer: RobotCommLayer = classes[0]()
+    return layer
+
+
+class RclService:
+    """The Robot Communication Layer component (one OS process under the supervisor)."""
+
+    def __init__(self) -> None:
+        self.core: RclCore | None = None
+        self.journal: ActionJournal | None = None
+        self.layer: RobotCommLayer | None = None
+        self.links: dict[str, Any] = {}
+        self._rx: ReliableReceiver | None = None
+        self._sub: Subscriber | None = None
+        self._name = "rcl"
+
+    def start(self, ctx: ServiceContext) -> None:
+        opts = ctx.options
+        self._name = ctx.name
+        self.layer = load_layer(ctx.project_dir, str(opts.get("layer", "")))
+        robots = opts.get("robots", {})
+        if not isinstance(robots, dict) or not robots:
+            raise ConfigError("the RCL needs a table of robots", key="robots")
+        self.links = {str(r): self.layer.connect_robot(str(r), o if isinstance(o, dict) else {})
+                      for r, o in robots.items()}
+        journal_path = Path(opts.get("journal") or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
+        self.journal = ActionJournal(journal_path, durable=bool(opts.get("durable", False)))
+        publisher = ctx.publisher
+        self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
+                            max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
+                            restart_period=float(opts.get("restart_period", 60.0)))
+        self.core.start(new_run=ctx.incarnation <= 1)
+        endpoints = BusEndpoints.from_dict(ctx.bus)
+        self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
+                                                    "sup.heartbeat."])
+        self._sub.start(self._on_message)
+        if not self._sub.wait_connected(5.0):  # ready means controls are heard
+            log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
+        self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
+                                    channel=ACTION_CHANNEL, handler=self._on_request)
+        log.info("%s: ready with robots %s, journal %s", ctx.name, sorted(self.links),
+                 journal_path)
+
+    def stop(self) -> None:
+        for closable in (self._rx, self._sub):
+            if closable is not None:
+                closable.close()
+        if self.core is not None:
+            self.core.stop()
+        if self.journal is not None:
+            self.journal.close()
+        if self.layer is not None:
+            for robot, link in self.links.items():
+                try:
+                    self.layer.disconnect_robot(robot, link)
+                except Exception as exc:
+                    log.error("disconnecting %s failed: %r", robot, exc)
+
+    def _on_request(self, env: Envelope) -> None:
+        if self.core is None:
+            return
+        if not isinstance(env.body, ActionRequest):
+            log.warning("dropped a %s on the action channel from %s", env.kind, env.src)
+            return
+        self.core.submit(env.body, Requester(env.src, env.inc))
+
+    def _on_message(self, env: Envelope) -> None:
+        core = self.core
+        if core is None or env.src == self._name:
+            return
+        body = env.body
+        try:
+            if isinstance(body, ActionControl):
+                core.saw_incarnation(env.src, env.inc)
+                core.control(body)
+            elif isinstance(body, Command) and body.command == "teleop":
+                on = body.args.get("on")
+                if not isinstance(on, bool):
+                    raise MrssError(f"teleop command needs args.on true/false, not {on!r}")
+                core.set_teleop(body.target, on)
+            elif isinstance(body, Heartbeat):
+                core.saw_incarnation(env.src, env.inc)
+        except MrssError as exc:
+            log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
