@@ -16,17 +16,23 @@ the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (r
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import inspect
+import json
 import logging
+import signal
 import sys
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
-from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
+from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
 
@@ -155,3 +161,58 @@ class RclService:
                 core.saw_incarnation(env.src, env.inc)
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
+
+
+@dataclass
+class StandaloneContext:
+    """A ServiceContext for running the RCL by hand (`python -m mrss.actors.rcl_service`)."""
+
+    name: str
+    incarnation: int
+    project_dir: Path
+    run_dir: Path
+    bus: dict[str, Any]
+    options: dict[str, Any] = field(default_factory=dict)
+    _publisher: Publisher | None = None
+
+    @property
+    def publisher(self) -> Publisher:
+        if self._publisher is None:
+            self._publisher = Publisher(BusEndpoints.from_dict(self.bus), src=self.name,
+                                        inc=self.incarnation)
+        return self._publisher
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the RCL outside a supervisor until SIGTERM/SIGINT; prints "ready" when up."""
+    parser = argparse.ArgumentParser(prog="python -m mrss.actors.rcl_service")
+    parser.add_argument("--project", type=Path, required=True, help="project folder")
+    parser.add_argument("--run-dir", type=Path, required=True)
+    parser.add_argument("--bus", required=True, help="BusEndpoints.to_dict() as JSON")
+    parser.add_argument("--name", default="rcl")
+    parser.add_argument("--inc", type=int, default=1, help="incarnation")
+    parser.add_argument("--options", default="{}", help="component options as JSON")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, stream=sys.stderr,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    ctx = StandaloneContext(args.name, args.inc, args.project, args.run_dir,
+                            json.loads(args.bus), json.loads(args.options))
+    stop = threading.Event()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: stop.set())
+    service = RclService()
+    try:
+        service.start(ctx)
+    except MrssError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print("ready", flush=True)
+    stop.wait()
+    service.stop()
+    if ctx._publisher is not None:
+        ctx._publisher.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,126 @@
+"""The RCL as a real OS process on a real bus proxy process: SIGKILL it while five actions
+run; after its restart each one runs again from its journaled progress or fails
+explicitly, and the reasoner side (here the test) hears about every one."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import sqlite3
+import subprocess
+import sys
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mrss.bus import BusEndpoints, ReliableSender, Subscriber
+from mrss.messages import ActionRequest, ActionStatus, Envelope
+from mrss.testing import wait_until
+
+PROJECT = Path(__file__).parent / "rcl_project"
+ROBOTS = [f"ugv{i}" for i in range(1, 6)]
+
+
+class Procs:
+    """Child processes of a test, all killed at the end."""
+
+    def __init__(self) -> None:
+        self.all: list[subprocess.Popen[str]] = []
+
+    def start(self, *args: str) -> subprocess.Popen[str]:
+        proc = subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True, env=os.environ.copy())
+        self.all.append(proc)
+        line = proc.stdout.readline() if proc.stdout else ""
+        assert line.startswith("ready"), f"{args[0]} did not start: {line!r}"
+        return proc
+
+    def close(self) -> None:
+        for proc in self.all:
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait(timeout=10)
+            if proc.stdout:
+                proc.stdout.close()
+
+
+@pytest.fixture()
+def procs() -> Iterator[Procs]:
+    p = Procs()
+    try:
+        yield p
+    finally:
+        p.close()
+
+
+@pytest.fixture()
+def run_dir() -> Iterator[Path]:
+    path = Path(tempfile.mkdtemp(prefix="mrss-rclp-"))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def _rcl(procs: Procs, run_dir: Path, endpoints: BusEndpoints, inc: int,
+         robots: list[str]) -> subprocess.Popen[str]:
+    options: dict[str, Any] = {"robots": {r: {"leg": 0.05} for r in robots}}
+    return procs.start("mrss.actors.rcl_service", "--project", str(PROJECT), "--run-dir",
+                       str(run_dir), "--bus", json.dumps(endpoints.to_dict()),
+                       "--inc", str(inc), "--options", json.dumps(options))
+
+
+def _progress(journal: Path, uuid: str) -> int:
+    with sqlite3.connect(str(journal)) as db:
+        row = db.execute("SELECT progress FROM actions WHERE uuid=?", (uuid,)).fetchone()
+    return int(json.loads(row[0]).get("waypoint", 0)) if row else 0
+
+
+@pytest.mark.slow
+def test_sigkilled_rcl_resumes_or_fails_every_running_action(
+    procs: Procs, run_dir: Path,
+) -> None:
+    endpoints = BusEndpoints.ipc(run_dir)
+    procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
+    seen: list[Envelope] = []
+    sub = Subscriber(endpoints, prefixes=["action.status"])
+    sub.start(seen.append)
+    tx = ReliableSender(endpoints, src="reasoner", inc=1, channel="action")
+    try:
+        assert sub.wait_connected(5)
+        rcl = _rcl(procs, run_dir, endpoints, 1, ROBOTS)
+        uuids = [f"act-{r}" for r in ROBOTS]
+        for uuid, robot in zip(uuids, ROBOTS, strict=True):
+            tx.send(ActionRequest(uuid=uuid, name="patrol", args=[robot, "g", list(range(40))]))
+        journal = run_dir / "rcl-journal.sqlite3"
+        wait_until(lambda: all(_progress(journal, u) >= 3 for u in uuids), timeout=20,
+                   message="every action past waypoint 3")
+
+        rcl.send_signal(signal.SIGKILL)
+        rcl.wait(timeout=10)
+        kept = {u: _progress(journal, u) for u in uuids}
+        _rcl(procs, run_dir, endpoints, 2, ROBOTS[:4])  # ugv5 is gone from the config
+
+        def after_restart(uuid: str) -> list[ActionStatus]:
+            return [e.body for e in list(seen) if e.inc == 2 and
+                    isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
+
+        lost = uuids[4]
+        wait_until(lambda: [s.state for s in after_restart(lost)] == ["failed"], timeout=20)
+        assert "'ugv5' is not configured" in after_restart(lost)[0].reason
+        for uuid in uuids[:4]:
+            wait_until(lambda u=uuid: bool(after_restart(u)), timeout=20)  # type: ignore[misc]
+            first = after_restart(uuid)[0]
+            assert first.state == "running" and "RCL restart" in first.reason
+            assert int(first.progress["waypoint"]) >= kept[uuid]  # type: ignore[arg-type]
+        for uuid in uuids[:4]:
+            wait_until(lambda u=uuid: after_restart(u)[-1].state == "succeeded",  # type: ignore[misc]
+                       timeout=30, message=f"{uuid} succeeded after the restart")
+    finally:
+        tx.close()
+        sub.close()
