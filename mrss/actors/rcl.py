@@ -8,16 +8,17 @@ so the same object runs in-process in tests and behind the bus (`RclService`). R
 - a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
 - every status is committed to the ActionJournal before it is published;
 - on `start`, every non-terminal action of the journal is resumed or explicitly failed;
-- a crashed robot actor is restarted from the journal (at most `max_robot_restarts`
-  in `restart_period` seconds; beyond that its actions fail and the robot is unavailable).
+- robot actors run under an ActorSupervisor (mrss.supervision): a crashed one is
+  restarted and takes its actions back from the journal; more than `max_robot_restarts`
+  in `restart_period` seconds quarantines the robot: its open actions fail, new ones are
+  refused until `probation` has passed (the sup.quarantine / sup.release events go out);
+- a terminal status is final: nothing is journaled or published for that uuid after it.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
-import time
-from collections import deque
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
@@ -35,7 +36,15 @@ from mrss.messages import (
     ActionStatus,
     Message,
     RobotState,
+    SupEvent,
     build,
+)
+from mrss.supervision import (
+    ActorContext,
+    ActorSupervisor,
+    OnExceeded,
+    SupervisorSpec,
+    actor_child,
 )
 
 log = logging.getLogger("mrss.rcl")
@@ -55,71 +64,96 @@ class RclCore:
 
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
                  robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
-                 restart_period: float = 60.0) -> None:
+                 restart_period: float = 60.0, probation: float = 30.0,
+                 robot_watchdog: float | None = 30.0) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
         self.broker = ResourceBroker(self._preempt, self._resume_preempted)
-        self.max_robot_restarts, self.restart_period = max_robot_restarts, restart_period
+        self.robot_spec = SupervisorSpec(intensity=max_robot_restarts, period=restart_period,
+                                         on_exceeded=OnExceeded.QUARANTINE,
+                                         probation=probation)
+        self.robot_watchdog = robot_watchdog
+        self.robots: pykka.ActorRef[ActorSupervisor] | None = None
         self._lock = threading.RLock()
         self._index: dict[str, _Entry] = {}
-        self._robots: dict[str, pykka.ActorRef[RobotActor]] = {}
+        self._refs: dict[str, pykka.ActorRef[Any]] = {}
         self._unavailable: dict[str, str] = {}
-        self._crashes: dict[str, deque[float]] = {}
         self._incarnations: dict[str, int] = {}
-        self._running = False
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
-        """Start one actor per robot, then resume or fail what the journal left open.
+        """Start the robot supervisor (one actor per robot); they resume the journal's
+        open actions, and what cannot be resumed fails explicitly here.
 
         `new_run`: the whole system (re)started, not just this RCL, so nobody waits for
         the actions left open: they are failed, and old incarnation numbers forgotten.
         """
-        teleop = self.journal.teleop_robots()
         with self._lock:
-            self._running = True
             self._incarnations = {} if new_run else self.journal.incarnations()
-            for robot in self.links:
-                self._robots[robot] = self._spawn(robot, robot in teleop)
-        if new_run:
-            for entry in self.journal.open_actions():
+        for entry in self.journal.open_actions():
+            if new_run:
                 self._fail_unrouted(entry.action, "left over from a previous run of MRSS")
-        else:
-            self._restore(self.journal.open_actions())
+            elif entry.action.robot not in self.links:
+                self._fail_unrouted(entry.action, f"robot {entry.action.robot!r} is not "
+                                                  "configured after an RCL restart")
+        children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
+                                shutdown=self.layer.interrupt_timeout + 2.0)
+                    for robot in self.links]
+        self.robots = ActorSupervisor.start(
+            self.robot_spec, children, name="robots", publish=self._publish_sup,
+            on_give_up=lambda why: log.error("robot supervisor gave up: %s", why))
+        # answered after the supervisor's start hook, which sets every robot actor up
+        self.robots.proxy().which_children().get(timeout=30.0)
 
     def stop(self) -> None:
         """Stop every robot actor (and its skills); open actions stay in the journal."""
+        robots, self.robots = self.robots, None
+        if robots is None:
+            return
+        try:
+            robots.stop(block=True, timeout=len(self.links) * (self.layer.interrupt_timeout
+                                                               + 3.0))
+        except pykka.Timeout:
+            log.error("robot supervisor did not stop in time")
         with self._lock:
-            self._running = False
-            refs = list(self._robots.values())
-            self._robots.clear()
-        for ref in refs:
-            try:
-                ref.stop(block=True, timeout=self.layer.interrupt_timeout + 2.0)
-            except pykka.Timeout:
-                log.error("robot actor %s did not stop in time", ref)
+            self._refs.clear()
 
-    def _spawn(self, robot: str, teleop: bool) -> pykka.ActorRef[RobotActor]:
-        ref: pykka.ActorRef[RobotActor] = RobotActor.start(
-            robot, self.links[robot], self.layer, self.broker, self._emit,
-            self.journal.save_progress, teleop, self._robot_crashed)
-        return ref
+    def _robot_factory(self, robot: str) -> Callable[[ActorContext], pykka.ActorRef[Any]]:
+        def start(ctx: ActorContext) -> pykka.ActorRef[Any]:
+            ref: pykka.ActorRef[Any] = RobotActor.start(
+                ctx, robot, self.links[robot], self.layer, self.broker, self)
+            return ref
+        return start
 
-    def _restore(self, entries: list[JournalEntry], why: str = "an RCL restart") -> None:
-        for action, suspended_by, requester in entries:
-            if action.robot not in self._robots:
-                self._fail_unrouted(action, f"robot {action.robot!r} is not configured "
-                                            "after an RCL restart")
-            elif not self.layer.resume_after_restart(action.copy()):
+    # -- RobotHost: what robot actors call -------------------------------------------------
+    def emit(self, action: Action, suspended_by: str) -> None:
+        self._emit(action, suspended_by)
+
+    def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
+        self.journal.save_progress(uuid, progress)
+
+    def register(self, robot: str, ref: pykka.ActorRef[Any]) -> None:
+        with self._lock:
+            self._refs[robot] = ref
+
+    def restore(self, robot: str, first: bool) -> tuple[list[JournalEntry], bool]:
+        """A robot actor (re)starts: its open actions, minus those the project won't resume."""
+        entries: list[JournalEntry] = []
+        for entry in self.journal.open_actions():
+            action = entry.action
+            if action.robot != robot:
+                continue
+            if first and not self.layer.resume_after_restart(action.copy()):
                 self._fail_unrouted(action, "RCL restarted; the project does not resume "
                                             f"{action.name!r} actions")
-            else:
-                with self._lock:
-                    self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
-                                                      requester)
-                log.info("restoring action %s (%s) on %s", action.uuid, action.state.value,
-                         action.robot)
-                self._tell(action.robot, StartAction(action, suspended_by, restored=why))
+                continue
+            self.broker.forget_action(action.uuid)  # holds of a dead incarnation
+            with self._lock:
+                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
+                                                  entry.requester)
+            log.info("restoring action %s (%s) on %s", action.uuid, action.state.value, robot)
+            entries.append(entry)
+        return entries, robot in self.journal.teleop_robots()
 
     # -- requests -------------------------------------------------------------------------
     def submit_fields(self, fields: Mapping[str, Any]) -> None:
@@ -264,6 +298,12 @@ class RclCore:
         """Journal (committed) first, then publish: a status is never out before it's safe."""
         with self._lock:
             known = self._index.get(action.uuid)
+        if known is None:
+            done = self.journal.get(action.uuid)
+            if done is not None and done.action.terminal:
+                log.warning("action %s is already %s; %s dropped", action.uuid,
+                            done.action.state.value, action.state.value)
+                return
         if requester is None:
             requester = known.requester if known else NOBODY
         self.journal.record(action, suspended_by, requester)
@@ -303,25 +343,16 @@ class RclCore:
         self._emit(action, "")
 
     def _tell(self, robot: str, message: object) -> None:
+        """Send to the robot's current incarnation. If it is down, the message is lost:
+        a StartAction is safe (journaled first, the next incarnation restores it)."""
         with self._lock:
-            ref = self._robots.get(robot)
-        if ref is None:
-            log.warning("no robot actor for %s (RCL stopped?): %r dropped", robot, message)
-            return
+            ref = self._refs.get(robot)
         try:
+            if ref is None:
+                raise pykka.ActorDeadError(robot)
             ref.tell(message)
-            return
         except pykka.ActorDeadError:
-            with self._lock:  # a crash handler may have replaced it meanwhile
-                fresh = self._robots.get(robot)
-        if fresh is not None and fresh is not ref:
-            try:
-                fresh.tell(message)
-                return
-            except pykka.ActorDeadError:
-                pass
-        log.warning("robot actor %s is dead; %r dropped (the journal restores actions)",
-                    robot, message)
+            log.warning("robot actor %s is down; %r dropped", robot, message)
 
     def _preempt(self, uuid: str, resource: str) -> None:
         self._control_one(uuid, "suspend", f"pre-empted: {resource} is needed by a "
@@ -336,34 +367,22 @@ class RclCore:
         if entry is not None:
             self._tell(entry.robot, Control(uuid, command, reason, by))
 
-    def _robot_crashed(self, robot: str) -> None:
-        """Supervision of robot actors: restart from the journal, within an intensity."""
-        now = time.monotonic()
-        with self._lock:
-            if not self._running:
-                return
-            crashes = self._crashes.setdefault(robot, deque())
-            crashes.append(now)
-            while crashes and now - crashes[0] > self.restart_period:
-                crashes.popleft()
-            give_up = len(crashes) > self.max_robot_restarts
-            entries = [e for e in self.journal.open_actions() if e.action.robot == robot]
-            for entry in entries:
+    def _publish_sup(self, event: Message) -> object:
+        """Supervision events go out; a quarantine also fails the robot's open actions."""
+        if isinstance(event, SupEvent) and event.child in self.links:
+            if event.event == "quarantine":
+                self._quarantined(event.child, event.reason)
+            elif event.event == "release":
+                self.set_available(event.child, True)
+        return self.publish(event)
+
+    def _quarantined(self, robot: str, reason: str) -> None:
+        self.set_available(robot, False, f"quarantined after repeated crashes ({reason})")
+        for entry in self.journal.open_actions():
+            if entry.action.robot == robot:
                 self.broker.forget_action(entry.action.uuid)
-            if give_up:
-                self._robots.pop(robot, None)
-                self._unavailable[robot] = "robot actor keeps crashing"
-            else:
-                self._robots[robot] = self._spawn(robot, robot in self.journal.teleop_robots())
-        if give_up:
-            log.error("robot actor %s crashed %d times in %.0fs: giving up", robot,
-                      len(crashes), self.restart_period)
-            for entry in entries:
-                self._fail_unrouted(entry.action, f"robot actor {robot} keeps crashing")
-            self._robot_state(robot)
-            return
-        log.error("robot actor %s crashed; restarted from the journal", robot)
-        self._restore(entries, f"robot actor {robot} crashed")
+                self._fail_unrouted(entry.action, f"robot {robot} quarantined: its actor "
+                                                  f"keeps crashing ({reason})")
 
 
 def _fields(request: ActionRequest) -> dict[str, Any]:

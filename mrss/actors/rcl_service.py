@@ -11,48 +11,31 @@
 Options (project.toml, the component's table): `layer` ("rcl.py:ClassName" relative to
 the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (robot id
 -> link options for `connect_robot`), `journal` (path; default <run_dir>/<name>-journal
-.sqlite3), `durable` (fsync every transition), `max_robot_restarts`, `restart_period`.
+.sqlite3), `durable` (fsync every transition), and the robot supervisor's
+`max_robot_restarts`, `restart_period`, `probation`. The first incarnation of a run
+fails actions a previous run left in a kept journal; later ones resume them.
 """
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import inspect
-import json
 import logging
-import signal
 import sys
-import threading
-from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
-from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, Subscriber
+from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
+from mrss.supervision import Component, ComponentContext
 
 log = logging.getLogger("mrss.rcl")
 
 ACTION_CHANNEL = "action"
-
-
-class ServiceContext(Protocol):
-    """What the RCL needs to start: mrss.supervision's ComponentContext provides it."""
-
-    name: str
-    incarnation: int
-    project_dir: Path
-    run_dir: Path
-    bus: dict[str, Any]
-    options: dict[str, Any]
-
-    @property
-    def publisher(self) -> Any: ...
 
 
 def load_layer(project_dir: Path, spec: str = "") -> RobotCommLayer:
@@ -81,8 +64,11 @@ def load_layer(project_dir: Path, spec: str = "") -> RobotCommLayer:
     return layer
 
 
-class RclService:
-    """The Robot Communication Layer component (one OS process under the supervisor)."""
+class RclService(Component):
+    """The Robot Communication Layer component (one OS process under the supervisor).
+
+    project.toml: `[components.rcl] start = "mrss.actors.rcl_service:RclService"`.
+    """
 
     def __init__(self) -> None:
         self.core: RclCore | None = None
@@ -93,7 +79,7 @@ class RclService:
         self._sub: Subscriber | None = None
         self._name = "rcl"
 
-    def start(self, ctx: ServiceContext) -> None:
+    def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
         self._name = ctx.name
         self.layer = load_layer(ctx.project_dir, str(opts.get("layer", "")))
@@ -105,9 +91,12 @@ class RclService:
         journal_path = Path(opts.get("journal") or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
         self.journal = ActionJournal(journal_path, durable=bool(opts.get("durable", False)))
         publisher = ctx.publisher
+        if not publisher.wait_connected(5.0):  # else the restored statuses could be lost
+            log.warning("%s: the bus proxy has not greeted the publisher yet", ctx.name)
         self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
                             max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
-                            restart_period=float(opts.get("restart_period", 60.0)))
+                            restart_period=float(opts.get("restart_period", 60.0)),
+                            probation=float(opts.get("probation", 30.0)))
         self.core.start(new_run=ctx.incarnation <= 1)
         endpoints = BusEndpoints.from_dict(ctx.bus)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
@@ -162,57 +151,3 @@ class RclService:
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 
-
-@dataclass
-class StandaloneContext:
-    """A ServiceContext for running the RCL by hand (`python -m mrss.actors.rcl_service`)."""
-
-    name: str
-    incarnation: int
-    project_dir: Path
-    run_dir: Path
-    bus: dict[str, Any]
-    options: dict[str, Any] = field(default_factory=dict)
-    _publisher: Publisher | None = None
-
-    @property
-    def publisher(self) -> Publisher:
-        if self._publisher is None:
-            self._publisher = Publisher(BusEndpoints.from_dict(self.bus), src=self.name,
-                                        inc=self.incarnation)
-        return self._publisher
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the RCL outside a supervisor until SIGTERM/SIGINT; prints "ready" when up."""
-    parser = argparse.ArgumentParser(prog="python -m mrss.actors.rcl_service")
-    parser.add_argument("--project", type=Path, required=True, help="project folder")
-    parser.add_argument("--run-dir", type=Path, required=True)
-    parser.add_argument("--bus", required=True, help="BusEndpoints.to_dict() as JSON")
-    parser.add_argument("--name", default="rcl")
-    parser.add_argument("--inc", type=int, default=1, help="incarnation")
-    parser.add_argument("--options", default="{}", help="component options as JSON")
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, stream=sys.stderr,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    ctx = StandaloneContext(args.name, args.inc, args.project, args.run_dir,
-                            json.loads(args.bus), json.loads(args.options))
-    stop = threading.Event()
-    for signum in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(signum, lambda *_: stop.set())
-    service = RclService()
-    try:
-        service.start(ctx)
-    except MrssError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print("ready", flush=True)
-    stop.wait()
-    service.stop()
-    if ctx._publisher is not None:
-        ctx._publisher.close()
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,9 +1,11 @@
-"""One pykka actor per robot: its link, teleop flag, its actions and their skill actors.
+"""One supervised pykka actor per robot: its link, teleop flag, its actions, their skills.
 
 The robot actor owns the lifecycle of its actions: it refines them into skills, starts a
 SkillActor per skill, decides the action's end with the project's `check_action_status`,
 and stops skills for cancel/suspend/succeed/fail. Every transition goes through `emit`
 (journal, then publish). Project code that raises fails the action, never this actor.
+The actor runs under the RCL's robot supervisor (mrss.supervision): if it crashes anyway,
+its next incarnation's `setup` takes its open actions back from the journal.
 
 Suspension causes, strongest first: "control" (goal management), "teleop", and
 "resource:<name>" (pre-empted). A resume only lifts its own cause, except a control
@@ -14,13 +16,12 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from types import TracebackType
-from typing import Any
+from typing import Any, Protocol
 
 import pykka
 
+from mrss.actors.journal import JournalEntry
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.skill import (
     Interrupt,
@@ -31,12 +32,27 @@ from mrss.actors.skill import (
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
 from mrss.messages import ActionState
+from mrss.supervision import ActorContext, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
 
 BY_CONTROL, BY_TELEOP = "control", "teleop"
-Emit = Callable[[Action, str], None]  # (snapshot, suspended_by): journal, then publish
-SaveProgress = Callable[[str, dict[str, Any]], None]
+
+
+class RobotHost(Protocol):
+    """What a robot actor needs from the RCL core."""
+
+    def emit(self, action: Action, suspended_by: str) -> None:
+        """Journal the action's state (committed), then publish it."""
+
+    def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
+        """Journal progress (no status goes out)."""
+
+    def register(self, robot: str, ref: pykka.ActorRef[Any]) -> None:
+        """The robot's current actor incarnation, for routing."""
+
+    def restore(self, robot: str, first: bool) -> tuple[list[JournalEntry], bool]:
+        """The robot's open actions to take back (journal) and its teleop flag."""
 
 _END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,
            "fail": ActionState.FAILED}
@@ -96,18 +112,31 @@ class _Tracked:
     stopping: _Stopping | None = None
 
 
-class RobotActor(pykka.ThreadingActor):
+class RobotActor(SupervisedActor):
     """Runs the actions of one robot."""
 
-    def __init__(self, robot: str, link: Any, layer: RobotCommLayer, broker: ResourceBroker,
-                 emit: Emit, save_progress: SaveProgress, teleop: bool = False,
-                 crashed: Callable[[str], None] | None = None) -> None:
-        super().__init__()
+    def __init__(self, ctx: ActorContext, robot: str, link: Any, layer: RobotCommLayer,
+                 broker: ResourceBroker, host: RobotHost) -> None:
+        super().__init__(ctx)
         self.robot, self.link, self.layer, self.broker = robot, link, layer, broker
-        self.emit, self.save_progress = emit, save_progress
-        self.teleop = teleop
-        self.crashed = crashed
+        self.host = host
+        self.emit, self.save_progress = host.emit, host.save_progress
+        self.teleop = False
         self.actions: dict[str, _Tracked] = {}
+
+    def setup(self) -> None:
+        """Start hook: register, then take this robot's open actions back from the journal.
+
+        Registering first means a request journaled after the journal read below is
+        told to this incarnation; one journaled before is restored here (and a late
+        StartAction for it is ignored).
+        """
+        first = self.ctx.incarnation == 1
+        self.host.register(self.robot, self.actor_ref)
+        entries, self.teleop = self.host.restore(self.robot, first)
+        why = "an RCL restart" if first else f"a restart of robot actor {self.robot}"
+        for entry in entries:
+            self._start(StartAction(entry.action, entry.suspended_by, restored=why))
 
     # -- dispatch ---------------------------------------------------------------------
     def on_receive(self, message: Any) -> Any:
@@ -127,8 +156,8 @@ class RobotActor(pykka.ThreadingActor):
             log.warning("robot %s: unexpected message %r", self.robot, message)
         return None
 
-    def on_stop(self) -> None:
-        """Shutdown: stop every skill, change no state (the journal resumes them later)."""
+    def teardown(self) -> None:
+        """Stop or crash: stop every skill, change no state (the journal has them)."""
         refs = [r for t in self.actions.values() for r in t.refs if r is not None]
         for t in self.actions.values():
             if t.stopping and t.stopping.timer:
@@ -144,15 +173,10 @@ class RobotActor(pykka.ThreadingActor):
         except pykka.Timeout:
             log.error("robot %s: skills still busy at shutdown; abandoned", self.robot)
 
-    def on_failure(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                   tb: TracebackType | None) -> None:
-        """A bug stopped this actor: stop its skills and let the RCL restart it."""
-        self.on_stop()
-        if self.crashed is not None:
-            self.crashed(self.robot)
-
     # -- lifecycle --------------------------------------------------------------------
     def _start(self, msg: StartAction) -> None:
+        if msg.action.uuid in self.actions:
+            return  # restored from the journal already
         t = _Tracked(msg.action.copy(), suspended_by=msg.suspended_by)
         self.actions[t.action.uuid] = t
         if t.action.state is ActionState.SUSPENDED:  # only restored actions come suspended

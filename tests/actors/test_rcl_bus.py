@@ -6,7 +6,6 @@ from __future__ import annotations
 import shutil
 import tempfile
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -16,29 +15,16 @@ from mrss.actors.rcl_service import RclService
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, ReliableSender, Subscriber
 from mrss.errors import ConfigError
 from mrss.messages import ActionControl, ActionRequest, ActionStatus, Command, Envelope
+from mrss.supervision import ComponentContext
 from mrss.testing import wait_until
 
 PROJECT = Path(__file__).parent / "rcl_project"
 
 
-@dataclass
-class Ctx:
-    """The start context a supervisor would give (name, incarnation, dirs, bus, options)."""
-
-    name: str
-    incarnation: int
-    project_dir: Path
-    run_dir: Path
-    bus: dict[str, Any]
-    options: dict[str, Any] = field(default_factory=dict)
-    _pub: Publisher | None = None
-
-    @property
-    def publisher(self) -> Publisher:
-        if self._pub is None:
-            self._pub = Publisher(BusEndpoints.from_dict(self.bus), src=self.name,
-                                  inc=self.incarnation)
-        return self._pub
+def _ctx(name: str, inc: int, project_dir: Path, run_dir: Path, bus: dict[str, Any],
+        options: dict[str, Any] | None = None) -> ComponentContext:
+    """The start context the supervisor gives a component."""
+    return ComponentContext(name, inc, project_dir, run_dir, bus=bus, options=options or {})
 
 
 class Statuses:
@@ -71,7 +57,7 @@ def bus() -> Iterator[tuple[BusEndpoints, Path]]:
 
 def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> None:
     endpoints, run_dir = bus
-    ctx = Ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict(),
+    ctx = _ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict(),
               {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}})
     service = RclService()
     statuses = Statuses()
@@ -121,13 +107,14 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
         ctl.close()
         sub.close()
         service.stop()
+        ctx.publisher.close()
     assert all(link.closed for link in service.links.values())
 
 
 def test_rcl_service_refuses_a_project_without_robots(bus: tuple[BusEndpoints, Path]) -> None:
     endpoints, run_dir = bus
     with pytest.raises(ConfigError, match="robots"):
-        RclService().start(Ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict()))
+        RclService().start(_ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict()))
     with pytest.raises(ConfigError, match="no such file"):
-        RclService().start(Ctx("rcl", 1, run_dir, run_dir, endpoints.to_dict(),
+        RclService().start(_ctx("rcl", 1, run_dir, run_dir, endpoints.to_dict(),
                                {"robots": {"ugv1": {}}}))

@@ -115,7 +115,9 @@ def test_crashed_robot_actor_is_restarted_from_the_journal(rcl_env: RclEnv) -> N
         wait_until(lambda: _progress(journal, "a1") == {"waypoint": 1})
         journal.fail_next = True
         ugv.arrive()  # reaching p2 records progress: the write fails, the robot actor dies
-        wait_until(lambda: any("crashed" in s.reason for s in rcl_env.statuses.of("a1")))
+        wait_until(lambda: any("restart of robot actor ugv1" in s.reason
+                               for s in rcl_env.statuses.of("a1")))
+        assert any(getattr(m, "event", "") == "restart" for m in rcl_env.statuses.others)
         assert rcl_env.layer.refined[-1].progress == {"waypoint": 1}
         wait_until(lambda: ugv.is_moving_to("p2"))  # resumed from the journaled waypoint
         ugv.arrive(2)
@@ -129,7 +131,7 @@ def test_crashed_robot_actor_is_restarted_from_the_journal(rcl_env: RclEnv) -> N
         journal.close()
 
 
-def test_robot_actor_crashing_too_often_fails_its_actions(rcl_env: RclEnv) -> None:
+def test_robot_crashing_too_often_is_quarantined_and_released(rcl_env: RclEnv) -> None:
     class AlwaysFails(ActionJournal):
         def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
             raise sqlite3.OperationalError("disk I/O error")
@@ -137,15 +139,23 @@ def test_robot_actor_crashing_too_often_fails_its_actions(rcl_env: RclEnv) -> No
     journal = AlwaysFails(rcl_env.journal_path)
     ugv = SimRobot("ugv1", auto=True)
     core = RclCore(rcl_env.layer, journal, rcl_env.statuses, {"ugv1": ugv},
-                   max_robot_restarts=2)
+                   max_robot_restarts=2, probation=0.5)
     core.start()
     try:
         core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1", "p2"]))
         wait_until(rcl_env.statuses.reached("a1", "failed"))
         last = rcl_env.statuses.last("a1")
-        assert last is not None and "keeps crashing" in last.reason
+        assert last is not None and "quarantined" in last.reason
+        events = [getattr(m, "event", "") for m in rcl_env.statuses.others]
+        assert events.count("restart") == 2 and "quarantine" in events
         core.submit_fields(request_fields("a2", "noop", "ugv1", "g2"))
         wait_until(rcl_env.statuses.reached("a2", "failed"))
+        last = rcl_env.statuses.last("a2")
+        assert last is not None and "ugv1 unavailable: quarantined" in last.reason
+        wait_until(lambda: any(getattr(m, "event", "") == "release"
+                               for m in rcl_env.statuses.others), message="released")
+        core.submit_fields(request_fields("a3", "noop", "ugv1", "g3"))
+        wait_until(rcl_env.statuses.reached("a3", "succeeded"))
     finally:
         core.stop()
         journal.close()
