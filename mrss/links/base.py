@@ -117,7 +117,12 @@ class RobotLink(ABC):
         """Record a state; on a change, log it and tell the callbacks. Returns if it changed."""
         with self._dispatch:
             with self._changed:
-                if up == self._up or (up and self._closed):
+                if up and self._closed:
+                    return False
+                if up == self._up:
+                    if not up and not self._closed:
+                        self._reason = reason  # still down, for a newer reason
+                        self._changed.notify_all()
                     return False
                 self._up = up
                 self._reason = reason

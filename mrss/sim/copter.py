@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mrss.links.ardupilot import COPTER_MODES, mode_name
+from mrss.links.geo import approach, bearing_deg, distance_m, step_towards
 from mrss.links.mavconn import MAV
-from mrss.sim.geo import approach, bearing_deg, distance_m, step_towards
 
 ARMABLE_MODES = {COPTER_MODES[m] for m in ("STABILIZE", "ACRO", "ALT_HOLD", "GUIDED", "LOITER")}
 GUIDED, AUTO, RTL, LAND = (COPTER_MODES[m] for m in ("GUIDED", "AUTO", "RTL", "LAND"))

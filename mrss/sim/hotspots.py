@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.errors import ConfigError
-from mrss.sim.geo import distance_m
+from mrss.links.geo import distance_m
 
 DEFAULT_TEMPERATURE_C = 400.0
 

@@ -1,4 +1,4 @@
-"""Small-area geodesy for the simulators: distances and straight-line moves in metres."""
+"""Small-area geodesy for links and simulators: distances and straight-line moves in metres."""
 
 from __future__ import annotations
 
