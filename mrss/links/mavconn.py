@@ -7,7 +7,9 @@ process (tests) and a ground station on the other side (MAVProxy) all agree.
 
 from __future__ import annotations
 
+import select
 import threading
+from collections import deque
 from typing import Any
 
 from pymavlink import mavutil
@@ -33,6 +35,8 @@ class MavConnection:
         self.conn.WIRE_PROTOCOL_VERSION = "2.0"
         self.conn.first_byte = False
         self._send_lock = threading.Lock()
+        self._datagrams = isinstance(self.conn, mavutil.mavudp)
+        self._queued: deque[Any] = deque()
 
     def send(self, message: Any) -> None:
         """Encode and send one MAVLink message (thread-safe)."""
@@ -41,10 +45,47 @@ class MavConnection:
 
     def recv(self, timeout: float) -> Any | None:
         """The next decoded message, or None after `timeout` seconds without one."""
-        msg = self.conn.recv_match(blocking=True, timeout=timeout)
+        if self._datagrams:
+            return self._recv_datagram(timeout)
+        if timeout <= 0:
+            msg = self.conn.recv_match(blocking=False)
+        else:
+            msg = self.conn.recv_match(blocking=True, timeout=timeout)
         if msg is None or msg.get_type() == "BAD_DATA":
             return None
         return msg
+
+    def wait_readable(self, timeout: float) -> None:
+        """Block until a message may be ready, or `timeout` seconds have passed."""
+        if self._queued:
+            return
+        if self._datagrams:
+            select.select([self.conn.port], [], [], timeout)
+        else:
+            self.conn.select(timeout)
+
+    def _recv_datagram(self, timeout: float) -> Any | None:
+        """UDP: decode each datagram on its own, so junk in one cannot swallow the next.
+
+        pymavlink's stream parser would take a stray 0xFD byte as the start of a packet
+        and read the following datagrams into it; a datagram only ever holds whole
+        packets, so a fresh parser per datagram drops such junk with its datagram.
+        """
+        if self._queued:
+            return self._queued.popleft()
+        readable, _, _ = select.select([self.conn.port], [], [], timeout)
+        if not readable:
+            return None
+        data = self.conn.recv()
+        if not data:
+            return None
+        parser = mavlink2.MAVLink(None)
+        parser.robust_parsing = True
+        for msg in parser.parse_buffer(bytearray(data)) or []:
+            if msg.get_type() != "BAD_DATA":
+                self.conn.post_message(msg)
+                self._queued.append(msg)
+        return self._queued.popleft() if self._queued else None
 
     def close(self) -> None:
         """Close the socket or serial port."""

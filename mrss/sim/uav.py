@@ -114,10 +114,14 @@ class SimUav:
         last = time.monotonic()
         try:
             while not self._stop.is_set():
-                msg = conn.recv(timeout=0.02)
+                conn.wait_readable(0.02)
                 with self._lock:
-                    if msg is not None:
-                        handlers.handle(msg)
+                    try:
+                        msg = conn.recv(timeout=0.0)
+                        if msg is not None:
+                            handlers.handle(msg)
+                    except Exception:  # no input may stop the vehicle
+                        log.exception("error handling a MAVLink message; continuing")
                     now = time.monotonic()
                     self._advance((now - last) * self.speedup)
                     last = now

@@ -66,7 +66,8 @@ class UavHandlers:
                                               msg.get_srcComponent()))
 
     def _refusal(self, exc: Refused) -> int:
-        self.model.texts.append((MAV.MAV_SEVERITY_WARNING, exc.text))
+        # Said at once, before the COMMAND_ACK, as ArduPilot does: the GCS shows why.
+        self.send(self.mav.statustext_encode(MAV.MAV_SEVERITY_WARNING, exc.text[:50].encode()))
         return exc.result
 
     def _set_mode(self, base_mode: float, custom_mode: float) -> int:
