@@ -10,7 +10,7 @@ ROBOTS = {"uav": uav, "ugv": ugv}
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="robot", metavar="ROBOT", required=True)
+    sub = parser.add_subparsers(dest="robot", metavar="{uav,ugv}", required=True)
     sub.add_parser("uav", help="MAVLink quadcopter answering like ArduCopter",
                    description=uav.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub.add_parser("ugv", help="MQTT ground vehicle with a water tank",

@@ -40,6 +40,13 @@ DEFAULT_RATES = {  # message id -> seconds between sends
     MAV.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 0.5,
 }
 
+# Sensors reported present, enabled and healthy; the geofence bit is only "healthy"
+# (not breached), as ArduCopter reports it when no fence is enabled.
+SENSORS = (MAV.MAV_SYS_STATUS_SENSOR_3D_GYRO | MAV.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+           | MAV.MAV_SYS_STATUS_SENSOR_3D_MAG | MAV.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+           | MAV.MAV_SYS_STATUS_SENSOR_GPS | MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+           | MAV.MAV_SYS_STATUS_AHRS | MAV.MAV_SYS_STATUS_SENSOR_BATTERY)
+
 
 @dataclass(frozen=True)
 class UavSnapshot:
@@ -188,7 +195,8 @@ class SimUav:
         if msg_id == MAV.MAVLINK_MSG_ID_SYS_STATUS:
             volts = 14.0 + 2.8 * m.battery_pct / 100.0
             current_ca = 0 if not m.armed else (100 if m.landed else 2500)
-            return mav.sys_status_encode(0, 0, 0, 100, round(volts * 1000), current_ca,
+            return mav.sys_status_encode(SENSORS, SENSORS, SENSORS | MAV.MAV_SYS_STATUS_GEOFENCE,
+                                         100, round(volts * 1000), current_ca,
                                          round(m.battery_pct), 0, 0, 0, 0, 0, 0)
         if msg_id == MAV.MAVLINK_MSG_ID_VFR_HUD:
             speed = (m.velocity[0] ** 2 + m.velocity[1] ** 2) ** 0.5

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from typing import Any
 
 from mrss.links.mavconn import MAV
-from mrss.sim.copter import AUTO, FORCE_DISARM_MAGIC, LAND, RTL, CopterModel, Refused
+from mrss.sim.copter import AUTO, FORCE_DISARM_MAGIC, GUIDED, LAND, RTL, CopterModel, Refused
 from mrss.sim.mission_server import MissionServer
 from mrss.sim.uav_params import UavParams
 
@@ -113,6 +113,8 @@ class UavHandlers:
                 return int(MAV.MAV_RESULT_DENIED)
             model.params.speed_mps = p[1]
         elif command == MAV.MAV_CMD_DO_REPOSITION and frame is not None:
+            if int(p[1]) & MAV.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE and model.mode != GUIDED:
+                model.set_mode(GUIDED)
             alt = model.relative_alt(frame, p[6]) if p[6] else model.alt
             model.goto(p[4] * 1e-7, p[5] * 1e-7, alt)
         elif command == MAV.MAV_CMD_REQUEST_MESSAGE:

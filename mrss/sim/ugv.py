@@ -106,12 +106,14 @@ class SimUgv:
                 with self._lock:
                     self.model.step((now - last) * self.speedup)
                     answers = self.model.take_answers()
-                    sample = self.model.telemetry() if now >= next_telemetry else None
+                    due = now >= next_telemetry or bool(answers)
+                    sample = self.model.telemetry() if due else None
                 last = now
-                self._publish_answers(answers)
                 if sample is not None:
+                    # Before the answers: a "done" is never newer than the last telemetry.
                     next_telemetry = now + self.telemetry_period
                     client.publish(self.topics.telemetry, sample.to_json(), qos=0)
+                self._publish_answers(answers)
         finally:
             info = client.publish(self.topics.status, OFFLINE, qos=1, retain=True)
             if client.is_connected():

@@ -35,3 +35,4 @@ def spawn(tmp_path: Path) -> Iterator[Spawn]:
                 proc.send_signal(signal.SIGCONT)
                 proc.kill()
             proc.wait(timeout=10)
+
