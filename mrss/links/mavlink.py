@@ -16,7 +16,7 @@ from typing import Any
 
 from mrss.links.ardupilot import mode_name, mode_number, parse_hotspot
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
-from mrss.links.errors import CommandRejected, CommandTimeout
+from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
 from mrss.links.geo import distance_m
 from mrss.links.mavconn import MAV, MavConnection
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
@@ -73,9 +73,12 @@ class MavlinkLink(RobotLink):
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> None:
         """Open the connection and start receiving."""
-        self._conn = MavConnection(self.url, source_system=255,
-                                   source_component=MAV.MAV_COMP_ID_MISSIONPLANNER,
-                                   udp_timeout=self.heartbeat_timeout)
+        try:
+            self._conn = MavConnection(self.url, source_system=255,
+                                       source_component=MAV.MAV_COMP_ID_MISSIONPLANNER,
+                                       udp_timeout=self.heartbeat_timeout)
+        except (OSError, ValueError) as exc:
+            raise LinkError(self.robot_id, f"cannot open {self.url}: {exc}") from exc
         self._set_link_state(False, "waiting for first heartbeat")
         self._thread = threading.Thread(target=self._receive_loop,
                                         name=f"mavlink-{self.robot_id}", daemon=True)
@@ -105,7 +108,11 @@ class MavlinkLink(RobotLink):
                 sent_at = time.monotonic()
                 self._send(self._mav().command_long_encode(
                     self._target(), 1, command, attempt, *values))
-                result = self._await_ack(pending, timeout)
+                try:
+                    result = self._await_ack(pending, timeout)
+                finally:
+                    with self._pending_lock:
+                        self._pending.pop(command, None)
                 if result is None:
                     continue
                 if result == MAV.MAV_RESULT_ACCEPTED:

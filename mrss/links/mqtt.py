@@ -21,7 +21,7 @@ from paho.mqtt import client as mqtt
 from mrss.errors import DecodeError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout
-from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -164,6 +164,7 @@ class MqttLink(RobotLink):
         if reason_code.is_failure:
             self._set_link_state(False, f"broker refused the connection: {reason_code}")
             return
+        disable_nagle(client)
         self._connected = True
         for topic in (self.topics.status, self.topics.telemetry, self.topics.ack):
             client.subscribe(topic, qos=1)

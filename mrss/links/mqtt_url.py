@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from dataclasses import dataclass
 from urllib.parse import unquote, urlsplit
 
@@ -49,3 +50,13 @@ def new_client(client_id: str, address: BrokerAddress) -> mqtt.Client:
     if address.tls:
         client.tls_set()
     return client
+
+
+def disable_nagle(client: mqtt.Client) -> None:
+    """Send small messages (commands, acks) at once instead of waiting to batch them."""
+    sock = client.socket()
+    if isinstance(sock, socket.socket):
+        try:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        except OSError:
+            pass  # not a TCP socket (e.g. websockets); latency only

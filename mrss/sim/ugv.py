@@ -24,7 +24,7 @@ from typing import Any
 from paho.mqtt import client as mqtt
 
 from mrss.errors import ConfigError, DecodeError
-from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -127,6 +127,7 @@ class SimUgv:
         if reason_code.is_failure:
             log.warning("broker refused the connection: %s", reason_code)
             return
+        disable_nagle(client)
         client.subscribe(self.topics.cmd, qos=1)
         client.publish(self.topics.status, ONLINE, qos=1, retain=True)
         log.info("connected to the broker; status online")
