@@ -40,7 +40,7 @@ def ugv(spawn: Spawn, broker: BrokerInfo, request: pytest.FixtureRequest
     robot_id = f"ugv{abs(hash(request.node.name)) % 10000}"
     proc = start_ugv(spawn, broker, robot_id)
     rec = Recorder()
-    link = MqttLink(robot_id, broker.url, telemetry_timeout=1.5,
+    link = MqttLink(robot_id, broker.url, telemetry_timeout=3.0,
                     on_link_state=rec.on_state, on_telemetry=rec.on_telemetry)
     link.start()
     try:
@@ -134,7 +134,7 @@ def test_last_will_takes_link_down_fails_waiters_and_restart_brings_it_back(
     proc.wait()
     wait_until(lambda: not link.up, timeout=10, message="link down")
     worker.join(timeout=10)
-    assert link.reason in ("last will: offline", "telemetry timeout: none for 1.5 s")
+    assert link.reason in ("last will: offline", "telemetry timeout: none for 3.0 s")
     wait_until(lambda: link.reason == "last will: offline", timeout=10, message="last will")
     assert len(outcome) == 1 and isinstance(outcome[0], LinkDown)
     with pytest.raises(LinkDown, match="last will: offline"):
