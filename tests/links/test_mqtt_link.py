@@ -12,7 +12,7 @@ import pytest
 from mrss.links.errors import CommandRejected, LinkDown, LinkError
 from mrss.links.geo import distance_m, offset
 from mrss.links.mqtt import MqttLink
-from mrss.testing import BrokerInfo, wait_until
+from mrss.testing import BrokerInfo, free_port, wait_until
 
 from .conftest import Spawn
 from .test_mavlink_link import Recorder
@@ -162,3 +162,42 @@ def test_frozen_robot_is_detected_by_telemetry_timeout(
     finally:
         link.close()
     assert rec.states[-1] == (False, "link closed")
+
+
+def test_link_and_robot_reconnect_after_the_broker_restarts(spawn: Spawn) -> None:
+    port = free_port()
+    url = f"mqtt://127.0.0.1:{port}"
+
+    def start_broker() -> Any:
+        proc = spawn("mrss.broker", "--host", "127.0.0.1", "--port", str(port))
+        wait_until(lambda: _accepting(port), timeout=20, message="broker listening")
+        return proc
+
+    broker = start_broker()
+    spawn("mrss", "sim", "ugv", "--broker", url, "--id", "rb1", "--speedup", "20")
+    rec = Recorder()
+    link = MqttLink("rb1", url, on_link_state=rec.on_state)
+    link.start()
+    try:
+        link.wait_up(timeout=20)
+        broker.terminate()
+        broker.wait(timeout=10)
+        wait_until(lambda: not link.up, timeout=10, message="link down")
+        assert link.reason.startswith("broker connection lost")
+        start_broker()
+        link.wait_up(timeout=30)  # both reconnect on their own, with backoff
+        assert link.stop().status == "done"
+    finally:
+        link.close()
+    assert [up for up, _ in rec.states][-4:] == [True, False, True, False]
+    assert rec.states[-1] == (False, "link closed")
+
+
+def _accepting(port: int) -> bool:
+    import socket
+
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=0.2):
+            return True
+    except OSError:
+        return False
