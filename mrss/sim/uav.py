@@ -247,7 +247,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="udpout:127.0.0.1:14550",
                         help="pymavlink connection string (default udpout:127.0.0.1:14550)")
     parser.add_argument("--sysid", type=int, default=1, help="MAVLink system id (default 1)")
-    parser.add_argument("--home", type=_home, default=DEFAULT_HOME, help="LAT,LON[,ALT]")
+    parser.add_argument("--home", type=_home, default=DEFAULT_HOME,
+                        help="home LAT,LON[,ALT] (write --home=... when LAT is negative)")
     parser.add_argument("--hotspots", default="",
                         help="hidden hotspots: a file (JSON or LAT,LON lines) or LAT,LON;...")
     parser.add_argument("--camera-radius", type=float, default=25.0,
