@@ -188,7 +188,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--id", default="ugv1", help="robot id (default ugv1)")
     parser.add_argument("--prefix", default=DEFAULT_PREFIX,
                         help=f"topic prefix (default {DEFAULT_PREFIX})")
-    parser.add_argument("--base", type=_base, default=DEFAULT_BASE, help="base LAT,LON (write --base=LAT,LON when LAT is negative)")
+    parser.add_argument("--base", type=_base, default=DEFAULT_BASE,
+                        help="base LAT,LON (write --base=LAT,LON when LAT is negative)")
     parser.add_argument("--speed", type=float, default=defaults.max_speed_mps,
                         help="top speed m/s")
     parser.add_argument("--tank", type=float, default=defaults.tank_capacity_l,
