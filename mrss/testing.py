@@ -93,7 +93,7 @@ def mosquitto_broker(
         conf = Path(tmp) / "mosquitto.conf"
         conf.write_text(
             f"listener {port} {host}\nallow_anonymous true\npersistence false\n"
-            "log_type error\nlog_type warning\n" + extra_config
+            "set_tcp_nodelay true\nlog_type error\nlog_type warning\n" + extra_config
         )
         proc = subprocess.Popen(
             [binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
