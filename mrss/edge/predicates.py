@@ -213,6 +213,8 @@ class _Checker:
         kind = self.toks[self.i][0] if self.i < len(self.toks) else ""
         if kind in ("string", "number"):
             self.i += 1
+        elif kind == "atom" and self.peek() in ("true", "false"):
+            self.i += 1
         elif kind == "atom":
             self.compound()
         elif self.peek() == "[":
