@@ -31,3 +31,7 @@ class BusPort(MessagePublisher, Protocol):
 
     def subscribe(self, prefixes: Sequence[str], callback: EnvelopeCallback) -> Subscription:
         ...
+
+    def close(self) -> None:
+        """Close every subscription made through this port."""
+        ...

@@ -211,9 +211,8 @@ class _Checker:
 
     def term(self) -> None:
         kind = self.toks[self.i][0] if self.i < len(self.toks) else ""
-        if kind in ("string", "number"):
-            self.i += 1
-        elif kind == "atom" and self.peek() in ("true", "false"):
+        bare_constant = kind == "atom" and self.peek() in ("true", "false")
+        if kind in ("string", "number") or bare_constant:
             self.i += 1
         elif kind == "atom":
             self.compound()

@@ -165,7 +165,7 @@ class WorldModelHttp:
 
     def __init__(self, service: ObjectService, host: str = "127.0.0.1", port: int = 0) -> None:
         self._server = _Server((host, port), service)
-        self._thread = threading.Thread(target=self._server.serve_forever,
+        self._thread = threading.Thread(target=self._server.serve_forever, args=(0.05,),
                                         name="worldmodel-http", daemon=True)
 
     @property
