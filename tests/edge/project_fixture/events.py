@@ -18,6 +18,7 @@ class FixtureAdapter(ExternalAdapter):
                       Field("area", "symbol"), Field("priority", "int"))
         self.on_json(f"{prefix}/cancel", self.cancel)
         self.on_json(f"{prefix}/priority", self.priority)
+        self.on_message(f"{prefix}/crash", self.crash)
 
     def cancel(self, topic: str, obj: dict[str, Any]) -> None:
         self.percept("goal_cancelled", Atom(obj["goal"]))
@@ -29,3 +30,6 @@ class FixtureAdapter(ExternalAdapter):
         if not isinstance(level, int):
             raise ValueError("level must be an integer")
         self.percept("prioritychange", Atom(obj["goal"]), level)
+
+    def crash(self, topic: str, payload: bytes) -> None:
+        raise RuntimeError("adapter bug")
