@@ -81,14 +81,19 @@ def _wait_port(host: str, port: int, timeout: float) -> None:
 
 
 @contextmanager
-def mosquitto_broker(binary: str, host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
-    """A private Mosquitto on a free loopback port, stopped on exit even after a failure."""
+def mosquitto_broker(
+    binary: str, host: str = "127.0.0.1", extra_config: str = "",
+) -> Iterator[BrokerInfo]:
+    """A private Mosquitto on a free loopback port, stopped on exit even after a failure.
+
+    `extra_config` is appended to its configuration file (e.g. "set_tcp_nodelay true\n").
+    """
     port = free_port(host)
     with tempfile.TemporaryDirectory(prefix="mrss-mosq-") as tmp:
         conf = Path(tmp) / "mosquitto.conf"
         conf.write_text(
             f"listener {port} {host}\nallow_anonymous true\npersistence false\n"
-            "log_type error\nlog_type warning\n"
+            "log_type error\nlog_type warning\n" + extra_config
         )
         proc = subprocess.Popen(
             [binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE

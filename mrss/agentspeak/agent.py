@@ -1,0 +1,230 @@
+"""`Agent`: one AgentSpeak agent -- load a program, feed percepts, run reasoning cycles.
+
+Threading: `step`, `run_until_idle`, `snapshot` and the other reasoning calls belong to
+one thread (the reasoner's loop). `add_percept`, `remove_percept`, `post_goal` and
+`complete_action` may be called from any thread: they queue work under a lock and wake
+`wait_for_work`, and the next cycle applies it.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Hashable, Iterable
+from pathlib import Path
+from typing import Any
+
+from mrss.agentspeak.compile import compile_program
+from mrss.agentspeak.errors import SyntaxProblem
+from mrss.agentspeak.intentions import RUNNABLE
+from mrss.agentspeak.parser import parse_literal, parse_program
+from mrss.agentspeak.registry import Registry
+from mrss.agentspeak.runtime import Host, Runtime
+from mrss.agentspeak.snapshot import take_snapshot
+from mrss.agentspeak.terms import (
+    ADD_BEL,
+    DEL_BEL,
+    SOURCE_PERCEPT,
+    Struct,
+)
+
+
+def _print_line(text: str) -> None:
+    sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
+def default_registry() -> Registry:
+    """The registry with Jason's standard internal actions."""
+    from mrss.agentspeak.stdlib import STDLIB
+
+    return STDLIB
+
+
+class Agent(Runtime):
+    """A Jason-compatible AgentSpeak agent.
+
+    `source` is the program text (`file` names it in messages), or pass `file` alone to
+    read it. `host` receives environment actions. `beliefs` are extra initial beliefs
+    (like Jason's `.mas2j` `beliefs=`), `actions` a registry with project internal
+    actions (see `Registry.child`), `clock` a monotonic clock in seconds (for `.wait`),
+    `out` receives each `.print` line.
+    """
+
+    def __init__(self, source: str | None = None, *, file: str | Path | None = None,
+                 host: Host | None = None, name: str = "agent",
+                 beliefs: Iterable[str | Struct] = (), actions: Registry | None = None,
+                 clock: Callable[[], float] = time.monotonic,
+                 out: Callable[[str], None] | None = None) -> None:
+        super().__init__(name, host, actions or default_registry(), clock, out or _print_line)
+        if source is None:
+            if file is None:
+                raise ValueError("Agent needs a source text or a file")
+            source = Path(file).read_text(encoding="utf-8")
+        self.file = str(file) if file is not None else "<string>"
+        problems: list[SyntaxProblem] = []
+        program = parse_program(source, self.file, collect=problems)
+        compiled = compile_program(program, self.registry, source, problems)
+        for lit in compiled.beliefs:
+            self.bb.add(lit, front=False)
+        for extra in beliefs:
+            from mrss.agentspeak.compile import with_self_source
+
+            self.bb.add(with_self_source(parse_literal(extra)), front=False)
+        for rule in compiled.rules:
+            h = rule.head
+            self.bb.add_rule((h.functor, len(h.args), h.neg), rule)
+        for plan in compiled.plans:
+            self.plans.add(plan)
+        for goal in compiled.goals:
+            self.post_goal(goal, None)
+        self._cond = threading.Condition()
+        self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
+
+    @classmethod
+    def from_file(cls, path: str | Path, **kwargs: Any) -> Agent:
+        return cls(file=path, **kwargs)
+
+    # ------------------------------------------------------------------ thread-safe input
+    def _put(self, item: tuple[str, Any, Any, Any]) -> None:
+        with self._cond:
+            self._inbox.append(item)
+            self._cond.notify_all()
+
+    def add_percept(self, literal: str | Struct) -> None:
+        """Perceive `literal` (text or Struct): a belief `[source(percept)]` and its event."""
+        self._put(("+", parse_literal(literal), None, None))
+
+    def remove_percept(self, literal: str | Struct) -> None:
+        """Stop perceiving `literal`: its `source(percept)` goes, posting `-literal`."""
+        self._put(("-", parse_literal(literal), None, None))
+
+    def add_goal(self, literal: str | Struct) -> None:
+        """An external achievement goal `+!literal` (starts a new intention)."""
+        self._put(("!", parse_literal(literal), None, None))
+
+    def complete_action(self, handle: Hashable, success: bool, reason: str | None = None,
+                        result: str | Struct | None = None) -> None:
+        """The host reports the outcome of the action it returned `handle` for. For an
+        action the host lists in `open_actions`, `result` is unified with the action
+        literal (a mismatch fails the action)."""
+        res = parse_literal(result) if isinstance(result, str) else result
+        self._put(("done", handle, success, (reason, res)))
+
+    # ------------------------------------------------------------------ the cycle
+    def _drain(self) -> None:
+        with self._cond:
+            items = list(self._inbox)
+            self._inbox.clear()
+        for kind, a, b, c in items:
+            if kind == "done":
+                self.completed.append((a, b, c[0], c[1]))
+            elif kind == "+":
+                lit = a if any(x == SOURCE_PERCEPT for x in a.annots) else \
+                    Struct(a.functor, a.args, a.annots + (SOURCE_PERCEPT,), a.neg)
+                if self.bb.add(lit, front=True):
+                    self.belief_changed(ADD_BEL, lit, None)
+            elif kind == "-":
+                lit = Struct(a.functor, a.args, (SOURCE_PERCEPT,), a.neg)
+                if self.bb.remove(lit):
+                    self.belief_changed(DEL_BEL, lit, None)
+            elif kind == "!":
+                self.post_goal(a, None)
+
+    def step(self) -> bool:
+        """One reasoning cycle (sense, deliberate, act); False if there was nothing to do."""
+        self.cycle += 1
+        busy = False
+        if self._inbox:
+            self._drain()
+            busy = True
+        if self.timers and self.timers[0][0] <= self.clock():
+            busy = self.expire_timers(self.clock()) or busy
+        # deliberate: one event (while an [atomic] intention runs, only its own events)
+        if self.atomic_events:
+            self.handle_event(self.atomic_events.popleft())
+            busy = True
+        elif self.events and self.atomic is None:
+            self.handle_event(self.events.popleft())
+            busy = True
+        # act: one finished action, then one step of one intention
+        if self.completed:
+            self.process_completion(*self.completed.popleft())
+            busy = True
+        atomic = self.atomic
+        if atomic is not None:
+            if atomic.state is RUNNABLE and not atomic.suspended and not atomic.dropped:
+                self.run_step(atomic)
+                busy = True
+            return busy
+        runq = self.runq
+        while runq:
+            it = runq.popleft()
+            it.in_queue = False
+            if it.state is RUNNABLE and not it.dropped and not it.suspended:
+                self.run_step(it)
+                return True
+        return busy
+
+    def run_until_idle(self, max_cycles: int | None = None) -> int:
+        """Run cycles until nothing is left to do now (parked intentions may remain);
+        returns the number of busy cycles."""
+        n = 0
+        step = self.step
+        while step():
+            n += 1
+            if max_cycles is not None and n >= max_cycles:
+                break
+        return n
+
+    def has_work(self) -> bool:
+        """Whether a cycle now would do something."""
+        if self._inbox or self.events or self.atomic_events or self.completed:
+            return True
+        if any(it.state is RUNNABLE and not it.dropped and not it.suspended for it in self.runq):
+            return True
+        deadline = self.next_deadline()
+        return deadline is not None and deadline <= self.clock()
+
+    def wait_for_work(self, timeout: float | None = None) -> bool:
+        """Block until there is work (new input, or a `.wait` deadline reached) or
+        `timeout` real seconds pass; True if there is work."""
+        end = None if timeout is None else time.monotonic() + timeout
+        with self._cond:
+            while not self.has_work():
+                remaining = None if end is None else end - time.monotonic()
+                deadline = self.next_deadline()
+                if deadline is not None:
+                    until_deadline = max(deadline - self.clock(), 0.0)
+                    remaining = until_deadline if remaining is None else min(remaining,
+                                                                             until_deadline)
+                if remaining is not None and remaining <= 0:
+                    return self.has_work()
+                self._cond.wait(remaining)
+            return True
+
+    def is_idle(self) -> bool:
+        """Nothing to do now and nothing that will make work by itself: no environment
+        action in progress and no `.wait` deadline. (Intentions waiting for an event
+        or a condition only wake on new input, so they do not count.)"""
+        return not self.has_work() and not self.pending_actions and self.next_deadline() is None
+
+    # ------------------------------------------------------------------ inspection
+    def snapshot(self) -> dict[str, Any]:
+        """Beliefs, intentions (with stacks) and pending events as plain JSON-able data."""
+        return take_snapshot(self)
+
+    def beliefs(self) -> list[str]:
+        return self.bb.texts()
+
+    def believes(self, literal: str | Struct) -> bool:
+        """Whether some belief matches `literal` (a query, as in a plan context)."""
+        from mrss.agentspeak.formulas import LiteralQuery
+
+        lit = parse_literal(literal)
+        for _ in LiteralQuery(lit).solve(self, []):
+            self.trail.clear()
+            return True
+        return False

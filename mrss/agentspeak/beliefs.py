@@ -1,0 +1,166 @@
+"""The belief base: beliefs and rules indexed by predicate indicator, in Jason's order.
+
+Per functor/arity/negation, beliefs live in two insertion-ordered dicts keyed by their
+argument tuple: `front` (iterated newest first, where `+b` puts beliefs) and `back`
+(iterated oldest first: initial beliefs and `+>b`). Lookup of a ground literal, adding
+and removing are O(1); a query scans only its own predicate.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Iterator
+from typing import Any
+
+from mrss.agentspeak.terms import Struct, Term, compare, term_str
+from mrss.agentspeak.unify import undo, unify_annots
+
+Key = tuple[str, int, bool]
+
+
+class Rule:
+    """A rule `head :- body`, compiled: the body is a query run in a frame of `nslots`."""
+
+    __slots__ = ("head", "body", "nslots", "line", "text")
+
+    def __init__(self, head: Struct, body: Any, nslots: int, line: int, text: str) -> None:
+        self.head = head
+        self.body = body
+        self.nslots = nslots
+        self.line = line
+        self.text = text
+
+
+class PredStore:
+    """The beliefs and rules of one predicate indicator."""
+
+    __slots__ = ("front", "back", "rules")
+
+    def __init__(self) -> None:
+        self.front: dict[tuple[Term, ...], Struct] = {}
+        self.back: dict[tuple[Term, ...], Struct] = {}
+        self.rules: list[Rule] = []
+
+    def get(self, args: tuple[Term, ...]) -> Struct | None:
+        b = self.front.get(args)
+        return self.back.get(args) if b is None else b
+
+    def facts(self) -> Iterator[Struct]:
+        yield from reversed(self.front.values())
+        yield from self.back.values()
+
+    def __len__(self) -> int:
+        return len(self.front) + len(self.back)
+
+    def _put(self, args: tuple[Term, ...], lit: Struct) -> None:
+        if args in self.front:
+            self.front[args] = lit
+        else:
+            self.back[args] = lit
+
+    def _pop(self, args: tuple[Term, ...]) -> None:
+        if self.front.pop(args, None) is None:
+            self.back.pop(args, None)
+
+
+def _merge(old: tuple[Term, ...], new: tuple[Term, ...]) -> tuple[Term, ...] | None:
+    """Annotations of `old` plus those of `new` it lacks, sorted; None if none is new."""
+    extra = [a for a in new if a not in old]
+    if not extra:
+        return None
+    merged = list(old) + extra
+    if len(merged) > 1:
+        merged.sort(key=functools.cmp_to_key(compare))
+    return tuple(merged)
+
+
+def has_source(annots: tuple[Term, ...]) -> bool:
+    return any(type(a) is Struct and a.functor == "source" and len(a.args) == 1 for a in annots)
+
+
+class BeliefBase:
+    """All beliefs and rules of one agent."""
+
+    def __init__(self) -> None:
+        self.preds: dict[Key, PredStore] = {}
+        self.size = 0
+
+    def store(self, key: Key) -> PredStore | None:
+        return self.preds.get(key)
+
+    def _store(self, key: Key) -> PredStore:
+        s = self.preds.get(key)
+        if s is None:
+            s = self.preds[key] = PredStore()
+        return s
+
+    def add(self, lit: Struct, front: bool = True) -> bool:
+        """Add `lit` (annotations merge into an existing equal belief); False if nothing
+        new was added, in which case no event must be posted."""
+        s = self._store((lit.functor, len(lit.args), lit.neg))
+        args = lit.args
+        old = s.get(args)
+        if old is None:
+            if front:
+                s.front[args] = lit
+            else:
+                s.back[args] = lit
+            self.size += 1
+            return True
+        merged = _merge(old.annots, lit.annots)
+        if merged is None:
+            return False
+        s._put(args, Struct(old.functor, old.args, merged, old.neg))
+        return True
+
+    def remove(self, lit: Struct) -> bool:
+        """Remove the annotations of ground `lit` from the equal belief; the belief goes
+        when no source is left. False when there was no such belief (not a failure)."""
+        s = self.preds.get((lit.functor, len(lit.args), lit.neg))
+        if s is None:
+            return False
+        old = s.get(lit.args)
+        if old is None:
+            return False
+        if not lit.annots:
+            s._pop(lit.args)
+            self.size -= 1
+            return True
+        trail: list[Any] = []
+        if not unify_annots(lit.annots, None, old.annots, trail):
+            undo(trail, 0)
+            return False
+        undo(trail, 0)
+        rest = tuple(a for a in old.annots if a not in lit.annots)
+        if has_source(rest):
+            s._put(lit.args, Struct(old.functor, old.args, rest, old.neg))
+        else:
+            s._pop(lit.args)
+            self.size -= 1
+        return True
+
+    def abolish(self, key: Key, keep: Any = None) -> list[Struct]:
+        """Remove every belief of predicate `key` for which `keep(b)` is false."""
+        s = self.preds.get(key)
+        if s is None:
+            return []
+        gone = [b for b in s.facts() if keep is None or not keep(b)]
+        for b in gone:
+            s._pop(b.args)
+        self.size -= len(gone)
+        return gone
+
+    def add_rule(self, key: Key, rule: Rule) -> None:
+        self._store(key).rules.append(rule)
+
+    def __iter__(self) -> Iterator[Struct]:
+        for s in self.preds.values():
+            yield from s.facts()
+
+    def texts(self) -> list[str]:
+        """Every belief and rule as Jason prints it, in belief-base order."""
+        out: list[str] = []
+        for s in self.preds.values():
+            out.extend(term_str(b) for b in s.facts())
+            out.extend(r.text for r in s.rules)
+        return out

@@ -1,0 +1,233 @@
+"""Goal failure, `.wait` wake-ups, and goal-level surgery on intentions.
+
+Failure follows Jason: the nearest goal in the stack with a relevant `-!g` plan gets
+`-!g[error(E), error_msg(M), code_src(F), code_line(L)]`; that plan runs on top of
+the intention and, when it finishes, the stack unwinds through the failed goal and the
+caller continues after `!g`. No handler: the intention is dropped with a warning.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
+
+from mrss.agentspeak.intentions import (
+    PENDING_EVENT,
+    RUNNABLE,
+    WAITING,
+    Event,
+    IntendedMeans,
+    Intention,
+)
+from mrss.agentspeak.terms import (
+    ADD_ACH,
+    ADD_TEST,
+    DEL_ACH,
+    OP_TEXT,
+    Struct,
+    Term,
+    term_str,
+    value,
+)
+from mrss.agentspeak.unify import undo, unify
+
+if TYPE_CHECKING:
+    from mrss.agentspeak.runtime import Runtime
+
+
+def has_handler(rt: Runtime, lit: Struct) -> bool:
+    """Whether some `-!lit` plan is relevant (its trigger arguments unify)."""
+    plans = rt.plans.relevant(DEL_ACH, lit)
+    if not plans:
+        return False
+    trail: list[Any] = []
+    bare = Struct(lit.functor, lit.args, (), lit.neg)
+    for plan in plans:
+        trig = plan.trigger
+        ok = unify(Struct(trig.functor, trig.args, (), trig.neg), [None] * plan.nslots, bare,
+                   trail)
+        undo(trail, 0)
+        if ok:
+            return True
+    return False
+
+
+def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str, line: int,
+         annots: tuple[Any, ...] = (), virtual: Struct | None = None,
+         start: int | None = None) -> None:
+    """Fail intention `it`: post `-!g` for the nearest handled goal, or drop it.
+
+    `virtual` is a goal that failed before it got on the stack (no applicable plan);
+    `start` is the stack index to search down from (default: the top)."""
+    stack = it.stack
+    it.wait = None
+    target = -1
+    goal: Struct | None = None
+    if virtual is not None and has_handler(rt, virtual):
+        target, goal = len(stack), virtual
+    else:
+        i = len(stack) - 1 if start is None else start
+        while i >= 0:
+            im = stack[i]
+            if im.fail_target is not None:  # skip what an active -!g plan already covers
+                i = im.fail_target - 1
+                continue
+            if im.op == ADD_ACH and has_handler(rt, im.lit):
+                target, goal = i, im.lit
+                break
+            i -= 1
+    where = f"{file}:{line}"
+    if goal is None:
+        failed = virtual if virtual is not None else (stack[-1].lit if stack else None)
+        what = f" (+!{term_str(failed)})" if failed is not None else ""
+        rt.warn(f"{where}: {message}; no -! plan handles it, intention {it.id} dropped{what}")
+        rt.drop(it)
+        return
+    extra: tuple[Term, ...] = ()
+    if error is not None:
+        extra = (Struct("error", (Struct(error),)), Struct("error_msg", (f"{where}: {message}",)),
+                 Struct("code_src", (file,)), Struct("code_line", (line,)))
+    g: Any = value(goal)
+    lit = Struct(g.functor, g.args, tuple(g.annots) + extra + tuple(annots), g.neg)
+    it.gen += 1
+    ev = Event(DEL_ACH, lit, it)
+    ev.target = target
+    ev.error = (error, message, file, line, annots)
+    it.state = PENDING_EVENT
+    rt.post(ev)
+
+
+def no_applicable_plan(rt: Runtime, ev: Event, relevant: bool) -> None:
+    """An event found no plan: goals fail, belief events just let the intention go on."""
+    it = ev.intention
+    what = "applicable" if relevant else "relevant"
+    text = OP_TEXT[ev.op] + term_str(ev.lit)
+    if ev.op == ADD_ACH:
+        if it is None:
+            rt.warn(f"no {what} plan for {text}; the goal is dropped")
+            return
+        file = it.stack[-1].plan.file if it.stack else "<agent>"
+        fail(rt, it, "no_applicable" if relevant else "no_relevant",
+             f"no {what} plan for {text}", file, it.line, virtual=ev.lit)
+    elif ev.op == ADD_TEST and it is not None:
+        file = it.stack[-1].plan.file if it.stack else "<agent>"
+        fail(rt, it, "test_goal_failed", f"test goal {text} failed", file, it.line)
+    elif ev.op == DEL_ACH and it is not None:
+        error, message, file, line, annots = ev.error
+        fail(rt, it, error, message, file, line, annots, start=ev.target - 1)
+    elif it is not None:
+        rt.pop_finished(it)
+
+
+# ----------------------------------------------------------------------------- waits
+
+def park(rt: Runtime, it: Intention, w: Any) -> None:
+    """Suspend `it` on a `.wait` described by `w` (a WaitInfo)."""
+    it.state = WAITING
+    it.wait = w
+    if w.trigger is not None or w.query is not None:
+        rt.event_waiters.append(it)
+    if w.deadline is not None:
+        rt.add_timer(w.deadline, it, w.token)
+
+
+def resume(rt: Runtime, it: Intention, now: float) -> None:
+    w = it.wait
+    it.wait = None
+    if it in rt.event_waiters:
+        rt.event_waiters.remove(it)
+    if w is not None and w.elapsed is not None:
+        trail: list[Any] = []
+        unify(w.elapsed, None, int(round((now - w.started) * 1000)), trail)
+    rt.pop_finished(it)
+
+
+def wait_timeout(rt: Runtime, it: Intention, now: float) -> None:
+    w = it.wait
+    if w is not None and w.fail_on_timeout:
+        if it in rt.event_waiters:
+            rt.event_waiters.remove(it)
+        it.state = RUNNABLE
+        file = it.stack[-1].plan.file if it.stack else "<agent>"
+        fail(rt, it, "wait_timeout", f"timeout in .wait({w.text})", file, it.line)
+    else:
+        resume(rt, it, now)
+
+
+def notify_waiters(rt: Runtime, op: int, lit: Struct) -> None:
+    """Wake intentions whose `.wait` trigger matches the event or whose condition holds."""
+    trail = rt.trail
+    for it in list(rt.event_waiters):
+        w = it.wait
+        if w is None:
+            continue
+        mark = len(trail)
+        if w.trigger is not None:
+            if w.trigger.op == op and unify(w.trigger.lit, None, lit, trail):
+                del trail[mark:]
+                resume(rt, it, rt.clock())
+            else:
+                undo(trail, mark)
+        elif w.query is not None:
+            for _ in w.query.solve(rt, w.frame):
+                del trail[mark:]
+                resume(rt, it, rt.clock())
+                break
+
+
+# ----------------------------------------------------------------------------- goal surgery
+
+def goal_index(rt: Runtime, it: Intention, g: Term) -> int:
+    """Index of the topmost `+!g` intended means of `it` unifying with `g`, or -1."""
+    trail = rt.trail
+    for i in range(len(it.stack) - 1, -1, -1):
+        im = it.stack[i]
+        if im.op == ADD_ACH:
+            mark = len(trail)
+            ok = unify(g, None, im.lit, trail)
+            undo(trail, mark)
+            if ok:
+                return i
+    return -1
+
+
+def intended(rt: Runtime, g: Term) -> Iterator[tuple[Intention, IntendedMeans]]:
+    """Every (intention, intended means) whose goal unifies with `g`, bindings in place."""
+    trail = rt.trail
+    for it in list(rt.intentions.values()):
+        for im in reversed(it.stack):
+            if im.op == ADD_ACH:
+                mark = len(trail)
+                if unify(g, None, im.lit, trail):
+                    yield it, im
+                undo(trail, mark)
+
+
+def _detach(rt: Runtime, it: Intention) -> None:
+    """Stop whatever `it` is blocked on (action, wait, pending event) before surgery."""
+    rt.cancel_action(it)
+    if it.wait is not None:
+        it.wait = None
+        if it in rt.event_waiters:
+            rt.event_waiters.remove(it)
+    it.gen += 1
+
+
+def succeed_goal(rt: Runtime, it: Intention, index: int) -> None:
+    """Pop down to and including the goal at `index`; its caller continues."""
+    _detach(rt, it)
+    del it.stack[index:]
+    if not it.stack:
+        rt.finish(it)
+        return
+    it.state = RUNNABLE
+    rt.pop_finished(it)
+
+
+def fail_goal(rt: Runtime, it: Intention, index: int) -> None:
+    """Fail the goal at `index` (posting `-!g` without error annotations)."""
+    _detach(rt, it)
+    im = it.stack[index]
+    it.state = RUNNABLE
+    fail(rt, it, None, "goal failed by .fail_goal", im.plan.file, im.plan.line,
+         start=index)

@@ -1,0 +1,47 @@
+"""Hosts for environment actions: the protocol lives in `runtime.Host`; here is the
+console host used by `mrss agent`, which prints each action and succeeds at once."""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING
+
+from mrss.agentspeak.terms import Struct, term_str
+
+if TYPE_CHECKING:
+    from mrss.agentspeak.agent import Agent
+
+
+class ConsoleHost:
+    """Prints `action: <literal>` for each environment action and reports success."""
+
+    def __init__(self, out: Callable[[str], None] = print) -> None:
+        self.out = out
+        self.agent: Agent | None = None
+        self._ids = itertools.count(1)
+
+    def execute(self, action: Struct, intention_id: int) -> Hashable:
+        handle = next(self._ids)
+        self.out(f"action: {term_str(action)}")
+        if self.agent is not None:
+            self.agent.complete_action(handle, True)
+        return handle
+
+    def cancel(self, handle: Hashable) -> None:
+        self.out(f"cancel: action {handle}")
+
+
+def run_standalone(agent: Agent, max_time: float | None = None) -> bool:
+    """Run `agent` until it is idle (True) or `max_time` seconds pass (False), sleeping
+    on `wait_for_work` while it waits for timers or actions."""
+    start = time.monotonic()
+    while True:
+        agent.run_until_idle()
+        if agent.is_idle():
+            return True
+        waited = time.monotonic() - start
+        if max_time is not None and waited >= max_time:
+            return False
+        agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))

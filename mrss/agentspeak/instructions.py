@@ -1,0 +1,370 @@
+"""Compiled plan-body formulas: one instruction object per formula, run one per step.
+
+Each `run(rt, it, im)` executes the formula for intention `it` whose top intended
+means is `im`, advances `im.pc` (or jumps), and raises `AslRuntimeError` to fail the
+intention. `if`/`while`/`for` compile to conditional jumps; a `Jump` costs no step.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.formulas import LiteralQuery, Query
+from mrss.agentspeak.terms import (
+    ADD_ACH,
+    ADD_BEL,
+    ADD_TEST,
+    DEL_BEL,
+    SOURCE_SELF,
+    Struct,
+    Term,
+    Var,
+    is_ground,
+    rename,
+    term_str,
+    value,
+)
+from mrss.agentspeak.unify import resolve, undo
+
+if TYPE_CHECKING:
+    from mrss.agentspeak.intentions import IntendedMeans, Intention
+    from mrss.agentspeak.registry import InternalAction
+    from mrss.agentspeak.runtime import Runtime
+
+
+class Instr:
+    """One body formula."""
+
+    __slots__ = ("line",)
+    prefix = ""
+
+    def __init__(self, line: int) -> None:
+        self.line = line
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        raise NotImplementedError
+
+    def text(self) -> str:
+        return self.prefix + term_str(getattr(self, "lit", "?"))
+
+
+class Achieve(Instr):
+    """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
+
+    __slots__ = ("lit", "tail")
+    prefix = "!"
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+        self.tail = False
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit = resolve(self.lit, im.frame)
+        im.pc = len(im.code) if self.tail else im.pc + 1
+        rt.post_subgoal(it, lit, self.tail, self.line)  # type: ignore[arg-type]
+
+
+class AchieveNew(Instr):
+    """`!!g`: a new intention for g; this one goes on at once."""
+
+    __slots__ = ("lit",)
+    prefix = "!!"
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit = resolve(self.lit, im.frame)
+        im.pc += 1
+        rt.post_goal(rename(lit), None)  # type: ignore[arg-type]
+
+
+class TestGoal(Instr):
+    """`?b`: query the beliefs; if nothing matches, try `+?b` plans; else fail."""
+
+    __slots__ = ("lit", "query")
+    prefix = "?"
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+        self.query = LiteralQuery(lit)
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        for _ in self.query.solve(rt, im.frame):
+            im.pc += 1
+            return
+        lit = resolve(self.lit, im.frame)
+        if rt.plans.has(ADD_TEST, lit.key):  # type: ignore[union-attr]
+            im.pc += 1
+            rt.post_subgoal(it, lit, False, self.line, ADD_TEST)  # type: ignore[arg-type]
+            return
+        raise AslRuntimeError(f"test goal ?{term_str(lit)} failed: no such belief",
+                              error="test_goal_failed")
+
+
+class AddBelief(Instr):
+    """`+b` (in front) or `+>b` (at the end); annotated `source(self)`."""
+
+    __slots__ = ("lit", "front")
+    prefix = "+"
+
+    def __init__(self, lit: Struct, front: bool, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+        self.front = front
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit: Any = resolve(self.lit, im.frame)
+        if not lit.ground:
+            lit = rename(lit)
+        im.pc += 1
+        if rt.bb.add(lit, self.front):
+            rt.belief_changed(ADD_BEL, lit, it)
+
+
+class DelBelief(Instr):
+    """`-b`: remove the first matching belief (its `source(self)`); never fails."""
+
+    __slots__ = ("lit", "query")
+    prefix = "-"
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+        self.query = LiteralQuery(lit)
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        frame = im.frame
+        im.pc += 1
+        lit: Any = resolve(self.lit, frame)
+        if not lit.ground:
+            for _ in self.query.solve(rt, frame):
+                break
+            else:
+                return
+            lit = resolve(self.lit, frame)
+        if rt.bb.remove(lit):
+            rt.belief_changed(DEL_BEL, lit, it)
+
+
+class ReplaceBelief(Instr):
+    """`-+b(X)`: remove the first `b(_)` with `source(self)`, then add `b(X)`."""
+
+    __slots__ = ("lit",)
+    prefix = "-+"
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit: Any = resolve(self.lit, im.frame)
+        if not lit.ground:
+            lit = rename(lit)
+        im.pc += 1
+        store = rt.bb.store(lit.key)
+        if store is not None:
+            for b in store.facts():
+                if SOURCE_SELF in b.annots:
+                    old = Struct(b.functor, b.args, (SOURCE_SELF,), b.neg)
+                    if rt.bb.remove(old):
+                        rt.belief_changed(DEL_BEL, old, it)
+                    break
+        if rt.bb.add(lit, True):
+            rt.belief_changed(ADD_BEL, lit, it)
+
+
+def _first_free(t: Term) -> Var | None:
+    t = value(t)
+    if type(t) is Var:
+        return t
+    if type(t) is Struct:
+        for a in t.args + t.annots:
+            v = _first_free(a)
+            if v is not None:
+                return v
+    if type(t) is tuple:
+        for a in t:
+            v = _first_free(a)
+            if v is not None:
+                return v
+    return None
+
+
+class Action(Instr):
+    """An environment action: sent to the host; the intention waits for the outcome."""
+
+    __slots__ = ("lit",)
+
+    def __init__(self, lit: Struct, line: int) -> None:
+        super().__init__(line)
+        self.lit = lit
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit: Any = resolve(self.lit, im.frame)
+        if not lit.ground and lit.functor not in rt.open_actions and not is_ground(lit):
+            free = _first_free(lit)
+            raise AslRuntimeError(f"unbound variable {term_str(free) if free else '?'} in "
+                                  f"action {term_str(lit)}", error="action_failed")
+        im.pc += 1
+        rt.start_action(it, lit, self.line)
+
+
+class CallIA(Instr):
+    """An internal action `.name(args)`; its first solution's bindings are kept."""
+
+    __slots__ = ("ia", "args", "queries", "lit")
+
+    def __init__(self, ia: InternalAction, lit: Struct, queries: dict[int, Query],
+                 line: int) -> None:
+        super().__init__(line)
+        self.ia = ia
+        self.lit = lit
+        self.args = lit.args
+        self.queries = queries
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        ia = self.ia
+        frame = im.frame
+        args = rt.ia_args(ia, self.args, self.queries, frame)
+        im.pc += 1
+        res = ia.fn(rt.ia_context(it, im, frame, ia.name), args)
+        if res is None or res is True:
+            return
+        if res is not False:
+            for _ in res:
+                return
+        raise AslRuntimeError(f"{ia.name} failed", error="ia_failed")
+
+
+class Constraint(Instr):
+    """A relational formula in a body, e.g. `X = Y + 1` or `N > 0`: fails if false."""
+
+    __slots__ = ("query", "lit")
+
+    def __init__(self, query: Query, lit: Term, line: int) -> None:
+        super().__init__(line)
+        self.query = query
+        self.lit = lit
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        for _ in self.query.solve(rt, im.frame):
+            im.pc += 1
+            return
+        raise AslRuntimeError(f"constraint {term_str(self.lit)} does not hold",
+                              error="constraint_failed")
+
+
+class Jump(Instr):
+    """Go to `target` (free: executed as part of the next step)."""
+
+    __slots__ = ("target",)
+
+    def __init__(self, target: int, line: int) -> None:
+        super().__init__(line)
+        self.target = target
+
+    def text(self) -> str:
+        return f"jump {self.target}"
+
+
+class JumpUnless(Instr):
+    """`if`/`elif` condition: on its first solution go on (bindings kept), else jump."""
+
+    __slots__ = ("query", "target", "lit", "keyword")
+
+    def __init__(self, query: Query, lit: Term, line: int, keyword: str = "if") -> None:
+        super().__init__(line)
+        self.query = query
+        self.lit = lit
+        self.target = -1
+        self.keyword = keyword
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        for _ in self.query.solve(rt, im.frame):
+            im.pc += 1
+            return
+        im.pc = self.target
+
+    def text(self) -> str:
+        return f"{self.keyword} ({term_str(self.lit)})"
+
+
+class WhileTest(Instr):
+    """`while (c)`: each round starts from the bindings before the loop (Jason's loop)."""
+
+    __slots__ = ("query", "target", "lit")
+
+    def __init__(self, query: Query, lit: Term, line: int) -> None:
+        super().__init__(line)
+        self.query = query
+        self.lit = lit
+        self.target = -1
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        frame = im.frame
+        loops = im.loops
+        if loops and loops[-1][0] is self:
+            backup = loops[-1][1]
+            frame[:] = backup
+        else:
+            backup = frame.copy()
+            if loops is None:
+                loops = im.loops = []
+            loops.append([self, backup])
+        for _ in self.query.solve(rt, frame):
+            im.pc += 1
+            return
+        loops.pop()
+        frame[:] = backup
+        im.pc = self.target
+
+    def text(self) -> str:
+        return f"while ({term_str(self.lit)})"
+
+
+class ForNext(Instr):
+    """`for (c)`: all solutions are found first; the body runs once per solution."""
+
+    __slots__ = ("query", "target", "lit")
+
+    def __init__(self, query: Query, lit: Term, line: int) -> None:
+        super().__init__(line)
+        self.query = query
+        self.lit = lit
+        self.target = -1
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        frame = im.frame
+        loops = im.loops
+        if loops and loops[-1][0] is self:
+            state = loops[-1]
+        else:
+            backup = frame.copy()
+            trail = rt.trail
+            mark = len(trail)
+            solutions = [[None if v is None else value(v) for v in frame]
+                         for _ in self.query.solve(rt, frame)]
+            undo(trail, mark)
+            state = [self, backup, iter(solutions)]
+            if loops is None:
+                loops = im.loops = []
+            loops.append(state)
+        nxt = next(state[2], None)
+        if nxt is None:
+            loops.pop()  # type: ignore[union-attr]
+            frame[:] = state[1]
+            im.pc = self.target
+        else:
+            frame[:] = nxt
+            im.pc += 1
+
+    def text(self) -> str:
+        return f"for ({term_str(self.lit)})"
+
+
+GOAL_OPS = (ADD_ACH, ADD_TEST)

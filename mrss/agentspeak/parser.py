@@ -1,0 +1,188 @@
+"""Parse AgentSpeak source into a `Program`, reporting every syntax error of the file.
+
+The source is first split into statements at each top-level terminating `.` (outside
+brackets, strings and comments, and followed by white space or the end); each
+statement is parsed on its own with the LALR grammar in `grammar.lark`, so one bad
+statement does not hide the errors of the others.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import lark
+
+from mrss.agentspeak.builder import TreeBuilder
+from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
+from mrss.agentspeak.syntax import BeliefSrc, Program
+from mrss.agentspeak.terms import Struct, Term
+from mrss.agentspeak.unify import resolve
+
+_TOKEN_TEXT = {
+    "DOT": ".", "SEMICOLON": ";", "COMMA": ",", "LPAR": "(", "RPAR": ")", "LSQB": "[",
+    "RSQB": "]", "LBRACE": "{", "RBRACE": "}", "COLON": ":", "ARROW": "<-",
+    "RULE_ARROW": ":-", "AMPERSAND": "&", "VBAR": "|", "BANG": "!", "BANGBANG": "!!",
+    "QMARK": "?", "MINUS": "-", "NEG": "~", "AT": "@", "ATOM": "an atom",
+    "VAR": "a variable", "NUMBER": "a number", "STRING": "a string",
+    "IA_NAME": "an internal action", "TRIGGER_OP": "a triggering event",
+    "REL_OP": "a relational operator", "ADD_OP": "+ or -", "MUL_OP": "*, /, div or mod",
+    "ADD_BEL_OP": "+", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
+}
+
+
+@functools.lru_cache(maxsize=1)
+def _lark() -> lark.Lark:
+    grammar = (Path(__file__).parent / "grammar.lark").read_text(encoding="utf-8")
+    return lark.Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True)
+
+
+# ------------------------------------------------------------------------------ splitting
+
+def split_statements(text: str) -> list[tuple[int, int]]:
+    """(start, end) offsets of each statement, the terminating `.` included."""
+    spans: list[tuple[int, int]] = []
+    i, n, start = 0, len(text), 0
+    while i < n:
+        c = text[i]
+        if c == '"':
+            i += 1
+            while i < n and text[i] != '"' and text[i] != "\n":
+                i += 2 if text[i] == "\\" else 1
+        elif c == "/" and text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        elif c == "/" and text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            i = n if j < 0 else j + 2
+            continue
+        elif c == "." and (i + 1 == n or text[i + 1] in " \t\r\n/"):
+            # a dot before white space ends a statement even inside unbalanced brackets
+            # (it is valid nowhere else), so an unclosed `(` cannot swallow the file
+            spans.append((start, i + 1))
+            start = i + 1
+        i += 1
+    if text[start:].strip() and _has_code(text[start:]):
+        spans.append((start, n))
+    return spans
+
+
+def _has_code(rest: str) -> bool:
+    """Whether a trailing piece holds more than comments and white space."""
+    i = 0
+    while i < len(rest):
+        if rest.startswith("//", i):
+            j = rest.find("\n", i)
+            i = len(rest) if j < 0 else j
+        elif rest.startswith("/*", i):
+            j = rest.find("*/", i + 2)
+            i = len(rest) if j < 0 else j + 2
+        elif rest[i].isspace():
+            i += 1
+        else:
+            return True
+    return False
+
+
+
+# ------------------------------------------------------------------------------ parsing
+
+def _position(text: str, offset: int) -> tuple[int, int]:
+    line = text.count("\n", 0, offset) + 1
+    col = offset - (text.rfind("\n", 0, offset) + 1) + 1
+    return line, col
+
+
+def _describe(exc: lark.exceptions.LarkError) -> str:
+    if isinstance(exc, lark.exceptions.UnexpectedToken):
+        tok = exc.token
+        got = "end of statement" if tok.type == "$END" else repr(str(tok))
+        names = sorted({_TOKEN_TEXT.get(e, e.lower() if not e.startswith("__") else e)
+                        for e in exc.expected if not e.startswith("__ANON")})
+        shown = ", ".join(f'"{n}"' if len(n) <= 3 else n for n in names[:8])
+        return f"unexpected {got}" + (f"; expected {shown}" if shown else "")
+    if isinstance(exc, lark.exceptions.UnexpectedCharacters):
+        return f"unexpected character {exc.char!r}"
+    if isinstance(exc, lark.exceptions.UnexpectedEOF):
+        return "unexpected end of statement"
+    return str(exc)
+
+
+def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | None:
+    """Where to resume after an error inside `chunk`, if a new statement probably starts
+    there: the offending token itself when it opens its line (a missing `.`), else the
+    next line that starts in column 1 with a plan, goal or label."""
+    pos = getattr(exc, "pos_in_stream", None)
+    line = getattr(exc, "line", None)
+    if pos is None or line is None or pos <= 0:
+        return None
+    if line > 1 and not chunk[chunk.rfind("\n", 0, pos) + 1:pos].strip():
+        return int(pos)
+    nl = chunk.find("\n", pos)
+    while nl >= 0 and nl + 1 < len(chunk):
+        if chunk[nl + 1] in "+-@!" and chunk[nl + 1:].strip():
+            return nl + 1
+        nl = chunk.find("\n", nl + 1)
+    return None
+
+
+def parse_program(text: str, file: str = "<string>",
+                  collect: list[SyntaxProblem] | None = None) -> Program:
+    """Parse a whole source; raise `AslSyntaxError` listing every error found (or, with
+    `collect`, append them there and return the statements that parsed)."""
+    lines = text.splitlines()
+    problems: list[SyntaxProblem] = [] if collect is None else collect
+    program = Program(file)
+
+    def add(line: int, col: int, message: str) -> None:
+        src = lines[line - 1] if 0 < line <= len(lines) else ""
+        problems.append(SyntaxProblem(file, line, col, message, src.rstrip("\r")))
+
+    pending = list(reversed(split_statements(text)))
+    while pending:
+        start, end = pending.pop()
+        chunk = text[start:end]
+        line0, col0 = _position(text, start)
+        local: list[tuple[int, int, str]] = []
+        statement = None
+        try:
+            tree = _lark().parse(chunk)
+            statement = TreeBuilder(line0, local, col0).transform(tree)
+        except lark.exceptions.UnexpectedInput as exc:
+            line = getattr(exc, "line", -1)
+            col = getattr(exc, "column", -1)
+            if line is None or line < 1:  # end of input: point just past the chunk
+                line, col = _position(chunk, len(chunk.rstrip()))
+                col += 1
+            local.append((line, col, _describe(exc)))
+            restart = _restart_offset(chunk, exc)
+            if restart is not None:  # probably a missing `.`: parse the rest on its own
+                pending.append((start + restart, end))
+        except lark.exceptions.VisitError as exc:
+            local.append((1, 1, f"invalid statement: {exc.orig_exc}"))
+        for line, col, message in local:
+            add(line0 + line - 1, col + (col0 - 1 if line == 1 else 0), message)
+        if statement is not None and not local:
+            program.statements.append(statement)
+    if problems and collect is None:
+        raise AslSyntaxError(problems)
+    return program
+
+
+def parse_term(text: str) -> Term:
+    """A runtime term from text such as `area_goal_received(g1, 3)` (variables free)."""
+    program = parse_program(text.strip().rstrip(".") + ".", "<term>")
+    if len(program.statements) != 1 or not isinstance(program.statements[0], BeliefSrc):
+        raise AslSyntaxError([SyntaxProblem("<term>", 1, 1, "expected one literal", text)])
+    lit = program.statements[0].lit
+    return resolve(lit, [None] * 64) if not lit.ground else lit
+
+
+def parse_literal(text: str | Struct) -> Struct:
+    """A literal from text (or a `Struct` passed through), e.g. for percepts."""
+    if isinstance(text, Struct):
+        return text
+    t = parse_term(text)
+    assert isinstance(t, Struct)
+    return t

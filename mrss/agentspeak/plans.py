@@ -1,0 +1,75 @@
+"""Compiled plans and the plan library, indexed by trigger operator and predicate."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
+
+if TYPE_CHECKING:
+    from mrss.agentspeak.formulas import Query
+
+PlanKey = tuple[int, str, int, bool]
+
+
+class Plan:
+    """A plan ready to run: trigger template, compiled context and body code."""
+
+    __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
+                 "file", "index", "annots", "varnames", "arg_slots")
+
+    def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
+                 code: list[Any], nslots: int, line: int, file: str,
+                 annots: tuple[Term, ...] = (), varnames: list[str] | None = None) -> None:
+        self.label = label
+        self.varnames = varnames or []
+        self.op = op
+        self.trigger = trigger
+        self.context = context
+        self.code = code
+        self.nslots = nslots
+        self.annots = annots
+        self.atomic = any(type(a) is Struct and a.functor == "atomic" for a in annots)
+        self.line = line
+        self.file = file
+        self.index = 0
+        # a trigger whose arguments are distinct variables, without annotations, matches
+        # any event of its predicate: binding is a plain copy into the frame
+        self.arg_slots: tuple[int, ...] | None = None
+        if not trigger.annots and all(type(a) is Slot for a in trigger.args):
+            idx = tuple(a.index for a in trigger.args if type(a) is Slot)
+            if len(set(idx)) == len(idx):
+                self.arg_slots = idx
+
+    @property
+    def key(self) -> PlanKey:
+        t = self.trigger
+        return (self.op, t.functor, len(t.args), t.neg)
+
+    def trigger_text(self) -> str:
+        return OP_TEXT[self.op] + term_str(self.trigger)
+
+    def name(self) -> str:
+        """The label if any, else `file:line`."""
+        if self.label is not None:
+            return term_str(self.label)
+        return f"{self.file}:{self.line}"
+
+
+class PlanLibrary:
+    """All plans in source order, indexed by (operator, functor, arity, negation)."""
+
+    def __init__(self) -> None:
+        self.plans: list[Plan] = []
+        self.index: dict[PlanKey, list[Plan]] = {}
+
+    def add(self, plan: Plan) -> None:
+        plan.index = len(self.plans)
+        self.plans.append(plan)
+        self.index.setdefault(plan.key, []).append(plan)
+
+    def relevant(self, op: int, lit: Struct) -> list[Plan] | None:
+        return self.index.get((op, lit.functor, len(lit.args), lit.neg))
+
+    def has(self, op: int, key: tuple[str, int, bool]) -> bool:
+        return (op, key[0], key[1], key[2]) in self.index

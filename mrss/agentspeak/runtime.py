@@ -1,0 +1,349 @@
+"""The agent's circumstance and the transitions of Jason's reasoning cycle.
+
+Holds beliefs, plans, the event queue, intentions (a round-robin queue of runnable
+ones; parked ones are not in it, so blocked intentions cost nothing per cycle), the
+environment actions in progress and the `.wait` timers. `agent.Agent` drives it.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+from collections import deque
+from collections.abc import Callable, Hashable
+from typing import Any, Protocol
+
+from mrss.agentspeak import goals
+from mrss.agentspeak.beliefs import BeliefBase
+from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.formulas import Query, compile_query
+from mrss.agentspeak.instructions import Jump
+from mrss.agentspeak.intentions import (
+    DROPPED,
+    FINISHED,
+    PENDING_EVENT,
+    RUNNABLE,
+    WAIT_ACTION,
+    Event,
+    IntendedMeans,
+    Intention,
+)
+from mrss.agentspeak.plans import PlanLibrary
+from mrss.agentspeak.registry import IAContext, InternalAction, Registry
+from mrss.agentspeak.terms import (
+    ADD_ACH,
+    DEL_ACH,
+    Struct,
+    Term,
+    term_str,
+)
+from mrss.agentspeak.unify import resolve, undo, unify
+
+log = logging.getLogger("mrss.agentspeak")
+
+
+class Host(Protocol):
+    """Where environment actions go. `execute` returns a handle; the host later calls
+    `agent.complete_action(handle, success)` (from any thread). `cancel` is called
+    when the intention waiting on the action is dropped.
+
+    A host may declare `open_actions`, a set of action functors whose arguments may
+    hold free variables (e.g. MRSS's `query(Function, Args, Result)`): their
+    completion may carry a result term, unified with the action literal."""
+
+    def execute(self, action: Struct, intention_id: int) -> Hashable: ...
+
+    def cancel(self, handle: Hashable) -> None: ...
+
+
+class Runtime:
+    """State and transitions of one agent; not thread-safe (see `Agent`)."""
+
+    def __init__(self, name: str, host: Host | None, registry: Registry,
+                 clock: Callable[[], float], out: Callable[[str], None]) -> None:
+        self.name = name
+        self.host = host
+        self.registry = registry
+        self.clock = clock
+        self.out = out
+        self.bb = BeliefBase()
+        self.plans = PlanLibrary()
+        self.trail: list[Any] = []
+        self.events: deque[Event] = deque()
+        self.atomic_events: deque[Event] = deque()
+        self.runq: deque[Intention] = deque()
+        self.intentions: dict[int, Intention] = {}
+        self.pending_actions: dict[Hashable, Intention] = {}
+        self.completed: deque[tuple[Hashable, bool, str | None, Term | None]] = deque()
+        self.open_actions: frozenset[str] = frozenset(getattr(host, "open_actions", ()))
+        self.timers: list[tuple[float, int, Intention, int]] = []
+        self.event_waiters: list[Intention] = []
+        self.atomic: Intention | None = None
+        self.cycle = 0
+        self._ids = itertools.count(1)
+        self._seq = itertools.count()
+
+    # ------------------------------------------------------------------ intentions
+    def new_intention(self) -> Intention:
+        it = Intention(next(self._ids))
+        self.intentions[it.id] = it
+        return it
+
+    def make_runnable(self, it: Intention) -> None:
+        it.state = RUNNABLE
+        if not it.in_queue and not it.suspended and not it.dropped and it is not self.atomic:
+            it.in_queue = True
+            self.runq.append(it)
+
+    def finish(self, it: Intention, state: str = FINISHED) -> None:
+        it.state = state
+        self.intentions.pop(it.id, None)
+        if self.atomic is it:
+            self._clear_atomic()
+
+    def _clear_atomic(self) -> None:
+        it = self.atomic
+        self.atomic = None
+        if it is not None and it.state is RUNNABLE and not it.dropped:
+            self.make_runnable(it)
+
+    def warn(self, message: str) -> None:
+        log.warning("[%s] %s", self.name, message)
+
+    # ------------------------------------------------------------------ events
+    def post(self, ev: Event) -> None:
+        if self.event_waiters:
+            goals.notify_waiters(self, ev.op, ev.lit)
+        if ev.intention is not None and ev.intention is self.atomic:
+            self.atomic_events.append(ev)
+        else:
+            self.events.append(ev)
+
+    def post_subgoal(self, it: Intention, lit: Struct, tail: bool, line: int,
+                     op: int = ADD_ACH) -> None:
+        it.state = PENDING_EVENT
+        it.line = line
+        self.post(Event(op, lit, it, tail))
+
+    def post_goal(self, lit: Struct, it: Intention | None) -> None:
+        self.post(Event(ADD_ACH, lit, it))
+
+    def belief_changed(self, op: int, lit: Struct, it: Intention | None) -> None:
+        """Post `+b`/`-b` if some plan or `.wait` could react; a body's own belief event
+        is handled on top of its intention before its next step."""
+        if self.plans.has(op, (lit.functor, len(lit.args), lit.neg)):
+            if it is not None:
+                it.state = PENDING_EVENT
+            self.post(Event(op, lit, it))
+        elif self.event_waiters:
+            goals.notify_waiters(self, op, lit)
+
+    def handle_event(self, ev: Event) -> None:
+        """Select the first applicable plan for `ev` and intend it."""
+        it = ev.intention
+        if it is not None and (it.dropped or it.gen != ev.gen):
+            return
+        lit = ev.lit
+        plans = self.plans.relevant(ev.op, lit)
+        chosen = None
+        frame: list[Any] = []
+        relevant = False
+        if plans:
+            trail = self.trail
+            mark0 = len(trail)
+            for plan in plans:
+                frame = [None] * plan.nslots
+                slots = plan.arg_slots
+                if slots is not None:
+                    args = lit.args
+                    for i in range(len(slots)):
+                        frame[slots[i]] = args[i]
+                elif not unify(plan.trigger, frame, lit, trail):
+                    undo(trail, mark0)
+                    continue
+                relevant = True
+                if plan.context is None:
+                    chosen = plan
+                    break
+                try:
+                    for _ in plan.context.solve(self, frame):
+                        chosen = plan
+                        break
+                except AslRuntimeError as exc:
+                    self.warn(f"{plan.file}:{plan.line}: error in the context of "
+                              f"{plan.trigger_text()}: {exc.message}")
+                if chosen is not None:
+                    break
+                undo(trail, mark0)
+            del trail[mark0:]
+        if chosen is None:
+            goals.no_applicable_plan(self, ev, relevant)
+            return
+        im = IntendedMeans(chosen, frame, lit, ev.op)
+        if it is None:
+            it = self.new_intention()
+        else:
+            stack = it.stack
+            if ev.op == DEL_ACH:
+                im.fail_target = ev.target
+            elif ev.tail and stack:
+                top = stack[-1]
+                if (top.op == ADD_ACH and top.fail_target is None and top.pc >= len(top.code)
+                        and top.lit.functor == lit.functor and len(top.lit.args) == len(lit.args)
+                        and not self.plans.has(DEL_ACH, top.lit.key)):
+                    stack.pop()  # tail-recursion optimisation: replace, don't stack
+        it.stack.append(im)
+        if chosen.atomic and self.atomic is None:
+            self.atomic = it
+        self.make_runnable(it)
+
+    # ------------------------------------------------------------------ acting
+    def run_step(self, it: Intention) -> None:
+        """Execute one body formula of `it`'s top plan, then clear finished plans."""
+        stack = it.stack
+        im = stack[-1]
+        code = im.code
+        pc = im.pc
+        if pc < len(code):
+            ins = code[pc]
+            while type(ins) is Jump:
+                im.pc = pc = ins.target  # type: ignore[attr-defined]
+                if pc >= len(code):
+                    break
+                ins = code[pc]
+            else:
+                try:
+                    ins.run(self, it, im)
+                except AslRuntimeError as exc:
+                    if self.trail:
+                        self.trail.clear()
+                    goals.fail(self, it, exc.error, exc.message, im.plan.file, ins.line,
+                               exc.annots)
+                    return
+                if self.trail:
+                    self.trail.clear()
+        if it.state is RUNNABLE and not it.dropped:
+            self.pop_finished(it)
+
+    def pop_finished(self, it: Intention) -> None:
+        stack = it.stack
+        atomic_gone = False
+        while stack:
+            im = stack[-1]
+            if im.pc < len(im.code):
+                break
+            stack.pop()
+            if im.plan.atomic:
+                atomic_gone = True
+            if im.fail_target is not None:
+                del stack[im.fail_target:]
+        if not stack:
+            self.finish(it)
+            return
+        if atomic_gone and self.atomic is it and not any(m.plan.atomic for m in stack):
+            self._clear_atomic()
+        self.make_runnable(it)
+
+    def start_action(self, it: Intention, lit: Struct, line: int) -> None:
+        if self.host is None:
+            raise AslRuntimeError(f"no host to execute action {term_str(lit)}",
+                                  error="action_failed")
+        try:
+            handle = self.host.execute(lit, it.id)
+        except Exception as exc:  # the host's failure is the action's failure
+            raise AslRuntimeError(f"action {term_str(lit)} failed at the host: {exc}",
+                                  error="action_failed") from exc
+        it.state = WAIT_ACTION
+        it.action = handle
+        it.action_lit = lit
+        it.line = line
+        self.pending_actions[handle] = it
+
+    def process_completion(self, handle: Hashable, ok: bool, reason: str | None,
+                           result: Term | None = None) -> None:
+        it = self.pending_actions.pop(handle, None)
+        if it is None or it.dropped:
+            return  # dropped or unknown: late feedback is ignored
+        it.action = None
+        lit, it.action_lit = it.action_lit, None
+        if ok and result is not None and lit is not None and not unify(lit, None, result, []):
+            ok, reason = False, f"result {term_str(result)} does not match {term_str(lit)}"
+        if ok:
+            self.make_runnable(it)
+            self.pop_finished(it)
+        else:
+            im = it.stack[-1]
+            it.state = RUNNABLE
+            goals.fail(self, it, "action_failed", f"action failed: {reason or 'failure'}",
+                       im.plan.file, it.line)
+
+    def cancel_action(self, it: Intention) -> None:
+        handle = it.action
+        if handle is None:
+            return
+        it.action = None
+        self.pending_actions.pop(handle, None)
+        if self.host is not None:
+            try:
+                self.host.cancel(handle)
+            except Exception as exc:
+                self.warn(f"host could not cancel action {handle!r}: {exc}")
+
+    # ------------------------------------------------------------------ timers
+    def add_timer(self, deadline: float, it: Intention, token: int) -> None:
+        heapq.heappush(self.timers, (deadline, next(self._seq), it, token))
+
+    def next_deadline(self) -> float | None:
+        """The earliest `.wait` deadline (clock seconds), skipping stale timers."""
+        timers = self.timers
+        while timers:
+            _, _, it, token = timers[0]
+            if it.wait is not None and it.wait.token == token and not it.dropped:
+                return timers[0][0]
+            heapq.heappop(timers)
+        return None
+
+    def expire_timers(self, now: float) -> bool:
+        fired = False
+        timers = self.timers
+        while timers and timers[0][0] <= now:
+            _, _, it, token = heapq.heappop(timers)
+            if it.wait is not None and it.wait.token == token and not it.dropped:
+                goals.wait_timeout(self, it, now)
+                fired = True
+        return fired
+
+    # ------------------------------------------------------------------ internal actions
+    def ia_context(self, it: Intention | None, im: IntendedMeans | None,
+                   frame: list[Any] | None, name: str) -> IAContext:
+        return IAContext(self, it, im, frame, name)
+
+    def ia_args(self, ia: InternalAction, args: tuple[Term, ...], queries: dict[int, Query],
+                frame: list[Any] | None) -> list[Any]:
+        if not ia.formula_args and not ia.raw_args:
+            return [resolve(a, frame) for a in args]
+        out: list[Any] = []
+        for i, a in enumerate(args):
+            if i in queries:
+                out.append(queries[i])
+            elif i in ia.raw_args:
+                out.append(a)
+            elif i in ia.formula_args:
+                t = resolve(a, frame)
+                out.append(compile_query(t, self.registry) if type(t) is Struct else t)
+            else:
+                out.append(resolve(a, frame))
+        return out
+
+    def drop(self, it: Intention, state: str = DROPPED) -> None:
+        """Remove intention `it` wherever it is; its running action is cancelled."""
+        if it.dropped:
+            return
+        it.dropped = True
+        self.cancel_action(it)
+        if it.wait is not None:
+            it.wait = None
+            if it in self.event_waiters:
+                self.event_waiters.remove(it)
+        self.finish(it, state)

@@ -1,0 +1,11 @@
+"""Jason's standard internal actions, registered in `STDLIB`."""
+
+from __future__ import annotations
+
+from mrss.agentspeak.registry import Registry
+
+STDLIB = Registry()
+
+from mrss.agentspeak.stdlib import control, lists, misc  # noqa: E402
+
+__all__ = ["STDLIB", "control", "lists", "misc"]

@@ -1,0 +1,193 @@
+"""Intention and goal management: .wait .intend .desire .drop_* .succeed_goal .fail_goal
+.suspend .resume -- with Jason's meaning (see AGENTSPEAK.md)."""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterator
+from typing import Any
+
+from mrss.agentspeak import goals
+from mrss.agentspeak.formulas import Query
+from mrss.agentspeak.intentions import RUNNABLE, Event, Intention, WaitInfo
+from mrss.agentspeak.registry import IAContext
+from mrss.agentspeak.stdlib import STDLIB
+from mrss.agentspeak.terms import ADD_ACH, Term, Trigger, deref, is_number, term_str
+from mrss.agentspeak.unify import undo, unify
+
+
+def _current(ctx: IAContext) -> Intention:
+    if ctx.intention is None:
+        raise ctx.error("needs a running intention (it cannot be used in a plan context)")
+    return ctx.intention
+
+
+@STDLIB.action(".wait", min_args=1, max_args=3, formula_args=(0,), body_only=True)
+def wait(ctx: IAContext, args: list[Any]) -> bool:
+    """`.wait(Ms)`, `.wait({+event})`, `.wait(Condition)`, each with an optional timeout
+    (ms); on timeout the wait fails (`wait_timeout`) unless an elapsed-time variable is
+    given as the third argument."""
+    it = _current(ctx)
+    rt = ctx.runtime
+    what = args[0]
+    now = rt.clock()
+    w = WaitInfo(next(rt._seq), term_str(what) if not isinstance(what, Query) else "condition")
+    w.started = now
+    if is_number(deref(what)):
+        w.deadline = now + float(deref(what)) / 1000.0  # type: ignore[arg-type]
+    else:
+        if isinstance(what, Query):
+            for _ in what.solve(rt, ctx.frame):
+                return True  # already holds: go on (bindings kept)
+            w.query = what
+            w.frame = ctx.frame
+        elif type(what) is Trigger:
+            w.trigger = what
+        else:
+            raise ctx.error(f"cannot wait for {term_str(what)}")
+        if len(args) >= 2:
+            timeout = deref(args[1])
+            if not is_number(timeout):
+                raise ctx.error(f"the timeout must be a number, not {term_str(timeout)}")
+            w.deadline = now + float(timeout) / 1000.0  # type: ignore[arg-type]
+            w.fail_on_timeout = len(args) < 3
+        if len(args) == 3:
+            w.elapsed = args[2]
+    goals.park(rt, it, w)
+    return True
+
+
+@STDLIB.action(".intend", min_args=1, max_args=1)
+def intend(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """Holds for each goal `+!G` in any intention's stack (blocked ones included)."""
+    for _ in goals.intended(ctx.runtime, args[0]):
+        yield
+
+
+def _goal_events(ctx: IAContext) -> list[Event]:
+    rt = ctx.runtime
+    return [ev for ev in list(rt.atomic_events) + list(rt.events)
+            if ev.op == ADD_ACH and (ev.intention is None or not ev.intention.dropped)]
+
+
+@STDLIB.action(".desire", min_args=1, max_args=1)
+def desire(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """Like `.intend`, and also goals still waiting in the event queue."""
+    trail = ctx.runtime.trail
+    for ev in _goal_events(ctx):
+        mark = len(trail)
+        if unify(args[0], None, ev.lit, trail):
+            yield
+        undo(trail, mark)
+    for _ in goals.intended(ctx.runtime, args[0]):
+        yield
+
+
+def _matching(ctx: IAContext, g: Term) -> list[Intention]:
+    return list(dict.fromkeys(it for it, _ in goals.intended(ctx.runtime, g)))
+
+
+@STDLIB.action(".drop_intention", min_args=0, max_args=1)
+def drop_intention(ctx: IAContext, args: list[Any]) -> bool:
+    """Drop every intention with goal G (the whole intention; its running action is
+    cancelled at the host); with no argument, the current intention."""
+    targets = [_current(ctx)] if not args else _matching(ctx, args[0])
+    for it in targets:
+        ctx.runtime.drop(it)
+    return True
+
+
+def _drop_goal_events(ctx: IAContext, g: Term | None) -> None:
+    rt = ctx.runtime
+    trail = rt.trail
+    for queue in (rt.events, rt.atomic_events):
+        kept: deque[Event] = deque()
+        for ev in queue:
+            drop = False
+            if ev.op == ADD_ACH:
+                mark = len(trail)
+                drop = g is None or unify(g, None, ev.lit, trail)
+                undo(trail, mark)
+            if drop and ev.intention is not None:
+                rt.drop(ev.intention)
+            elif not drop:
+                kept.append(ev)
+        queue.clear()
+        queue.extend(kept)
+
+
+@STDLIB.action(".drop_desire", min_args=1, max_args=1)
+def drop_desire(ctx: IAContext, args: list[Any]) -> bool:
+    """Remove goal G from the event queue and drop the intentions pursuing it."""
+    _drop_goal_events(ctx, args[0])
+    for it in _matching(ctx, args[0]):
+        ctx.runtime.drop(it)
+    return True
+
+
+@STDLIB.action(".drop_all_intentions", max_args=0)
+def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
+    rt = ctx.runtime
+    for it in list(rt.intentions.values()):
+        rt.drop(it)
+    return True
+
+
+@STDLIB.action(".drop_all_desires", max_args=0)
+def drop_all_desires(ctx: IAContext, args: list[Any]) -> bool:
+    _drop_goal_events(ctx, None)
+    for it in list(ctx.runtime.intentions.values()):
+        ctx.runtime.drop(it)
+    return True
+
+
+def _surgery(ctx: IAContext, g: Term, op: Any) -> bool:
+    rt = ctx.runtime
+    for it in _matching(ctx, g):
+        i = goals.goal_index(rt, it, g)
+        if i >= 0 and not it.dropped:
+            op(rt, it, i)
+    return True
+
+
+@STDLIB.action(".succeed_goal", min_args=1, max_args=1)
+def succeed_goal(ctx: IAContext, args: list[Any]) -> bool:
+    """Goal G is taken as achieved: its plans are popped, the caller goes on."""
+    return _surgery(ctx, args[0], goals.succeed_goal)
+
+
+@STDLIB.action(".fail_goal", min_args=1, max_args=1)
+def fail_goal(ctx: IAContext, args: list[Any]) -> bool:
+    """Goal G fails: `-!G` is posted (no error annotation); then the caller goes on."""
+    return _surgery(ctx, args[0], goals.fail_goal)
+
+
+@STDLIB.action(".suspend", min_args=0, max_args=1)
+def suspend(ctx: IAContext, args: list[Any]) -> bool:
+    """Suspend the intentions with goal G (or the current one) until `.resume(G)`."""
+    for it in [_current(ctx)] if not args else _matching(ctx, args[0]):
+        it.suspended = True
+    return True
+
+
+@STDLIB.action(".resume", min_args=1, max_args=1)
+def resume(ctx: IAContext, args: list[Any]) -> bool:
+    """Resume the suspended intentions with goal G."""
+    rt = ctx.runtime
+    for it in _matching(ctx, args[0]):
+        if it.suspended:
+            it.suspended = False
+            if it.state is RUNNABLE:
+                rt.make_runnable(it)
+    return True
+
+
+@STDLIB.action(".suspended", min_args=1, max_args=1)
+def suspended(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """Holds for each goal of a suspended intention."""
+    for it, _ in goals.intended(ctx.runtime, args[0]):
+        if it.suspended:
+            yield
+
+
+

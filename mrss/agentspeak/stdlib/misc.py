@@ -1,0 +1,176 @@
+"""Printing, time, names, belief-base and failure internal actions."""
+
+from __future__ import annotations
+
+import datetime
+import random as _random
+import time as _time
+from collections.abc import Iterator
+from typing import Any
+
+from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.registry import IAContext
+from mrss.agentspeak.stdlib import STDLIB
+from mrss.agentspeak.terms import (
+    DEL_BEL,
+    Struct,
+    Term,
+    Var,
+    deref,
+    is_number,
+    term_str,
+    value,
+)
+from mrss.agentspeak.unify import undo, unify
+
+
+def text_of(t: Term) -> str:
+    """How `.print` and `.concat` show a term: strings without quotes."""
+    return term_str(value(t), top=True)
+
+
+@STDLIB.action(".print")
+def print_(ctx: IAContext, args: list[Any]) -> bool:
+    """Print the arguments concatenated, no separator, one line per call."""
+    ctx.runtime.out("".join(text_of(a) for a in args))
+    return True
+
+
+@STDLIB.action(".println")
+def println(ctx: IAContext, args: list[Any]) -> bool:
+    ctx.runtime.out("".join(text_of(a) for a in args))
+    return True
+
+
+@STDLIB.action(".my_name", min_args=1, max_args=1)
+def my_name(ctx: IAContext, args: list[Any]) -> bool:
+    return ctx.unify(args[0], Struct(ctx.runtime.name))
+
+
+@STDLIB.action(".time", min_args=3, max_args=4)
+def time_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.time(H, M, S[, MS])`: the current local time."""
+    now = datetime.datetime.now()
+    parts = [now.hour, now.minute, now.second, now.microsecond // 1000]
+    return all(ctx.unify(a, v) for a, v in zip(args, parts, strict=False))
+
+
+@STDLIB.action(".date", min_args=3, max_args=3)
+def date_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.date(Y, M, D)`: today's date."""
+    today = datetime.date.today()
+    return all(ctx.unify(a, v) for a, v in zip(args, (today.year, today.month, today.day),
+                                                  strict=True))
+
+
+@STDLIB.action(".random", min_args=1, max_args=1)
+def random_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.random(X)`: X is a random number in [0, 1)."""
+    return ctx.unify(args[0], _random.random())
+
+
+@STDLIB.action(".nano_time", min_args=1, max_args=1)
+def nano_time(ctx: IAContext, args: list[Any]) -> bool:
+    return ctx.unify(args[0], _time.perf_counter_ns())
+
+
+@STDLIB.action(".fail")
+def fail(ctx: IAContext, args: list[Any]) -> bool:
+    """Fail the current plan; arguments become annotations of the `-!g` event."""
+    annots = tuple(args)
+    error = "ia_failed"
+    for a in annots:
+        if type(a) is Struct and a.functor == "error" and len(a.args) == 1 \
+                and type(a.args[0]) is Struct:
+            error = a.args[0].functor
+    raise AslRuntimeError(".fail", error=error,
+                          annots=tuple(a for a in annots
+                                       if not (type(a) is Struct and a.functor == "error")))
+
+
+@STDLIB.action(".abolish", min_args=1, max_args=1)
+def abolish(ctx: IAContext, args: list[Any]) -> bool:
+    """Remove every belief that unifies with the argument (posting `-b` events)."""
+    pattern = deref(args[0])
+    if type(pattern) is not Struct:
+        raise ctx.error(f"expected a literal, not {term_str(pattern)}")
+    rt = ctx.runtime
+    trail = rt.trail
+
+    def matches(b: Struct) -> bool:
+        mark = len(trail)
+        ok = unify(pattern, None, b, trail)
+        undo(trail, mark)
+        return ok
+
+    for b in rt.bb.abolish(pattern.key, keep=lambda b: not matches(b)):
+        rt.belief_changed(DEL_BEL, b, None)
+    return True
+
+
+@STDLIB.action(".findall", min_args=3, max_args=3, formula_args=(1,), raw_args=(0,))
+def findall(ctx: IAContext, args: list[Any]) -> bool:
+    """`.findall(T, Query, L)`: L is the list of T for every solution of Query."""
+    template, query, out = args
+    found = tuple(ctx.resolve(template) for _ in ctx.solve(query))
+    return ctx.unify(out, found)
+
+
+@STDLIB.action(".count", min_args=2, max_args=2, formula_args=(0,))
+def count(ctx: IAContext, args: list[Any]) -> bool:
+    """`.count(Query, N)`: N is the number of solutions of Query."""
+    n = sum(1 for _ in ctx.solve(args[0]))
+    return ctx.unify(args[1], n)
+
+
+def string_arg(ctx: IAContext, t: Term) -> str:
+    t = deref(t)
+    if type(t) is str:
+        return t
+    if type(t) is Var:
+        raise ctx.error(f"unbound variable {term_str(t)}")
+    return text_of(t)
+
+
+@STDLIB.action(".concat", min_args=3)
+def concat(ctx: IAContext, args: list[Any]) -> bool:
+    """Concatenate lists (all arguments but the last are lists) or strings."""
+    parts = [deref(a) for a in args[:-1]]
+    if all(type(p) is tuple for p in parts):
+        return ctx.unify(args[-1], tuple(x for p in parts for x in p))  # type: ignore[union-attr]
+    return ctx.unify(args[-1], "".join(string_arg(ctx, p) for p in parts))
+
+
+@STDLIB.action(".substring", min_args=2, max_args=3)
+def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.substring(S, T[, Pos])`: S occurs in T (at each position Pos, on backtracking)."""
+    sub = string_arg(ctx, args[0])
+    whole = string_arg(ctx, args[1])
+    start = whole.find(sub)
+    while start >= 0:
+        if len(args) < 3 or ctx.unify(args[2], start):
+            yield
+        start = whole.find(sub, start + 1)
+
+
+@STDLIB.action(".string", min_args=1, max_args=1)
+def string_(ctx: IAContext, args: list[Any]) -> bool:
+    return type(deref(args[0])) is str
+
+
+@STDLIB.action(".number", min_args=1, max_args=1)
+def number_(ctx: IAContext, args: list[Any]) -> bool:
+    return is_number(deref(args[0]))
+
+
+@STDLIB.action(".atom", min_args=1, max_args=1)
+def atom_(ctx: IAContext, args: list[Any]) -> bool:
+    t = deref(args[0])
+    return type(t) is Struct and not t.args and not t.neg
+
+
+@STDLIB.action(".ground", min_args=1, max_args=1)
+def ground_(ctx: IAContext, args: list[Any]) -> bool:
+    from mrss.agentspeak.terms import is_ground
+
+    return is_ground(args[0])

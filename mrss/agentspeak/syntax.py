@@ -1,0 +1,97 @@
+"""The parsed form of an AgentSpeak program: statements and plan-body formulas.
+
+Terms inside are already templates: each statement's variables are `Slot`s numbered
+from 0 in order of appearance, and `nslots` says how large a frame it needs. Logical
+formulas are `Struct`s with the functors `&`, `|`, `not` and the relational operators.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from mrss.agentspeak.terms import Struct, Term
+
+
+@dataclass
+class BodyItem:
+    """One simple body formula. `kind` is one of: achieve, achieve_new, test, add,
+    add_end, del, replace, action, ia, constraint."""
+
+    kind: str
+    term: Term
+    line: int
+    col: int = 1
+
+
+@dataclass
+class IfItem:
+    """`if (c) {..} elif (c) {..} else {..}`: the (condition, body) branches in order."""
+
+    branches: list[tuple[Term, list[BodyNode]]]
+    else_body: list[BodyNode] | None
+    line: int
+
+
+@dataclass
+class LoopItem:
+    """`while (c) {..}` (kind "while") or `for (c) {..}` (kind "for")."""
+
+    kind: str
+    cond: Term
+    body: list[BodyNode]
+    line: int
+
+
+BodyNode = BodyItem | IfItem | LoopItem
+
+
+@dataclass
+class PlanSrc:
+    """A plan: `@label[annots] op trigger : context <- body.`"""
+
+    label: Struct | None
+    op: int
+    trigger: Struct
+    context: Term | None
+    body: list[BodyNode]
+    line: int
+    nslots: int
+    annots: tuple[Term, ...] = ()
+    varnames: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RuleSrc:
+    """A rule `head :- body.`"""
+
+    head: Struct
+    body: Term
+    line: int
+    nslots: int
+
+
+@dataclass
+class BeliefSrc:
+    """An initial belief `lit.`"""
+
+    lit: Struct
+    line: int
+
+
+@dataclass
+class GoalSrc:
+    """An initial goal `!lit.`"""
+
+    lit: Struct
+    line: int
+
+
+Statement = PlanSrc | RuleSrc | BeliefSrc | GoalSrc
+
+
+@dataclass
+class Program:
+    """All statements of one source, in source order."""
+
+    file: str
+    statements: list[Statement] = field(default_factory=list)

@@ -1,0 +1,113 @@
+"""Where the bus proxy listens: its frontend (publishers connect) and backend (subscribers)."""
+
+from __future__ import annotations
+
+import ipaddress
+import os
+import socket
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mrss.errors import ConfigError
+
+# sockaddr_un.sun_path holds 108 bytes including the terminating NUL.
+_MAX_IPC_PATH = 107
+_SCHEMES = ("ipc://", "tcp://", "inproc://")
+
+
+@dataclass(frozen=True)
+class BusEndpoints:
+    """The two ZeroMQ endpoints of one bus.
+
+    `frontend` is where the proxy's XSUB binds and every publisher connects; `backend`
+    is where its XPUB binds and every subscriber connects. Both are validated on
+    construction: ipc paths must fit a unix socket address, tcp needs a host and port.
+    """
+
+    frontend: str
+    backend: str
+
+    def __post_init__(self) -> None:
+        for key in ("frontend", "backend"):
+            _check_endpoint(getattr(self, key), key)
+        if self.frontend == self.backend:
+            raise ConfigError("frontend and backend must differ", key="bus")
+
+    @classmethod
+    def ipc(cls, run_dir: str | os.PathLike[str]) -> BusEndpoints:
+        """Unix sockets `bus-pub.sock` and `bus-sub.sock` in `run_dir` (the default)."""
+        base = Path(run_dir).absolute()
+        return cls(f"ipc://{base / 'bus-pub.sock'}", f"ipc://{base / 'bus-sub.sock'}")
+
+    @classmethod
+    def tcp(cls, host: str, pub_port: int, sub_port: int) -> BusEndpoints:
+        """TCP on `host` (configure 127.0.0.1 unless other hosts must connect)."""
+        return cls(f"tcp://{host}:{pub_port}", f"tcp://{host}:{sub_port}")
+
+    @classmethod
+    def tcp_loopback(cls) -> BusEndpoints:
+        """TCP on 127.0.0.1 with two ports free right now (for tests and benchmarks)."""
+        return cls.tcp("127.0.0.1", *_free_ports(2))
+
+    def to_dict(self) -> dict[str, str]:
+        """A plain map, e.g. for a child process's command line or context."""
+        return {"frontend": self.frontend, "backend": self.backend}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> BusEndpoints:
+        """The inverse of `to_dict`; ConfigError names the bad key."""
+        if not isinstance(data, dict):
+            raise ConfigError("bus endpoints must be a map with frontend and backend", key="bus")
+        for key in ("frontend", "backend"):
+            if not isinstance(data.get(key), str):
+                raise ConfigError("missing or not a string", key=f"bus.{key}")
+        extra = sorted(set(data) - {"frontend", "backend"})
+        if extra:
+            raise ConfigError(f"unknown key(s) {extra}", key="bus")
+        return cls(data["frontend"], data["backend"])
+
+    def ipc_paths(self) -> list[Path]:
+        """The socket files of ipc endpoints (empty for tcp)."""
+        return self.paths_of([self.frontend, self.backend])
+
+    @staticmethod
+    def paths_of(endpoints: list[str]) -> list[Path]:
+        """The socket files of those of `endpoints` that are ipc."""
+        return [Path(ep[len("ipc://"):]) for ep in endpoints if ep.startswith("ipc://")]
+
+
+def _check_endpoint(endpoint: str, key: str) -> None:
+    if not isinstance(endpoint, str) or not endpoint.startswith(_SCHEMES):
+        raise ConfigError(f"{endpoint!r} is not an ipc://, tcp:// or inproc:// endpoint",
+                          key=f"bus.{key}")
+    if endpoint.startswith("ipc://"):
+        path = endpoint[len("ipc://"):]
+        if not path.startswith("/"):
+            raise ConfigError(f"ipc path {path!r} must be absolute", key=f"bus.{key}")
+        if len(path.encode()) > _MAX_IPC_PATH:
+            raise ConfigError(
+                f"ipc path is {len(path.encode())} bytes, longer than a unix socket allows "
+                f"({_MAX_IPC_PATH}); use a shorter run directory", key=f"bus.{key}")
+    elif endpoint.startswith("tcp://"):
+        host, sep, port = endpoint[len("tcp://"):].rpartition(":")
+        if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise ConfigError(f"{endpoint!r} needs tcp://HOST:PORT with a port 1-65535",
+                              key=f"bus.{key}")
+        if host != "localhost" and host != "*":
+            try:
+                ipaddress.ip_address(host.strip("[]"))
+            except ValueError:
+                raise ConfigError(f"{host!r} is not an IP address", key=f"bus.{key}") from None
+
+
+def _free_ports(count: int) -> list[int]:
+    """`count` distinct TCP ports on 127.0.0.1 that nothing listens on right now."""
+    held = [socket.socket(socket.AF_INET, socket.SOCK_STREAM) for _ in range(count)]
+    try:
+        for s in held:
+            s.bind(("127.0.0.1", 0))
+        return [int(s.getsockname()[1]) for s in held]
+    finally:
+        for s in held:
+            s.close()

@@ -1,0 +1,177 @@
+"""Receiving messages from the bus by topic prefix: recv with a timeout, iterate, or callback."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from types import TracebackType
+
+import zmq
+
+from mrss.bus import sockets
+from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.wire import WELCOME, decode_frames
+from mrss.errors import BusError, DecodeError
+from mrss.messages import Envelope
+
+log = sockets.log
+
+# How long a blocked recv waits before it looks whether close() was called.
+_SLICE = 0.05
+_NOBLOCK, _RCVMORE, _POLLIN = int(zmq.NOBLOCK), int(zmq.RCVMORE), int(zmq.POLLIN)
+
+
+def _recv_multipart(sock: sockets.Socket) -> list[bytes]:
+    """All frames of the next message (zmq.Again if none); leaner than recv_multipart."""
+    frames = [sock.recv(_NOBLOCK)]
+    while sock.getsockopt(_RCVMORE):
+        frames.append(sock.recv(_NOBLOCK))
+    return frames
+
+
+class Subscriber:
+    """Delivers the messages whose topic starts with one of `prefixes` ("" for all).
+
+    Malformed messages are logged with topic and reason and dropped (`dropped` counts
+    them). Reliable-channel data is delivered like any other message; acks and the
+    proxy's welcome are not. After a proxy restart ZeroMQ reconnects and re-sends the
+    subscriptions, so the subscriber carries on by itself.
+
+    Use one of `recv`, iteration or `start(callback)`; `close()` may be called from any
+    thread and ends an iteration or a callback thread.
+    """
+
+    def __init__(
+        self, endpoints: BusEndpoints, prefixes: Iterable[str] = ("",), *,
+        hwm: int = sockets.DEFAULT_HWM, name: str = "subscriber",
+        context: sockets.Context | None = None,
+    ) -> None:
+        if isinstance(prefixes, str):
+            raise TypeError("prefixes must be a list of strings, not one string")
+        self.endpoints = endpoints
+        self.prefixes = tuple(prefixes)
+        self._early: deque[Envelope] = deque()
+        self._drops = sockets.DropLog(name)
+        self._lock = threading.Lock()
+        self._closed = False
+        self._connected = threading.Event()
+        self._thread: threading.Thread | None = None
+        sock = sockets.connect(sockets.context(context), zmq.SUB, endpoints.backend, hwm=hwm)
+        sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
+        for prefix in self.prefixes:
+            sock.setsockopt(zmq.SUBSCRIBE, prefix.encode())
+        self._sock = sock
+
+    @property
+    def dropped(self) -> int:
+        """How many malformed messages were dropped."""
+        return self._drops.dropped
+
+    def recv(self, timeout: float | None = None) -> Envelope | None:
+        """The next message, or None when `timeout` seconds pass first (None: wait forever)."""
+        if self._early:
+            return self._early.popleft()
+        return self._recv_next(timeout)
+
+    def _recv_next(self, timeout: float | None) -> Envelope | None:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if self._closed:
+                    raise BusError("subscriber is closed")
+                frames = self._recv_frames(deadline)
+            if frames is None:
+                if deadline is not None and time.monotonic() >= deadline:
+                    return None
+                continue
+            try:
+                env = decode_frames(frames)
+            except DecodeError as exc:
+                self._drops.drop(exc)
+                continue
+            if env is not None:
+                return env
+            if frames[0] == WELCOME:
+                self._connected.set()
+
+    def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
+        """One multipart message, or None after at most one time slice."""
+        sock = self._sock
+        try:
+            return _recv_multipart(sock)
+        except zmq.Again:
+            pass
+        wait = _SLICE if deadline is None else min(_SLICE, deadline - time.monotonic())
+        if wait > 0 and sock.poll(int(wait * 1000) or 1, _POLLIN):
+            return _recv_multipart(sock)
+        return None
+
+    def __iter__(self) -> Iterator[Envelope]:
+        """Every message until the subscriber is closed."""
+        while True:
+            try:
+                env = self.recv(timeout=None)
+            except BusError:
+                return
+            if env is not None:
+                yield env
+
+    def wait_connected(self, timeout: float = 5.0) -> bool:
+        """Whether the proxy has greeted this subscriber (its subscriptions are on the way).
+
+        Messages that arrive meanwhile are kept for `recv`. Call it from the thread that
+        receives, or after `start`.
+        """
+        if self._thread is None:
+            deadline = time.monotonic() + timeout
+            while not self._connected.is_set():
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return False
+                env = self._recv_next(min(remaining, _SLICE))
+                if env is not None:
+                    self._early.append(env)
+            return True
+        return self._connected.wait(timeout)
+
+    def start(self, callback: Callable[[Envelope], object]) -> None:
+        """Call `callback(env)` for every message on a background thread until `close()`.
+
+        An exception in the callback is logged and the thread carries on.
+        """
+        if self._closed:
+            raise BusError("subscriber is closed")
+        if self._thread is not None:
+            raise BusError("subscriber already has a callback thread")
+
+        def deliver() -> None:
+            for env in self:
+                try:
+                    callback(env)
+                except Exception:
+                    log.exception("%s: callback failed on %s", self._drops.where, env.topic)
+
+        self._thread = threading.Thread(target=deliver, name=f"mrss-sub-{self._drops.where}",
+                                        daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        """Stop the callback thread or iteration, and close the socket."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5)
+        with self._lock:
+            self._sock.close(0)
+
+    def __enter__(self) -> Subscriber:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()

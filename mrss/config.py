@@ -1,0 +1,273 @@
+"""Load and validate `projects/<name>/project.toml`: one place where config is checked.
+
+Errors are `ConfigError`s naming the file (with the line when it can be found) and the
+dotted key, e.g. `projects/demo/project.toml:12: key 'components.rcl.restart': ...`.
+Tables this module does not know are kept raw in `ProjectConfig.sections` for the
+layers that own them (robots, links, broker, ...). Every key is documented in
+docs/config.md.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, cast
+
+from mrss.errors import ConfigError, SupervisionError
+from mrss.projects import PROJECT_FILE, project_path
+from mrss.supervision.children import ComponentStart
+from mrss.supervision.spec import (
+    KILL,
+    Backoff,
+    ChildKind,
+    ChildSpec,
+    OnExceeded,
+    Restart,
+    Strategy,
+    SupervisorSpec,
+)
+
+ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
+TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout")
+# Tables owned by other layers: kept raw, not warned about.
+OTHER_SECTIONS = ("bus", "broker", "robots", "links", "reasoner", "rcl", "events", "datalayer",
+                  "worldmodel", "tui", "sim", "skills")
+
+
+@dataclass(frozen=True)
+class ComponentConfig:
+    """One `[components.<id>]` table."""
+
+    id: str
+    module: str
+    restart: Restart = Restart.PERMANENT
+    shutdown: float | Literal["kill"] = 5.0
+    kind: ChildKind = ChildKind.WORKER
+    enabled: bool = True
+    start_timeout: float = 10.0
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def child_spec(self) -> ChildSpec[ComponentStart]:
+        start = ComponentStart(self.module, dict(self.options), self.start_timeout)
+        return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
+                         kind=self.kind)
+
+
+@dataclass(frozen=True)
+class SupervisorConfig:
+    """The `[supervisor]` table: restart flags plus process-watching settings."""
+
+    spec: SupervisorSpec = field(default_factory=SupervisorSpec)
+    heartbeat_interval: float = 0.5
+    heartbeat_misses: int = 3
+    launcher: Literal["fork", "exec"] = "fork"
+    run_dir: str | None = None
+
+
+@dataclass(frozen=True)
+class ProjectConfig:
+    """A whole validated project.toml."""
+
+    name: str
+    directory: Path
+    file: Path
+    description: str = ""
+    supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
+    components: tuple[ComponentConfig, ...] = ()
+    sections: dict[str, Any] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def child_specs(self) -> list[ChildSpec[ComponentStart]]:
+        """The enabled components in file order: the root supervisor's children."""
+        return [c.child_spec() for c in self.components if c.enabled]
+
+
+def load_project(name: str, base: Path | None = None) -> ProjectConfig:
+    """Load projects/<name>/project.toml (UnknownProjectError if there is no such project)."""
+    return load_file(project_path(name, base) / PROJECT_FILE)
+
+
+def load_file(path: Path) -> ProjectConfig:
+    """Load and validate one project.toml."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror}", file=str(path)) from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML: {exc}", file=str(path)) from exc
+    return _Reader(path, text).project(data)
+
+
+class _Reader:
+    """Validation with the file's text at hand, to name the line of a bad key."""
+
+    def __init__(self, path: Path, text: str) -> None:
+        self.path = path
+        self.lines = text.splitlines()
+
+    def error(self, key: str, reason: str) -> ConfigError:
+        line = self._line_of(key)
+        where = f"{self.path}:{line}" if line else str(self.path)
+        return ConfigError(reason, file=where, key=key)
+
+    def _line_of(self, key: str) -> int | None:
+        """Best effort: the line of `key` under its table header, or of the header."""
+        *table, last = key.split(".")
+        header = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(map(re.escape, table)) + r"\s*\]")
+        assign = re.compile(r"^\s*" + re.escape(last) + r"\s*=")
+        in_table = not table
+        found = None
+        for number, line in enumerate(self.lines, start=1):
+            if line.lstrip().startswith("["):
+                in_table = bool(table) and bool(header.match(line))
+                if in_table and found is None:
+                    found = number
+            elif in_table and assign.match(line):
+                return number
+        whole = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(map(re.escape, [*table, last])))
+        for number, line in enumerate(self.lines, start=1):
+            if whole.match(line):
+                return number
+        return found
+
+    def project(self, data: dict[str, Any]) -> ProjectConfig:
+        warnings: list[str] = []
+        project = self.table(data, "project", ("name", "description"))
+        name = self.typed(project, "project.name", str, self.path.parent.name)
+        description = self.typed(project, "project.description", str, "")
+        supervisor = self.supervisor(data)
+        components = self.components(data)
+        sections = {k: v for k, v in data.items()
+                    if k not in ("project", "supervisor", "components")}
+        for key in sections:
+            if key not in OTHER_SECTIONS:
+                warnings.append(f"{self.path}: unknown table [{key}] (ignored by supervision)")
+        for comp in components:
+            for opt in comp.options:
+                if opt not in COMPONENT_KEYS and _close_to(opt, COMPONENT_KEYS):
+                    warnings.append(f"{self.path}: components.{comp.id}.{opt} is passed as an "
+                                    f"option; did you mean {_close_to(opt, COMPONENT_KEYS)!r}?")
+        return ProjectConfig(name=name, directory=self.path.parent, file=self.path,
+                             description=description, supervisor=supervisor,
+                             components=components, sections=sections,
+                             warnings=tuple(warnings))
+
+    def supervisor(self, data: dict[str, Any]) -> SupervisorConfig:
+        keys = ("strategy", "intensity", "period", "healthy_after", "on_exceeded", "probation",
+                "heartbeat_interval", "heartbeat_misses", "launcher", "run_dir", "backoff")
+        sup = self.table(data, "supervisor", keys)
+        raw_backoff = self.table(sup, "supervisor.backoff", ("initial", "factor", "cap", "jitter"),
+                                 key="backoff")
+        d = Backoff()
+        backoff = self.build("supervisor.backoff", lambda: Backoff(
+            initial=self.number(raw_backoff, "supervisor.backoff.initial", d.initial),
+            factor=self.number(raw_backoff, "supervisor.backoff.factor", d.factor),
+            cap=self.number(raw_backoff, "supervisor.backoff.cap", d.cap),
+            jitter=self.number(raw_backoff, "supervisor.backoff.jitter", d.jitter)))
+        s = SupervisorSpec()
+        spec = self.build("supervisor", lambda: SupervisorSpec(
+            strategy=Strategy(self.choice(sup, "supervisor.strategy", Strategy, s.strategy)),
+            intensity=self.typed(sup, "supervisor.intensity", int, s.intensity),
+            period=self.number(sup, "supervisor.period", s.period),
+            backoff=backoff,
+            healthy_after=self.number(sup, "supervisor.healthy_after", s.healthy_after),
+            on_exceeded=OnExceeded(self.choice(sup, "supervisor.on_exceeded", OnExceeded,
+                                               s.on_exceeded)),
+            probation=self.number(sup, "supervisor.probation", s.probation)))
+        interval = self.number(sup, "supervisor.heartbeat_interval", 0.5)
+        if interval <= 0:
+            raise self.error("supervisor.heartbeat_interval", "must be > 0")
+        misses = self.typed(sup, "supervisor.heartbeat_misses", int, 3)
+        if misses < 1:
+            raise self.error("supervisor.heartbeat_misses", "must be >= 1")
+        launcher = self.typed(sup, "supervisor.launcher", str, "fork")
+        if launcher not in ("fork", "exec"):
+            raise self.error("supervisor.launcher", f"must be 'fork' or 'exec', not {launcher!r}")
+        run_dir = self.typed(sup, "supervisor.run_dir", str, "") or None
+        return SupervisorConfig(spec, interval, misses,
+                                cast(Literal["fork", "exec"], launcher), run_dir)
+
+    def components(self, data: dict[str, Any]) -> tuple[ComponentConfig, ...]:
+        raw = data.get("components", {})
+        if not isinstance(raw, dict):
+            raise self.error("components", "must be a table of [components.<id>] tables")
+        result = []
+        for cid, table in raw.items():
+            key = f"components.{cid}"
+            if not ID_PATTERN.match(cid):
+                raise self.error(key, "a component id starts with a letter and holds only "
+                                      "letters, digits, '_', '-' and '.'")
+            if not isinstance(table, dict):
+                raise self.error(key, "must be a table")
+            module = table.get("module")
+            if not isinstance(module, str) or not TARGET_PATTERN.match(module):
+                raise self.error(f"{key}.module", "required: 'dotted.module:ClassName'"
+                                 + (f", not {module!r}" if module is not None else ""))
+            shutdown = table.get("shutdown", 5.0)
+            if shutdown != KILL and (isinstance(shutdown, bool)
+                                     or not isinstance(shutdown, int | float) or shutdown < 0):
+                raise self.error(f"{key}.shutdown", f"must be seconds >= 0 or 'kill', "
+                                                    f"not {shutdown!r}")
+            timeout = self.number(table, f"{key}.start_timeout", 10.0)
+            if timeout <= 0:
+                raise self.error(f"{key}.start_timeout", "must be > 0")
+            result.append(ComponentConfig(
+                id=cid, module=module,
+                restart=Restart(self.choice(table, f"{key}.restart", Restart, Restart.PERMANENT)),
+                shutdown=shutdown if shutdown == KILL else float(shutdown),
+                kind=ChildKind(self.choice(table, f"{key}.kind", ChildKind, ChildKind.WORKER)),
+                enabled=self.typed(table, f"{key}.enabled", bool, True),
+                start_timeout=timeout,
+                options={k: v for k, v in table.items() if k not in COMPONENT_KEYS}))
+        return tuple(result)
+
+    # -- typed getters ----------------------------------------------------------------------
+    def table(self, data: dict[str, Any], name: str, keys: tuple[str, ...],
+              key: str | None = None) -> dict[str, Any]:
+        value = data.get(key or name, {})
+        if not isinstance(value, dict):
+            raise self.error(name, "must be a table")
+        for k in value:
+            if k not in keys:
+                hint = _close_to(k, keys)
+                raise self.error(f"{name}.{k}", "unknown key" + (
+                    f"; did you mean {hint!r}?" if hint else f"; known: {', '.join(keys)}"))
+        return value
+
+    def typed(self, data: dict[str, Any], key: str, kind: type, default: Any) -> Any:
+        value = data.get(key.rsplit(".", 1)[-1], default)
+        if kind is not bool and isinstance(value, bool) or not isinstance(value, kind):
+            raise self.error(key, f"must be {kind.__name__}, not {value!r}")
+        return value
+
+    def number(self, data: dict[str, Any], key: str, default: float) -> float:
+        value = data.get(key.rsplit(".", 1)[-1], default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+            raise self.error(key, f"must be a number >= 0, not {value!r}")
+        return float(value)
+
+    def choice(self, data: dict[str, Any], key: str, kind: Any, default: Any) -> str:
+        value = data.get(key.rsplit(".", 1)[-1], default)
+        options = [m.value for m in kind]
+        if value not in options:
+            raise self.error(key, f"must be one of {', '.join(options)}, not {value!r}")
+        return str(value)
+
+    def build(self, key: str, make: Callable[[], Any]) -> Any:
+        try:
+            return make()
+        except SupervisionError as exc:
+            raise self.error(key, str(exc)) from None
+
+
+def _close_to(word: str, options: tuple[str, ...]) -> str | None:
+    import difflib
+
+    found = difflib.get_close_matches(word, options, n=1, cutoff=0.8)
+    return found[0] if found else None

@@ -1,0 +1,40 @@
+"""Supervision: OTP-style restart policies for component processes and pykka actors.
+
+Processes: `ProcessSupervisor` (the root of `mrss supervise`) runs `Component`
+subclasses. Actors: `ActorSupervisor` runs `SupervisedActor`s, nested as deep as
+needed. Both decide with the same `RestartPolicy`. See docs/supervision.md.
+"""
+
+from mrss.supervision.actors import ActorSupervisor
+from mrss.supervision.children import ComponentStart, ProcessSettings
+from mrss.supervision.component import Component, ComponentContext
+from mrss.supervision.events import EventLog, SupEvents
+from mrss.supervision.policy import Action, Decision, RestartPolicy
+from mrss.supervision.process import ProcessSupervisor
+from mrss.supervision.reason import Cause, ExitReason
+from mrss.supervision.spec import (
+    KILL,
+    Backoff,
+    ChildKind,
+    ChildSpec,
+    OnExceeded,
+    Restart,
+    Strategy,
+    SupervisorSpec,
+)
+from mrss.supervision.status import ChildState, ChildStatus, Outcome
+from mrss.supervision.supervised import (
+    ActorContext,
+    ActorStart,
+    LinkDown,
+    SupervisedActor,
+    actor_child,
+)
+
+__all__ = [
+    "KILL", "Action", "ActorContext", "ActorStart", "ActorSupervisor", "Backoff", "Cause",
+    "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "Component", "ComponentContext",
+    "ComponentStart", "Decision", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
+    "Outcome", "ProcessSettings", "ProcessSupervisor", "Restart", "RestartPolicy", "Strategy",
+    "SupEvents", "SupervisedActor", "SupervisorSpec", "actor_child",
+]

@@ -1,0 +1,248 @@
+"""How component processes are started: exec a fresh interpreter, or fork a template.
+
+Both launchers hand the child one end of its control socket and report every exit of a
+child they started, with the reason from its wait status, through `on_exit(pid, reason)`.
+They register their own file descriptors with the supervisor's selector; the key's data
+is a callable the supervisor loop calls when the descriptor is readable.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import selectors
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from mrss.errors import SupervisionError
+from mrss.supervision.reason import Cause, ExitReason
+
+log = logging.getLogger("mrss.supervision.launchers")
+
+OnExit = Callable[[int, ExitReason], None]
+
+
+class Launcher:
+    """Starts component processes and reports their exits."""
+
+    def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit) -> None:
+        self.selector = selector
+        self.on_exit = on_exit
+
+    def spawn(self, target: str, name: str, inc: int, context: str,
+              control: socket.socket) -> int:
+        """Start one incarnation; returns its pid (SupervisionError if it cannot)."""
+        raise NotImplementedError
+
+    def flush(self) -> None:
+        """Report exits that were read while doing something else (called by the loop)."""
+
+    def close(self) -> None:
+        """Release the launcher (children must already be stopped)."""
+
+
+class ExecLauncher(Launcher):
+    """`python -m mrss.supervision.component_main ...` per start; exits seen via pidfd."""
+
+    def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
+                 python: str = sys.executable) -> None:
+        super().__init__(selector, on_exit)
+        self.python = python
+        self._procs: dict[int, tuple[subprocess.Popen[bytes], int]] = {}
+
+    def spawn(self, target: str, name: str, inc: int, context: str,
+              control: socket.socket) -> int:
+        fd = control.fileno()
+        argv = [self.python, "-m", "mrss.supervision.component_main", target, "--name", name,
+                "--inc", str(inc), "--context", context, "--control-fd", str(fd)]
+        try:
+            proc = subprocess.Popen(argv, pass_fds=(fd,), stdin=subprocess.DEVNULL,
+                                    process_group=0)
+        except OSError as exc:
+            raise SupervisionError(f"cannot start {name}: {exc}") from exc
+        pidfd = os.pidfd_open(proc.pid)
+        self._procs[pidfd] = (proc, pidfd)
+        self.selector.register(pidfd, selectors.EVENT_READ, lambda: self._reap(pidfd))
+        return proc.pid
+
+    def _reap(self, pidfd: int) -> None:
+        proc, _ = self._procs.pop(pidfd)
+        self.selector.unregister(pidfd)
+        os.close(pidfd)
+        code = proc.wait()
+        self.on_exit(proc.pid, ExitReason.from_returncode(code))
+
+    def close(self) -> None:
+        for pidfd, (proc, _) in list(self._procs.items()):
+            self.selector.unregister(pidfd)
+            os.close(pidfd)
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        self._procs.clear()
+
+
+class ForkLauncher(Launcher):
+    """Forks children from a fork server that imported everything once (fast restarts)."""
+
+    def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
+                 preload: Sequence[str] = (), path: Sequence[str | Path] = (),
+                 python: str = sys.executable, start_timeout: float = 30.0) -> None:
+        super().__init__(selector, on_exit)
+        self.preload = list(preload)
+        self.path = [str(p) for p in path]
+        self.python = python
+        self.start_timeout = start_timeout
+        self._sock: socket.socket | None = None
+        self._server: subprocess.Popen[bytes] | None = None
+        self._children: set[int] = set()
+        self._req = 0
+        self._exits: list[tuple[int, ExitReason]] = []
+
+    @property
+    def server_pid(self) -> int:
+        return self._server.pid if self._server else 0
+
+    def start(self) -> None:
+        """Start the fork server now (otherwise the first spawn does)."""
+        if self._sock is not None:
+            return
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        argv = [self.python, "-m", "mrss.supervision.forkserver", "--fd", str(theirs.fileno()),
+                "--preload", ",".join(self.preload)]
+        for p in self.path:
+            argv += ["--path", p]
+        try:
+            self._server = subprocess.Popen(argv, pass_fds=(theirs.fileno(),),
+                                            stdin=subprocess.DEVNULL)
+        except OSError as exc:
+            ours.close()
+            raise SupervisionError(f"cannot start the fork server: {exc}") from exc
+        finally:
+            theirs.close()
+        self._sock = ours
+        hello = self._wait_reply(lambda m: m.get("op") == "hello")
+        log.debug("fork server up, pid %s", hello.get("pid"))
+        self.selector.register(ours, selectors.EVENT_READ, self._readable)
+
+    def spawn(self, target: str, name: str, inc: int, context: str,
+              control: socket.socket) -> int:
+        self.start()
+        assert self._sock is not None
+        self._req += 1
+        req = {"op": "spawn", "req": self._req, "target": target, "name": name, "inc": inc,
+               "context": context}
+        try:
+            socket.send_fds(self._sock, [json.dumps(req).encode()], [control.fileno()])
+        except OSError as exc:
+            self._server_lost(f"send failed: {exc}")
+            raise SupervisionError(f"cannot start {name}: fork server is gone") from exc
+        n = self._req
+        reply = self._wait_reply(lambda m: m.get("req") == n and m.get("op") != "exit")
+        if reply.get("op") != "spawned":
+            raise SupervisionError(f"cannot start {name}: {reply.get('error', reply)}")
+        pid = int(reply["pid"])
+        self._children.add(pid)
+        return pid
+
+    def _wait_reply(self, wanted: Callable[[dict[str, Any]], bool]) -> dict[str, Any]:
+        """Read until a wanted message; exits read meanwhile are kept for the loop."""
+        assert self._sock is not None
+        deadline = time.monotonic() + self.start_timeout
+        self._sock.settimeout(self.start_timeout)
+        try:
+            while True:
+                if time.monotonic() > deadline:
+                    raise SupervisionError("fork server did not answer")
+                try:
+                    data = self._sock.recv(1 << 16)
+                except OSError as exc:
+                    raise SupervisionError(f"fork server is gone: {exc}") from exc
+                if not data:
+                    self._server_lost("closed its channel")
+                    raise SupervisionError("fork server is gone")
+                msg = json.loads(data)
+                if wanted(msg):
+                    return dict(msg)
+                self._note(msg)
+        finally:
+            if self._sock is not None:
+                self._sock.settimeout(None)
+
+    def _readable(self) -> None:
+        assert self._sock is not None
+        self._sock.setblocking(False)
+        try:
+            while True:
+                try:
+                    data = self._sock.recv(1 << 16)
+                except BlockingIOError:
+                    break
+                except OSError:
+                    data = b""
+                if not data:
+                    self._server_lost("closed its channel")
+                    break
+                self._note(json.loads(data))
+        finally:
+            if self._sock is not None:
+                self._sock.setblocking(True)
+        self.flush()
+
+    def _note(self, msg: dict[str, Any]) -> None:
+        if msg.get("op") == "exit":
+            pid = int(msg["pid"])
+            self._children.discard(pid)
+            self._exits.append((pid, ExitReason.from_wait_status(int(msg["status"]))))
+
+    def flush(self) -> None:
+        pending, self._exits = self._exits, []
+        for pid, reason in pending:
+            self.on_exit(pid, reason)
+
+    def _server_lost(self, why: str) -> None:
+        """The fork server died: kill its children (their exit status is lost with it)."""
+        log.error("fork server lost (%s); its children are gone", why)
+        if self._sock is not None:
+            try:
+                self.selector.unregister(self._sock)
+            except (KeyError, ValueError):
+                pass
+            self._sock.close()
+            self._sock = None
+        if self._server is not None:
+            self._server.kill()
+            self._server.wait()
+            self._server = None
+        for pid in sorted(self._children):
+            for kill in (os.killpg, os.kill):
+                try:
+                    kill(pid, signal.SIGKILL)
+                    break
+                except (ProcessLookupError, PermissionError):
+                    pass
+            self._exits.append((pid, ExitReason(Cause.KILLED, f"fork server lost ({why})")))
+        self._children.clear()
+
+    def close(self) -> None:
+        if self._sock is not None:
+            try:
+                self.selector.unregister(self._sock)
+            except (KeyError, ValueError):
+                pass
+            self._sock.close()
+            self._sock = None
+        if self._server is not None:
+            try:
+                self._server.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self._server.kill()
+                self._server.wait()
+            self._server = None

@@ -1,0 +1,10 @@
+// .my_name .time .date .random .fail with annotations
+!start.
++!start
+   <- .my_name(Me); .print("I am ", Me);
+      .time(H, M, S); if (H >= 0 & H < 24 & M < 60 & S < 61) { .print("time ok") };
+      .date(Y, Mo, D); if (Y > 2000 & Mo >= 1 & D >= 1) { .print("date ok") };
+      .random(R); if (R >= 0 & R < 1) { .print("random ok") };
+      !custom; .print("end").
++!custom <- .fail(reason(busy)).
+-!custom[reason(W)] <- .print("custom failure: ", W).

@@ -1,0 +1,82 @@
+"""Syntax error reports (file:line:col, the line and a caret, all errors of a file) and
+runtime errors that fail one intention while the agent keeps running."""
+
+from __future__ import annotations
+
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mrss.agentspeak.agent import Agent
+from mrss.agentspeak.errors import AslSyntaxError
+from mrss.errors import MrssError
+
+BAD = """\
+ok(1).
++!a <- .print("a") .print("b").
++!b : x & <- true.
+good(2)
++!c <- true.
++!d <- .nosuch(1).
+"""
+
+
+def test_syntax_errors_are_all_reported_with_line_column_and_caret() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(BAD, file="bad.asl")
+    err = info.value
+    assert isinstance(err, MrssError)
+    where = [(p.line, p.col) for p in err.problems]
+    assert where == [(2, 21), (3, 11), (5, 1), (6, 8)]
+    text = str(err)
+    assert "bad.asl:2:21: unexpected 'print'" in text
+    lines = text.splitlines()
+    i = lines.index(next(ln for ln in lines if ln.startswith("bad.asl:3:11")))
+    assert lines[i + 1] == "    +!b : x & <- true."
+    assert lines[i + 2] == "    " + " " * 10 + "^"
+    assert "bad.asl:6:8: unknown internal action .nosuch" in text
+
+
+def test_unclosed_bracket_does_not_hide_later_errors() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent("+!a <- x(.\n+!b <- y].\n", file="u.asl")
+    assert [p.line for p in info.value.problems] == [1, 2]
+
+
+def test_wrong_argument_count_of_internal_action_is_a_load_error() -> None:
+    with pytest.raises(AslSyntaxError, match=r"p.asl:1:8: .length takes 2 arguments, not 1"):
+        Agent("+!g <- .length(x).", file="p.asl")
+
+
+def test_mrss_agent_exits_2_with_the_report_on_stderr(tmp_path: Path) -> None:
+    src = tmp_path / "bad.asl"
+    src.write_text(BAD)
+    proc = subprocess.run([sys.executable, "-m", "mrss", "agent", str(src)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert f"{src}:3:11:" in proc.stderr and "^" in proc.stderr
+
+
+def test_runtime_errors_fail_the_intention_naming_file_and_line(
+        caplog: pytest.LogCaptureFixture) -> None:
+    out: list[str] = []
+    src = """\
+!arith.
+!unbound.
+!fine.
++!arith <- X = "text" + 1; .print("never").
++!unbound <- move(Where); .print("never").
++!fine <- .print(one); .print(two).
+"""
+    agent = Agent(src, file="rt.asl", out=out.append, host=None)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        agent.run_until_idle()
+    assert out == ["one", "two"]
+    messages = [r.getMessage() for r in caplog.records]
+    assert any("rt.asl:4: arithmetic on a non-number" in m for m in messages), messages
+    assert any("rt.asl:5: unbound variable Where in action move(Where)" in m for m in messages)
+    assert agent.intentions == {}

@@ -1,0 +1,197 @@
+"""Publisher and Subscriber through a real proxy: filters, bad input, threads, loopback."""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+import msgpack
+import psutil
+import pytest
+
+from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.errors import BusError
+from mrss.messages import Envelope, Heartbeat, LogRecord, Percept, RobotData, encode
+from mrss.testing import wait_until
+from tests.bus.bus_helpers import sync
+
+
+def _robot_sync(k: int) -> RobotData:
+    return RobotData(robot="a", data={"sync": k})
+
+
+def _is_sync(env: Envelope) -> bool:
+    return isinstance(env.body, RobotData) and "sync" in env.body.data
+
+
+def _drain(sub: Subscriber, until: Envelope | None = None) -> list[Envelope]:
+    """Everything `sub` receives until a quiet 0.3 s (ignoring sync messages)."""
+    out = []
+    while (env := sub.recv(timeout=0.3)) is not None:
+        if not _is_sync(env):
+            out.append(env)
+    return out
+
+
+def test_prefix_filters_deliver_only_matching_topics(proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    with Publisher(ep, src="t") as pub, \
+            Subscriber(ep, prefixes=["robot.a."]) as only_a, \
+            Subscriber(ep, prefixes=["robot."]) as robots, \
+            Subscriber(ep, prefixes=["robot.b.", "log."]) as b_and_logs, \
+            Subscriber(ep) as everything:
+        for sub in (only_a, robots, everything):
+            sync(pub, sub, _robot_sync)
+        sync(pub, b_and_logs, lambda k: RobotData(robot="b", data={"sync": k}))
+        _drain(everything)
+
+        sent = [RobotData(robot="a", data={"n": 1}), RobotData(robot="b", data={"n": 2}),
+                Percept(literal="fire(x)"), LogRecord(component="c", level="INFO", message="m"),
+                RobotData(robot="ab", data={"n": 3})]
+        for msg in sent:
+            pub.publish(msg)
+
+        def got(sub: Subscriber) -> list[object]:
+            return [env.body for env in _drain(sub)]
+
+        assert got(only_a) == [sent[0]]
+        assert got(robots) == [sent[0], sent[1], sent[4]]
+        assert got(b_and_logs) == [sent[1], sent[3]]
+        assert got(everything) == sent
+
+
+def test_malformed_messages_are_logged_and_dropped(
+    proxy_thread: BusEndpoints, caplog: pytest.LogCaptureFixture,
+) -> None:
+    ep = proxy_thread
+    with Publisher(ep, src="t") as pub, Subscriber(ep, name="watcher") as sub:
+        sync(pub, sub, _robot_sync)
+        _, percept = encode(Percept(literal="fire(x)"), src="t")
+        garbage = [
+            [b"robot.a.data", b"\xc1not msgpack"],
+            [b"\xff\xfe", percept],
+            [b"percept", percept, b"third frame"],
+            [b"robot.a.data", percept],  # a percept on a robot topic
+            [b"percept", msgpack.packb({"v": 1})],
+            [b"robot.lonely"],
+        ]
+        caplog.set_level(logging.WARNING, logger="mrss.bus")
+        for frames in garbage:
+            pub.send_frames(frames)
+        final = Heartbeat(component="after", pid=1)
+        pub.publish(final)
+
+        assert [env.body for env in _drain(sub)] == [final]
+        assert sub.dropped == len(garbage)
+        drops = [r.getMessage() for r in caplog.records if "malformed" in r.getMessage()]
+        assert len(drops) == len(garbage)
+        assert "watcher: dropped malformed message on topic 'robot.a.data': not msgpack" \
+            in drops[0]
+        assert "does not belong on this topic" in drops[3]
+        assert "lacks 'id'" in drops[4]
+
+
+def test_publisher_is_thread_safe(proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    threads, per_thread = 4, 2000
+    with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot."]) as sub:
+        sync(pub, sub, _robot_sync)
+
+        def publish_many(robot: str) -> None:
+            for n in range(per_thread):
+                pub.publish(RobotData(robot=robot, data={"n": n}))
+
+        workers = [threading.Thread(target=publish_many, args=(f"r{i}",)) for i in range(threads)]
+        for w in workers:
+            w.start()
+        received: list[Envelope] = []
+        while len(received) < threads * per_thread:
+            env = sub.recv(timeout=5)
+            assert env is not None, f"only {len(received)} messages arrived"
+            if not _is_sync(env):
+                received.append(env)
+        for w in workers:
+            w.join()
+        assert len({env.id for env in received}) == threads * per_thread
+        for i in range(threads):
+            ns = [e.body.data["n"] for e in received if e.topic == f"robot.r{i}.data"]  # type: ignore[attr-defined]
+            assert ns == list(range(per_thread))
+
+
+def test_callback_thread_survives_a_failing_callback_and_stops_on_close(
+    proxy_thread: BusEndpoints,
+) -> None:
+    ep = proxy_thread
+    seen: list[str] = []
+
+    def callback(env: Envelope) -> None:
+        assert isinstance(env.body, Percept)
+        seen.append(env.body.literal)
+        if env.body.literal == "boom":
+            raise RuntimeError("callback bug")
+
+    with Publisher(ep, src="t") as pub:
+        sub = Subscriber(ep, prefixes=["percept"])
+        sub.start(callback)
+        try:
+            wait_until(lambda: pub.publish(Percept(literal="hello")) and "hello" in seen, 10,
+                       interval=0.02)
+            pub.publish(Percept(literal="boom"))
+            pub.publish(Percept(literal="after"))
+            wait_until(lambda: "after" in seen, 5, message="delivery after a failing callback")
+            assert seen.index("boom") < seen.index("after")
+        finally:
+            sub.close()
+        with pytest.raises(BusError):
+            sub.recv(timeout=0)
+        with pytest.raises(BusError, match="closed"):
+            sub.start(callback)
+
+
+def test_iteration_ends_when_closed_from_another_thread(proxy_thread: BusEndpoints) -> None:
+    sub = Subscriber(proxy_thread)
+    finished = threading.Event()
+
+    def iterate() -> None:
+        for _ in sub:
+            pass
+        finished.set()
+
+    thread = threading.Thread(target=iterate)
+    thread.start()
+    sub.close()
+    assert finished.wait(5)
+    thread.join()
+
+
+def test_recv_returns_none_after_its_timeout(proxy_thread: BusEndpoints) -> None:
+    with Subscriber(proxy_thread, prefixes=["nothing."]) as sub:
+        assert sub.wait_connected(5)
+        assert sub.recv(timeout=0.05) is None
+        assert sub.recv(timeout=0) is None
+
+
+def test_publisher_knows_when_the_proxy_has_joined(proxy_thread: BusEndpoints) -> None:
+    with Publisher(proxy_thread, src="t") as pub:
+        assert pub.wait_connected(5)
+
+
+def test_publisher_without_a_proxy_is_not_connected() -> None:
+    ep = BusEndpoints.tcp_loopback()
+    with Publisher(ep, src="t", linger=0) as pub:
+        assert not pub.wait_connected(0.2)
+        pub.publish(Percept(literal="queued"))  # no proxy: queued, never an error
+    with pytest.raises(BusError, match="closed"):
+        pub.publish(Percept(literal="late"))
+
+
+@pytest.mark.parametrize("endpoints", ["tcp"], indirect=True)
+def test_tcp_bus_listens_on_loopback_only(proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    listening = [c.laddr for c in psutil.Process().net_connections(kind="tcp")
+                 if c.status == psutil.CONN_LISTEN]
+    ports = {int(e.rsplit(":", 1)[1]) for e in (ep.frontend, ep.backend)}
+    assert {addr.port for addr in listening} >= ports
+    assert {addr.ip for addr in listening if addr.port in ports} == {"127.0.0.1"}
+    with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot."]) as sub:
+        sync(pub, sub, _robot_sync)

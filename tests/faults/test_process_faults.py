@@ -1,0 +1,141 @@
+"""Fault injection into real component processes under the root supervisor."""
+
+from __future__ import annotations
+
+import signal
+
+import psutil
+import pytest
+
+from mrss.supervision import faults
+from mrss.supervision.spec import Backoff, Strategy
+from mrss.testing import wait_until
+from tests.faults.conftest import MakeTree, worker
+
+
+@pytest.mark.parametrize(("strategy", "expected"), [
+    (Strategy.ONE_FOR_ONE, {"a": 1, "b": 2, "c": 1}),
+    (Strategy.REST_FOR_ONE, {"a": 1, "b": 2, "c": 2}),
+    (Strategy.ONE_FOR_ALL, {"a": 2, "b": 2, "c": 2}),
+])
+def test_sigkill_restarts_the_children_the_strategy_names(
+        make_tree: MakeTree, strategy: Strategy, expected: dict[str, int]) -> None:
+    tree = make_tree(worker("a"), worker("b"), worker("c"), strategy=strategy)
+    before = {c.id: c.pid for c in tree.sup.tree().children}
+    killed = faults.kill(tree.sup, "b")
+    wait_until(lambda: tree.all_running() and tree.incarnations() == expected, timeout=15,
+               message=f"incarnations {expected}")
+    after = {c.id: c.pid for c in tree.sup.tree().children}
+    for cid, inc in expected.items():
+        assert (after[cid] == before[cid]) == (inc == 1), cid
+    assert not psutil.pid_exists(killed) or psutil.Process(killed).status() == "zombie"
+    (exit_b,) = [e for e in tree.log.of("exit", "b") if e.pid == killed]
+    assert exit_b.reason == "killed: SIGKILL"
+    (restart,) = tree.log.of("restart")
+    assert restart.child == "b" and restart.count == 1
+    assert restart.detail["group"] == [c for c, i in expected.items() if i == 2]
+    assert tree.sup.ping("b")
+
+
+def test_sigkill_restart_with_exec_launcher(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a"), worker("b"), launcher="exec")
+    faults.kill(tree.sup, "a")
+    wait_until(lambda: tree.all_running() and tree.incarnations() == {"a": 2, "b": 1},
+               timeout=15)
+    assert tree.sup.ping("a")
+
+
+def test_sigstopped_child_is_detected_as_hung_killed_and_replaced(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a"), worker("b"))
+    stopped = faults.hang(tree.sup, "b")
+    (exit_,) = tree.log.wait_for("exit", "b", timeout=10)
+    assert exit_.pid == stopped and exit_.reason.startswith("hung: no heartbeat for")
+    wait_until(lambda: tree.all_running() and tree.incarnations()["b"] == 2, timeout=10)
+    wait_until(lambda: not psutil.pid_exists(stopped), timeout=5, message="hung pid reaped")
+    assert tree.incarnations()["a"] == 1
+
+
+def test_child_crashing_at_start_backs_off_then_the_root_gives_up(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("ok"), worker("bad", crash_on_start=True), intensity=3,
+                     backoff=Backoff(initial=0.1, factor=2.0, cap=1.0, jitter=0.0), wait=False)
+    outcome = tree.sup.wait(timeout=20)
+    assert outcome is not None and outcome.gave_up
+    assert outcome.child == "bad"
+    assert outcome.reason == "crashed: RuntimeError in start: bad refuses to start"
+    assert "more than 3 restarts" in str(outcome)
+    delays = [e.detail["delay"] for e in tree.log.of("restart", "bad")]
+    assert delays == [0.0, 0.1, 0.2]
+    exits = [t for t, e in tree.log.timed() if e.event == "exit" and e.child == "bad"]
+    gaps = [b - a for a, b in zip(exits, exits[1:], strict=False)]
+    assert gaps[1] >= 0.1 and gaps[2] >= 0.2 and gaps[2] > gaps[0]
+    (give_up,) = tree.log.of("give_up")
+    assert give_up.child == "bad"
+    assert [e.reason for e in tree.log.of("exit", "ok")] == ["shutdown: stopped by supervisor"]
+
+
+def test_transient_child_that_exits_normally_is_not_restarted(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("job", restart="transient", finish_after=0.2),
+                     worker("svc", restart="permanent", finish_after=0.2))
+    tree.log.wait_for("restart", "svc")
+    (job_exit,) = tree.log.wait_for("exit", "job")
+    assert job_exit.reason == "normal: exit code 0"
+    wait_until(lambda: tree.sup.tree().find("job").state == "stopped",  # type: ignore[union-attr]
+               timeout=5)
+    assert tree.log.of("restart", "job") == []
+    assert tree.log.of("exit", "svc")[0].reason == "normal: exit code 0"
+
+
+def test_slow_start_past_the_start_timeout_is_killed_and_retried(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a", start_timeout=0.5))
+    faults.slow_start(tree.sup, "a", 5.0)
+    faults.kill(tree.sup, "a")
+    timeout_exit = wait_until(
+        lambda: [e for e in tree.log.of("exit", "a") if e.reason.startswith("start_timeout")],
+        timeout=10)
+    assert timeout_exit[0].reason == "start_timeout: not ready within 0.5s"
+    wait_until(lambda: tree.all_running() and tree.incarnations()["a"] == 3, timeout=10)
+
+
+def test_crash_fault_reports_the_childs_own_reason(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a"))
+    faults.crash(tree.sup, "a")
+    (exit_,) = tree.log.wait_for("exit", "a")
+    assert exit_.reason == "crashed: InjectedFault: injected crash"
+    wait_until(lambda: tree.incarnations()["a"] == 2 and tree.all_running(), timeout=10)
+
+
+def test_child_ignoring_its_shutdown_time_is_killed(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("slow", shutdown=0.3, stop_delay=30), worker("quick"))
+    outcome = tree.sup.stop(timeout=20)
+    assert outcome is not None and not outcome.gave_up
+    reasons = {e.child: e.reason for e in tree.log.of("exit")}
+    assert reasons == {"slow": "shutdown: killed after shutdown 0.3s",
+                       "quick": "shutdown: stopped by supervisor"}
+    assert [e.child for e in tree.log.of("exit")] == ["quick", "slow"]
+
+
+def test_fork_server_loss_restarts_its_children(make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a"), worker("b"))
+    pids = {c.pid for c in tree.sup.tree().children}
+    server = {p.ppid() for p in map(psutil.Process, pids)}
+    assert len(server) == 1
+    psutil.Process(server.pop()).send_signal(signal.SIGKILL)
+    wait_until(lambda: tree.all_running() and tree.incarnations() == {"a": 2, "b": 2},
+               timeout=15)
+    assert all(e.reason.startswith("killed") for e in tree.log.of("exit"))
+
+
+def test_quarantined_component_is_retried_after_probation_while_others_run(
+        make_tree: MakeTree) -> None:
+    from mrss.supervision.spec import OnExceeded
+
+    tree = make_tree(worker("uav_link"), worker("ugv_link"), intensity=0,
+                     on_exceeded=OnExceeded.QUARANTINE, probation=0.5)
+    faults.kill(tree.sup, "uav_link")
+    (q,) = tree.log.wait_for("quarantine", "uav_link")
+    assert q.reason == "killed: SIGKILL" and q.detail["probation"] == 0.5
+    assert tree.sup.tree().find("uav_link").state == "quarantined"  # type: ignore[union-attr]
+    assert tree.sup.ping("ugv_link") and tree.incarnations()["ugv_link"] == 1
+    tree.log.wait_for("release", "uav_link", timeout=10)
+    wait_until(lambda: tree.all_running() and tree.incarnations()["uav_link"] == 2, timeout=10)
+    assert tree.log.of("give_up") == []

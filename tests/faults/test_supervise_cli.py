@@ -1,0 +1,147 @@
+"""`mrss supervise` as a real process: graceful stop, nothing left behind, giving up."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pytest
+
+from mrss.testing import wait_until
+
+PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+
+
+def env() -> dict[str, str]:
+    return {**os.environ, "MRSS_PROJECTS": str(PROJECTS)}
+
+
+@pytest.fixture()
+def supervise(tmp_path: Path) -> Iterator[list[subprocess.Popen[str]]]:
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        yield procs
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                for child in psutil.Process(proc.pid).children(recursive=True):
+                    child.kill()
+                proc.kill()
+            proc.communicate(timeout=10)
+
+
+def start(procs: list[subprocess.Popen[str]], project: str, run_dir: Path,
+          *extra: str) -> subprocess.Popen[str]:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir), *extra],
+        env=env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    procs.append(proc)
+    return proc
+
+
+@pytest.mark.parametrize("launcher", ["fork", "exec"])
+def test_graceful_shutdown_leaves_no_process_of_the_tree(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path, launcher: str) -> None:
+    proc = start(supervise, "demo", tmp_path, "--launcher", launcher)
+    wait_until(lambda: all((tmp_path / f"{c}.1.started").exists()
+                           for c in ("alpha", "beta", "gamma")), timeout=20,
+               message="demo components started")
+    tree = psutil.Process(proc.pid).children(recursive=True)
+    pids = {p.pid for p in tree}
+    # 3 components + beta's helper (+ the fork server)
+    assert len(pids) == (5 if launcher == "fork" else 4)
+    assert not (tmp_path / "off.1.started").exists()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    left = [p for p in pids if psutil.pid_exists(p)
+            and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+    assert left == []
+    order = [line.split(" exit ")[1].split()[0] for line in err.splitlines() if " exit " in line]
+    assert order == ["gamma", "beta", "alpha"]
+
+
+def test_sigint_stops_the_tree_and_exits_zero(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    proc = start(supervise, "demo", tmp_path)
+    wait_until(lambda: (tmp_path / "gamma.1.started").exists(), timeout=20)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert "all components stopped" in err
+
+
+def test_intensity_exceeded_escalates_and_supervise_exits_nonzero_naming_the_child(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    proc = start(supervise, "crashloop", tmp_path)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1
+    last = err.strip().splitlines()[-1]
+    assert last == ("mrss supervise: crashloop: gave up: child 'flaky' failed "
+                    "(crashed: RuntimeError in start: flaky refuses to start); "
+                    "more than 2 restarts in 30s")
+    assert err.count("restart flaky") == 2
+
+
+def test_killing_a_component_beyond_intensity_makes_supervise_exit_nonzero(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    proc = start(supervise, "demo", tmp_path)
+    for inc in range(1, 5):  # intensity 3: the 4th kill escalates
+        marker = tmp_path / f"alpha.{inc}.started"
+        wait_until(lambda m=marker: m.exists() and m.read_text(), timeout=20,  # type: ignore[misc]
+                   message=f"alpha incarnation {inc}")
+        os.kill(int(marker.read_text()), signal.SIGKILL)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 1, err
+    assert err.strip().splitlines()[-1] == (
+        "mrss supervise: demo: gave up: child 'alpha' failed (killed: SIGKILL); "
+        "more than 3 restarts in 10s")
+    assert not (tmp_path / "alpha.5.started").exists()
+
+
+def test_bad_config_exits_two_naming_file_and_key(tmp_path: Path) -> None:
+    result = subprocess.run([sys.executable, "-m", "mrss", "supervise", "broken"], env=env(),
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert "project.toml:7: key 'components.alpha.restart'" in result.stderr
+
+
+def test_second_signal_kills_a_child_that_is_slow_to_stop(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    (tmp_path / "slowstop").mkdir()
+    (tmp_path / "slowstop" / "project.toml").write_text(
+        '[components.slow]\nmodule = "tests.projects.workers:Worker"\n'
+        'shutdown = 60.0\nstop_delay = 60\n')
+    log = tmp_path / "stderr.log"
+    with log.open("w") as err_file:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "mrss", "supervise", "slowstop", "--run-dir", str(tmp_path)],
+            env={**os.environ, "MRSS_PROJECTS": str(tmp_path)}, stdout=subprocess.DEVNULL,
+            stderr=err_file, text=True)
+    supervise.append(proc)
+    wait_until(lambda: "start slow" in log.read_text(), timeout=20)
+    proc.send_signal(signal.SIGINT)
+    wait_until(lambda: "stopping every child" in log.read_text(), timeout=10)
+    proc.send_signal(signal.SIGINT)  # the child takes 60 s to stop: the second one kills it
+    assert proc.wait(timeout=20) == 0
+    assert "reason='shutdown: killed (forced stop)'" in log.read_text()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("launcher", ["fork", "exec"])
+def test_components_do_not_outlive_a_killed_root_supervisor(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path, launcher: str) -> None:
+    proc = start(supervise, "demo", tmp_path, "--launcher", launcher)
+    wait_until(lambda: all((tmp_path / f"{c}.1.started").exists()
+                           for c in ("alpha", "beta", "gamma")), timeout=20)
+    tree = psutil.Process(proc.pid).children(recursive=True)
+    assert len(tree) >= 4  # three components and beta's helper
+    proc.kill()
+    proc.wait(timeout=10)
+    _, alive = psutil.wait_procs(tree, timeout=10)
+    assert alive == []
