@@ -1,9 +1,11 @@
 """The embedded MQTT broker (amqtt), used when a project names no broker URL.
 
-`resolve_broker(config)` decides, once, in the supervisor: with `[broker] url` set, that
-broker is used and nothing embedded starts; without it, a free loopback port is chosen,
-the URL is written into the configuration every component gets (`with_broker_url`), and
-the `EmbeddedBroker` component serves there. Also runnable on its own:
+`resolve_broker(config)` decides: with `[broker] url` set, that broker is used and
+nothing embedded starts; without it, a free loopback port is chosen and the
+`EmbeddedBroker` component serves there, writing the URL to `<run_dir>/broker.url` for
+the components started after it (`mrss.edge.component.resolved_broker_url`). A
+supervisor that prefers to decide up front can use `with_broker_url(config)` and hand
+every component the filled-in configuration. Also runnable on its own:
 `python -m mrss.broker --host 127.0.0.1 --port N` serves until SIGTERM/SIGINT.
 
 project.toml:
@@ -28,6 +30,7 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from mrss.errors import ConfigError, MrssError
+from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")
 
@@ -100,8 +103,12 @@ async def serve(host: str, port: int, stop: asyncio.Event,
         await broker.shutdown()
 
 
-class EmbeddedBroker:
-    """Component: amqtt on its own event loop thread, at the URL of `[broker] url`."""
+class EmbeddedBroker(Component):
+    """Component: amqtt on its own event loop thread, when no `[broker] url` is configured.
+
+    It writes its URL to `<run_dir>/broker.url`, where the other components find it, and
+    a restarted incarnation serves at the same URL again so clients simply reconnect.
+    """
 
     def __init__(self) -> None:
         self._thread: threading.Thread | None = None
@@ -110,10 +117,21 @@ class EmbeddedBroker:
         self._error: BaseException | None = None
         self.url = ""
 
-    def start(self, ctx: Any) -> None:
-        """Component entry: serve at the URL the supervisor resolved."""
-        section = ctx.options.get("broker", {})
-        self.serve_at(str(section.get("url", "")))
+    def start(self, ctx: ComponentContext) -> None:
+        """Component entry: serve on loopback unless the project names a broker."""
+        from mrss.edge.component import BROKER_URL_FILE, edge_config
+
+        url, embedded = resolve_broker(edge_config(ctx, "broker"))
+        if not embedded:
+            log.info("broker %s is configured; the embedded broker does not start", url)
+            return
+        url_file = ctx.run_dir / BROKER_URL_FILE
+        if url_file.is_file():  # a restart: same port, so clients reconnect to it
+            url = url_file.read_text(encoding="utf-8").strip() or url
+        self.serve_at(url)
+        partial = url_file.with_suffix(".tmp")
+        partial.write_text(url + "\n", encoding="utf-8")
+        partial.replace(url_file)
 
     def serve_at(self, url: str, timeout: float = 20.0) -> None:
         """Start serving at `url` (mqtt://host:port); BrokerError if it does not come up."""

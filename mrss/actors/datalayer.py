@@ -14,6 +14,7 @@ project.toml:
     call_timeout = 5.0          # seconds before a call is answered with an error
     workers = 4                 # calls running at once
     world_model = "bus"         # "bus" (embedded component), "http://host:port", or "none"
+The `[components.<id>]` free keys of this component are laid over `[datalayer]`.
 """
 
 from __future__ import annotations
@@ -28,13 +29,14 @@ from typing import Any
 
 from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
 from mrss.edge.busport import BusPort
-from mrss.edge.component import ComponentContext, bus_port, table
+from mrss.edge.component import bus_port, edge_config, table
 from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
 from mrss.edge.loader import load_project_class, project_file
 from mrss.edge.percepts import PerceptPublisher
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
+from mrss.supervision.component import Component, ComponentContext
 
 __all__ = ["DataLayerClient", "DataLayerComponent", "DataLayerError", "DataLayerService"]
 DEFAULT_MODULE = "datalayer.py"
@@ -142,7 +144,7 @@ def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
     return float(value)
 
 
-class DataLayerComponent:
+class DataLayerComponent(Component):
     """Component: serves `dl.request` and forwards `robot.*.data` telemetry."""
 
     def __init__(self) -> None:
@@ -155,7 +157,9 @@ class DataLayerComponent:
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus from the context, then `run`."""
-        self.run(ctx.project_dir, ctx.options, bus_port(ctx))
+        bus = bus_port(ctx)
+        self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus)
+        bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort) -> None:
         """Load the project's data layer and serve requests on `bus`."""

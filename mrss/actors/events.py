@@ -6,9 +6,10 @@ MQTT client for the project's broker, and runs it. Bad payloads are the adapter'
 business to reject; the manager counts them (`stats()`) and keeps serving.
 
 project.toml:
-    [broker]  url = "mqtt://..."     # filled in by the supervisor for the embedded broker
+    [broker]  url = "mqtt://..."     # absent: the embedded broker's (<run_dir>/broker.url)
     [events]  module = "events.py"   # default; class = "Name" when the file has several
               ...                    # every other key is the adapter's `options`
+The `[components.<id>]` free keys of this component are laid over `[events]`.
 """
 
 from __future__ import annotations
@@ -21,16 +22,17 @@ from typing import Any
 
 from mrss.edge.adapters import EventsContext, ExternalAdapter
 from mrss.edge.busport import BusPort, MessagePublisher
-from mrss.edge.component import ComponentContext, bus_port, table
+from mrss.edge.component import bus_port, edge_config, table, with_broker
 from mrss.edge.loader import load_project_class
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.edge.percepts import EventCounters, PerceptPublisher
 from mrss.messages import Percept
+from mrss.supervision.component import Component, ComponentContext
 
 DEFAULT_MODULE = "events.py"
 
 
-class ExternalEventsManager:
+class ExternalEventsManager(Component):
     """Component: loads and runs the project's external adapter."""
 
     def __init__(self) -> None:
@@ -42,9 +44,10 @@ class ExternalEventsManager:
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus from the context, then `run`."""
-        self.log = logging.getLogger(f"mrss.{ctx.name}")
+        self.log = ctx.log
+        config = with_broker(edge_config(ctx, "events"), ctx.run_dir)
         self._bus = bus_port(ctx)
-        self.run(ctx.project_dir, ctx.options, self._bus, client_id=f"mrss-{ctx.name}")
+        self.run(ctx.project_dir, config, self._bus, client_id=f"mrss-{ctx.name}")
 
     def run(self, project_dir: Path, config: Mapping[str, Any], publisher: MessagePublisher,
             *, client_id: str = "mrss-events") -> None:

@@ -13,6 +13,7 @@ project.toml:
     http_host = "127.0.0.1"      # loopback unless configured
     http_port = 0                # 0: a free port
     [[worldmodel.rules]]  ...    # built-in rules (see mrss.edge.worldmodel_service)
+The `[components.<id>]` free keys of this component are laid over `[worldmodel]`.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.edge.busport import BusPort
-from mrss.edge.component import ComponentContext, bus_port, table
+from mrss.edge.component import bus_port, edge_config, table
 from mrss.edge.worldmodel_http import WorldModelHttp
 from mrss.edge.worldmodel_rules import RuleEngine
 from mrss.edge.worldmodel_service import (
@@ -36,6 +37,7 @@ from mrss.edge.worldmodel_service import (
 from mrss.edge.worldmodel_store import WorldModelStore
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
+from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.worldmodel")
 URL_FILE = "worldmodel.url"
@@ -51,7 +53,7 @@ def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
     return str(run_dir / path)
 
 
-class WorldModelComponent:
+class WorldModelComponent(Component):
     """Component: the world model, its rules, its bus functions and its HTTP API."""
 
     def __init__(self) -> None:
@@ -62,7 +64,9 @@ class WorldModelComponent:
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus from the context, then `run`."""
-        self.run(ctx.project_dir, ctx.run_dir, ctx.options, bus_port(ctx))
+        bus = bus_port(ctx)
+        self.run(ctx.project_dir, ctx.run_dir, edge_config(ctx, "worldmodel"), bus)
+        bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path | None, run_dir: Path | None, config: Mapping[str, Any],
             bus: BusPort) -> None:
