@@ -130,7 +130,6 @@ class MqttClient:
         self.callback_errors = 0
         self._client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id=client_id,
                                    protocol=mqtt.MQTTv311)
-        self._client.enable_logger(self.log)
         self._client.reconnect_delay_set(settings.reconnect_min,  # type: ignore[arg-type]
                                          settings.reconnect_max)  # type: ignore[arg-type]
         if settings.username is not None:
@@ -144,6 +143,7 @@ class MqttClient:
         self._client.on_message = self._on_unrouted
         self._client.on_subscribe = self._on_subscribe
         self._started = False
+        self._stopping = False
 
     @property
     def connected(self) -> bool:
@@ -159,6 +159,7 @@ class MqttClient:
         if self._started:
             return
         self._started = True
+        self._stopping = False
         self._client.connect_async(self.settings.host, self.settings.port,
                                    keepalive=self.settings.keepalive)
         self._client.loop_start()
@@ -168,6 +169,7 @@ class MqttClient:
         if not self._started:
             return
         self._started = False
+        self._stopping = True
         self._client.disconnect()
         self._client.loop_stop()
         self._connected.clear()
@@ -258,6 +260,6 @@ class MqttClient:
 
     def _on_disconnect(self, _client: Any, _userdata: Any, _flags: Any, reason_code: Any,
                        _properties: Any) -> None:
-        if self._connected.is_set():
+        if self._connected.is_set() and not self._stopping:
             self.log.warning("disconnected from %s: %s", self.settings.url, reason_code)
         self._connected.clear()
