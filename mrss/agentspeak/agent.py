@@ -82,6 +82,7 @@ class Agent(Runtime):
             self.post_goal(goal, None)
         self._cond = threading.Condition()
         self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
+        self._woken = False
 
     @classmethod
     def from_file(cls, path: str | Path, **kwargs: Any) -> Agent:
@@ -91,6 +92,12 @@ class Agent(Runtime):
     def _put(self, item: tuple[str, Any, Any, Any]) -> None:
         with self._cond:
             self._inbox.append(item)
+            self._cond.notify_all()
+
+    def wake(self) -> None:
+        """Make a `wait_for_work` in the loop thread return now (e.g. to stop)."""
+        with self._cond:
+            self._woken = True
             self._cond.notify_all()
 
     def add_percept(self, literal: str | Struct) -> None:
@@ -194,6 +201,9 @@ class Agent(Runtime):
         end = None if timeout is None else time.monotonic() + timeout
         with self._cond:
             while not self.has_work():
+                if self._woken:
+                    self._woken = False
+                    return False
                 remaining = None if end is None else end - time.monotonic()
                 deadline = self.next_deadline()
                 if deadline is not None:
