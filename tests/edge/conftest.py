@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import getpass
+import shutil
 import socket
 import subprocess
 import sys
@@ -49,8 +50,10 @@ class SecureBroker:
 @pytest.fixture(scope="session")
 def secure_mosquitto() -> Iterator[SecureBroker]:
     binary = find_mosquitto()
-    if binary is None:
-        pytest.skip("mosquitto is not installed (needed for password and TLS tests)")
+    tools = [shutil.which("openssl"), shutil.which("mosquitto_passwd")]
+    if binary is None or None in tools:
+        pytest.skip("mosquitto, mosquitto_passwd and openssl are needed for the password "
+                    "and TLS tests")
     with tempfile.TemporaryDirectory(prefix="mrss-secure-") as tmp:
         d = Path(tmp)
         subprocess.run(
