@@ -1,0 +1,1 @@
+"""Components of MRSS and the pykka actors inside them."""
