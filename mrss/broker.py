@@ -1,17 +1,42 @@
 """The embedded MQTT broker (amqtt), used when a project names no broker URL.
 
-Run as `python -m mrss.broker --host 127.0.0.1 --port N`; it serves until SIGTERM/SIGINT.
+`resolve_broker(config)` decides: with `[broker] url` set, that broker is used and
+nothing embedded starts; without it, a free loopback port is chosen and the
+`EmbeddedBroker` component serves there, writing the URL to `<run_dir>/broker.url` for
+the components started after it (`mrss.edge.component.resolved_broker_url`). A
+supervisor that prefers to decide up front can use `with_broker_url(config)` and hand
+every component the filled-in configuration. Also runnable on its own:
+`python -m mrss.broker --host 127.0.0.1 --port N` serves until SIGTERM/SIGINT.
+
+project.toml:
+    [broker]
+    url = "mqtt://host:1883"        # or mqtts://; absent: the embedded broker
+    [broker.embedded]
+    host = "127.0.0.1"              # loopback unless configured
+    port = 0                        # 0: a free port
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import copy
 import logging
 import signal
+import socket
+import threading
+from collections.abc import Mapping
 from typing import Any
+from urllib.parse import urlsplit
+
+from mrss.errors import ConfigError, MrssError
+from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")
+
+
+class BrokerError(MrssError):
+    """The embedded broker could not start."""
 
 
 def broker_config(host: str, port: int) -> dict[str, Any]:
@@ -22,17 +47,135 @@ def broker_config(host: str, port: int) -> dict[str, Any]:
     }
 
 
-async def serve(host: str, port: int, stop: asyncio.Event) -> None:
-    """Run the broker until `stop` is set."""
+def _free_port(host: str) -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+def resolve_broker(config: Mapping[str, Any]) -> tuple[str, bool]:
+    """The broker URL every adapter and link uses, and whether the embedded one must start."""
+    section = config.get("broker", {})
+    if not isinstance(section, Mapping):
+        raise ConfigError("[broker] must be a table", key="broker")
+    url = section.get("url")
+    if url:
+        if not isinstance(url, str) or urlsplit(url).scheme not in ("mqtt", "mqtts"):
+            raise ConfigError(f"{url!r} must be an mqtt:// or mqtts:// URL", key="broker.url")
+        return url, False
+    embedded = section.get("embedded", {})
+    if not isinstance(embedded, Mapping):
+        raise ConfigError("[broker.embedded] must be a table", key="broker.embedded")
+    host = embedded.get("host", "127.0.0.1")
+    port = embedded.get("port", 0)
+    if not isinstance(host, str) or isinstance(port, bool) or not isinstance(port, int) \
+            or not 0 <= port < 65536:
+        raise ConfigError("host must be a string and port an integer in 0..65535",
+                          key="broker.embedded")
+    return f"mqtt://{host}:{port or _free_port(host)}", True
+
+
+def with_broker_url(config: Mapping[str, Any]) -> tuple[dict[str, Any], bool]:
+    """A copy of `config` whose `[broker] url` is set; True when it is the embedded broker."""
+    url, embedded = resolve_broker(config)
+    out = copy.deepcopy(dict(config))
+    section = dict(out.get("broker", {}))
+    section["url"] = url
+    section["embedded_running"] = embedded
+    out["broker"] = section
+    return out, embedded
+
+
+async def serve(host: str, port: int, stop: asyncio.Event,
+                started: threading.Event | None = None) -> None:
+    """Run the broker until `stop` is set (`started` is set once it listens)."""
     from amqtt.broker import Broker
 
     broker = Broker(broker_config(host, port))
     await broker.start()
     log.info("embedded MQTT broker listening on %s:%d", host, port)
+    if started is not None:
+        started.set()
     try:
         await stop.wait()
     finally:
         await broker.shutdown()
+
+
+class EmbeddedBroker(Component):
+    """Component: amqtt on its own event loop thread, when no `[broker] url` is configured.
+
+    It writes its URL to `<run_dir>/broker.url`, where the other components find it, and
+    a restarted incarnation serves at the same URL again so clients simply reconnect.
+    """
+
+    def __init__(self) -> None:
+        self._thread: threading.Thread | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._error: BaseException | None = None
+        self.url = ""
+
+    def start(self, ctx: ComponentContext) -> None:
+        """Component entry: serve on loopback unless the project names a broker."""
+        from mrss.edge.component import BROKER_URL_FILE, edge_config
+
+        url, embedded = resolve_broker(edge_config(ctx, "broker"))
+        if not embedded:
+            log.info("broker %s is configured; the embedded broker does not start", url)
+            return
+        url_file = ctx.run_dir / BROKER_URL_FILE
+        if url_file.is_file():  # a restart: same port, so clients reconnect to it
+            url = url_file.read_text(encoding="utf-8").strip() or url
+        self.serve_at(url)
+        partial = url_file.with_suffix(".tmp")
+        partial.write_text(url + "\n", encoding="utf-8")
+        partial.replace(url_file)
+
+    def serve_at(self, url: str, timeout: float = 20.0) -> None:
+        """Start serving at `url` (mqtt://host:port); BrokerError if it does not come up."""
+        parts = urlsplit(url)
+        if parts.scheme != "mqtt" or not parts.hostname or not parts.port:
+            raise ConfigError(f"the embedded broker needs mqtt://host:port, not {url!r}",
+                              key="broker.url")
+        host, port = parts.hostname, parts.port
+        for name in ("amqtt", "transitions"):
+            logging.getLogger(name).setLevel(logging.WARNING)
+        started = threading.Event()
+        self._loop = asyncio.new_event_loop()
+
+        def run() -> None:
+            assert self._loop is not None
+            asyncio.set_event_loop(self._loop)
+            self._stop = asyncio.Event()
+            try:
+                self._loop.run_until_complete(serve(host, port, self._stop, started))
+            except BaseException as exc:  # reported to start() below
+                self._error = exc
+                started.set()
+            finally:
+                self._loop.close()
+
+        self._thread = threading.Thread(target=run, name="embedded-broker", daemon=True)
+        self._thread.start()
+        if not started.wait(timeout) or self._error is not None:
+            raise BrokerError(f"embedded MQTT broker did not start on {host}:{port}: "
+                              f"{self._error!r}")
+        self.url = url
+
+    @property
+    def running(self) -> bool:
+        """True while the broker thread serves."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def stop(self) -> None:
+        """Shut the broker down and join its thread."""
+        loop, stop = self._loop, self._stop
+        if loop is not None and stop is not None and self.running:
+            loop.call_soon_threadsafe(stop.set)
+        if self._thread is not None:
+            self._thread.join(timeout=10)
 
 
 def main(argv: list[str] | None = None) -> int:

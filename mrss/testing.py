@@ -93,7 +93,7 @@ def mosquitto_broker(
         conf = Path(tmp) / "mosquitto.conf"
         conf.write_text(
             f"listener {port} {host}\nallow_anonymous true\npersistence false\n"
-            "log_type error\nlog_type warning\n" + extra_config
+            "set_tcp_nodelay true\nlog_type error\nlog_type warning\n" + extra_config
         )
         proc = subprocess.Popen(
             [binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
@@ -133,3 +133,11 @@ def amqtt_broker(host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
             proc.wait()
         if proc.stderr:
             proc.stderr.close()
+
+
+def free_udp_port(host: str = "127.0.0.1") -> int:
+    """A UDP port on `host` that nothing is bound to right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind((host, 0))
+        port: int = s.getsockname()[1]
+        return port

@@ -1,1 +1,1 @@
-"""Actors inside MRSS components: the Robot Communication Layer (rcl, robot, skill)."""
+"""Components of MRSS and the pykka actors inside them."""

@@ -7,4 +7,5 @@ BENCHES: dict[str, str] = {
     "restart": "time from SIGKILL to a restarted component answering",
     "reasoner": "AgentSpeak interpreter throughput vs python-agentspeak",
     "e2e": "latency from percept to the first skill start",
+    "edges": "data layer calls and MQTT -> percept latency through the edge components",
 }

@@ -1,0 +1,220 @@
+"""The Symbol and Data Layer component (paper IV-C): grounding, external functions, telemetry.
+
+It runs the project's `DataLayer` (from `projects/<name>/datalayer.py`, or the default
+one that grounds ids from the world model). `DataRequest`s arrive on `dl.request`; each
+gets exactly one `DataReply` on `dl.reply` with the same `request_id`: the result, or
+`ok=False` with the error text when the function is unknown, raises, returns something
+that is not plain data, or runs longer than `call_timeout`. Robot telemetry
+(`RobotData` on `robot.<id>.data`) goes to `DataLayer.on_telemetry`, in order.
+
+project.toml:
+    [datalayer]
+    module = "datalayer.py"     # default; the default DataLayer when the file is absent
+    class = "Name"              # when the file defines several
+    call_timeout = 5.0          # seconds before a call is answered with an error
+    workers = 4                 # calls running at once
+    world_model = "bus"         # "bus" (embedded component), "http://host:port", or "none"
+The `[components.<id>]` free keys of this component are laid over `[datalayer]`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
+from pathlib import Path
+from typing import Any
+
+from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
+from mrss.edge.busport import BusPort
+from mrss.edge.component import bus_port, edge_config, table
+from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
+from mrss.edge.loader import load_project_class, project_file
+from mrss.edge.percepts import PerceptPublisher
+from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
+from mrss.errors import ConfigError
+from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
+from mrss.supervision.component import Component, ComponentContext
+
+__all__ = ["DataLayerClient", "DataLayerComponent", "DataLayerError", "DataLayerService"]
+DEFAULT_MODULE = "datalayer.py"
+log = logging.getLogger("mrss.datalayer")
+
+
+def plain(value: Any, depth: int = 0) -> Any:
+    """`value` as bus-safe plain data (tuples become lists); TypeError otherwise."""
+    if depth > 64:
+        raise TypeError("result is nested too deeply")
+    if value is None or isinstance(value, (bool, int, str, bytes)):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise TypeError("result holds a non-finite number")
+        return value
+    if isinstance(value, (list, tuple)):
+        return [plain(v, depth + 1) for v in value]
+    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
+        return {k: plain(v, depth + 1) for k, v in value.items()}
+    raise TypeError(f"result holds a {type(value).__name__}, which is not plain data")
+
+
+class DataLayerService:
+    """Runs calls on a worker pool with a time limit; every request gets one reply."""
+
+    def __init__(self, datalayer: DataLayer, *, call_timeout: float = 5.0,
+                 workers: int = 4) -> None:
+        self.datalayer = datalayer
+        self.call_timeout = call_timeout
+        self.functions = datalayer.functions()
+        self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="dl-call")
+        self.requests = 0
+        self.errors = 0
+        self.timeouts = 0
+        self.telemetry_errors = 0
+
+    def handle(self, request: DataRequest) -> DataReply:
+        """Run one request; the reply carries the result or the error text."""
+        self.requests += 1
+        function = self.functions.get(request.function)
+        if function is None:
+            return self._error(request, f"unknown function {request.function!r}; known: "
+                               f"{', '.join(sorted(self.functions))}")
+        future = self._pool.submit(function, *request.args)
+        try:
+            result = plain(future.result(timeout=self.call_timeout))
+        except FutureTimeout:
+            self.timeouts += 1
+            return self._error(request, f"{request.function} timed out after "
+                               f"{self.call_timeout:g}s")
+        except Exception as exc:
+            if not isinstance(exc, (LookupError, TypeError, ValueError, DataLayerError)):
+                log.warning("data layer function %s failed: %r", request.function, exc)
+            return self._error(request, f"{request.function}: {exc.__class__.__name__}: {exc}")
+        return DataReply(request_id=request.request_id, ok=True, result=result)
+
+    def telemetry(self, data: RobotData) -> bool:
+        """Hand telemetry to the project; a failure is logged and counted."""
+        try:
+            self.datalayer.on_telemetry(data.robot, data.data)
+            return True
+        except Exception:
+            self.telemetry_errors += 1
+            log.exception("telemetry of robot %s could not be forwarded", data.robot)
+            return False
+
+    def _error(self, request: DataRequest, text: str) -> DataReply:
+        self.errors += 1
+        return DataReply(request_id=request.request_id, ok=False, error=text)
+
+    def close(self) -> None:
+        """Stop the workers (calls still running are abandoned)."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
+def world_access(section: Mapping[str, Any], bus: BusPort | None) -> WorldModelAccess | None:
+    """The world model the `[datalayer] world_model` option points to."""
+    target = section.get("world_model", "bus")
+    if target == "none":
+        return None
+    if target == "bus":
+        if bus is None:
+            raise ConfigError("world_model = 'bus' needs the bus", key="datalayer.world_model")
+        return BusWorldModel(bus)
+    if isinstance(target, str) and target.startswith(("http://", "https://")):
+        return HttpWorldModel(target)
+    raise ConfigError(f"{target!r}: use 'bus', 'none' or an http:// URL",
+                      key="datalayer.world_model")
+
+
+def load_datalayer_class(project_dir: Path, section: Mapping[str, Any]) -> type[DataLayer]:
+    """The project's DataLayer subclass, or the default when there is no datalayer.py."""
+    module = section.get("module")
+    if module is None and not project_file(project_dir, DEFAULT_MODULE).is_file():
+        return DataLayer
+    return load_project_class(project_dir, str(module or DEFAULT_MODULE), DataLayer,
+                              class_name=section.get("class"), key="datalayer.module")
+
+
+def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
+    value = section.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
+        raise ConfigError("must be a positive number", key=f"datalayer.{key}")
+    return float(value)
+
+
+class DataLayerComponent(Component):
+    """Component: serves `dl.request` and forwards `robot.*.data` telemetry."""
+
+    def __init__(self) -> None:
+        self.datalayer: DataLayer | None = None
+        self.service: DataLayerService | None = None
+        self._bus: BusPort | None = None
+        self._dispatch: ThreadPoolExecutor | None = None
+        self._telemetry: ThreadPoolExecutor | None = None
+        self._world: WorldModelAccess | None = None
+
+    def start(self, ctx: ComponentContext) -> None:
+        """Component entry: bus from the context, then `run`."""
+        bus = bus_port(ctx)
+        self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus)
+        bus.wait_connected(5.0)  # ready means requests are heard
+
+    def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort) -> None:
+        """Load the project's data layer and serve requests on `bus`."""
+        section = table(config, "datalayer")
+        cls = load_datalayer_class(project_dir, section)
+        timeout = _positive(section, "call_timeout", 5.0)
+        workers = int(_positive(section, "workers", 4))
+        self._bus = bus
+        self._world = world_access(section, bus)
+
+        def to_bus(percept: Percept) -> None:
+            bus.publish(percept)
+
+        options = {k: v for k, v in section.items() if k not in ("module", "class")}
+        self.datalayer = cls(DataLayerContext(world=self._world, percept=PerceptPublisher(
+            to_bus), options=options, project_dir=project_dir, log=log))
+        self.datalayer.start()
+        self.service = DataLayerService(self.datalayer, call_timeout=timeout, workers=workers)
+        # Dispatch threads wait on calls, so a slow call never holds up the others.
+        self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
+                                            thread_name_prefix="dl-dispatch")
+        self._telemetry = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dl-telemetry")
+        bus.subscribe([Topic.DL_REQUEST.value, Topic.ROBOT.value], self._on_message)
+        log.info("data layer %s serving %d functions", cls.__name__,
+                 len(self.service.functions))
+
+    def _on_message(self, env: Envelope) -> None:
+        body = env.body
+        if isinstance(body, DataRequest) and env.topic == Topic.DL_REQUEST.value:
+            assert self._dispatch is not None
+            self._dispatch.submit(self._answer, body)
+        elif isinstance(body, RobotData):
+            assert self._telemetry is not None and self.service is not None
+            self._telemetry.submit(self.service.telemetry, body)
+
+    def _answer(self, request: DataRequest) -> None:
+        assert self.service is not None and self._bus is not None
+        try:
+            reply = self.service.handle(request)
+        except Exception as exc:  # never leave a caller waiting for a reply that won't come
+            log.exception("data layer request %s failed", request.function)
+            reply = DataReply(request_id=request.request_id, ok=False,
+                              error=f"internal error: {exc.__class__.__name__}")
+        self._bus.publish(reply)
+
+    def stop(self) -> None:
+        """Stop serving, then stop the project's data layer."""
+        if self._bus is not None:
+            self._bus.close()
+        for pool in (self._dispatch, self._telemetry):
+            if pool is not None:
+                pool.shutdown(wait=False, cancel_futures=True)
+        try:
+            if self.datalayer is not None:
+                self.datalayer.stop()
+        finally:
+            if self.service is not None:
+                self.service.close()

@@ -1,0 +1,236 @@
+"""Base classes a project subclasses: `ExternalAdapter` (events.py) and `DataLayer` (datalayer.py).
+
+An external adapter turns outside events into percepts (paper IV-B):
+
+    class Adapter(ExternalAdapter):
+        def start(self) -> None:
+            self.map_json("ui/area", "area_goal_received",
+                          Field("area", "atom"), Field("priority", "int"))
+            self.on_json("ui/cancel", self.cancel)
+
+        def cancel(self, topic: str, obj: dict) -> None:
+            self.percept("goal_cancelled", Atom(obj["goal"]))
+
+A handler that raises is counted and logged with its topic; percepts it published before
+failing are dropped. A `PayloadError`/`PredicateError`/`ValueError`/`KeyError`/`TypeError`
+counts as a bad payload, anything else as a handler error; neither stops the component.
+
+A data layer answers grounding requests and external function calls, and forwards robot
+telemetry to the world model (paper IV-C):
+
+    class Data(DataLayer):
+        @external("distance")
+        def distance(self, a: str, b: str) -> float: ...
+"""
+
+from __future__ import annotations
+
+import inspect
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, TypeVar
+
+from mrss.edge.mqtt_client import MqttClient
+from mrss.edge.payloads import Field, JsonMapping, decode_json_object
+from mrss.edge.percepts import EventCounters, PerceptPublisher
+from mrss.edge.predicates import PredicateError, Term
+from mrss.errors import ConfigError, DecodeError
+
+BAD_INPUT = (DecodeError, PredicateError, ValueError, KeyError, TypeError)
+JsonHandler = Callable[[str, dict[str, Any]], None]
+RawHandler = Callable[[str, bytes], None]
+
+
+@dataclass
+class EventsContext:
+    """What the events manager hands its adapter."""
+
+    percept: PerceptPublisher
+    mqtt: MqttClient | None
+    options: Mapping[str, Any] = field(default_factory=dict)
+    project_dir: Path | None = None
+    broker_url: str | None = None
+    log: logging.Logger = field(default_factory=lambda: logging.getLogger("mrss.events"))
+
+
+class ExternalAdapter:
+    """A project's translator from outside events to percepts; override `start`."""
+
+    def __init__(self, context: EventsContext) -> None:
+        self.context = context
+        self.percept = context.percept
+        self.options = context.options
+        self.log = context.log
+        self.counters: EventCounters = context.percept.counters
+
+    @property
+    def mqtt(self) -> MqttClient:
+        """The MQTT client connected to the project's broker."""
+        if self.context.mqtt is None:
+            raise ConfigError("this events manager has no MQTT broker configured",
+                              key="broker.url")
+        return self.context.mqtt
+
+    def start(self) -> None:
+        """Subscribe to what the project listens to (called once, before messages flow)."""
+
+    def stop(self) -> None:
+        """Release what `start` acquired (the MQTT client is stopped by the manager)."""
+
+    def on_message(self, topic_filter: str, handler: RawHandler) -> None:
+        """Call `handler(topic, payload)` for each MQTT message; guarded and counted."""
+        def guarded(topic: str, payload: bytes) -> None:
+            self.handle(topic, lambda: handler(topic, payload))
+        self.mqtt.subscribe(topic_filter, guarded)
+
+    def on_json(self, topic_filter: str, handler: JsonHandler) -> None:
+        """Like `on_message`, but the payload must be a JSON object (else a bad payload)."""
+        self.on_message(topic_filter, lambda topic, payload: handler(
+            topic, decode_json_object(payload, topic=topic)))
+
+    def map_json(self, topic_filter: str, mapping: JsonMapping | str, *fields: Field,
+                 op: str = "add", annotations: tuple[Term, ...] = ()) -> JsonMapping:
+        """Publish one percept per JSON message, built from declared fields."""
+        if isinstance(mapping, str):
+            mapping = JsonMapping(mapping, *fields, annotations=annotations)
+        declared = mapping
+
+        def to_percept(topic: str, payload: bytes) -> None:
+            self.percept(declared.literal(payload, topic=topic), op=op)
+        self.on_message(topic_filter, to_percept)
+        return declared
+
+    def handle(self, topic: str, work: Callable[[], None]) -> bool:
+        """Run `work` for a message on `topic`: percepts only if it succeeds; True if it did."""
+        counters = self.counters
+        counters.received += 1
+        try:
+            with self.percept.batch():
+                work()
+            return True
+        except BAD_INPUT as exc:
+            counters.bad_payloads += 1
+            counters.bad_by_topic[topic] = counters.bad_by_topic.get(topic, 0) + 1
+            counters.last_error = f"{topic}: {exc}"
+            self.log.warning("bad payload on topic %r: %s", topic, exc)
+        except Exception as exc:
+            counters.handler_errors += 1
+            counters.last_error = f"{topic}: {exc.__class__.__name__}: {exc}"
+            self.log.exception("adapter handler failed on topic %r", topic)
+        return False
+
+
+class WorldModelAccess(Protocol):
+    """A world model as the data layer sees it: plain JSON objects by id and kind."""
+
+    def get(self, object_id: str) -> dict[str, Any] | None: ...
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]: ...
+
+    def upsert(self, obj: dict[str, Any]) -> dict[str, Any]: ...
+
+    def near(self, lat: float, lon: float, radius_m: float,
+             kind: str | None = None) -> list[dict[str, Any]]: ...
+
+
+@dataclass
+class DataLayerContext:
+    """What the data layer component hands the project's DataLayer."""
+
+    world: WorldModelAccess | None
+    percept: PerceptPublisher | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+    project_dir: Path | None = None
+    log: logging.Logger = field(default_factory=lambda: logging.getLogger("mrss.datalayer"))
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+_EXTERNAL_ATTR = "_mrss_external_name"
+POSITION_KEYS = ("lat", "lon", "alt")
+
+
+def external(name: str | None = None) -> Callable[[F], F]:
+    """Mark a DataLayer method as an external function callable as `name` (default: its own)."""
+    def mark(method: F) -> F:
+        setattr(method, _EXTERNAL_ATTR, name or method.__name__)
+        return method
+    return mark
+
+
+class DataLayer:
+    """A project's symbol and data layer. The defaults ground ids from the world model.
+
+    Built-in functions: `ping()`, `ground(id)`, `objects(kind)`, `near(lat, lon, radius_m,
+    kind)`. A project adds its own with `@external`; a lookup that fails raises (the
+    caller gets an error reply with the message).
+    """
+
+    def __init__(self, context: DataLayerContext) -> None:
+        self.context = context
+        self.options = context.options
+        self.log = context.log
+
+    @property
+    def world(self) -> WorldModelAccess:
+        """The world model; ConfigError when the deployment has none."""
+        if self.context.world is None:
+            raise ConfigError("no world model is configured", key="datalayer.world_model")
+        return self.context.world
+
+    def start(self) -> None:
+        """Connect to external systems (called once before requests flow)."""
+
+    def stop(self) -> None:
+        """Release what `start` acquired."""
+
+    def functions(self) -> dict[str, Callable[..., Any]]:
+        """Every callable function by name: the built-ins and the `@external` methods."""
+        table: dict[str, Callable[..., Any]] = {}
+        for attr in dir(type(self)):
+            raw = inspect.getattr_static(self, attr, None)
+            name = getattr(raw, _EXTERNAL_ATTR, None)
+            if isinstance(name, str):
+                table[name] = getattr(self, attr)
+        return table
+
+    @external()
+    def ping(self) -> str:
+        """Liveness probe."""
+        return "pong"
+
+    @external()
+    def ground(self, object_id: str) -> Any:
+        """The data behind an object id (the world model object by default)."""
+        if not isinstance(object_id, str):
+            raise TypeError("object id must be a string")
+        obj = self.world.get(object_id)
+        if obj is None:
+            raise LookupError(f"no object {object_id!r} in the world model")
+        return obj
+
+    @external()
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        """Every object of a kind (all objects without one)."""
+        return self.world.objects(kind)
+
+    @external()
+    def near(self, lat: float, lon: float, radius_m: float,
+             kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects within a radius of a point, nearest first."""
+        return self.world.near(lat, lon, radius_m, kind)
+
+    def on_telemetry(self, robot: str, data: Mapping[str, Any]) -> None:
+        """Robot telemetry: by default the robot's world model object is updated with it.
+
+        `lat`/`lon`/`alt` become its position; everything else merges into attributes.
+        """
+        if self.context.world is None:
+            return
+        obj: dict[str, Any] = {"id": robot, "kind": "robot",
+                               "attributes": {k: v for k, v in data.items()
+                                              if k not in POSITION_KEYS}}
+        if "lat" in data and "lon" in data:
+            obj["position"] = {k: data[k] for k in POSITION_KEYS if k in data}
+        self.world.upsert(obj)

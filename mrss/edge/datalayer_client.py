@@ -1,0 +1,100 @@
+"""Calling the data layer over the bus: a request, the reply with the same request id.
+
+    client = DataLayerClient(bus)
+    reply = client.request("ground", ["h1"], timeout=2.0)   # a DataReply, never raises
+    value = client.call("ground", ["h1"], timeout=2.0)      # the result, or DataLayerError
+
+The reasoner's `query(...)` and the RCL's grounding use `call`. A reply that never comes
+becomes an error reply (`ok=False`) after the timeout; replies to unknown or expired
+requests are ignored.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+from mrss.edge.busport import BusPort
+from mrss.errors import MrssError
+from mrss.messages import DataReply, DataRequest, Envelope, Topic, new_id
+
+DEFAULT_TIMEOUT = 5.0
+
+
+class DataLayerError(MrssError):
+    """A data layer call failed: the function raised, was unknown, or timed out."""
+
+    def __init__(self, function: str, reason: str, *, request_id: str = "") -> None:
+        self.function = function
+        self.reason = reason
+        self.request_id = request_id
+        super().__init__(f"data layer call {function!r} failed: {reason}")
+
+
+class _Pending:
+    __slots__ = ("done", "reply")
+
+    def __init__(self) -> None:
+        self.done = threading.Event()
+        self.reply: DataReply | None = None
+
+
+class DataLayerClient:
+    """Request/reply over pub/sub, matched by request id; thread-safe."""
+
+    def __init__(self, bus: BusPort, *, request_topic: str = Topic.DL_REQUEST.value,
+                 reply_topic: str = Topic.DL_REPLY.value,
+                 default_timeout: float = DEFAULT_TIMEOUT) -> None:
+        self._bus = bus
+        self.request_topic = request_topic
+        self.reply_topic = reply_topic
+        self.default_timeout = default_timeout
+        self._pending: dict[str, _Pending] = {}
+        self._lock = threading.Lock()
+        self.unmatched_replies = 0
+        self._sub = bus.subscribe([reply_topic], self._on_reply)
+
+    def close(self) -> None:
+        """Stop listening; requests still waiting time out."""
+        self._sub.close()
+
+    def request(self, function: str, args: Sequence[Any] = (),
+                timeout: float | None = None) -> DataReply:
+        """Send a request and wait for its reply; a timeout gives an error reply."""
+        request_id = new_id()
+        waiter = _Pending()
+        with self._lock:
+            self._pending[request_id] = waiter
+        limit = self.default_timeout if timeout is None else timeout
+        try:
+            self._bus.publish(DataRequest(request_id=request_id, function=function,
+                                          args=list(args)), topic=self.request_topic)
+            if waiter.done.wait(limit) and waiter.reply is not None:
+                return waiter.reply
+            return DataReply(request_id=request_id, ok=False,
+                             error=f"no reply to {function!r} within {limit:g}s")
+        finally:
+            with self._lock:
+                self._pending.pop(request_id, None)
+
+    def call(self, function: str, args: Sequence[Any] = (),
+             timeout: float | None = None) -> Any:
+        """The result of `function(*args)`, or DataLayerError with the reason."""
+        reply = self.request(function, args, timeout)
+        if not reply.ok:
+            raise DataLayerError(function, reply.error or "error reply",
+                                 request_id=reply.request_id)
+        return reply.result
+
+    def _on_reply(self, env: Envelope) -> None:
+        body = env.body
+        if env.topic != self.reply_topic or not isinstance(body, DataReply):
+            return
+        with self._lock:
+            waiter = self._pending.get(body.request_id)
+        if waiter is None:
+            self.unmatched_replies += 1
+            return
+        waiter.reply = body
+        waiter.done.set()

@@ -1,0 +1,88 @@
+"""Publishing percepts: literal strings (checked) or functor + args (built safely).
+
+`PerceptPublisher` is what an adapter calls. Inside a guarded handler the percepts are
+held back and published only when the handler returns normally, so a payload that
+fails half-way through never turns into a percept.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+from mrss.edge.predicates import Term, check_literal, literal
+from mrss.messages import Percept
+
+PerceptSink = Callable[[Percept], None]
+
+
+@dataclass
+class EventCounters:
+    """What an events manager has seen: messages, percepts, and rejected input by topic."""
+
+    received: int = 0
+    percepts: int = 0
+    bad_payloads: int = 0
+    handler_errors: int = 0
+    bad_by_topic: dict[str, int] = field(default_factory=dict)
+    last_error: str = ""
+
+    def snapshot(self) -> dict[str, object]:
+        """A plain copy for logs, the TUI and tests."""
+        return {"received": self.received, "percepts": self.percepts,
+                "bad_payloads": self.bad_payloads, "handler_errors": self.handler_errors,
+                "bad_by_topic": dict(self.bad_by_topic), "last_error": self.last_error}
+
+
+class PerceptPublisher:
+    """Callable that publishes `Percept`s on the bus through `sink`.
+
+        publish("area_goal_received(a1, 3)")              # a whole literal, validated
+        publish("area_goal_received", Atom("a1"), 3)     # functor and args, quoted safely
+        publish("area_goal_received", Atom("a1"), 3, op="remove")
+    """
+
+    def __init__(self, sink: PerceptSink, counters: EventCounters | None = None) -> None:
+        self._sink = sink
+        self.counters = counters or EventCounters()
+        self._local = threading.local()
+        self._lock = threading.Lock()
+
+    def __call__(self, text: str, *args: Term, op: str = "add",
+                 annotations: Sequence[Term] = ()) -> str:
+        """Publish one percept (held back inside `batch()`); return its literal text."""
+        if op not in ("add", "remove"):
+            raise ValueError(f"percept op must be 'add' or 'remove', not {op!r}")
+        if args or annotations:
+            text = literal(text, *args, annotations=annotations)
+        else:
+            text = check_literal(text)
+        percept = Percept(literal=text, op=op)
+        held: list[Percept] | None = getattr(self._local, "held", None)
+        if held is not None:
+            held.append(percept)
+        else:
+            self._emit(percept)
+        return text
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Hold this thread's percepts until the block ends normally; drop them on error."""
+        if getattr(self._local, "held", None) is not None:
+            yield  # nested: the outer batch decides
+            return
+        self._local.held = []
+        try:
+            yield
+            held: list[Percept] = self._local.held
+        finally:
+            self._local.held = None
+        for percept in held:
+            self._emit(percept)
+
+    def _emit(self, percept: Percept) -> None:
+        self._sink(percept)
+        with self._lock:
+            self.counters.percepts += 1

@@ -1,0 +1,121 @@
+"""Ways for the data layer to reach a world model: over the bus, over HTTP, or in-process.
+
+All three give plain JSON objects (`{"id", "kind", "position", "attributes", ...}`) and
+satisfy `mrss.edge.adapters.WorldModelAccess`. The bus one talks to the embedded world
+model component; the HTTP one to any service with the same small API (a deployment's own
+world model); the local one wraps a `WorldModel` in the same process.
+"""
+
+from __future__ import annotations
+
+import json
+import urllib.error
+import urllib.request
+from typing import Any
+from urllib.parse import quote, urlencode
+
+from mrss.edge.datalayer_client import DataLayerClient
+from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, WorldModel
+from mrss.edge.worldmodel_store import Position, WorldObject
+from mrss.errors import MrssError
+
+
+class WorldModelUnavailable(MrssError):
+    """The world model could not be reached or answered with an error."""
+
+
+class BusWorldModel:
+    """The embedded world model component, reached with requests on `dl.request.wm`."""
+
+    def __init__(self, bus: Any, timeout: float = 2.0) -> None:
+        self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
+                                      reply_topic=WM_REPLY_TOPIC, default_timeout=timeout)
+
+    def close(self) -> None:
+        self.client.close()
+
+    def get(self, object_id: str) -> dict[str, Any] | None:
+        result = self.client.call("wm.get", [object_id])
+        return None if result is None else dict(result)
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        return list(self.client.call("wm.list", [kind]))
+
+    def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
+        return dict(self.client.call("wm.upsert", [obj]))
+
+    def near(self, lat: float, lon: float, radius_m: float,
+             kind: str | None = None) -> list[dict[str, Any]]:
+        return list(self.client.call("wm.near", [lat, lon, radius_m, kind]))
+
+
+class HttpWorldModel:
+    """A world model behind the HTTP API of `mrss.edge.worldmodel_http`."""
+
+    def __init__(self, base_url: str, timeout: float = 5.0) -> None:
+        self.base_url = base_url.rstrip("/")
+        self.timeout = timeout
+
+    def _request(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.base_url + path, data=data, method=method,
+                                     headers={"Content-Type": "application/json"})
+        try:
+            with urllib.request.urlopen(req, timeout=self.timeout) as resp:
+                return resp.status, json.loads(resp.read() or b"null")
+        except urllib.error.HTTPError as exc:
+            detail = exc.read().decode("utf-8", "replace")
+            return exc.code, {"error": detail}
+        except (OSError, ValueError) as exc:
+            raise WorldModelUnavailable(f"{method} {self.base_url}{path}: {exc}") from exc
+
+    def _ok(self, status: int, body: Any, what: str) -> Any:
+        if status >= 400:
+            raise WorldModelUnavailable(f"{what}: HTTP {status}: {body.get('error', body)}")
+        return body
+
+    def get(self, object_id: str) -> dict[str, Any] | None:
+        status, body = self._request("GET", "/objects/" + quote(object_id, safe=""))
+        if status == 404:
+            return None
+        return dict(self._ok(status, body, f"get {object_id!r}"))
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        query = "?" + urlencode({"kind": kind}) if kind else ""
+        status, body = self._request("GET", "/objects" + query)
+        return list(self._ok(status, body, "list")["objects"])
+
+    def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
+        status, body = self._request("POST", "/objects", obj)
+        return dict(self._ok(status, body, "upsert"))
+
+    def near(self, lat: float, lon: float, radius_m: float,
+             kind: str | None = None) -> list[dict[str, Any]]:
+        params: dict[str, Any] = {"lat": lat, "lon": lon, "radius_m": radius_m}
+        if kind:
+            params["kind"] = kind
+        status, body = self._request("GET", "/objects?" + urlencode(params))
+        return list(self._ok(status, body, "near")["objects"])
+
+
+class LocalWorldModel:
+    """A `WorldModel` in this process."""
+
+    def __init__(self, world: WorldModel) -> None:
+        self.world = world
+
+    def get(self, object_id: str) -> dict[str, Any] | None:
+        obj = self.world.get(object_id)
+        return None if obj is None else obj.to_json()
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        return [o.to_json() for o in self.world.objects(kind)]
+
+    def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
+        change = self.world.upsert(WorldObject.from_json(obj))
+        return {"op": change.op, "object": change.obj.to_json()}
+
+    def near(self, lat: float, lon: float, radius_m: float,
+             kind: str | None = None) -> list[dict[str, Any]]:
+        return [{**o.to_json(), "distance_m": d}
+                for o, d in self.world.near(Position(lat, lon), radius_m, kind)]

@@ -1,0 +1,1 @@
+"""Robot links: MAVLink and MQTT connections the RCL uses to command robots."""

@@ -1,0 +1,62 @@
+"""Build a robot link from its kind and options, as a project's configuration gives them."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from mrss.errors import ConfigError
+from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
+from mrss.links.mavlink import MavlinkLink
+from mrss.links.mqtt import MqttLink
+
+# Per kind: option name -> (type, required). Names match the link constructors.
+LINK_OPTIONS: dict[str, dict[str, tuple[type, bool]]] = {
+    "mavlink": {"url": (str, True), "target_system": (int, False),
+                "heartbeat_timeout": (float, False), "command_timeout": (float, False),
+                "retries": (int, False)},
+    "mqtt": {"broker_url": (str, True), "prefix": (str, False),
+             "telemetry_timeout": (float, False), "command_timeout": (float, False),
+             "retries": (int, False), "keepalive": (int, False)},
+}
+
+
+def _checked(kind: str, options: Mapping[str, Any], source: str | None) -> dict[str, Any]:
+    spec = LINK_OPTIONS[kind]
+    unknown = sorted(set(options) - set(spec))
+    if unknown:
+        raise ConfigError(f"unknown {kind} link option(s) {', '.join(unknown)}; "
+                          f"known: {', '.join(spec)}", file=source, key=unknown[0])
+    checked: dict[str, Any] = {}
+    for name, (kind_type, required) in spec.items():
+        if name not in options:
+            if required:
+                raise ConfigError(f"{kind} link needs {name!r}", file=source, key=name)
+            continue
+        value = options[name]
+        if kind_type is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind_type) or isinstance(value, bool):
+            raise ConfigError(f"{name!r} must be of type {kind_type.__name__}, got {value!r}",
+                              file=source, key=name)
+        checked[name] = value
+    return checked
+
+
+def create_link(robot_id: str, kind: str, options: Mapping[str, Any], *,
+                on_link_state: LinkStateCallback | None = None,
+                on_telemetry: TelemetryCallback | None = None,
+                source: str | None = None) -> RobotLink:
+    """A (not yet started) link of `kind` ("mavlink" or "mqtt"); ConfigError if misconfigured.
+
+    `source` names the configuration file in error messages.
+    """
+    if kind not in LINK_OPTIONS:
+        raise ConfigError(f"unknown link kind {kind!r}; known: {', '.join(LINK_OPTIONS)}",
+                          file=source, key="link")
+    checked = _checked(kind, options, source)
+    if kind == "mavlink":
+        return MavlinkLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                           **checked)
+    return MqttLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                    **checked)

@@ -1,0 +1,335 @@
+"""The MAVLink robot link: commands and telemetry of one ArduCopter-style vehicle.
+
+Blocking command helpers (`arm`, `set_mode`, `takeoff`, `goto`, `land`, ...) may be
+called from any thread; they retry unanswered commands and raise LinkDown,
+CommandRejected or CommandTimeout (mrss.links.errors). The link is up while heartbeats
+arrive and goes down after `heartbeat_timeout` seconds without one.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from mrss.links.ardupilot import mode_name, mode_number, parse_hotspot
+from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
+from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
+from mrss.links.geo import distance_m
+from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
+from mrss.links.mavlink_telemetry import telemetry_of
+
+GCS_HEARTBEAT_S = 1.0
+POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
+TEXT_REASON_WINDOW_S = 1.0
+
+
+class _PendingCommand:
+    """A COMMAND_LONG waiting for its COMMAND_ACK."""
+
+    def __init__(self, command: int) -> None:
+        self.command = command
+        self.event = threading.Event()
+        self.result: int | None = None
+
+
+class MavlinkLink(RobotLink):
+    """A link to one MAVLink vehicle over a pymavlink connection (default: UDP in)."""
+
+    kind = "mavlink"
+
+    def __init__(
+        self, robot_id: str, url: str = "udpin:127.0.0.1:14550", *,
+        target_system: int | None = None, heartbeat_timeout: float = 3.0,
+        command_timeout: float = 1.0, retries: int = 3,
+        on_link_state: LinkStateCallback | None = None,
+        on_telemetry: TelemetryCallback | None = None,
+    ) -> None:
+        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry)
+        self.url = url
+        self.target_system = target_system
+        self.heartbeat_timeout = heartbeat_timeout
+        self.command_timeout = command_timeout
+        self.retries = retries
+        self.mode: str | None = None
+        self.armed = False
+        self.landed: bool | None = None
+        self.position_target: tuple[float, float, float] | None = None
+        self._conn: MavConnection | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._last_heartbeat: float | None = None
+        self._next_gcs_heartbeat = 0.0
+        self._pending: dict[int, _PendingCommand] = {}
+        self._pending_lock = threading.Lock()
+        self._command_lock = threading.Lock()
+        self._mission_replies: queue.Queue[Any] = queue.Queue()
+        self._last_warning: tuple[float, str] | None = None
+        self._reported: tuple[str | None, bool, bool | None] = (None, False, None)
+
+    # -- life cycle ------------------------------------------------------------------------
+    def start(self) -> None:
+        """Open the connection and start receiving."""
+        try:
+            self._conn = MavConnection(self.url, source_system=255,
+                                       source_component=MAV.MAV_COMP_ID_MISSIONPLANNER,
+                                       udp_timeout=self.heartbeat_timeout)
+        except (OSError, ValueError) as exc:
+            raise LinkError(self.robot_id, f"cannot open {self.url}: {exc}") from exc
+        self._set_link_state(False, "waiting for first heartbeat")
+        self._thread = threading.Thread(target=self._receive_loop,
+                                        name=f"mavlink-{self.robot_id}", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        """Stop receiving, close the socket; the link ends down ("link closed")."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        if self._conn is not None:
+            self._conn.close()
+        self._mark_closed()
+
+    # -- commands --------------------------------------------------------------------------
+    def command(self, command: int, *params: float, timeout: float | None = None) -> int:
+        """Send a COMMAND_LONG until acknowledged; return the MAV_RESULT if ACCEPTED."""
+        timeout = self.command_timeout if timeout is None else timeout
+        name = _enum_name("MAV_CMD", command)
+        values = [float(p) for p in params] + [0.0] * (7 - len(params))
+        with self._command_lock:
+            for attempt in range(self.retries):
+                self.require_up()
+                pending = _PendingCommand(command)
+                with self._pending_lock:
+                    self._pending[command] = pending
+                sent_at = time.monotonic()
+                self._send(self._mav().command_long_encode(
+                    self._target(), 1, command, attempt, *values))
+                try:
+                    result = self._await_ack(pending, timeout)
+                finally:
+                    with self._pending_lock:
+                        self._pending.pop(command, None)
+                if result is None:
+                    continue
+                if result == MAV.MAV_RESULT_ACCEPTED:
+                    return result
+                raise CommandRejected(self.robot_id, name, self._describe(result, sent_at))
+        raise CommandTimeout(self.robot_id, name, timeout, self.retries)
+
+    def arm(self) -> None:
+        """Arm the motors (the vehicle must be in an armable mode, e.g. GUIDED)."""
+        self.command(MAV.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        self.armed = True
+
+    def disarm(self, force: bool = False) -> None:
+        """Disarm; `force` disarms even in flight (the vehicle falls)."""
+        self.command(MAV.MAV_CMD_COMPONENT_ARM_DISARM, 0, 21196 if force else 0)
+        self.armed = False
+
+    def set_mode(self, name: str) -> None:
+        """Switch to an ArduCopter mode by name (GUIDED, AUTO, LOITER, RTL, LAND, ...)."""
+        try:
+            number = mode_number(name)
+        except KeyError:
+            raise ValueError(f"unknown ArduCopter mode {name!r}") from None
+        self.command(MAV.MAV_CMD_DO_SET_MODE, MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+        self.mode = mode_name(number)
+
+    def takeoff(self, alt_m: float) -> None:
+        """Start climbing to `alt_m` above home (GUIDED and armed); returns once accepted."""
+        self.command(MAV.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt_m)
+        self.landed = False
+
+    def land(self) -> None:
+        """Land where the vehicle is (LAND mode)."""
+        self.command(MAV.MAV_CMD_NAV_LAND)
+        self.mode = "LAND"
+
+    def return_to_launch(self) -> None:
+        """Fly home and land (RTL mode)."""
+        self.command(MAV.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        self.mode = "RTL"
+
+    def start_mission(self, first_item: int = 0) -> None:
+        """Fly the uploaded mission (AUTO), from `first_item` if it is not 0."""
+        self.command(MAV.MAV_CMD_MISSION_START, first_item, 0)
+        self.mode = "AUTO"
+
+    def goto(self, lat: float, lon: float, alt_m: float) -> None:
+        """Set a GUIDED position target; returns once the vehicle reports it as its target."""
+        self.require_up()
+        if self.mode != "GUIDED":
+            raise CommandRejected(self.robot_id, "goto", f"mode is {self.mode}, needs GUIDED")
+        if self.landed:
+            raise CommandRejected(self.robot_id, "goto", "vehicle is on the ground")
+        msg = self._mav().set_position_target_global_int_encode(
+            0, self._target(), 1, MAV.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_ONLY,
+            round(lat * 1e7), round(lon * 1e7), alt_m, 0, 0, 0, 0, 0, 0, 0, 0)
+
+        def accepted() -> bool:
+            t = self.position_target
+            return t is not None and abs(t[0] - lat) < 2e-7 and abs(t[1] - lon) < 2e-7 \
+                and abs(t[2] - alt_m) < 0.05
+
+        for _ in range(self.retries):
+            self._send(msg)
+            try:
+                self.wait_for(accepted, self.command_timeout, "goto")
+                return
+            except CommandTimeout:
+                continue
+        raise CommandTimeout(self.robot_id, "goto", self.command_timeout, self.retries)
+
+    def upload_mission(self, items: Sequence[MissionItem]) -> None:
+        """Replace the vehicle's mission with `items` (home is added as item 0)."""
+        self.require_up()
+        home = (0.0, 0.0)
+        position = self.latest("position")
+        if position is not None:
+            home = (position["lat"], position["lon"])
+        upload = MissionUpload(self.robot_id, self._mav(), self._send, self._mission_replies,
+                               (self._target(), 1),
+                               lambda: None if self.up else self.reason,
+                               self.command_timeout, self.retries)
+        with self._command_lock:
+            upload.run(items, home)
+
+    # -- waiting on telemetry --------------------------------------------------------------
+    def wait_arrival(self, lat: float, lon: float, alt_m: float, *, tolerance_m: float = 2.0,
+                     timeout: float = 120.0) -> None:
+        """Block until the vehicle is within `tolerance_m` of a point (alt above home)."""
+        def arrived() -> bool:
+            p = self.latest("position")
+            return p is not None and distance_m(p["lat"], p["lon"], lat, lon) <= tolerance_m \
+                and abs(p["relative_alt"] - alt_m) <= tolerance_m
+        self.wait_for(arrived, timeout, f"arrival at {lat:.6f},{lon:.6f},{alt_m:.0f}")
+
+    def wait_landed(self, timeout: float = 120.0) -> None:
+        """Block until the vehicle is on the ground and disarmed."""
+        self.wait_for(lambda: bool(self.landed) and not self.armed, timeout, "landing")
+
+    # -- receiving -------------------------------------------------------------------------
+    def _mav(self) -> Any:
+        if self._conn is None:
+            raise RuntimeError("link not started")
+        return self._conn.conn.mav
+
+    def _send(self, msg: Any) -> None:
+        if self._conn is not None:
+            self._conn.send(msg)
+
+    def _target(self) -> int:
+        return self.target_system or 1
+
+    def _await_ack(self, pending: _PendingCommand, timeout: float) -> int | None:
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if pending.event.wait(min(max(remaining, 0.0), 0.1)):
+                if pending.result == MAV.MAV_RESULT_IN_PROGRESS:
+                    pending.event.clear()
+                    deadline = time.monotonic() + timeout
+                    continue
+                return pending.result
+            self.require_up()
+            if remaining <= 0:
+                return None
+
+    def _describe(self, result: int, sent_at: float) -> str:
+        text = _enum_name("MAV_RESULT", result)
+        warning = self._last_warning
+        if warning is not None and warning[0] >= sent_at - TEXT_REASON_WINDOW_S:
+            text += f" ({warning[1]})"
+        return text
+
+    def _receive_loop(self) -> None:
+        assert self._conn is not None
+        while not self._stop.is_set():
+            try:
+                msg = self._conn.recv(timeout=0.1)
+                if msg is not None:
+                    self._dispatch_message(msg)
+            except Exception:
+                self.log.exception("error handling a MAVLink message; continuing")
+            now = time.monotonic()
+            if now >= self._next_gcs_heartbeat:
+                self._next_gcs_heartbeat = now + GCS_HEARTBEAT_S
+                self._send(self._mav().heartbeat_encode(
+                    MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0, MAV.MAV_STATE_ACTIVE))
+            last = self._last_heartbeat
+            if self.up and last is not None and now - last > self.heartbeat_timeout:
+                self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
+
+    def _dispatch_message(self, msg: Any) -> None:
+        kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            self._on_heartbeat(msg)
+            return
+        if self.target_system is None or msg.get_srcSystem() != self.target_system:
+            return
+        if kind == "COMMAND_ACK":
+            with self._pending_lock:
+                pending = self._pending.get(msg.command)
+            if pending is not None:
+                pending.result = msg.result
+                pending.event.set()
+        elif kind in MISSION_REPLIES:
+            self._mission_replies.put(msg)
+        elif kind == "POSITION_TARGET_GLOBAL_INT":
+            self.position_target = (msg.lat_int * 1e-7, msg.lon_int * 1e-7, msg.alt)
+            self._notify()
+        elif kind == "EXTENDED_SYS_STATE":
+            self._update_status(self.mode, self.armed,
+                                msg.landed_state == MAV.MAV_LANDED_STATE_ON_GROUND)
+        elif kind == "STATUSTEXT":
+            self._on_text(msg)
+        else:
+            converted = telemetry_of(msg)
+            if converted is not None:
+                self._publish_telemetry(*converted)
+
+    def _on_heartbeat(self, msg: Any) -> None:
+        if msg.type == MAV.MAV_TYPE_GCS or msg.autopilot == MAV.MAV_AUTOPILOT_INVALID:
+            return  # another ground station, not a vehicle
+        if self.target_system is None:
+            self.target_system = msg.get_srcSystem()
+        if msg.get_srcSystem() != self.target_system:
+            return
+        was_seen = self._last_heartbeat is not None
+        self._last_heartbeat = time.monotonic()
+        armed = bool(msg.base_mode & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
+        self._update_status(mode_name(msg.custom_mode), armed, self.landed)
+        if not self.up:
+            what = "heartbeat resumed" if was_seen else "heartbeat"
+            self._set_link_state(True, f"{what} from system {self.target_system}")
+
+    def _on_text(self, msg: Any) -> None:
+        text = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
+        text = text.rstrip("\x00")
+        spot = parse_hotspot(text)
+        if spot is not None:
+            self._publish_telemetry("hotspot", {"id": spot.id, "lat": spot.lat,
+                                                "lon": spot.lon,
+                                                "temperature": spot.temperature})
+            return
+        if msg.severity <= MAV.MAV_SEVERITY_WARNING:
+            self._last_warning = (time.monotonic(), text)
+        self._publish_telemetry("text", {"severity": msg.severity, "text": text})
+
+    def _update_status(self, mode: str | None, armed: bool, landed: bool | None) -> None:
+        """Take the vehicle's reported state; publish a status record when it changed."""
+        reported = (mode, armed, landed)
+        if reported == self._reported:
+            return
+        self._reported = reported
+        self.mode, self.armed, self.landed = reported
+        self._publish_telemetry("status", {"mode": mode, "armed": armed, "landed": landed})
+
+
+def _enum_name(enum: str, value: int) -> str:
+    entry = MAV.enums.get(enum, {}).get(value)
+    return entry.name if entry is not None else f"{enum}({value})"

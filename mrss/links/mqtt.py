@@ -1,0 +1,241 @@
+"""The MQTT robot link: JSON commands and telemetry of one ground robot (or manipulator).
+
+The link is up while the broker connection stands, the robot's retained status is not
+"offline" and valid telemetry keeps arriving; it goes down with the reason
+("broker connection lost: ...", "last will: offline", "telemetry timeout: none for 3.0 s").
+paho reconnects to the broker with a growing delay. Command helpers block until the
+robot accepts (and, with ``wait=True``, finishes) the command, repeating an unanswered
+command with the same id (the robot answers repeats without doing them twice).
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+import time
+from typing import Any
+
+from paho.mqtt import client as mqtt
+
+from mrss.errors import DecodeError
+from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
+from mrss.links.errors import CommandRejected, CommandTimeout
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
+from mrss.links.ugv_protocol import (
+    DEFAULT_PREFIX,
+    OFFLINE,
+    ONLINE,
+    UgvAck,
+    UgvCommand,
+    UgvTelemetry,
+    UgvTopics,
+    parse_ack,
+    parse_telemetry,
+)
+
+
+class MqttLink(RobotLink):
+    """A link to one MQTT robot speaking the protocol of `mrss.links.ugv_protocol`."""
+
+    kind = "mqtt"
+
+    def __init__(
+        self, robot_id: str, broker_url: str, *, prefix: str = DEFAULT_PREFIX,
+        topics: UgvTopics | None = None, telemetry_timeout: float = 3.0,
+        command_timeout: float = 2.0, retries: int = 3, keepalive: int = 5,
+        on_link_state: LinkStateCallback | None = None,
+        on_telemetry: TelemetryCallback | None = None,
+    ) -> None:
+        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry)
+        self.address = parse_broker_url(broker_url)
+        self.topics = topics or UgvTopics.for_robot(robot_id, prefix)
+        self.telemetry_timeout = telemetry_timeout
+        self.command_timeout = command_timeout
+        self.retries = retries
+        self.keepalive = keepalive
+        self.bad_messages = 0
+        self._connected = False
+        self._online: bool | None = None
+        self._last_telemetry: float | None = None
+        self._last_status: tuple[str, bool, bool] | None = None
+        self._waiting: dict[str, UgvAck | None] = {}
+        self._ids = itertools.count(1)
+        self._token = f"{os.getpid():x}{id(self) & 0xFFFF:x}"
+        self._stop = threading.Event()
+        self._watchdog: threading.Thread | None = None
+        self._client = new_client(f"mrss-link-{robot_id}-{self._token}", self.address)
+        self._client.on_connect = self._on_connect
+        self._client.on_disconnect = self._on_disconnect
+        self._client.on_message = self._on_message
+        self._client.reconnect_delay_set(min_delay=1, max_delay=10)
+
+    # -- life cycle ------------------------------------------------------------------------
+    def start(self) -> None:
+        """Connect in the background (retrying with backoff) and start the watchdog."""
+        self._set_link_state(False, f"connecting to {self.address.host}:{self.address.port}")
+        self._client.connect_async(self.address.host, self.address.port,
+                                   keepalive=self.keepalive)
+        self._client.loop_start()
+        self._watchdog = threading.Thread(target=self._watch, name=f"mqtt-{self.robot_id}",
+                                          daemon=True)
+        self._watchdog.start()
+
+    def close(self) -> None:
+        """Disconnect and stop; the link ends down ("link closed")."""
+        self._stop.set()
+        self._client.disconnect()
+        self._client.loop_stop()
+        if self._watchdog is not None:
+            self._watchdog.join(timeout=5)
+        self._mark_closed()
+
+    # -- commands --------------------------------------------------------------------------
+    def command(self, cmd: str, *, wait: bool = False, timeout: float = 60.0,
+                **fields: Any) -> UgvAck:
+        """Send a command; return the robot's answer ("accepted" or, with `wait`, "done").
+
+        Raises CommandRejected if the robot refuses, fails or cancels it, CommandTimeout
+        if it does not answer, LinkDown if the link is or goes down meanwhile.
+        """
+        self.require_up()
+        ident = f"{self.robot_id}-{self._token}-{next(self._ids)}"
+        payload = UgvCommand(cmd, ident, **fields).to_json()
+        with self._changed:
+            self._waiting[ident] = None
+        try:
+            self._publish_until_answered(cmd, ident, payload)
+            if wait:
+                self.wait_for(lambda: self._answer(ident).terminal, timeout, cmd)
+            answer = self._answer(ident)
+        finally:
+            with self._changed:
+                self._waiting.pop(ident, None)
+        if answer.status in ("rejected", "failed", "cancelled"):
+            reason = f"{answer.status}: {answer.reason}" if answer.reason else answer.status
+            raise CommandRejected(self.robot_id, cmd, reason)
+        return answer
+
+    def goto(self, lat: float, lon: float, *, wait: bool = True,
+             timeout: float = 600.0) -> UgvAck:
+        """Drive to a point; with `wait`, return on arrival."""
+        return self.command("goto", lat=lat, lon=lon, wait=wait, timeout=timeout)
+
+    def return_to_base(self, *, wait: bool = True, timeout: float = 600.0) -> UgvAck:
+        """Drive back to base (where the tank refills and the battery charges)."""
+        return self.command("return_to_base", wait=wait, timeout=timeout)
+
+    def stop(self) -> UgvAck:
+        """Stop driving and pumping; running commands end "cancelled"."""
+        return self.command("stop")
+
+    def pump(self, on: bool, litres: float | None = None, *, wait: bool = False,
+             timeout: float = 600.0) -> UgvAck:
+        """Start (optionally for `litres`) or stop the pump; `wait` for the amount."""
+        return self.command("pump", on=on, litres=litres, wait=wait, timeout=timeout)
+
+    def teleop(self, on: bool) -> UgvAck:
+        """Hand the robot to (or take it back from) remote driving."""
+        return self.command("teleop", on=on)
+
+    def drive(self, speed: float, heading: float) -> UgvAck:
+        """Remote driving: speed m/s on a heading in degrees (teleop only)."""
+        return self.command("drive", speed=speed, heading=heading)
+
+    def _answer(self, ident: str) -> UgvAck:
+        answer = self._waiting.get(ident)
+        assert answer is not None
+        return answer
+
+    def _publish_until_answered(self, cmd: str, ident: str, payload: bytes) -> None:
+        for _ in range(self.retries):
+            self._client.publish(self.topics.cmd, payload, qos=1)
+            try:
+                self.wait_for(lambda: self._waiting.get(ident) is not None,
+                              self.command_timeout, cmd)
+                return
+            except CommandTimeout:
+                continue
+        raise CommandTimeout(self.robot_id, cmd, self.command_timeout, self.retries)
+
+    # -- MQTT callbacks (paho's network thread) --------------------------------------------
+    def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any,
+                    reason_code: Any, properties: Any) -> None:
+        if reason_code.is_failure:
+            self._set_link_state(False, f"broker refused the connection: {reason_code}")
+            return
+        disable_nagle(client)
+        self._connected = True
+        for topic in (self.topics.status, self.topics.telemetry, self.topics.ack):
+            client.subscribe(topic, qos=1)
+        self.log.info("connected to broker %s:%d", self.address.host, self.address.port)
+
+    def _on_disconnect(self, client: mqtt.Client, userdata: Any, flags: Any,
+                       reason_code: Any, properties: Any) -> None:
+        self._connected = False
+        if not self._stop.is_set():
+            self._set_link_state(False, f"broker connection lost: {reason_code}")
+
+    def _on_message(self, client: mqtt.Client, userdata: Any, message: Any) -> None:
+        topic, payload = str(message.topic), bytes(message.payload)
+        try:
+            if topic == self.topics.telemetry:
+                self._on_telemetry(parse_telemetry(payload, self.robot_id, topic))
+            elif topic == self.topics.ack:
+                self._on_ack(parse_ack(payload, topic))
+            elif topic == self.topics.status:
+                self._on_status(payload, topic)
+        except DecodeError as exc:
+            self.bad_messages += 1
+            self.log.warning("bad message dropped: %s", exc)
+        except Exception:  # a bug here must not stop the link
+            self.log.exception("error handling a message on %s", topic)
+
+    def _on_status(self, payload: bytes, topic: str) -> None:
+        text = payload.decode("utf-8", "replace").strip()
+        if text == ONLINE:
+            self._online = True
+            self._evaluate()
+        elif text == OFFLINE:
+            self._online = False
+            self._set_link_state(False, f"last will: {OFFLINE}")
+        else:
+            raise DecodeError(f"status must be {ONLINE!r} or {OFFLINE!r}", topic=topic)
+
+    def _on_ack(self, ack: UgvAck) -> None:
+        with self._changed:
+            if ack.id in self._waiting:
+                current = self._waiting[ack.id]
+                if current is None or not current.terminal:
+                    self._waiting[ack.id] = ack
+                self._changed.notify_all()
+
+    def _on_telemetry(self, t: UgvTelemetry) -> None:
+        self._last_telemetry = time.monotonic()
+        self._evaluate()
+        self._publish_telemetry("position", {"lat": t.lat, "lon": t.lon,
+                                             "heading": t.heading, "speed": t.speed})
+        self._publish_telemetry("battery", {"remaining": t.battery, "voltage": None,
+                                            "current": None})
+        self._publish_telemetry("tank", {"level": t.tank, "capacity": t.tank_capacity,
+                                         "pumping": t.pumping})
+        status = (t.mode, t.at_base, t.teleop)
+        if status != self._last_status:
+            self._last_status = status
+            self._publish_telemetry("status", {"mode": t.mode, "at_base": t.at_base,
+                                               "teleop": t.teleop})
+
+    # -- liveness --------------------------------------------------------------------------
+    def _evaluate(self) -> None:
+        last = self._last_telemetry
+        fresh = last is not None and time.monotonic() - last <= self.telemetry_timeout
+        if self._connected and self._online is not False and fresh:
+            self._set_link_state(True, f"telemetry from {self.robot_id}")
+
+    def _watch(self) -> None:
+        while not self._stop.wait(0.1):
+            last = self._last_telemetry
+            if self.up and last is not None \
+                    and time.monotonic() - last > self.telemetry_timeout:
+                self._set_link_state(
+                    False, f"telemetry timeout: none for {self.telemetry_timeout:.1f} s")

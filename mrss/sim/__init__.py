@@ -1,0 +1,1 @@
+"""Simulated robots speaking real protocols: a MAVLink UAV and an MQTT UGV."""

@@ -1,0 +1,112 @@
+"""The data layer service: one reply per request, errors and timeouts as error replies."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from mrss.actors.datalayer import DataLayerService, load_datalayer_class, plain, world_access
+from mrss.edge.adapters import DataLayer, DataLayerContext
+from mrss.edge.worldmodel_access import HttpWorldModel, LocalWorldModel
+from mrss.edge.worldmodel_service import WorldModel
+from mrss.edge.worldmodel_store import WorldModelStore
+from mrss.errors import ConfigError
+from mrss.messages import DataRequest, RobotData
+
+from .conftest import PROJECT_FIXTURE
+
+
+@pytest.fixture()
+def service() -> Iterator[DataLayerService]:
+    world = WorldModel(WorldModelStore())
+    world.seed([{"id": "ugv1", "kind": "robot", "attributes": {"water": 40}},
+                {"id": "base1", "kind": "base", "position": {"lat": 43.6, "lon": 1.44}}])
+    cls = load_datalayer_class(PROJECT_FIXTURE, {})
+    datalayer = cls(DataLayerContext(world=LocalWorldModel(world)))
+    svc = DataLayerService(datalayer, call_timeout=0.3, workers=2)
+    try:
+        yield svc
+    finally:
+        datalayer.stop()
+        svc.close()
+
+
+def ask(svc: DataLayerService, function: str, *args: object) -> tuple[bool, object, str]:
+    reply = svc.handle(DataRequest(request_id=f"id-{function}", function=function,
+                                   args=list(args)))
+    assert reply.request_id == f"id-{function}"
+    return reply.ok, reply.result, reply.error
+
+
+def test_builtin_and_project_functions_answer(service: DataLayerService) -> None:
+    assert ask(service, "ping") == (True, "pong", "")
+    assert ask(service, "add", 2, 3.5) == (True, 5.5, "")
+    ok, result, _ = ask(service, "ground", "base1")
+    assert ok and isinstance(result, dict) and result["position"]["lat"] == 43.6
+    assert ask(service, "water_left", "ugv1") == (True, 40, "")
+    ok, result, _ = ask(service, "objects", "robot")
+    assert ok and [o["id"] for o in result] == ["ugv1"]  # type: ignore[attr-defined]
+    ok, result, _ = ask(service, "near", 43.6, 1.44, 10.0)
+    assert ok and [o["id"] for o in result] == ["base1"]  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(("function", "args", "reason"), [
+    ("fly_to_moon", [], "unknown function 'fly_to_moon'; known: add, explode"),
+    ("ground", ["nobody"], "no object 'nobody'"),
+    ("ground", [7], "must be a string"),
+    ("explode", [], "RuntimeError: the external service is down"),
+    ("not_plain", [], "not plain data"),
+    ("add", [1], "TypeError"),
+    ("hang", [], "hang timed out after 0.3s"),
+])
+def test_failures_become_error_replies(service: DataLayerService, function: str,
+                                       args: list[object], reason: str) -> None:
+    ok, result, error = ask(service, function, *args)
+    assert not ok and result is None
+    assert reason in error
+
+
+def test_timeouts_do_not_block_later_requests(service: DataLayerService) -> None:
+    assert not ask(service, "hang")[0]
+    assert not ask(service, "hang")[0]  # both workers now stuck in hang
+    assert service.timeouts == 2
+    service.datalayer.stop()  # the fixture releases its hung calls on stop
+    assert ask(service, "add", 1, 1) == (True, 2, "")
+
+
+def test_telemetry_updates_the_robot_in_the_world_model(service: DataLayerService) -> None:
+    assert service.telemetry(RobotData(robot="uav1", data={"lat": 43.61, "lon": 1.45,
+                                                           "alt": 30, "battery": 77}))
+    ok, result, _ = ask(service, "ground", "uav1")
+    assert ok and isinstance(result, dict)
+    assert result["kind"] == "robot" and result["position"]["alt"] == 30
+    assert result["attributes"] == {"battery": 77}
+    assert not service.telemetry(RobotData(robot="uav1", data={"lat": 95, "lon": 0}))
+    assert service.telemetry_errors == 1
+
+
+def test_default_datalayer_without_world_model_reports_it() -> None:
+    svc = DataLayerService(DataLayer(DataLayerContext(world=None)), call_timeout=1)
+    try:
+        ok, _, error = ask(svc, "ground", "x")
+        assert not ok and "no world model is configured" in error
+        assert svc.telemetry(RobotData(robot="r", data={"lat": 1, "lon": 2}))
+    finally:
+        svc.close()
+
+
+def test_plain_converts_tuples_and_refuses_objects() -> None:
+    assert plain({"a": (1, [2.5, None])}) == {"a": [1, [2.5, None]]}
+    for bad in (object(), {1: "x"}, float("nan"), {"s": {1, 2}}):
+        with pytest.raises(TypeError):
+            plain(bad)
+
+
+def test_world_model_option() -> None:
+    assert world_access({"world_model": "none"}, None) is None
+    assert isinstance(world_access({"world_model": "http://127.0.0.1:9"}, None), HttpWorldModel)
+    with pytest.raises(ConfigError, match="needs the bus"):
+        world_access({}, None)
+    with pytest.raises(ConfigError, match="datalayer.world_model"):
+        world_access({"world_model": "ftp://x"}, None)

@@ -1,0 +1,211 @@
+"""The edge components on the real bus: events -> percepts, data layer <-> world model.
+
+A ZeroMQ proxy runs on a thread of the test process; each component gets the context a
+supervisor would give it (name, folders, configuration, its own Publisher, endpoints).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import threading
+import urllib.request
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mrss.actors.datalayer import DataLayerComponent
+from mrss.actors.events import ExternalEventsManager
+from mrss.actors.worldmodel import URL_FILE, WorldModelComponent
+from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
+from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
+from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
+from mrss.edge.mqtt_client import MqttClient, MqttSettings
+from mrss.messages import Envelope, Percept, RobotData
+from mrss.supervision.component import ComponentContext
+from mrss.testing import BrokerInfo, wait_until
+
+from .conftest import PROJECT_FIXTURE
+from .termcheck import read_literal
+
+# The fixture's project.toml gives [events], [datalayer] and [worldmodel]; the broker
+# URL comes the way a deployment's would: from [components.<id>] free keys (ctx.options).
+
+
+def context(name: str, run_dir: Path, endpoints: BusEndpoints,
+            options: dict[str, Any] | None = None) -> ComponentContext:
+    """The context the supervisor hands a component."""
+    return ComponentContext(name=name, incarnation=1, project_dir=PROJECT_FIXTURE,
+                            run_dir=run_dir, bus=endpoints.to_dict(), options=options or {})
+
+
+class PerceptLog:
+    """A Subscriber on `percept`, collecting literals."""
+
+    def __init__(self, endpoints: BusEndpoints) -> None:
+        self.literals: list[str] = []
+        self._lock = threading.Lock()
+        self.sub = Subscriber(endpoints, prefixes=["percept"])
+        self.sub.start(self._on)
+        assert self.sub.wait_connected(10)
+
+    def _on(self, env: Envelope) -> None:
+        if isinstance(env.body, Percept):
+            with self._lock:
+                self.literals.append(env.body.literal)
+
+    def snapshot(self) -> list[str]:
+        with self._lock:
+            return list(self.literals)
+
+
+@dataclass
+class Edge:
+    endpoints: BusEndpoints
+    run_dir: Path
+    world: Any
+    data: Any
+    events: Any
+    percepts: PerceptLog
+    client: DataLayerClient
+    broker: BrokerInfo
+
+
+@pytest.fixture()
+def edge(mqtt_broker: BrokerInfo) -> Iterator[Edge]:
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-edge-"))
+    endpoints = BusEndpoints.ipc(run_dir)
+    (run_dir / BROKER_URL_FILE).write_text(mqtt_broker.url)  # as the broker component does
+    stoppers: list[Any] = []
+    try:
+        with ProxyThread(endpoints):
+            percepts = PerceptLog(endpoints)
+            stoppers.append(percepts.sub)
+            contexts = []
+            started = []
+            for name, component in (("worldmodel", WorldModelComponent()),
+                                    ("datalayer", DataLayerComponent()),
+                                    ("events", ExternalEventsManager())):
+                ctx = context(name, run_dir, endpoints)
+                component.start(ctx)
+                stoppers.append(component)
+                contexts.append(ctx)
+                started.append(component)
+            world, data, events = started
+            caller = context("reasoner", run_dir, endpoints)
+            contexts.append(caller)
+            port = ZmqBusPort(endpoints, caller.publisher, "reasoner")
+            stoppers.append(port)
+            client = DataLayerClient(port)
+            # pub/sub needs its subscriptions in place: wait until a round trip works
+            wait_until(lambda: client.request("ping", timeout=0.5).ok, timeout=15,
+                       message="data layer answering")
+            wait_until(lambda: client.request("ground", ["lake"], timeout=0.5).ok,
+                       timeout=15, message="world model answering")
+            yield Edge(endpoints, run_dir, world, data, events, percepts, client,
+                       mqtt_broker)
+    finally:
+        for each in reversed(stoppers):
+            each.stop() if hasattr(each, "stop") else each.close()
+        for ctx in contexts:
+            ctx.publisher.close()
+        shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def test_grounding_goes_through_data_layer_to_world_model(edge: Edge) -> None:
+    lake = edge.client.call("ground", ["lake"], timeout=5)
+    assert lake["kind"] == "water_source" and lake["position"]["lat"] == 43.62
+    assert [o["id"] for o in edge.client.call("objects", ["base"], timeout=5)] == ["base1"]
+
+
+def test_error_and_timeout_replies_raise_clear_errors_in_the_caller(edge: Edge) -> None:
+    with pytest.raises(DataLayerError, match="no object 'atlantis'"):
+        edge.client.call("ground", ["atlantis"], timeout=5)
+    with pytest.raises(DataLayerError, match="the external service is down"):
+        edge.client.call("explode", timeout=5)
+    with pytest.raises(DataLayerError, match="hang timed out after 0.5s"):
+        edge.client.call("hang", timeout=5)
+    reply = edge.client.request("add", [1, 2], timeout=5)
+    assert reply.ok and reply.result == 3
+
+
+def test_client_times_out_when_nobody_answers(edge: Edge) -> None:
+    publisher = Publisher(edge.endpoints, src="lonely")
+    port = ZmqBusPort(edge.endpoints, publisher, "lonely")
+    lonely = DataLayerClient(port, request_topic="dl.request.nobody",
+                             reply_topic="dl.reply.nobody")
+    try:
+        reply = lonely.request("ping", timeout=0.3)
+        assert not reply.ok and "no reply to 'ping' within 0.3s" in reply.error
+        with pytest.raises(DataLayerError, match="no reply"):
+            lonely.call("ping", timeout=0.3)
+    finally:
+        port.close()
+        publisher.close()
+
+
+def test_concurrent_requests_get_their_own_replies(edge: Edge) -> None:
+    with ThreadPoolExecutor(max_workers=8) as pool:
+        results = list(pool.map(lambda i: edge.client.call("add", [i, 1000], timeout=10),
+                                range(60)))
+    assert results == [i + 1000 for i in range(60)]
+
+
+def test_telemetry_reaches_the_world_model(edge: Edge) -> None:
+    pub = Publisher(edge.endpoints, src="rcl")
+    try:
+        assert pub.wait_connected(10)
+
+        def robot_seen() -> bool:
+            pub.publish(RobotData(robot="uav1", data={"lat": 43.61, "lon": 1.45,
+                                                      "battery": 80}))
+            return edge.client.request("ground", ["uav1"], timeout=0.5).ok
+        wait_until(robot_seen, timeout=15, message="telemetry in the world model")
+        uav = edge.client.call("ground", ["uav1"], timeout=5)
+        assert uav["attributes"]["battery"] == 80 and uav["position"]["lon"] == 1.45
+    finally:
+        pub.close()
+
+
+def post_object(url: str, obj: dict[str, Any]) -> int:
+    req = urllib.request.Request(url + "/objects", data=json.dumps(obj).encode(),
+                                 method="POST", headers={"Content-Type": "application/json"})
+    with urllib.request.urlopen(req, timeout=5) as resp:
+        status: int = resp.status
+        return status
+
+
+def test_http_insert_fires_a_rule_whose_percept_reaches_the_bus(edge: Edge) -> None:
+    url = (edge.run_dir / URL_FILE).read_text().strip()
+    assert url.startswith("http://127.0.0.1:")
+    # h_wet is 100 m from the seeded lake: no percept; h_dry is 9 km away: a percept.
+    assert post_object(url, {"id": "h_wet", "kind": "hotspot",
+                             "position": {"lat": 43.6209, "lon": 1.44}}) == 201
+    assert post_object(url, {"id": "h_dry", "kind": "hotspot",
+                             "position": {"lat": 43.70, "lon": 1.44}}) == 201
+    wait_until(lambda: "hotspot_detected(h_dry,43.7,1.44)" in edge.percepts.snapshot(),
+               timeout=10, message="hotspot percept on the bus")
+    assert not any("h_wet" in p for p in edge.percepts.snapshot())
+    assert edge.client.call("ground", ["h_wet"], timeout=5)["kind"] == "hotspot"
+
+
+def test_mqtt_event_becomes_a_percept_on_the_bus(edge: Edge) -> None:
+    sender = MqttClient(MqttSettings.from_url(edge.broker.url))
+    sender.start()
+    try:
+        assert sender.wait_connected(10)
+        sender.publish("fixture/area", b'{"area": "zone \\"7\\"", "priority": 2}')
+        sender.publish("fixture/area", b"\xff garbage")
+        wait_until(edge.percepts.snapshot, timeout=10, message="percept")
+        assert read_literal(edge.percepts.snapshot()[0]) == (
+            "area_goal_received", ['zone "7"', 2], [])
+        wait_until(lambda: edge.events.stats()["bad_payloads"] == 1, timeout=10,
+                   message="bad payload counted")
+        assert len(edge.percepts.snapshot()) == 1
+    finally:
+        sender.stop()
