@@ -6,7 +6,9 @@
   args {"on": bool}) arrive on a Subscriber; so do `sup.heartbeat.*`, whose envelope
   incarnation tells the RCL that a requester restarted (its orphans are cancelled);
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
-  each action status after its journal commit.
+  each action status after its journal commit; `sup.*` events of the robot supervisor
+  too; and a `sup.heartbeat.<name>` every `heartbeat` seconds while the robot
+  supervisor lives, which renews the reasoner's lease on its waiting actions.
 
 Options (project.toml, the component's table): `layer` ("rcl.py:ClassName" relative to
 the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (robot id
@@ -21,7 +23,9 @@ from __future__ import annotations
 import importlib.util
 import inspect
 import logging
+import os
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -78,6 +82,8 @@ class RclService(Component):
         self._rx: ReliableReceiver | None = None
         self._sub: Subscriber | None = None
         self._name = "rcl"
+        self._stop = threading.Event()
+        self._beat: threading.Thread | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
@@ -106,10 +112,33 @@ class RclService(Component):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=ACTION_CHANNEL, handler=self._on_request)
+        period = float(opts.get("heartbeat", 0.5))
+        self._beat = threading.Thread(target=self._heartbeat, args=(publisher, period),
+                                      name=f"{ctx.name}-heartbeat", daemon=True)
+        self._beat.start()
         log.info("%s: ready with robots %s, journal %s", ctx.name, sorted(self.links),
                  journal_path)
 
+    def healthy(self) -> bool:
+        """Alive while the robot supervisor is (heartbeats stop otherwise)."""
+        robots = self.core.robots if self.core is not None else None
+        return robots is not None and robots.is_alive()
+
+    def _heartbeat(self, publisher: Any, period: float) -> None:
+        beat = Heartbeat(component=self._name, pid=os.getpid())
+        while True:
+            if self.healthy():
+                try:
+                    publisher.publish(beat)
+                except Exception as exc:
+                    log.error("heartbeat not published: %r", exc)
+            if self._stop.wait(period):
+                return
+
     def stop(self) -> None:
+        self._stop.set()
+        if self._beat is not None:
+            self._beat.join(timeout=5)
         for closable in (self._rx, self._sub):
             if closable is not None:
                 closable.close()

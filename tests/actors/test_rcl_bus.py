@@ -14,7 +14,14 @@ import pytest
 from mrss.actors.rcl_service import RclService
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, ReliableSender, Subscriber
 from mrss.errors import ConfigError
-from mrss.messages import ActionControl, ActionRequest, ActionStatus, Command, Envelope
+from mrss.messages import (
+    ActionControl,
+    ActionRequest,
+    ActionStatus,
+    Command,
+    Envelope,
+    Heartbeat,
+)
 from mrss.supervision import ComponentContext
 from mrss.testing import wait_until
 
@@ -61,7 +68,7 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
               {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}})
     service = RclService()
     statuses = Statuses()
-    sub = Subscriber(endpoints, prefixes=["action.status"])
+    sub = Subscriber(endpoints, prefixes=["action.status", "sup.heartbeat.rcl"])
     tx = ReliableSender(endpoints, src="reasoner", inc=1, channel="action")
     ctl = Publisher(endpoints, src="reasoner", inc=1)
     service.start(ctx)
@@ -79,6 +86,8 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
         assert x1 is not None and "ValueError: gearbox jammed" in x1.reason
         assert tx.pending() == 0
         assert all(e.src == "rcl" and e.inc == 1 for e in statuses.envs)
+        wait_until(lambda: any(isinstance(e.body, Heartbeat) for e in statuses.envs),
+                   message="the RCL's heartbeat (the reasoner's lease)")
 
         # goal management and teleop on pub/sub
         tx.send(ActionRequest(uuid="a2", name="patrol", args=["ugv1", "g3", list(range(500))]))
@@ -95,10 +104,16 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
         # a new incarnation of the reasoner: its predecessor's actions are orphans
         tx.send(ActionRequest(uuid="a3", name="patrol", args=["uav1", "g4", list(range(500))]))
         wait_until(lambda: statuses.states("a3")[-1:] == ["running"])
+        # ... announced by its first heartbeat
+        with Publisher(endpoints, src="reasoner", inc=2) as pub2:
+            assert pub2.wait_connected(5)
+            pub2.publish(Heartbeat(component="reasoner", pid=1))
+            wait_until(lambda: statuses.states("a3")[-1:] == ["cancelled"])
+        last = statuses.last("a3")
+        assert last is not None and "orphaned: reasoner incarnation 1" in last.reason
         tx2 = ReliableSender(endpoints, src="reasoner", inc=2, channel="action")
         try:
             tx2.send(ActionRequest(uuid="a4", name="patrol", args=["ugv1", "g5", [1]]))
-            wait_until(lambda: statuses.states("a3")[-1:] == ["cancelled"])
             wait_until(lambda: statuses.states("a4")[-1:] == ["succeeded"])
         finally:
             tx2.close()
