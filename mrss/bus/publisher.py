@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from types import TracebackType
 
 import zmq
@@ -23,7 +24,9 @@ class Publisher:
 
     Plain publish/subscribe: a message sent while the proxy is down or restarting is
     queued (up to `hwm`) and sent on reconnect, but may be lost around a crash. Use the
-    reliable channel where a loss matters.
+    reliable channel where a loss matters. Messages published before the proxy first
+    subscribed to this publisher are held (up to `hwm`) and sent once it has, by a
+    short-lived joiner thread, so a component's first words are not lost.
 
     The socket is an XPUB connected to the proxy's XSUB, so the publisher can tell when
     the proxy has subscribed to it (`wait_connected`): a short-lived sender such as
@@ -45,6 +48,8 @@ class Publisher:
             linger_ms=int(linger * 1000))
         self._connected = False
         self._sent = 0
+        self._held: deque[tuple[bytes, ...]] = deque(maxlen=hwm)
+        self._joiner: threading.Thread | None = None
 
     def publish(self, msg: Message, topic: str | None = None) -> str:
         """Send `msg` on `topic` (default: the message's own topic); return its id."""
@@ -55,6 +60,8 @@ class Publisher:
             sock = self._sock
             if sock is None:
                 raise BusError("publisher is closed")
+            if not self._connected and self._hold((topic_frame, payload), sock):
+                return msg_id
             # Two plain sends cost half of one send_multipart.
             sock.send(topic_frame, _SNDMORE)
             sock.send(payload)
@@ -67,6 +74,8 @@ class Publisher:
         """Send an already encoded multipart message (for relays and the reliable channel)."""
         with self._lock:
             sock = self._socket()
+            if not self._connected and self._hold(tuple(frames), sock):
+                return
             last = len(frames) - 1
             for i, frame in enumerate(frames):
                 sock.send(frame, _SNDMORE if i < last else 0)
@@ -96,6 +105,42 @@ class Publisher:
                 return
             if notice[:1] == b"\x01":
                 self._connected = True
+
+    def _hold(self, frames: tuple[bytes, ...], sock: sockets.Socket) -> bool:
+        """Hold `frames` while the proxy has not subscribed yet (lock held); False if it has."""
+        self._drain_subscriptions(sock)
+        if self._connected and not self._held:
+            return False
+        self._held.append(frames)
+        if self._connected:
+            self._send_held(sock)
+        elif self._joiner is None:
+            self._joiner = threading.Thread(target=self._join, name=f"{self.src}-pub-join",
+                                            daemon=True)
+            self._joiner.start()
+        return True
+
+    def _send_held(self, sock: sockets.Socket) -> None:
+        while self._held:
+            frames = self._held.popleft()
+            last = len(frames) - 1
+            for i, frame in enumerate(frames):
+                sock.send(frame, _SNDMORE if i < last else 0)
+            self._sent += 1
+
+    def _join(self) -> None:
+        """Wait for the proxy's subscription, then send what was held."""
+        while True:
+            try:
+                connected = self.wait_connected(timeout=0.5)
+            except BusError:
+                return  # closed meanwhile
+            if connected:
+                with self._lock:
+                    if self._sock is not None:
+                        self._send_held(self._sock)
+                    self._joiner = None
+                return
 
     def _socket(self) -> sockets.Socket:
         if self._sock is None:

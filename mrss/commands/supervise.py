@@ -19,6 +19,8 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from mrss.bus import Publisher
+from mrss.bus.component import endpoints_from_config
 from mrss.config import ProjectConfig, load_project
 from mrss.errors import ConfigError
 from mrss.supervision.children import ProcessSettings
@@ -83,14 +85,27 @@ def run(args: argparse.Namespace) -> int:
     temporary = args.run_dir is None and not config.supervisor.run_dir
     try:
         return _supervise(config, run_dir, args.launcher)
+    except ConfigError as exc:
+        print(f"mrss supervise: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
     finally:
         if temporary:
             shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> int:
-    sup = build_supervisor(config, run_dir, launcher=launcher)
+    endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
+                                      file=str(config.file))
+    publisher = Publisher(endpoints, src="supervisor")
+    try:
+        sup = build_supervisor(config, run_dir, launcher=launcher, publish=publisher.publish,
+                               bus=endpoints.to_dict())
+        return _run_root(config, run_dir, sup)
+    finally:
+        publisher.close()
 
+
+def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor) -> int:
     interrupts = []
 
     def on_signal(signum: int, frame: FrameType | None) -> None:

@@ -59,6 +59,9 @@ class ComponentContext:
                 raise BusError("the bus package mrss.bus is not available") from exc
             endpoints = bus.BusEndpoints.from_dict(self.bus)
             self._publisher = bus.Publisher(endpoints, src=self.name, inc=self.incarnation)
+            # A fresh publisher's first messages would be lost until the proxy has
+            # subscribed to it (slow joiner); give a running proxy the time to do so.
+            self._publisher.wait_connected(timeout=2.0)
         return self._publisher
 
     def fail(self, reason: str) -> None:

@@ -195,3 +195,17 @@ def test_tcp_bus_listens_on_loopback_only(proxy_thread: BusEndpoints) -> None:
     assert {addr.ip for addr in listening if addr.port in ports} == {"127.0.0.1"}
     with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot."]) as sub:
         sync(pub, sub, _robot_sync)
+
+
+def test_a_new_publishers_first_messages_are_held_until_the_proxy_joins(
+        proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    with Subscriber(ep, prefixes=["log."]) as sub:
+        assert sub.wait_connected(timeout=10)
+        with Publisher(ep, src="fresh") as pub:
+            # no wait_connected: these go out before the proxy has subscribed to `pub`
+            for n in range(5):
+                pub.publish(LogRecord(component="fresh", level="INFO", message=str(n)))
+            got = [env.body.message for env in _drain(sub)
+                   if isinstance(env.body, LogRecord)]
+    assert got == ["0", "1", "2", "3", "4"]

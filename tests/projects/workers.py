@@ -53,3 +53,14 @@ class Worker(Component):
 
 class NotAComponent:
     """Named by a bad project.toml in tests: it does not subclass Component."""
+
+
+class Announcer(Worker):
+    """A worker that says on the bus which incarnation of it has started."""
+
+    def start(self, ctx: ComponentContext) -> None:
+        super().start(ctx)
+        from mrss.messages import LogRecord
+
+        ctx.publisher.publish(LogRecord(component=ctx.name, level="INFO",
+                                        message=f"started incarnation {ctx.incarnation}"))
