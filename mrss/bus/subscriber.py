@@ -14,7 +14,7 @@ from mrss.bus import sockets
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.wire import WELCOME, decode_frames
 from mrss.errors import BusError, DecodeError
-from mrss.messages import Envelope
+from mrss.messages import Envelope, decode
 
 log = sockets.log
 
@@ -73,7 +73,32 @@ class Subscriber:
         """The next message, or None when `timeout` seconds pass first (None: wait forever)."""
         if self._early:
             return self._early.popleft()
+        # Fast path, taken for most messages under load: a plain one is already waiting.
+        with self._lock:
+            if self._closed:
+                raise BusError("subscriber is closed")
+            try:
+                frames: list[bytes] | None = _recv_multipart(self._sock)
+            except zmq.Again:
+                frames = None
+        if frames is not None:
+            env = self._decode(frames)
+            if env is not None:
+                return env
         return self._recv_next(timeout)
+
+    def _decode(self, frames: list[bytes]) -> Envelope | None:
+        """The message in `frames`; None for control frames and dropped malformed ones."""
+        try:
+            if len(frames) == 2 and frames[0][:4] != b"rel.":
+                return decode(frames[0], frames[1])
+            env = decode_frames(frames)
+        except DecodeError as exc:
+            self._drops.drop(exc)
+            return None
+        if env is None and frames[0] == WELCOME:
+            self._connected.set()
+        return env
 
     def _recv_next(self, timeout: float | None) -> Envelope | None:
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -86,15 +111,9 @@ class Subscriber:
                 if deadline is not None and time.monotonic() >= deadline:
                     return None
                 continue
-            try:
-                env = decode_frames(frames)
-            except DecodeError as exc:
-                self._drops.drop(exc)
-                continue
+            env = self._decode(frames)
             if env is not None:
                 return env
-            if frames[0] == WELCOME:
-                self._connected.set()
 
     def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
         """One multipart message, or None after at most one time slice."""
