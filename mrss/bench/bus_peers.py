@@ -1,7 +1,7 @@
 """The two OS processes of `mrss bench bus`: a driver and a responder, over our bus or MQTT.
 
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
-    python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON [COUNT]
+    python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
 LINK_JSON is {"kind": "bus", "endpoints": {...}} or {"kind": "mqtt", "host", "port", "qos"}.
 Both sides do the same application work on every transport: each message is a
@@ -258,11 +258,13 @@ def reliable_receive(endpoints: BusEndpoints, stop: threading.Event) -> None:
 def main(argv: list[str]) -> int:
     role, spec = argv[0], json.loads(argv[1])
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    if role in ("responder", "reliable-rx"):  # these finish their loop and report
+        signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     if role == "reliable-tx":
         endpoints = BusEndpoints.from_dict(spec["endpoints"])
         print("ready", flush=True)
-        print(json.dumps(reliable_send(endpoints, int(argv[2]))), flush=True)
+        command, count = sys.stdin.readline().split()  # "send COUNT"
+        print(json.dumps(reliable_send(endpoints, int(count))), flush=True)
         return 0
     if role == "reliable-rx":
         reliable_receive(BusEndpoints.from_dict(spec["endpoints"]), stop)
