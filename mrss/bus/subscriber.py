@@ -12,7 +12,7 @@ import zmq
 
 from mrss.bus import sockets
 from mrss.bus.endpoints import BusEndpoints
-from mrss.bus.wire import WELCOME, decode_frames
+from mrss.bus.wire import WELCOME, message_frames
 from mrss.errors import BusError, DecodeError
 from mrss.messages import Envelope, decode
 
@@ -53,6 +53,7 @@ class Subscriber:
         self.endpoints = endpoints
         self.prefixes = tuple(prefixes)
         self._early: deque[Envelope] = deque()
+        self._batch: deque[tuple[bytes, bytes]] = deque()  # rest of a received batch
         self._drops = sockets.DropLog(name)
         self._lock = threading.Lock()
         self._closed = False
@@ -73,7 +74,11 @@ class Subscriber:
         """The next message, or None when `timeout` seconds pass first (None: wait forever)."""
         if self._early:
             return self._early.popleft()
-        # Fast path, taken for most messages under load: a plain one is already waiting.
+        if self._batch:
+            env = self._next_of_batch()
+            if env is not None:
+                return env
+        # Fast path, taken for most messages under load: one is already waiting.
         with self._lock:
             if self._closed:
                 raise BusError("subscriber is closed")
@@ -88,21 +93,37 @@ class Subscriber:
         return self._recv_next(timeout)
 
     def _decode(self, frames: list[bytes]) -> Envelope | None:
-        """The message in `frames`; None for control frames and dropped malformed ones."""
+        """The (first) message in `frames`; None for control frames and malformed ones."""
         try:
             if len(frames) == 2 and frames[0][:4] != b"rel.":
                 return decode(frames[0], frames[1])
-            env = decode_frames(frames)
+            pairs = message_frames(frames)
         except DecodeError as exc:
             self._drops.drop(exc)
             return None
-        if env is None and frames[0] == WELCOME:
-            self._connected.set()
-        return env
+        if not pairs:
+            if frames[0] == WELCOME:
+                self._connected.set()
+            return None
+        self._batch.extend(pairs)
+        return self._next_of_batch()
+
+    def _next_of_batch(self) -> Envelope | None:
+        """Decode the held messages of a batch until one is valid; None if none is."""
+        while self._batch:
+            try:
+                return decode(*self._batch.popleft())
+            except DecodeError as exc:
+                self._drops.drop(exc)
+        return None
 
     def _recv_next(self, timeout: float | None) -> Envelope | None:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
+            if self._batch:
+                env = self._next_of_batch()
+                if env is not None:
+                    return env
             with self._lock:
                 if self._closed:
                     raise BusError("subscriber is closed")
