@@ -3,7 +3,8 @@
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
     python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
-LINK_JSON is {"kind": "bus", "endpoints": {...}} or {"kind": "mqtt", "host", "port", "qos"}.
+LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} or
+{"kind": "mqtt", "host", "port", "qos"}.
 Both sides do the same application work on every transport: each message is a
 RobotData encoded into an MRSS envelope by the sender and decoded and validated by the
 receiver. Each process prints "ready", then one JSON result line.
@@ -48,8 +49,9 @@ class Link(Protocol):
 class BusLink:
     """Our bus: a Publisher and a Subscriber."""
 
-    def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str) -> None:
-        self.pub = Publisher(endpoints, src=src)
+    def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str,
+                 batching: bool = True) -> None:
+        self.pub = Publisher(endpoints, src=src, batching=batching)
         self.sub = Subscriber(endpoints, prefixes=topics, name=src)
 
     def publish(self, msg: Message) -> None:
@@ -126,7 +128,8 @@ class MqttLink:
 
 def make_link(spec: dict[str, Any], topics: list[str], src: str) -> BusLink | MqttLink:
     if spec["kind"] == "bus":
-        return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src)
+        return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
+                       batching=spec.get("batching", True))
     return MqttLink(spec["host"], int(spec["port"]), int(spec["qos"]), topics, src)
 
 
