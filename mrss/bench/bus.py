@@ -19,8 +19,7 @@ import subprocess
 import sys
 import tempfile
 import threading
-from collections.abc import Iterator
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack
 from typing import Any
 
 from mrss.bench.report import BenchReport
@@ -68,6 +67,8 @@ class _Child:
         return self.result(timeout)
 
     def stop(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()  # a driver waiting for commands ends on EOF
         if self.proc.poll() is None:
             self.proc.terminate()
             try:
@@ -75,31 +76,26 @@ class _Child:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        for stream in (self.proc.stdin, self.proc.stdout, self.proc.stderr):
+        for stream in (self.proc.stdout, self.proc.stderr):
             if stream is not None:
                 stream.close()
 
 
-@contextmanager
-def _child(*args: str, ready: str = "ready", timeout: float = 20) -> Iterator[_Child]:
+    def wait_ready(self, timeout: float = 30) -> _Child:
+        if not self.line(timeout).startswith("ready"):
+            raise RuntimeError(f"{self.argv[2:4]}: did not start")
+        return self
+
+
+def _spawn(stack: ExitStack, *args: str) -> _Child:
+    """Start `python -m ARGS`; it is stopped when `stack` closes. Not yet waited for."""
     child = _Child([sys.executable, "-m", *args])
-    try:
-        if not child.line(timeout).startswith(ready):
-            raise RuntimeError(f"{args}: did not start")
-        yield child
-    finally:
-        child.stop()
+    stack.callback(child.stop)
+    return child
 
 
-def _peer(role: str, spec: dict[str, Any], *args: int) -> Any:
-    return _child("mrss.bench.bus_peers", role, json.dumps(spec), *map(str, args))
-
-
-@contextmanager
-def _pair(spec: dict[str, Any]) -> Iterator[tuple[_Child, _Child]]:
-    """A responder and a driver joined to it over the transport `spec`."""
-    with _peer("responder", spec) as responder, _peer("driver", spec) as driver:
-        yield driver, responder
+def _peer(stack: ExitStack, role: str, spec: dict[str, Any]) -> _Child:
+    return _spawn(stack, "mrss.bench.bus_peers", role, json.dumps(spec))
 
 
 def _measure(pairs: dict[str, tuple[_Child, _Child]], rounds: int, pings: int,
@@ -135,12 +131,10 @@ def _measure(pairs: dict[str, tuple[_Child, _Child]], rounds: int, pings: int,
     return results
 
 
-def _reliable(spec: dict[str, Any], count: int) -> dict[str, Any]:
-    with _peer("reliable-rx", spec) as receiver:
-        with _peer("reliable-tx", spec, count) as sender:
-            sent = sender.result(timeout=180)
-        receiver.proc.terminate()
-        handled = receiver.result(timeout=30)
+def _reliable(sender: _Child, receiver: _Child, count: int) -> dict[str, Any]:
+    sent = sender.command(f"send {count}", timeout=180)
+    receiver.proc.terminate()
+    handled = receiver.result(timeout=30)
     # One warm-up message precedes the timed ones; each must be handled exactly once.
     exactly_once = handled["handled"] == handled["unique"] == count + 1 and sent["acked"]
     return {
@@ -157,11 +151,12 @@ def _percentile(sorted_values: list[float], p: float) -> float:
 
 def run(quick: bool) -> BenchReport:
     """Measure every transport in this run and compare against MQTT QoS 0."""
-    rounds = 3 if quick else 5
+    rounds = 5 if quick else 7
     pings = 200 if quick else 1000
-    # Per round; 50,000 stays within our queue limits (DEFAULT_HWM per hop), so plain
-    # pub/sub drops nothing even when the receiver falls behind. MQTT is offered the same.
-    count = 10_000 if quick else 50_000
+    # Per round. With batching, 50,000 stays within our queue limits (DEFAULT_HWM ZeroMQ
+    # messages per hop) even when the receiver falls behind; unbatched plain pub/sub and
+    # Mosquitto's default queues may drop some, which 'delivered %' shows.
+    count = 20_000 if quick else 50_000
     reliable = 10_000 if quick else 100_000
     report = BenchReport(
         name="bus", quick=quick,
@@ -170,13 +165,18 @@ def run(quick: bool) -> BenchReport:
     load_before = os.getloadavg()[0]
     with ExitStack() as stack:
         tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="mrss-bench-"))
+        # One proxy per transport, as each MQTT variant gets its own broker: the peers of
+        # different transports use the same topics.
         ipc, tcp = BusEndpoints.ipc(tmp), BusEndpoints.tcp_loopback()
-        for ep in (ipc, tcp):
-            stack.enter_context(_child("mrss.bus.proxy", "--frontend", ep.frontend,
-                                       "--backend", ep.backend))
+        ipc_plain = BusEndpoints.ipc(os.path.join(tmp, "plain"))
+        for ep in (ipc, tcp, ipc_plain):
+            _spawn(stack, "mrss.bus.proxy", "--frontend", ep.frontend,
+                   "--backend", ep.backend).wait_ready()
         specs: dict[str, dict[str, Any]] = {
             "bus ipc": {"kind": "bus", "endpoints": ipc.to_dict()},
             "bus tcp": {"kind": "bus", "endpoints": tcp.to_dict()},
+            "bus ipc, no batching": {"kind": "bus", "endpoints": ipc_plain.to_dict(),
+                                     "batching": False},
         }
         streams = dict.fromkeys(specs, count)
         binary = find_mosquitto()
@@ -192,10 +192,19 @@ def run(quick: bool) -> BenchReport:
                 specs[name] = {"kind": "mqtt", "host": broker.host, "port": broker.port,
                                "qos": qos}
                 streams[name] = count if qos == 0 else count // 5
-        pairs = {name: stack.enter_context(_pair(spec)) for name, spec in specs.items()}
+        # Start every process at once (interpreter start-up dominates a quick run).
+        pairs = {name: (_peer(stack, "driver", spec), _peer(stack, "responder", spec))
+                 for name, spec in specs.items()}
+        reliable_pairs = {
+            f"bus reliable {name[4:]}": (_peer(stack, "reliable-tx", specs[name]),
+                                         _peer(stack, "reliable-rx", specs[name]))
+            for name in ("bus ipc", "bus tcp")}
+        for driver, responder in [*pairs.values(), *reliable_pairs.values()]:
+            responder.wait_ready()
+            driver.wait_ready()
         results = _measure(pairs, rounds, pings, streams)
-        results["bus reliable ipc"] = _reliable(specs["bus ipc"], reliable)
-        results["bus reliable tcp"] = _reliable(specs["bus tcp"], reliable)
+        for name, (sender, receiver) in reliable_pairs.items():
+            results[name] = _reliable(sender, receiver, reliable)
     _fill(report, results, rounds * pings)
     report.notes.append(f"Load average before/after: {load_before:.2f}/{os.getloadavg()[0]:.2f} "
                         f"on {os.cpu_count()} CPUs (other work on the machine adds noise, "
@@ -225,4 +234,6 @@ def _fill(report: BenchReport, results: dict[str, dict[str, Any]], pings: int) -
         "Mosquitto defaults, 20 in flight). MQTT runs with TCP_NODELAY on paho's socket and "
         "set_tcp_nodelay in Mosquitto (without, QoS 1 round trips take ~45-90 ms).")
     report.notes.append("Every message is a RobotData MRSS envelope of ~160 bytes (encode, "
-                        "decode and validate on both sides).")
+                        "decode and validate on both sides). Our publisher batches bursts "
+                        "(messages < 20 us apart; docs/bus.md), so streams travel in batches "
+                        "and round trips never do; 'no batching' shows the bus without it.")

@@ -1,9 +1,10 @@
 """The two OS processes of `mrss bench bus`: a driver and a responder, over our bus or MQTT.
 
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
-    python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON [COUNT]
+    python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
-LINK_JSON is {"kind": "bus", "endpoints": {...}} or {"kind": "mqtt", "host", "port", "qos"}.
+LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} or
+{"kind": "mqtt", "host", "port", "qos"}.
 Both sides do the same application work on every transport: each message is a
 RobotData encoded into an MRSS envelope by the sender and decoded and validated by the
 receiver. Each process prints "ready", then one JSON result line.
@@ -48,8 +49,9 @@ class Link(Protocol):
 class BusLink:
     """Our bus: a Publisher and a Subscriber."""
 
-    def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str) -> None:
-        self.pub = Publisher(endpoints, src=src)
+    def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str,
+                 batching: bool = True) -> None:
+        self.pub = Publisher(endpoints, src=src, batching=batching)
         self.sub = Subscriber(endpoints, prefixes=topics, name=src)
 
     def publish(self, msg: Message) -> None:
@@ -126,7 +128,8 @@ class MqttLink:
 
 def make_link(spec: dict[str, Any], topics: list[str], src: str) -> BusLink | MqttLink:
     if spec["kind"] == "bus":
-        return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src)
+        return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
+                       batching=spec.get("batching", True))
     return MqttLink(spec["host"], int(spec["port"]), int(spec["qos"]), topics, src)
 
 
@@ -258,11 +261,13 @@ def reliable_receive(endpoints: BusEndpoints, stop: threading.Event) -> None:
 def main(argv: list[str]) -> int:
     role, spec = argv[0], json.loads(argv[1])
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    if role in ("responder", "reliable-rx"):  # these finish their loop and report
+        signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     if role == "reliable-tx":
         endpoints = BusEndpoints.from_dict(spec["endpoints"])
         print("ready", flush=True)
-        print(json.dumps(reliable_send(endpoints, int(argv[2]))), flush=True)
+        command, count = sys.stdin.readline().split()  # "send COUNT"
+        print(json.dumps(reliable_send(endpoints, int(count))), flush=True)
         return 0
     if role == "reliable-rx":
         reliable_receive(BusEndpoints.from_dict(spec["endpoints"]), stop)

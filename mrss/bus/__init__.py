@@ -12,7 +12,7 @@ See docs/bus.md.
 """
 
 from mrss.bus.endpoints import BusEndpoints
-from mrss.bus.proxy import ProxyThread, run_proxy
+from mrss.bus.forwarder import ProxyThread, run_proxy
 from mrss.bus.publisher import Publisher
 from mrss.bus.reliable_receiver import ReliableReceiver
 from mrss.bus.reliable_sender import ReliableSender

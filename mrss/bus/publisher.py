@@ -1,4 +1,14 @@
-"""Publishing messages on the bus: encode, then send through the proxy's frontend."""
+"""Publishing messages on the bus: encode, then send through the proxy's frontend.
+
+A message goes out at once unless it follows the previous one within `BURST_GAP`
+(20 us): then it joins a batch, a single ZeroMQ message `[topic, envelope, envelope,
+...]` of consecutive messages on one topic, which every hop handles in one go. A batch
+is sent when it is full (`MAX_BATCH` messages or `MAX_BATCH_BYTES`), when the topic
+changes, when it is `MAX_HOLD` old at the next publish, or else by a flusher thread once
+publishing has paused for `FLUSH_IDLE` (50 us; a few milliseconds at worst, when other
+Python threads hold the GIL). So isolated messages (requests, replies, statuses) never
+wait, and streams cost a fraction per message. Subscribers unpack batches transparently.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +24,11 @@ from mrss.bus.endpoints import BusEndpoints
 from mrss.errors import BusError
 from mrss.messages import IdGenerator, Message, encode
 
+BURST_GAP = 20e-6
+MAX_BATCH = 64
+MAX_BATCH_BYTES = 16_384
+MAX_HOLD = 0.001
+FLUSH_IDLE = 50e-6  # the flusher sends a held batch once publishing paused this long
 # Subscription notices from the proxy queue up on our XPUB socket; read them now and then.
 _DRAIN_EVERY = 512
 _SNDMORE = int(zmq.SNDMORE)
@@ -23,8 +38,9 @@ class Publisher:
     """Sends messages to every subscriber of their topic; thread-safe.
 
     Plain publish/subscribe: a message sent while the proxy is down or restarting is
-    queued (up to `hwm`) and sent on reconnect, but may be lost around a crash. Use the
-    reliable channel where a loss matters. Messages published before the proxy first
+    queued (up to `hwm` ZeroMQ messages) and sent on reconnect, but may be lost around a
+    crash. Use the reliable channel where a loss matters. Messages of one publisher
+    arrive in the order published. Messages published before the proxy first
     subscribed to this publisher are held (up to `hwm`) and sent once it has, by a
     short-lived joiner thread, so a component's first words are not lost.
 
@@ -35,7 +51,7 @@ class Publisher:
 
     def __init__(
         self, endpoints: BusEndpoints, src: str, inc: int = 0, *,
-        hwm: int = sockets.DEFAULT_HWM, linger: float = 1.0,
+        hwm: int = sockets.DEFAULT_HWM, linger: float = 1.0, batching: bool = True,
         context: sockets.Context | None = None,
     ) -> None:
         self.src = src
@@ -48,6 +64,15 @@ class Publisher:
             linger_ms=int(linger * 1000))
         self._connected = False
         self._sent = 0
+        self._batching = batching
+        self._batch: list[bytes] = []  # [topic, envelope, envelope, ...] not yet sent
+        self._batch_bytes = 0
+        self._batch_since = 0.0
+        self._last_publish = 0.0
+        self._flusher: threading.Thread | None = None
+        self._flusher_idle = False
+        self.batches_sent = 0  # ZeroMQ messages that carried more than one message
+        self._wake = threading.Condition(self._lock)
         self._held: deque[tuple[bytes, ...]] = deque(maxlen=hwm)
         self._joiner: threading.Thread | None = None
 
@@ -62,13 +87,87 @@ class Publisher:
                 raise BusError("publisher is closed")
             if not self._connected and self._hold((topic_frame, payload), sock):
                 return msg_id
-            # Two plain sends cost half of one send_multipart.
-            sock.send(topic_frame, _SNDMORE)
-            sock.send(payload)
-            self._sent += 1
-            if self._sent % _DRAIN_EVERY == 0:
-                self._drain_subscriptions(sock)
+            now = time.perf_counter()
+            burst = self._batching and now - self._last_publish < BURST_GAP
+            self._last_publish = now
+            batch = self._batch
+            if batch and (not burst or batch[0] != topic_frame
+                          or now - self._batch_since > MAX_HOLD):
+                self._send_batch(sock)
+            if burst or self._batch:
+                self._add_to_batch(sock, topic_frame, payload, now)
+            else:
+                # Two plain sends cost half of one send_multipart.
+                sock.send(topic_frame, _SNDMORE)
+                sock.send(payload)
+                self._count_sent(sock)
         return msg_id
+
+    def _add_to_batch(self, sock: sockets.Socket, topic: bytes, payload: bytes,
+                      now: float) -> None:
+        # Caller holds the lock.
+        if not self._batch:
+            self._batch = [topic]
+            self._batch_since = now
+            self._ensure_flusher()
+        self._batch.append(payload)
+        self._batch_bytes += len(payload)
+        if len(self._batch) > MAX_BATCH or self._batch_bytes >= MAX_BATCH_BYTES:
+            self._send_batch(sock)
+
+    def _send_batch(self, sock: sockets.Socket) -> None:
+        # Caller holds the lock.
+        batch, self._batch, self._batch_bytes = self._batch, [], 0
+        self.batches_sent += len(batch) > 2
+        last = len(batch) - 1
+        for i, frame in enumerate(batch):
+            sock.send(frame, _SNDMORE if i < last else 0)
+        self._count_sent(sock)
+
+    @property
+    def sends(self) -> int:
+        """How many ZeroMQ messages went out (a batch counts once)."""
+        return self._sent
+
+    def _count_sent(self, sock: sockets.Socket) -> None:
+        self._sent += 1
+        if self._sent % _DRAIN_EVERY == 0:
+            self._drain_subscriptions(sock)
+
+    def _ensure_flusher(self) -> None:
+        # Caller holds the lock.
+        if self._flusher is None:
+            self._flusher = threading.Thread(target=self._flush_forever, daemon=True,
+                                             name=f"mrss-pub-flush-{self.src}")
+            self._flusher.start()
+        elif self._flusher_idle:
+            self._wake.notify()
+
+    def _flush_forever(self) -> None:
+        """Send a held batch once its publisher pauses; ends when the publisher closes.
+
+        While a burst goes on the publisher sends its own full or old batches, so the
+        flusher then sleeps until the current batch's `MAX_HOLD` deadline instead of
+        waking (and taking the GIL) every few microseconds.
+        """
+        with self._lock:
+            while self._sock is not None:
+                if not self._batch:
+                    self._flusher_idle = True
+                    self._wake.wait()
+                    self._flusher_idle = False
+                    continue
+                now = time.perf_counter()
+                if now - self._last_publish < FLUSH_IDLE:
+                    self._wake.wait(max(FLUSH_IDLE, self._batch_since + MAX_HOLD - now))
+                    continue
+                self._send_batch(self._sock)
+
+    def flush(self) -> None:
+        """Send a held batch now."""
+        with self._lock:
+            if self._batch and self._sock is not None:
+                self._send_batch(self._sock)
 
     def send_frames(self, frames: tuple[bytes, ...] | list[bytes]) -> None:
         """Send an already encoded multipart message (for relays and the reliable channel)."""
@@ -76,12 +175,12 @@ class Publisher:
             sock = self._socket()
             if not self._connected and self._hold(tuple(frames), sock):
                 return
+            if self._batch:
+                self._send_batch(sock)  # keep the publisher's order
             last = len(frames) - 1
             for i, frame in enumerate(frames):
                 sock.send(frame, _SNDMORE if i < last else 0)
-            self._sent += 1
-            if self._sent % _DRAIN_EVERY == 0:
-                self._drain_subscriptions(sock)
+            self._count_sent(sock)
 
     def wait_connected(self, timeout: float = 5.0) -> bool:
         """Wait until the proxy has subscribed to this publisher; False on timeout."""
@@ -115,7 +214,7 @@ class Publisher:
         if self._connected:
             self._send_held(sock)
         elif self._joiner is None:
-            self._joiner = threading.Thread(target=self._join, name=f"{self.src}-pub-join",
+            self._joiner = threading.Thread(target=self._join, name=f"mrss-pub-join-{self.src}",
                                             daemon=True)
             self._joiner.start()
         return True
@@ -148,11 +247,17 @@ class Publisher:
         return self._sock
 
     def close(self) -> None:
-        """Close the socket; queued messages get up to `linger` seconds to go out."""
+        """Send what is held, close; queued messages get `linger` seconds to go out."""
         with self._lock:
-            if self._sock is not None:
-                self._sock.close()
-                self._sock = None
+            if self._sock is None:
+                return
+            if self._batch:
+                self._send_batch(self._sock)
+            self._sock.close()
+            self._sock = None
+            self._wake.notify_all()
+        if self._flusher is not None and self._flusher is not threading.current_thread():
+            self._flusher.join(timeout=5)
 
     def __enter__(self) -> Publisher:
         return self

@@ -14,9 +14,10 @@ log = logging.getLogger("mrss.bus")
 Socket = zmq.Socket[bytes]
 Context = zmq.Context[Socket]
 
-# Queue limits per peer. ZeroMQ's default (1000) drops bursts the reliable channel's
-# window alone can fill; 20,000 small messages is a few MB at most.
-DEFAULT_HWM = 20_000
+# Queue limit per peer, in ZeroMQ messages (a publisher's batch is one). ZeroMQ's default
+# (1000) drops bursts the reliable channel's window alone can fill; 10,000 plain
+# messages are a few MB, full batches (16 kB) at most 160 MB for a stalled subscriber.
+DEFAULT_HWM = 10_000
 # Reconnect quickly after a proxy restart, without hammering a proxy that stays down.
 RECONNECT_IVL_MS = 50
 RECONNECT_IVL_MAX_MS = 500

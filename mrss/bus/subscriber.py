@@ -12,9 +12,9 @@ import zmq
 
 from mrss.bus import sockets
 from mrss.bus.endpoints import BusEndpoints
-from mrss.bus.wire import WELCOME, decode_frames
+from mrss.bus.wire import WELCOME, message_frames
 from mrss.errors import BusError, DecodeError
-from mrss.messages import Envelope
+from mrss.messages import Envelope, decode
 
 log = sockets.log
 
@@ -53,6 +53,7 @@ class Subscriber:
         self.endpoints = endpoints
         self.prefixes = tuple(prefixes)
         self._early: deque[Envelope] = deque()
+        self._batch: deque[tuple[bytes, bytes]] = deque()  # rest of a received batch
         self._drops = sockets.DropLog(name)
         self._lock = threading.Lock()
         self._closed = False
@@ -73,11 +74,56 @@ class Subscriber:
         """The next message, or None when `timeout` seconds pass first (None: wait forever)."""
         if self._early:
             return self._early.popleft()
+        if self._batch:
+            env = self._next_of_batch()
+            if env is not None:
+                return env
+        # Fast path, taken for most messages under load: one is already waiting.
+        with self._lock:
+            if self._closed:
+                raise BusError("subscriber is closed")
+            try:
+                frames: list[bytes] | None = _recv_multipart(self._sock)
+            except zmq.Again:
+                frames = None
+        if frames is not None:
+            env = self._decode(frames)
+            if env is not None:
+                return env
         return self._recv_next(timeout)
+
+    def _decode(self, frames: list[bytes]) -> Envelope | None:
+        """The (first) message in `frames`; None for control frames and malformed ones."""
+        try:
+            if len(frames) == 2 and frames[0][:4] != b"rel.":
+                return decode(frames[0], frames[1])
+            pairs = message_frames(frames)
+        except DecodeError as exc:
+            self._drops.drop(exc)
+            return None
+        if not pairs:
+            if frames[0] == WELCOME:
+                self._connected.set()
+            return None
+        self._batch.extend(pairs)
+        return self._next_of_batch()
+
+    def _next_of_batch(self) -> Envelope | None:
+        """Decode the held messages of a batch until one is valid; None if none is."""
+        while self._batch:
+            try:
+                return decode(*self._batch.popleft())
+            except DecodeError as exc:
+                self._drops.drop(exc)
+        return None
 
     def _recv_next(self, timeout: float | None) -> Envelope | None:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
+            if self._batch:
+                env = self._next_of_batch()
+                if env is not None:
+                    return env
             with self._lock:
                 if self._closed:
                     raise BusError("subscriber is closed")
@@ -86,15 +132,9 @@ class Subscriber:
                 if deadline is not None and time.monotonic() >= deadline:
                     return None
                 continue
-            try:
-                env = decode_frames(frames)
-            except DecodeError as exc:
-                self._drops.drop(exc)
-                continue
+            env = self._decode(frames)
             if env is not None:
                 return env
-            if frames[0] == WELCOME:
-                self._connected.set()
 
     def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
         """One multipart message, or None after at most one time slice."""

@@ -1,5 +1,7 @@
 """The frames the bus carries besides plain `[topic, envelope]` messages.
 
+* Batch: `[topic, envelope, envelope, ...]`, consecutive messages of one publisher on
+  one topic, sent together in a burst (see `Publisher`).
 * Welcome: the proxy greets each new subscriber with one `[WELCOME]` frame, which tells
   a subscriber it is connected (see `Subscriber.wait_connected`).
 * Reliable data: `[b"rel.<channel>.msg", topic, envelope, header]`; the middle two frames
@@ -71,23 +73,32 @@ def is_ack(topic: bytes) -> bool:
     return topic.startswith(RELIABLE_PREFIX) and b".ack." in topic
 
 
-def decode_frames(frames: list[bytes]) -> Envelope | None:
-    """The message in one multipart bus message, or None for a control frame.
+def message_frames(frames: list[bytes]) -> list[tuple[bytes, bytes]]:
+    """The `(topic, envelope)` pairs in one multipart bus message, not yet decoded.
 
-    Plain messages and reliable data both decode to their Envelope (a monitor sees
-    reliable traffic like any other); welcome and ack frames give None.
-    Anything else raises DecodeError.
+    A plain message holds one, a publisher's batch `[topic, envelope, ...]` several, a
+    reliable data message one (a monitor sees reliable traffic like any other); welcome
+    and ack frames hold none. Any other shape raises DecodeError.
     """
-    if len(frames) == 2:
-        if is_ack(frames[0]):
-            return None
-        return decode(frames[0], frames[1])
-    if len(frames) == 4 and frames[0].startswith(RELIABLE_PREFIX):
-        return decode(frames[1], frames[2])
-    if len(frames) == 1 and frames[0] == WELCOME:
-        return None
-    topic = _printable(frames[0]) if frames else None
-    raise DecodeError(f"unexpected message of {len(frames)} frame(s)", topic=topic)
+    count = len(frames)
+    if count >= 2 and not frames[0].startswith(RELIABLE_PREFIX):
+        topic = frames[0]
+        return [(topic, payload) for payload in frames[1:]]
+    if count == 4 and frames[0].startswith(RELIABLE_PREFIX):
+        return [(frames[1], frames[2])]
+    if (count == 2 and is_ack(frames[0])) or (count == 1 and frames[0] == WELCOME):
+        return []
+    raise DecodeError(f"unexpected message of {count} frame(s)",
+                      topic=_printable(frames[0]) if frames else None)
+
+
+def decode_frames(frames: list[bytes]) -> Envelope | None:
+    """The one message in a plain or reliable data message; None for control frames."""
+    pairs = message_frames(frames)
+    if len(pairs) > 1:
+        raise DecodeError("a batch where one message was expected",
+                          topic=_printable(frames[0]))
+    return decode(*pairs[0]) if pairs else None
 
 
 def _printable(topic: bytes) -> str:

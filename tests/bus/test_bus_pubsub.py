@@ -70,7 +70,7 @@ def test_malformed_messages_are_logged_and_dropped(
         garbage = [
             [b"robot.a.data", b"\xc1not msgpack"],
             [b"\xff\xfe", percept],
-            [b"percept", percept, b"third frame"],
+            [b"rel.action.msg", percept],  # reliable framing with a frame missing
             [b"robot.a.data", percept],  # a percept on a robot topic
             [b"percept", msgpack.packb({"v": 1})],
             [b"robot.lonely"],
@@ -87,8 +87,36 @@ def test_malformed_messages_are_logged_and_dropped(
         assert len(drops) == len(garbage)
         assert "watcher: dropped malformed message on topic 'robot.a.data': not msgpack" \
             in drops[0]
+        assert "unexpected message of 2 frame(s)" in drops[2]
         assert "does not belong on this topic" in drops[3]
         assert "lacks 'id'" in drops[4]
+
+
+def test_a_batch_delivers_its_messages_in_order_and_drops_only_bad_ones(
+    proxy_thread: BusEndpoints,
+) -> None:
+    ep = proxy_thread
+    with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["percept"]) as sub:
+        sync(pub, sub, lambda k: Percept(literal=f"sync({k})"))
+        frames = [encode(Percept(literal=f"p{n}"), src="t")[1] for n in range(3)]
+        pub.send_frames([b"percept", frames[0], b"\xc1", frames[1], frames[2]])
+        got = [env.body.literal for env in _drain(sub)]  # type: ignore[attr-defined]
+        assert got == ["p0", "p1", "p2"]
+        assert sub.dropped == 1
+
+
+def test_a_burst_is_batched_and_arrives_whole_and_in_order(proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    count = 5000
+    with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot."]) as sub:
+        sync(pub, sub, _robot_sync)
+        for n in range(count):
+            pub.publish(RobotData(robot="b", data={"n": n}))
+        # Not flushed by hand: the flusher sends the tail of the burst by itself.
+        got = [env.body.data["n"] for env in _drain(sub)]  # type: ignore[attr-defined]
+        assert got == list(range(count))
+        assert pub.batches_sent > 0
+        assert pub.sends < count / 4, "a burst should travel in batches"
 
 
 def test_publisher_is_thread_safe(proxy_thread: BusEndpoints) -> None:
@@ -195,6 +223,17 @@ def test_tcp_bus_listens_on_loopback_only(proxy_thread: BusEndpoints) -> None:
     assert {addr.ip for addr in listening if addr.port in ports} == {"127.0.0.1"}
     with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot."]) as sub:
         sync(pub, sub, _robot_sync)
+
+
+def test_an_isolated_message_is_sent_at_once_not_held_for_a_batch(
+    proxy_thread: BusEndpoints,
+) -> None:
+    with Publisher(proxy_thread, src="t") as pub, \
+            Subscriber(proxy_thread, prefixes=["robot."]) as sub:
+        sync(pub, sub, _robot_sync)  # its last publish was a receive timeout or more ago
+        before = pub.sends
+        pub.publish(RobotData(robot="a", data={"alone": True}))
+        assert pub.sends == before + 1
 
 
 def test_a_new_publishers_first_messages_are_held_until_the_proxy_joins(
