@@ -52,6 +52,7 @@ def descendants() -> list[psutil.Process]:
 @pytest.fixture()
 def make_tree(tmp_path: Path) -> Iterator[MakeTree]:
     """make_tree(*child_specs, strategy=..., intensity=..., ...) -> a started Tree."""
+    before = {p.pid for p in descendants()}  # e.g. the session's MQTT broker: not ours
     trees: list[Tree] = []
 
     def make(*children: ChildSpec[ComponentStart], strategy: Strategy = Strategy.ONE_FOR_ONE,
@@ -76,7 +77,7 @@ def make_tree(tmp_path: Path) -> Iterator[MakeTree]:
     finally:
         for tree in trees:
             tree.sup.stop(timeout=30)
-    left = descendants()
+    left = [p for p in descendants() if p.pid not in before]
     for p in left:
         p.kill()
     assert not left, f"processes left behind: {[p.cmdline() for p in left]}"

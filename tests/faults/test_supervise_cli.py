@@ -51,10 +51,11 @@ def test_graceful_shutdown_leaves_no_process_of_the_tree(
     wait_until(lambda: all((tmp_path / f"{c}.1.started").exists()
                            for c in ("alpha", "beta", "gamma")), timeout=20,
                message="demo components started")
-    tree = psutil.Process(proc.pid).children(recursive=True)
-    pids = {p.pid for p in tree}
     # 3 components + beta's helper (+ the fork server)
-    assert len(pids) == (5 if launcher == "fork" else 4)
+    expected = 5 if launcher == "fork" else 4
+    pids = wait_until(lambda: (lambda found: found if len(found) == expected else None)(
+        {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}),
+        timeout=20, message=f"{expected} processes in the tree")
     assert not (tmp_path / "off.1.started").exists()
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
