@@ -15,12 +15,19 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, ClassVar, Protocol
 
+from mrss.edge.adapters import DataLayer, ExternalAdapter, external
+from mrss.edge.payloads import Field, JsonMapping, PayloadError
+from mrss.edge.predicates import Atom, PredicateError, literal, symbol
+from mrss.edge.predicates import Struct
+from mrss.edge.worldmodel_rules import NoObjectWithin, rule
 from mrss.errors import ActionError, MrssError
 from mrss.messages import ActionRequest, ActionState, JsonValue
 
 __all__ = [
-    "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Resource",
-    "RobotCommLayer", "Skill", "SkillInterrupted", "SkillOutcome", "SkillState",
+    "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Atom",
+    "DataLayer", "ExternalAdapter", "Field", "JsonMapping", "NoObjectWithin", "PayloadError",
+    "PredicateError", "Resource", "RobotCommLayer", "Skill", "SkillInterrupted",
+    "SkillOutcome", "SkillState", "Struct", "external", "literal", "rule", "symbol",
 ]
 
 _P, _R, _S = ActionState.PENDING, ActionState.RUNNING, ActionState.SUSPENDED
