@@ -17,8 +17,7 @@ from typing import Any, ClassVar, Protocol
 
 from mrss.edge.adapters import DataLayer, ExternalAdapter, external
 from mrss.edge.payloads import Field, JsonMapping, PayloadError
-from mrss.edge.predicates import Atom, PredicateError, literal, symbol
-from mrss.edge.predicates import Struct
+from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
 from mrss.edge.worldmodel_rules import NoObjectWithin, rule
 from mrss.errors import ActionError, MrssError
 from mrss.messages import ActionRequest, ActionState, JsonValue
