@@ -85,7 +85,7 @@ class Publisher:
             sock = self._sock
             if sock is None:
                 raise BusError("publisher is closed")
-            if not self._connected and self._hold((topic_frame, payload), sock):
+            if (not self._connected or self._held) and self._hold((topic_frame, payload), sock):
                 return msg_id
             now = time.perf_counter()
             burst = self._batching and now - self._last_publish < BURST_GAP
@@ -173,7 +173,7 @@ class Publisher:
         """Send an already encoded multipart message (for relays and the reliable channel)."""
         with self._lock:
             sock = self._socket()
-            if not self._connected and self._hold(tuple(frames), sock):
+            if (not self._connected or self._held) and self._hold(tuple(frames), sock):
                 return
             if self._batch:
                 self._send_batch(sock)  # keep the publisher's order

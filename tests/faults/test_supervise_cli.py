@@ -140,8 +140,9 @@ def test_components_do_not_outlive_a_killed_root_supervisor(
     proc = start(supervise, "demo", tmp_path, "--launcher", launcher)
     wait_until(lambda: all((tmp_path / f"{c}.1.started").exists()
                            for c in ("alpha", "beta", "gamma")), timeout=20)
-    tree = psutil.Process(proc.pid).children(recursive=True)
-    assert len(tree) >= 4  # three components and beta's helper
+    tree = wait_until(lambda: (lambda found: found if len(found) >= 4 else None)(
+        psutil.Process(proc.pid).children(recursive=True)),
+        timeout=20, message="three components and beta's helper")
     proc.kill()
     proc.wait(timeout=10)
     _, alive = psutil.wait_procs(tree, timeout=10)
