@@ -59,6 +59,9 @@ class _Entry(NamedTuple):
     requester: Requester
 
 
+LINK_DOWN = "link down"
+
+
 class RclCore:
     """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
 
@@ -281,6 +284,29 @@ class RclCore:
             changed = before != self._unavailable.get(robot)
         if changed:
             self._robot_state(robot)
+
+    def link_state(self, robot: str, up: bool, reason: str = "") -> list[str]:
+        """The robot's link went down (robot unreachable) or came back.
+
+        Down: the robot is marked unavailable and its open actions fail with the link's
+        reason ("robot uav1 unreachable: no heartbeat for 3.0 s"). Up: available again,
+        unless something else (a quarantine) still holds it. Returns the failed uuids.
+        """
+        if robot not in self.links:
+            return []
+        with self._lock:
+            current = self._unavailable.get(robot, "")
+        if up:
+            if current.startswith(LINK_DOWN):
+                self.set_available(robot, True)
+            return []
+        self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}")
+        with self._lock:
+            targets = [u for u, e in self._index.items() if e.robot == robot]
+        why = f"robot {robot} unreachable: {reason or 'link down'}"
+        for uuid in targets:
+            self._control_one(uuid, "fail", why, BY_CONTROL)
+        return targets
 
     def state(self, uuid: str) -> ActionState | None:
         """The last journaled state of an action (None if never seen)."""

@@ -29,12 +29,13 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from mrss.actors.datalayer import plain
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
 from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
-from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
+from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat, RobotData
 from mrss.supervision import Component, ComponentContext
 
 log = logging.getLogger("mrss.rcl")
@@ -104,6 +105,8 @@ class RclService(Component):
                             restart_period=float(opts.get("restart_period", 60.0)),
                             probation=float(opts.get("probation", 30.0)))
         self.core.start(new_run=ctx.incarnation <= 1)
+        for robot, link in self.links.items():
+            self._watch_link(robot, link, publisher)
         endpoints = BusEndpoints.from_dict(ctx.bus)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
                                                     "sup.heartbeat."])
@@ -134,6 +137,23 @@ class RclService(Component):
                     log.error("heartbeat not published: %r", exc)
             if self._stop.wait(period):
                 return
+
+    def _watch_link(self, robot: str, link: Any, publisher: Any) -> None:
+        """Link state marks the robot (un)available; its telemetry goes on the bus."""
+        core = self.core
+        assert core is not None
+        add_state = getattr(link, "add_link_state_callback", None)
+        if callable(add_state):
+            # transitions only: a link still connecting at start is not a robot lost
+            add_state(lambda up, reason: core.link_state(robot, up, reason))
+        add_telemetry = getattr(link, "add_telemetry_callback", None)
+        if callable(add_telemetry):
+            def forward(record: dict[str, Any]) -> None:
+                try:
+                    publisher.publish(RobotData(robot=robot, data=plain(record)))
+                except (MrssError, TypeError) as exc:
+                    log.warning("telemetry of %s not forwarded: %s", robot, exc)
+            add_telemetry(forward)
 
     def stop(self) -> None:
         self._stop.set()

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from mrss.actors.rcl import RclCore
-from mrss.messages import ActionControl
+from mrss.messages import ActionControl, ActionStatus, RobotState
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv, request_fields
 
@@ -148,3 +148,28 @@ def test_skill_ignoring_its_interrupt_is_abandoned(rcl_env: RclEnv) -> None:
         wait_until(rcl_env.statuses.reached("s1", "cancelled"))
     finally:
         release.set()
+
+
+def test_link_down_fails_the_robots_actions_and_marks_it_unavailable(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    _patrol(rcl_env, core, "a1", robot="ugv1")
+    _patrol(rcl_env, core, "a2", robot="uav1")
+    assert core.link_state("ugv1", False, "no heartbeat for 3.0 s") == ["a1"]
+    wait_until(rcl_env.statuses.reached("a1", "failed"))
+    last = rcl_env.statuses.last("a1")
+    assert last is not None and last.reason == "robot ugv1 unreachable: no heartbeat for 3.0 s"
+    assert rcl_env.statuses.states("a2") == ["pending", "running"]  # other robots go on
+    states = [m for m in rcl_env.statuses.others if isinstance(m, RobotState)]
+    assert states[-1].robot == "ugv1" and not states[-1].available
+    assert states[-1].reason == "link down: no heartbeat for 3.0 s"
+    # an action for the unreachable robot is refused with the reason
+    core.submit_fields(request_fields("a3", "patrol", "ugv1", "g3", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a3", "failed"))
+    assert "link down: no heartbeat" in (rcl_env.statuses.last("a3") or ActionStatus(
+        uuid="x", state="failed")).reason
+
+    core.link_state("ugv1", True)
+    wait_until(lambda: [m for m in rcl_env.statuses.others
+                        if isinstance(m, RobotState)][-1].available, message="ugv1 back")
+    core.submit_fields(request_fields("a4", "patrol", "ugv1", "g4", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a4", "running"))
