@@ -100,22 +100,27 @@ class CliProcess:
             return ""
         return self.proc.stderr.read()
 
-    def kill(self) -> None:
+    def stop(self) -> None:
+        """SIGTERM (a supervisor stops its components), then SIGKILL after 15 s."""
         if self.proc.poll() is None:
-            self.proc.kill()
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
         self.proc.wait(timeout=10)
 
 
 @contextmanager
-def mrss_process(*args: str) -> Iterator[CliProcess]:
-    """Start `python -m mrss ARGS`; it is killed at the end if still running."""
-    proc = subprocess.Popen([sys.executable, "-m", "mrss", *args], cwd=ROOT,
+def mrss_process(*args: str, env: dict[str, str] | None = None) -> Iterator[CliProcess]:
+    """Start `python -m mrss ARGS`; it is stopped at the end if still running."""
+    proc = subprocess.Popen([sys.executable, "-m", "mrss", *args], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     cli = CliProcess(proc)
     try:
         yield cli
     finally:
-        cli.kill()
+        cli.stop()
         for stream in (proc.stdout, proc.stderr):
             if stream is not None:
                 stream.close()

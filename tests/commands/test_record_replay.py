@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import os
 import signal
 import struct
 import time
@@ -20,7 +21,15 @@ from mrss.cli import main
 from mrss.messages import ActionRequest, Envelope, Message, Percept, RobotData, decode, encode
 from mrss.recording import RecordedMessage, RecordingError, RecordingReader, RecordingWriter
 from mrss.testing import wait_until
-from tests.commands.cli_bus import Bus, CliProcess, mrss, mrss_process, running_bus, short_dir
+from tests.commands.cli_bus import (
+    ROOT,
+    Bus,
+    CliProcess,
+    mrss,
+    mrss_process,
+    running_bus,
+    short_dir,
+)
 
 Seen = tuple[str, str, str, Message]  # topic, message id, sender, body
 
@@ -300,3 +309,39 @@ def test_record_without_a_bus_exits_2_and_writes_nothing(tmp_path: Path) -> None
     assert result.returncode == 2
     assert "no bus" in result.stderr
     assert not out.exists()
+
+
+def test_send_and_record_on_a_supervised_system(tmp_path: Path) -> None:
+    env = {**os.environ, "MRSS_PROJECTS": str(ROOT / "tests" / "projects")}
+    out = tmp_path / "system.mrssrec"
+    with short_dir() as run_dir, \
+            mrss_process("supervise", "busdemo", "--run-dir", str(run_dir), env=env) as system, \
+            mrss_process("record", "--run-dir", str(run_dir), "--out", str(out),
+                         "--timeout", "30") as rec:
+        rec.wait_line("recording ", timeout=30)  # waited for the system's proxy
+        sent = mrss("send", "--run-dir", str(run_dir), "percept", "hello(world)")
+        assert sent.returncode == 0, sent.stderr
+        wait_until(lambda: Percept(literal="hello(world)") in body_sequence(
+            seen(recorded(out)), src="mrss-send"), 15, message="the percept is recorded")
+        rec.proc.send_signal(signal.SIGINT)
+        assert rec.finish() == 0, rec.stderr()
+        system.proc.send_signal(signal.SIGINT)
+        assert system.finish() == 0, system.stderr()
+
+
+def test_a_killed_recorder_leaves_a_replayable_file(tmp_path: Path) -> None:
+    out = tmp_path / "killed.mrssrec"
+    with running_bus() as live, recorder(live, out) as rec:
+        with Publisher(live.endpoints, src="tester") as pub:
+            start_recording(pub, out)
+            pub.publish(Percept(literal="last(words)"))
+            wait_until(lambda: Percept(literal="last(words)") in body_sequence(
+                seen(recorded(out))), 15, message="the percept is recorded")
+        rec.proc.kill()
+        rec.finish()
+        with out.open("rb") as handle:
+            entries = list(RecordingReader(handle))  # no RecordingError: all flushed whole
+        replay = mrss("replay", str(out), "--run-dir", str(live.run_dir),
+                      "--as-fast-as-possible")
+        assert replay.returncode == 0, replay.stderr
+        assert f"replayed {len(entries)} messages" in replay.stdout
