@@ -8,10 +8,14 @@ sockets `bus-pub.sock` and `bus-sub.sock` there) or by the proxy's two endpoints
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from mrss.bus import BusEndpoints, Publisher
+import zmq
+
+from mrss.bus import BusEndpoints, Publisher, sockets
 from mrss.errors import BusError, ConfigError
 
 DEFAULT_WAIT = 5.0
@@ -65,14 +69,24 @@ def no_bus_error(endpoint: str, timeout: float) -> BusError:
                     "(is the system running?)")
 
 
+@contextmanager
 def connected_publisher(endpoints: BusEndpoints, src: str, timeout: float,
-                        linger: float = 5.0) -> Publisher:
-    """A publisher the proxy has joined, so what it sends now is forwarded (else BusError)."""
-    publisher = Publisher(endpoints, src=src, linger=linger, batching=False)
-    if not publisher.wait_connected(timeout):
+                        linger: float = 10.0) -> Iterator[Publisher]:
+    """A publisher the proxy has joined, so what it sends now is forwarded (else BusError).
+
+    It has a ZeroMQ context of its own, terminated on exit: that waits (up to `linger`
+    seconds) until every message sent has gone to the proxy. A process that simply
+    ended would drop what its I/O thread had not written yet.
+    """
+    context: sockets.Context = zmq.Context()
+    publisher = Publisher(endpoints, src=src, linger=linger, batching=False, context=context)
+    try:
+        if not publisher.wait_connected(timeout):
+            raise no_bus_error(endpoints.frontend, timeout)
+        yield publisher
+    finally:
         publisher.close()
-        raise no_bus_error(endpoints.frontend, timeout)
-    return publisher
+        context.term()
 
 
 def positive_float(text: str) -> float:

@@ -38,6 +38,9 @@ from mrss.recording import RecordedMessage, RecordingWriter
 
 EXIT_ERROR = 2
 _POLL_MS = 100
+# The recorder's own queue, in ZeroMQ messages (a batch is one): ten times a component's,
+# so a burst the writer is briefly behind on is not dropped at the proxy.
+RECORDER_HWM = 100_000
 _NOBLOCK = int(zmq.NOBLOCK)
 
 
@@ -96,7 +99,7 @@ class BusRecorder:
     """A raw subscriber: hands every bus message, frames untouched, to a RecordingWriter."""
 
     def __init__(self, endpoints: BusEndpoints, prefixes: list[str]) -> None:
-        sock = sockets.connect(sockets.context(), zmq.SUB, endpoints.backend)
+        sock = sockets.connect(sockets.context(), zmq.SUB, endpoints.backend, hwm=RECORDER_HWM)
         sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
         for prefix in prefixes:
             sock.setsockopt(zmq.SUBSCRIBE, prefix.encode())

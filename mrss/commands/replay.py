@@ -58,40 +58,43 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     path: Path = args.file
+    skipped = _Skips()
     try:
-        handle = path.open("rb")
+        with path.open("rb") as handle:
+            reader = RecordingReader(handle, on_skip=skipped.undecodable)
+            endpoints = endpoints_from_args(args)
+            with connected_publisher(endpoints, "mrss-replay", args.timeout) as publisher:
+                player = Player(publisher,
+                                speed=None if args.as_fast_as_possible else args.speed,
+                                prefixes=args.prefix, include_malformed=args.include_malformed,
+                                on_malformed=skipped.malformed)
+                code = _play(player, reader, path)
+            # Leaving the block waited until every message had gone to the proxy.
     except OSError as exc:
         print(f"mrss replay: cannot read {path}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_ERROR
-    with handle:
-        skipped = _Skips()
-        try:
-            reader = RecordingReader(handle, on_skip=skipped.undecodable)
-            endpoints = endpoints_from_args(args)
-            publisher = connected_publisher(endpoints, "mrss-replay", args.timeout)
-        except RecordingError as exc:
-            print(f"mrss replay: {path}: {exc}", file=sys.stderr)
-            return EXIT_ERROR
-        except MrssError as exc:
-            print(f"mrss replay: {exc}", file=sys.stderr)
-            return EXIT_ERROR
-        player = Player(publisher, speed=None if args.as_fast_as_possible else args.speed,
-                        prefixes=args.prefix, include_malformed=args.include_malformed,
-                        on_malformed=skipped.malformed)
-        code = 0
-        try:
-            player.play(reader)
-        except RecordingError as exc:
-            print(f"mrss replay: {path}: {exc} ({player.sent} messages before it were replayed)",
-                  file=sys.stderr)
-            code = EXIT_ERROR
-        except KeyboardInterrupt:
-            code = EXIT_INTERRUPTED
-        finally:
-            publisher.close()  # lingers until what is queued has gone to the proxy
+    except RecordingError as exc:
+        print(f"mrss replay: {path}: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except MrssError as exc:
+        print(f"mrss replay: {exc}", file=sys.stderr)
+        return EXIT_ERROR
     print(f"replayed {player.sent} messages from {path} (skipped {skipped.malformed_count} "
           f"malformed, {skipped.undecodable_count} undecodable)", flush=True)
     return code
+
+
+def _play(player: Player, reader: RecordingReader, path: Path) -> int:
+    """Play `reader` to its end; the exit code (damage in the file is reported here)."""
+    try:
+        player.play(reader)
+    except RecordingError as exc:
+        print(f"mrss replay: {path}: {exc} ({player.sent} messages before it were replayed)",
+              file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+    return 0
 
 
 class _Skips:

@@ -94,14 +94,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss send: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        publisher = connected_publisher(endpoints, args.src, args.timeout)
+        with connected_publisher(endpoints, args.src, args.timeout) as publisher:
+            msg_id = publisher.publish(message, topic=topic)
+        # Leaving the block waited until the message was handed to the proxy.
     except MrssError as exc:
         print(f"mrss send: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    try:
-        msg_id = publisher.publish(message, topic=topic)
-    finally:
-        publisher.close()  # lingers until the message is handed to the proxy
     print(f"sent {message.kind} on {topic or message.topic()} (id {msg_id})")
     return 0
 

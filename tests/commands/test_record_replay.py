@@ -345,3 +345,16 @@ def test_a_killed_recorder_leaves_a_replayable_file(tmp_path: Path) -> None:
                       "--as-fast-as-possible")
         assert replay.returncode == 0, replay.stderr
         assert f"replayed {len(entries)} messages" in replay.stdout
+
+
+def test_a_fast_replay_delivers_everything_before_it_exits(tmp_path: Path) -> None:
+    path = tmp_path / "burst.mrssrec"
+    count = 5000  # within the queues of one hop (10,000 ZeroMQ messages each side)
+    write_recording(path, [RecordedMessage(i * 1e-4, encode(
+        RobotData(robot="uav1", data={"i": i}), src="rec")) for i in range(count)])
+    with running_bus(prefixes=("robot.",)) as live:
+        out = mrss("replay", str(path), "--run-dir", str(live.run_dir),
+                   "--as-fast-as-possible")
+        assert out.returncode == 0, out.stderr
+        got = [live.next().body for _ in range(count)]
+    assert got == [RobotData(robot="uav1", data={"i": i}) for i in range(count)]
