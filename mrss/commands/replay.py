@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from mrss.bus import Publisher
@@ -132,14 +132,15 @@ class Player:
         self._on_malformed = on_malformed
         self.sent = 0
 
-    def play(self, messages: RecordingReader | list[RecordedMessage]) -> None:
+    def play(self, messages: Iterable[RecordedMessage]) -> None:
+        """Publish `messages` in order (a RecordingReader's errors pass through)."""
         start: tuple[float, float] | None = None  # (recorded time, monotonic time) of the first
         for message in messages:
+            if not topic_of(message).startswith(self._prefixes):
+                continue
             if message.malformed and not self._include_malformed:
                 if self._on_malformed is not None:
                     self._on_malformed(message)
-                continue
-            if not topic_of(message).startswith(self._prefixes):
                 continue
             if self._speed is not None:
                 if start is None:
