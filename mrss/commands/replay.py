@@ -1,0 +1,169 @@
+"""`mrss replay FILE`: publish a recording (see `mrss record`) on a running system's bus.
+
+```
+mrss replay FILE --run-dir DIR [--speed X | --as-fast-as-possible] [--prefix P ...]
+                 [--include-malformed]
+```
+
+Messages go out in file order with their recorded spacing divided by `--speed`
+(or back to back with `--as-fast-as-possible`), frames as recorded: envelopes keep
+their original id, time, sender and incarnation. A reliable-channel message is
+published as the plain message it carries (monitors see it; no reliable receiver
+takes it for a live sender's), so a replay never drives robots through the action
+channel. Messages recorded as malformed are skipped unless `--include-malformed`
+(then sent as recorded, e.g. to test how components take garbage); undecodable entries
+are skipped. Both are reported on stderr with their offset.
+
+Exit 0 when all was replayed; 2 when the file is not a recording, or is truncated or
+corrupt (after replaying every message before the damage; the error gives its offset),
+or when no bus proxy answers within `--timeout`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from mrss.bus import Publisher
+from mrss.bus.wire import RELIABLE_PREFIX
+from mrss.commands.busargs import (
+    add_bus_arguments,
+    connected_publisher,
+    endpoints_from_args,
+    positive_float,
+)
+from mrss.errors import MrssError
+from mrss.recording import RecordedMessage, RecordingError, RecordingReader
+
+EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", type=Path, help="a recording made by `mrss record`")
+    add_bus_arguments(parser)
+    pace = parser.add_mutually_exclusive_group()
+    pace.add_argument("--speed", type=positive_float, default=1.0, metavar="X",
+                      help="play X times as fast as recorded (default 1)")
+    pace.add_argument("--as-fast-as-possible", action="store_true",
+                      help="ignore the recorded timing")
+    parser.add_argument("--prefix", action="append", default=None, metavar="P",
+                        help="replay only topics starting with P (repeatable; default all)")
+    parser.add_argument("--include-malformed", action="store_true",
+                        help="also send messages recorded as malformed, as recorded")
+
+
+def run(args: argparse.Namespace) -> int:
+    path: Path = args.file
+    skipped = _Skips()
+    try:
+        with path.open("rb") as handle:
+            reader = RecordingReader(handle, on_skip=skipped.undecodable)
+            endpoints = endpoints_from_args(args)
+            with connected_publisher(endpoints, "mrss-replay", args.timeout) as publisher:
+                player = Player(publisher,
+                                speed=None if args.as_fast_as_possible else args.speed,
+                                prefixes=args.prefix, include_malformed=args.include_malformed,
+                                on_malformed=skipped.malformed)
+                code = _play(player, reader, path)
+            # Leaving the block waited until every message had gone to the proxy.
+    except OSError as exc:
+        print(f"mrss replay: cannot read {path}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except RecordingError as exc:
+        print(f"mrss replay: {path}: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except MrssError as exc:
+        print(f"mrss replay: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    print(f"replayed {player.sent} messages from {path} (skipped {skipped.malformed_count} "
+          f"malformed, {skipped.undecodable_count} undecodable)", flush=True)
+    return code
+
+
+def _play(player: Player, reader: RecordingReader, path: Path) -> int:
+    """Play `reader` to its end; the exit code (damage in the file is reported here)."""
+    try:
+        player.play(reader)
+    except RecordingError as exc:
+        print(f"mrss replay: {path}: {exc} ({player.sent} messages before it were replayed)",
+              file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+    return 0
+
+
+class _Skips:
+    """Reports skipped entries on stderr and counts them."""
+
+    def __init__(self) -> None:
+        self.malformed_count = 0
+        self.undecodable_count = 0
+
+    def malformed(self, message: RecordedMessage) -> None:
+        self.malformed_count += 1
+        print(f"mrss replay: skipped malformed message at offset {message.offset}: "
+              f"{message.note}", file=sys.stderr)
+
+    def undecodable(self, offset: int, reason: str) -> None:
+        self.undecodable_count += 1
+        print(f"mrss replay: skipped undecodable entry at offset {offset}: {reason}",
+              file=sys.stderr)
+
+
+class Player:
+    """Publishes recorded messages with their recorded spacing scaled by 1/`speed`.
+
+    `speed=None` sends them back to back. The spacing is measured from the first message
+    replayed, against a monotonic clock, so delays do not add up over a long recording.
+    """
+
+    def __init__(self, publisher: Publisher, *, speed: float | None,
+                 prefixes: list[str] | None = None, include_malformed: bool = False,
+                 on_malformed: Callable[[RecordedMessage], None] | None = None) -> None:
+        self._publisher = publisher
+        self._speed = speed
+        self._prefixes = tuple(p.encode() for p in prefixes) if prefixes else (b"",)
+        self._include_malformed = include_malformed
+        self._on_malformed = on_malformed
+        self.sent = 0
+
+    def play(self, messages: Iterable[RecordedMessage]) -> None:
+        """Publish `messages` in order (a RecordingReader's errors pass through)."""
+        start: tuple[float, float] | None = None  # (recorded time, monotonic time) of the first
+        for message in messages:
+            if not topic_of(message).startswith(self._prefixes):
+                continue
+            if message.malformed and not self._include_malformed:
+                if self._on_malformed is not None:
+                    self._on_malformed(message)
+                continue
+            if self._speed is not None:
+                if start is None:
+                    start = (message.t, time.monotonic())
+                due = start[1] + (message.t - start[0]) / self._speed
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            self._publisher.send_frames(sendable_frames(message))
+            self.sent += 1
+
+
+def topic_of(message: RecordedMessage) -> bytes:
+    """The topic of the message(s) in an entry: the inner one for reliable-channel data."""
+    frames = message.frames
+    if len(frames) == 4 and frames[0].startswith(RELIABLE_PREFIX):
+        return frames[1]
+    return frames[0]
+
+
+def sendable_frames(message: RecordedMessage) -> list[bytes]:
+    """The frames to publish: as recorded, but reliable data as its plain message."""
+    frames = message.frames
+    if not message.malformed and len(frames) == 4 and frames[0].startswith(RELIABLE_PREFIX):
+        return [frames[1], frames[2]]
+    return list(frames)

@@ -1,0 +1,208 @@
+"""`mrss send KIND ...`: publish one message on a running system's bus, then exit.
+
+```
+mrss send --run-dir DIR percept 'area_goal_received(g1, 3)' [--remove]
+mrss send --run-dir DIR control cancel|suspend|resume|succeed|fail TARGET [--kind action|goal|robot]
+mrss send --run-dir DIR teleop ROBOT on|off
+mrss send --run-dir DIR command NAME [--target T] [--arg KEY=VALUE ...]
+mrss send --run-dir DIR raw KIND JSON          # any kind of mrss.messages, fields as JSON
+```
+
+The message is built and validated before anything is sent (a bad literal, field or
+JSON exits 2 with the reason and sends nothing); then the sender waits (`--timeout`)
+for the bus proxy to join it, publishes, and exits 0 once the message is handed over.
+No proxy within the timeout exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from typing import Any
+
+from mrss.agentspeak.errors import AslSyntaxError
+from mrss.agentspeak.parser import parse_term
+from mrss.agentspeak.terms import Struct, is_ground
+from mrss.commands.busargs import add_bus_arguments, connected_publisher, endpoints_from_args
+from mrss.errors import DecodeError, MrssError
+from mrss.messages import (
+    CONTROL_COMMANDS,
+    CONTROL_TARGETS,
+    KINDS,
+    ActionControl,
+    Command,
+    Message,
+    Percept,
+    build,
+)
+
+EXIT_BAD_INPUT = 2
+_NAME = re.compile(r"\A[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*\Z")
+_ARG_KEY = re.compile(r"\A[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+class BadInput(MrssError):
+    """Input that makes no message: a bad literal, field, JSON or topic."""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    add_bus_arguments(parser)
+    parser.add_argument("--src", default="mrss-send",
+                        help="sender name in the envelope (default mrss-send)")
+    parser.add_argument("--topic", default=None,
+                        help="publish on this sub-topic of the message's own topic")
+    kinds = parser.add_subparsers(dest="kind", metavar="KIND", required=True)
+
+    def kind(name: str, help_text: str) -> argparse.ArgumentParser:
+        sub = kinds.add_parser(name, help=help_text, description=help_text)
+        add_bus_arguments(sub, again=True)
+        return sub
+
+    p = kind("percept", "a percept for the reasoner (an AgentSpeak literal)")
+    p.add_argument("literal", help="a ground literal, e.g. 'area_goal_received(g1, 3)'")
+    p.add_argument("--remove", action="store_true", help="stop perceiving it")
+
+    c = kind("control", "goal management: an action.control command")
+    c.add_argument("command", choices=CONTROL_COMMANDS)
+    c.add_argument("target", help="the action uuid, goal or robot")
+    c.add_argument("--kind", dest="target_kind", choices=CONTROL_TARGETS, default="action",
+                   help="what TARGET names (default action)")
+
+    t = kind("teleop", "switch a robot's teleoperation on or off")
+    t.add_argument("robot")
+    t.add_argument("state", choices=("on", "off"))
+
+    m = kind("command", "an operator command on ctl.NAME")
+    m.add_argument("name", help="command name (the topic is ctl.NAME)")
+    m.add_argument("--target", default="", help="what the command is for")
+    m.add_argument("--arg", action="append", default=[], metavar="KEY=VALUE",
+                   help="an argument; VALUE is read as JSON if it is JSON, else as text")
+
+    r = kind("raw", "any message kind, its fields given as a JSON object")
+    r.add_argument("message_kind", metavar="KIND", help=f"one of: {', '.join(KINDS)}")
+    r.add_argument("json", metavar="JSON", help="the message's fields, e.g. '{\"uuid\": \"a1\"}'")
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        message = build_message(args)
+        topic = _topic(message, args.topic)
+        endpoints = endpoints_from_args(args)
+    except MrssError as exc:
+        print(f"mrss send: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        with connected_publisher(endpoints, args.src, args.timeout) as publisher:
+            msg_id = publisher.publish(message, topic=topic)
+        # Leaving the block waited until the message was handed to the proxy.
+    except MrssError as exc:
+        print(f"mrss send: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"sent {message.kind} on {topic or message.topic()} (id {msg_id})")
+    return 0
+
+
+def build_message(args: argparse.Namespace) -> Message:
+    """The message the command line describes; BadInput says why there is none."""
+    kind: str = args.kind
+    if kind == "percept":
+        return Percept(literal=check_literal(args.literal),
+                       op="remove" if args.remove else "add")
+    if kind == "control":
+        return _built(ActionControl, {"command": args.command, "target": args.target,
+                                      "target_kind": args.target_kind})
+    if kind == "teleop":
+        return _built(Command, {"command": "teleop", "target": args.robot,
+                                "args": {"on": args.state == "on"}})
+    if kind == "command":
+        if not _NAME.match(args.name):
+            raise BadInput(f"command name {args.name!r} must be letters, digits, '_', '-' "
+                           "(dot-separated parts)")
+        return _built(Command, {"command": args.name, "target": args.target,
+                                "args": parse_args(args.arg)})
+    return raw_message(args.message_kind, args.json)
+
+
+def check_literal(text: str) -> str:
+    """`text` stripped, if it is one ground AgentSpeak literal; else BadInput with a caret."""
+    literal = text.strip()
+    if literal.endswith("."):
+        literal = literal[:-1].rstrip()
+    if not literal:
+        raise BadInput("the percept literal is empty")
+    try:
+        term = parse_term(literal)
+    except AslSyntaxError as exc:
+        raise BadInput(_syntax_report(literal, exc)) from None
+    if not isinstance(term, Struct):
+        raise BadInput(f"bad literal: {literal!r} is not a literal (an atom or a structure)")
+    if not is_ground(term):
+        raise BadInput(f"bad literal: {literal!r} has variables; a percept must be ground")
+    return literal
+
+
+def _syntax_report(literal: str, exc: AslSyntaxError) -> str:
+    """The first syntax problem as `col N: message`, the literal, and a caret under it.
+
+    The parser sees the literal with a terminating `.`; an error on that dot is shown as
+    the end of the literal, which is what the user typed.
+    """
+    problem = exc.problems[0]
+    lines = literal.splitlines() or [""]
+    source = lines[problem.line - 1] if 0 < problem.line <= len(lines) else problem.source_line
+    message = problem.message
+    if problem.line == len(lines) and problem.col > len(source) and \
+            message.startswith("unexpected '.'"):
+        message = "unexpected end of literal" + message[len("unexpected '.'"):]
+    where = f"line {problem.line}, col {problem.col}" if len(lines) > 1 else f"col {problem.col}"
+    caret = " " * (max(problem.col, 1) - 1) + "^"
+    return f"bad literal: {where}: {message}\n    {source}\n    {caret}"
+
+
+def parse_args(items: list[str]) -> dict[str, Any]:
+    """`KEY=VALUE` pairs as a map; a VALUE that is JSON is decoded, any other is text."""
+    result: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not _ARG_KEY.match(key):
+            raise BadInput(f"--arg {item!r} must be KEY=VALUE with KEY a name")
+        try:
+            result[key] = json.loads(value)
+        except ValueError:
+            result[key] = value
+    return result
+
+
+def raw_message(kind: str, text: str) -> Message:
+    """A message of `kind` from its fields as JSON; BadInput names the problem."""
+    cls = KINDS.get(kind)
+    if cls is None:
+        raise BadInput(f"unknown message kind {kind!r}; kinds: {', '.join(KINDS)}")
+    try:
+        fields = json.loads(text)
+    except ValueError as exc:
+        raise BadInput(f"JSON is not valid: {exc}") from None
+    if not isinstance(fields, dict):
+        raise BadInput(f"JSON must be an object of {kind} fields, not {type(fields).__name__}")
+    return _built(cls, fields)
+
+
+def _built(cls: type[Message], fields: dict[str, Any]) -> Message:
+    try:
+        return build(cls, fields)
+    except DecodeError as exc:
+        reason = exc.reason if exc.reason.startswith(f"{cls.kind}:") else \
+            f"{cls.kind}: {exc.reason}"
+        raise BadInput(f"invalid message: {reason}") from None
+
+
+def _topic(message: Message, topic: str | None) -> str | None:
+    """`--topic`, checked to be the message's own topic or a dotted sub-topic of it."""
+    if topic is None:
+        return None
+    own = message.topic()
+    if topic != own and not (topic.startswith(own + ".") and _NAME.match(topic)):
+        raise BadInput(f"topic {topic!r} must be {own!r} or {own}.SUB")
+    return topic
