@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mrss import __version__
+from mrss.bench import BENCHES
 from mrss.errors import UnknownProjectError
 from mrss.projects import project_path
 
@@ -35,7 +36,7 @@ VERBS: tuple[Verb, ...] = (
     Verb("record", "record a running system's bus traffic to a file"),
     Verb("replay", "replay a recorded bus session"),
     Verb("sim", "run a simulated robot (uav, ugv)"),
-    Verb("bench", "run a benchmark (bus, restart, reasoner, e2e)", built=True),
+    Verb("bench", f"run a benchmark ({', '.join(BENCHES)})", built=True),
 )
 
 NOT_BUILT_EXIT = 2
