@@ -100,6 +100,14 @@ class RclService(Component):
         publisher = ctx.publisher
         if not publisher.wait_connected(5.0):  # else the restored statuses could be lost
             log.warning("%s: the bus proxy has not greeted the publisher yet", ctx.name)
+        endpoints = BusEndpoints.from_dict(ctx.bus)
+        # Subscribed before the restored actions are announced, so that the answers to
+        # those statuses (a cancel, a suspend) are heard: they wait in the socket until
+        # the core has started. Ready also means controls are heard.
+        self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
+                                                    "sup.heartbeat."])
+        if not self._sub.wait_connected(5.0):
+            log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
                             max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
                             restart_period=float(opts.get("restart_period", 60.0)),
@@ -107,12 +115,7 @@ class RclService(Component):
         self.core.start(new_run=ctx.incarnation <= 1)
         for robot, link in self.links.items():
             self._watch_link(robot, link, publisher)
-        endpoints = BusEndpoints.from_dict(ctx.bus)
-        self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
-                                                    "sup.heartbeat."])
         self._sub.start(self._on_message)
-        if not self._sub.wait_connected(5.0):  # ready means controls are heard
-            log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=ACTION_CHANNEL, handler=self._on_request)
         period = float(opts.get("heartbeat", 0.5))

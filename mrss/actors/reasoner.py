@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.actors.reasoner_host import ReasonerHost
+from mrss.actors.reasoner_percepts import read_percept
 from mrss.agentspeak import Agent, AslSyntaxError
 from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
 from mrss.edge.component import ZmqBusPort, bus_port
@@ -116,10 +117,11 @@ class Reasoner:
         body = env.body
         try:
             if isinstance(body, Percept):
+                literal = read_percept(body.literal)
                 if body.op == "add":
-                    self.agent.add_percept(body.literal)
+                    self.agent.add_percept(literal)
                 else:
-                    self.agent.remove_percept(body.literal)
+                    self.agent.remove_percept(literal)
             elif isinstance(body, ActionStatus):
                 self.host.on_status(body, env.inc)
             elif isinstance(body, SupEvent):

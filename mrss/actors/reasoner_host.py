@@ -11,7 +11,9 @@ Every environment action the agent executes gets a uuid and goes to the RCL as a
   an error reply or a timeout fails the action.
 
 A blocked intention never waits forever: when the RCL has been silent for longer than
-the lease, every latched action fails with the reason.
+the lease, every latched action fails with the reason. Those actions are cancelled at
+the RCL too (and again whenever a status shows one still open, e.g. after the RCL
+comes back or restarts), so no robot keeps working for an intention that has failed.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import logging
 import threading
 import time
 import uuid as uuidlib
+from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -42,6 +45,7 @@ log = logging.getLogger("mrss.reasoner")
 
 GOAL_MANAGEMENT = "rcl_goal_management"
 QUERY = "query"
+ABANDONED_MEMORY = 4096  # uuids of lease-failed actions still to be seen ending at the RCL
 
 
 class AgentPort(Protocol):
@@ -109,6 +113,7 @@ class ReasonerHost:
         self._clock = clock
         self._lock = threading.Lock()
         self._latches: dict[str, Latch] = {}
+        self._abandoned: OrderedDict[str, None] = OrderedDict()
         self._queries: ThreadPoolExecutor | None = None
         self.rcl_heard_at = clock()
         self.rcl_incarnation = -1
@@ -185,6 +190,8 @@ class ReasonerHost:
     # ------------------------------------------------------------ the RCL's side
     def on_status(self, status: ActionStatus, src_inc: int) -> None:
         """A status from the RCL: a terminal one releases its latch."""
+        terminal = ActionState(status.state).terminal
+        abandoned = False
         with self._lock:
             if src_inc < self.rcl_incarnation:
                 log.debug("dropped a status of dead RCL incarnation %d", src_inc)
@@ -193,13 +200,19 @@ class ReasonerHost:
             self.rcl_heard_at = self._clock()
             latch = self._latches.get(status.uuid)
             if latch is None:
-                return
-            latch.last_status = status.state
-            latch.status_at = self.rcl_heard_at
-            latch.progress = dict(status.progress)
-            terminal = ActionState(status.state).terminal
-            if terminal:
-                del self._latches[status.uuid]
+                abandoned = status.uuid in self._abandoned
+                if abandoned and terminal:
+                    del self._abandoned[status.uuid]
+            else:
+                latch.last_status = status.state
+                latch.status_at = self.rcl_heard_at
+                latch.progress = dict(status.progress)
+                if terminal:
+                    del self._latches[status.uuid]
+        if latch is None:
+            if abandoned and not terminal:  # its intention failed on the lease: stop it
+                self._cancel_abandoned(status.uuid)
+            return
         if terminal:
             ok = status.state == ActionState.SUCCEEDED.value
             reason = None if ok else (status.reason or status.state)
@@ -222,12 +235,22 @@ class ReasonerHost:
                 return []
             expired = list(self._latches.values())
             self._latches.clear()
+            for latch in expired:
+                self._abandoned[latch.uuid] = None
+            while len(self._abandoned) > ABANDONED_MEMORY:
+                self._abandoned.popitem(last=False)
         silent = now - self.rcl_heard_at
         for latch in expired:
             self._complete(latch.uuid, False, f"RCL silent for {silent:.1f}s (lease "
                                               f"{self.lease:.1f}s)")
         log.warning("RCL silent for %.1fs: failed %d waiting action(s)", silent, len(expired))
+        for latch in expired:  # queued for the RCL; repeated if it shows them open later
+            self._cancel_abandoned(latch.uuid)
         return [latch.uuid for latch in expired]
+
+    def _cancel_abandoned(self, uuid: str) -> None:
+        self._send_control(ActionControl(command="cancel", target=uuid, target_kind="action"))
+        log.info("action %s cancelled: its intention failed on the RCL lease", uuid)
 
     def latches(self) -> list[Latch]:
         with self._lock:

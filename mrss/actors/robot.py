@@ -207,17 +207,20 @@ class RobotActor(SupervisedActor):
             log.warning("robot %s: action %s failed: %s", self.robot, t.action.uuid, why)
             self._end(t, ActionState.FAILED, why)
             return
+        # The skills start first (the robot moves sooner), RUNNING is journaled and
+        # published right after: whatever they report is handled after this method, so
+        # the statuses keep their order; a crash in between restores the action anyway.
+        t.refs, t.outcomes, t.reasons = [], [None] * len(skills), [""] * len(skills)
+        for index, skill in enumerate(skills):
+            runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
+                                 self.actor_ref.tell)
+            t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
         if t.action.state is not ActionState.RUNNING:
             t.action.transition(ActionState.RUNNING, reason)
             self.emit(t.action.copy(), "")
         elif reason:  # restored while RUNNING: no transition, but say so
             t.action.reason = reason
             self.emit(t.action.copy(), "")
-        t.refs, t.outcomes, t.reasons = [], [None] * len(skills), [""] * len(skills)
-        for index, skill in enumerate(skills):
-            runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
-                                 self.actor_ref.tell)
-            t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
         if not skills:
             self._check(t)
 

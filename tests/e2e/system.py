@@ -1,0 +1,195 @@
+"""A whole MRSS system for the end-to-end tests: `mrss supervise e2e` as an OS process.
+
+The root supervisor runs the bus proxy, the RCL and the reasoner as component
+processes (tests/projects/e2e). The test only talks to them the way other components
+do: it publishes percepts and commands on the bus and watches every status, request,
+heartbeat, supervision event and mind snapshot there. Its log (every component's
+stderr) is kept in `<run_dir>/supervise.log`.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import psutil
+
+from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.messages import (
+    ActionRequest,
+    ActionStatus,
+    Command,
+    Envelope,
+    Heartbeat,
+    Message,
+    MindSnapshot,
+    Percept,
+    SupEvent,
+)
+from mrss.testing import wait_until
+
+PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+WATCHED = ["action.", "rel.action", "mind.", "sup.", "robot."]
+M = TypeVar("M", bound=Message)
+
+
+class System:
+    """One supervised MRSS run plus a bus observer; `close()` always cleans up."""
+
+    def __init__(self, run_dir: Path, project: str = "e2e", projects: Path = PROJECTS) -> None:
+        self.run_dir = run_dir
+        self.log_path = run_dir / "supervise.log"
+        self.endpoints = BusEndpoints.ipc(run_dir)
+        self._lock = threading.Lock()
+        self.seen: list[Envelope] = []
+        self.sub = Subscriber(self.endpoints, prefixes=WATCHED)
+        self.sub.start(self._record)
+        self.pub = Publisher(self.endpoints, src="tester")
+        self._log = self.log_path.open("w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir)],
+            env={**os.environ, "MRSS_PROJECTS": str(projects)}, stdout=self._log,
+            stderr=subprocess.STDOUT, start_new_session=True)
+
+    # ------------------------------------------------------------ observing
+    def _record(self, env: Envelope) -> None:
+        with self._lock:
+            self.seen.append(env)
+
+    def envelopes(self, kind: type[M]) -> list[Envelope]:
+        with self._lock:
+            return [e for e in self.seen if isinstance(e.body, kind)]
+
+    def bodies(self, kind: type[M]) -> list[M]:
+        return [e.body for e in self.envelopes(kind)]  # type: ignore[misc]
+
+    def requests(self, name: str | None = None) -> list[ActionRequest]:
+        """Action requests seen on the reliable channel (a resend is listed once)."""
+        out: dict[str, ActionRequest] = {}
+        for req in self.bodies(ActionRequest):
+            if name is None or req.name == name:
+                out.setdefault(req.uuid, req)
+        return list(out.values())
+
+    def request(self, name: str, goal: str, timeout: float = 10.0) -> ActionRequest:
+        """Wait for the agent's request `name(_, goal, ...)`."""
+        def find() -> list[ActionRequest]:
+            return [r for r in self.requests(name) if r.goal == goal]
+        return wait_until(find, timeout, message=f"request {name} for goal {goal}")[-1]
+
+    def statuses(self, uuid: str) -> list[tuple[int, ActionStatus]]:
+        """(RCL incarnation, status) for one action, in arrival order."""
+        return [(e.inc, e.body) for e in self.envelopes(ActionStatus)
+                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
+
+    def last_state(self, uuid: str) -> str | None:
+        found = self.statuses(uuid)
+        return found[-1][1].state if found else None
+
+    def wait_state(self, uuid: str, *states: str, timeout: float = 10.0) -> ActionStatus:
+        """Wait for a status of `uuid` in one of `states`; returns the first such."""
+        def find() -> list[ActionStatus]:
+            return [s for _, s in self.statuses(uuid) if s.state in states]
+        return wait_until(find, timeout, message=f"action {uuid} {'/'.join(states)}")[0]
+
+    def pid(self, component: str, inc: int | None = None) -> int | None:
+        """The pid of a component (its bus heartbeats), optionally of one incarnation."""
+        beats = [e for e in self.envelopes(Heartbeat)
+                 if e.body.component == component  # type: ignore[attr-defined]
+                 and (inc is None or e.inc == inc)]
+        return beats[-1].body.pid if beats else None  # type: ignore[attr-defined]
+
+    def incarnation(self, component: str) -> int:
+        beats = [e.inc for e in self.envelopes(Heartbeat)
+                 if e.body.component == component]  # type: ignore[attr-defined]
+        return max(beats, default=0)
+
+    def sup_events(self, child: str) -> list[SupEvent]:
+        return [b for b in self.bodies(SupEvent) if b.child == child]
+
+    def log_text(self) -> str:
+        self._log.flush()
+        return self.log_path.read_text(errors="replace")
+
+    # ------------------------------------------------------------ acting
+    def percept(self, literal: str, op: str = "add") -> None:
+        self.pub.publish(Percept(literal=literal, op=op))
+
+    def publish(self, message: Message, topic: str | None = None) -> None:
+        self.pub.publish(message, topic=topic)
+
+    def mind(self, timeout: float = 2.0) -> MindSnapshot | None:
+        """Ask the reasoner for a mind snapshot; the first one that comes back (or None)."""
+        before = len(self.envelopes(MindSnapshot))
+        self.pub.publish(Command(command="mind", target="reasoner"))
+        try:
+            return wait_until(lambda: self.bodies(MindSnapshot)[before:], timeout,
+                              interval=0.01, message="mind snapshot")[-1]
+        except AssertionError:
+            return None
+
+    def wait_mind(self, condition: Callable[[MindSnapshot], Any], timeout: float = 10.0,
+                  message: str = "mind") -> MindSnapshot:
+        """Poll mind snapshots until one satisfies `condition`; return it."""
+        def check() -> list[MindSnapshot]:
+            snap = self.mind(timeout=1.0)
+            return [snap] if snap is not None and condition(snap) else []
+        return wait_until(check, timeout, interval=0.05, message=message)[0]
+
+    def wait_ready(self, timeout: float = 30.0) -> None:
+        """Every component up: the reasoner answers on the bus, the RCL heartbeats."""
+        def ready() -> bool:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"mrss supervise exited:\n{self.log_text()}")
+            return self.pid("rcl") is not None and self.mind(timeout=0.5) is not None
+        wait_until(ready, timeout, interval=0.05, message="the system answering on the bus")
+
+    def signal(self, component: str, sig: int) -> int:
+        """Send `sig` to a component's current process; returns its pid."""
+        pid = self.pid(component)
+        assert pid is not None, f"no heartbeat from {component} yet"
+        os.kill(pid, sig)
+        return pid
+
+    def close(self) -> None:
+        """SIGTERM the root supervisor (orderly stop), then kill whatever is left."""
+        try:
+            if self.proc.poll() is None:
+                tree = psutil.Process(self.proc.pid).children(recursive=True)
+                for child in tree:  # a SIGSTOPped component must be able to stop
+                    try:
+                        child.send_signal(signal.SIGCONT)
+                    except psutil.NoSuchProcess:
+                        pass
+                self.proc.send_signal(signal.SIGTERM)
+                try:
+                    self.proc.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    for child in tree:
+                        try:
+                            child.kill()
+                        except psutil.NoSuchProcess:
+                            pass
+                    self.proc.kill()
+                    self.proc.wait(timeout=10)
+        finally:
+            self.sub.close()
+            self.pub.close()
+            self._log.close()
+
+
+def beliefs(snap: MindSnapshot, prefix: str) -> list[str]:
+    """The beliefs of a snapshot starting with `prefix` (e.g. "patrolled(")."""
+    return [b for b in snap.beliefs if b.startswith(prefix)]
+
+
+def waiting_on_actions(snap: MindSnapshot) -> list[Any]:
+    """Intentions of a snapshot blocked on an environment action."""
+    return [i for i in snap.intentions
+            if isinstance(i, dict) and str(i.get("waiting_on") or "").startswith("action")]

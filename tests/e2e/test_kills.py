@@ -1,0 +1,164 @@
+"""Issue 5, end to end: SIGKILL the RCL or the reasoner mid-action, SIGSTOP the RCL past
+the reasoner's lease. Nothing waits forever, no robot works for a dead intention."""
+
+from __future__ import annotations
+
+import json
+import signal
+import sqlite3
+
+import pytest
+
+from mrss.messages import ActionStatus
+from mrss.testing import wait_until
+from tests.e2e.system import System, beliefs, waiting_on_actions
+
+pytestmark = pytest.mark.slow
+
+ROBOTS = ["ugv1", "ugv2", "ugv3", "ugv4", "ugv5"]
+WAYPOINTS = 40  # 0.05 s each: a 2 s patrol
+
+
+def _start_patrols(system: System, count: int = WAYPOINTS) -> dict[str, str]:
+    """One patrol per robot; returns goal -> action uuid once every one is under way."""
+    for i, robot in enumerate(ROBOTS, 1):
+        system.percept(f"patrol_goal({robot}, g{i}, {count})")
+    uuids = {f"g{i}": system.request("patrol", f"g{i}").uuid for i in range(1, 6)}
+    for uuid in uuids.values():
+        system.wait_state(uuid, "running")
+    # progress is journaled, not published: watch it in the journal's file
+    wait_until(lambda: all(_journaled_waypoint(system, u) >= 3 for u in uuids.values()),
+               timeout=10, message="every patrol past waypoint 3")
+    return uuids
+
+
+def _latest(system: System, uuid: str) -> ActionStatus | None:
+    found = system.statuses(uuid)
+    return found[-1][1] if found else None
+
+
+def _journaled_waypoint(system: System, uuid: str) -> int:
+    path = system.run_dir / "rcl-journal.sqlite3"
+    with sqlite3.connect(str(path), timeout=5) as db:
+        row = db.execute("SELECT progress FROM actions WHERE uuid=?", (uuid,)).fetchone()
+    return int(json.loads(row[0]).get("waypoint", 0)) if row else 0
+
+
+def test_sigkilled_rcl_every_running_action_resumes_or_fails_and_no_intention_waits_forever(
+        system: System) -> None:
+    uuids = _start_patrols(system)
+    old_pid = system.signal("rcl", signal.SIGKILL)
+    kept = {g: _journaled_waypoint(system, u) for g, u in uuids.items()}
+
+    # the root supervisor restarts the RCL; incarnation 2 re-announces each action
+    wait_until(lambda: system.incarnation("rcl") == 2, timeout=15, message="RCL restarted")
+    assert system.pid("rcl", inc=2) != old_pid
+    for goal, uuid in uuids.items():
+        def after_restart(u: str = uuid) -> list[ActionStatus]:
+            return [s for inc, s in system.statuses(u) if inc == 2]
+        first = wait_until(after_restart, timeout=15, message=f"{goal} after the restart")[0]
+        if first.state == "running":  # resumed from its journaled progress ...
+            assert "resumed after an RCL restart" in first.reason
+            assert int(first.progress["waypoint"]) >= kept[goal]  # type: ignore[arg-type]
+        else:  # ... or explicitly failed
+            assert first.state == "failed" and first.reason
+
+    # and every intention continues (patrolled) or fails (patrol_failed): none hangs
+    bound = 2 * WAYPOINTS * 0.05 + 10
+    snap = system.wait_mind(
+        lambda s: len(beliefs(s, "patrolled(") + beliefs(s, "patrol_failed(")) == 5,
+        timeout=bound, message="all five patrols concluded in the agent")
+    assert not waiting_on_actions(snap)
+    assert not snap.intentions
+    for goal, uuid in uuids.items():
+        final = _latest(system, uuid)
+        assert final is not None
+        expected = "patrolled" if final.state == "succeeded" else "patrol_failed"
+        assert beliefs(snap, f"{expected}({goal}"), (goal, final)
+        if final.state == "succeeded":
+            starts = final.progress["starts"]
+            assert isinstance(starts, list) and starts[0] == 0 and len(starts) == 2
+            assert starts[1] >= kept[goal]  # the second run started where the first stopped
+    # with a 2 s lease and a sub-second restart, the resumed patrols all succeed
+    assert beliefs(snap, "patrolled(") and len(beliefs(snap, "patrolled(")) == 5
+
+
+def test_sigkilled_reasoner_rcl_keeps_running_and_cancels_the_orphans_on_the_new_heartbeat(
+        system: System) -> None:
+    rcl_pid = system.pid("rcl")
+    system.percept(f"patrol_goal(ugv1, g1, {WAYPOINTS * 3})")
+    system.percept(f"patrol_goal(ugv2, g2, {WAYPOINTS * 3})")
+    orphans = [system.request("patrol", g).uuid for g in ("g1", "g2")]
+    for uuid in orphans:
+        system.wait_state(uuid, "running")
+
+    system.signal("reasoner", signal.SIGKILL)
+    wait_until(lambda: system.incarnation("reasoner") == 2, timeout=15,
+               message="reasoner incarnation 2 heartbeating")
+    for uuid in orphans:
+        cancelled = system.wait_state(uuid, "cancelled", "failed", "succeeded", timeout=10)
+        assert cancelled.state == "cancelled"
+        assert cancelled.reason == "orphaned: reasoner incarnation 1 is gone"
+    # the RCL itself never stopped: same process, incarnation 1, no exit event
+    assert system.pid("rcl") == rcl_pid and system.incarnation("rcl") == 1
+    assert [e.event for e in system.sup_events("rcl")] in ([], ["start"])
+    assert [e.event for e in system.sup_events("reasoner")][-3:] == ["exit", "restart", "start"]
+
+    # the new incarnation starts from a clean mind and works normally
+    snap = system.wait_mind(lambda s: not s.intentions, message="fresh mind")
+    assert not beliefs(snap, "patrol_goal(")
+    system.percept("patrol_goal(ugv1, g3, 2)")
+    system.wait_state(system.request("patrol", "g3").uuid, "succeeded")
+
+
+def test_rcl_silent_past_the_lease_fails_waiting_actions_then_recovers(system: System) -> None:
+    system.percept(f"patrol_goal(ugv1, g1, {WAYPOINTS * 2})")
+    system.percept(f"patrol_goal(ugv2, g2, {WAYPOINTS * 2})")
+    uuids = [system.request("patrol", g).uuid for g in ("g1", "g2")]
+    for uuid in uuids:
+        system.wait_state(uuid, "running")
+
+    system.signal("rcl", signal.SIGSTOP)
+    try:
+        snap = system.wait_mind(lambda s: len(beliefs(s, "patrol_failed(")) == 2, timeout=10,
+                                message="the lease failed both waiting patrols")
+        for failed in beliefs(snap, "patrol_failed("):
+            assert "RCL silent for" in failed and "lease 2.0s" in failed
+        assert not waiting_on_actions(snap)
+        assert all(system.last_state(u) == "running" for u in uuids)  # the RCL never said
+    finally:
+        system.signal("rcl", signal.SIGCONT)
+
+    # the RCL comes back (same process): the abandoned actions are cancelled there, so
+    # no robot keeps working for a failed intention, and new work is served
+    for uuid in uuids:
+        assert system.wait_state(uuid, "cancelled", "succeeded", "failed",
+                                 timeout=10).state == "cancelled"
+    assert system.incarnation("rcl") == 1
+    system.percept("patrol_goal(ugv3, g3, 2)")
+    system.wait_state(system.request("patrol", "g3").uuid, "succeeded")
+    snap = system.wait_mind(lambda s: beliefs(s, "patrolled(g3)"), message="g3 patrolled")
+    assert not snap.intentions
+
+
+def test_rcl_hung_past_the_supervisor_limit_is_restarted_and_its_abandoned_actions_cancelled(
+        system: System) -> None:
+    system.percept(f"patrol_goal(ugv1, g1, {WAYPOINTS * 4})")
+    uuid = system.request("patrol", "g1").uuid
+    system.wait_state(uuid, "running")
+    hung = system.signal("rcl", signal.SIGSTOP)  # never SIGCONTed: the supervisor acts
+
+    system.wait_mind(lambda s: beliefs(s, "patrol_failed(g1"), timeout=10,
+                     message="the lease failed the waiting patrol")
+    # 24 missed 0.25 s heartbeats later the root supervisor kills and restarts the RCL;
+    # incarnation 2 resumes the journaled action, the reasoner sees it open and cancels it
+    wait_until(lambda: system.incarnation("rcl") == 2, timeout=20, message="RCL restarted")
+    assert system.pid("rcl", inc=2) != hung
+    exits = [e for e in system.sup_events("rcl") if e.event == "exit"]
+    assert exits and "heartbeat" in exits[0].reason.lower() or "hung" in exits[0].reason
+    after = wait_until(lambda: [s.state for inc, s in system.statuses(uuid) if inc == 2
+                                and s.state == "cancelled"], timeout=10,
+                       message="the abandoned patrol cancelled by incarnation 2")
+    assert after == ["cancelled"]
+    system.percept("patrol_goal(ugv2, g2, 2)")
+    system.wait_state(system.request("patrol", "g2").uuid, "succeeded")
