@@ -24,8 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.actors.reasoner_host import ReasonerHost
-from mrss.actors.reasoner_percepts import read_percept
-from mrss.agentspeak import Agent, AslSyntaxError
+from mrss.agentspeak import Agent, AslSyntaxError, parse_literal
 from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
@@ -117,7 +116,7 @@ class Reasoner:
         body = env.body
         try:
             if isinstance(body, Percept):
-                literal = read_percept(body.literal)
+                literal = parse_literal(body.literal)
                 if body.op == "add":
                     self.agent.add_percept(literal)
                 else:

@@ -15,6 +15,7 @@ import lark
 
 from mrss.agentspeak.builder import TreeBuilder
 from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
+from mrss.agentspeak.fastread import read_simple
 from mrss.agentspeak.syntax import BeliefSrc, Program
 from mrss.agentspeak.terms import Struct, Term
 from mrss.agentspeak.unify import resolve
@@ -183,6 +184,9 @@ def parse_literal(text: str | Struct) -> Struct:
     """A literal from text (or a `Struct` passed through), e.g. for percepts."""
     if isinstance(text, Struct):
         return text
+    simple = read_simple(text)
+    if simple is not None:
+        return simple
     t = parse_term(text)
     assert isinstance(t, Struct)
     return t

@@ -1,11 +1,12 @@
-"""The reasoner's fast percept reader gives exactly what the AgentSpeak parser gives."""
+"""The fast reader of ground literals gives exactly what the full parser gives."""
 
 from __future__ import annotations
 
 import pytest
 
-from mrss.actors.reasoner_percepts import read_percept
 from mrss.agentspeak import AslSyntaxError, Struct, Var, parse_literal, term_str
+from mrss.agentspeak.fastread import read_simple
+from mrss.agentspeak.parser import parse_term
 
 SAME = [
     "fire", "area_goal_received(g1, 3)", "go(r3, 17)", " go(r3,17). ", "p(1.5, 2e3, 7E-2)",
@@ -30,12 +31,18 @@ def _same(a: object, b: object) -> bool:
 
 
 @pytest.mark.parametrize("text", SAME)
-def test_read_percept_matches_the_parser(text: str) -> None:
+def test_parse_literal_with_the_fast_path_matches_the_full_parser(text: str) -> None:
     try:
-        expected = parse_literal(text)
+        expected = parse_term(text)
     except AslSyntaxError as exc:
         with pytest.raises(AslSyntaxError) as got:
-            read_percept(text)
+            parse_literal(text)
         assert str(got.value) == str(exc)  # the parser's own error message
         return
-    assert _same(read_percept(text), expected), text
+    assert _same(parse_literal(text), expected), text
+
+
+def test_the_fast_path_takes_only_simple_ground_literals() -> None:
+    assert read_simple("area_goal_received(g1, 3)") is not None
+    for text in ("p(X)", "p(a)[source(x)]", "~p", "p(1 + 2)", 'p("a\\"b")', "p(a, b"):
+        assert read_simple(text) is None, text
