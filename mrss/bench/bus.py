@@ -187,7 +187,7 @@ def run(quick: bool) -> BenchReport:
                 # One broker each, as each bus transport has its own proxy. Nagle off on
                 # both ends, as on our side: else QoS 1 waits on delayed ACKs.
                 broker = stack.enter_context(
-                    mosquitto_broker(binary, extra_config="set_tcp_nodelay true\n"))
+                    mosquitto_broker(binary))
                 name = f"MQTT QoS {qos}"
                 specs[name] = {"kind": "mqtt", "host": broker.host, "port": broker.port,
                                "qos": qos}
