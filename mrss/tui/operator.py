@@ -35,7 +35,7 @@ def parse_percept(text: str) -> Percept:
     try:
         parsed = parse_literal(literal)
     except AslSyntaxError as exc:
-        raise OperatorError(f"not a literal: {_first_problem(exc)}") from None
+        raise OperatorError(f"not a literal: {_first_problem(exc, len(literal))}") from None
     except (AssertionError, ValueError, RecursionError):
         raise OperatorError(f"not a literal: {literal!r}") from None
     if not isinstance(parsed, Struct):
@@ -45,14 +45,22 @@ def parse_percept(text: str) -> Percept:
     return Percept(literal=literal, op=op)
 
 
-def _first_problem(exc: AslSyntaxError) -> str:
-    """The parser's first complaint, without the `<term>:1:` location of a one-liner."""
+def _first_problem(exc: AslSyntaxError, length: int) -> str:
+    """The parser's first complaint, without the `<term>:1:` location of a one-liner.
+
+    The parser reads the line with a final `.` added; a complaint about that `.` means
+    the literal ended too early (an unclosed bracket, say).
+    """
     line = str(exc).splitlines()[0] if str(exc) else "syntax error"
     prefix = "<term>:1:"
-    if line.startswith(prefix):
-        col, _, rest = line[len(prefix):].partition(": ")
-        return f"column {col}: {rest}" if col.isdigit() else line
-    return line
+    if not line.startswith(prefix):
+        return line
+    col, _, rest = line[len(prefix):].partition(": ")
+    if not col.isdigit():
+        return line
+    if int(col) == length + 1 and rest.startswith("unexpected '.'"):
+        return "it ends too early" + rest[len("unexpected '.'"):]
+    return f"column {col}: {rest}"
 
 
 def action_control(command: str, uuid: str) -> ActionControl:

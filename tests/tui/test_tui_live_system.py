@@ -3,35 +3,42 @@
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import psutil
 import pytest
+from textual.widgets import Input
 
-from mrss.bus import Publisher
+from mrss.bus import BusEndpoints, Publisher
 from mrss.messages import Command
 from mrss.tui.app import MrssApp
 from mrss.tui.discovery import find_endpoints
+from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
+from mrss.tui.widgets.mind_inspector import MindInspector
+from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 from tests.tui.tui_helpers import has_row, row_text, run, until
 
-PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+COMPONENTS = ("bus", "rcl", "reasoner", "telemetry")
+HERE = Path(__file__).resolve().parent
+PROJECTS = HERE.parent / "projects"
 
 
-@pytest.fixture()
-def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
-    """`mrss supervise busdemo --run-dir tmp_path` as a real process; its run dir."""
-    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
+def supervise(project: str, projects: Path, run_dir: Path) -> Iterator[Path]:
+    """`mrss supervise PROJECT --run-dir run_dir` as a real process, stopped at the end."""
+    env = {**os.environ, "MRSS_PROJECTS": str(projects)}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "mrss", "supervise", "busdemo", "--run-dir", str(tmp_path)],
-        env=os.environ.copy(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
-        yield tmp_path
+        yield run_dir
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)
         assert proc.returncode == 0, err
@@ -41,6 +48,23 @@ def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
                 child.kill()
             proc.kill()
             proc.communicate(timeout=10)
+
+
+@pytest.fixture()
+def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """tests/projects/busdemo running; its run dir."""
+    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
+    yield from supervise("busdemo", PROJECTS, tmp_path)
+
+
+@pytest.fixture()
+def tuidemo() -> Iterator[Path]:
+    """tests/tui/tuidemo (bus, RCL with two UGVs, reasoner, telemetry) running; its run dir."""
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuidemo-"))
+    try:
+        yield from supervise("tuidemo", HERE, run_dir)
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_and_hang_a_component(
@@ -89,4 +113,60 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_and_hang_a_compon
             assert "unknown fault 'explode'" in refusals[0]
             assert "has no child 'nobody'" in refusals[1]
             assert announcer(3) is not None
+    run(body())
+
+
+@pytest.mark.slow
+def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Path) -> None:
+    """Percept typed -> the agent acts -> the action shows up; teleop suspends and resumes
+    it, the cancel key cancels it, and the mind inspector follows along."""
+    endpoints = BusEndpoints.ipc(tuidemo)
+
+    async def body() -> None:
+        app = MrssApp(endpoints, project="tuidemo", mind_every=0.3, tree_every=0.5)
+        async with app.run_test(size=(180, 50)) as pilot:
+            sup = app.query_one(SupervisionTable)
+            await until(pilot, lambda: [row_text(sup, f"tuidemo/{c}")[1] for c in COMPONENTS
+                                        if has_row(sup, f"tuidemo/{c}")] == ["running"] * 4,
+                        timeout=30, message="four components running")
+            mind = app.query_one(MindInspector)
+            await until(pilot, lambda: mind.snapshot is not None
+                        and "robot(ugv1)[source(self)]" in mind.snapshot.beliefs,
+                        timeout=10, message="the agent's beliefs")
+            robots = app.query_one(RobotsTable)
+            await until(pilot, lambda: has_row(robots, "ugv1")
+                        and row_text(robots, "ugv1")[5].endswith("%"), message="telemetry")
+            await pilot.press("p")
+            app.query_one("#percept", Input).value = "fire(area1)"
+            await pilot.press("enter")
+            actions = app.query_one(ActionsTable)
+
+            def action_state() -> str:
+                keys = [k.value for k in actions.rows]
+                if not keys:
+                    return ""
+                row = row_text(actions, keys[0])
+                assert row[1:4] == ["patrol", "ugv1", "area1"]
+                return f"{row[4]}: {row[5]}"
+
+            await until(pilot, lambda: action_state() == "running: ", timeout=10,
+                        message="the agent's patrol running")
+            assert mind.snapshot is not None
+            await until(pilot, lambda: mind.snapshot is not None and
+                        "fire(area1)[source(percept)]" in mind.snapshot.beliefs
+                        and len(mind.snapshot.intentions) == 1, message="intention in mind")
+            robots.focus()
+            await pilot.press("t")  # ugv1 (the first row) to teleop: its action is suspended
+            await until(pilot, lambda: action_state() == "suspended: robot in teleop",
+                        message="suspended by teleop")
+            await until(pilot, lambda: row_text(robots, "ugv1")[3] == "on", message="teleop on")
+            await pilot.press("t")
+            await until(pilot, lambda: action_state().startswith("running"),
+                        message="resumed after teleop")
+            actions.focus()
+            await pilot.press("c")
+            await until(pilot, lambda: action_state().startswith("cancelled"),
+                        message="cancelled from the dashboard")
+            await until(pilot, lambda: mind.snapshot is not None
+                        and not mind.snapshot.intentions, message="intention gone from mind")
     run(body())

@@ -35,7 +35,8 @@ def test_percept_lines_that_parse_become_percepts(line: str, expected: Percept) 
 @pytest.mark.parametrize(("line", "error"), [
     ("", "type a literal"),
     ("-", "type a literal"),
-    ("fire(area1", "not a literal: column 11: unexpected"),
+    ("fire(area1", "not a literal: it ends too early; expected \")\""),
+    ("fire(area1))", "not a literal: column 12: unexpected"),
     ("fire(X)", "must be ground"),
     ("X", "not a literal"),
     ("42", "not a literal"),
@@ -79,6 +80,12 @@ def test_supervision_model_nests_actor_events_under_the_component_that_sent_them
     assert model.is_component("wildfire/rcl")
     assert not model.is_component("wildfire/rcl/robots/uav1")
     assert model.nodes["wildfire/rcl"].kind == "worker"  # a process, even with actors inside
+    # the process dies: its actors are gone with it
+    model.apply_event(SupEvent(event="exit", child="rcl", supervisor="wildfire", pid=10,
+                               reason="killed: SIGKILL"), "supervisor", 120.0)
+    skill = model.nodes["wildfire/rcl/robots/uav1/skill-1"]
+    assert (skill.state, skill.pid, skill.last_reason) == ("stopped", 0, "rcl exited")
+    assert model.nodes["wildfire/rcl"].state == "exited"
 
 
 def test_supervision_model_ignores_malformed_tree_snapshots() -> None:

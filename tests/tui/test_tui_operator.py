@@ -72,7 +72,7 @@ def test_percept_line_sends_ground_literals_and_refuses_bad_ones_with_a_clear_er
             await pilot.press("p")  # focus the percept line
             await pilot.press(*"fire(area1", "enter")
             await until(pilot, lambda: bar.status_error, message="syntax error shown")
-            assert bar.status_text.startswith("percept not sent: not a literal: column")
+            assert bar.status_text.startswith("percept not sent: not a literal: it ends too early")
             line = app.query_one("#percept", Input)
             assert line.value == "fire(area1"  # kept for fixing
             line.value = "fire(X)"
@@ -158,9 +158,13 @@ def test_a_burst_of_a_thousand_statuses_is_drawn_in_a_few_batches(
             for i in range(1000):
                 peer.publish(ActionStatus(uuid=f"{i:032x}", state="running", robot="ugv1",
                                           progress={"i": i}))
-            await until(pilot, lambda: table.row_count == 1000, timeout=30,
-                        message="1000 rows")
-            assert table.selected_key == f"{999:032x}"  # the newest on top
+            await until(pilot, lambda: len(app.actions.actions) == 1000 and
+                        table.selected_key == f"{999:032x}", timeout=30,
+                        message="1000 actions, the newest on top")
+            # the table draws the newest MAX_ROWS and says so
+            assert table.row_count == ActionsTable.MAX_ROWS < 1000
+            assert table.border_subtitle == f"newest {ActionsTable.MAX_ROWS} of 1000"
+            assert [k.value for k in table.rows][-1] == f"{1000 - ActionsTable.MAX_ROWS:032x}"
             # batching: far fewer drains and table rebuilds than messages
             assert app.flushes - flushes < 100
             assert table.rebuilds - rebuilds < 100

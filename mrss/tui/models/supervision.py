@@ -79,6 +79,7 @@ class SupervisionModel:
         elif kind == "exit":
             node.state = "stopped" if event.reason.startswith("shutdown") else "exited"
             node.pid, node.up_since, node.last_reason = 0, None, event.reason
+            self._gone_with(node)
         elif kind == "restart":
             node.state, node.restarts = "waiting", event.count
             node.last_reason = event.reason or node.last_reason
@@ -109,7 +110,8 @@ class SupervisionModel:
         node.restarts = _number(tree, "restarts", node.restarts)
         node.last_reason = _text(tree, "last_reason", node.last_reason)
         uptime = tree.get("uptime")
-        running = node.state == "running" and isinstance(uptime, (int, float))
+        # the root reports no uptime of its own (0.0): show none rather than "0s"
+        running = node.state == "running" and isinstance(uptime, (int, float)) and uptime > 0
         node.up_since = ts - float(uptime) if running else None  # type: ignore[arg-type]
         children = tree.get("children")
         if isinstance(children, list):
@@ -136,6 +138,14 @@ class SupervisionModel:
         """Whether `path` is a process child of the root supervisor (faults reach those)."""
         node = self.nodes.get(path)
         return node is not None and bool(self.root) and node.parent == self.root
+
+    def _gone_with(self, node: SupNode) -> None:
+        """A process exited: the actors it ran (nodes below it) are gone with it."""
+        prefix = node.path + "/"
+        for other in self.nodes.values():
+            if other.path.startswith(prefix) and other.state not in ("stopped", "exited"):
+                other.state, other.pid, other.up_since = "stopped", 0, None
+                other.last_reason = f"{node.name} exited"
 
     def _component_path(self, src: str) -> str:
         """Where the supervisors of a message from `src` hang: "" for the root's own."""

@@ -32,8 +32,13 @@ class ActionsTable(KeyedTable):
         super().__init__(id=id)
         self.model = model
 
+    MAX_ROWS = 200  # the newest; drawing more costs the operator responsiveness
+
     def refresh_rows(self) -> None:
-        self.show([self._row(view) for view in self.model.newest_first()])
+        views = self.model.newest_first()
+        self.show([self._row(view) for view in views[: self.MAX_ROWS]])
+        self.border_subtitle = (f"newest {self.MAX_ROWS} of {len(views)}"
+                                if len(views) > self.MAX_ROWS else "")
 
     @staticmethod
     def _row(view: ActionView) -> Row:
