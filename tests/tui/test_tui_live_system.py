@@ -67,7 +67,7 @@ def tuidemo() -> Iterator[Path]:
         shutil.rmtree(run_dir, ignore_errors=True)
 
 
-def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_and_hang_a_component(
+def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_component(
         busdemo: Path) -> None:
     endpoints, name = find_endpoints("busdemo", run_dir=busdemo)
     assert name == "busdemo"
@@ -100,6 +100,10 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_and_hang_a_compon
             cells = await until(pilot, lambda: announcer(3), timeout=30,
                                 message="hung announcer found and restarted")
             assert cells[4] == "2" and "hung" in cells[6]
+            await pilot.press("x", "x")
+            cells = await until(pilot, lambda: announcer(4), timeout=30,
+                                message="crashed announcer restarted")
+            assert cells[4] == "3" and "InjectedFault" in cells[6]
             # a bad fault request from elsewhere on the bus is refused, and said so
             with Publisher(endpoints, src="operator2") as other:
                 assert other.wait_connected(10)
@@ -112,7 +116,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_and_hang_a_compon
             refusals = [line for line in log.lines_text() if "refused" in line]
             assert "unknown fault 'explode'" in refusals[0]
             assert "has no child 'nobody'" in refusals[1]
-            assert announcer(3) is not None
+            assert announcer(4) is not None
     run(body())
 
 
