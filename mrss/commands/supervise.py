@@ -4,7 +4,8 @@ Starts the enabled components in file order, each after the previous one is read
 on SIGINT/SIGTERM stops them in reverse order within their shutdown limits and exits
 0 (a second signal kills what is left at once). If the root supervisor gives up
 (restart intensity exceeded) it stops everything and exits 1 with a message naming the
-child and its last reason. Bad config exits 2.
+child and its last reason. Bad config exits 2. While it runs, the root answers `ctl.tree`
+and executes `ctl.fault` commands from the bus (`mrss.supervision.remote`, for the TUI).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from mrss.errors import ConfigError
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.events import Publish
 from mrss.supervision.process import ProcessSupervisor
+from mrss.supervision.remote import RemoteControl
 
 EXIT_GAVE_UP = 1
 EXIT_CONFIG = 2
@@ -100,7 +102,11 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> in
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publisher.publish,
                                bus=endpoints.to_dict())
-        return _run_root(config, run_dir, sup)
+        remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
+        try:
+            return _run_root(config, run_dir, sup)
+        finally:
+            remote.close()
     finally:
         publisher.close()
 

@@ -1,0 +1,47 @@
+"""`mrss tui PROJECT [--run-dir DIR] [--endpoints FRONTEND BACKEND]`: the dashboard.
+
+Connects to the bus of a running `mrss supervise PROJECT` (see `mrss.tui.discovery` for
+how the bus is found) and shows the supervision tree, robots, actions, the reasoner's
+mind and the log, with operator commands. Exits 0 when closed, 2 if no bus is found.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mrss.errors import ConfigError, UnknownProjectError
+
+EXIT_NO_BUS = 2
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("project", help="project name (projects/<name>/)")
+    parser.add_argument("--run-dir", type=Path, default=None,
+                        help="the run dir of `mrss supervise` (its ipc bus sockets)")
+    parser.add_argument("--endpoints", nargs=2, metavar=("FRONTEND", "BACKEND"), default=None,
+                        help="bus endpoints, e.g. tcp://127.0.0.1:5601 tcp://127.0.0.1:5602")
+    parser.add_argument("--agent", default="",
+                        help="the reasoner to inspect (default: any that answers)")
+    parser.add_argument("--mind-every", type=float, default=1.0, metavar="S",
+                        help="ask for a mind snapshot every S seconds (0: only on m)")
+    parser.add_argument("--tree-every", type=float, default=2.0, metavar="S",
+                        help="ask the supervisor for its tree every S seconds (0: only on F5)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from mrss.tui.discovery import find_endpoints  # Textual is imported only when needed
+
+    try:
+        endpoints, name = find_endpoints(args.project, run_dir=args.run_dir,
+                                   endpoints=args.endpoints)
+    except (ConfigError, UnknownProjectError) as exc:
+        print(f"mrss tui: {exc}", file=sys.stderr)
+        return EXIT_NO_BUS
+    from mrss.tui.app import MrssApp
+
+    app = MrssApp(endpoints, project=name, agent=args.agent,
+                  mind_every=args.mind_every, tree_every=args.tree_every)
+    app.run()
+    return 0

@@ -1,0 +1,83 @@
+"""The TUI's connection to a running system's bus: an inbox filled by a subscriber thread.
+
+Bus messages arrive on the subscriber's own thread, and Textual widgets may only be
+touched from the app's thread. So the subscriber only appends to a deque and, when the
+inbox goes from empty to non-empty, calls `wake` once (the app posts itself a message,
+which is thread-safe). The app drains everything queued in one go: a burst of a
+thousand statuses costs one redraw, not a thousand.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Callable
+
+from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.messages import Envelope, Message
+
+# Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
+PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.")
+INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
+
+
+class BusLink:
+    """Subscribes to the dashboard's topics and publishes the operator's commands."""
+
+    def __init__(self, endpoints: BusEndpoints, *, src: str = "tui",
+                 prefixes: tuple[str, ...] = PREFIXES) -> None:
+        self.endpoints = endpoints
+        self.src = src
+        self._prefixes = prefixes
+        self._inbox: deque[Envelope] = deque()
+        self._lock = threading.Lock()
+        self._wake: Callable[[], object] = lambda: None
+        self._woken = False
+        self.dropped = 0
+        self.received = 0
+        self._sub: Subscriber | None = None
+        self._pub: Publisher | None = None
+
+    def start(self, wake: Callable[[], object]) -> None:
+        """Connect; `wake()` is called (on the bus thread) when the inbox gets messages."""
+        self._wake = wake
+        self._pub = Publisher(self.endpoints, src=self.src)
+        self._sub = Subscriber(self.endpoints, prefixes=self._prefixes, name=self.src)
+        self._sub.start(self._deliver)
+
+    def _deliver(self, env: Envelope) -> None:
+        with self._lock:
+            self.received += 1
+            if len(self._inbox) >= INBOX_LIMIT:
+                self._inbox.popleft()
+                self.dropped += 1
+            self._inbox.append(env)
+            if self._woken:
+                return
+            self._woken = True
+        self._wake()
+
+    def drain(self) -> list[Envelope]:
+        """Everything received since the last drain, oldest first."""
+        with self._lock:
+            items = list(self._inbox)
+            self._inbox.clear()
+            self._woken = False
+        return items
+
+    @property
+    def connected(self) -> bool:
+        """Whether the proxy has greeted the subscriber (its topics are subscribed)."""
+        return self._sub is not None and self._sub.wait_connected(timeout=0)
+
+    def publish(self, msg: Message) -> str:
+        """Send one operator message; its id."""
+        if self._pub is None:
+            raise RuntimeError("the bus link is not started")
+        return self._pub.publish(msg)
+
+    def close(self) -> None:
+        if self._sub is not None:
+            self._sub.close()
+        if self._pub is not None:
+            self._pub.close()

@@ -1,0 +1,87 @@
+"""The actions as the TUI knows them: requests (name, goal) and their latest status.
+
+A request is seen on the reliable `action` channel (`ActionRequest`), statuses on
+`action.status`; either may come first (the TUI may start late and see statuses only).
+The model keeps at most `limit` actions, forgetting the oldest finished ones first.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from typing import Any
+
+from mrss.messages import ActionRequest, ActionState, ActionStatus
+
+
+@dataclass
+class ActionView:
+    """One action: what was asked and where it stands."""
+
+    uuid: str
+    seq: int  # order first heard of; the table shows the newest first
+    name: str = ""
+    args: list[Any] = field(default_factory=list)
+    robot: str = ""
+    goal: str = ""
+    state: str = ""
+    reason: str = ""
+    progress: dict[str, Any] = field(default_factory=dict)
+    updated: float = 0.0
+
+    @property
+    def terminal(self) -> bool:
+        return self.state in {s.value for s in ActionState if s.terminal}
+
+    def progress_text(self, width: int = 40) -> str:
+        """`key=value` pairs of the progress map, cut to `width` characters."""
+        text = " ".join(f"{k}={_short(v)}" for k, v in self.progress.items())
+        return text if len(text) <= width else text[: width - 1] + "…"
+
+
+class ActionsModel:
+    """Actions by uuid; `newest_first()` for the table."""
+
+    def __init__(self, limit: int = 1000) -> None:
+        self.limit = limit
+        self.actions: dict[str, ActionView] = {}
+        self._seq = itertools.count()
+
+    def _action(self, uuid: str) -> ActionView:
+        view = self.actions.get(uuid)
+        if view is None:
+            view = self.actions[uuid] = ActionView(uuid, next(self._seq))
+            if len(self.actions) > self.limit:
+                self._forget_oldest()
+        return view
+
+    def apply_request(self, request: ActionRequest, ts: float) -> None:
+        view = self._action(request.uuid)
+        view.name, view.args, view.goal = request.name, list(request.args), request.goal
+        view.robot = request.robot or view.robot
+        if not view.state:
+            view.state = "requested"
+        view.updated = max(view.updated, ts)
+
+    def apply_status(self, status: ActionStatus, ts: float) -> None:
+        view = self._action(status.uuid)
+        view.state, view.reason = status.state, status.reason
+        view.progress = dict(status.progress)
+        view.robot = status.robot or view.robot
+        view.updated = ts
+
+    def newest_first(self) -> list[ActionView]:
+        return sorted(self.actions.values(), key=lambda a: a.seq, reverse=True)
+
+    def _forget_oldest(self) -> None:
+        """Make room for a tenth of `limit` at once: finished actions go first, oldest first."""
+        keep = max(1, self.limit - self.limit // 10)
+        order = sorted(self.actions.values(), key=lambda a: (not a.terminal, a.seq))
+        for view in order[: len(self.actions) - keep]:
+            del self.actions[view.uuid]
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return str(value)

@@ -1,0 +1,93 @@
+"""The robots as the TUI knows them: availability and link from `robot.<id>.state`,
+latest telemetry from `robot.<id>.data`.
+
+Telemetry comes in two shapes and both are understood: a link record with a `type`
+(`{"type": "position", "lat": .., "lon": ..}`, `{"type": "battery", "remaining": ..}`,
+`{"type": "tank", "level": .., "capacity": ..}`, see docs/robots.md), or one flat map
+(`{"lat": .., "lon": .., "battery": 87, "tank": 12.5}`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from mrss.messages import RobotData, RobotState
+
+
+@dataclass
+class RobotView:
+    """One robot: its last state message and its latest telemetry record of each type."""
+
+    robot: str
+    available: bool | None = None
+    link: str = "?"
+    reason: str = ""
+    teleop: bool | None = None
+    records: dict[str, dict[str, Any]] = field(default_factory=dict)  # "" = flat records
+    data_ts: float | None = None
+
+    def _field(self, record: str, key: str) -> Any:
+        value = self.records.get(record, {}).get(key)
+        return value if value is not None else self.records.get("", {}).get(key)
+
+    def position(self) -> str:
+        lat, lon = self._field("position", "lat"), self._field("position", "lon")
+        if not _is_number(lat) or not _is_number(lon):
+            return ""
+        text = f"{lat:.5f}, {lon:.5f}"
+        alt = self._field("position", "relative_alt")
+        if not _is_number(alt):
+            alt = self._field("position", "alt")
+        return f"{text} alt {alt:.1f}" if _is_number(alt) else text
+
+    def battery(self) -> str:
+        value = self.records.get("battery", {}).get("remaining")
+        if value is None:
+            flat = self.records.get("", {}).get("battery")
+            value = flat.get("remaining") if isinstance(flat, dict) else flat
+        return f"{value:.0f}%" if _is_number(value) else ""
+
+    def tank(self) -> str:
+        tank: Any = self.records.get("tank")
+        if tank is None:
+            tank = self.records.get("", {}).get("tank")
+        if isinstance(tank, dict):
+            level, capacity = tank.get("level"), tank.get("capacity")
+            if _is_number(level) and _is_number(capacity):
+                return f"{level:.1f}/{capacity:.1f} L"
+            tank = level
+        return f"{tank:.1f} L" if _is_number(tank) else ""
+
+
+class RobotsModel:
+    """Robots by id, in the order first heard of."""
+
+    def __init__(self) -> None:
+        self.robots: dict[str, RobotView] = {}
+
+    def _robot(self, robot: str) -> RobotView:
+        view = self.robots.get(robot)
+        if view is None:
+            view = self.robots[robot] = RobotView(robot)
+        return view
+
+    def apply_state(self, state: RobotState) -> None:
+        view = self._robot(state.robot)
+        view.available, view.link, view.reason = state.available, state.link, state.reason
+        teleop = state.attributes.get("teleop")
+        if isinstance(teleop, bool):
+            view.teleop = teleop
+
+    def apply_data(self, data: RobotData, ts: float) -> None:
+        view = self._robot(data.robot)
+        kind = data.data.get("type")
+        if isinstance(kind, str) and kind:
+            view.records[kind] = dict(data.data)  # a link record: the latest of its type
+        else:
+            view.records.setdefault("", {}).update(data.data)  # flat: merge what is new
+        view.data_ts = ts
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)

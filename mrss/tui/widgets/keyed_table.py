@@ -1,0 +1,63 @@
+"""KeyedTable: a DataTable shown from a list of (key, cells) rows, the cursor kept on its row.
+
+Each panel computes the rows it wants from its model and calls `show(rows)`. When the
+keys and their order are unchanged only the changed cells are updated; otherwise the
+table is rebuilt and the cursor moved back to the row it was on, so an operator's
+selection does not jump when new rows appear above it (a cursor on the first row stays
+there: it follows the newest row).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from rich.text import Text
+from textual.widgets import DataTable
+
+Row = tuple[str, Sequence[Text]]
+
+
+class KeyedTable(DataTable[Text]):
+    """A row-cursor DataTable whose rows are replaced as a whole by `show`."""
+
+    COLUMNS: tuple[tuple[str, str], ...] = ()  # (key, label)
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(id=id, cursor_type="row", zebra_stripes=True)
+        self.rebuilds = 0  # how many times `show` had to rebuild (tests watch batching)
+
+    def on_mount(self) -> None:
+        for key, label in self.COLUMNS:
+            self.add_column(label, key=key)
+
+    @property
+    def selected_key(self) -> str | None:
+        """The key of the row under the cursor, if any."""
+        if not self.row_count:
+            return None
+        row_key, _ = self.coordinate_to_cell_key(self.cursor_coordinate)
+        return row_key.value
+
+    def show(self, rows: Sequence[Row]) -> None:
+        """Make the table show exactly `rows`, in order."""
+        keys = [key for key, _ in rows]
+        if keys == [key.value for key in self.rows]:
+            columns = [key for key, _ in self.COLUMNS]
+            for key, cells in rows:
+                old = self.get_row(key)
+                for column, before, after in zip(columns, old, cells, strict=False):
+                    if before != after:
+                        self.update_cell(key, column, after, update_width=True)
+            return
+        selected = self.selected_key if self.cursor_row > 0 else None  # the top row follows
+        self.rebuilds += 1
+        self.clear()
+        for key, cells in rows:
+            self.add_row(*cells, key=key)
+        if selected in keys:
+            self.move_cursor(row=keys.index(selected), animate=False)
+
+
+def cell(text: object, style: str = "") -> Text:
+    """A table cell: plain text (never markup), optionally styled."""
+    return Text(str(text), style=style, no_wrap=True, overflow="ellipsis")

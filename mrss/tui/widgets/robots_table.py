@@ -1,0 +1,54 @@
+"""RobotsTable: one row per robot (availability, link, teleop, latest telemetry); t = teleop."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from textual.binding import Binding, BindingType
+
+from mrss.tui import operator
+from mrss.tui.events import Note, SendRequested
+from mrss.tui.models.robots import RobotsModel, RobotView
+from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
+
+
+def _yes_no(value: bool | None, yes: str, no: str) -> tuple[str, str]:
+    if value is None:
+        return "?", "dim"
+    return (yes, "green") if value else (no, "red")
+
+
+class RobotsTable(KeyedTable):
+    """Robots with availability, link state and reason, teleop, position, battery, tank."""
+
+    COLUMNS = (("robot", "robot"), ("available", "available"), ("link", "link"),
+               ("teleop", "teleop"), ("position", "position"), ("battery", "battery"),
+               ("tank", "tank"), ("data", "data age"), ("reason", "reason"))
+    BINDINGS: ClassVar[list[BindingType]] = [Binding("t", "teleop", "Teleop on/off")]
+
+    def __init__(self, model: RobotsModel, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self.model = model
+
+    def refresh_rows(self, now: float) -> None:
+        self.show([self._row(view, now) for view in self.model.robots.values()])
+
+    def _row(self, view: RobotView, now: float) -> Row:
+        available = _yes_no(view.available, "yes", "no")
+        link_style = {"up": "green", "down": "red"}.get(view.link, "dim")
+        teleop = ("on", "bold yellow") if view.teleop else ("off" if view.teleop is False
+                                                             else "", "")
+        age = "" if view.data_ts is None else f"{max(0.0, now - view.data_ts):.0f}s"
+        return view.robot, (
+            cell(view.robot, "bold"), cell(*available), cell(view.link, link_style),
+            cell(*teleop), cell(view.position()), cell(view.battery()), cell(view.tank()),
+            cell(age), cell(view.reason, "italic"))
+
+    def action_teleop(self) -> None:
+        robot = self.selected_key
+        if robot is None:
+            self.post_message(Note("no robot selected", error=True))
+            return
+        on = not self.model.robots[robot].teleop
+        self.post_message(SendRequested(operator.teleop(robot, on),
+                                        f"teleop {'on' if on else 'off'} for {robot}"))

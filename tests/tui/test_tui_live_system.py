@@ -1,0 +1,176 @@
+"""The dashboard against a live `mrss supervise busdemo`: tree over the bus, faults that bite."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pytest
+from textual.widgets import Input
+
+from mrss.bus import BusEndpoints, Publisher
+from mrss.messages import Command
+from mrss.tui.app import MrssApp
+from mrss.tui.discovery import find_endpoints
+from mrss.tui.widgets.actions_table import ActionsTable
+from mrss.tui.widgets.log_pane import LogPane
+from mrss.tui.widgets.mind_inspector import MindInspector
+from mrss.tui.widgets.robots_table import RobotsTable
+from mrss.tui.widgets.supervision_table import SupervisionTable
+from tests.tui.tui_helpers import has_row, row_text, run, until
+
+COMPONENTS = ("bus", "rcl", "reasoner", "telemetry")
+HERE = Path(__file__).resolve().parent
+PROJECTS = HERE.parent / "projects"
+
+
+def supervise(project: str, projects: Path, run_dir: Path) -> Iterator[Path]:
+    """`mrss supervise PROJECT --run-dir run_dir` as a real process, stopped at the end."""
+    env = {**os.environ, "MRSS_PROJECTS": str(projects)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        yield run_dir
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+    finally:
+        if proc.poll() is None:
+            for child in psutil.Process(proc.pid).children(recursive=True):
+                child.kill()
+            proc.kill()
+            proc.communicate(timeout=10)
+
+
+@pytest.fixture()
+def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """tests/projects/busdemo running; its run dir."""
+    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
+    yield from supervise("busdemo", PROJECTS, tmp_path)
+
+
+@pytest.fixture()
+def tuidemo() -> Iterator[Path]:
+    """tests/tui/tuidemo (bus, RCL with two UGVs, reasoner, telemetry) running; its run dir."""
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuidemo-"))
+    try:
+        yield from supervise("tuidemo", HERE, run_dir)
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_component(
+        busdemo: Path) -> None:
+    endpoints, name = find_endpoints("busdemo", run_dir=busdemo)
+    assert name == "busdemo"
+
+    async def body() -> None:
+        app = MrssApp(endpoints, project=name, mind_every=0, tree_every=0.3)
+        async with app.run_test(size=(180, 50)) as pilot:
+            table = app.query_one(SupervisionTable)
+            row = "busdemo/announcer"
+
+            def announcer(inc: int) -> list[str] | None:
+                if not has_row(table, row):
+                    return None
+                cells = row_text(table, row)
+                return cells if cells[1] == "running" and cells[3] == str(inc) else None
+
+            await until(pilot, lambda: announcer(1), timeout=30, message="announcer running")
+            assert [k.value for k in table.rows] == ["busdemo", "busdemo/bus", row]
+            table.focus()
+            await pilot.press("down", "down")
+            assert table.selected_key == row
+            await pilot.press("k", "k")
+            cells = await until(pilot, lambda: announcer(2), timeout=30,
+                                message="announcer killed and restarted")
+            assert cells[4] == "1" and "SIGKILL" in cells[6]
+            log = app.query_one(LogPane)
+            await until(pilot, lambda: any("fault kill injected into announcer" in line
+                                           for line in log.lines_text()), message="fault logged")
+            await pilot.press("h", "h")
+            cells = await until(pilot, lambda: announcer(3), timeout=30,
+                                message="hung announcer found and restarted")
+            assert cells[4] == "2" and "hung" in cells[6]
+            await pilot.press("x", "x")
+            cells = await until(pilot, lambda: announcer(4), timeout=30,
+                                message="crashed announcer restarted")
+            assert cells[4] == "3" and "InjectedFault" in cells[6]
+            # a bad fault request from elsewhere on the bus is refused, and said so
+            with Publisher(endpoints, src="operator2") as other:
+                assert other.wait_connected(10)
+                other.publish(Command(command="fault", target="announcer",
+                                      args={"fault": "explode"}))
+                other.publish(Command(command="fault", target="nobody",
+                                      args={"fault": "kill"}))
+            await until(pilot, lambda: sum("refused" in line for line in log.lines_text()) == 2,
+                        message="two refusals logged")
+            refusals = [line for line in log.lines_text() if "refused" in line]
+            assert "unknown fault 'explode'" in refusals[0]
+            assert "has no child 'nobody'" in refusals[1]
+            assert announcer(4) is not None
+    run(body())
+
+
+@pytest.mark.slow
+def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Path) -> None:
+    """Percept typed -> the agent acts -> the action shows up; teleop suspends and resumes
+    it, the cancel key cancels it, and the mind inspector follows along."""
+    endpoints = BusEndpoints.ipc(tuidemo)
+
+    async def body() -> None:
+        app = MrssApp(endpoints, project="tuidemo", mind_every=0.3, tree_every=0.5)
+        async with app.run_test(size=(180, 50)) as pilot:
+            sup = app.query_one(SupervisionTable)
+            await until(pilot, lambda: [row_text(sup, f"tuidemo/{c}")[1] for c in COMPONENTS
+                                        if has_row(sup, f"tuidemo/{c}")] == ["running"] * 4,
+                        timeout=30, message="four components running")
+            mind = app.query_one(MindInspector)
+            await until(pilot, lambda: mind.snapshot is not None
+                        and "robot(ugv1)[source(self)]" in mind.snapshot.beliefs,
+                        timeout=10, message="the agent's beliefs")
+            robots = app.query_one(RobotsTable)
+            await until(pilot, lambda: has_row(robots, "ugv1")
+                        and row_text(robots, "ugv1")[5].endswith("%"), message="telemetry")
+            await pilot.press("p")
+            app.query_one("#percept", Input).value = "fire(area1)"
+            await pilot.press("enter")
+            actions = app.query_one(ActionsTable)
+
+            def action_state() -> str:
+                keys = [k.value for k in actions.rows]
+                if not keys:
+                    return ""
+                row = row_text(actions, keys[0])
+                assert row[1:4] == ["patrol", "ugv1", "area1"]
+                return f"{row[4]}: {row[5]}"
+
+            await until(pilot, lambda: action_state() == "running: ", timeout=10,
+                        message="the agent's patrol running")
+            assert mind.snapshot is not None
+            await until(pilot, lambda: mind.snapshot is not None and
+                        "fire(area1)[source(percept)]" in mind.snapshot.beliefs
+                        and len(mind.snapshot.intentions) == 1, message="intention in mind")
+            robots.focus()
+            await pilot.press("t")  # ugv1 (the first row) to teleop: its action is suspended
+            await until(pilot, lambda: action_state() == "suspended: robot in teleop",
+                        message="suspended by teleop")
+            await until(pilot, lambda: row_text(robots, "ugv1")[3] == "on", message="teleop on")
+            await pilot.press("t")
+            await until(pilot, lambda: action_state().startswith("running"),
+                        message="resumed after teleop")
+            actions.focus()
+            await pilot.press("c")
+            await until(pilot, lambda: action_state().startswith("cancelled"),
+                        message="cancelled from the dashboard")
+            await until(pilot, lambda: mind.snapshot is not None
+                        and not mind.snapshot.intentions, message="intention gone from mind")
+    run(body())

@@ -1,0 +1,161 @@
+"""The dashboard's models and operator checks, without Textual: what each message means."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mrss.errors import ConfigError
+from mrss.messages import ActionRequest, ActionStatus, Percept, RobotData, SupEvent
+from mrss.tui import operator
+from mrss.tui.discovery import find_endpoints
+from mrss.tui.models.actions import ActionsModel
+from mrss.tui.models.robots import RobotsModel
+from mrss.tui.models.supervision import SupervisionModel
+from mrss.tui.widgets.mind_inspector import event_text
+from mrss.tui.widgets.supervision_table import uptime_text
+
+PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+
+
+@pytest.mark.parametrize(("line", "expected"), [
+    ("fire(area1)", Percept(literal="fire(area1)")),
+    ("  +fire(area1, 3).  ", Percept(literal="fire(area1, 3)")),
+    ("-robot_unavailable(uav1)", Percept(literal="robot_unavailable(uav1)", op="remove")),
+    ("~smoke(\"north ridge\")[source(ui)]", Percept(literal="~smoke(\"north ridge\")[source(ui)]")),
+])
+def test_percept_lines_that_parse_become_percepts(line: str, expected: Percept) -> None:
+    assert operator.parse_percept(line) == expected
+
+
+@pytest.mark.parametrize(("line", "error"), [
+    ("", "type a literal"),
+    ("-", "type a literal"),
+    ("fire(area1", "not a literal: it ends too early; expected \")\""),
+    ("fire(area1))", "not a literal: column 12: unexpected"),
+    ("fire(X)", "must be ground"),
+    ("X", "not a literal"),
+    ("42", "not a literal"),
+    ("a :- b", "not a literal"),
+    ("fire(a). fire(b)", "not a literal"),
+])
+def test_bad_percept_lines_are_refused_with_the_reason(line: str, error: str) -> None:
+    with pytest.raises(operator.OperatorError, match=None) as info:
+        operator.parse_percept(line)
+    assert error in str(info.value)
+
+
+def test_operator_messages_are_checked() -> None:
+    assert operator.fault("rcl", "kill").args == {"fault": "kill"}
+    assert operator.fault("rcl", "kill").topic() == "ctl.fault"
+    assert operator.teleop("ugv1", True).topic() == "ctl.teleop"
+    for bad in (lambda: operator.fault("rcl", "explode"), lambda: operator.fault("", "kill"),
+                lambda: operator.action_control("succeed", "u1"),
+                lambda: operator.action_control("cancel", ""), lambda: operator.teleop("", True)):
+        with pytest.raises(operator.OperatorError):
+            bad()
+
+
+def test_supervision_model_nests_actor_events_under_the_component_that_sent_them() -> None:
+    model = SupervisionModel(root="wildfire")
+    model.apply_event(SupEvent(event="start", child="rcl", supervisor="wildfire", pid=10,
+                               detail={"inc": 1}), "supervisor", 100.0)
+    model.apply_event(SupEvent(event="start", child="uav1", supervisor="robots", pid=10,
+                               detail={"inc": 1}), "rcl", 101.0)
+    model.apply_event(SupEvent(event="start", child="skill-1", supervisor="robots/uav1"),
+                      "rcl", 102.0)
+    model.apply_event(SupEvent(event="escalate", child="skill-1", supervisor="robots/uav1",
+                               reason="crashed: boom"), "rcl", 103.0)
+    assert [n.path for n in model.rows()] == [
+        "wildfire", "wildfire/rcl", "wildfire/rcl/robots", "wildfire/rcl/robots/uav1",
+        "wildfire/rcl/robots/uav1/skill-1"]
+    uav1 = model.nodes["wildfire/rcl/robots/uav1"]
+    assert (uav1.state, uav1.kind, uav1.uptime(111.0)) == ("escalated", "supervisor", None)
+    assert model.nodes["wildfire/rcl"].uptime(111.0) == 11.0
+    assert model.nodes["wildfire/rcl/robots/uav1/skill-1"].last_reason == "crashed: boom"
+    assert model.is_component("wildfire/rcl")
+    assert not model.is_component("wildfire/rcl/robots/uav1")
+    assert model.nodes["wildfire/rcl"].kind == "worker"  # a process, even with actors inside
+    # the process dies: its actors are gone with it
+    model.apply_event(SupEvent(event="exit", child="rcl", supervisor="wildfire", pid=10,
+                               reason="killed: SIGKILL"), "supervisor", 120.0)
+    skill = model.nodes["wildfire/rcl/robots/uav1/skill-1"]
+    assert (skill.state, skill.pid, skill.last_reason) == ("stopped", 0, "rcl exited")
+    assert model.nodes["wildfire/rcl"].state == "exited"
+
+
+def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
+    model = SupervisionModel()
+    model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {"id": 3}}), "s", 1.0)
+    model.apply_event(SupEvent(event="tree", child="x", detail={"tree": [1, 2]}), "s", 1.0)
+    model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {
+        "id": "demo", "pid": "many", "children": [{"id": "a", "state": 5}, "junk"]}}), "s", 1.0)
+    assert [n.path for n in model.rows()] == ["demo", "demo/a"]
+    assert model.nodes["demo"].pid == 0 and model.nodes["demo/a"].state == "?"
+
+
+def test_robots_model_merges_flat_telemetry_and_keeps_the_latest_record_per_type() -> None:
+    model = RobotsModel()
+    model.apply_data(RobotData(robot="r", data={"lat": 1.0, "lon": 2.0, "battery": 50}), 1.0)
+    model.apply_data(RobotData(robot="r", data={"battery": 40, "tank": {"level": 3,
+                                                                       "capacity": 10}}), 2.0)
+    view = model.robots["r"]
+    assert (view.position(), view.battery(), view.tank()) == ("1.00000, 2.00000", "40%",
+                                                              "3.0/10.0 L")
+    model.apply_data(RobotData(robot="r", data={"type": "battery", "remaining": 39.6}), 3.0)
+    model.apply_data(RobotData(robot="r", data={"type": "position", "lat": "x", "lon": 1}), 3.0)
+    assert (view.battery(), view.position()) == ("40%", "")
+
+
+def test_actions_model_forgets_finished_actions_first_when_full() -> None:
+    model = ActionsModel(limit=10)
+    for i in range(10):
+        model.apply_status(ActionStatus(uuid=f"u{i}", state="running"), float(i))
+    for i in range(0, 10, 2):
+        model.apply_status(ActionStatus(uuid=f"u{i}", state="succeeded"), 20.0)
+    model.apply_request(ActionRequest(uuid="new", name="go", args=[1]), 30.0)
+    kept = {a.uuid for a in model.actions.values()}
+    assert "new" in kept and len(kept) == 9
+    assert {f"u{i}" for i in range(1, 10, 2)} <= kept  # every running one is still there
+    assert model.newest_first()[0].uuid == "new"
+    assert model.actions["new"].state == "requested"
+
+
+def test_small_formatters() -> None:
+    assert [uptime_text(s) for s in (None, 5, 65, 7260)] == ["", "5s", "1m05s", "2h01m"]
+    assert event_text("{'trigger': '+!go(a)', 'intention': 4}") == "+!go(a)  (intention #4)"
+    assert event_text("{'trigger': '+x', 'intention': None}") == "+x"
+    assert event_text("{not a dict") == "{not a dict"
+
+
+def test_discovery_finds_the_bus_from_flags_run_dir_or_the_newest_temp_run_dir(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
+    ep, name = find_endpoints("anything", endpoints=["tcp://127.0.0.1:5601",
+                                                     "tcp://127.0.0.1:5602"])
+    assert (ep.backend, name) == ("tcp://127.0.0.1:5602", "anything")
+    ep, name = find_endpoints("busdemo", run_dir=tmp_path)
+    assert (ep.backend, name) == (f"ipc://{tmp_path}/bus-sub.sock", "busdemo")
+    with pytest.raises(ConfigError, match="no running system of 'busdemo' found"):
+        find_endpoints("busdemo", temp_dir=tmp_path)
+    for stamp, run in ((1000, "mrss-busdemo-old"), (2000, "mrss-busdemo-new")):
+        (tmp_path / run).mkdir()
+        (tmp_path / run / "bus-sub.sock").touch()
+        os.utime(tmp_path / run / "bus-sub.sock", (stamp, stamp))
+    (tmp_path / "mrss-busdemo-nosocket").mkdir()
+    ep, _ = find_endpoints("busdemo", temp_dir=tmp_path)
+    assert ep.backend == f"ipc://{tmp_path}/mrss-busdemo-new/bus-sub.sock"
+
+
+def test_mrss_tui_without_a_running_system_exits_2_with_a_hint(tmp_path: Path) -> None:
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TMPDIR": str(tmp_path)}
+    for args, message in ((["busdemo"], "pass --run-dir"),
+                          (["nosuchproject"], "unknown project 'nosuchproject'")):
+        proc = subprocess.run([sys.executable, "-m", "mrss", "tui", *args], env=env,
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 2, proc.stderr
+        assert message in proc.stderr
