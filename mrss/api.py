@@ -9,14 +9,16 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
+from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
 from mrss.errors import ActionError, MrssError
-from mrss.messages import ActionRequest, ActionState, JsonValue
+from mrss.messages import ActionRequest, ActionState, JsonValue, Message, RobotData
 
 __all__ = [
     "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Resource",
@@ -313,3 +315,74 @@ class RobotCommLayer:
     def resume_after_restart(self, action: Action) -> bool:
         """Whether an action left running by a dead RCL is resumed (True) or failed."""
         return True
+
+    # -- what the RCL component binds (all None when the layer runs without a bus) ----------
+    #: The project folder and the run folder (broker.url, simulator addresses, ...).
+    project_dir: Path | None = None
+    run_dir: Path | None = None
+    _publish_fn: Callable[[Message], object] | None = None
+    _data_fn: Callable[[str, Sequence[Any], float | None], Any] | None = None
+    _available_fn: Callable[[str, bool, str], object] | None = None
+    _link_states: dict[str, tuple[bool, str]] | None = None
+
+    def bind_runtime(self, *, project_dir: Path | None = None, run_dir: Path | None = None,
+                     publish: Callable[[Message], object] | None = None,
+                     data_call: Callable[[str, Sequence[Any], float | None], Any] | None = None,
+                     set_available: Callable[[str, bool, str], object] | None = None) -> None:
+        """Connect the layer to its RCL (called by RclService; given arguments replace).
+
+        `publish` sends a bus message, `data_call(function, args, timeout)` calls the
+        Symbol and Data Layer, `set_available(robot, available, reason)` marks a robot
+        (un)available; link states reported before it was bound are replayed to it.
+        """
+        if project_dir is not None:
+            self.project_dir = project_dir
+        if run_dir is not None:
+            self.run_dir = run_dir
+        if publish is not None:
+            self._publish_fn = publish
+        if data_call is not None:
+            self._data_fn = data_call
+        if set_available is not None:
+            self._available_fn = set_available
+            for robot, (up, reason) in dict(self._link_states or {}).items():
+                set_available(robot, up, "" if up else reason)
+
+    def publish_data(self, robot: str, data: Mapping[str, JsonValue]) -> bool:
+        """Send robot data (telemetry, detections) to the data layer as `robot.<id>.data`.
+
+        Returns False when there is no bus or publishing failed (logged); never raises.
+        """
+        if self._publish_fn is None:
+            return False
+        try:
+            self._publish_fn(RobotData(robot=robot, data=dict(data)))
+            return True
+        except Exception as exc:
+            _log.warning("robot data of %s not published: %r", robot, exc)
+            return False
+
+    def data_call(self, function: str, *args: Any, timeout: float | None = 5.0) -> Any:
+        """Call a Symbol and Data Layer function (grounding, external functions).
+
+        Raises ActionError without a data layer; the data layer's own errors
+        (`mrss.edge.datalayer_client.DataLayerError`) pass through.
+        """
+        if self._data_fn is None:
+            raise ActionError(f"{function}: this RCL has no data layer")
+        return self._data_fn(function, list(args), timeout)
+
+    def report_link(self, robot: str, up: bool, reason: str = "") -> None:
+        """A robot's link went up or down: down makes the robot unavailable (new actions
+        are refused, the reasoner perceives `robot_unavailable(R)`), up available again."""
+        if self._link_states is None:
+            self._link_states = {}
+        self._link_states[robot] = (up, reason)
+        if self._available_fn is not None:
+            try:
+                self._available_fn(robot, up, "" if up else f"link down: {reason}")
+            except Exception as exc:
+                _log.warning("availability of %s not reported: %r", robot, exc)
+
+
+_log = logging.getLogger("mrss.rcl.layer")
