@@ -260,6 +260,9 @@ class RobotCommLayer:
 
     #: Seconds an interrupted skill gets to return before it is abandoned.
     interrupt_timeout: float = 5.0
+    #: Keys of a robot's table that the layer reads itself (not link options): `mrss
+    #: check` validates the other keys against the robot's `link` kind.
+    robot_settings: ClassVar[tuple[str, ...]] = ()
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
         """The link object skills of `robot` use (`Skill.link`), from its project.toml

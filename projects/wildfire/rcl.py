@@ -64,6 +64,7 @@ class WildfireRcl(RobotCommLayer):
     """Links to the UAV (MAVLink) and the UGV (MQTT), and the recipes of the scenario."""
 
     interrupt_timeout = 10.0  # a MAVLink mode change may take a few retries
+    robot_settings = (*ROBOT_SETTINGS, "url_file")  # not link options (for `mrss check`)
 
     def __init__(self) -> None:
         self.settings: dict[str, dict[str, float]] = {}
