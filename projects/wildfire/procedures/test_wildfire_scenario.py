@@ -2,9 +2,10 @@
 
 An operator area goal goes in over MQTT; the simulated UAV (MAVLink over UDP) covers the
 area and its thermal camera finds the two hidden hotspots; the world model rule sends
-the UGV (MQTT) to the one with no water nearby, where it pumps 60 l; SIGINT then stops
-everything: exit code 0, no process left. Everything is checked from the outside: on
-the bus (statuses, percepts) and through the world model's HTTP API.
+the UGV (MQTT) to the one with no water nearby; on its way the operator switches it to
+teleoperation and back (its goal is suspended, then resumed); it pumps 60 l there;
+SIGINT then stops everything: exit code 0, no process left. Everything is checked from
+the outside: on the bus (statuses, percepts) and through the world model's HTTP API.
 
 The simulators run 20 times faster than real time (MRSS_SIM_SPEEDUP); about 20 s.
 """
@@ -45,9 +46,26 @@ def test_area_goal_to_water_on_the_hotspot(tmp_path: Path) -> None:
         assert distance_m(hs1["position"]["lat"], hs1["position"]["lon"], *HOTSPOT_1) < 1.0
         assert hs1["attributes"]["seen_by"] == "uav1"
 
-        # only the hotspot with no water source within 150 m is sent to the UGV
-        supplied = system.wait_for(lambda: system.statuses("ugv1", "succeeded"), 40,
+        # only the hotspot with no water source within 150 m is sent to the UGV ...
+        supply = system.wait_for(lambda: system.statuses("ugv1", "running"), 20,
+                                 "the supply action to run")[0]
+
+        # ... and the operator takes it over on the way (paper VI): its goal is suspended
+        # and the teleop skill switches the robot to direct control; back in autonomy,
+        # the goal goes on from where it stopped
+        system.publish("mrss/ui/teleop", {"robot": "ugv1", "on": True})
+        system.wait_for(lambda: [s for s in system.statuses("ugv1", "suspended")
+                                 if s.uuid == supply.uuid], 10, "the supply to be suspended")
+        system.wait_for(lambda: (system.world("ugv1") or {}).get("attributes", {})
+                        .get("teleop"), 10, "the UGV to report teleoperation")
+        assert not [s for s in system.statuses("ugv1", "succeeded") if s.uuid == supply.uuid]
+        system.publish("mrss/ui/teleop", {"robot": "ugv1", "on": False})
+
+        supplied = system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
+                                            if s.uuid == supply.uuid], 40,
                                    "the supply action to succeed")[0]
+        switches = [s for s in system.statuses("ugv1", "succeeded") if s.uuid != supply.uuid]
+        assert len(switches) == 2                      # teleop_mode(ugv1, on), then off
         assert system.perceived("hotspot_detected(hs1,")
         assert not system.perceived("hotspot_detected(hs2,")
         assert supplied.progress["pumped"] >= 59.5
