@@ -51,6 +51,7 @@ def test_new_copies_the_template_and_renames_it(projects: Path) -> None:
     assert "agent agent.asl:" in check.stdout and "robots: robot1" in check.stdout
 
 
+@pytest.mark.slow
 def test_new_refuses_existing_folders_bad_names_and_unknown_sources(fresh: Path) -> None:
     projects = fresh.parent
     before = sorted(p.name for p in fresh.rglob("*"))
