@@ -349,7 +349,7 @@ class RobotCommLayer:
         if set_available is not None:
             self._available_fn = set_available
             for robot, (up, reason) in dict(self._link_states or {}).items():
-                set_available(robot, up, "" if up else reason)
+                self._tell_available(robot, up, reason)
 
     def publish_data(self, robot: str, data: Mapping[str, JsonValue]) -> bool:
         """Send robot data (telemetry, detections) to the data layer as `robot.<id>.data`.
@@ -381,6 +381,9 @@ class RobotCommLayer:
         if self._link_states is None:
             self._link_states = {}
         self._link_states[robot] = (up, reason)
+        self._tell_available(robot, up, reason)
+
+    def _tell_available(self, robot: str, up: bool, reason: str) -> None:
         if self._available_fn is not None:
             try:
                 self._available_fn(robot, up, "" if up else f"link down: {reason}")
