@@ -184,5 +184,11 @@ known_goal(G) :- task(_, G, _).
 +!run_service(R, recharge) <- recharge(R, recharge)[priority(1000)].
 +!run_service(R, refill) <- refill(R, refill)[priority(1000)].
 -!service(R, Why, Action)[error(E)]
-   <- .print(R, " ", Action, " failed (", E, "): goals stay on hold until it is solved");
-      -paused(R, Why).
+   <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
+
+// a failed service leaves the robot paused: fixed by hand (the percept goes away), it
+// goes on with its goals
+-battery_low(R)[source(percept)] : paused(R, battery) & not .intend(service(R, battery, _))
+   <- -paused(R, battery); !schedule(R).
+-water_low(R)[source(percept)] : paused(R, water) & not .intend(service(R, water, _))
+   <- -paused(R, water); !schedule(R).

@@ -174,3 +174,18 @@ def test_failed_goal_frees_the_robot(world: tuple[Agent, ScriptedRcl]) -> None:
     agent.remove_percept("robot_unavailable(uav1)")
     agent.run_until_idle()
     assert rcl.since(mark) == ["rcl_goal_management(suspend,a2)", "cover(uav1,a3)"]
+
+
+def test_failed_recharge_holds_goals_until_the_battery_is_fixed(
+        world: tuple[Agent, ScriptedRcl]) -> None:
+    agent, rcl = world
+    feed(agent, "area_goal_received(a1, 2)", "battery_low(uav1)")
+    rcl.finish("recharge(uav1,recharge)", ok=False)
+    agent.run_until_idle()
+    feed(agent, "area_goal_received(a2, 9)")
+    assert agent.believes("paused(uav1, battery)")
+    assert not rcl.open                                  # nothing flies on a low battery
+    mark = len(rcl.log)
+    agent.remove_percept("battery_low(uav1)")            # swapped by hand
+    agent.run_until_idle()
+    assert rcl.since(mark) == ["cover(uav1,a2)"]
