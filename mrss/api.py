@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
+from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
 from mrss.edge.adapters import DataLayer, ExternalAdapter, external
@@ -20,7 +22,7 @@ from mrss.edge.payloads import Field, JsonMapping, PayloadError
 from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
 from mrss.edge.worldmodel_rules import NoObjectWithin, rule
 from mrss.errors import ActionError, MrssError
-from mrss.messages import ActionRequest, ActionState, JsonValue
+from mrss.messages import ActionRequest, ActionState, JsonValue, Message, RobotData
 
 __all__ = [
     "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Atom",
@@ -264,6 +266,9 @@ class RobotCommLayer:
 
     #: Seconds an interrupted skill gets to return before it is abandoned.
     interrupt_timeout: float = 5.0
+    #: Keys of a robot's table that the layer reads itself (not link options): `mrss
+    #: check` validates the other keys against the robot's `link` kind.
+    robot_settings: ClassVar[tuple[str, ...]] = ()
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
         """The link object skills of `robot` use (`Skill.link`), from its project.toml
@@ -319,3 +324,77 @@ class RobotCommLayer:
     def resume_after_restart(self, action: Action) -> bool:
         """Whether an action left running by a dead RCL is resumed (True) or failed."""
         return True
+
+    # -- what the RCL component binds (all None when the layer runs without a bus) ----------
+    #: The project folder and the run folder (broker.url, simulator addresses, ...).
+    project_dir: Path | None = None
+    run_dir: Path | None = None
+    _publish_fn: Callable[[Message], object] | None = None
+    _data_fn: Callable[[str, Sequence[Any], float | None], Any] | None = None
+    _available_fn: Callable[[str, bool, str], object] | None = None
+    _link_states: dict[str, tuple[bool, str]] | None = None
+
+    def bind_runtime(self, *, project_dir: Path | None = None, run_dir: Path | None = None,
+                     publish: Callable[[Message], object] | None = None,
+                     data_call: Callable[[str, Sequence[Any], float | None], Any] | None = None,
+                     set_available: Callable[[str, bool, str], object] | None = None) -> None:
+        """Connect the layer to its RCL (called by RclService; given arguments replace).
+
+        `publish` sends a bus message, `data_call(function, args, timeout)` calls the
+        Symbol and Data Layer, `set_available(robot, available, reason)` marks a robot
+        (un)available; link states reported before it was bound are replayed to it.
+        """
+        if project_dir is not None:
+            self.project_dir = project_dir
+        if run_dir is not None:
+            self.run_dir = run_dir
+        if publish is not None:
+            self._publish_fn = publish
+        if data_call is not None:
+            self._data_fn = data_call
+        if set_available is not None:
+            self._available_fn = set_available
+            for robot, (up, reason) in dict(self._link_states or {}).items():
+                self._tell_available(robot, up, reason)
+
+    def publish_data(self, robot: str, data: Mapping[str, JsonValue]) -> bool:
+        """Send robot data (telemetry, detections) to the data layer as `robot.<id>.data`.
+
+        Returns False when there is no bus or publishing failed (logged); never raises.
+        """
+        if self._publish_fn is None:
+            return False
+        try:
+            self._publish_fn(RobotData(robot=robot, data=dict(data)))
+            return True
+        except Exception as exc:
+            _log.warning("robot data of %s not published: %r", robot, exc)
+            return False
+
+    def data_call(self, function: str, *args: Any, timeout: float | None = 5.0) -> Any:
+        """Call a Symbol and Data Layer function (grounding, external functions).
+
+        Raises ActionError without a data layer; the data layer's own errors
+        (`mrss.edge.datalayer_client.DataLayerError`) pass through.
+        """
+        if self._data_fn is None:
+            raise ActionError(f"{function}: this RCL has no data layer")
+        return self._data_fn(function, list(args), timeout)
+
+    def report_link(self, robot: str, up: bool, reason: str = "") -> None:
+        """A robot's link went up or down: down makes the robot unavailable (new actions
+        are refused, the reasoner perceives `robot_unavailable(R)`), up available again."""
+        if self._link_states is None:
+            self._link_states = {}
+        self._link_states[robot] = (up, reason)
+        self._tell_available(robot, up, reason)
+
+    def _tell_available(self, robot: str, up: bool, reason: str) -> None:
+        if self._available_fn is not None:
+            try:
+                self._available_fn(robot, up, "" if up else f"link down: {reason}")
+            except Exception as exc:
+                _log.warning("availability of %s not reported: %r", robot, exc)
+
+
+_log = logging.getLogger("mrss.rcl.layer")

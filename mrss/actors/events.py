@@ -47,10 +47,11 @@ class ExternalEventsManager(Component):
         self.log = ctx.log
         config = with_broker(edge_config(ctx, "events"), ctx.run_dir)
         self._bus = bus_port(ctx)
-        self.run(ctx.project_dir, config, self._bus, client_id=f"mrss-{ctx.name}")
+        self.run(ctx.project_dir, config, self._bus, client_id=f"mrss-{ctx.name}",
+                 run_dir=ctx.run_dir)
 
     def run(self, project_dir: Path, config: Mapping[str, Any], publisher: MessagePublisher,
-            *, client_id: str = "mrss-events") -> None:
+            *, client_id: str = "mrss-events", run_dir: Path | None = None) -> None:
         """Load the adapter, connect MQTT (if a broker is configured), start the adapter."""
         events = table(config, "events")
         broker = table(config, "broker")
@@ -69,7 +70,8 @@ class ExternalEventsManager(Component):
         options = {k: v for k, v in events.items() if k not in ("module", "class")}
         self.adapter = adapter_cls(EventsContext(
             percept=percepts, mqtt=self.mqtt, options=options, project_dir=project_dir,
-            broker_url=self.mqtt.settings.url if self.mqtt else None, log=self.log))
+            broker_url=self.mqtt.settings.url if self.mqtt else None, log=self.log,
+            run_dir=run_dir))
         self.adapter.start()  # subscriptions first, so the first (re)connect sends them all
         if self.mqtt is not None:
             self.mqtt.start()

@@ -34,6 +34,8 @@ from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
 from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
+from mrss.edge.component import ZmqBusPort, bus_port
+from mrss.edge.datalayer_client import DataLayerClient
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat, RobotData
 from mrss.supervision import Component, ComponentContext
@@ -85,11 +87,18 @@ class RclService(Component):
         self._name = "rcl"
         self._stop = threading.Event()
         self._beat: threading.Thread | None = None
+        self._port: ZmqBusPort | None = None
+        self._data: DataLayerClient | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
         self._name = ctx.name
         self.layer = load_layer(ctx.project_dir, str(opts.get("layer", "")))
+        publisher = ctx.publisher
+        self._port = bus_port(ctx)
+        self._data = DataLayerClient(self._port)
+        self.layer.bind_runtime(project_dir=ctx.project_dir, run_dir=ctx.run_dir,
+                                publish=publisher.publish, data_call=self._data.call)
         robots = opts.get("robots", {})
         if not isinstance(robots, dict) or not robots:
             raise ConfigError("the RCL needs a table of robots", key="robots")
@@ -97,7 +106,6 @@ class RclService(Component):
                       for r, o in robots.items()}
         journal_path = Path(opts.get("journal") or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
         self.journal = ActionJournal(journal_path, durable=bool(opts.get("durable", False)))
-        publisher = ctx.publisher
         if not publisher.wait_connected(5.0):  # else the restored statuses could be lost
             log.warning("%s: the bus proxy has not greeted the publisher yet", ctx.name)
         endpoints = BusEndpoints.from_dict(ctx.bus)
@@ -112,6 +120,7 @@ class RclService(Component):
                             max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
                             restart_period=float(opts.get("restart_period", 60.0)),
                             probation=float(opts.get("probation", 30.0)))
+        self.layer.bind_runtime(set_available=self.core.set_available)
         self.core.start(new_run=ctx.incarnation <= 1)
         for robot, link in self.links.items():
             self._watch_link(robot, link, publisher)
@@ -162,7 +171,7 @@ class RclService(Component):
         self._stop.set()
         if self._beat is not None:
             self._beat.join(timeout=5)
-        for closable in (self._rx, self._sub):
+        for closable in (self._rx, self._sub, self._data, self._port):
             if closable is not None:
                 closable.close()
         if self.core is not None:

@@ -1,8 +1,12 @@
 """`mrss check PROJECT`: load and validate a project without starting anything.
 
-For now this validates project.toml (every key; component classes are imported to be
-sure they exist and subclass Component) and prints a summary. Errors name the file, the
-line when it can be found, and the key, and exit 2.
+Validates project.toml (every key; component classes are imported to be sure they
+exist and subclass Component), then the project's own files (`check_parts`): agent.asl
+compiled by the real interpreter (every syntax error as file:line:col with a caret),
+events.py / datalayer.py / rcl.py / skills.py imported from the project folder with
+their expected classes, and the robots' tables and link options. Nothing is started
+and no robot is connected. Errors name the file and line (and the key); all of them
+are printed and the exit code is 2. OK: a summary and exit 0.
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mrss.commands.check_parts import check_project_files
 from mrss.config import ProjectConfig, load_project
 from mrss.errors import ConfigError, SupervisionError
 from mrss.supervision.component_main import load_class
@@ -20,7 +25,7 @@ EXIT_INVALID = 2
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("project", help="project name (projects/<name>/)")
     parser.add_argument("--no-import", action="store_true",
-                        help="do not import component classes (syntax and schema only)")
+                        help="check project.toml only: import no class, read no project file")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,9 +36,18 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"mrss check: {exc}", file=sys.stderr)
         return EXIT_INVALID
-    for warning in config.warnings:
+    found = None if args.no_import else check_project_files(config)
+    for warning in [*config.warnings, *(found.warnings if found else [])]:
         print(f"warning: {warning}", file=sys.stderr)
+    if found is not None and found.errors:
+        for error in found.errors:
+            print(f"mrss check: {error}", file=sys.stderr)
+        print(f"mrss check: {config.name}: {len(found.errors)} error(s)", file=sys.stderr)
+        return EXIT_INVALID
     print(summary(config))
+    if found is not None:
+        print("\n".join(found.summary))
+        print(f"{config.name}: OK")
     return 0
 
 

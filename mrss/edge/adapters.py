@@ -53,6 +53,7 @@ class EventsContext:
     project_dir: Path | None = None
     broker_url: str | None = None
     log: logging.Logger = field(default_factory=lambda: logging.getLogger("mrss.events"))
+    run_dir: Path | None = None  # the run folder (worldmodel.url, ...), when supervised
 
 
 class ExternalAdapter:

@@ -1,0 +1,205 @@
+"""Helpers for a project's test procedures (projects/<name>/procedures/): the real system.
+
+    with RunningProject(PROJECT_DIR, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as s:
+        s.wait_ready()                               # RCL and reasoner heartbeats seen
+        s.publish("mrss/ui/goto", {"goal": "g1", ...})   # as an operator, over MQTT
+        s.wait_for(lambda: s.statuses("robot1", "succeeded"), 20, "the action")
+        s.world("robot1")                            # world model object, over HTTP
+        assert s.interrupt() == 0                    # Ctrl-C: clean stop, nothing left
+
+`mrss supervise NAME --run-dir DIR` runs as its own process (`sys.executable -m mrss`,
+the project's parent folder as $MRSS_PROJECTS); what it does is watched from the
+outside: the bus (percepts, action statuses, heartbeats), the world model's HTTP API
+and the broker, all found in the run folder. Whatever happens, `close()` (the end of
+the `with`) kills what is left of the process tree.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import urllib.error
+import urllib.request
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from types import TracebackType
+from typing import Any, TypeVar
+
+import psutil
+
+from mrss.bus import Subscriber
+from mrss.bus.component import endpoints_from_config
+from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
+from mrss.testing import WaitTimeout, wait_until
+
+T = TypeVar("T")
+
+
+class RunningProject:
+    """`mrss supervise` of one project folder as a process, and views of its system."""
+
+    def __init__(self, project_dir: Path, run_dir: Path,
+                 env: Mapping[str, str] | None = None) -> None:
+        self.project_dir = project_dir.resolve()
+        self.run_dir = run_dir
+        self.output = run_dir.parent / f"{self.project_dir.name}-supervise.log"
+        self.env = dict(os.environ, MRSS_PROJECTS=str(self.project_dir.parent), **(env or {}))
+        self.process: subprocess.Popen[bytes] | None = None
+        self.percepts: list[str] = []
+        self.status_log: list[ActionStatus] = []
+        self.heartbeats: set[str] = set()
+        self._lock = threading.Lock()
+        self._sub: Subscriber | None = None
+        self._tree: list[psutil.Process] = []
+
+    # -- life cycle ------------------------------------------------------------------------
+    def start(self) -> RunningProject:
+        """Start the system and listen to its bus (returns at once after the proxy is up)."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        with self.output.open("wb") as sink:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "mrss", "supervise", self.project_dir.name,
+                 "--run-dir", str(self.run_dir)], stdout=sink, stderr=subprocess.STDOUT,
+                env=self.env)
+        self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), 20, "the bus proxy")
+        self._sub = Subscriber(endpoints_from_config({}, self.run_dir),
+                               prefixes=["percept", "action.status", "sup.heartbeat."])
+        self._sub.start(self._on_message)
+        return self
+
+    def __enter__(self) -> RunningProject:
+        return self.start()
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def wait_ready(self, components: tuple[str, ...] = ("rcl", "reasoner"),
+                   timeout: float = 30.0) -> None:
+        """Wait until every component named has sent a heartbeat on the bus."""
+        self.wait_for(lambda: set(components) <= self.heartbeats, timeout,
+                      f"heartbeats of {', '.join(components)}")
+        self._tree = self._children()
+
+    def interrupt(self, timeout: float = 30.0) -> int:
+        """Ctrl-C: the exit code; AssertionError if a component process is left over."""
+        assert self.process is not None
+        tree = self._tree or self._children()
+        self.process.send_signal(signal.SIGINT)
+        code = self.process.wait(timeout)
+        try:
+            wait_until(lambda: not [p for p in tree if _alive(p)], 10,
+                       message="the component processes to end")
+        except WaitTimeout:
+            raise AssertionError(f"left over: {[p.pid for p in tree if _alive(p)]}") from None
+        return code
+
+    def close(self) -> None:
+        """Stop listening; kill the process tree if it still runs."""
+        if self._sub is not None:
+            self._sub.close()
+            self._sub = None
+        if self.process is not None and self.process.poll() is None:
+            tree = self._children()
+            self.process.kill()
+            for child in tree:
+                try:
+                    child.kill()
+                except psutil.NoSuchProcess:
+                    pass
+            self.process.wait(10)
+
+    def _children(self) -> list[psutil.Process]:
+        assert self.process is not None
+        try:
+            children: list[psutil.Process] = psutil.Process(self.process.pid).children(
+                recursive=True)
+        except psutil.NoSuchProcess:
+            return []
+        return children
+
+    # -- watching --------------------------------------------------------------------------
+    def wait_for(self, condition: Callable[[], T], timeout: float, what: str) -> T:
+        """wait_until, failing early (with the log) if the system exits meanwhile."""
+        def check() -> T | None:
+            value = condition()
+            if not value and self.process is not None and self.process.poll() is not None:
+                raise AssertionError(f"mrss supervise exited ({self.process.returncode}) "
+                                     f"while waiting for {what}:\n{self.log()}")
+            return value
+        try:
+            return wait_until(check, timeout, interval=0.02, message=what)  # type: ignore[return-value]
+        except WaitTimeout as exc:
+            raise AssertionError(f"{exc}\n--- log ---\n{self.log()}") from None
+
+    def _on_message(self, env: Envelope) -> None:
+        body = env.body
+        with self._lock:
+            if isinstance(body, Percept) and body.op == "add":
+                self.percepts.append(body.literal)
+            elif isinstance(body, ActionStatus):
+                self.status_log.append(body)
+            elif isinstance(body, Heartbeat):
+                self.heartbeats.add(body.component)
+
+    def statuses(self, robot: str | None = None, state: str | None = None) -> list[ActionStatus]:
+        """Action statuses seen, of a robot and/or in a state."""
+        with self._lock:
+            return [s for s in self.status_log if (robot is None or s.robot == robot)
+                    and (state is None or s.state == state)]
+
+    def perceived(self, prefix: str) -> list[str]:
+        """Percepts (added) whose literal starts with `prefix`."""
+        with self._lock:
+            return [p for p in self.percepts if p.startswith(prefix)]
+
+    def log(self, tail: int = 8000) -> str:
+        """The end of the system's output."""
+        try:
+            return self.output.read_text(encoding="utf-8", errors="replace")[-tail:]
+        except OSError:
+            return ""
+
+    # -- the outside world -----------------------------------------------------------------
+    def file(self, name: str) -> str:
+        """A run folder file (broker.url, worldmodel.url, ...), stripped."""
+        return (self.run_dir / name).read_text(encoding="utf-8").strip()
+
+    def world(self, object_id: str) -> dict[str, Any] | None:
+        """A world model object over its HTTP API (None if there is no such object)."""
+        url = f"{self.file('worldmodel.url')}/objects/{object_id}"
+        try:
+            with urllib.request.urlopen(url, timeout=5) as resp:
+                result: dict[str, Any] = json.loads(resp.read())
+                return result
+        except urllib.error.HTTPError as exc:
+            if exc.code == 404:
+                return None
+            raise
+
+    def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
+        """Publish a JSON message (QoS 1) on the system's broker, as an outside client."""
+        address = parse_broker_url(self.file("broker.url"))
+        client = new_client(f"procedure-{os.getpid()}", address)
+        client.connect(address.host, address.port)
+        client.loop_start()
+        try:
+            info = client.publish(topic, json.dumps(payload), qos=1)
+            info.wait_for_publish(5)
+            if not info.is_published():
+                raise AssertionError(f"{topic}: not acknowledged by the broker")
+        finally:
+            client.disconnect()
+            client.loop_stop()
+
+
+def _alive(process: psutil.Process) -> bool:
+    try:
+        return bool(process.is_running() and process.status() != psutil.STATUS_ZOMBIE)
+    except psutil.NoSuchProcess:
+        return False

@@ -1,0 +1,232 @@
+"""The simulated robots as supervised components: `mrss supervise` runs them like any part.
+
+    [components.sim_uav]
+    module = "mrss.sim.component:SimUavComponent"
+    id = "uav1"                       # names the address file: <run_dir>/uav1.mavlink
+    home = [-35.363262, 149.165237, 584.0]
+    hotspots = [{lat = -35.3604, lon = 149.1657, temperature = 450}]   # or "FILE" / "LAT,LON;..."
+    speedup = 4.0                     # $MRSS_SIM_SPEEDUP overrides (tests run faster)
+    endurance = 600.0                 # seconds of hover on a full battery (SIM_ENDURANCE)
+    recharge = 5.0                    # % per simulated second, landed and disarmed at home
+    camera_radius = 25.0
+    port = 0                          # UDP port to listen on; 0: a free one
+
+    [components.sim_ugv]
+    module = "mrss.sim.component:SimUgvComponent"
+    id = "ugv1"
+    base = [-35.3635, 149.165]
+    speedup = 4.0                     # $MRSS_SIM_SPEEDUP overrides
+    # tank = 200.0, pump_rate = 5.0, speed = 3.0, rate = 2.0, prefix = "mrss/robots"
+    # broker_url = "mqtt://..."       # default: the project's broker (run_dir/broker.url)
+
+The UAV listens on a loopback UDP port and writes the connection string a ground
+station uses to reach it (`udpout:127.0.0.1:PORT`) to `<run_dir>/<id>.mavlink`, as the
+embedded broker writes `broker.url`; a restarted incarnation reuses that port, so a
+connected link just carries on. Nothing is fixed, so parallel runs never collide.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from mrss.config import load_file
+from mrss.edge.component import resolved_broker_url
+from mrss.errors import ConfigError
+from mrss.links.geo import distance_m
+from mrss.projects import PROJECT_FILE
+from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
+from mrss.sim.uav import DEFAULT_HOME, SimUav
+from mrss.sim.ugv import DEFAULT_BASE, SimUgv
+from mrss.sim.ugv_model import UgvParams
+from mrss.supervision.component import Component, ComponentContext
+
+log = logging.getLogger("mrss.sim")
+
+SPEEDUP_ENV = "MRSS_SIM_SPEEDUP"
+ADDRESS_SUFFIX = ".mavlink"
+HOME_RADIUS_M = 10.0
+
+
+def speedup_of(options: Mapping[str, Any]) -> float:
+    """The simulated seconds per wall-clock second: $MRSS_SIM_SPEEDUP, else `speedup`."""
+    raw: Any = os.environ.get(SPEEDUP_ENV) or options.get("speedup", 1.0)
+    try:
+        value = float(raw)
+    except (TypeError, ValueError):
+        raise ConfigError(f"speedup must be a number, not {raw!r}", key="speedup") from None
+    if value <= 0:
+        raise ConfigError("speedup must be positive", key="speedup")
+    return value
+
+
+def number(options: Mapping[str, Any], key: str, default: float, *, low: float = 0.0) -> float:
+    """A numeric option (ints accepted), at least `low`; ConfigError names the key."""
+    value = options.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value < low:
+        raise ConfigError(f"must be a number >= {low:g}, not {value!r}", key=key)
+    return float(value)
+
+
+def position(options: Mapping[str, Any], key: str, default: Sequence[float],
+             size: int) -> tuple[float, ...]:
+    """`[lat, lon(, alt)]` or "lat,lon(,alt)"; the altitude may be left out (0)."""
+    value: Any = options.get(key, list(default))
+    if isinstance(value, str):
+        value = value.split(",")
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise ConfigError(f"must be [lat, lon{', alt' if size == 3 else ''}], not {value!r}",
+                          key=key) from None
+    if len(values) == 2 and size == 3:
+        values.append(0.0)
+    if len(values) != size or not (-90 <= values[0] <= 90 and -180 <= values[1] <= 180):
+        raise ConfigError(f"must be [lat, lon{', alt' if size == 3 else ''}], not {value!r}",
+                          key=key)
+    return tuple(values)
+
+
+def hotspots_of(options: Mapping[str, Any], project_dir: Path) -> list[Hotspot]:
+    """Hidden hotspots: a list of tables, or a file (relative to the project) / inline text."""
+    value = options.get("hotspots", [])
+    if isinstance(value, list):
+        return hotspots_from_records(value, "project.toml")
+    if isinstance(value, str):
+        candidate = project_dir / value
+        return parse_hotspots(str(candidate) if value and candidate.is_file() else value)
+    raise ConfigError("must be a list of {lat, lon} tables or a string", key="hotspots")
+
+
+def free_udp_port(host: str = "127.0.0.1") -> int:
+    """A UDP port nobody uses right now on `host`."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
+class GroundCrewUav(SimUav):
+    """The simulated copter, plus a ground crew that charges its battery at home.
+
+    While the vehicle is landed and disarmed within 10 m of home, its battery gains
+    `recharge_pct_per_s` percent per simulated second (a battery swap, seen from afar).
+    """
+
+    def __init__(self, url: str, *, recharge_pct_per_s: float = 0.0, **kwargs: Any) -> None:
+        super().__init__(url, **kwargs)
+        self.recharge_pct_per_s = recharge_pct_per_s
+
+    def _advance(self, dt: float) -> None:
+        super()._advance(dt)
+        m = self.model
+        if (self.recharge_pct_per_s > 0 and m.landed and not m.armed and m.battery_pct < 100.0
+                and distance_m(m.lat, m.lon, m.home_lat, m.home_lon) <= HOME_RADIUS_M):
+            m.battery_pct = min(100.0, m.battery_pct + self.recharge_pct_per_s * dt)
+
+    def listening(self) -> bool:
+        """Whether the vehicle's socket is open (its thread started and bound the port)."""
+        return self._conn is not None
+
+
+class SimUavComponent(Component):
+    """A simulated UAV (MAVLink over loopback UDP) as a supervised component."""
+
+    def __init__(self) -> None:
+        self.uav: GroundCrewUav | None = None
+        self.address_file: Path | None = None
+
+    def start(self, ctx: ComponentContext) -> None:
+        opts = ctx.options
+        robot = str(opts.get("id", "uav1"))
+        home = position(opts, "home", DEFAULT_HOME, 3)
+        self.address_file = ctx.run_dir / f"{robot}{ADDRESS_SUFFIX}"
+        port = int(number(opts, "port", 0)) or self._previous_port() or free_udp_port()
+        uav = GroundCrewUav(
+            f"udpin:127.0.0.1:{port}", sysid=int(number(opts, "sysid", 1, low=1)),
+            home=(home[0], home[1], home[2]), hotspots=hotspots_of(opts, ctx.project_dir),
+            speedup=speedup_of(opts), camera_radius_m=number(opts, "camera_radius", 25.0),
+            recharge_pct_per_s=number(opts, "recharge", 5.0))
+        uav.model.params.endurance_s = number(opts, "endurance", uav.model.params.endurance_s,
+                                              low=1.0)
+        uav.start()
+        deadline = time.monotonic() + 5.0
+        while not uav.listening():
+            if uav._thread is None or not uav._thread.is_alive() or time.monotonic() > deadline:
+                raise ConfigError(f"simulated {robot} could not listen on UDP port {port}",
+                                  key="port")
+            time.sleep(0.01)
+        self.uav = uav
+        self.address_file.write_text(f"udpout:127.0.0.1:{port}\n", encoding="utf-8")
+        ctx.log.info("simulated %s: MAVLink on udp 127.0.0.1:%d (link url in %s), home %.6f,"
+                     "%.6f, %d hidden hotspots, speedup %g", robot, port, self.address_file,
+                     home[0], home[1], len(uav.camera.hotspots), uav.speedup)
+
+    def _previous_port(self) -> int:
+        """The port an earlier incarnation of this run listened on (0 if none)."""
+        if self.address_file is None or not self.address_file.is_file():
+            return 0
+        try:
+            return int(self.address_file.read_text(encoding="utf-8").strip().rsplit(":", 1)[1])
+        except (IndexError, ValueError):
+            return 0
+
+    def healthy(self) -> bool:
+        thread = self.uav._thread if self.uav is not None else None
+        return thread is not None and thread.is_alive()
+
+    def stop(self) -> None:
+        if self.uav is not None:
+            self.uav.stop()
+
+
+def project_broker_url(ctx: ComponentContext) -> str:
+    """`broker_url` of the component, else the project's broker (configured or embedded)."""
+    url = ctx.options.get("broker_url")
+    if isinstance(url, str) and url:
+        return url
+    project_file = ctx.project_dir / PROJECT_FILE
+    sections = load_file(project_file).sections if project_file.is_file() else {}
+    resolved = resolved_broker_url(sections, ctx.run_dir)
+    if not resolved:
+        raise ConfigError("no MQTT broker: set [broker] url, start the embedded broker "
+                          "before this component, or give broker_url", key="broker_url")
+    return resolved
+
+
+class SimUgvComponent(Component):
+    """A simulated UGV (JSON over the project's MQTT broker) as a supervised component."""
+
+    def __init__(self) -> None:
+        self.ugv: SimUgv | None = None
+
+    def start(self, ctx: ComponentContext) -> None:
+        opts = ctx.options
+        robot = str(opts.get("id", "ugv1"))
+        base = position(opts, "base", DEFAULT_BASE, 2)
+        defaults = UgvParams()
+        params = UgvParams(
+            max_speed_mps=number(opts, "speed", defaults.max_speed_mps, low=0.1),
+            tank_capacity_l=number(opts, "tank", defaults.tank_capacity_l, low=1.0),
+            pump_rate_lps=number(opts, "pump_rate", defaults.pump_rate_lps, low=0.1))
+        url = project_broker_url(ctx)
+        prefix = opts.get("prefix")
+        extra: dict[str, Any] = {"prefix": str(prefix)} if prefix else {}
+        self.ugv = SimUgv(url, robot, base=(base[0], base[1]), params=params,
+                          speedup=speedup_of(opts), telemetry_hz=number(opts, "rate", 2.0,
+                                                                          low=0.1), **extra)
+        self.ugv.start()
+        ctx.log.info("simulated %s on %s, base %.6f,%.6f, tank %g l, speedup %g", robot, url,
+                     base[0], base[1], params.tank_capacity_l, self.ugv.speedup)
+
+    def healthy(self) -> bool:
+        thread = self.ugv._thread if self.ugv is not None else None
+        return thread is not None and thread.is_alive()
+
+    def stop(self) -> None:
+        if self.ugv is not None:
+            self.ugv.stop()

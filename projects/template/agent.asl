@@ -1,0 +1,55 @@
+// The reasoner's program (paper IV-D, V): standard Jason AgentSpeak.
+// ADAPT: your beliefs, percept reactions and plans. Conventions MRSS relies on:
+// - percepts from events.py, the data layer and the world model arrive with
+//   [source(percept)]; `robot_unavailable(R)` comes from MRSS itself;
+// - an environment action is `name(Robot, Goal, ...)`: the RCL runs it on Robot (rcl.py
+//   refines it into skills) and the plan blocks until it succeeds or fails;
+//   `[priority(P)]` on the action decides who wins a robot's resources;
+// - rcl_goal_management(cancel|suspend|resume|succeed|fail, Goal) manages running
+//   actions (by goal id; or action(Uuid), robot(R));
+// - query(Function, [Args], Result) calls a data layer function.
+// Check it: `mrss agent projects/NAME/agent.asl` or `mrss check NAME`.
+
+robot(robot1).
+free(robot1).
+
+// an operator sent a point to reach (events.py: goto_received(Goal, Lat, Lon))
++goto_received(G, Lat, Lon)[source(percept)] : robot(R)
+   <- .print("goal ", G, ": ", R, " drives to ", Lat, ",", Lon);
+      !reach(R, G, Lat, Lon).
+
+// the operator cancels a goal: dropping its intention cancels its action in the RCL
++goal_cancelled(G)[source(percept)] : busy(R, G)
+   <- .drop_intention(reach(R, G, _, _));
+      -busy(R, G);
+      +free(R);
+      .print("goal ", G, " cancelled");
+      !forget(G).
++goal_cancelled(G)[source(percept)]          // not started yet (or unknown)
+   <- .drop_intention(reach(_, G, _, _));
+      !forget(G).
+
+// one goal at a time per robot: the others wait until it is free
++!reach(R, G, Lat, Lon) : free(R)
+   <- -free(R);
+      +busy(R, G);
+      move(R, G, Lat, Lon);
+      -busy(R, G);
+      +free(R);
+      .print("goal ", G, " reached");
+      !forget(G).
++!reach(R, G, Lat, Lon)
+   <- .wait(free(R));
+      !reach(R, G, Lat, Lon).
+-!reach(R, G, Lat, Lon)[error(E)] : busy(R, G)
+   <- -busy(R, G);
+      +free(R);
+      .print("goal ", G, " failed: ", E);
+      !forget(G).
+
+// percepts stay beliefs until removed: forget a goal's, so it may be sent again
++!forget(G)
+   <- -goto_received(G, _, _)[source(percept)];
+      -goal_cancelled(G)[source(percept)].
+
++robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").

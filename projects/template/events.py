@@ -1,0 +1,31 @@
+"""External adapter (paper IV-B, Table I "Event External Adapter"): outside events -> percepts.
+
+ADAPT: subscribe to what your user interface or sensors publish and turn each message
+into percepts for agent.asl. The events manager gives the adapter:
+- `self.mqtt`: a client of the project's broker (`[broker] url`, or the embedded one);
+- `self.percept(functor, *args)` / `self.percept("literal(text)")`: publish a percept,
+  `op="remove"` to retract one; arguments are quoted safely (`Atom("a1")` for atoms);
+- `self.map_json(topic, JsonMapping(...))`: a declared payload schema -> one percept;
+- `self.on_json(topic, handler)`: your own handler for JSON objects;
+- `self.options`: the `[events]` table of project.toml.
+A payload that does not fit its schema is logged and counted, never a percept.
+"""
+
+from __future__ import annotations
+
+from mrss.edge.adapters import ExternalAdapter
+from mrss.edge.payloads import Field, JsonMapping
+
+# ADAPT: one schema per message kind. `{"goal": "g1", "lat": 48.2, "lon": 16.37}`
+GOTO = JsonMapping("goto_received", Field("goal", "atom"), Field("lat", "lat"),
+                   Field("lon", "lon"))
+CANCEL = JsonMapping("goal_cancelled", Field("goal", "atom"))
+
+
+class ProjectEvents(ExternalAdapter):
+    """ADAPT: the project's external adapter (exactly one ExternalAdapter subclass here)."""
+
+    def start(self) -> None:
+        prefix = str(self.options.get("topic_prefix", "mrss/ui")).rstrip("/")
+        self.map_json(f"{prefix}/goto", GOTO)
+        self.map_json(f"{prefix}/cancel", CANCEL)

@@ -1,0 +1,194 @@
+// The wildfire agent (KISecAssist, paper VI): one UAV covers areas and finds hotspots,
+// one UGV brings water to them. Listing 1's priorities, cancellation and priority changes,
+// generalised to any number of goals per robot:
+//
+// - a goal waits in `queued(R, G, P, Job)` until its robot is free, or pre-empts the
+//   running task when its priority is higher: the running task is SUSPENDED through
+//   rcl_goal_management (its intention stays blocked on its action, its progress is
+//   kept by the RCL) and is resumed, from where it stopped, when it is the best again;
+// - `paused(R, Why)` (battery, water, teleop) holds a robot's goals: the running one is
+//   suspended, a high-priority service action runs (recharge, refill), then the
+//   scheduler resumes the best goal;
+// - percepts come from events.py (operator), the data layer (battery_low, water_low),
+//   the world model rules (hotspot_detected) and the reasoner (robot_unavailable).
+//
+// Actions are `name(Robot, Goal, ...)`: the RCL (rcl.py) refines them into skills.
+
+/* ---------------------------------------------------------------- initial beliefs */
+isuav(uav1).
+isugv(ugv1).
+robot(uav1).
+robot(ugv1).
+water_per_hotspot(60).      // litres the UGV pumps on one hotspot
+goals(0).                   // goals admitted so far
+
+/* ---------------------------------------------------------------- rules */
+paused(R) :- paused(R, _).
+paused(R) :- robot_unavailable(R).
+// Every goal of R that is not running, with a sort key: higher priority first, then a
+// suspended goal before a queued one, then the oldest (`arrived` numbers the goals).
+pending(R, G, c(P, 1, S, G)) :- waiting(R, G, P) & arrived(G, N) & S = 0 - N.
+pending(R, G, c(P, 0, S, G)) :- queued(R, G, P, _) & arrived(G, N) & S = 0 - N.
+known_goal(G) :- queued(_, G, _, _).
+known_goal(G) :- waiting(_, G, _).
+known_goal(G) :- task(_, G, _).
+
+/* ---------------------------------------------------------------- operator percepts */
++area_goal_received(G, P)[source(percept)] : not known_goal(G) & isuav(R)
+   <- .print("area goal ", G, " with priority ", P, " for ", R);
+      !admit(R, G, P, cover).
+
++goal_cancelled(G)[source(percept)] : task(R, G, _)
+   <- .print("cancelling running goal ", G);
+      -task(R, G, _);
+      .drop_intention(perform(R, G, _, _));     // the RCL cancels its action
+      !forget(G);
+      !schedule(R).
++goal_cancelled(G)[source(percept)] : waiting(R, G, _)
+   <- .print("cancelling suspended goal ", G);
+      -waiting(R, G, _);
+      .drop_intention(perform(R, G, _, _));
+      !forget(G).
++goal_cancelled(G)[source(percept)] : queued(R, G, _, _)
+   <- .print("cancelling queued goal ", G);
+      -queued(R, G, _, _);
+      !forget(G).
++goal_cancelled(G)[source(percept)]
+   <- .print("cancel of unknown goal ", G, " ignored");
+      !forget(G).
+
++prioritychange(G, P)[source(percept)] : queued(R, G, Q, Job)
+   <- -queued(R, G, Q, Job); +queued(R, G, P, Job);
+      -prioritychange(G, P)[source(percept)];
+      !schedule(R).
++prioritychange(G, P)[source(percept)] : waiting(R, G, Q)
+   <- -waiting(R, G, Q); +waiting(R, G, P);
+      -prioritychange(G, P)[source(percept)];
+      !schedule(R).
++prioritychange(G, P)[source(percept)] : task(R, G, Q)
+   <- -task(R, G, Q); +task(R, G, P);
+      -prioritychange(G, P)[source(percept)];
+      !schedule(R).
++prioritychange(G, P)[source(percept)]
+   <- .print("priority change of unknown goal ", G, " ignored");
+      -prioritychange(G, P)[source(percept)].
+
+/* ---------------------------------------------------------------- field percepts */
+// a hotspot with no water source nearby (world model rule): the UGV brings water
++hotspot_detected(H, Lat, Lon)[source(percept)]
+     : not known_goal(H) & not supplied(H) & isugv(R)
+   <- .print("hotspot ", H, " at ", Lat, ",", Lon, ": sending ", R);
+      !admit(R, H, 10, supply(Lat, Lon)).
+
+// UAV battery low: suspend its goal, fly home, recharge, go on where it left off
++battery_low(R)[source(percept)] : isuav(R) & not paused(R, battery)
+   <- .print(R, " battery low: returning home");
+      !service(R, battery, recharge).
+
+// UGV water low: suspend its goal, refill at base, go on
++water_low(R)[source(percept)] : isugv(R) & not paused(R, water)
+   <- .print(R, " water low: refilling at base");
+      !service(R, water, refill).
+
+// Teleoperation (paper VI): suspend every goal of the robot, switch it to direct
+// control with a skill; back to autonomy: switch back, resume.
++teleop(R, on)[source(percept)] : not paused(R, teleop)
+   <- .print(R, " switched to teleoperation: its goals are suspended");
+      +paused(R, teleop);
+      !hold_task(R);
+      teleop_mode(R, on)[priority(1000)].
++teleop(R, off)[source(percept)] : paused(R, teleop)
+   <- teleop_mode(R, off)[priority(1000)];
+      -paused(R, teleop);
+      .print(R, " back to autonomous control");
+      !schedule(R).
+
++robot_unavailable(R)[source(percept)]
+   <- .print(R, " is unavailable: its goals wait").
+-robot_unavailable(R)[source(percept)]
+   <- .print(R, " is available again");
+      !schedule(R).
+
+/* ---------------------------------------------------------------- scheduling */
++!admit(R, G, P, Job) : goals(N)
+   <- -+goals(N + 1);
+      +arrived(G, N + 1);
+      +queued(R, G, P, Job);
+      !schedule(R).
+
+// Start the best pending goal of R if R is free, or pre-empt a lower-priority task.
++!schedule(R) : paused(R).
++!schedule(R) : not task(R, _, _) & .findall(K, pending(R, _, K), L) & L \== []
+   <- .max(L, c(P, _, _, G));
+      !begin(R, G, P).
++!schedule(R) : task(R, H, Q) & .findall(K, pending(R, _, K), L) & L \== []
+             & .max(L, c(P, _, _, G)) & P > Q
+   <- .print("goal ", G, " (priority ", P, ") pre-empts ", H, " (priority ", Q, ")");
+      !hold_task(R);
+      !begin(R, G, P).
++!schedule(R).
+
++!begin(R, G, P) : waiting(R, G, _)
+   <- .print("resuming ", G, " on ", R);
+      -waiting(R, G, _);
+      +task(R, G, P);
+      rcl_goal_management(resume, G).        // its intention goes on, from its progress
++!begin(R, G, P) : queued(R, G, _, Job)
+   <- -queued(R, G, _, Job);
+      +task(R, G, P);
+      !!perform(R, G, P, Job).
+
+// Suspend R's running task (if any): it waits to be resumed by the scheduler.
++!hold_task(R) : task(R, H, Q)
+   <- -task(R, H, Q);
+      +waiting(R, H, Q);
+      rcl_goal_management(suspend, H).
++!hold_task(R).
+
+// One intention per goal; it blocks on the action until the RCL reports the end.
++!perform(R, G, P, cover)
+   <- .print(R, " covers ", G);
+      cover(R, G)[priority(P)];
+      .print(R, " covered ", G);
+      !finished(R, G).
++!perform(R, G, P, supply(Lat, Lon)) : water_per_hotspot(L)
+   <- .print(R, " brings water to ", G);
+      supply_water(R, G, Lat, Lon, L)[priority(P)];
+      .print(R, " pumped ", L, " l on ", G);
+      +supplied(G);
+      !finished(R, G).
+-!perform(R, G, P, Job)[error(E)]
+   <- .print("goal ", G, " of ", R, " failed (", E, ")");
+      +failed_goal(G);
+      !finished(R, G).
+
++!finished(R, G) <- -task(R, G, _); -waiting(R, G, _); !forget(G); !schedule(R).
+
+// Percepts stay beliefs until removed: forget those of a finished goal, so that the
+// operator may send the same goal (or cancel, or priority) again.
++!forget(G)
+   <- -area_goal_received(G, _)[source(percept)];
+      -goal_cancelled(G)[source(percept)];
+      -prioritychange(G, _)[source(percept)];
+      -arrived(G, _).
+
+// Battery / water service: hold the goal, run the service action above every goal's
+// priority, then let the scheduler resume the best goal.
++!service(R, Why, Action)
+   <- +paused(R, Why);
+      !hold_task(R);
+      !run_service(R, Action);
+      -paused(R, Why);
+      .print(R, " ", Action, " done");
+      !schedule(R).
++!run_service(R, recharge) <- recharge(R, recharge)[priority(1000)].
++!run_service(R, refill) <- refill(R, refill)[priority(1000)].
+-!service(R, Why, Action)[error(E)]
+   <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
+
+// a failed service leaves the robot paused: fixed by hand (the percept goes away), it
+// goes on with its goals
+-battery_low(R)[source(percept)] : paused(R, battery) & not .intend(service(R, battery, _))
+   <- -paused(R, battery); !schedule(R).
+-water_low(R)[source(percept)] : paused(R, water) & not .intend(service(R, water, _))
+   <- -paused(R, water); !schedule(R).

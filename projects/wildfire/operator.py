@@ -1,0 +1,133 @@
+r"""The operator's console for a running wildfire system (a stand-in for the UI of paper VI).
+
+    python projects/wildfire/operator.py area a1 --center=-35.360567,149.165237 --radius 100 -p 2
+    python projects/wildfire/operator.py area a2 \
+        --polygon="-35.36,149.16;-35.36,149.17;-35.37,149.16"
+    python projects/wildfire/operator.py priority a2 5
+    python projects/wildfire/operator.py cancel a1
+    python projects/wildfire/operator.py teleop ugv1 on        # ... off
+    python projects/wildfire/operator.py status                 # robots, areas, hotspots
+
+It publishes the JSON events of events.py on the system's MQTT broker, and reads the
+world model over its HTTP API. Both addresses come from the run folder (`--run-dir`,
+default: the newest /tmp/mrss-wildfire-* that has a broker.url) or `--broker URL`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import urllib.request
+from pathlib import Path
+from typing import Any
+
+from paho.mqtt import client as mqtt
+
+from mrss.links.mqtt_url import new_client, parse_broker_url
+
+TOPIC_PREFIX = "mrss/ui"
+
+
+def newest_run_dir() -> Path | None:
+    """The most recent run folder of `mrss supervise wildfire` without --run-dir."""
+    runs = [p for p in Path(tempfile.gettempdir()).glob("mrss-wildfire-*")
+            if (p / "broker.url").is_file()]
+    return max(runs, key=lambda p: p.stat().st_mtime) if runs else None
+
+
+def publish(broker_url: str, topic: str, payload: dict[str, Any]) -> None:
+    """Publish one JSON message (QoS 1) and wait until the broker has it."""
+    address = parse_broker_url(broker_url)
+    client: mqtt.Client = new_client("mrss-operator", address)
+    client.connect(address.host, address.port, keepalive=10)
+    client.loop_start()
+    try:
+        info = client.publish(topic, json.dumps(payload), qos=1)
+        info.wait_for_publish(timeout=5)
+    finally:
+        client.disconnect()
+        client.loop_stop()
+
+
+def point(text: str) -> list[float]:
+    lat, lon = (float(v) for v in text.split(","))
+    return [lat, lon]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="operator.py", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--run-dir", type=Path, default=None, help="the system's run folder")
+    parser.add_argument("--broker", default=None, help="MQTT broker URL (default: run folder)")
+    sub = parser.add_subparsers(dest="command", required=True)
+    area = sub.add_parser("area", help="send an area to cover")
+    area.add_argument("goal")
+    area.add_argument("-p", "--priority", type=int, default=1)
+    area.add_argument("--center", type=point, help="LAT,LON (write --center=LAT,LON)")
+    area.add_argument("--radius", type=float, default=100.0, help="metres (with --center)")
+    area.add_argument("--polygon", help="LAT,LON;LAT,LON;... (write --polygon=...)")
+    cancel = sub.add_parser("cancel", help="cancel a goal")
+    cancel.add_argument("goal")
+    prio = sub.add_parser("priority", help="change a goal's priority")
+    prio.add_argument("goal")
+    prio.add_argument("priority", type=int)
+    teleop = sub.add_parser("teleop", help="switch a robot to teleoperation and back")
+    teleop.add_argument("robot")
+    teleop.add_argument("state", choices=("on", "off"))
+    sub.add_parser("status", help="print the world model: robots, areas, hotspots")
+    return parser
+
+
+def message(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    """The topic and payload of a command."""
+    if args.command == "area":
+        payload: dict[str, Any] = {"goal": args.goal, "priority": args.priority}
+        if args.polygon:
+            payload["polygon"] = [point(p) for p in args.polygon.split(";") if p.strip()]
+        elif args.center:
+            payload.update(center=args.center, radius=args.radius)
+        else:
+            raise SystemExit("operator.py area: give --center=LAT,LON or --polygon=...")
+        return f"{TOPIC_PREFIX}/area", payload
+    if args.command == "cancel":
+        return f"{TOPIC_PREFIX}/cancel", {"goal": args.goal}
+    if args.command == "priority":
+        return f"{TOPIC_PREFIX}/priority", {"goal": args.goal, "priority": args.priority}
+    return f"{TOPIC_PREFIX}/teleop", {"robot": args.robot, "on": args.state == "on"}
+
+
+def status(run_dir: Path) -> None:
+    url = (run_dir / "worldmodel.url").read_text(encoding="utf-8").strip()
+    with urllib.request.urlopen(f"{url}/objects", timeout=5) as resp:
+        objects = json.loads(resp.read())["objects"]
+    for obj in sorted(objects, key=lambda o: (o["kind"], o["id"])):
+        pos = obj.get("position") or {}
+        where = f"{pos['lat']:.6f},{pos['lon']:.6f}" if pos else "-"
+        print(f"{obj['kind']:<13} {obj['id']:<10} {where:<24} {json.dumps(obj['attributes'])}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    run_dir = args.run_dir or newest_run_dir()
+    if args.command == "status":
+        if run_dir is None:
+            print("operator.py: no run folder found; give --run-dir", file=sys.stderr)
+            return 2
+        status(run_dir)
+        return 0
+    broker = args.broker
+    if broker is None:
+        if run_dir is None or not (run_dir / "broker.url").is_file():
+            print("operator.py: no broker.url found; give --run-dir or --broker", file=sys.stderr)
+            return 2
+        broker = (run_dir / "broker.url").read_text(encoding="utf-8").strip()
+    topic, payload = message(args)
+    publish(broker, topic, payload)
+    print(f"{topic} {json.dumps(payload)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,152 @@
+"""Robot Communication Layer of the wildfire project (paper IV-E, V): links and recipes.
+
+Robots come from `[components.rcl.robots.<id>]` of project.toml:
+
+    [components.rcl.robots.uav1]
+    link = "mavlink"
+    url_file = "uav1.mavlink"   # the run folder file the simulator writes; or url = "..."
+    altitude = 30.0             # recipe settings (see ROBOT_SETTINGS), the rest goes to the link
+    [components.rcl.robots.ugv1]
+    link = "mqtt"               # broker_url defaults to the project's broker
+
+Every telemetry record of a link goes to the data layer (`robot.<id>.data`), and a link
+going down makes its robot unavailable (the reasoner perceives `robot_unavailable(R)`).
+
+Recipes (action -> skills), actions being `name(Robot, Goal, ...)`:
+
+    cover(uav1, Area)                         CoverArea over area_polygon(Area) (data layer)
+    recharge(uav1, G)                         ReturnHome, then wait for the battery swap
+    return_home(uav1, G), land(uav1, G)       ReturnHome, Land
+    supply_water(ugv1, H, Lat, Lon, Litres)   SupplyWater (drive, then pump)
+    goto(ugv1, G, Lat, Lon), pump(ugv1, G, L) GotoPoint, Pump
+    refill(ugv1, G), return_to_base(ugv1, G)  ReturnToBase (waiting for a full tank), ReturnToBase
+    teleop_mode(ugv1, on|off)                 TeleopSwitch
+
+A cover action that ends unfinished (cancelled, failed) leaves its last waypoint
+behind: the next cover action of the same goal starts from there (the paper's "data
+from a previous execution").
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from mrss.api import Action, ActionState, RobotCommLayer, Skill
+from mrss.config import load_file
+from mrss.edge.component import resolved_broker_url
+from mrss.edge.loader import import_project_module
+from mrss.errors import ActionError, ConfigError
+from mrss.links.base import RobotLink
+from mrss.links.factory import create_link
+from mrss.projects import PROJECT_FILE
+
+# Sibling modules are imported by path under private names, so two projects' skills.py
+# never collide in one process (and no installed package shadows them).
+HERE = Path(__file__).resolve().parent
+skills = import_project_module(HERE, "skills.py")
+sweep = import_project_module(HERE, "sweep.py")
+
+# Robot options read by the recipes (not link options), with their defaults.
+ROBOT_SETTINGS: dict[str, float] = {"altitude": 30.0, "lane_spacing": 40.0,
+                                    "charge_to": 95.0, "litres_per_second": 5.0}
+
+
+def _number(value: Any, what: str, uuid: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ActionError(f"{what} must be a number, not {value!r}", uuid=uuid)
+    return float(value)
+
+
+class WildfireRcl(RobotCommLayer):
+    """Links to the UAV (MAVLink) and the UGV (MQTT), and the recipes of the scenario."""
+
+    interrupt_timeout = 10.0  # a MAVLink mode change may take a few retries
+    robot_settings = (*ROBOT_SETTINGS, "url_file")  # not link options (for `mrss check`)
+
+    def __init__(self) -> None:
+        self.settings: dict[str, dict[str, float]] = {}
+        self._covered: dict[tuple[str, str], int] = {}  # (robot, area) -> waypoints reached
+        self._lock = threading.Lock()
+
+    # -- links ----------------------------------------------------------------------------
+    def connect_robot(self, robot: str, options: Mapping[str, Any]) -> RobotLink:
+        opts = dict(options)
+        kind = str(opts.pop("link", ""))
+        self.settings[robot] = {k: float(opts.pop(k, default))
+                                for k, default in ROBOT_SETTINGS.items()}
+        if kind == "mavlink" and "url_file" in opts:
+            opts["url"] = self._run_file(str(opts.pop("url_file")), robot)
+        if kind == "mqtt" and "broker_url" not in opts:
+            opts["broker_url"] = self._project_broker(robot)
+        link = create_link(robot, kind, opts, source=PROJECT_FILE,
+                           on_link_state=lambda up, why: self.report_link(robot, up, why),
+                           on_telemetry=lambda record: self.publish_data(robot, record))
+        link.start()
+        return link
+
+    def _run_file(self, name: str, robot: str) -> str:
+        """The connection string a simulator wrote into the run folder."""
+        path = (self.run_dir / name) if self.run_dir is not None else None
+        if path is None or not path.is_file():
+            raise ConfigError(f"{name} not found in the run folder {self.run_dir}: is the "
+                              f"simulator of {robot} started before the RCL?",
+                              key=f"robots.{robot}.url_file")
+        return path.read_text(encoding="utf-8").strip()
+
+    def _project_broker(self, robot: str) -> str:
+        sections: Mapping[str, Any] = {}
+        if self.project_dir is not None and (self.project_dir / PROJECT_FILE).is_file():
+            sections = load_file(self.project_dir / PROJECT_FILE).sections
+        url = resolved_broker_url(sections, self.run_dir)
+        if not url:
+            raise ConfigError("no broker for the MQTT link", key=f"robots.{robot}.broker_url")
+        return url
+
+    # -- recipes --------------------------------------------------------------------------
+    def refine_action(self, action: Action) -> list[Skill]:
+        s = self.settings.get(action.robot, dict(ROBOT_SETTINGS))
+        args, name, uuid = action.args, action.name, action.uuid
+        if name == "cover":
+            polygon = self.data_call("area_polygon", action.goal)
+            waypoints = sweep.lawnmower(polygon, s["lane_spacing"])
+            with self._lock:
+                start = self._covered.get((action.robot, action.goal), 0)
+            return [skills.CoverArea(waypoints, s["altitude"], start)]
+        if name == "recharge":
+            return [skills.ReturnHome(charge_to=s["charge_to"])]
+        if name == "return_home":
+            return [skills.ReturnHome()]
+        if name == "land":
+            return [skills.Land()]
+        if name == "supply_water" and len(args) == 5:
+            lat, lon, litres = (_number(a, w, uuid) for a, w in
+                                zip(args[2:], ("Lat", "Lon", "Litres"), strict=True))
+            return [skills.SupplyWater(lat, lon, litres)]
+        if name == "goto" and len(args) == 4:
+            return [skills.GotoPoint(_number(args[2], "Lat", uuid),
+                                     _number(args[3], "Lon", uuid))]
+        if name == "pump" and len(args) == 3:
+            return [skills.Pump(_number(args[2], "Litres", uuid))]
+        if name == "refill":
+            return [skills.ReturnToBase(refill=True)]
+        if name == "return_to_base":
+            return [skills.ReturnToBase()]
+        if name == "teleop_mode" and action.goal in ("on", "off"):
+            return [skills.TeleopSwitch(action.goal == "on")]
+        return super().refine_action(action)
+
+    def on_action_end(self, action: Action) -> None:
+        """Remember how far an unfinished cover got, for the next try of that area."""
+        if action.name != "cover":
+            return
+        key = (action.robot, action.goal)
+        with self._lock:
+            if action.state is ActionState.SUCCEEDED:
+                self._covered.pop(key, None)
+            else:
+                reached = action.progress.get("waypoint", 0)
+                if isinstance(reached, int) and reached > 0:
+                    self._covered[key] = reached

@@ -1,0 +1,252 @@
+"""Skills of the wildfire robots (paper IV-E): start -> run -> (interrupt) -> finish.
+
+UAV (a `MavlinkLink`): CoverArea, ReturnHome (optionally waiting for the battery
+swap), Land. UGV (an `MqttLink`): GotoPoint, Pump, SupplyWater (drive, then pump),
+ReturnToBase (optionally waiting for the tank to refill), TeleopSwitch.
+
+Conventions:
+- every skill that moves a robot holds the robot's "motion" resource, so two actions
+  never steer one robot at once (a higher-priority action pre-empts a lower one);
+- `run` waits by polling telemetry with `self.wait`, so an interrupt ends it quickly;
+  the robot is stopped in `finish` (on the skill's own thread, before the resource is
+  released), never behind the back of the action that takes over;
+- progress (`waypoint`, `pumped`) is recorded as it is made: a suspended or restarted
+  action continues where it left off.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from mrss.api import Resource, Skill, SkillOutcome
+from mrss.links.errors import LinkError
+from mrss.links.geo import distance_m
+
+log = logging.getLogger("mrss.rcl.skills")
+MOTION = Resource("motion", per_robot=True)
+POLL_S = 0.05
+ARRIVED_M = 3.0
+
+
+class RobotSkill(Skill):
+    """Shared helpers: wait for a condition on telemetry, interruptibly."""
+
+    def until(self, condition: Callable[[], bool], timeout: float, what: str) -> bool:
+        """Wait until `condition()`; False if interrupted (or timed out: `reason` says so)."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if self.interrupted:
+                return False
+            self.link.require_up()
+            if time.monotonic() > deadline:
+                self.reason = f"{what}: not done after {timeout:.0f}s"
+                return False
+            self.wait(POLL_S)
+        return not self.interrupted
+
+    def latest(self, kind: str, key: str, default: Any = None) -> Any:
+        record = self.link.latest(kind)
+        return default if record is None else record.get(key, default)
+
+    def near(self, lat: float, lon: float, tolerance: float = ARRIVED_M) -> bool:
+        position = self.link.latest("position")
+        return position is not None and \
+            distance_m(position["lat"], position["lon"], lat, lon) <= tolerance
+
+
+# -------------------------------------------------------------------------------- UAV
+class UavSkill(RobotSkill):
+    """A UAV skill: stops the vehicle in place (LOITER) when interrupted."""
+
+    resources = (MOTION,)
+
+    def finish(self, outcome: SkillOutcome) -> None:
+        if outcome is SkillOutcome.INTERRUPTED:
+            try:
+                self.link.set_mode("LOITER")
+            except LinkError as exc:  # nothing to hold if it cannot hear us
+                self.reason = f"could not hold position: {exc}"
+
+    def airborne(self, altitude: float) -> bool:
+        """Take off to `altitude` if on the ground; be in GUIDED mode either way."""
+        self.link.wait_up(10.0)
+        if self.link.landed or not self.link.armed:
+            log.info("%s: taking off to %.0f m", self.robot, altitude)
+            self.link.set_mode("GUIDED")
+            self.link.arm()
+            self.link.takeoff(altitude)
+            return self.until(lambda: self.latest("position", "relative_alt", 0.0)
+                              >= altitude - 1.0, 120.0, "takeoff")
+        if self.link.mode != "GUIDED":
+            self.link.set_mode("GUIDED")
+        return True
+
+    def fly_to(self, lat: float, lon: float, altitude: float) -> bool:
+        self.link.goto(lat, lon, altitude)
+        return self.until(lambda: self.near(lat, lon), 300.0, f"flight to {lat:.6f},{lon:.6f}")
+
+
+class CoverArea(UavSkill):
+    """Fly lawnmower waypoints; progress `waypoint` = how many were reached."""
+
+    def __init__(self, waypoints: list[list[float]], altitude: float, start: int = 0) -> None:
+        self.waypoints = waypoints
+        self.altitude = altitude
+        self.first = start
+
+    def run(self) -> bool:
+        done = max(self.first, int(self.progress.get("waypoint", 0) or 0))  # type: ignore[arg-type]
+        if not self.airborne(self.altitude):
+            return False
+        for index in range(done, len(self.waypoints)):
+            lat, lon = self.waypoints[index]
+            if not self.fly_to(lat, lon, self.altitude):
+                return False
+            self.record_progress(waypoint=index + 1, waypoints=len(self.waypoints))
+            log.info("%s: %s waypoint %d/%d", self.robot, self.action.goal, index + 1,
+                     len(self.waypoints))
+        return True
+
+
+class ReturnHome(UavSkill):
+    """Fly home and land (RTL); with `charge_to`, wait until the battery is that full."""
+
+    def __init__(self, charge_to: float | None = None) -> None:
+        self.charge_to = charge_to
+
+    def run(self) -> bool:
+        self.link.wait_up(10.0)
+        if not (self.link.landed and not self.link.armed):
+            log.info("%s: returning home", self.robot)
+            self.link.return_to_launch()
+            if not self.until(lambda: bool(self.link.landed) and not self.link.armed, 600.0,
+                              "return home"):
+                return False
+        if self.charge_to is None:
+            return True
+        log.info("%s: landed; battery swap to %.0f%%", self.robot, self.charge_to)
+        return self.until(lambda: self.latest("battery", "remaining", 0.0) >= self.charge_to,
+                          600.0, "battery recharge")
+
+
+class Land(UavSkill):
+    """Land where the vehicle is."""
+
+    def run(self) -> bool:
+        self.link.wait_up(10.0)
+        self.link.land()
+        return self.until(lambda: bool(self.link.landed) and not self.link.armed, 300.0,
+                          "landing")
+
+
+# -------------------------------------------------------------------------------- UGV
+class UgvSkill(RobotSkill):
+    """A UGV skill: the robot stops (pump too) when the skill is interrupted."""
+
+    resources = (MOTION,)
+
+    def finish(self, outcome: SkillOutcome) -> None:
+        if outcome is SkillOutcome.INTERRUPTED:
+            try:
+                self.link.stop()
+            except LinkError as exc:
+                self.reason = f"could not stop the robot: {exc}"
+
+    def drive_to(self, lat: float, lon: float) -> bool:
+        if self.near(lat, lon):
+            return True
+        log.info("%s: driving to %.6f,%.6f", self.robot, lat, lon)
+        self.link.goto(lat, lon, wait=False)
+        return self.until(lambda: self.near(lat, lon), 900.0, f"drive to {lat:.6f},{lon:.6f}")
+
+    def pump(self, litres: float) -> bool:
+        """Pump until `litres` in total were delivered (progress `pumped` counts them)."""
+        pumped = float(self.progress.get("pumped", 0.0) or 0.0)  # type: ignore[arg-type]
+        wanted = litres - pumped
+        if wanted <= 0.5:
+            return True
+        start = float(self.latest("tank", "level", 0.0))
+        log.info("%s: pumping %.0f l (%.0f l in the tank)", self.robot, wanted, start)
+        self.link.pump(True, litres=wanted)
+
+        def delivered() -> float:
+            return max(0.0, start - float(self.latest("tank", "level", start)))
+
+        saved = idle_since = time.monotonic()
+        while delivered() < wanted - 0.5 and not self.interrupted:
+            now = time.monotonic()
+            if self.latest("tank", "pumping", False):
+                idle_since = now
+            elif now - idle_since > 1.5:  # telemetry lags the pump by up to a period
+                self.reason = f"pump stopped after {pumped + delivered():.0f} of {litres:.0f} l"
+                break
+            self.link.require_up()
+            if now - saved > 0.5:
+                self.record_progress(pumped=round(pumped + delivered(), 1))
+                saved = now
+            self.wait(POLL_S)
+        self.record_progress(pumped=round(pumped + delivered(), 1))
+        return not self.interrupted and delivered() >= wanted - 0.5
+
+
+class GotoPoint(UgvSkill):
+    def __init__(self, lat: float, lon: float) -> None:
+        self.lat, self.lon = lat, lon
+
+    def run(self) -> bool:
+        return self.drive_to(self.lat, self.lon)
+
+
+class Pump(UgvSkill):
+    def __init__(self, litres: float) -> None:
+        self.litres = litres
+
+    def run(self) -> bool:
+        return self.pump(self.litres)
+
+
+class SupplyWater(UgvSkill):
+    """Drive to a hotspot and pump `litres` on it; resumed, it drives back and pumps the rest."""
+
+    def __init__(self, lat: float, lon: float, litres: float) -> None:
+        self.lat, self.lon, self.litres = lat, lon, litres
+
+    def run(self) -> bool:
+        if not self.drive_to(self.lat, self.lon):
+            return False
+        return self.pump(self.litres)
+
+
+class ReturnToBase(UgvSkill):
+    """Drive back to base; with `refill`, wait until the tank is (nearly) full."""
+
+    def __init__(self, refill: bool = False) -> None:
+        self.refill = refill
+
+    def run(self) -> bool:
+        log.info("%s: returning to base%s", self.robot, " to refill" if self.refill else "")
+        self.link.return_to_base(wait=False)
+        if not self.until(lambda: bool(self.latest("status", "at_base", False))
+                          and self.latest("position", "speed", 1.0) == 0.0, 900.0,
+                          "return to base"):
+            return False
+        if not self.refill:
+            return True
+        return self.until(lambda: self.latest("tank", "level", 0.0)
+                          >= 0.98 * self.latest("tank", "capacity", 1.0), 600.0, "refill")
+
+
+class TeleopSwitch(RobotSkill):
+    """Hand the robot to direct remote control (on) or take it back (off)."""
+
+    def __init__(self, on: bool) -> None:
+        self.on = on
+
+    def run(self) -> bool:
+        self.link.wait_up(10.0)
+        self.link.teleop(self.on)
+        log.info("%s: teleoperation %s", self.robot, "on" if self.on else "off")
+        return True
