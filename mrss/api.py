@@ -331,18 +331,19 @@ class RobotCommLayer:
     run_dir: Path | None = None
     _publish_fn: Callable[[Message], object] | None = None
     _data_fn: Callable[[str, Sequence[Any], float | None], Any] | None = None
-    _available_fn: Callable[[str, bool, str], object] | None = None
+    _link_state_fn: Callable[[str, bool, str], object] | None = None
     _link_states: dict[str, tuple[bool, str]] | None = None
 
     def bind_runtime(self, *, project_dir: Path | None = None, run_dir: Path | None = None,
                      publish: Callable[[Message], object] | None = None,
                      data_call: Callable[[str, Sequence[Any], float | None], Any] | None = None,
-                     set_available: Callable[[str, bool, str], object] | None = None) -> None:
+                     link_state: Callable[[str, bool, str], object] | None = None) -> None:
         """Connect the layer to its RCL (called by RclService; given arguments replace).
 
         `publish` sends a bus message, `data_call(function, args, timeout)` calls the
-        Symbol and Data Layer, `set_available(robot, available, reason)` marks a robot
-        (un)available; link states reported before it was bound are replayed to it.
+        Symbol and Data Layer, `link_state(robot, up, reason)` tells the RCL a robot's
+        link went down (it is unavailable and its actions fail with the reason) or came
+        back; link states reported before it was bound are replayed to it.
         """
         if project_dir is not None:
             self.project_dir = project_dir
@@ -352,8 +353,8 @@ class RobotCommLayer:
             self._publish_fn = publish
         if data_call is not None:
             self._data_fn = data_call
-        if set_available is not None:
-            self._available_fn = set_available
+        if link_state is not None:
+            self._link_state_fn = link_state
             for robot, (up, reason) in dict(self._link_states or {}).items():
                 self._tell_available(robot, up, reason)
 
@@ -382,17 +383,18 @@ class RobotCommLayer:
         return self._data_fn(function, list(args), timeout)
 
     def report_link(self, robot: str, up: bool, reason: str = "") -> None:
-        """A robot's link went up or down: down makes the robot unavailable (new actions
-        are refused, the reasoner perceives `robot_unavailable(R)`), up available again."""
+        """A robot's link went up or down: down makes the robot unavailable (its open
+        actions fail with `reason`, new ones are refused, the reasoner perceives
+        `robot_unavailable(R)`), up makes it available again."""
         if self._link_states is None:
             self._link_states = {}
         self._link_states[robot] = (up, reason)
         self._tell_available(robot, up, reason)
 
     def _tell_available(self, robot: str, up: bool, reason: str) -> None:
-        if self._available_fn is not None:
+        if self._link_state_fn is not None:
             try:
-                self._available_fn(robot, up, "" if up else f"link down: {reason}")
+                self._link_state_fn(robot, up, reason)
             except Exception as exc:
                 _log.warning("availability of %s not reported: %r", robot, exc)
 

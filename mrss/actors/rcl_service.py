@@ -29,7 +29,6 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from mrss.actors.datalayer import plain
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
@@ -37,7 +36,7 @@ from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
 from mrss.errors import ConfigError, MrssError
-from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat, RobotData
+from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
 from mrss.supervision import Component, ComponentContext
 
 log = logging.getLogger("mrss.rcl")
@@ -120,10 +119,8 @@ class RclService(Component):
                             max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
                             restart_period=float(opts.get("restart_period", 60.0)),
                             probation=float(opts.get("probation", 30.0)))
-        self.layer.bind_runtime(set_available=self.core.set_available)
+        self.layer.bind_runtime(link_state=self.core.link_state)
         self.core.start(new_run=ctx.incarnation <= 1)
-        for robot, link in self.links.items():
-            self._watch_link(robot, link, publisher)
         self._sub.start(self._on_message)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=ACTION_CHANNEL, handler=self._on_request)
@@ -149,23 +146,6 @@ class RclService(Component):
                     log.error("heartbeat not published: %r", exc)
             if self._stop.wait(period):
                 return
-
-    def _watch_link(self, robot: str, link: Any, publisher: Any) -> None:
-        """Link state marks the robot (un)available; its telemetry goes on the bus."""
-        core = self.core
-        assert core is not None
-        add_state = getattr(link, "add_link_state_callback", None)
-        if callable(add_state):
-            # transitions only: a link still connecting at start is not a robot lost
-            add_state(lambda up, reason: core.link_state(robot, up, reason))
-        add_telemetry = getattr(link, "add_telemetry_callback", None)
-        if callable(add_telemetry):
-            def forward(record: dict[str, Any]) -> None:
-                try:
-                    publisher.publish(RobotData(robot=robot, data=plain(record)))
-                except (MrssError, TypeError) as exc:
-                    log.warning("telemetry of %s not forwarded: %s", robot, exc)
-            add_telemetry(forward)
 
     def stop(self) -> None:
         self._stop.set()

@@ -33,8 +33,9 @@ def test_bound_layer_publishes_calls_and_replays_link_states() -> None:
     layer.report_link("uav1", False, "no heartbeat for 3.0 s")
     layer.report_link("ugv1", True, "telemetry from ugv1")
     layer.bind_runtime(publish=sent.append, data_call=data_call)
-    layer.bind_runtime(set_available=lambda r, up, why: marks.append((r, up, why)))
-    assert marks == [("uav1", False, "link down: no heartbeat for 3.0 s"), ("ugv1", True, "")]
+    layer.bind_runtime(link_state=lambda r, up, why: marks.append((r, up, why)))
+    assert marks == [("uav1", False, "no heartbeat for 3.0 s"),
+                     ("ugv1", True, "telemetry from ugv1")]
 
     assert layer.publish_data("uav1", {"type": "battery", "remaining": 42})
     assert isinstance(sent[0], RobotData) and sent[0].data["remaining"] == 42
@@ -46,8 +47,8 @@ def test_bound_layer_publishes_calls_and_replays_link_states() -> None:
 
     layer.report_link("uav1", True, "heartbeat resumed from system 1")
     layer.report_link("ugv1", False, "broker connection lost")
-    assert marks[-2:] == [("uav1", True, ""), ("ugv1", False,
-                                                "link down: broker connection lost")]
+    assert marks[-2:] == [("uav1", True, "heartbeat resumed from system 1"),
+                          ("ugv1", False, "broker connection lost")]
 
 
 def test_a_failing_publisher_or_availability_sink_is_contained() -> None:
@@ -55,6 +56,6 @@ def test_a_failing_publisher_or_availability_sink_is_contained() -> None:
         raise RuntimeError("bus gone")
 
     layer = RobotCommLayer()
-    layer.bind_runtime(publish=boom, set_available=boom)
+    layer.bind_runtime(publish=boom, link_state=boom)
     assert layer.publish_data("uav1", {"type": "text"}) is False
     layer.report_link("uav1", False, "link closed")          # logged, not raised
