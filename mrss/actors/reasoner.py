@@ -226,4 +226,13 @@ class ReasonerComponent(Component):
 def _mind(name: str, snap: dict[str, Any]) -> MindSnapshot:
     return MindSnapshot(agent=name, beliefs=[str(b) for b in snap.get("beliefs", [])],
                         intentions=list(snap.get("intentions", [])),
-                        events=[str(e) for e in snap.get("events", [])])
+                        events=[_event_text(e) for e in snap.get("events", [])])
+
+
+def _event_text(event: Any) -> str:
+    """A pending event as one line: its trigger, and the intention that posted it."""
+    if not isinstance(event, dict):
+        return str(event)
+    owner = event.get("intention")
+    return f"{event.get('trigger', '?')}" + (f"  (intention #{owner})" if owner is not None
+                                            else "")

@@ -127,9 +127,7 @@ def test_actions_model_forgets_finished_actions_first_when_full() -> None:
 
 def test_small_formatters() -> None:
     assert [uptime_text(s) for s in (None, 5, 65, 7260)] == ["", "5s", "1m05s", "2h01m"]
-    assert event_text("{'trigger': '+!go(a)', 'intention': 4}") == "+!go(a)  (intention #4)"
-    assert event_text("{'trigger': '+x', 'intention': None}") == "+x"
-    assert event_text("{not a dict") == "{not a dict"
+    assert event_text("+!go(a)  (intention #4)") == "+!go(a)  (intention #4)"
 
 
 def test_discovery_finds_the_bus_from_flags_run_dir_or_the_newest_temp_run_dir(

@@ -156,7 +156,7 @@ def test_mind_inspector_asks_for_snapshots_and_shows_beliefs_intentions_events(
                                     "bindings": {"A": "area1"}}]}
             peer.publish(MindSnapshot(agent="reasoner", beliefs=["fire(area1)[source(percept)]"],
                                       intentions=[intention],
-                                      events=["{'trigger': '+fire(area2)', 'intention': None}"]),
+                                      events=["+fire(area2)"]),
                          src="reasoner")
             mind = app.query_one(MindInspector)
             await until(pilot, lambda: mind.snapshot is not None, message="mind snapshot shown")

@@ -7,7 +7,6 @@ nodes the operator opened or closed stay that way across rebuilds.
 
 from __future__ import annotations
 
-import ast
 from typing import Any
 
 from rich.text import Text
@@ -102,14 +101,5 @@ class MindInspector(Tree[str]):
 
 
 def event_text(event: str) -> str:
-    """An event line: the reasoner sends `{'trigger': ..., 'intention': ..}` as text."""
-    if event.startswith("{"):
-        try:
-            data = ast.literal_eval(event)
-        except (ValueError, SyntaxError, MemoryError, RecursionError):
-            return event
-        if isinstance(data, dict) and "trigger" in data:
-            owner = data.get("intention")
-            return f"{data['trigger']}" + (f"  (intention #{owner})" if owner is not None
-                                           else "")
+    """An event line as the reasoner sends it: `+!go(a)  (intention #4)`."""
     return event
