@@ -6,12 +6,19 @@ on SIGINT/SIGTERM stops them in reverse order within their shutdown limits and e
 (restart intensity exceeded) it stops everything and exits 1 with a message naming the
 child and its last reason. Bad config exits 2. While it runs, the root answers `ctl.tree`
 and executes `ctl.fault` commands from the bus (`mrss.supervision.remote`, for the TUI).
+
+Every record of the run (the root's and every component's) is written to stderr and to
+`<run_dir>/mrss.log` in one line format, and those at INFO and above go on the bus as
+`LogRecord`s on `log.<component>` (`mrss.logs`). In an interactive terminal (stdin,
+stdout and stderr are TTYs) and without `--no-tui`, the dashboard opens instead of the
+log lines (`mrss.commands.supervise_tui`); quitting it stops the system.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import shutil
 import signal
 import sys
@@ -20,6 +27,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from mrss import logs
 from mrss.bus import Publisher
 from mrss.bus.component import endpoints_from_config
 from mrss.config import ProjectConfig, load_project
@@ -40,6 +48,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--launcher", choices=("fork", "exec"), default=None,
                         help="override [supervisor] launcher")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    parser.add_argument("--no-tui", action="store_true",
+                        help="log lines on stderr instead of the dashboard (the default when "
+                             "stdin, stdout or stderr is not a terminal)")
+
+
+def wants_tui(args: argparse.Namespace) -> bool:
+    """The dashboard opens unless --no-tui, or not all of stdin/stdout/stderr are TTYs."""
+    if getattr(args, "no_tui", False):
+        return False
+    try:
+        return all(os.isatty(fd) for fd in (0, 1, 2))
+    except OSError:
+        return False
 
 
 def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
@@ -74,17 +95,22 @@ def build_supervisor(
 
 
 def run(args: argparse.Namespace) -> int:
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    level = logging.DEBUG if args.verbose else logging.INFO
+    logs.configure(args.project, level=level)
     try:
         config = load_project(args.project)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
-    for warning in config.warnings:
-        logging.getLogger("mrss.config").warning("%s", warning)
+    if wants_tui(args):
+        from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
+
+        return run_with_dashboard(args, config)
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
+    logs.configure(config.name, level=level, file=logs.log_file(run_dir))
+    for warning in config.warnings:
+        logging.getLogger("mrss.config").warning("%s", warning)
     try:
         return _supervise(config, run_dir, args.launcher)
     except ConfigError as exc:
@@ -99,6 +125,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> in
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     publisher = Publisher(endpoints, src="supervisor")
+    to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publisher.publish,
                                bus=endpoints.to_dict())
@@ -108,6 +135,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> in
         finally:
             remote.close()
     finally:
+        logs.remove_bus_handler(to_bus)
         publisher.close()
 
 

@@ -41,6 +41,8 @@ class ComponentContext:
     _failure: list[str] = field(default_factory=list, repr=False)
     _stop: threading.Event = field(default_factory=threading.Event, repr=False)
     _publisher: Any = field(default=None, repr=False)
+    _publisher_lock: threading.Lock = field(default_factory=threading.Lock, repr=False,
+                                            compare=False)
 
     @property
     def log(self) -> logging.Logger:
@@ -49,7 +51,17 @@ class ComponentContext:
 
     @property
     def publisher(self) -> Any:
-        """A `mrss.bus.Publisher` for this component and incarnation, made on first use."""
+        """A `mrss.bus.Publisher` for this component and incarnation, made on first use.
+
+        Thread-safe: the runtime's log handler may be the first to use it, on its thread.
+        """
+        publisher = self._publisher
+        if publisher is not None:
+            return publisher
+        with self._publisher_lock:
+            return self._make_publisher()
+
+    def _make_publisher(self) -> Any:
         if self._publisher is None:
             if not self.bus:
                 raise BusError(f"component {self.name}: no bus endpoints configured")

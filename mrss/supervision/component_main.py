@@ -6,6 +6,10 @@ once `start` returns, heartbeats every interval while `healthy()`, answers pings
 stops when the supervisor closes the channel (the supervisor died). SIGTERM or SIGINT
 call `stop()` and exit 0. A failing start or stop, or `ctx.fail()`, reports the reason
 and exits 1. Without --control-fd it runs standalone until SIGTERM/SIGINT.
+
+Logging (`mrss.logs`): one line format on stderr; supervised, also appended to the run's
+`<run_dir>/mrss.log`; with bus endpoints, records at INFO and above also go on the bus
+as `LogRecord`s on `log.<name>` (bounded, never blocking the logging thread).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import traceback
 from collections.abc import Sequence
 from types import FrameType
 
+from mrss import logs
 from mrss.errors import SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
@@ -31,6 +36,7 @@ from mrss.supervision.threads import tune_interpreter
 
 EXIT_FAILED = 1
 EXIT_INJECTED = 70
+BUS_LOG_FLUSH = 0.5  # seconds an ending incarnation gives its last log records to go out
 
 
 def load_class(target: str, project_dir: str | None = None) -> type[Component]:
@@ -137,13 +143,37 @@ def run_component(
     channel = socket.socket(fileno=control_fd) if control_fd is not None else None
     try:
         ctx = ComponentContext.from_json(name, incarnation, context_json)
-        cls = load_class(target, str(ctx.project_dir))
     except SupervisionError as exc:
         logging.getLogger(f"mrss.{name}").error("%s", exc)
         if channel is not None:
             control.send(channel, control.FAIL, f"crashed: {exc}")
         return EXIT_FAILED
-    return _Runtime(ctx, channel).run(cls)
+    to_bus = install_logging(ctx, supervised=channel is not None)
+    try:
+        try:
+            cls = load_class(target, str(ctx.project_dir))
+        except SupervisionError as exc:
+            ctx.log.error("%s", exc)
+            if channel is not None:
+                control.send(channel, control.FAIL, f"crashed: {exc}")
+            return EXIT_FAILED
+        return _Runtime(ctx, channel).run(cls)
+    finally:
+        if to_bus is not None:
+            logs.remove_bus_handler(to_bus, timeout=BUS_LOG_FLUSH)
+
+
+def install_logging(ctx: ComponentContext, *, supervised: bool) -> logs.BusLogHandler | None:
+    """This process's log handlers: stderr, the run's log file (when supervised), the bus.
+
+    Returns the bus handler (None without bus endpoints); records go on `log.<name>`
+    through `ctx.publisher`, made on the handler's thread if the component has not yet.
+    """
+    logs.configure(ctx.name, file=logs.log_file(ctx.run_dir) if supervised else None)
+    if not ctx.bus:
+        return None
+    return logs.install_bus_handler(
+        logs.BusLogHandler(ctx.name, lambda msg: ctx.publisher.publish(msg)))
 
 
 def _parse(argv: Sequence[str] | None) -> argparse.Namespace:

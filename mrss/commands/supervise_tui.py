@@ -1,0 +1,171 @@
+"""`mrss supervise PROJECT` in a terminal: the system in a child process, the dashboard here.
+
+The root supervisor runs exactly as with `--no-tui`, in a child process (its own process
+group, stdin from /dev/null), with stdout and stderr appended to `<run_dir>/mrss.log`:
+its components inherit them, so every line of the run lands in the log file and none
+on the screen. This process owns the terminal and runs the dashboard (`MrssApp`) on the
+system's bus. A crash of either side cannot take the other down.
+
+- `q` (or Ctrl-Q) closes the dashboard, then the system is stopped with SIGINT, the
+  same path as Ctrl-C without the dashboard; its exit code is ours.
+- Ctrl-C (the dashboard lets the terminal send signals) and SIGTERM/SIGHUP to this
+  process are passed on to the system, so a first one stops it in order and a second
+  kills what is left; the dashboard shows the stopping and closes when the system ends.
+- If the system ends by itself (the root gave up), the dashboard closes and its last
+  words are printed. If this process is killed, the system gets SIGTERM (PDEATHSIG).
+
+A temporary run dir is kept (emptied but for the log) so the log outlives the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ctypes
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from mrss import logs
+from mrss.bus import BusEndpoints
+from mrss.bus.component import endpoints_from_config
+from mrss.commands.supervise import run_dir_for
+from mrss.config import ProjectConfig
+from mrss.errors import ConfigError
+from mrss.tui.app import MrssApp
+
+EXIT_CONFIG = 2
+WATCH_EVERY = 0.2  # seconds between two looks whether the system is still running
+_PR_SET_PDEATHSIG = 1
+
+log = logging.getLogger("mrss.supervise")
+
+
+class SupervisedApp(MrssApp):
+    """The dashboard of a system this process started: it closes when the system ends."""
+
+    def __init__(self, endpoints: BusEndpoints, system: subprocess.Popen[bytes],
+                 **options: Any) -> None:
+        super().__init__(endpoints, **options)
+        self.system = system
+
+    def on_mount(self) -> None:  # runs after MrssApp.on_mount (Textual calls each class's)
+        self.set_interval(WATCH_EVERY, self._watch_system)
+
+    def _watch_system(self) -> None:
+        if self.system.poll() is not None:
+            self.exit()
+
+
+def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
+    """Run the project's system in a child process and the dashboard in this one."""
+    run_dir = run_dir_for(config, args.run_dir)
+    temporary = args.run_dir is None and not config.supervisor.run_dir
+    log_path = logs.log_file(run_dir)
+    try:
+        endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
+                                          file=str(config.file))
+    except ConfigError as exc:
+        print(f"mrss supervise: {exc}", file=sys.stderr)
+        if temporary:
+            shutil.rmtree(run_dir, ignore_errors=True)
+        return EXIT_CONFIG
+    logs.configure("tui", level=logging.DEBUG if args.verbose else logging.INFO,
+                   console=False, file=log_path)
+    try:
+        code = _run(args, config, run_dir, endpoints, log_path)
+    finally:
+        if temporary:
+            _keep_only(run_dir, log_path)
+    last = _last_words(log_path) if code != 0 else ""
+    print(f"{last}\n" if last else "", end="", file=sys.stderr)
+    print(f"mrss supervise: {config.name} stopped (exit {code}); the log is {log_path}",
+          file=sys.stderr)
+    return code
+
+
+def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
+         endpoints: BusEndpoints, log_path: Path) -> int:
+    system = _start_system(args, run_dir, log_path)
+    log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
+
+    def forward(signum: int, frame: FrameType | None) -> None:
+        with contextlib.suppress(ProcessLookupError):
+            system.send_signal(signal.SIGINT if signum == signal.SIGINT else signal.SIGTERM)
+
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, forward)
+    os.environ["TEXTUAL_ALLOW_SIGNALS"] = "1"  # Ctrl-C stops the system, as without us
+    app = SupervisedApp(endpoints, system, project=config.name)
+    try:
+        app.run()
+    except Exception:
+        log.exception("the dashboard failed")
+        print("mrss supervise: the dashboard failed; stopping the system", file=sys.stderr)
+    if system.poll() is None:
+        log.info("dashboard closed: stopping %s", config.name)
+        print(f"mrss supervise: stopping {config.name} ...", file=sys.stderr, flush=True)
+        forward(signal.SIGINT, None)
+    code = system.wait()
+    log.info("system of %s ended with exit code %d", config.name, code)
+    return code
+
+
+def _start_system(args: argparse.Namespace, run_dir: Path,
+                  log_path: Path) -> subprocess.Popen[bytes]:
+    argv = [sys.executable, "-m", "mrss", "supervise", args.project, "--no-tui",
+            "--run-dir", str(run_dir)]
+    if args.launcher:
+        argv += ["--launcher", args.launcher]
+    if args.verbose:
+        argv.append("-v")
+    out = os.open(log_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        return subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=out,
+                                process_group=0, preexec_fn=_dies_with(os.getpid()))
+    finally:
+        os.close(out)
+
+
+def _dies_with(parent: int) -> Any:
+    """A preexec_fn: the child gets SIGTERM when this process dies, however it dies."""
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+    def arm() -> None:
+        prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:  # it died before the line above
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return arm
+
+
+def _keep_only(run_dir: Path, keep: Path) -> None:
+    """Empty a temporary run dir but for the log file."""
+    for entry in run_dir.iterdir():
+        if entry == keep:
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                entry.unlink()
+
+
+def _last_words(log_path: Path, tail: int = 65536) -> str:
+    """The root's final message (`mrss supervise: ...`) from the end of the log."""
+    try:
+        with log_path.open("rb") as f:
+            f.seek(max(0, f.seek(0, os.SEEK_END) - tail))
+            lines = f.read().decode("utf-8", "replace").splitlines()
+    except OSError:
+        return ""
+    return next((line for line in reversed(lines) if line.startswith("mrss supervise: ")), "")

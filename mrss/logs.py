@@ -1,0 +1,288 @@
+"""Log records of every process: one line format, the run's log file, and the bus.
+
+Every MRSS process logs through `logging`. `configure` gives the root logger the
+handlers of one process, all with the same `LineFormatter` line:
+
+    2025-01-31 12:00:00,123 rcl[4242] WARNING ugv1: link down
+
+- the console (stderr), unless asked not to;
+- the run's log file `<run_dir>/mrss.log` (`AppendFileHandler`): every process of a run
+  appends to it directly (O_APPEND, one `write` per record, so lines of different
+  processes never mix). When stderr already *is* that file (`mrss supervise` with the
+  dashboard sends its children's stderr there) the console handler writes it, once.
+
+`BusLogHandler` puts each record at INFO and above on the bus as a
+`mrss.messages.LogRecord(component, level, message)` on `log.<component>`, for the
+dashboard. Logging never waits for the bus: `emit` only queues (a bounded queue behind a
+token bucket); a thread of the handler publishes. What it cannot take is dropped and
+counted, and the count is reported (logged, and published when the bus takes it).
+Records of the bus's own loggers (`mrss.bus`), of this module, and any record logged on
+the handler's own thread while it publishes are never published, so a bus that logs
+cannot loop. Supervision events (logged by `SupEvents.emit`) are already on the bus as
+`sup.*`, and `mrss.supervision.remote` publishes its own `LogRecord`s: neither is
+published twice.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from mrss.messages import LogRecord, Message
+
+LOG_FILE = "mrss.log"
+LINE_FORMAT = "%(asctime)s {component}[%(process)d] %(levelname)s %(message)s"
+# Loggers (and their children) whose records never go on the bus.
+NOT_PUBLISHED = ("mrss.bus", "mrss.logs", "mrss.supervision.remote")
+RATE = 200.0  # records per second a process may put on the bus, sustained
+BURST = 400  # ... and in one burst
+QUEUE = 1000  # records waiting for the publishing thread
+REPORT_EVERY = 2.0  # seconds between two reports of dropped records
+
+Publish = Callable[[Message], object]
+log = logging.getLogger("mrss.logs")
+
+
+def log_file(run_dir: str | os.PathLike[str]) -> Path:
+    """The log file of a run: `<run_dir>/mrss.log`."""
+    return Path(run_dir) / LOG_FILE
+
+
+class LineFormatter(logging.Formatter):
+    """`time component[pid] LEVEL message`; continuation lines (tracebacks) are indented."""
+
+    def __init__(self, component: str) -> None:
+        super().__init__(LINE_FORMAT.format(component=component.replace("%", "%%")))
+
+    def format(self, record: logging.LogRecord) -> str:
+        return super().format(record).replace("\n", "\n    ")
+
+
+class AppendFileHandler(logging.Handler):
+    """Appends each record to a file shared by many processes, in one `write` call."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        super().__init__()
+        self.path = Path(path)
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC,
+                           0o644)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            data = (self.format(record) + "\n").encode("utf-8", "replace")
+            while data:  # a regular file takes it all at once; a full disk raises
+                data = data[os.write(self._fd, data):]
+        except Exception:
+            self.handleError(record)
+
+    def close(self) -> None:
+        self.acquire()
+        try:
+            if self._fd >= 0:
+                os.close(self._fd)
+                self._fd = -1
+        finally:
+            self.release()
+        super().close()
+
+
+def stderr_is(path: str | os.PathLike[str]) -> bool:
+    """Whether file descriptor 2 is the file at `path` (the dashboard mode's children)."""
+    try:
+        return os.path.samestat(os.fstat(2), os.stat(path))
+    except (OSError, ValueError):
+        return False
+
+
+def configure(component: str, *, level: int = logging.INFO, console: bool = True,
+              file: str | os.PathLike[str] | None = None) -> None:
+    """Give this process's root logger its console and file handlers (replacing others).
+
+    The file is skipped when the console is on and stderr already is that file.
+    """
+    root = logging.getLogger()
+    for handler in root.handlers[:]:
+        root.removeHandler(handler)
+        handler.close()  # a StreamHandler leaves its stream open
+    root.setLevel(level)
+    formatter = LineFormatter(component)
+    if console:
+        stream = logging.StreamHandler(sys.stderr)
+        stream.setFormatter(formatter)
+        root.addHandler(stream)
+    if file is not None and not (console and stderr_is(file)):
+        try:
+            appender = AppendFileHandler(file)
+        except OSError as exc:
+            log.warning("cannot write the log file %s: %s", file, exc)
+        else:
+            appender.setFormatter(formatter)
+            root.addHandler(appender)
+
+
+def is_sup_event(record: logging.LogRecord) -> bool:
+    """Whether `record` is the log line of a supervision event (already on the bus)."""
+    return record.funcName == "emit" and record.module == "events" \
+        and record.name.startswith("mrss.supervision.")
+
+
+class BusLogHandler(logging.Handler):
+    """Publishes records as `LogRecord`s on `log.<component>`; see the module docstring.
+
+    `publish` is called on the handler's own thread only (so a `ComponentContext` may make
+    its publisher on first use there). `dropped` counts the records the bus did not get
+    (over the rate, queue full, or publishing raised); `sent` those it did.
+    """
+
+    def __init__(
+        self, component: str, publish: Publish, *, level: int = logging.INFO,
+        rate: float = RATE, burst: int = BURST, queue: int = QUEUE,
+        report_every: float = REPORT_EVERY, exclude: Iterable[str] = NOT_PUBLISHED,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        super().__init__(level)
+        self.component = component
+        self.rate = rate
+        self.burst = burst
+        self.report_every = report_every
+        self.sent = 0
+        self.dropped = 0
+        self._publish = publish
+        self._exclude = tuple(exclude)
+        self._clock = clock
+        self._queue: deque[LogRecord] = deque()
+        self._limit = queue
+        self._cond = threading.Condition(threading.Lock())
+        self._tokens = float(burst)
+        self._refilled = clock()
+        self._reported = 0
+        self._last_report = float("-inf")
+        self._closing = False
+        self._thread: threading.Thread | None = None
+        self.setFormatter(logging.Formatter("%(message)s"))
+
+    # -- any thread ---------------------------------------------------------------------
+    def emit(self, record: logging.LogRecord) -> None:
+        if self._excluded(record):
+            return
+        try:
+            message = self.format(record)
+        except Exception:
+            self.handleError(record)
+            return
+        item = LogRecord(component=self.component, level=record.levelname, message=message)
+        with self._cond:
+            if self._closing and self._thread is None:
+                self.dropped += 1
+                return
+            now = self._clock()
+            self._tokens = min(float(self.burst),
+                               self._tokens + (now - self._refilled) * self.rate)
+            self._refilled = now
+            if self._tokens < 1.0 or len(self._queue) >= self._limit:
+                self.dropped += 1
+                self._cond.notify()
+                return
+            self._tokens -= 1.0
+            self._queue.append(item)
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, daemon=True,
+                                                name=f"mrss-log-bus-{self.component}")
+                self._thread.start()
+            elif len(self._queue) == 1:
+                self._cond.notify()
+
+    def _excluded(self, record: logging.LogRecord) -> bool:
+        name = record.name
+        if any(name == p or name.startswith(p + ".") for p in self._exclude):
+            return True
+        if threading.current_thread() is self._thread:
+            return True  # logged while publishing: publishing it again could loop
+        return is_sup_event(record)
+
+    def close(self, timeout: float = 1.0) -> None:
+        """Publish what is queued (and the drop count) for up to `timeout` s, then stop."""
+        with self._cond:
+            self._closing = True
+            thread = self._thread
+            self._cond.notify()
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout)
+        super().close()
+
+    # -- the handler's thread -------------------------------------------------------------
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._queue and not self._closing and not self._report_due():
+                    self._cond.wait(self._until_report())
+                batch = list(self._queue)
+                self._queue.clear()
+                closing = self._closing
+            for item in batch:
+                self._send(item)
+            self._report(force=closing)
+            if closing:
+                with self._cond:
+                    if not self._queue:
+                        self._thread = None
+                        return
+
+    def _send(self, item: LogRecord) -> bool:
+        try:
+            self._publish(item)
+        except Exception:  # the bus is down or closed: the log file still has the record
+            with self._cond:
+                self.dropped += 1
+            return False
+        self.sent += 1
+        return True
+
+    def _report_due(self) -> bool:
+        return self.dropped > self._reported and \
+            self._clock() - self._last_report >= self.report_every
+
+    def _until_report(self) -> float | None:
+        if self.dropped <= self._reported:
+            return None
+        return max(0.0, self._last_report + self.report_every - self._clock())
+
+    def _report(self, *, force: bool = False) -> None:
+        with self._cond:
+            if not (self._report_due() or (force and self.dropped > self._reported)):
+                return
+            count = self.dropped - self._reported
+            self._reported = self.dropped
+            self._last_report = self._clock()
+        text = drop_notice(count, self.rate)
+        log.warning("%s", text)  # the log file and console have it even if the bus does not
+        item = LogRecord(component=self.component, level="WARNING", message=text)
+        try:
+            self._publish(item)
+        except Exception:
+            return
+        self.sent += 1
+
+
+def drop_notice(count: int, rate: float) -> str:
+    """The text reporting `count` records the bus did not get."""
+    return (f"dropped {count} log records from the bus (more than {rate:g} a second, or the "
+            f"bus was slow or down); the log file has every record")
+
+
+def install_bus_handler(handler: BusLogHandler) -> BusLogHandler:
+    """Attach `handler` to the root logger; returns it (for `remove_bus_handler`)."""
+    logging.getLogger().addHandler(handler)
+    return handler
+
+
+def remove_bus_handler(handler: BusLogHandler, timeout: float = 1.0) -> None:
+    """Detach `handler` and publish what it still holds, for up to `timeout` seconds."""
+    logging.getLogger().removeHandler(handler)
+    handler.close(timeout)

@@ -1,0 +1,151 @@
+"""`mrss supervise` in a terminal opens the dashboard; quitting it stops the system.
+
+The terminal is a real pseudo-terminal: `mrss supervise busdemo` runs as the session
+leader on it (it is its controlling terminal, so Ctrl-C is a signal as in a shell), a
+thread reads what the dashboard draws, and keys are written to the master side.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pty
+import re
+import signal
+import struct
+import subprocess
+import sys
+import termios
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pytest
+
+from mrss.testing import wait_until
+
+PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+# Make the terminal the new session's controlling terminal, then exec the command.
+TAKE_TTY = ("import os, sys; os.close(os.open(os.ttyname(0), os.O_RDWR)); "
+            "os.execv(sys.argv[1], sys.argv[1:])")
+
+
+class Terminal:
+    """A process on a pseudo-terminal, with everything it wrote kept."""
+
+    def __init__(self, argv: list[str], env: dict[str, str], rows: int = 40,
+                 cols: int = 140) -> None:
+        self.master, slave = pty.openpty()
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
+        try:
+            self.proc = subprocess.Popen([sys.executable, "-c", TAKE_TTY, *argv], env=env,
+                                         stdin=slave, stdout=slave, stderr=slave,
+                                         start_new_session=True)
+        finally:
+            os.close(slave)
+        self._out = bytearray()
+        self._lock = threading.Lock()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        while True:
+            try:
+                data = os.read(self.master, 65536)
+            except OSError:  # EIO: every process holding the terminal is gone
+                return
+            if not data:
+                return
+            with self._lock:
+                self._out += data
+
+    @property
+    def output(self) -> bytes:
+        with self._lock:
+            return bytes(self._out)
+
+    def press(self, keys: bytes) -> None:
+        os.write(self.master, keys)
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            for child in psutil.Process(self.proc.pid).children(recursive=True):
+                child.kill()
+            self.proc.kill()
+        self.proc.wait(timeout=10)
+        os.close(self.master)
+        self._reader.join(timeout=5)
+
+
+@pytest.fixture()
+def terminal(tmp_path: Path) -> Iterator[Terminal]:
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color",
+           "COLUMNS": "140", "LINES": "40"}
+    term = Terminal([sys.executable, "-m", "mrss", "supervise", "busdemo", "--run-dir",
+                     str(tmp_path)], env)
+    try:
+        yield term
+    finally:
+        term.close()
+
+
+def _system_up(term: Terminal, run_dir: Path) -> list[psutil.Process]:
+    """Wait for the dashboard and the system; the processes of the run."""
+    log = run_dir / "mrss.log"
+    wait_until(lambda: log.exists() and "start announcer" in log.read_text(), timeout=30,
+               message="busdemo started (mrss.log)")
+    wait_until(lambda: b"Supervision" in term.output and b"announcer" in term.output,
+               timeout=30, message="the dashboard shows the supervision tree")
+    # the system's root, the fork server, the proxy and the announcer
+    return wait_until(lambda: (lambda found: found if len(found) >= 4 else None)(
+        psutil.Process(term.proc.pid).children(recursive=True)),
+        timeout=20, message="the processes of busdemo")
+
+
+def _gone(procs: list[psutil.Process]) -> bool:
+    return all(not p.is_running() or p.status() == psutil.STATUS_ZOMBIE for p in procs)
+
+
+@pytest.mark.slow
+def test_q_in_the_dashboard_stops_the_system_cleanly(terminal: Terminal,
+                                                     tmp_path: Path) -> None:
+    procs = _system_up(terminal, tmp_path)
+    # the log lines go to the file, not over the dashboard
+    assert not re.search(rb"busdemo\[\d+\] INFO", terminal.output)
+    terminal.press(b"q")
+    assert terminal.proc.wait(timeout=30) == 0
+    wait_until(lambda: _gone(procs), timeout=10, message="no process of the run left")
+    log = (tmp_path / "mrss.log").read_text()
+    assert "dashboard closed: stopping busdemo" in log
+    assert "exit announcer" in log and "all components stopped" in log
+    assert re.search(r"busdemo\[\d+\] INFO supervising busdemo", log)
+    assert b"busdemo stopped (exit 0)" in terminal.output
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_the_dashboard_stops_the_system_like_without_it(
+        terminal: Terminal, tmp_path: Path) -> None:
+    procs = _system_up(terminal, tmp_path)
+    terminal.press(b"\x03")  # the terminal makes it SIGINT, passed on to the system
+    assert terminal.proc.wait(timeout=30) == 0
+    wait_until(lambda: _gone(procs), timeout=10, message="no process of the run left")
+    log = (tmp_path / "mrss.log").read_text()
+    assert "stopping every child in reverse order" in log
+    assert "all components stopped" in log
+    assert "dashboard closed" not in log  # the system ended first, then the dashboard
+
+
+def test_no_tui_keeps_plain_logs_on_stderr_even_in_a_terminal(tmp_path: Path) -> None:
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
+    term = Terminal([sys.executable, "-m", "mrss", "supervise", "busdemo", "--no-tui",
+                     "--run-dir", str(tmp_path)], env)
+    try:
+        wait_until(lambda: b"start announcer" in term.output, timeout=30,
+                   message="plain log lines on the terminal")
+        assert b"Supervision" not in term.output
+        term.proc.send_signal(signal.SIGTERM)
+        assert term.proc.wait(timeout=30) == 0
+        assert "all components stopped" in (tmp_path / "mrss.log").read_text()
+    finally:
+        term.close()
