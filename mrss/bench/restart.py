@@ -168,7 +168,8 @@ def _phases(results: list[tuple[int, Answer]]) -> str:
         ms = [((a.marks[key] - (a.marks[prev] if prev else killed)) / 1e6)
               for killed, a in results]
         parts.append(f"{label} {percentile(ms, 50):.2f}")
-    return "; ".join(parts)
+    transit = percentile([a.transit_ms for _, a in results], 50)
+    return "; ".join(parts) + f" [that first ping, bench publish -> echo handler: {transit:.2f}]"
 
 
 def run(quick: bool) -> BenchReport:

@@ -117,6 +117,12 @@ class Answer:
     inc: int
     pid: int
     marks: dict[str, int]  # CLOCK_MONOTONIC ns, see PHASES; "pong" = received here
+    seq: int  # of the first ping it heard
+
+    @property
+    def transit_ms(self) -> float:
+        """How long that ping took from the bench's publish to the echo's handler."""
+        return (self.marks["ping"] - self.marks["sent"]) / 1e6
 
 
 def _running_pids(tree: object) -> list[int]:
@@ -142,6 +148,7 @@ class BusRestarts:
         self._answers: dict[int, Answer] = {}
         self._running: set[int] = set()
         self._seq = 0
+        self._sent: dict[int, int] = {}  # ping seq -> published, ns (current wait only)
         self.sub = Subscriber(endpoints, prefixes=[f"log.{ECHO}.pong", "sup.start",
                                                    "sup.tree"], name="bench")
         self.sub.start(self._on)
@@ -161,7 +168,9 @@ class BusRestarts:
                     return
                 try:
                     reply: dict[str, Any] = json.loads(body.message)
-                    answer = Answer(env.inc, int(reply["pid"]), {**reply["marks"], "pong": now})
+                    seq = int(reply["seq"])
+                    marks = {**reply["marks"], "pong": now, "sent": self._sent[seq]}
+                    answer = Answer(env.inc, int(reply["pid"]), marks, seq)
                 except (ValueError, KeyError, TypeError):
                     return  # not a pong of ours
                 self._answers[env.inc] = answer
@@ -178,10 +187,13 @@ class BusRestarts:
         deadline = time.monotonic() + timeout
         while True:
             self._seq += 1
+            with self._cond:
+                self._sent[self._seq] = time.monotonic_ns()
             self.pub.publish(Command(command="ping", target=ECHO, args={"seq": self._seq}))
             with self._cond:
                 if self._cond.wait_for(lambda: any(i >= inc for i in self._answers),
                                        timeout=PING_EVERY):
+                    self._sent.clear()
                     return self._answers[min(i for i in self._answers if i >= inc)]
             if time.monotonic() > deadline or self.proc.poll() is not None:
                 raise TimeoutError(f"incarnation {inc} of {ECHO} did not answer on the bus; "
