@@ -1,9 +1,14 @@
 """`mrss bench restart`: time from a failure to the replacement answering.
 
-Process rows: SIGKILL a component under the root supervisor, stop the clock when the
-new incarnation has reported ready and answered a ping over its control channel
-(the fork-server launcher is the default; the exec launcher is shown for comparison).
-Actor row: a handler raises inside a supervised actor; stop the clock when the
+Bus rows (what the issue asks for): a generated project (the bus proxy, then a
+`BusEcho` component, mrss/bench/restart_peers.py) runs under a real `mrss supervise`
+process; the bench, a bus client like the TUI, SIGKILLs the echo process and publishes
+`Command("ping", target="echo")` on `ctl.ping` every millisecond until the new
+incarnation's pong (`log.echo.pong`, envelope `inc` one higher) arrives. Fork-server
+launcher, and exec for comparison with fewer kills.
+Control-channel rows (kept for comparison, in-process root): the clock stops when the
+new incarnation has reported ready and answered a ping over its control socket.
+Actor row: a handler raises inside a supervised actor; the clock stops when the
 replacement actor answers a call. Failures are spaced out as in production
 (`healthy_after = 0`), so each restart is the immediate first one, without backoff.
 """
@@ -25,6 +30,7 @@ from typing import Any
 import pykka
 
 from mrss.bench.report import BenchReport
+from mrss.bench.restart_peers import PHASES, Answer, bus_restarts
 from mrss.messages import Message, SupEvent
 from mrss.supervision.actors import ActorSupervisor, actor_child
 from mrss.supervision.children import ComponentStart, ProcessSettings
@@ -154,28 +160,63 @@ def actor_restarts(crashes: int) -> list[float]:
     return samples[1:]
 
 
+def _phases(results: list[tuple[int, Answer]]) -> str:
+    """The median of each phase of a bus restart, in ms: where the time goes."""
+    parts = []
+    for i, (key, label) in enumerate(PHASES):
+        prev = PHASES[i - 1][0] if i else None
+        ms = [((a.marks[key] - (a.marks[prev] if prev else killed)) / 1e6)
+              for killed, a in results]
+        parts.append(f"{label} {percentile(ms, 50):.2f}")
+    transit = percentile([a.transit_ms for _, a in results], 50)
+    return "; ".join(parts) + f" [that first ping, bench publish -> echo handler: {transit:.2f}]"
+
+
 def run(quick: bool) -> BenchReport:
     report = BenchReport("restart", ["what", "n", "p50 ms", "p99 ms", "max ms", "mean ms"],
                          quick=quick)
+    load = os.getloadavg()
+    bus_fork = bus_restarts(15 if quick else 100, "fork")
+    bus_exec = bus_restarts(5 if quick else 30, "exec")
     tune_interpreter()  # as component_main does: actors run inside a component
     with _logs_to_devnull():
         fork = process_restarts(15 if quick else 100, "fork")
         exec_ = process_restarts(5 if quick else 30, "exec")
         actor = actor_restarts(200 if quick else 2000)
-    for label, samples in (("process SIGKILL -> answering (fork server)", fork),
-                           ("process SIGKILL -> answering (exec, for comparison)", exec_),
-                           ("actor handler raises -> answering", actor)):
+    bus_fork_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_fork]
+    bus_exec_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_exec]
+    for label, samples in (
+            ("process SIGKILL -> answering on the bus (fork server)", bus_fork_s),
+            ("process SIGKILL -> answering on the bus (exec, for comparison)", bus_exec_s),
+            ("process SIGKILL -> ready + control-channel ping (fork server)", fork),
+            ("process SIGKILL -> ready + control-channel ping (exec)", exec_),
+            ("actor handler raises -> answering a call", actor)):
         ms = [s * 1000 for s in samples]
         report.add_row(label, len(ms), percentile(ms, 50), percentile(ms, 99), max(ms),
                        sum(ms) / len(ms))
-    report.check("process restart p50 <= 150 ms (fork server)", percentile(fork, 50) <= 0.150)
-    report.check("process restart p99 <= 300 ms (fork server)", percentile(fork, 99) <= 0.300)
+    report.check("process restart p50 <= 150 ms (on the bus, fork server)",
+                 percentile(bus_fork_s, 50) <= 0.150)
+    report.check("process restart p99 <= 300 ms (on the bus, fork server)",
+                 percentile(bus_fork_s, 99) <= 0.300)
     report.check("actor restart p99 <= 2 ms", percentile(actor, 99) <= 0.002)
     report.notes.append(
-        "answering = the new incarnation reported ready and answered a ping over its "
-        "control channel (socketpair); the bus had not landed on this branch")
-    report.notes.append(f"{os.cpu_count()} CPUs; kills spaced as in production "
-                        "(healthy_after = 0: no backoff on an isolated failure); supervision "
-                        "logs every event at INFO to /dev/null meanwhile; GIL switch interval "
-                        "1 ms as in component processes")
+        "on the bus: the project (proxy + echo component) runs under a real `mrss "
+        "supervise` process; the bench, a separate bus client, SIGKILLs the echo and "
+        "publishes Command(ping) on ctl.ping every 1 ms until the new incarnation's pong "
+        "(log.echo.pong, inc + 1) arrives; the next kill waits for the root's sup.start")
+    report.notes.append(
+        "slow joiner: a new incarnation hears pings only once its subscription has reached "
+        "the proxy, so pings sent before are lost and the bench keeps pinging; the echo is "
+        "ready only once the proxy has joined its publisher and greeted its subscriber, and "
+        "the rows include that wait and up to one ping interval (1 ms)")
+    report.notes.append(f"where the time goes, p50 ms (fork server): {_phases(bus_fork)}")
+    report.notes.append(f"where the time goes, p50 ms (exec): {_phases(bus_exec)}")
+    report.notes.append(
+        "control channel: in-process root; the new incarnation reported ready and answered "
+        "a ping over its control socket (socketpair), no bus involved")
+    report.notes.append(
+        f"{os.cpu_count()} CPUs, load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at "
+        "the start; kills spaced as in production (healthy_after = 0: no backoff on an "
+        "isolated failure); supervision logs every event at INFO (to a file under `mrss "
+        "supervise`, to /dev/null in-process); GIL switch interval 1 ms as in components")
     return report

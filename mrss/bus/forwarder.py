@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import socket
 import threading
+import uuid
 from collections.abc import Callable
 from pathlib import Path
 
@@ -57,7 +58,8 @@ def run_proxy(
             bound.append(endpoint)
         # Take everything from publishers; subscribers' filters apply at the backend.
         frontend.send(b"\x01")
-        control_ep = f"inproc://mrss-proxy-control-{id(control)}"
+        # unique: id() may repeat while a closed socket's inproc name is still taken
+        control_ep = f"inproc://mrss-proxy-control-{uuid.uuid4().hex}"
         control.bind(control_ep)
         steer.connect(control_ep)
         forwarder = threading.Thread(
