@@ -30,6 +30,7 @@ import os
 import sys
 import threading
 import time
+import weakref
 from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -165,11 +166,14 @@ class BusLogHandler(logging.Handler):
         self._last_report = float("-inf")
         self._closing = False
         self._thread: threading.Thread | None = None
+        self._inert = False
         self.setFormatter(logging.Formatter("%(message)s"))
+        handler = weakref.ref(self)
+        os.register_at_fork(after_in_child=lambda: _go_inert(handler()))
 
     # -- any thread ---------------------------------------------------------------------
     def emit(self, record: logging.LogRecord) -> None:
-        if self._excluded(record):
+        if self._inert or self._excluded(record):
             return
         try:
             message = self.format(record)
@@ -268,6 +272,16 @@ class BusLogHandler(logging.Handler):
         except Exception:
             return
         self.sent += 1
+
+
+def _go_inert(handler: BusLogHandler | None) -> None:
+    """In a process forked from one with `handler`: its thread and the parent's bus
+    socket are not ours, so it publishes nothing (the child has its own stderr/file)."""
+    if handler is not None:
+        handler._inert = True
+        handler._cond = threading.Condition(threading.Lock())
+        handler._queue.clear()
+        handler._thread = None
 
 
 def drop_notice(count: int, rate: float) -> str:

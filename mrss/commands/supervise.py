@@ -106,13 +106,16 @@ def run(args: argparse.Namespace) -> int:
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 
         return run_with_dashboard(args, config)
+    early: list[int] = []  # a stop asked for before the supervisor runs is kept, not lost
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: early.append(signum))
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
     for warning in config.warnings:
         logging.getLogger("mrss.config").warning("%s", warning)
     try:
-        return _supervise(config, run_dir, args.launcher)
+        return _supervise(config, run_dir, args.launcher, early)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
@@ -121,7 +124,8 @@ def run(args: argparse.Namespace) -> int:
             shutil.rmtree(run_dir, ignore_errors=True)
 
 
-def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> int:
+def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
+               early: list[int]) -> int:
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     publisher = Publisher(endpoints, src="supervisor")
@@ -131,7 +135,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> in
                                bus=endpoints.to_dict())
         remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
         try:
-            return _run_root(config, run_dir, sup)
+            return _run_root(config, run_dir, sup, early)
         finally:
             remote.close()
     finally:
@@ -139,8 +143,8 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None) -> in
         publisher.close()
 
 
-def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor) -> int:
-    interrupts = []
+def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor,
+              interrupts: list[int]) -> int:
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
         interrupts.append(signum)
@@ -148,6 +152,8 @@ def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor) -> i
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    if interrupts:  # signalled while starting up: stop (or kill, if twice) at once
+        sup.request_stop(force=len(interrupts) > 1)
     logging.getLogger("mrss.supervise").info(
         "supervising %s (%d components), run dir %s", config.name,
         len(config.child_specs()), run_dir)

@@ -83,8 +83,8 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     finally:
         if temporary:
             _keep_only(run_dir, log_path)
-    last = _last_words(log_path) if code != 0 else ""
-    print(f"{last}\n" if last else "", end="", file=sys.stderr)
+    if code != 0 and (last := _last_words(log_path)):
+        print(last, file=sys.stderr)  # e.g. "mrss supervise: NAME: gave up: ..."
     print(f"mrss supervise: {config.name} stopped (exit {code}); the log is {log_path}",
           file=sys.stderr)
     return code

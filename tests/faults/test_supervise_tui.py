@@ -78,12 +78,15 @@ class Terminal:
         self._reader.join(timeout=5)
 
 
+def supervise_in_terminal(project: str, run_dir: Path, *extra: str) -> Terminal:
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
+    return Terminal([sys.executable, "-m", "mrss", "supervise", project, "--run-dir",
+                     str(run_dir), *extra], env)
+
+
 @pytest.fixture()
 def terminal(tmp_path: Path) -> Iterator[Terminal]:
-    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color",
-           "COLUMNS": "140", "LINES": "40"}
-    term = Terminal([sys.executable, "-m", "mrss", "supervise", "busdemo", "--run-dir",
-                     str(tmp_path)], env)
+    term = supervise_in_terminal("busdemo", tmp_path)
     try:
         yield term
     finally:
@@ -98,9 +101,11 @@ def _system_up(term: Terminal, run_dir: Path) -> list[psutil.Process]:
     wait_until(lambda: b"Supervision" in term.output and b"announcer" in term.output,
                timeout=30, message="the dashboard shows the supervision tree")
     # the system's root, the fork server, the proxy and the announcer
-    return wait_until(lambda: (lambda found: found if len(found) >= 4 else None)(
-        psutil.Process(term.proc.pid).children(recursive=True)),
-        timeout=20, message="the processes of busdemo")
+    def run_processes() -> list[psutil.Process]:
+        found = psutil.Process(term.proc.pid).children(recursive=True)
+        return found if len(found) >= 4 else []
+
+    return wait_until(run_processes, timeout=20, message="the processes of busdemo")
 
 
 def _gone(procs: list[psutil.Process]) -> bool:
@@ -136,10 +141,22 @@ def test_ctrl_c_in_the_dashboard_stops_the_system_like_without_it(
     assert "dashboard closed" not in log  # the system ended first, then the dashboard
 
 
+@pytest.mark.slow
+def test_a_system_that_gives_up_closes_the_dashboard_and_says_why(tmp_path: Path) -> None:
+    term = supervise_in_terminal("crashloop", tmp_path)
+    try:
+        assert term.proc.wait(timeout=60) == 1
+        wait_until(lambda: b"more than 2 restarts in 30s" in term.output, timeout=10,
+                   message="the root's last words on the terminal")
+        assert b"mrss supervise: crashloop: gave up: child 'flaky' failed" in term.output
+        assert b"crashloop stopped (exit 1)" in term.output
+        assert "gave up" in (tmp_path / "mrss.log").read_text()
+    finally:
+        term.close()
+
+
 def test_no_tui_keeps_plain_logs_on_stderr_even_in_a_terminal(tmp_path: Path) -> None:
-    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
-    term = Terminal([sys.executable, "-m", "mrss", "supervise", "busdemo", "--no-tui",
-                     "--run-dir", str(tmp_path)], env)
+    term = supervise_in_terminal("busdemo", tmp_path, "--no-tui")
     try:
         wait_until(lambda: b"start announcer" in term.output, timeout=30,
                    message="plain log lines on the terminal")

@@ -79,10 +79,12 @@ def _file_line(record: LogRecord) -> re.Pattern[str]:
 
 @pytest.mark.slow
 def test_a_components_warning_is_on_the_bus_and_in_the_log_file(system: System) -> None:
-    hello = wait_until(lambda: next((r for r in system.records("chatty")
-                                     if r.message == "chatty says hello 3"), None),
-                       timeout=30, message="chatty's third hello on log.chatty")
-    assert hello.level == "WARNING"
+    def third_hello() -> LogRecord | None:
+        return next((r for r in system.records("chatty")
+                     if r.message == "chatty says hello 3"), None)
+
+    hello = wait_until(third_hello, timeout=30, message="chatty's third hello on log.chatty")
+    assert hello is not None and hello.level == "WARNING"
     wait_until(lambda: "chatty says hello 3" in system.log, timeout=10)
     assert _file_line(hello).search(system.log)
     # the bus's own logger: in the file, never on the bus
@@ -117,8 +119,10 @@ def test_a_flood_of_log_lines_does_not_stall_the_component_and_drops_are_reporte
                        if (m := re.match(r"dropped (\d+) log records", r.message)))
         return (lines, reported) if lines + reported == FLOOD else None
 
-    lines, reported = wait_until(lines_and_reported, timeout=20,
-                                 message="every flood line on the bus or reported dropped")
+    counts = wait_until(lines_and_reported, timeout=20,
+                        message="every flood line on the bus or reported dropped")
+    assert counts is not None
+    lines, reported = counts
     assert reported > 0 and lines < FLOOD / 2  # bounded: most of the flood is dropped
     log = system.log
     assert len(re.findall(r"flooder\[\d+\] WARNING flood line \d+$", log, re.M)) == FLOOD
