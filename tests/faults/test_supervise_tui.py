@@ -26,6 +26,7 @@ import pytest
 from mrss.testing import wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"
+LOG_PROJECTS = PROJECTS.parent / "supervision" / "projects"  # logsdemo: chatty talks
 # Make the terminal the new session's controlling terminal, then exec the command.
 TAKE_TTY = ("import os, sys; os.close(os.open(os.ttyname(0), os.O_RDWR)); "
             "os.execv(sys.argv[1], sys.argv[1:])")
@@ -78,8 +79,9 @@ class Terminal:
         self._reader.join(timeout=5)
 
 
-def supervise_in_terminal(project: str, run_dir: Path, *extra: str) -> Terminal:
-    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
+def supervise_in_terminal(project: str, run_dir: Path, *extra: str,
+                          projects: Path = PROJECTS) -> Terminal:
+    env = {**os.environ, "MRSS_PROJECTS": str(projects), "TERM": "xterm-256color"}
     return Terminal([sys.executable, "-m", "mrss", "supervise", project, "--run-dir",
                      str(run_dir), *extra], env)
 
@@ -139,6 +141,23 @@ def test_ctrl_c_in_the_dashboard_stops_the_system_like_without_it(
     assert "stopping every child in reverse order" in log
     assert "all components stopped" in log
     assert "dashboard closed" not in log  # the system ended first, then the dashboard
+
+
+@pytest.mark.slow
+def test_the_log_pane_shows_the_records_the_log_file_has(tmp_path: Path) -> None:
+    term = supervise_in_terminal("logsdemo", tmp_path, projects=LOG_PROJECTS)
+    try:
+        shown = wait_until(lambda: re.search(rb"chatty says hello (\d+)", term.output),
+                           timeout=30, message="a component's warning in the log pane")
+        assert shown is not None
+        number = shown.group(1).decode()
+        assert re.search(rf"chatty\[\d+\] WARNING chatty says hello {number}$",
+                         (tmp_path / "mrss.log").read_text(), re.M)
+        assert b"via the bus logger" not in term.output  # file only, as on the bus
+        term.press(b"q")
+        assert term.proc.wait(timeout=30) == 0
+    finally:
+        term.close()
 
 
 @pytest.mark.slow
