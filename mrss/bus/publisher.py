@@ -12,6 +12,7 @@ wait, and streams cost a fraction per message. Subscribers unpack batches transp
 
 from __future__ import annotations
 
+import select
 import threading
 import time
 from collections import deque
@@ -183,7 +184,11 @@ class Publisher:
             self._count_sent(sock)
 
     def wait_connected(self, timeout: float = 5.0) -> bool:
-        """Wait until the proxy has subscribed to this publisher; False on timeout."""
+        """Wait until the proxy has subscribed to this publisher; False on timeout.
+
+        The lock is held only to read the socket, never while waiting, so other threads
+        publish (their messages held meanwhile) without waiting for this one.
+        """
         deadline = time.monotonic() + timeout
         while True:
             with self._lock:
@@ -191,10 +196,16 @@ class Publisher:
                 self._drain_subscriptions(sock)
                 if self._connected:
                     return True
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return False
-                sock.poll(int(min(remaining, 0.05) * 1000), zmq.POLLIN)
+                fd = int(sock.getsockopt(zmq.FD))
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            # ZeroMQ's descriptor signals news for the socket, but another thread's send may
+            # consume the signal: wait in short slices and look again.
+            try:
+                select.select([fd], [], [], min(remaining, 0.05))
+            except (OSError, ValueError):
+                pass  # closed meanwhile: the next look says so
 
     def _drain_subscriptions(self, sock: sockets.Socket) -> None:
         while True:

@@ -196,8 +196,23 @@ class ProcessSupervisor:
 
     def _next_deadline(self, now: float) -> float:
         limit = self.settings.heartbeat_interval * self.settings.heartbeat_misses
-        times = [now + 1.0, *(p.deadline(limit) for p in self._procs.values())]
+        times = [now + 1.0, *(p.deadline(limit) for p in self._procs.values()
+                              if p.state is not ChildState.WAITING)]
+        times += [p.not_before for p in self._next_to_start()]
         return max(0.0, min(times) - now)
+
+    def _next_to_start(self) -> list[Proc]:
+        """The waiting children `_advance` may start next, so their start times matter.
+
+        None while a child starts or stops: its ready message or exit wakes the loop, and
+        a due start time would only make the loop spin until then.
+        """
+        procs = self._procs.values()
+        if any(p.state in (ChildState.STARTING, ChildState.STOPPING) for p in procs):
+            return []
+        waiting = [p for p in procs if p.state is ChildState.WAITING]
+        in_order = self.spec.strategy is not Strategy.ONE_FOR_ONE or not self._initial_done
+        return waiting[:1] if in_order else waiting
 
     def _timers(self, now: float) -> None:
         interval, misses = self.settings.heartbeat_interval, self.settings.heartbeat_misses

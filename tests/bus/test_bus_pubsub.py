@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import sys
 import threading
 
 import msgpack
@@ -249,3 +250,27 @@ def test_a_new_publishers_first_messages_are_held_until_the_proxy_joins(
             got = [env.body.message for env in _drain(sub)
                    if isinstance(env.body, LogRecord)]
     assert got == ["0", "1", "2", "3", "4"]
+
+
+
+def test_publishing_is_not_blocked_by_a_thread_waiting_for_the_proxy() -> None:
+    # Regression: wait_connected held the publisher's lock while it polled (50 ms slices),
+    # so a root supervisor's sup.* publish, with the joiner waiting for an absent proxy,
+    # stalled its loop long enough to call healthy components hung.
+    ep = BusEndpoints.tcp_loopback()  # no proxy: the waiter waits its whole timeout
+    with Publisher(ep, src="t", linger=0) as pub:
+        results: list[bool] = []
+        thread = threading.Thread(
+            target=lambda: results.append(pub.wait_connected(timeout=2.0)), daemon=True)
+        thread.start()
+
+        def waiting() -> bool:  # the waiter is inside wait_connected (or gave up)
+            frame = sys._current_frames().get(thread.ident or 0)
+            return frame is None or frame.f_code.co_name == "wait_connected"
+
+        for n in range(200):  # each publish comes while the waiter waits
+            wait_until(waiting, timeout=10, message="waiter in wait_connected")
+            pub.publish(Percept(literal=f"held({n})"))
+        assert thread.is_alive()  # all 200 returned within the waiter's 2 s
+        thread.join(10)
+    assert results == [False]

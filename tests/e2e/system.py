@@ -143,11 +143,16 @@ class System:
         return wait_until(check, timeout, interval=0.05, message=message)[0]
 
     def wait_ready(self, timeout: float = 30.0) -> None:
-        """Every component up: the reasoner answers on the bus, the RCL heartbeats."""
+        """Every component up: the reasoner answers on the bus, both heartbeat there.
+
+        (A mind reply can come before the reasoner's first heartbeat arrives, and tests
+        find a component's pid by its heartbeats.)
+        """
         def ready() -> bool:
             if self.proc.poll() is not None:
                 raise AssertionError(f"mrss supervise exited:\n{self.log_text()}")
-            return self.pid("rcl") is not None and self.mind(timeout=0.5) is not None
+            return self.pid("rcl") is not None and self.mind(timeout=0.5) is not None \
+                and self.pid("reasoner") is not None
         wait_until(ready, timeout, interval=0.05, message="the system answering on the bus")
 
     def signal(self, component: str, sig: int) -> int:

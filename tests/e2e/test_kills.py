@@ -102,7 +102,10 @@ def test_sigkilled_reasoner_rcl_keeps_running_and_cancels_the_orphans_on_the_new
     # the RCL itself never stopped: same process, incarnation 1, no exit event
     assert system.pid("rcl") == rcl_pid and system.incarnation("rcl") == 1
     assert [e.event for e in system.sup_events("rcl")] in ([], ["start"])
-    assert [e.event for e in system.sup_events("reasoner")][-3:] == ["exit", "restart", "start"]
+    # the new incarnation's own heartbeat may overtake the root's sup.start on the bus
+    wait_until(lambda: [e.event for e in system.sup_events("reasoner")][-3:]
+               == ["exit", "restart", "start"], timeout=10,
+               message="sup exit, restart, start of the reasoner")
 
     # the new incarnation starts from a clean mind and works normally
     snap = system.wait_mind(lambda s: not s.intentions, message="fresh mind")
@@ -154,8 +157,9 @@ def test_rcl_hung_past_the_supervisor_limit_is_restarted_and_its_abandoned_actio
     # incarnation 2 resumes the journaled action, the reasoner sees it open and cancels it
     wait_until(lambda: system.incarnation("rcl") == 2, timeout=20, message="RCL restarted")
     assert system.pid("rcl", inc=2) != hung
-    exits = [e for e in system.sup_events("rcl") if e.event == "exit"]
-    assert exits and "heartbeat" in exits[0].reason.lower() or "hung" in exits[0].reason
+    exits = wait_until(lambda: [e for e in system.sup_events("rcl") if e.event == "exit"],
+                       timeout=10, message="sup exit of the RCL")
+    assert "heartbeat" in exits[0].reason.lower() or "hung" in exits[0].reason
     after = wait_until(lambda: [s.state for inc, s in system.statuses(uuid) if inc == 2
                                 and s.state == "cancelled"], timeout=10,
                        message="the abandoned patrol cancelled by incarnation 2")

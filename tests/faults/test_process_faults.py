@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import threading
 
 import psutil
 import pytest
@@ -139,3 +140,21 @@ def test_quarantined_component_is_retried_after_probation_while_others_run(
     tree.log.wait_for("release", "uav_link", timeout=10)
     wait_until(lambda: tree.all_running() and tree.incarnations()["uav_link"] == 2, timeout=10)
     assert tree.log.of("give_up") == []
+
+
+def test_supervisor_loop_sleeps_while_a_child_is_slow_to_start(make_tree: MakeTree) -> None:
+    # Regression: a waiting child's due start time made the loop spin with a zero timeout
+    # for as long as the child before it took to start, burning a core on a 2-core box.
+    tree = make_tree(worker("slow", start_delay=1.5), worker("next"), wait=False)
+    loop = next(t for t in threading.enumerate() if t.name == "sup-root")
+
+    def cpu_seconds() -> float:
+        return next(t.user_time + t.system_time for t in psutil.Process().threads()
+                    if t.id == loop.native_id)
+
+    wait_until(lambda: "starting" in {c.state for c in tree.sup.tree().children}, timeout=10,
+               message="slow starting")
+    before = cpu_seconds()
+    wait_until(tree.all_running, timeout=30, message="both running")
+    assert tree.incarnations() == {"slow": 1, "next": 1}
+    assert cpu_seconds() - before < 0.3  # a spinning loop takes most of the 1.5 s

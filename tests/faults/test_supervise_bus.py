@@ -10,7 +10,7 @@ from pathlib import Path
 
 import psutil
 
-from mrss.bus import BusEndpoints, Subscriber
+from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Envelope, LogRecord, SupEvent
 from mrss.testing import wait_until
 
@@ -31,13 +31,23 @@ def test_supervised_components_speak_on_the_bus_and_restarts_are_published(
             return any(isinstance(e.body, LogRecord)
                        and e.body.message == f"started incarnation {inc}" for e in seen)
 
+        def restarted() -> bool:  # its new words, and the supervisor's word it started
+            return announced(2) and any(
+                isinstance(e.body, SupEvent) and e.body.event == "start"
+                and e.body.child == "announcer" and e.body.detail.get("inc") == 2 for e in seen)
+
         wait_until(lambda: (tmp_path / "announcer.1.started").exists(), timeout=30,
                    message="announcer started")
-        # what was published before this subscriber joined the proxy is not ours to see
+        # what was published before this subscriber joined the proxy is not ours to see;
+        # the welcome alone does not mean its subscriptions have reached the proxy
         assert sub.wait_connected(timeout=10)
+        with Publisher(BusEndpoints.ipc(tmp_path), src="probe") as probe:
+            wait_until(lambda: probe.publish(SupEvent(event="probe", child="probe")) and any(
+                isinstance(e.body, SupEvent) and e.body.child == "probe" for e in seen),
+                timeout=10, interval=0.05, message="subscription in place at the proxy")
         pid = int((tmp_path / "announcer.1.started").read_text())
         os.kill(pid, signal.SIGKILL)
-        wait_until(lambda: announced(2), timeout=30, message="restarted announcer on the bus")
+        wait_until(restarted, timeout=30, message="restarted announcer on the bus")
         events = [(e.body.event, e.body.child) for e in seen if isinstance(e.body, SupEvent)]
         mine = [e for e in events if e[1] == "announcer"]
         # the first start may have gone out before this subscriber joined the proxy

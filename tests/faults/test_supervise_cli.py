@@ -64,7 +64,7 @@ def test_graceful_shutdown_leaves_no_process_of_the_tree(
             and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
     assert left == []
     order = [line.split(" exit ")[1].split()[0] for line in err.splitlines() if " exit " in line]
-    assert order == ["gamma", "beta", "alpha"]
+    assert order == ["gamma", "beta", "alpha"], err
 
 
 def test_sigint_stops_the_tree_and_exits_zero(
