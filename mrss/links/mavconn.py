@@ -7,6 +7,7 @@ process (tests) and a ground station on the other side (MAVProxy) all agree.
 
 from __future__ import annotations
 
+import ipaddress
 import select
 import threading
 from collections import deque
@@ -36,6 +37,8 @@ class MavConnection:
         self.conn.first_byte = False
         self._send_lock = threading.Lock()
         self._datagrams = isinstance(self.conn, mavutil.mavudp)
+        if self._datagrams:
+            _bind_loopback_sender(self.conn)
         self._queued: deque[Any] = deque()
 
     def send(self, message: Any) -> None:
@@ -90,3 +93,20 @@ class MavConnection:
     def close(self) -> None:
         """Close the socket or serial port."""
         self.conn.close()
+
+
+def _bind_loopback_sender(conn: Any) -> None:
+    """A `udpout:` socket to a loopback peer gets a loopback source address.
+
+    pymavlink leaves it unbound, so its first send binds it to 0.0.0.0 and it would take
+    datagrams from any interface; nothing of ours listens beyond loopback unless
+    configured to.
+    """
+    destination = getattr(conn, "destination_addr", None)
+    if getattr(conn, "udp_server", True) or not destination:
+        return
+    try:
+        if ipaddress.ip_address(destination[0]).is_loopback:
+            conn.port.bind(("127.0.0.1", 0))
+    except (ValueError, OSError):
+        return
