@@ -107,6 +107,9 @@ class RclCore:
             on_give_up=lambda why: log.error("robot supervisor gave up: %s", why))
         # answered after the supervisor's start hook, which sets every robot actor up
         self.robots.proxy().which_children().get(timeout=30.0)
+        teleop = self.journal.teleop_robots()
+        for robot in self.links:  # so the reasoner and the dashboard know each robot now
+            self._robot_state(robot, teleop=robot in teleop)
 
     def stop(self) -> None:
         """Stop every robot actor (and its skills); open actions stay in the journal."""
@@ -355,6 +358,7 @@ class RclCore:
             reason = self._unavailable.get(robot, "")
         try:
             self.publish(RobotState(robot=robot, available=not reason, reason=reason,
+                                    link="down" if reason.startswith(LINK_DOWN) else "up",
                                     attributes=attrs))
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)

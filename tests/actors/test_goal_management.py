@@ -115,7 +115,7 @@ def test_teleop_suspends_every_action_and_resumes_them_from_progress(rcl_env: Rc
     assert robot.visited == ["p1", "p2", "p3"]
     teleop_flags = [m.attributes.get("teleop") for m in rcl_env.statuses.others
                     if getattr(m, "robot", "") == "ugv1"]
-    assert teleop_flags == [True, False]
+    assert teleop_flags == [False, True, False]  # announced at start, then on, off
 
 
 def test_teleop_does_not_resume_an_action_suspended_by_goal_management(
@@ -162,6 +162,7 @@ def test_link_down_fails_the_robots_actions_and_marks_it_unavailable(rcl_env: Rc
     states = [m for m in rcl_env.statuses.others if isinstance(m, RobotState)]
     assert states[-1].robot == "ugv1" and not states[-1].available
     assert states[-1].reason == "link down: no heartbeat for 3.0 s"
+    assert states[-1].link == "down"
     # an action for the unreachable robot is refused with the reason
     core.submit_fields(request_fields("a3", "patrol", "ugv1", "g3", ["p1"]))
     wait_until(rcl_env.statuses.reached("a3", "failed"))
@@ -173,3 +174,11 @@ def test_link_down_fails_the_robots_actions_and_marks_it_unavailable(rcl_env: Rc
                         if isinstance(m, RobotState)][-1].available, message="ugv1 back")
     core.submit_fields(request_fields("a4", "patrol", "ugv1", "g4", ["p1"]))
     wait_until(rcl_env.statuses.reached("a4", "running"))
+
+
+def test_every_robot_state_is_announced_when_the_rcl_starts(rcl_env: RclEnv) -> None:
+    rcl_env.start()
+    announced = {m.robot: m for m in rcl_env.statuses.others if isinstance(m, RobotState)}
+    assert sorted(announced) == ["uav1", "ugv1", "ugv2"]
+    assert all(m.available and m.link == "up" and m.attributes == {"teleop": False}
+               for m in announced.values())
