@@ -15,22 +15,16 @@ percepts/s is the last rate that did neither.
 from __future__ import annotations
 
 import os
-import shutil
-import signal
-import subprocess
-import sys
-import tempfile
 import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from mrss.api import Action, RobotCommLayer, Skill
+from mrss.bench.harness import SupervisedProject
 from mrss.bench.report import BenchReport
 from mrss.bench.restart import percentile
-from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import ActionStatus, Command, Envelope, MindSnapshot, Percept
 
 ROBOTS = 10
@@ -117,28 +111,17 @@ class Harness:
     """The supervised system plus the bench's own bus endpoints."""
 
     def __init__(self, robots: int) -> None:
-        self.tmp = Path(tempfile.mkdtemp(prefix="mrss-bench-e2e-"))
-        project = self.tmp / "projects" / PROJECT
-        project.mkdir(parents=True)
-        (project / "project.toml").write_text(_toml(robots))
-        (project / "agent.asl").write_text(AGENT)
-        (project / "rcl.py").write_text(RCL)
-        self.run_dir = self.tmp / "run"
-        self.run_dir.mkdir()
         self.robots = robots
-        self.endpoints = BusEndpoints.ipc(self.run_dir)
         self._cond = threading.Condition()
         self.starts: dict[int, int] = {}  # seq -> skill start, ns
         self.minds = 0
-        self.sub = Subscriber(self.endpoints, prefixes=["action.status", "mind."])
-        self.sub.start(self._on)
-        self.pub = Publisher(self.endpoints, src="bench", batching=False)
-        self.log = (self.tmp / "supervise.log").open("w")
-        env = {**os.environ, "MRSS_PROJECTS": str(self.tmp / "projects")}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "mrss", "supervise", PROJECT, "--run-dir",
-             str(self.run_dir)], env=env, stdout=self.log, stderr=subprocess.STDOUT,
-            start_new_session=True)
+        self.system = SupervisedProject(
+            PROJECT, {"project.toml": _toml(robots), "agent.asl": AGENT, "rcl.py": RCL},
+            prefixes=["action.status", "mind."], on_message=self._on,
+            tmp_prefix="mrss-bench-e2e-")
+        self.tmp, self.run_dir = self.system.tmp, self.system.run_dir
+        self.endpoints, self.proc = self.system.endpoints, self.system.proc
+        self.sub, self.pub = self.system.sub, self.system.pub
 
     def _on(self, env: Envelope) -> None:
         body = env.body
@@ -187,19 +170,7 @@ class Harness:
         return first_seq + step.count
 
     def close(self) -> None:
-        try:
-            if self.proc.poll() is None:
-                self.proc.send_signal(signal.SIGTERM)
-                try:
-                    self.proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    os.killpg(self.proc.pid, signal.SIGKILL)
-                    self.proc.wait(timeout=10)
-        finally:
-            self.sub.close()
-            self.pub.close()
-            self.log.close()
-            shutil.rmtree(self.tmp, ignore_errors=True)
+        self.system.close()
 
 
 def run(quick: bool) -> BenchReport:

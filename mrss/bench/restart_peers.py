@@ -16,17 +16,13 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
-import subprocess
-import sys
-import tempfile
 import threading
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
+from mrss.bench.harness import SupervisedProject
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.errors import BusError
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
@@ -137,27 +133,17 @@ class BusRestarts:
     """`mrss supervise` of the bench project, with the bench's own bus client."""
 
     def __init__(self, launcher: str) -> None:
-        self.tmp = Path(tempfile.mkdtemp(prefix="mrss-bench-restart-"))
-        project = self.tmp / "projects" / PROJECT
-        project.mkdir(parents=True)
-        (project / "project.toml").write_text(project_toml(launcher))
-        run_dir = self.tmp / "run"
-        run_dir.mkdir()
-        endpoints = BusEndpoints.ipc(run_dir)
         self._cond = threading.Condition()
         self._answers: dict[int, Answer] = {}
         self._running: set[int] = set()
         self._seq = 0
         self._sent: dict[int, int] = {}  # ping seq -> published, ns (current wait only)
-        self.sub = Subscriber(endpoints, prefixes=[f"log.{ECHO}.pong", "sup.start",
-                                                   "sup.tree"], name="bench")
-        self.sub.start(self._on)
-        self.pub = Publisher(endpoints, src="bench", batching=False)
-        self.log = (self.tmp / "supervise.log").open("w")
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "mrss", "supervise", PROJECT, "--run-dir", str(run_dir)],
-            env={**os.environ, "MRSS_PROJECTS": str(self.tmp / "projects")},
-            stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+        self.system = SupervisedProject(
+            PROJECT, {"project.toml": project_toml(launcher)},
+            prefixes=[f"log.{ECHO}.pong", "sup.start", "sup.tree"], on_message=self._on,
+            tmp_prefix="mrss-bench-restart-")
+        self.tmp, self.proc = self.system.tmp, self.system.proc
+        self.sub, self.pub = self.system.sub, self.system.pub
 
     def _on(self, env: Envelope) -> None:
         now = time.monotonic_ns()
@@ -225,19 +211,7 @@ class BusRestarts:
         return results
 
     def close(self) -> None:
-        try:
-            if self.proc.poll() is None:
-                self.proc.send_signal(signal.SIGTERM)
-                try:
-                    self.proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    os.killpg(self.proc.pid, signal.SIGKILL)
-                    self.proc.wait(timeout=10)
-        finally:
-            self.sub.close()
-            self.pub.close()
-            self.log.close()
-            shutil.rmtree(self.tmp, ignore_errors=True)
+        self.system.close()
 
 
 def bus_restarts(kills: int, launcher: str) -> list[tuple[int, Answer]]:
