@@ -1,11 +1,14 @@
 # Quick start: `make run` and `make test`. Both create .venv when missing and are
 # idempotent: the install step re-runs only when setup.cfg or pyproject.toml change.
+# `make install` only sets up .venv (with the test tools); `make bench` runs every
+# benchmark of `mrss bench` at full size.
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 PROJECT ?= wildfire
+PROJECT_DIRS := $(wildcard projects/*/)
 
-.PHONY: run test lint typecheck pytest bench clean
+.PHONY: install run test lint typecheck pytest bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -19,19 +22,26 @@ $(VENV)/.installed-dev: $(BIN)/python setup.cfg pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $@ $(VENV)/.installed-run
 
+install: $(VENV)/.installed-dev
+
 run: $(VENV)/.installed-run
 	$(BIN)/mrss supervise $(PROJECT)
 
 lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check mrss tests projects
 
+# Each project on its own: two projects' rcl.py would be one module name to mypy.
 typecheck: $(VENV)/.installed-dev
 	$(BIN)/mypy mrss
+	@set -e; for p in $(PROJECT_DIRS); do echo "mypy $$p"; $(BIN)/mypy $$p; done
 
 pytest: $(VENV)/.installed-dev
 	$(BIN)/python -m pytest
 
 test: lint typecheck pytest
+
+bench: $(VENV)/.installed-run
+	$(BIN)/mrss bench all
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

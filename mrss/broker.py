@@ -8,6 +8,15 @@ supervisor that prefers to decide up front can use `with_broker_url(config)` and
 every component the filled-in configuration. Also runnable on its own:
 `python -m mrss.broker --host 127.0.0.1 --port N` serves until SIGTERM/SIGINT.
 
+Sessions: clients are accepted without credentials (the broker listens on loopback
+unless configured), but not as amqtt's "anonymous" clients, whose sessions amqtt never
+keeps. So a client connecting with clean_session false (the events manager) keeps its
+session and its QoS 1 subscriptions while it is away, and messages published meanwhile
+wait for it. The limit: amqtt keeps sessions in memory only, so a restart of the
+embedded broker loses them, with any message queued for an absent client or not yet
+acknowledged by one. Use an external broker with persistence (Mosquitto
+`persistence true`) where that matters.
+
 project.toml:
     [broker]
     url = "mqtt://host:1883"        # or mqtts://; absent: the embedded broker
@@ -26,9 +35,10 @@ import signal
 import socket
 import threading
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
+from mrss.config import Check, Option
 from mrss.errors import ConfigError, MrssError
 from mrss.supervision.component import Component, ComponentContext
 
@@ -40,10 +50,10 @@ class BrokerError(MrssError):
 
 
 def broker_config(host: str, port: int) -> dict[str, Any]:
-    """amqtt configuration: one plain TCP listener, anonymous clients allowed."""
+    """amqtt configuration: one plain TCP listener, every client accepted, sessions kept."""
     return {
         "listeners": {"default": {"type": "tcp", "bind": f"{host}:{port}"}},
-        "plugins": {"amqtt.plugins.authentication.AnonymousAuthPlugin": {"allow_anonymous": True}},
+        "plugins": {"mrss.edge.amqtt_sessions.OpenSessionsAuthPlugin": {}},
     }
 
 
@@ -52,6 +62,31 @@ def _free_port(host: str) -> int:
         s.bind((host, 0))
         port: int = s.getsockname()[1]
         return port
+
+
+#: The keys of `[broker]` and `[broker.embedded]` (read by resolve_broker; `mrss check`
+#: validates them).
+BROKER_OPTIONS: tuple[Option, ...] = (
+    Option("url", str, None, "an outside broker, mqtt://host:port (none: the embedded one)",
+           Check.URL),
+    Option("embedded", dict, {}, "the embedded broker's host and port"),
+    # how every MQTT client of the project (events, links, simulators) logs in and keeps
+    # its connection: read by mrss.edge.mqtt_client.MqttSettings.from_config
+    Option("username", str, None, "login name"),
+    Option("password", str, None, "login password (better: password_env)"),
+    Option("password_env", str, None, "the environment variable holding the password"),
+    Option("ca_certs", str, None, "CA certificates file for mqtts://"),
+    Option("certfile", str, None, "client certificate file for mqtts://"),
+    Option("keyfile", str, None, "client key file for mqtts://"),
+    Option("tls_insecure", bool, False, "skip the server certificate's host name check"),
+    Option("keepalive", int, 30, "seconds between MQTT keepalives", Check.POSITIVE),
+    Option("reconnect_min", float, 0.2, "first reconnect delay (s)", Check.POSITIVE),
+    Option("reconnect_max", float, 30.0, "longest reconnect delay (s)", Check.POSITIVE),
+)
+BROKER_EMBEDDED_OPTIONS: tuple[Option, ...] = (
+    Option("host", str, "127.0.0.1", "the address the embedded broker listens on"),
+    Option("port", int, 0, "its port (0: a free one)", Check.PORT),
+)
 
 
 def resolve_broker(config: Mapping[str, Any]) -> tuple[str, bool]:
@@ -109,6 +144,9 @@ class EmbeddedBroker(Component):
     It writes its URL to `<run_dir>/broker.url`, where the other components find it, and
     a restarted incarnation serves at the same URL again so clients simply reconnect.
     """
+
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = ()
 
     def __init__(self) -> None:
         self._thread: threading.Thread | None = None

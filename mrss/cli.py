@@ -36,6 +36,7 @@ VERBS: tuple[Verb, ...] = (
     Verb("record", "record a running system's bus traffic to a file"),
     Verb("replay", "replay a recorded bus session"),
     Verb("sim", "run a simulated robot (uav, ugv)"),
+    Verb("chaos", "run a fault campaign and check the mission's invariants", True),
     Verb("bench", f"run a benchmark ({', '.join(BENCHES)})", built=True),
 )
 

@@ -9,10 +9,13 @@ docs/config.md.
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
+from functools import partial
 from pathlib import Path
 from typing import Any, Literal, cast
 
@@ -24,6 +27,7 @@ from mrss.supervision.spec import (
     Backoff,
     ChildKind,
     ChildSpec,
+    Group,
     OnExceeded,
     Restart,
     Strategy,
@@ -32,10 +36,66 @@ from mrss.supervision.spec import (
 
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
-COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout")
-# Tables owned by other layers: kept raw, not warned about.
+COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff")
+SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
+                   "retry_after", "shared_intensity", "groups", "heartbeat_interval",
+                   "heartbeat_misses", "launcher", "run_dir", "backoff")
+# [supervisor] keys of earlier versions, and what replaced them.
+REPLACED_KEYS = {"on_exceeded": "on_give_up", "probation": "retry_after"}
+# The bus proxy restarts without backoff unless its table says otherwise: all need it.
+PROXY_MODULE = "mrss.bus.component:ProxyComponent"
+NEVER = "never"
+DEFAULT_RETRY_AFTER = 60.0
+
+
+class OnGiveUp(StrEnum):
+    """What the root does with a component (or group) that used up its restart budget."""
+
+    STOP_COMPONENT = "stop_component"  # stop it, report it, keep the rest running
+    STOP_SYSTEM = "stop_system"  # stop everything; `mrss supervise` exits 1
+
+    @property
+    def on_exceeded(self) -> OnExceeded:
+        return OnExceeded.QUARANTINE if self is OnGiveUp.STOP_COMPONENT else OnExceeded.ESCALATE
+# Tables owned by other layers: kept raw here; `mrss check` checks their keys.
 OTHER_SECTIONS = ("bus", "broker", "robots", "links", "reasoner", "rcl", "events", "datalayer",
                   "worldmodel", "tui", "sim", "skills")
+
+
+class Check(StrEnum):
+    """What an option's value must be beyond its type (validated by `mrss check`)."""
+
+    NONE = "none"
+    POSITIVE = "positive"  # a number > 0
+    NON_NEGATIVE = "non_negative"  # a number >= 0
+    PORT = "port"  # 0 (a free port) .. 65535
+    URL = "url"  # scheme://host[:port][/path], the port a number
+    MAVLINK_URL = "mavlink_url"  # udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, ...
+    PROJECT_FILE = "project_file"  # a file that exists in the project folder
+    POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option a component (or an edge table, adapter, data layer) reads: declared once,
+    by the code that reads it, as `OPTIONS: ClassVar[tuple[Option, ...]]` on its class.
+
+    `kind` is the type (a tuple for several; float accepts int), `default` the value used
+    when it is absent, `doc` one line for docs and `mrss check`, `check` a value rule,
+    `choices` the values allowed (a closed set; empty: any).
+    """
+
+    name: str
+    kind: type | tuple[type, ...]
+    default: Any = None
+    doc: str = ""
+    check: Check = Check.NONE
+    choices: tuple[Any, ...] = ()
+
+
+def option_names(options: tuple[str | Option, ...]) -> tuple[str, ...]:
+    """The key names of a declaration that may mix plain names and `Option`s."""
+    return tuple(o.name if isinstance(o, Option) else o for o in options)
 
 
 @dataclass(frozen=True)
@@ -49,19 +109,22 @@ class ComponentConfig:
     kind: ChildKind = ChildKind.WORKER
     enabled: bool = True
     start_timeout: float = 10.0
+    backoff: bool = True
     options: dict[str, Any] = field(default_factory=dict)
 
     def child_spec(self) -> ChildSpec[ComponentStart]:
         start = ComponentStart(self.module, dict(self.options), self.start_timeout)
         return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
-                         kind=self.kind)
+                         kind=self.kind, backoff=self.backoff)
 
 
 @dataclass(frozen=True)
 class SupervisorConfig:
     """The `[supervisor]` table: restart flags plus process-watching settings."""
 
-    spec: SupervisorSpec = field(default_factory=SupervisorSpec)
+    spec: SupervisorSpec = field(
+        default_factory=lambda: SupervisorSpec(on_exceeded=OnExceeded.QUARANTINE,
+                                               probation=DEFAULT_RETRY_AFTER))
     heartbeat_interval: float = 0.5
     heartbeat_misses: int = 3
     launcher: Literal["fork", "exec"] = "fork"
@@ -79,7 +142,6 @@ class ProjectConfig:
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     components: tuple[ComponentConfig, ...] = ()
     sections: dict[str, Any] = field(default_factory=dict)
-    warnings: tuple[str, ...] = ()
 
     def child_specs(self) -> list[ChildSpec[ComponentStart]]:
         """The enabled components in file order: the root supervisor's children."""
@@ -112,11 +174,11 @@ class _Reader:
         self.lines = text.splitlines()
 
     def error(self, key: str, reason: str) -> ConfigError:
-        line = self._line_of(key)
+        line = self.line_of(key)
         where = f"{self.path}:{line}" if line else str(self.path)
         return ConfigError(reason, file=where, key=key)
 
-    def _line_of(self, key: str) -> int | None:
+    def line_of(self, key: str) -> int | None:
         """Best effort: the line of `key` under its table header, or of the header."""
         *table, last = key.split(".")
         header = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(map(re.escape, table)) + r"\s*\]")
@@ -137,31 +199,27 @@ class _Reader:
         return found
 
     def project(self, data: dict[str, Any]) -> ProjectConfig:
-        warnings: list[str] = []
         project = self.table(data, "project", ("name", "description"))
         name = self.typed(project, "project.name", str, self.path.parent.name)
         description = self.typed(project, "project.description", str, "")
-        supervisor = self.supervisor(data)
         components = self.components(data)
+        supervisor = self.supervisor(data, components)
         sections = {k: v for k, v in data.items()
                     if k not in ("project", "supervisor", "components")}
-        for key in sections:
-            if key not in OTHER_SECTIONS:
-                warnings.append(f"{self.path}: unknown table [{key}] (ignored by supervision)")
-        for comp in components:
-            for opt in comp.options:
-                if opt not in COMPONENT_KEYS and _close_to(opt, COMPONENT_KEYS):
-                    warnings.append(f"{self.path}: components.{comp.id}.{opt} is passed as an "
-                                    f"option; did you mean {_close_to(opt, COMPONENT_KEYS)!r}?")
+        # Unknown tables and misspelt keys are `mrss check`'s findings (the one place
+        # they are judged; `mrss supervise` runs it first): loading stays quiet.
         return ProjectConfig(name=name, directory=self.path.parent, file=self.path,
                              description=description, supervisor=supervisor,
-                             components=components, sections=sections,
-                             warnings=tuple(warnings))
+                             components=components, sections=sections)
 
-    def supervisor(self, data: dict[str, Any]) -> SupervisorConfig:
-        keys = ("strategy", "intensity", "period", "healthy_after", "on_exceeded", "probation",
-                "heartbeat_interval", "heartbeat_misses", "launcher", "run_dir", "backoff")
-        sup = self.table(data, "supervisor", keys)
+    def supervisor(self, data: dict[str, Any],
+                   components: tuple[ComponentConfig, ...]) -> SupervisorConfig:
+        raw = data.get("supervisor", {})
+        for old, new in REPLACED_KEYS.items():
+            if isinstance(raw, dict) and old in raw:
+                raise self.error(f"supervisor.{old}", f"replaced by {new!r} "
+                                 "(docs/config.md, [supervisor])")
+        sup = self.table(data, "supervisor", SUPERVISOR_KEYS)
         raw_backoff = self.table(sup, "supervisor.backoff", ("initial", "factor", "cap", "jitter"),
                                  key="backoff")
         d = Backoff()
@@ -171,15 +229,24 @@ class _Reader:
             cap=self.number(raw_backoff, "supervisor.backoff.cap", d.cap),
             jitter=self.number(raw_backoff, "supervisor.backoff.jitter", d.jitter)))
         s = SupervisorSpec()
+        on_give_up = OnGiveUp(self.choice(sup, "supervisor.on_give_up", OnGiveUp,
+                                          OnGiveUp.STOP_COMPONENT))
+        shared = sup.get("shared_intensity")
+        if shared is not None:
+            shared = self.typed(sup, "supervisor.shared_intensity", int, 0)
+            if shared < 0:
+                raise self.error("supervisor.shared_intensity", "must be an integer >= 0")
+        groups = self.groups(sup, components)
         spec = self.build("supervisor", lambda: SupervisorSpec(
             strategy=Strategy(self.choice(sup, "supervisor.strategy", Strategy, s.strategy)),
             intensity=self.typed(sup, "supervisor.intensity", int, s.intensity),
             period=self.number(sup, "supervisor.period", s.period),
             backoff=backoff,
             healthy_after=self.number(sup, "supervisor.healthy_after", s.healthy_after),
-            on_exceeded=OnExceeded(self.choice(sup, "supervisor.on_exceeded", OnExceeded,
-                                               s.on_exceeded)),
-            probation=self.number(sup, "supervisor.probation", s.probation)))
+            on_exceeded=on_give_up.on_exceeded,
+            probation=self.retry_after(sup),
+            shared_intensity=shared,
+            groups=groups))
         interval = self.number(sup, "supervisor.heartbeat_interval", 0.5)
         if interval <= 0:
             raise self.error("supervisor.heartbeat_interval", "must be > 0")
@@ -192,6 +259,58 @@ class _Reader:
         run_dir = self.typed(sup, "supervisor.run_dir", str, "") or None
         return SupervisorConfig(spec, interval, misses,
                                 cast(Literal["fork", "exec"], launcher), run_dir)
+
+    def retry_after(self, sup: dict[str, Any]) -> float:
+        """`retry_after`: seconds >= 0, or "never" (a given-up component stays down)."""
+        if sup.get("retry_after") == NEVER:
+            return math.inf
+        value = sup.get("retry_after", DEFAULT_RETRY_AFTER)
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or value < 0:
+            raise self.error("supervisor.retry_after",
+                             f"must be seconds >= 0 or {NEVER!r}, not {value!r}")
+        return float(value)
+
+    def groups(self, sup: dict[str, Any],
+               components: tuple[ComponentConfig, ...]) -> tuple[Group, ...]:
+        """`[supervisor.groups]`: name = [component ids], or name = { children = [...],
+        intensity = N, period = S }; disabled components are left out."""
+        raw = sup.get("groups", {})
+        if not isinstance(raw, dict):
+            raise self.error("supervisor.groups", "must be a table: name = [component ids]")
+        known = {c.id: c for c in components}
+        member_of: dict[str, str] = {}
+        groups = []
+        for name, value in raw.items():
+            key = f"supervisor.groups.{name}"
+            if not ID_PATTERN.match(name):
+                raise self.error(key, "a group name starts with a letter and holds only "
+                                      "letters, digits, '_', '-' and '.'")
+            if isinstance(value, dict):  # the long form; unknown keys are errors
+                table = self.table(raw, key, ("children", "intensity", "period"), key=name)
+            else:
+                table = {"children": value}
+            members = table.get("children")
+            intensity = self.typed(table, f"{key}.intensity", int, 1)
+            period = self.number(table, f"{key}.period", 0.0) or None
+            if not isinstance(members, list) or not members \
+                    or not all(isinstance(m, str) for m in members):
+                raise self.error(key, f"must be a non-empty list of component ids, "
+                                      f"not {members!r}")
+            for m in members:
+                if m not in known:
+                    hint = _close_to(m, tuple(known))
+                    raise self.error(key, f"no component {m!r}" + (
+                        f"; did you mean {hint!r}?" if hint else
+                        f"; components: {', '.join(known)}"))
+                if m in member_of:
+                    raise self.error(key, f"component {m!r} is already in group "
+                                          f"{member_of[m]!r}; a component belongs to one group")
+                member_of[m] = name
+            enabled = tuple(m for m in members if known[m].enabled)
+            if enabled:
+                groups.append(self.build(key, partial(Group, name, enabled, intensity, period)))
+        return tuple(groups)
 
     def components(self, data: dict[str, Any]) -> tuple[ComponentConfig, ...]:
         raw = data.get("components", {})
@@ -224,6 +343,7 @@ class _Reader:
                 kind=ChildKind(self.choice(table, f"{key}.kind", ChildKind, ChildKind.WORKER)),
                 enabled=self.typed(table, f"{key}.enabled", bool, True),
                 start_timeout=timeout,
+                backoff=self.typed(table, f"{key}.backoff", bool, module != PROXY_MODULE),
                 options={k: v for k, v in table.items() if k not in COMPONENT_KEYS}))
         return tuple(result)
 
@@ -256,7 +376,9 @@ class _Reader:
         value = data.get(key.rsplit(".", 1)[-1], default)
         options = [m.value for m in kind]
         if value not in options:
-            raise self.error(key, f"must be one of {', '.join(options)}, not {value!r}")
+            hint = _close_to(value, tuple(options)) if isinstance(value, str) else None
+            raise self.error(key, f"must be one of {', '.join(options)}, not {value!r}"
+                             + (f"; did you mean {hint!r}?" if hint else ""))
         return str(value)
 
     def build(self, key: str, make: Callable[[], Any]) -> Any:
@@ -264,6 +386,11 @@ class _Reader:
             return make()
         except SupervisionError as exc:
             raise self.error(key, str(exc)) from None
+
+
+def key_line_number(path: Path, key: str) -> int | None:
+    """The line of a dotted key (or of its table) in a project.toml, for error messages."""
+    return _Reader(path, path.read_text(encoding="utf-8")).line_of(key)
 
 
 def _close_to(word: str, options: tuple[str, ...]) -> str | None:

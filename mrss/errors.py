@@ -54,3 +54,9 @@ class ActionError(MrssError):
         self.reason = reason
         self.uuid = uuid
         super().__init__(f"action {uuid}: {reason}" if uuid else reason)
+
+
+class TransientError(MrssError):
+    """A failure worth another try: a dependency (the data layer, the world model, a
+    restarting component) was away. Raised from a skill or `refine_action`, it fails the
+    action with cause `transient`, which the agent's plans see as `error(transient)`."""

@@ -44,6 +44,7 @@ class Topic(StrEnum):
     LOG = "log."
     MIND = "mind."
     CTL = "ctl."
+    EDGE = "edge."
 
 
 class ActionState(StrEnum):
@@ -59,6 +60,19 @@ class ActionState(StrEnum):
     @property
     def terminal(self) -> bool:
         return self in (ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED)
+
+
+class FailureCause(StrEnum):
+    """Why an action failed, as the agent sees it: `-!g[error(Cause)]` (Jason's failure
+    reason). "" (no cause) reads `error(action_failed)`, as in Jason."""
+
+    TRANSIENT = "transient"  # a dependency was away (RCL restart, lease, data layer): retry
+    LINK_DOWN = "link_down"  # the robot's link was lost
+    FAILSAFE = "failsafe"  # the robot lost its controller and went to its safe state
+    CANCELLED = "cancelled"  # goal management (operator or agent) cancelled it
+    QUARANTINED = "quarantined"  # the robot's actor kept crashing
+    REJECTED = "rejected"  # the request was malformed or refused
+    ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
 
 
 CONTROL_COMMANDS = ("cancel", "suspend", "resume", "succeed", "fail")
@@ -128,11 +142,40 @@ class ActionStatus(Message):
     reason: str = ""
     progress: dict[str, JsonValue] = field(default_factory=dict)
     robot: str = ""
+    cause: str = ""  # a FailureCause value for a failed action, else ""
+    repeat: bool = False  # the last state sent again (a reconciliation), not a transition
 
     def validate(self) -> None:
         _nonempty(self.uuid, "uuid")
         if self.state not in {s.value for s in ActionState}:
             raise DecodeError(f"unknown action state {self.state!r}")
+        if self.cause and self.cause not in {c.value for c in FailureCause}:
+            raise DecodeError(f"unknown failure cause {self.cause!r}")
+
+
+@dataclass(frozen=True)
+class ActionQuery(Message):
+    """Reconciliation: "what is the state of these actions?" The RCL answers with one
+    `ActionStatus` per uuid it knows (from its journal), and, when `requester` is set,
+    with an `ActionInventory` of what older incarnations of `requester` left open."""
+
+    kind: ClassVar[str] = "action.query"
+    uuids: list[str] = field(default_factory=list)
+    requester: str = ""
+    inc: int = 0  # the asking incarnation (inventory: actions of older ones)
+
+
+@dataclass(frozen=True)
+class ActionInventory(Message):
+    """The actions a dead incarnation of `requester` left at the RCL: open ones, and
+    ones that ended in the last `adopt_grace` seconds. Each item has uuid, literal,
+    goal, robot, state, reason, cause. A new incarnation adopts them by asking again
+    for the same literal (see ReasonerHost)."""
+
+    kind: ClassVar[str] = "action.inventory"
+    requester: str
+    inc: int
+    actions: list[dict[str, JsonValue]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -273,12 +316,48 @@ class Command(Message):
         return f"ctl.{self.command}"
 
 
+class EventStatus(StrEnum):
+    """What became of an external event at the edge."""
+
+    ACCEPTED = "accepted"    # its percepts went out
+    REJECTED = "rejected"    # bad payload: not retried
+    FAILED = "failed"        # a dependency stayed down past the retry budget, or a bug
+    DUPLICATE = "duplicate"  # a redelivery of an event already handled
+
+
+@dataclass(frozen=True)
+class EventReport(Message):
+    """What became of one external event at the edge (docs/edges.md, "Event reports").
+
+    `event_topic` is the outside (MQTT) topic it came on; `event_id` the sender's
+    `"id"` when it gave one; `attempts` how often its handler ran.
+    """
+
+    kind: ClassVar[str] = "edge.report"
+    component: str
+    status: str
+    event_topic: str
+    event_id: str = ""
+    reason: str = ""
+    attempts: int = 0
+    detail: dict[str, JsonValue] = field(default_factory=dict)
+
+    def validate(self) -> None:
+        if self.status not in EventStatus.__members__.values():
+            raise DecodeError(f"event report status {self.status!r} is not one of "
+                              f"{', '.join(EventStatus)}")
+
+    def topic(self) -> str:
+        return f"edge.{self.status}"
+
+
 KINDS: dict[str, type[Message]] = {
     cls.kind: cls
     for cls in (
-        Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, DataRequest,
+        Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
+        ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, Heartbeat, LogRecord, MindSnapshot,
-        Command,
+        Command, EventReport,
     )
 }
 

@@ -33,7 +33,8 @@ import psutil
 
 from mrss.bus import Subscriber
 from mrss.bus.component import endpoints_from_config
-from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.errors import MrssError
+from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
 from mrss.testing import WaitTimeout, wait_until
 
@@ -53,6 +54,7 @@ class RunningProject:
         self.percepts: list[str] = []
         self.status_log: list[ActionStatus] = []
         self.heartbeats: set[str] = set()
+        self.incarnations: dict[str, tuple[int, int]] = {}  # component -> (inc, pid)
         self._lock = threading.Lock()
         self._sub: Subscriber | None = None
         self._tree: list[psutil.Process] = []
@@ -142,16 +144,32 @@ class RunningProject:
         with self._lock:
             if isinstance(body, Percept) and body.op == "add":
                 self.percepts.append(body.literal)
-            elif isinstance(body, ActionStatus):
+            elif isinstance(body, ActionStatus) and not body.repeat:  # transitions only
                 self.status_log.append(body)
             elif isinstance(body, Heartbeat):
                 self.heartbeats.add(body.component)
+                if env.inc >= self.incarnations.get(body.component, (0, 0))[0]:
+                    self.incarnations[body.component] = (env.inc, body.pid)
 
     def statuses(self, robot: str | None = None, state: str | None = None) -> list[ActionStatus]:
         """Action statuses seen, of a robot and/or in a state."""
         with self._lock:
             return [s for s in self.status_log if (robot is None or s.robot == robot)
                     and (state is None or s.state == state)]
+
+    def incarnation(self, component: str) -> int:
+        """The newest incarnation of a component heard heartbeating (0: none yet)."""
+        with self._lock:
+            return self.incarnations.get(component, (0, 0))[0]
+
+    def signal(self, component: str, sig: int = signal.SIGKILL) -> int:
+        """Send `sig` to a heartbeating component's current process (a fault, as the
+        dashboard's `k` sends); returns its pid."""
+        with self._lock:
+            inc, pid = self.incarnations.get(component, (0, 0))
+        assert pid, f"no heartbeat from {component} yet"
+        os.kill(pid, sig)
+        return pid
 
     def perceived(self, prefix: str) -> list[str]:
         """Percepts (added) whose literal starts with `prefix`."""
@@ -184,18 +202,11 @@ class RunningProject:
 
     def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
         """Publish a JSON message (QoS 1) on the system's broker, as an outside client."""
-        address = parse_broker_url(self.file("broker.url"))
-        client = new_client(f"procedure-{os.getpid()}", address)
-        client.connect(address.host, address.port)
-        client.loop_start()
         try:
-            info = client.publish(topic, json.dumps(payload), qos=1)
-            info.wait_for_publish(5)
-            if not info.is_published():
-                raise AssertionError(f"{topic}: not acknowledged by the broker")
-        finally:
-            client.disconnect()
-            client.loop_stop()
+            publish_json(self.file("broker.url"), topic, payload,
+                         client_id=f"procedure-{os.getpid()}")
+        except MrssError as exc:
+            raise AssertionError(str(exc)) from None
 
 
 def _alive(process: psutil.Process) -> bool:

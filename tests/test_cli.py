@@ -11,7 +11,7 @@ from mrss import __version__
 from mrss.cli import VERBS, Verb, main
 
 DESIGN_VERBS = {"supervise", "tui", "new", "check", "test", "agent", "send", "record",
-                "replay", "sim", "bench"}
+                "replay", "sim", "bench", "chaos"}
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:

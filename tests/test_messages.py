@@ -38,11 +38,13 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.request", "name"): nonempty,
     ("action.status", "uuid"): nonempty,
     ("action.status", "state"): st.sampled_from([s.value for s in m.ActionState]),
+    ("action.status", "cause"): st.sampled_from(["", *(c.value for c in m.FailureCause)]),
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,
     ("dl.request", "request_id"): nonempty,
     ("dl.request", "function"): nonempty,
+    ("edge.report", "status"): st.sampled_from([s.value for s in m.EventStatus]),
 }
 
 

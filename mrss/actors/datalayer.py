@@ -5,7 +5,9 @@ one that grounds ids from the world model). `DataRequest`s arrive on `dl.request
 gets exactly one `DataReply` on `dl.reply` with the same `request_id`: the result, or
 `ok=False` with the error text when the function is unknown, raises, returns something
 that is not plain data, or runs longer than `call_timeout`. Robot telemetry
-(`RobotData` on `robot.<id>.data`) goes to `DataLayer.on_telemetry`, in order.
+(`RobotData` on `robot.<id>.data`) goes to `DataLayer.on_telemetry`, in order. The
+project's percepts go on the reliable channel "percept", with a copy on the `percept`
+topic (`mrss.edge.percept_channel`).
 
 project.toml:
     [datalayer]
@@ -25,14 +27,16 @@ from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+from mrss.config import Check, Option
 from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
 from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
 from mrss.edge.loader import load_project_class, project_file
-from mrss.edge.percepts import PerceptPublisher
+from mrss.edge.percept_channel import PerceptChannel
+from mrss.edge.percepts import PerceptPublisher, PerceptSink
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
@@ -147,6 +151,18 @@ def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
 class DataLayerComponent(Component):
     """Component: serves `dl.request` and forwards `robot.*.data` telemetry."""
 
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    SECTION: ClassVar[str] = "datalayer"  # read from [datalayer], under its own table's keys
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("module", str, "datalayer.py", "the project's DataLayer file", Check.PROJECT_FILE),
+        Option("class", str, None, "the DataLayer subclass, when the file has several"),
+        Option("call_timeout", float, 5.0, "seconds before a call is answered with an error",
+               Check.POSITIVE),
+        Option("workers", int, 4, "calls running at once", Check.POSITIVE),
+        Option("world_model", str, "bus", "\"bus\", \"none\" or the world model's http:// URL"),
+        Option("world_model_timeout", float, 2.0, "seconds per world model call", Check.POSITIVE),
+    )
+
     def __init__(self) -> None:
         self.datalayer: DataLayer | None = None
         self.service: DataLayerService | None = None
@@ -154,15 +170,22 @@ class DataLayerComponent(Component):
         self._dispatch: ThreadPoolExecutor | None = None
         self._telemetry: ThreadPoolExecutor | None = None
         self._world: WorldModelAccess | None = None
+        self._percepts: PerceptChannel | None = None
 
     def start(self, ctx: ComponentContext) -> None:
-        """Component entry: bus from the context, then `run`."""
+        """Component entry: bus and percept channel from the context, then `run`."""
         bus = bus_port(ctx)
-        self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus)
+        self._percepts = PerceptChannel.for_component(ctx)
+        self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus,
+                 percepts=self._percepts.send)
         bus.wait_connected(5.0)  # ready means requests are heard
 
-    def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort) -> None:
-        """Load the project's data layer and serve requests on `bus`."""
+    def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort, *,
+            percepts: PerceptSink | None = None) -> None:
+        """Load the project's data layer and serve requests on `bus`.
+
+        The project's percepts go to `percepts` (default: published on `bus`).
+        """
         section = table(config, "datalayer")
         cls = load_datalayer_class(project_dir, section)
         timeout = _positive(section, "call_timeout", 5.0)
@@ -170,12 +193,12 @@ class DataLayerComponent(Component):
         self._bus = bus
         self._world = world_access(section, bus)
 
-        def to_bus(percept: Percept) -> None:
+        def to_bus(percept: Percept, _msg_id: str | None) -> None:
             bus.publish(percept)
 
         options = {k: v for k, v in section.items() if k not in ("module", "class")}
         self.datalayer = cls(DataLayerContext(world=self._world, percept=PerceptPublisher(
-            to_bus), options=options, project_dir=project_dir, log=log))
+            percepts or to_bus), options=options, project_dir=project_dir, log=log))
         self.datalayer.start()
         self.service = DataLayerService(self.datalayer, call_timeout=timeout, workers=workers)
         # Dispatch threads wait on calls, so a slow call never holds up the others.
@@ -218,3 +241,6 @@ class DataLayerComponent(Component):
         finally:
             if self.service is not None:
                 self.service.close()
+            if self._percepts is not None:
+                self._percepts.flush(1.0)
+                self._percepts.close()

@@ -4,19 +4,30 @@ A restarted RCL reads it back (`open_actions`) so that no non-terminal action is
 forgotten, and checks it (`get`) to stay idempotent for requests it has already seen.
 WAL mode; by default `synchronous=NORMAL`, which survives a killed process (the
 failure we guard against) but not a power cut; `durable=True` syncs every commit.
+
+It also holds the controls not yet applied by a robot actor (mrss.actors.controls).
+It stays bounded: `compact` drops the terminal actions (and their transitions) last
+updated more than `keep_seconds` ago, except the newest `keep_last` of them, which the
+dashboard's history shows; and the pending controls of actions no longer open. The RCL
+compacts at start and on a timer. A uuid compacted away is forgotten: a request
+repeating it after that is a new action.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import sqlite3
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from mrss.api import Action
 from mrss.messages import ActionState
+
+log = logging.getLogger("mrss.rcl.journal")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS actions (
@@ -24,7 +35,8 @@ CREATE TABLE IF NOT EXISTS actions (
     goal TEXT NOT NULL, priority INTEGER NOT NULL, literal TEXT NOT NULL, state TEXT NOT NULL,
     reason TEXT NOT NULL, progress TEXT NOT NULL, suspended_by TEXT NOT NULL,
     created REAL NOT NULL, updated REAL NOT NULL,
-    requester TEXT NOT NULL, requester_inc INTEGER NOT NULL
+    requester TEXT NOT NULL, requester_inc INTEGER NOT NULL,
+    cause TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS actions_state ON actions(state);
 CREATE TABLE IF NOT EXISTS transitions (
@@ -33,6 +45,11 @@ CREATE TABLE IF NOT EXISTS transitions (
 );
 CREATE INDEX IF NOT EXISTS transitions_uuid ON transitions(uuid);
 CREATE TABLE IF NOT EXISTS robots (robot TEXT PRIMARY KEY, teleop INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS controls (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT, robot TEXT NOT NULL, uuid TEXT NOT NULL,
+    event TEXT NOT NULL, ts REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS actions_updated ON actions(updated);
 """
 
 _TERMINAL = tuple(s.value for s in ActionState if s.terminal)
@@ -59,8 +76,11 @@ class JournalEntry(NamedTuple):
 class ActionJournal:
     """SQLite record of actions; thread-safe (one connection behind a lock)."""
 
-    def __init__(self, path: str | Path, *, durable: bool = False) -> None:
+    def __init__(self, path: str | Path, *, durable: bool = False,
+                 clock: Callable[[], float] = time.time, write_patience: float = 15.0) -> None:
         self.path = Path(path)
+        self.write_patience = write_patience
+        self.clock = clock  # wall-clock seconds (a benchmark simulates a day with it)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
         self._db = sqlite3.connect(str(self.path), check_same_thread=False,
@@ -68,6 +88,9 @@ class ActionJournal:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
         self._db.executescript(_SCHEMA)
+        columns = {row[1] for row in self._db.execute("PRAGMA table_info(actions)")}
+        if "cause" not in columns:  # a journal kept from before failure causes existed
+            self._db.execute("ALTER TABLE actions ADD COLUMN cause TEXT NOT NULL DEFAULT ''")
 
     def close(self) -> None:
         with self._lock:
@@ -77,29 +100,49 @@ class ActionJournal:
                requester: Requester = NOBODY) -> int:
         """Write the action's current state as a transition and commit; returns its seq.
 
-        `requester` is stored when the action is first recorded.
+        `requester` is stored when the action is first recorded. A write the disk refuses
+        (full, a file size limit) is tried again with backoff for `write_patience`
+        seconds before the error is raised: nothing is published before it is journaled,
+        so the caller simply waits for the disk.
         """
-        now = time.time()
+        deadline = time.monotonic() + self.write_patience
+        delay = 0.05
+        while True:
+            try:
+                return self._record(action, suspended_by, requester)
+            except sqlite3.OperationalError as exc:
+                if time.monotonic() + delay > deadline:
+                    raise
+                if delay == 0.05:
+                    log.warning("journal %s: cannot write %s (%s); trying again for %.0fs",
+                                self.path.name, action.uuid, exc, self.write_patience)
+                time.sleep(delay)  # backoff while the disk is full
+                delay = min(delay * 2, 1.0)
+
+    def _record(self, action: Action, suspended_by: str, requester: Requester) -> int:
+        now = self.clock()
         progress = json.dumps(action.progress)
         with self._lock:
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 self._db.execute(
-                    "INSERT INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) "
+                    "INSERT INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) "
                     "ON CONFLICT(uuid) DO UPDATE SET state=excluded.state, "
                     "reason=excluded.reason, progress=excluded.progress, "
-                    "suspended_by=excluded.suspended_by, updated=excluded.updated",
+                    "suspended_by=excluded.suspended_by, updated=excluded.updated, "
+                    "cause=excluded.cause",
                     (action.uuid, action.name, json.dumps(action.args), action.robot,
                      action.goal, action.priority, action.literal, action.state.value,
                      action.reason, progress, suspended_by, now, now, requester.src,
-                     requester.inc))
+                     requester.inc, action.cause))
                 cur = self._db.execute(
                     "INSERT INTO transitions (uuid, state, reason, progress, ts) "
                     "VALUES (?,?,?,?,?)",
                     (action.uuid, action.state.value, action.reason, progress, now))
                 self._db.execute("COMMIT")
             except BaseException:
-                self._db.execute("ROLLBACK")
+                if self._db.in_transaction:  # SQLite may have rolled back on its own
+                    self._db.execute("ROLLBACK")
                 raise
         return int(cur.lastrowid or 0)
 
@@ -107,7 +150,7 @@ class ActionJournal:
         """Store an action's progress (not a transition: nothing is published)."""
         with self._lock:
             self._db.execute("UPDATE actions SET progress=?, updated=? WHERE uuid=?",
-                             (json.dumps(progress), time.time(), uuid))
+                             (json.dumps(progress), self.clock(), uuid))
 
     def get(self, uuid: str) -> JournalEntry | None:
         with self._lock:
@@ -121,6 +164,23 @@ class ActionJournal:
             rows = self._db.execute(
                 f"SELECT * FROM actions WHERE state NOT IN ({marks}) ORDER BY created, rowid",
                 _TERMINAL).fetchall()
+        return [_entry(r) for r in rows]
+
+    def adopt(self, uuid: str, requester: Requester) -> None:
+        """A newer incarnation of the requester took the action over (it waits for it)."""
+        with self._lock:
+            self._db.execute("UPDATE actions SET requester=?, requester_inc=? WHERE uuid=?",
+                             (requester.src, requester.inc, uuid))
+
+    def left_by(self, src: str, below_inc: int, ended_since: float) -> list[JournalEntry]:
+        """What incarnations of `src` older than `below_inc` left: their open actions, and
+        those that ended after `ended_since` (wall-clock seconds), oldest first."""
+        marks = ",".join("?" * len(_TERMINAL))
+        with self._lock:
+            rows = self._db.execute(
+                f"SELECT * FROM actions WHERE requester=? AND requester_inc<? AND "
+                f"(state NOT IN ({marks}) OR updated>=?) ORDER BY created, rowid",
+                (src, below_inc, *_TERMINAL, ended_since)).fetchall()
         return [_entry(r) for r in rows]
 
     def transitions(self, uuid: str) -> list[tuple[ActionState, str]]:
@@ -149,10 +209,87 @@ class ActionJournal:
         return {r[0] for r in rows}
 
 
+    # -- pending controls (mrss.actors.controls) -------------------------------------------
+    def add_control(self, robot: str, uuid: str, event: str) -> int:
+        """Journal a control before it is told to the robot actor; returns its seq."""
+        with self._lock:
+            cur = self._db.execute("INSERT INTO controls (robot, uuid, event, ts) "
+                                   "VALUES (?,?,?,?)", (robot, uuid, event, self.clock()))
+        return int(cur.lastrowid or 0)
+
+    def pending_controls(self, robot: str) -> list[tuple[int, str, str]]:
+        """(seq, uuid, event) of every control for `robot` not yet applied, oldest first."""
+        with self._lock:
+            rows = self._db.execute("SELECT seq, uuid, event FROM controls WHERE robot=? "
+                                    "ORDER BY seq", (robot,)).fetchall()
+        return [(int(seq), str(uuid), str(event)) for seq, uuid, event in rows]
+
+    def claim_control(self, seq: int) -> bool:
+        """Mark a control applied; False if it was not pending (applied already)."""
+        with self._lock:
+            cur = self._db.execute("DELETE FROM controls WHERE seq=?", (seq,))
+        return cur.rowcount > 0
+
+    def drop_controls(self, robot: str | None = None) -> int:
+        """Forget the pending controls of `robot` (of every robot with None)."""
+        with self._lock:
+            if robot is None:
+                cur = self._db.execute("DELETE FROM controls")
+            else:
+                cur = self._db.execute("DELETE FROM controls WHERE robot=?", (robot,))
+        return cur.rowcount
+
+    # -- compaction ---------------------------------------------------------------------------
+    def compact(self, keep_seconds: float, keep_last: int) -> int:
+        """Drop terminal actions last updated more than `keep_seconds` ago, except the
+        newest `keep_last` terminal ones, with their transitions; and the pending controls
+        of actions not open. Returns how many actions were dropped."""
+        marks = ",".join("?" * len(_TERMINAL))
+        cutoff = self.clock() - keep_seconds
+        with self._lock:
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                row = self._db.execute(
+                    f"SELECT updated FROM actions WHERE state IN ({marks}) "
+                    f"ORDER BY updated DESC LIMIT 1 OFFSET ?",
+                    (*_TERMINAL, max(0, keep_last - 1))).fetchone() if keep_last > 0 else None
+                if keep_last > 0:
+                    if row is None:  # fewer than keep_last terminal actions: keep them all
+                        cutoff = float("-inf")
+                    else:
+                        cutoff = min(cutoff, float(row[0]))
+                self._db.execute("CREATE TEMP TABLE IF NOT EXISTS doomed "
+                                 "(uuid TEXT PRIMARY KEY)")
+                self._db.execute("DELETE FROM doomed")
+                self._db.execute(
+                    f"INSERT INTO doomed SELECT uuid FROM actions "
+                    f"WHERE state IN ({marks}) AND updated < ?", (*_TERMINAL, cutoff))
+                self._db.execute("DELETE FROM transitions WHERE uuid IN "
+                                 "(SELECT uuid FROM doomed)")
+                cur = self._db.execute("DELETE FROM actions WHERE uuid IN "
+                                       "(SELECT uuid FROM doomed)")
+                dropped = cur.rowcount
+                self._db.execute(
+                    f"DELETE FROM controls WHERE uuid NOT IN (SELECT uuid FROM actions "
+                    f"WHERE state NOT IN ({marks}))", _TERMINAL)
+                self._db.execute("COMMIT")
+            except BaseException:
+                if self._db.in_transaction:  # SQLite may have rolled back on its own
+                    self._db.execute("ROLLBACK")
+                raise
+            self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        return dropped
+
+    def size(self) -> int:
+        """Bytes on disk: the database and its write-ahead log."""
+        wal = self.path.with_name(self.path.name + "-wal")
+        return sum(p.stat().st_size for p in (self.path, wal) if p.exists())
+
+
 def _entry(row: tuple[Any, ...]) -> JournalEntry:
     (uuid, name, args, robot, goal, priority, literal, state, reason, progress,
-     suspended_by, _created, _updated, requester, requester_inc) = row
+     suspended_by, _created, _updated, requester, requester_inc, cause) = row
     action = Action(uuid=uuid, name=name, args=json.loads(args), robot=robot, goal=goal,
                     priority=priority, state=ActionState(state), progress=json.loads(progress),
-                    literal=literal, reason=reason)
+                    literal=literal, reason=reason, cause=cause)
     return JournalEntry(action, suspended_by, Requester(requester, requester_inc))

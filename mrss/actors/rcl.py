@@ -12,28 +12,45 @@ so the same object runs in-process in tests and behind the bus (`RclService`). R
   restarted and takes its actions back from the journal; more than `max_robot_restarts`
   in `restart_period` seconds quarantines the robot: its open actions fail, new ones are
   refused until `probation` has passed (the sup.quarantine / sup.release events go out);
-- a terminal status is final: nothing is journaled or published for that uuid after it.
+- a terminal status is final: nothing is journaled or published for that uuid after it;
+- reconciliation: an `ActionQuery` is answered from the journal, one status per known
+  uuid, so a status lost on the bus is asked for again and never wedges a latch;
+- adoption: when a requester restarts, what its dead incarnation left open keeps
+  running for `adopt_grace` seconds (suspended ones `adopt_grace_suspended`); the new
+  incarnation adopts an action by requesting its uuid again (it learns them from the
+  `ActionInventory` answer to its query). What nobody adopts in time is cancelled
+  ("orphaned"), so no robot works for an intention that is gone.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import logging
 import threading
+import time
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 import pykka
 
+from mrss.actors import controls
+from mrss.actors import lifecycle as lc
 from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
+from mrss.actors.orphans import Orphans
 from mrss.actors.resources import ResourceBroker
-from mrss.actors.robot import BY_CONTROL, Control, RobotActor, SetTeleop, StartAction
+from mrss.actors.robot import Control, RobotActor, SetTeleop, StartAction
 from mrss.api import Action, RobotCommLayer, check_json
 from mrss.errors import ActionError, DecodeError
+from mrss.links.failsafe import LinkDownCause, link_down_cause
 from mrss.messages import (
     ActionControl,
+    ActionInventory,
+    ActionQuery,
     ActionRequest,
     ActionState,
     ActionStatus,
+    FailureCause,
     Message,
     RobotState,
     SupEvent,
@@ -68,7 +85,9 @@ class RclCore:
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
                  robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
                  restart_period: float = 60.0, probation: float = 30.0,
-                 robot_watchdog: float | None = 30.0) -> None:
+                 robot_watchdog: float | None = 30.0, adopt_grace: float = 10.0,
+                 adopt_grace_suspended: float = 120.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
         self.broker = ResourceBroker(self._preempt, self._resume_preempted)
@@ -81,7 +100,9 @@ class RclCore:
         self._index: dict[str, _Entry] = {}
         self._refs: dict[str, pykka.ActorRef[Any]] = {}
         self._unavailable: dict[str, str] = {}
+        self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
         self._incarnations: dict[str, int] = {}
+        self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -93,12 +114,17 @@ class RclCore:
         """
         with self._lock:
             self._incarnations = {} if new_run else self.journal.incarnations()
+        if new_run:
+            self.journal.drop_controls()  # nobody waits for what they would change
         for entry in self.journal.open_actions():
             if new_run:
-                self._fail_unrouted(entry.action, "left over from a previous run of MRSS")
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
+                    "left over from a previous run of MRSS"))
             elif entry.action.robot not in self.links:
-                self._fail_unrouted(entry.action, f"robot {entry.action.robot!r} is not "
-                                                  "configured after an RCL restart")
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
+                    f"robot {entry.action.robot!r} is not configured after an RCL restart"))
         children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
                                 shutdown=self.layer.interrupt_timeout + 2.0)
                     for robot in self.links]
@@ -107,9 +133,18 @@ class RclCore:
             on_give_up=lambda why: log.error("robot supervisor gave up: %s", why))
         # answered after the supervisor's start hook, which sets every robot actor up
         self.robots.proxy().which_children().get(timeout=30.0)
-        teleop = self.journal.teleop_robots()
-        for robot in self.links:  # so the reasoner and the dashboard know each robot now
-            self._robot_state(robot, teleop=robot in teleop)
+        for robot, link in self.links.items():  # failsafe hook: no live actor, no heartbeat
+            watch = getattr(link, "watch_controller", None)
+            if callable(watch):
+                watch(functools.partial(self.controls, robot))
+        self.announce_robots()  # so the reasoner and the dashboard know each robot now
+
+    def controls(self, robot: str) -> bool:
+        """Whether a live robot actor controls `robot` (its link heartbeats the robot only
+        then, so a robot whose actor is gone or quarantined takes its failsafe). Called by
+        link threads every second: no lock, a heartbeat never waits for a journal write."""
+        ref = self._refs.get(robot)
+        return ref is not None and ref.is_alive()
 
     def stop(self) -> None:
         """Stop every robot actor (and its skills); open actions stay in the journal."""
@@ -150,8 +185,9 @@ class RclCore:
             if action.robot != robot:
                 continue
             if first and not self.layer.resume_after_restart(action.copy()):
-                self._fail_unrouted(action, "RCL restarted; the project does not resume "
-                                            f"{action.name!r} actions")
+                self._end_unrouted(action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED, "RCL restarted; the project "
+                    f"does not resume {action.name!r} actions", FailureCause.TRANSIENT))
                 continue
             self.broker.forget_action(action.uuid)  # holds of a dead incarnation
             with self._lock:
@@ -160,6 +196,32 @@ class RclCore:
             log.info("restoring action %s (%s) on %s", action.uuid, action.state.value, robot)
             entries.append(entry)
         return entries, robot in self.journal.teleop_robots()
+
+    def pending_controls(self, robot: str) -> list[Control]:
+        """The controls for `robot` a dead incarnation of its actor may not have applied."""
+        pending = []
+        for seq, uuid, text in self.journal.pending_controls(robot):
+            try:
+                pending.append(Control(uuid, controls.decode(text), seq))
+            except DecodeError as exc:
+                log.error("robot %s: pending control %d dropped: %s", robot, seq, exc.reason)
+                self.journal.claim_control(seq)
+        return pending
+
+    def claim_control(self, seq: int) -> None:
+        self.journal.claim_control(seq)
+
+    def publish_sup(self, event: Message) -> object:
+        """A skill's sup.* event (mrss.actors.skill) goes out as it is."""
+        return self.publish(event)
+
+    def compact_journal(self, keep_seconds: float, keep_last: int) -> int:
+        """Drop old terminal actions from the journal (ActionJournal.compact); how many."""
+        dropped = self.journal.compact(keep_seconds, keep_last)
+        if dropped:
+            log.info("journal compacted: %d ended actions older than %.0fs dropped "
+                     "(the newest %d kept)", dropped, keep_seconds, keep_last)
+        return dropped
 
     # -- requests -------------------------------------------------------------------------
     def submit_fields(self, fields: Mapping[str, Any]) -> None:
@@ -185,7 +247,7 @@ class RclCore:
         if requester.src:
             self.saw_incarnation(requester.src, requester.inc)
         with self._lock:
-            if self._repeat(request.uuid):
+            if self._repeat(request.uuid, requester):
                 return
             try:
                 if requester.inc < self._incarnations.get(requester.src, requester.inc):
@@ -200,8 +262,11 @@ class RclCore:
                     raise ActionError(f"unknown robot {action.robot!r} (known: "
                                       f"{', '.join(sorted(self.links)) or 'none'})")
                 if action.robot in self._unavailable:
-                    raise ActionError(f"robot {action.robot} unavailable: "
-                                      f"{self._unavailable[action.robot]}")
+                    self._reject(request.uuid, _fields(request),
+                                 f"robot {action.robot} unavailable: "
+                                 f"{self._unavailable[action.robot]}", requester,
+                                 self._unavailable_cause[action.robot])
+                    return
             except Exception as exc:
                 reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
                 self._reject(request.uuid, _fields(request), reason, requester)
@@ -210,17 +275,41 @@ class RclCore:
             self._emit(action.copy(), "", requester)
             self._tell(action.robot, StartAction(action))  # under the lock: before controls
 
-    def _repeat(self, uuid: str) -> bool:
-        """A uuid seen before: re-send its last status (the sender may have missed it)."""
+    def _repeat(self, uuid: str, requester: Requester = NOBODY) -> bool:
+        """A uuid seen before: re-send its last status (the sender may have missed it).
+
+        From a newer incarnation of the action's requester it is an adoption: the new
+        incarnation waits for the action now, so it is no orphan any more; one that its
+        dead predecessor suspended is resumed (the new one asks for it to run)."""
         entry = self.journal.get(uuid)
         if entry is None:
             return False
-        log.info("duplicate action request %s ignored (%s)", uuid, entry.action.state.value)
-        self._publish(entry.action)
+        old = entry.requester
+        if (requester.src and requester.src == old.src and requester.inc > old.inc):
+            self._adopt(entry, requester)
+        else:
+            log.info("duplicate action request %s ignored (%s)", uuid,
+                     entry.action.state.value)
+        self._publish(entry.action, repeat=True)
         return True
 
+    def _adopt(self, entry: JournalEntry, requester: Requester) -> None:
+        action = entry.action
+        log.info("action %s %s adopted by %s incarnation %d (was %d's, %s)", action.uuid,
+                 action.literal or action.name, requester.src, requester.inc,
+                 entry.requester.inc, action.state.value)
+        self.journal.adopt(action.uuid, requester)
+        self.orphans.adopted(action.uuid)
+        known = self._index.get(action.uuid)
+        if known is not None:
+            self._index[action.uuid] = known._replace(requester=requester)
+            by = lc.SuspendCause.parse(entry.suspended_by)
+            if action.state is ActionState.SUSPENDED and by is not None and by.goal_management:
+                self._tell(action.robot, Control(action.uuid, lc.Resume(lc.SuspendCause.AGENT)))
+
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
-                requester: Requester = NOBODY) -> None:
+                requester: Requester = NOBODY,
+                cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
         log.warning("rejected action request %s: %s", uuid, reason)
         with self._lock:
             if self.journal.get(uuid) is not None:
@@ -229,12 +318,17 @@ class RclCore:
             for key in ("robot", "goal"):
                 if isinstance(fields.get(key), str):
                     setattr(action, key, fields[key])
-            action.transition(ActionState.FAILED, f"rejected: {reason}")
+            end = lc.end_unrouted(action.state, lc.End(ActionState.FAILED, cause,
+                                                       f"rejected: {reason}"))
+            action.transition(end.state, end.reason, end.cause)
             self._emit(action, "", requester)
 
     # -- goal management, teleop, availability -------------------------------------------
-    def control(self, control: ActionControl) -> list[str]:
-        """Apply cancel/suspend/resume/succeed/fail to an action, a goal or a robot."""
+    def control(self, control: ActionControl, src: str = "") -> list[str]:
+        """Apply cancel/suspend/resume/succeed/fail to an action, a goal or a robot.
+
+        `src` is the sender: a control from an action's own requester is the agent's,
+        any other (the dashboard, `mrss send`, a test) the operator's."""
         control.validate()
         with self._lock:
             targets = [u for u, e in self._index.items()
@@ -242,11 +336,12 @@ class RclCore:
                        or (control.target_kind == "goal" and e.goal == control.target)
                        or (control.target_kind == "robot" and e.robot == control.target)]
             robots = {u: self._index[u].robot for u in targets}
+            agent = {u for u in targets if src and self._index[u].requester.src == src}
         if not targets:
             log.warning("%s %s %r: no active action", control.command, control.target_kind,
                         control.target)
         for uuid in targets:
-            self._tell(robots[uuid], Control(uuid, control.command, by=BY_CONTROL))
+            self._tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
         return targets
 
     def saw_incarnation(self, src: str, inc: int) -> list[str]:
@@ -258,15 +353,61 @@ class RclCore:
         with self._lock:
             if inc <= self._incarnations.get(src, -1):
                 return []
+            first_seen = src not in self._incarnations
             self._incarnations[src] = inc
             orphans = {u: e for u, e in self._index.items()
                        if e.requester.src == src and e.requester.inc < inc}
-        for uuid, entry in orphans.items():
-            log.warning("cancelling action %s: orphaned by %s incarnation %d", uuid, src,
-                        entry.requester.inc)
-            self._tell(entry.robot, Control(uuid, "cancel", f"orphaned: {src} incarnation "
-                                            f"{entry.requester.inc} is gone", BY_CONTROL))
+            for uuid, entry in orphans.items():
+                grace = self.orphans.add(uuid, entry.state)
+                log.warning("action %s is an orphan of %s incarnation %d: cancelled in %.0fs "
+                            "unless incarnation %d adopts it", uuid, src, entry.requester.inc,
+                            grace, inc)
+        if not first_seen:  # a restarted requester: tell it where every robot stands
+            self.announce_robots()
+        if self.orphans.grace <= 0:
+            self.cancel_orphans()
         return sorted(orphans)
+
+    def cancel_orphans(self) -> list[str]:
+        """Cancel the orphans whose grace is over (called on a timer); their uuids."""
+        with self._lock:
+            due = self.orphans.take_due()
+            entries = {u: self._index[u] for u in due if u in self._index}
+        for uuid, entry in entries.items():
+            log.warning("cancelling action %s: orphaned by %s incarnation %d, not adopted",
+                        uuid, entry.requester.src, entry.requester.inc)
+            self._tell(entry.robot, Control(uuid, lc.End(
+                ActionState.CANCELLED, lc.EndCause.ORPHANED,
+                f"orphaned: {entry.requester.src} incarnation {entry.requester.inc} is gone")))
+        return sorted(entries)
+
+    def answer_query(self, query: ActionQuery, requester: Requester = NOBODY) -> int:
+        """Reconciliation: re-send the journaled status of each asked uuid, and, for a
+        requester, the inventory of what its older incarnations left. Returns how many
+        statuses went out."""
+        if requester.src:
+            self.saw_incarnation(requester.src, requester.inc)
+        sent = 0
+        for uuid in query.uuids:
+            entry = self.journal.get(uuid)
+            if entry is not None:
+                self._publish(entry.action, repeat=True)
+                sent += 1
+        if query.requester:
+            items = self.orphans.inventory(self.journal, query.requester, query.inc)
+            try:
+                self.publish(ActionInventory(requester=query.requester, inc=query.inc,
+                                             actions=items))
+            except Exception as exc:
+                log.error("publishing the inventory for %s failed: %r", query.requester, exc)
+        return sent
+
+    def announce_robots(self) -> None:
+        """Publish every robot's state (availability, link, teleop): level-triggered, so a
+        restarted reasoner or dashboard knows where each robot stands."""
+        teleop = self.journal.teleop_robots()
+        for robot in self.links:
+            self._robot_state(robot, teleop=robot in teleop)
 
     def set_teleop(self, robot: str, on: bool) -> None:
         """Teleop on suspends every action of `robot`; off resumes them from progress."""
@@ -276,14 +417,18 @@ class RclCore:
         self._tell(robot, SetTeleop(on))
         self._robot_state(robot, teleop=on)
 
-    def set_available(self, robot: str, available: bool, reason: str = "") -> None:
-        """Mark `robot` (un)available; new actions for an unavailable robot are rejected."""
+    def set_available(self, robot: str, available: bool, reason: str = "",
+                      cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
+        """Mark `robot` (un)available; new actions for an unavailable robot are refused,
+        with `cause` (a lost link, a quarantine: the agent may try again later)."""
         with self._lock:
             before = self._unavailable.get(robot)
             if available:
                 self._unavailable.pop(robot, None)
+                self._unavailable_cause.pop(robot, None)
             else:
                 self._unavailable[robot] = reason or "unavailable"
+                self._unavailable_cause[robot] = cause
             changed = before != self._unavailable.get(robot)
         if changed:
             self._robot_state(robot)
@@ -303,12 +448,16 @@ class RclCore:
             if current.startswith(LINK_DOWN):
                 self.set_available(robot, True)
             return []
-        self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}")
+        self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
+                           lc.EndCause.FAILSAFE if link_down_cause(reason)
+                           is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
         with self._lock:
             targets = [u for u, e in self._index.items() if e.robot == robot]
-        why = f"robot {robot} unreachable: {reason or 'link down'}"
+        why, cause = f"robot {robot} unreachable: {reason or 'link down'}", lc.EndCause.LINK_LOST
+        if link_down_cause(reason) is LinkDownCause.FAILSAFE:
+            why, cause = reason, lc.EndCause.FAILSAFE  # the robot overtook the command
         for uuid in targets:
-            self._control_one(uuid, "fail", why, BY_CONTROL)
+            self._control_one(uuid, lc.End(ActionState.FAILED, cause, why))
         return targets
 
     def state(self, uuid: str) -> ActionState | None:
@@ -344,9 +493,10 @@ class RclCore:
                                                   requester)
         self._publish(action)
 
-    def _publish(self, action: Action) -> None:
+    def _publish(self, action: Action, repeat: bool = False) -> None:
         status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
-                              progress=dict(action.progress), robot=action.robot)
+                              progress=dict(action.progress), robot=action.robot,
+                              cause=action.cause, repeat=repeat)
         try:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks
@@ -363,9 +513,12 @@ class RclCore:
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)
 
-    def _fail_unrouted(self, action: Action, reason: str) -> None:
-        log.warning("failing action %s: %s", action.uuid, reason)
-        action.transition(ActionState.FAILED, reason)
+    def _end_unrouted(self, action: Action, end: lc.End) -> None:
+        """End an action no robot actor runs (lifecycle.end_unrouted)."""
+        publish = lc.end_unrouted(action.state, end)
+        log.warning("ending action %s (%s): %s", action.uuid, publish.state.value,
+                    publish.reason)
+        action.transition(publish.state, publish.reason, publish.cause)
         try:
             self.layer.on_action_end(action.copy())
         except Exception as exc:
@@ -373,8 +526,16 @@ class RclCore:
         self._emit(action, "")
 
     def _tell(self, robot: str, message: object) -> None:
-        """Send to the robot's current incarnation. If it is down, the message is lost:
-        a StartAction is safe (journaled first, the next incarnation restores it)."""
+        """Send to the robot's current incarnation. Nothing is lost if it is down: a
+        StartAction is journaled first (the next incarnation restores the action), a
+        Control is journaled pending here (the next incarnation applies it)."""
+        if isinstance(message, Control) and not message.seq:
+            try:
+                seq = self.journal.add_control(robot, message.uuid,
+                                               controls.encode(message.event))
+                message = dataclasses.replace(message, seq=seq)
+            except Exception as exc:  # the live actor may still get it
+                log.error("journaling a control for %s failed: %r", message.uuid, exc)
         with self._lock:
             ref = self._refs.get(robot)
         try:
@@ -382,20 +543,21 @@ class RclCore:
                 raise pykka.ActorDeadError(robot)
             ref.tell(message)
         except pykka.ActorDeadError:
-            log.warning("robot actor %s is down; %r dropped", robot, message)
+            log.warning("robot actor %s is down; %r waits for its next incarnation",
+                        robot, message)
 
     def _preempt(self, uuid: str, resource: str) -> None:
-        self._control_one(uuid, "suspend", f"pre-empted: {resource} is needed by a "
-                          "higher-priority action", f"resource:{resource}")
+        self._control_one(uuid, lc.Suspend(lc.SuspendCause.PREEMPTED, f"pre-empted: {resource} "
+                                           "is needed by a higher-priority action"))
 
     def _resume_preempted(self, uuid: str, resource: str) -> None:
-        self._control_one(uuid, "resume", "", f"resource:{resource}")
+        self._control_one(uuid, lc.Resume(lc.SuspendCause.PREEMPTED))
 
-    def _control_one(self, uuid: str, command: str, reason: str, by: str) -> None:
+    def _control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
         with self._lock:
             entry = self._index.get(uuid)
         if entry is not None:
-            self._tell(entry.robot, Control(uuid, command, reason, by))
+            self._tell(entry.robot, Control(uuid, event))
 
     def _publish_sup(self, event: Message) -> object:
         """Supervision events go out; a quarantine also fails the robot's open actions."""
@@ -407,12 +569,27 @@ class RclCore:
         return self.publish(event)
 
     def _quarantined(self, robot: str, reason: str) -> None:
-        self.set_available(robot, False, f"quarantined after repeated crashes ({reason})")
+        self.set_available(robot, False, f"quarantined after repeated crashes ({reason})",
+                           lc.EndCause.QUARANTINED)
+        self.journal.drop_controls(robot)  # its actions fail below
         for entry in self.journal.open_actions():
             if entry.action.robot == robot:
                 self.broker.forget_action(entry.action.uuid)
-                self._fail_unrouted(entry.action, f"robot {robot} quarantined: its actor "
-                                                  f"keeps crashing ({reason})")
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.QUARANTINED,
+                    f"robot {robot} quarantined: its actor keeps crashing ({reason})"))
+
+
+_END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,
+           "fail": ActionState.FAILED}
+
+
+def _event_of(command: str, by_agent: bool) -> lc.Suspend | lc.Resume | lc.End:
+    """The lifecycle event of a goal-management command (ActionControl validated it)."""
+    if command in _END_OF:
+        return lc.End(_END_OF[command], lc.EndCause.AGENT if by_agent else lc.EndCause.OPERATOR)
+    by = lc.SuspendCause.AGENT if by_agent else lc.SuspendCause.OPERATOR
+    return lc.Suspend(by) if command == "suspend" else lc.Resume(by)
 
 
 def _fields(request: ActionRequest) -> dict[str, Any]:

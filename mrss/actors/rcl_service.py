@@ -4,7 +4,10 @@
   until acknowledged, handled once per message id; RclCore de-duplicates by uuid on top);
 - `action.control` (goal management) and `ctl.teleop` (Command, target = robot,
   args {"on": bool}) arrive on a Subscriber; so do `sup.heartbeat.*`, whose envelope
-  incarnation tells the RCL that a requester restarted (its orphans are cancelled);
+  incarnation tells the RCL that a requester restarted (its orphans wait `adopt_grace`
+  seconds for the new incarnation to adopt them, then are cancelled), and
+  `action.query` (reconciliation: statuses from the journal, and the inventory of a
+  restarted requester's predecessors);
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
   each action status after its journal commit; `sup.*` events of the robot supervisor
   too; and a `sup.heartbeat.<name>` every `heartbeat` seconds while the robot
@@ -14,7 +17,9 @@ Options (project.toml, the component's table): `layer` ("rcl.py:ClassName" relat
 the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (robot id
 -> link options for `connect_robot`), `journal` (path; default <run_dir>/<name>-journal
 .sqlite3), `durable` (fsync every transition), and the robot supervisor's
-`max_robot_restarts`, `restart_period`, `probation`. The first incarnation of a run
+`max_robot_restarts`, `restart_period`, `probation`; `adopt_grace` (seconds a dead
+requester's running actions wait for adoption, default 10) and `adopt_grace_suspended`
+(suspended ones, default 120). The first incarnation of a run
 fails actions a previous run left in a kept journal; later ones resume them.
 """
 
@@ -24,19 +29,29 @@ import importlib.util
 import inspect
 import logging
 import os
+import sqlite3
 import sys
 import threading
+import time
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
-from mrss.bus import BusEndpoints, ReliableReceiver, Subscriber
+from mrss.bus import BusEndpoints, NotHandled, ReliableReceiver, Subscriber
+from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
 from mrss.errors import ConfigError, MrssError
-from mrss.messages import ActionControl, ActionRequest, Command, Envelope, Heartbeat
+from mrss.messages import (
+    ActionControl,
+    ActionQuery,
+    ActionRequest,
+    Command,
+    Envelope,
+    Heartbeat,
+)
 from mrss.supervision import Component, ComponentContext
 
 log = logging.getLogger("mrss.rcl")
@@ -76,6 +91,31 @@ class RclService(Component):
     project.toml: `[components.rcl] start = "mrss.actors.rcl_service:RclService"`.
     """
 
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("layer", str, "rcl.py", "\"file.py\" or \"file.py:Class\" of the RobotCommLayer"),
+        Option("robots", dict, {}, "robot id -> its table (link options and the layer's own)"),
+        Option("journal", str, None,
+               "action journal path (default <run_dir>/<name>-journal.sqlite3)"),
+        Option("durable", bool, False, "fsync every journal transition"),
+        Option("max_robot_restarts", int, 5, "robot actor restarts before quarantine",
+               Check.POSITIVE),
+        Option("restart_period", float, 60.0, "... within this many seconds", Check.POSITIVE),
+        Option("probation", float, 30.0, "seconds a quarantined robot waits", Check.NON_NEGATIVE),
+        Option("adopt_grace", float, 10.0, "seconds a dead requester's actions wait",
+               Check.NON_NEGATIVE),
+        Option("adopt_grace_suspended", float, 120.0, "the same for suspended actions",
+               Check.NON_NEGATIVE),
+        Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
+        Option("journal_keep_seconds", float, 86400.0,
+               "ended actions older than this are compacted out of the journal",
+               Check.NON_NEGATIVE),
+        Option("journal_keep_last", int, 1000,
+               "... except the newest this many (the dashboard's history)", Check.NON_NEGATIVE),
+        Option("journal_compact_period", float, 600.0,
+               "seconds between journal compactions (also done at start)", Check.POSITIVE),
+    )
+
     def __init__(self) -> None:
         self.core: RclCore | None = None
         self.journal: ActionJournal | None = None
@@ -88,6 +128,7 @@ class RclService(Component):
         self._beat: threading.Thread | None = None
         self._port: ZmqBusPort | None = None
         self._data: DataLayerClient | None = None
+        self._compaction = (86400.0, 1000, 600.0)  # keep seconds, keep last, period
 
     def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
@@ -111,15 +152,22 @@ class RclService(Component):
         # Subscribed before the restored actions are announced, so that the answers to
         # those statuses (a cancel, a suspend) are heard: they wait in the socket until
         # the core has started. Ready also means controls are heard.
-        self._sub = Subscriber(endpoints, prefixes=["action.control", "ctl.teleop",
-                                                    "sup.heartbeat."])
+        self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
+                                                    "ctl.teleop", "sup.heartbeat."])
         if not self._sub.wait_connected(5.0):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
                             max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
                             restart_period=float(opts.get("restart_period", 60.0)),
-                            probation=float(opts.get("probation", 30.0)))
+                            probation=float(opts.get("probation", 30.0)),
+                            adopt_grace=float(opts.get("adopt_grace", 10.0)),
+                            adopt_grace_suspended=float(opts.get("adopt_grace_suspended",
+                                                                 120.0)))
         self.layer.bind_runtime(link_state=self.core.link_state)
+        self._compaction = (float(opts.get("journal_keep_seconds", 86400.0)),
+                            int(opts.get("journal_keep_last", 1000)),
+                            float(opts.get("journal_compact_period", 600.0)))
+        self._compact()
         self.core.start(new_run=ctx.incarnation <= 1)
         self._sub.start(self._on_message)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
@@ -136,14 +184,29 @@ class RclService(Component):
         robots = self.core.robots if self.core is not None else None
         return robots is not None and robots.is_alive()
 
+    def _compact(self) -> None:
+        """Compact the journal (ActionJournal.compact); a failure is logged, not fatal."""
+        keep_seconds, keep_last, _ = self._compaction
+        if self.core is not None:
+            try:
+                self.core.compact_journal(keep_seconds, keep_last)
+            except Exception as exc:
+                log.error("journal compaction failed: %r", exc)
+
     def _heartbeat(self, publisher: Any, period: float) -> None:
         beat = Heartbeat(component=self._name, pid=os.getpid())
+        next_compaction = time.monotonic() + self._compaction[2]
         while True:
             if self.healthy():
                 try:
                     publisher.publish(beat)
+                    if self.core is not None:
+                        self.core.cancel_orphans()
                 except Exception as exc:
                     log.error("heartbeat not published: %r", exc)
+            if time.monotonic() >= next_compaction:
+                next_compaction = time.monotonic() + self._compaction[2]
+                self._compact()
             if self._stop.wait(period):
                 return
 
@@ -166,12 +229,25 @@ class RclService(Component):
                     log.error("disconnecting %s failed: %r", robot, exc)
 
     def _on_request(self, env: Envelope) -> None:
-        if self.core is None:
-            return
-        if not isinstance(env.body, ActionRequest):
-            log.warning("dropped a %s on the action channel from %s", env.kind, env.src)
-            return
-        self.core.submit(env.body, Requester(env.src, env.inc))
+        """The reliable action channel: requests, and the agent's goal management in order
+        with them. What cannot be journaled now (a full disk) is not acknowledged: the
+        reasoner repeats it until it is."""
+        core = self.core
+        if core is None:
+            raise NotHandled("the RCL is not started yet")
+        body = env.body
+        try:
+            if isinstance(body, ActionRequest):
+                core.submit(body, Requester(env.src, env.inc))
+            elif isinstance(body, ActionControl):
+                core.saw_incarnation(env.src, env.inc)
+                core.control(body, env.src)
+            else:
+                log.warning("dropped a %s on the action channel from %s", env.kind, env.src)
+        except (sqlite3.Error, OSError) as exc:
+            raise NotHandled(f"the action journal cannot be written: {exc}") from exc
+        except MrssError as exc:
+            log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 
     def _on_message(self, env: Envelope) -> None:
         core = self.core
@@ -181,7 +257,9 @@ class RclService(Component):
         try:
             if isinstance(body, ActionControl):
                 core.saw_incarnation(env.src, env.inc)
-                core.control(body)
+                core.control(body, env.src)
+            elif isinstance(body, ActionQuery):
+                core.answer_query(body, Requester(env.src, env.inc))
             elif isinstance(body, Command) and body.command == "teleop":
                 on = body.args.get("on")
                 if not isinstance(on, bool):

@@ -1,36 +1,56 @@
 """The Reasoner component: the project's AgentSpeak agent on the bus (paper IV-D).
 
-- `percept` messages become percepts (`source(percept)`), add or remove;
+- `percept` messages become percepts (`source(percept)`), add or remove; they arrive on
+  the reliable channel "percept" (acknowledged after the percept ledger has them) and,
+  from best-effort senders, on the plain `percept` topic; a message heard on both is
+  taken once (by envelope id). The ledger (`PerceptLedger`) is asserted again by every
+  new incarnation, so the agent re-derives its goals after a restart;
   supervision's `sup.quarantine` / `sup.release` and `robot.<id>.state` availability
   become `robot_unavailable(R)` percepts;
 - environment actions leave on the reliable `action` channel and block their intention
-  until a terminal `action.status` (see `ReasonerHost`);
+  until a terminal `action.status`; waiting actions are reconciled with the RCL, and a
+  restarted reasoner adopts what its predecessor left running (see `ReasonerHost`);
 - a heartbeat with this incarnation goes out every `heartbeat` seconds: the RCL cancels
   the actions of an incarnation that is gone, so no robot works for a dead intention;
 - `ctl.mind` (any target, or this reasoner's name) publishes a `mind.<name>` snapshot.
 
 Options (the component's table in project.toml): `agent` (file, default `agent.asl`),
 `beliefs` (extra initial beliefs), `lease` (seconds the RCL may be silent while actions
-wait, default 10), `heartbeat` (seconds, default 0.5), `query_timeout` (seconds).
+wait, default 10), `heartbeat` (seconds, default 0.5), `query_timeout` (seconds),
+`reconcile` (seconds between status queries while actions wait, default 1),
+`adopt_wait` (seconds a restarted reasoner waits for the RCL's inventory, default 3).
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import sqlite3
 import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+from mrss.actors.percept_ledger import PerceptLedger
 from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak import Agent, AslSyntaxError, parse_literal
-from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
+from mrss.bus import (
+    BusEndpoints,
+    NotHandled,
+    Publisher,
+    ReliableReceiver,
+    ReliableSender,
+    Subscriber,
+)
+from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import (
     ActionControl,
+    ActionInventory,
+    ActionQuery,
     ActionRequest,
     ActionStatus,
     Command,
@@ -46,7 +66,9 @@ from mrss.supervision.component import Component, ComponentContext
 log = logging.getLogger("mrss.reasoner")
 
 ACTION_CHANNEL = "action"
+PERCEPT_CHANNEL = "percept"
 RCL_PREFIX = "rcl"
+SEEN_IDS = 8192  # envelope ids remembered to take a percept heard twice once
 
 
 def unavailable_percept(robot: str) -> str:
@@ -61,12 +83,26 @@ class Reasoner:
                  send_control: Callable[[ActionControl], object],
                  data_call: Any = None, beliefs: list[str] | None = None,
                  lease: float = 10.0, query_timeout: float = 5.0,
-                 on_tick: Callable[[], None] | None = None, tick: float = 0.5) -> None:
+                 on_tick: Callable[[], None] | None = None, tick: float = 0.5,
+                 send_query: Callable[[ActionQuery], object] | None = None,
+                 reconcile: float = 1.0, adopt_wait: float = 3.0,
+                 ledger: PerceptLedger | None = None) -> None:
         self.host = ReasonerHost(send_request, send_control, data_call, lease=lease,
-                                 query_timeout=query_timeout)
+                                 query_timeout=query_timeout, send_query=send_query,
+                                 reconcile=reconcile, adopt_wait=adopt_wait)
         self.agent = Agent.from_file(agent_file, host=self.host, name=name,
                                      beliefs=beliefs or [], out=self._print)
         self.host.agent = self.agent
+        self.ledger = ledger
+        self._seen: OrderedDict[str, None] = OrderedDict()
+        self._seen_lock = threading.Lock()
+        if ledger is not None:
+            self.agent.on_percept_gone = ledger.remove
+            standing = ledger.standing()
+            for literal in standing:  # what the previous incarnation perceived
+                self.agent.add_percept(literal)
+            if standing:
+                log.info("%s: %d standing percept(s) asserted again", name, len(standing))
         self.name = name
         self._on_tick = on_tick
         self._tick = tick
@@ -103,6 +139,7 @@ class Reasoner:
                 agent.run_until_idle(max_cycles=10_000)
             except Exception:  # the agent must keep serving whatever one cycle did
                 log.exception("%s: reasoning cycle failed", self.name)
+            self.host.reconcile()
             self.host.check_lease()
             if self._on_tick is not None:
                 self._on_tick()
@@ -116,13 +153,11 @@ class Reasoner:
         body = env.body
         try:
             if isinstance(body, Percept):
-                literal = parse_literal(body.literal)
-                if body.op == "add":
-                    self.agent.add_percept(literal)
-                else:
-                    self.agent.remove_percept(literal)
+                self._perceive(body, env.id)
             elif isinstance(body, ActionStatus):
                 self.host.on_status(body, env.inc)
+            elif isinstance(body, ActionInventory):
+                self.host.on_inventory(body)
             elif isinstance(body, SupEvent):
                 self._on_sup(body)
             elif isinstance(body, RobotState):
@@ -138,6 +173,32 @@ class Reasoner:
         except (MrssError, ValueError) as exc:
             log.warning("%s: dropped %s from %s on %s: %s", self.name, env.kind, env.src,
                         env.topic, exc)
+
+    def _perceive(self, percept: Percept, msg_id: str) -> None:
+        """Ledger first (the sender may stop repeating it), then the agent. A ledger that
+        cannot be written leaves the percept unacknowledged (NotHandled): it comes again."""
+        with self._seen_lock:
+            if msg_id in self._seen:
+                return
+        literal = parse_literal(percept.literal)
+        if self.ledger is not None:
+            try:
+                if percept.op == "add":
+                    self.ledger.add(percept.literal)
+                else:
+                    self.ledger.remove(literal)
+            except (sqlite3.Error, OSError) as exc:
+                raise NotHandled(f"the percept ledger cannot be written: {exc}") from exc
+        with self._seen_lock:
+            if msg_id in self._seen:
+                return
+            self._seen[msg_id] = None
+            if len(self._seen) > SEEN_IDS:
+                self._seen.popitem(last=False)
+        if percept.op == "add":
+            self.agent.add_percept(literal)
+        else:
+            self.agent.remove_percept(literal)
 
     def _on_sup(self, event: SupEvent) -> None:
         robot = event.detail.get("robot")
@@ -159,12 +220,29 @@ class Reasoner:
 class ReasonerComponent(Component):
     """The reasoner as an OS process under the root supervisor."""
 
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("agent", str, "agent.asl", "the AgentSpeak program", Check.PROJECT_FILE),
+        Option("beliefs", list, [], "extra initial beliefs, as literal strings"),
+        Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
+        Option("ledger", str, None, "percept ledger path (default in the run folder)"),
+        Option("lease", float, 10.0, "seconds a waiting action survives a silent RCL",
+               Check.POSITIVE),
+        Option("query_timeout", float, 5.0, "seconds per data layer query", Check.POSITIVE),
+        Option("reconcile", float, 1.0, "seconds between reconciliations after a restart",
+               Check.POSITIVE),
+        Option("adopt_wait", float, 3.0, "seconds to wait for open actions to be adopted",
+               Check.NON_NEGATIVE),
+    )
+
     def __init__(self) -> None:
         self.reasoner: Reasoner | None = None
         self._tx: ReliableSender | None = None
         self._sub: Subscriber | None = None
+        self._rx: ReliableReceiver | None = None
         self._data: DataLayerClient | None = None
         self._port: ZmqBusPort | None = None
+        self._ledger: PerceptLedger | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
@@ -191,30 +269,44 @@ class ReasonerComponent(Component):
                 publisher.publish(heartbeat)
 
         tx = self._tx
+        restarted = ctx.incarnation > 1  # within this run: mission state is taken back
+        self._ledger = PerceptLedger(
+            Path(opts.get("ledger") or ctx.run_dir / f"{ctx.name}-percepts.sqlite3"),
+            fresh=not restarted)
         try:
             reasoner = Reasoner(
                 agent_file, name=ctx.name, send_request=lambda r: tx.send(r),
-                send_control=lambda c: publisher.publish(c),
+                send_control=lambda c: tx.send(c),  # in order with its requests, resent
                 data_call=self._data.call,
                 beliefs=list(beliefs), lease=float(opts.get("lease", 10.0)),
                 query_timeout=float(opts.get("query_timeout", 5.0)), on_tick=tick,
-                tick=min(period, 0.5))
+                tick=min(period, 0.5), send_query=lambda q: publisher.publish(q),
+                reconcile=float(opts.get("reconcile", 1.0)),
+                adopt_wait=float(opts.get("adopt_wait", 3.0)), ledger=self._ledger)
         except AslSyntaxError as exc:
             raise ConfigError(str(exc), file=str(agent_file), key="agent") from exc
         reasoner.snapshot_sink = lambda snap: publisher.publish(_mind(ctx.name, snap))
         self.reasoner = reasoner
         publisher.publish(heartbeat)  # announce this incarnation before anything else
-        self._sub = Subscriber(endpoints, prefixes=["percept", "action.status", "sup.",
-                                                    "robot.", "ctl.mind"])
+        if restarted:
+            reasoner.host.expect_inventory(ctx.name, ctx.incarnation)
+        self._sub = Subscriber(endpoints, prefixes=["percept", "action.status",
+                                                    "action.inventory", "sup.", "robot.",
+                                                    "ctl.mind"])
         self._sub.start(reasoner.on_message)
+        self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
+                                    channel=PERCEPT_CHANNEL, handler=reasoner.on_message)
         reasoner.start()
         log.info("%s: reasoning on %s (incarnation %d)", ctx.name, agent_file, ctx.incarnation)
 
     def stop(self) -> None:
-        if self._sub is not None:
-            self._sub.close()
+        for closable in (self._rx, self._sub):
+            if closable is not None:
+                closable.close()
         if self.reasoner is not None:
             self.reasoner.stop()
+        if self._ledger is not None:
+            self._ledger.close()
         if self._tx is not None:
             self._tx.close()
         if self._data is not None:

@@ -10,10 +10,23 @@ Every environment action the agent executes gets a uuid and goes to the RCL as a
 - `query(Function, Args, Result)` asks the data layer and binds `Result` from its reply;
   an error reply or a timeout fails the action.
 
-A blocked intention never waits forever: when the RCL has been silent for longer than
-the lease, every latched action fails with the reason. Those actions are cancelled at
-the RCL too (and again whenever a status shows one still open, e.g. after the RCL
-comes back or restarts), so no robot keeps working for an intention that has failed.
+A blocked intention never waits forever:
+- reconciliation: every `reconcile` seconds while actions wait, the host asks the RCL for
+  their statuses (`ActionQuery`); the RCL answers from its journal, so a terminal status
+  lost on the bus (a proxy restart, an RCL restart) is heard within one period;
+- lease: when the RCL has been silent for longer than the lease, or one action has had
+  no status (nor reconciliation answer) for that long, the action fails with
+  `error(transient)`. Such actions are cancelled at the RCL too (and again whenever a
+  status shows one still open), so no robot keeps working for an intention that failed.
+
+Adoption after a restart of the reasoner: a new incarnation first asks the RCL for the
+inventory of what its predecessors left (`expect_inventory`); until it arrives (or
+`adopt_wait` passes) new actions are held. An action whose literal matches one left
+behind takes over that action's uuid: the RCL sees the same uuid from a newer
+incarnation and lets this one wait for it, instead of cancelling and redoing it.
+
+A failure reaches the agent with its cause (`-!g[error(Cause)]`): the RCL's
+`FailureCause` (transient, link_down, cancelled, ...), or Jason's `action_failed`.
 """
 
 from __future__ import annotations
@@ -30,15 +43,19 @@ from typing import Any, Protocol
 
 from mrss.agentspeak import Struct, term_str
 from mrss.agentspeak.terms import PList
+from mrss.edge.datalayer_client import DataLayerUnavailable
 from mrss.edge.predicates import term as term_text
 from mrss.errors import MrssError
 from mrss.messages import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
     ActionControl,
+    ActionInventory,
+    ActionQuery,
     ActionRequest,
     ActionState,
     ActionStatus,
+    FailureCause,
 )
 
 log = logging.getLogger("mrss.reasoner")
@@ -52,10 +69,21 @@ class AgentPort(Protocol):
     """What the host needs of the agent: thread-safe completion of actions."""
 
     def complete_action(self, handle: Hashable, success: bool, reason: str | None = None,
-                        result: str | Struct | None = None) -> None: ...
+                        result: str | Struct | None = None, error: str | None = None
+                        ) -> None: ...
 
 
 DataCall = Callable[[str, list[Any], float], Any]
+ACTION_FAILED = "action_failed"  # Jason's error for a failed action of no known cause
+
+
+def failure_error(status: ActionStatus) -> str:
+    """The `error(E)` a failed or cancelled action gives its plan."""
+    if status.cause:
+        return status.cause
+    if status.state == ActionState.CANCELLED.value:
+        return FailureCause.CANCELLED.value
+    return ACTION_FAILED
 
 
 @dataclass
@@ -67,6 +95,7 @@ class Latch:
     robot: str
     goal: str
     sent_at: float
+    handle: str = ""  # what the agent waits on (the uuid, unless adopted another's)
     last_status: str = ActionState.PENDING.value
     status_at: float = 0.0
     progress: dict[str, Any] = field(default_factory=dict)
@@ -102,21 +131,33 @@ class ReasonerHost:
     def __init__(self, send_request: Callable[[ActionRequest], object],
                  send_control: Callable[[ActionControl], object],
                  data_call: DataCall | None = None, *, lease: float = 10.0,
-                 query_timeout: float = 5.0, clock: Callable[[], float] = time.monotonic
-                 ) -> None:
+                 query_timeout: float = 5.0, clock: Callable[[], float] = time.monotonic,
+                 send_query: Callable[[ActionQuery], object] | None = None,
+                 reconcile: float = 1.0, adopt_wait: float = 3.0) -> None:
         self.agent: AgentPort | None = None
         self._send_request = send_request
         self._send_control = send_control
+        self._send_query = send_query
         self._data_call = data_call
         self.lease = lease
         self.query_timeout = query_timeout
+        self.reconcile_period = reconcile
+        self.adopt_wait = adopt_wait
         self._clock = clock
         self._lock = threading.Lock()
-        self._latches: dict[str, Latch] = {}
+        self._latches: dict[str, Latch] = {}  # by action uuid
+        self._handles: dict[str, str] = {}  # agent handle -> action uuid
         self._abandoned: OrderedDict[str, None] = OrderedDict()
         self._queries: ThreadPoolExecutor | None = None
         self.rcl_heard_at = clock()
         self.rcl_incarnation = -1
+        self._reconciled_at = clock()
+        # adoption: None while no inventory is expected, else (requester, inc, deadline)
+        self._awaiting: tuple[str, int, float] | None = None
+        self._asked_at = -1.0
+        self._held: list[ActionRequest] = []
+        self._left: dict[str, list[str]] = {}  # literal -> uuids a predecessor left
+        self.adopted = 0
 
     # ------------------------------------------------------------ the agent's side
     def execute(self, action: Struct, intention_id: int) -> Hashable:
@@ -133,20 +174,48 @@ class ReasonerHost:
             literal=term_str(Struct(action.functor, action.args)),
         )
         now = self._clock()
+        handle = request.uuid
         with self._lock:
             if not self._latches:
                 self.rcl_heard_at = max(self.rcl_heard_at, now)  # the lease starts now
             self._latches[request.uuid] = Latch(request.uuid, request.literal, request.robot,
-                                                request.goal, now, status_at=now)
+                                                request.goal, now, status_at=now,
+                                                handle=request.uuid)
+            self._handles[request.uuid] = request.uuid
+            if self._awaiting is not None:  # adoption: wait for the inventory first
+                self._held.append(request)
+                log.info("action %s %s held until the RCL's inventory arrives",
+                         request.uuid, request.literal)
+                return request.uuid
+            request = self._adopt(request)
         self._send_request(request)
         log.info("action %s %s sent", request.uuid, request.literal)
-        return request.uuid
+        return handle
+
+    def _adopt(self, request: ActionRequest) -> ActionRequest:
+        """Under the lock: take over a predecessor's action with the same literal."""
+        left = self._left.get(request.literal)
+        if not left:
+            return request
+        old = left.pop(0)
+        latch = self._latches.pop(request.uuid)
+        latch.uuid = old
+        self._latches[old] = latch
+        self._handles[latch.handle] = old
+        self.adopted += 1
+        log.info("action %s adopts %s, left by a previous incarnation", request.literal, old)
+        return ActionRequest(uuid=old, name=request.name, args=request.args,
+                             robot=request.robot, goal=request.goal,
+                             priority=request.priority, literal=request.literal)
 
     def cancel(self, handle: Hashable) -> None:
         """The intention waiting on `handle` was dropped: the RCL cancels the action."""
         with self._lock:
-            latch = self._latches.pop(str(handle), None)
-        if latch is not None:
+            uuid = self._handles.pop(str(handle), None)
+            latch = self._latches.pop(uuid, None) if uuid is not None else None
+            held = [r for r in self._held if r.uuid == uuid]
+            self._held = [r for r in self._held if r.uuid != uuid]
+        if latch is not None and not held:
             self._send_control(ActionControl(command="cancel", target=latch.uuid,
                                              target_kind="action"))
             log.info("action %s %s cancelled (intention dropped)", latch.uuid, latch.literal)
@@ -178,14 +247,48 @@ class ReasonerHost:
                     f"{term_text(result)})")
         except Exception as exc:
             log.warning("query %s%s failed: %s", function, args, exc)
-            self._complete(handle, False, f"query {function} failed: {exc}")
+            transient = isinstance(exc, DataLayerUnavailable)
+            self._complete(handle, False, f"query {function} failed: {exc}",
+                           error=FailureCause.TRANSIENT.value if transient else None)
             return
         self._complete(handle, True, result=text)
 
     def _complete(self, handle: str, ok: bool, reason: str | None = None,
-                  result: str | None = None) -> None:
+                  result: str | None = None, error: str | None = None) -> None:
         if self.agent is not None:
-            self.agent.complete_action(handle, ok, reason, result=result)
+            self.agent.complete_action(handle, ok, reason, result=result, error=error)
+
+    # ------------------------------------------------------------ adoption
+    def expect_inventory(self, requester: str, inc: int) -> None:
+        """This is incarnation `inc` of `requester`, restarted: hold new actions until the
+        RCL says what the previous incarnations left (or `adopt_wait` passes)."""
+        with self._lock:
+            self._awaiting = (requester, inc, self._clock() + self.adopt_wait)
+            self._asked_at = -1.0
+        self.reconcile()
+
+    def on_inventory(self, inventory: ActionInventory) -> None:
+        """The RCL's inventory for this incarnation: adopt, then send what was held."""
+        with self._lock:
+            awaiting = self._awaiting
+            if awaiting is None or (inventory.requester, inventory.inc) != awaiting[:2]:
+                return
+            for item in inventory.actions:
+                literal, uuid = item.get("literal"), item.get("uuid")
+                if isinstance(literal, str) and isinstance(uuid, str) and literal:
+                    self._left.setdefault(literal, []).append(uuid)
+            log.info("inventory: %d action(s) left by earlier incarnations of %s",
+                     len(inventory.actions), inventory.requester)
+        self._release_held()
+
+    def _release_held(self) -> None:
+        with self._lock:
+            self._awaiting = None
+            held, self._held = self._held, []
+            requests = [self._adopt(r) for r in held if r.uuid in self._latches]
+        for request in requests:
+            self._send_request(request)
+            log.info("action %s %s sent", request.uuid, request.literal)
 
     # ------------------------------------------------------------ the RCL's side
     def on_status(self, status: ActionStatus, src_inc: int) -> None:
@@ -209,6 +312,7 @@ class ReasonerHost:
                 latch.progress = dict(status.progress)
                 if terminal:
                     del self._latches[status.uuid]
+                    self._handles.pop(latch.handle, None)
         if latch is None:
             if abandoned and not terminal:  # its intention failed on the lease: stop it
                 self._cancel_abandoned(status.uuid)
@@ -218,7 +322,8 @@ class ReasonerHost:
             reason = None if ok else (status.reason or status.state)
             log.info("action %s %s %s%s", latch.uuid, latch.literal, status.state,
                      f": {status.reason}" if status.reason else "")
-            self._complete(latch.uuid, ok, reason)
+            self._complete(latch.handle, ok, reason,
+                           error=None if ok else failure_error(status))
 
     def heard_from_rcl(self, src_inc: int) -> None:
         """Any message of the RCL (heartbeat, robot state) renews the lease."""
@@ -227,23 +332,64 @@ class ReasonerHost:
                 self.rcl_incarnation = src_inc
                 self.rcl_heard_at = self._clock()
 
+    def reconcile(self) -> None:
+        """Ask the RCL, when due, for the statuses of the waiting actions and, after a
+        restart, for the inventory (called by the reasoner's loop)."""
+        if self._send_query is None:
+            return
+        now = self._clock()
+        inventory = release = False
+        with self._lock:
+            if self._awaiting is not None:
+                if now >= self._awaiting[2]:
+                    log.warning("no inventory from the RCL within %.1fs: nothing adopted",
+                                self.adopt_wait)
+                    release = True
+                elif now - self._asked_at >= min(0.5, self.adopt_wait):
+                    inventory, self._asked_at = True, now
+            uuids = [u for u in self._latches if not any(r.uuid == u for r in self._held)]
+            due = uuids and now - self._reconciled_at >= self.reconcile_period
+            if due:
+                self._reconciled_at = now
+            awaiting = self._awaiting
+        if release:
+            self._release_held()
+        if inventory and awaiting is not None:
+            self._send_query(ActionQuery(requester=awaiting[0], inc=awaiting[1]))
+        if due:
+            self._send_query(ActionQuery(uuids=uuids))
+
     def check_lease(self) -> list[str]:
-        """Fail every latched action if the RCL has been silent past the lease."""
+        """Fail the latched actions the RCL has not spoken of within the lease: all of
+        them when the RCL is silent, one when only its status is missing."""
         now = self._clock()
         with self._lock:
-            if not self._latches or now - self.rcl_heard_at <= self.lease:
+            if not self._latches:
                 return []
-            expired = list(self._latches.values())
-            self._latches.clear()
+            silent = now - self.rcl_heard_at
+            held = {r.uuid for r in self._held}
+            if silent > self.lease:
+                expired = [la for la in self._latches.values() if la.uuid not in held]
+            elif self._send_query is not None:  # reconciliation refreshes each status
+                expired = [la for la in self._latches.values()
+                           if la.uuid not in held and now - la.status_at > self.lease]
+            else:
+                expired = []
             for latch in expired:
+                del self._latches[latch.uuid]
+                self._handles.pop(latch.handle, None)
                 self._abandoned[latch.uuid] = None
             while len(self._abandoned) > ABANDONED_MEMORY:
                 self._abandoned.popitem(last=False)
-        silent = now - self.rcl_heard_at
+        if not expired:
+            return []
         for latch in expired:
-            self._complete(latch.uuid, False, f"RCL silent for {silent:.1f}s (lease "
-                                              f"{self.lease:.1f}s)")
-        log.warning("RCL silent for %.1fs: failed %d waiting action(s)", silent, len(expired))
+            quiet = min(silent, now - latch.status_at)
+            self._complete(latch.handle, False, f"no word of the action from the RCL for "
+                           f"{quiet:.1f}s (lease {self.lease:.1f}s)",
+                           error=FailureCause.TRANSIENT.value)
+        log.warning("RCL silent on %d waiting action(s) past the %.1fs lease: failed",
+                    len(expired), self.lease)
         for latch in expired:  # queued for the RCL; repeated if it shows them open later
             self._cancel_abandoned(latch.uuid)
         return [latch.uuid for latch in expired]

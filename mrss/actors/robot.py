@@ -1,15 +1,14 @@
 """One supervised pykka actor per robot: its link, teleop flag, its actions, their skills.
 
-The robot actor owns the lifecycle of its actions: it refines them into skills, starts a
-SkillActor per skill, decides the action's end with the project's `check_action_status`,
-and stops skills for cancel/suspend/succeed/fail. Every transition goes through `emit`
-(journal, then publish). Project code that raises fails the action, never this actor.
-The actor runs under the RCL's robot supervisor (mrss.supervision): if it crashes anyway,
-its next incarnation's `setup` takes its open actions back from the journal.
-
-Suspension causes, strongest first: "control" (goal management), "teleop", and
-"resource:<name>" (pre-empted). A resume only lifts its own cause, except a control
-resume, which lifts any cause but a teleop still in force.
+The robot actor carries out the action lifecycle (mrss.actors.lifecycle): it feeds
+`lifecycle.step` what happens to an action (accepted, a skill ended, a control, a teleop,
+a stop completed or timed out) and performs the effects it returns: refine the action
+and start a SkillActor per skill, interrupt or abandon them, ask the project's
+`check_action_status`, journal and publish a status (through `emit`), release resources.
+Which transition happens, and why, is decided there, never here. Project code that
+raises fails the action, never this actor. The actor runs under the RCL's robot
+supervisor (mrss.supervision): if it crashes anyway, its next incarnation's `setup` takes
+its open actions back from the journal.
 """
 
 from __future__ import annotations
@@ -21,6 +20,7 @@ from typing import Any, Protocol
 
 import pykka
 
+from mrss.actors import lifecycle as lc
 from mrss.actors.journal import JournalEntry
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.skill import (
@@ -31,12 +31,11 @@ from mrss.actors.skill import (
     SkillRunner,
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
-from mrss.messages import ActionState
+from mrss.errors import TransientError
+from mrss.messages import ActionState, FailureCause, Message
 from mrss.supervision import ActorContext, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
-
-BY_CONTROL, BY_TELEOP = "control", "teleop"
 
 
 class RobotHost(Protocol):
@@ -54,31 +53,31 @@ class RobotHost(Protocol):
     def restore(self, robot: str, first: bool) -> tuple[list[JournalEntry], bool]:
         """The robot's open actions to take back (journal) and its teleop flag."""
 
-_END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,
-           "fail": ActionState.FAILED}
+    def pending_controls(self, robot: str) -> list[Control]:
+        """The controls journaled for `robot` and not yet applied, oldest first."""
 
+    def claim_control(self, seq: int) -> None:
+        """A control was applied: it is no longer pending."""
 
-def _rank(cause: str) -> int:
-    return {BY_CONTROL: 3, BY_TELEOP: 2}.get(cause, 1 if cause else 0)
+    def publish_sup(self, event: Message) -> object:
+        """Publish a supervision event (a skill's restart or escalation)."""
 
 
 @dataclass(frozen=True)
 class StartAction:
-    """Take on an action: new (PENDING), or restored from the journal (`restored` says why)."""
+    """Take on a new action (journaled PENDING)."""
 
     action: Action
-    suspended_by: str = ""
-    restored: str = ""
 
 
 @dataclass(frozen=True)
 class Control:
-    """Goal management for one action: cancel, suspend, resume, succeed, fail."""
+    """A lifecycle event for one action (a suspend, resume or end by command); `seq`
+    is its pending entry in the journal (mrss.actors.controls), 0 if not journaled."""
 
     uuid: str
-    command: str
-    reason: str = ""
-    by: str = BY_CONTROL
+    event: lc.Suspend | lc.Resume | lc.End
+    seq: int = 0
 
 
 @dataclass(frozen=True)
@@ -93,23 +92,15 @@ class _StopDeadline:
 
 
 @dataclass
-class _Stopping:
-    target: ActionState
-    reason: str
-    by: str
-    resume_after: bool = False
-    timer: threading.Timer | None = None
-
-
-@dataclass
 class _Tracked:
     action: Action
-    suspended_by: str = ""
+    life: lc.Lifecycle
     run: int = 0
     refs: list[pykka.ActorRef[SkillActor] | None] = field(default_factory=list)
     outcomes: list[SkillOutcome | None] = field(default_factory=list)
     reasons: list[str] = field(default_factory=list)
-    stopping: _Stopping | None = None
+    causes: list[str] = field(default_factory=list)
+    timer: threading.Timer | None = None
 
 
 class RobotActor(SupervisedActor):
@@ -123,20 +114,32 @@ class RobotActor(SupervisedActor):
         self.emit, self.save_progress = host.emit, host.save_progress
         self.teleop = False
         self.actions: dict[str, _Tracked] = {}
+        self._replayed: set[int] = set()  # pending controls applied by `setup`
 
     def setup(self) -> None:
         """Start hook: register, then take this robot's open actions back from the journal.
 
         Registering first means a request journaled after the journal read below is
         told to this incarnation; one journaled before is restored here (and a late
-        StartAction for it is ignored).
+        StartAction for it is ignored). The same holds for controls: those still pending
+        are applied here, after the actions are back, and again never from the mailbox.
         """
         first = self.ctx.incarnation == 1
         self.host.register(self.robot, self.actor_ref)
         entries, self.teleop = self.host.restore(self.robot, first)
         why = "an RCL restart" if first else f"a restart of robot actor {self.robot}"
         for entry in entries:
-            self._start(StartAction(entry.action, entry.suspended_by, restored=why))
+            if entry.action.uuid in self.actions:
+                continue
+            by = lc.SuspendCause.parse(entry.suspended_by)
+            t = _Tracked(entry.action.copy(), lc.Lifecycle.of(entry.action.state, by))
+            self.actions[t.action.uuid] = t
+            self._feed(t, lc.Restore(why, by, self.teleop))
+        for control in self.host.pending_controls(self.robot):
+            log.info("robot %s: applying pending control %d (%s for %s)", self.robot,
+                     control.seq, control.event.kind.value, control.uuid)
+            self._control(control)
+            self._replayed.add(control.seq)
 
     # -- dispatch ---------------------------------------------------------------------
     def on_receive(self, message: Any) -> Any:
@@ -160,8 +163,8 @@ class RobotActor(SupervisedActor):
         """Stop or crash: stop every skill, change no state (the journal has them)."""
         refs = [r for t in self.actions.values() for r in t.refs if r is not None]
         for t in self.actions.values():
-            if t.stopping and t.stopping.timer:
-                t.stopping.timer.cancel()
+            if t.timer:
+                t.timer.cancel()
         for ref in refs:
             try:
                 ref.tell(Interrupt())
@@ -173,56 +176,13 @@ class RobotActor(SupervisedActor):
         except pykka.Timeout:
             log.error("robot %s: skills still busy at shutdown; abandoned", self.robot)
 
-    # -- lifecycle --------------------------------------------------------------------
+    # -- events in ------------------------------------------------------------------------
     def _start(self, msg: StartAction) -> None:
         if msg.action.uuid in self.actions:
             return  # restored from the journal already
-        t = _Tracked(msg.action.copy(), suspended_by=msg.suspended_by)
+        t = _Tracked(msg.action.copy(), lc.Lifecycle.of(msg.action.state))
         self.actions[t.action.uuid] = t
-        if t.action.state is ActionState.SUSPENDED:  # only restored actions come suspended
-            keep = t.suspended_by == BY_CONTROL or (self.teleop and
-                                                    t.suspended_by == BY_TELEOP)
-            if keep:  # re-announce: it is not forgotten
-                t.action.reason = f"still suspended ({t.suspended_by}) after {msg.restored}"
-                self.emit(t.action.copy(), t.suspended_by)
-            else:
-                t.suspended_by = ""
-                self._run(t, f"resumed after {msg.restored}")
-        elif self.teleop:
-            self._suspend_now(t, "robot in teleop", BY_TELEOP)
-        else:
-            self._run(t, f"resumed after {msg.restored}" if msg.restored else "")
-
-    def _run(self, t: _Tracked, reason: str) -> None:
-        """Refine the action (again, from its progress) and start its skills."""
-        t.run += 1
-        snapshot = t.action.copy()
-        try:
-            skills = self.layer.refine_action(snapshot)
-            bad = [s for s in skills if not isinstance(s, Skill)]
-            if bad:
-                raise TypeError(f"refine_action returned non-skills {bad!r}")
-        except Exception as exc:
-            why = f"cannot refine {t.action.name}: {exc}"
-            log.warning("robot %s: action %s failed: %s", self.robot, t.action.uuid, why)
-            self._end(t, ActionState.FAILED, why)
-            return
-        # The skills start first (the robot moves sooner), RUNNING is journaled and
-        # published right after: whatever they report is handled after this method, so
-        # the statuses keep their order; a crash in between restores the action anyway.
-        t.refs, t.outcomes, t.reasons = [], [None] * len(skills), [""] * len(skills)
-        for index, skill in enumerate(skills):
-            runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
-                                 self.actor_ref.tell)
-            t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
-        if t.action.state is not ActionState.RUNNING:
-            t.action.transition(ActionState.RUNNING, reason)
-            self.emit(t.action.copy(), "")
-        elif reason:  # restored while RUNNING: no transition, but say so
-            t.action.reason = reason
-            self.emit(t.action.copy(), "")
-        if not skills:
-            self._check(t)
+        self._feed(t, lc.Accept(self.teleop))
 
     def _progress(self, msg: ProgressRecorded) -> None:
         t = self.actions.get(msg.uuid)
@@ -237,146 +197,31 @@ class RobotActor(SupervisedActor):
             return  # a skill of an earlier run, or one already abandoned
         t.refs[msg.index] = None
         t.outcomes[msg.index], t.reasons[msg.index] = msg.outcome, msg.reason
-        if t.stopping:
-            if all(r is None for r in t.refs):
-                self._stopped(t)
-        else:
-            self._check(t)
-
-    def _check(self, t: _Tracked) -> None:
-        """Ask the project whether the action is over (default: AND of its skills)."""
-        try:
-            verdict = self.layer.check_action_status(t.action.copy(), list(t.outcomes))
-        except Exception as exc:
-            verdict, why = ActionState.FAILED, f"check_action_status raised {exc!r}"
-        else:
-            why = next((r for r, o in zip(t.reasons, t.outcomes, strict=True)
-                        if o is not None and o is not SkillOutcome.SUCCEEDED), "")
-        if verdict is None and all(r is None for r in t.refs):
-            verdict, why = ActionState.FAILED, "every skill ended without a verdict"
-        if verdict is None:
-            return
-        if verdict not in (ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED):
-            verdict, why = ActionState.FAILED, f"check_action_status returned {verdict!r}"
-        self._stop_skills(t, verdict, why, "")
-
-    def _stop_skills(self, t: _Tracked, target: ActionState, reason: str, by: str) -> None:
-        """Interrupt the skills still running, then move to `target`."""
-        running = [r for r in t.refs if r is not None]
-        if not running:
-            t.stopping = _Stopping(target, reason, by)
-            self._stopped(t)
-            return
-        t.stopping = _Stopping(target, reason, by)
-        uuid, run = t.action.uuid, t.run
-        t.stopping.timer = threading.Timer(
-            self.layer.interrupt_timeout, self._tell_deadline, (uuid, run))
-        t.stopping.timer.daemon = True
-        t.stopping.timer.start()
-        for ref in running:
-            try:
-                ref.tell(Interrupt())
-            except pykka.ActorDeadError:
-                pass  # ended meanwhile: its SkillEnded is on the way
-
-    def _tell_deadline(self, uuid: str, run: int) -> None:
-        try:
-            self.actor_ref.tell(_StopDeadline(uuid, run))
-        except pykka.ActorDeadError:
-            pass
+        t.causes[msg.index] = msg.cause
+        self._feed(t, lc.SkillEnded(all_ended=all(r is None for r in t.refs)))
 
     def _deadline(self, msg: _StopDeadline) -> None:
         t = self.actions.get(msg.uuid)
-        if t is None or t.run != msg.run or t.stopping is None:
+        if t is None or t.run != msg.run or t.life.phase is not lc.Phase.STOPPING:
             return
-        for index, ref in enumerate(t.refs):
-            if ref is not None:
-                log.error("robot %s: skill %d of action %s ignored its interrupt for %.1fs; "
-                          "abandoned", self.robot, index, msg.uuid, self.layer.interrupt_timeout)
-                self.broker.release_token(f"{msg.uuid}/{msg.run}/{index}")
-                ref.stop(block=False)
-                t.refs[index], t.outcomes[index] = None, SkillOutcome.INTERRUPTED
-        self._stopped(t)
+        self._feed(t, lc.DeadlinePassed())
 
-    def _stopped(self, t: _Tracked) -> None:
-        """Every skill has ended: complete the pending stop."""
-        stop = t.stopping
-        assert stop is not None
-        if stop.timer:
-            stop.timer.cancel()
-        t.stopping = None
-        if stop.target is not ActionState.SUSPENDED:
-            self._end(t, stop.target, stop.reason)
-        elif stop.resume_after:
-            self._run(t, "")
-        else:
-            self._suspend_now(t, stop.reason, stop.by)
-
-    def _suspend_now(self, t: _Tracked, reason: str, by: str) -> None:
-        t.action.transition(ActionState.SUSPENDED, reason)
-        t.suspended_by = by
-        if not by.startswith("resource:"):  # only a pre-emption waits for its resource
-            self.broker.forget_action(t.action.uuid)
-        self.emit(t.action.copy(), by)
-
-    def _end(self, t: _Tracked, state: ActionState, reason: str) -> None:
-        t.action.transition(state, reason)
-        try:
-            self.layer.on_action_end(t.action.copy())
-        except Exception as exc:
-            log.error("robot %s: on_action_end(%s) raised %r", self.robot, t.action.uuid, exc)
-        self.emit(t.action.copy(), "")
-        self.broker.forget_action(t.action.uuid)
-        del self.actions[t.action.uuid]
-
-    # -- goal management and teleop ---------------------------------------------------------
     def _control(self, msg: Control) -> None:
+        """Apply a control once (mrss.actors.controls), then mark it applied."""
+        if msg.seq in self._replayed:
+            self._replayed.discard(msg.seq)
+            return  # applied by setup from the journal already
         t = self.actions.get(msg.uuid)
         if t is None:
-            log.info("robot %s: %s for %s ignored: not active", self.robot, msg.command, msg.uuid)
-            return
-        if msg.command in _END_OF:
-            target = _END_OF[msg.command]
-            reason = msg.reason or f"{msg.command} by goal management"
-            if t.stopping is None:
-                self._stop_skills(t, target, reason, msg.by)
-            elif t.stopping.target is ActionState.SUSPENDED:
-                t.stopping.target, t.stopping.reason = target, reason
-                t.stopping.resume_after = False
-        elif msg.command == "suspend":
-            self._suspend(t, msg.reason or f"suspended by {msg.by}", msg.by)
-        elif msg.command == "resume":
-            self._resume(t, msg.by)
+            log.info("robot %s: %s for %s ignored: not active", self.robot,
+                     msg.event.kind.value, msg.uuid)
         else:
-            log.warning("robot %s: unknown command %r", self.robot, msg.command)
-
-    def _suspend(self, t: _Tracked, reason: str, by: str) -> None:
-        stop = t.stopping
-        if t.action.state is ActionState.SUSPENDED:
-            if _rank(by) > _rank(t.suspended_by):  # a stronger cause now holds it
-                t.suspended_by, t.action.reason = by, reason
-                self.emit(t.action.copy(), by)
-        elif stop is not None:
-            if stop.target is ActionState.SUSPENDED:
-                stop.resume_after = False
-                if _rank(by) > _rank(stop.by):
-                    stop.by, stop.reason = by, reason
-        else:
-            self._stop_skills(t, ActionState.SUSPENDED, reason, by)
-
-    def _resume(self, t: _Tracked, by: str) -> None:
-        stop = t.stopping
-        if t.action.state is ActionState.SUSPENDED:
-            if by != BY_CONTROL and by != t.suspended_by:
-                return  # suspended for another reason, which still holds
-            if self.teleop:
-                t.suspended_by = BY_TELEOP  # resumes when the teleop ends
-                return
-            t.suspended_by = ""
-            self._run(t, f"resumed by {by}")
-        elif (stop is not None and stop.target is ActionState.SUSPENDED
-              and by in (BY_CONTROL, stop.by) and not self.teleop):
-            stop.resume_after = True
+            event = msg.event
+            if isinstance(event, lc.Resume):
+                event = lc.Resume(event.by, self.teleop)
+            self._feed(t, event)
+        if msg.seq:
+            self.host.claim_control(msg.seq)
 
     def _set_teleop(self, on: bool) -> None:
         if on == self.teleop:
@@ -384,6 +229,140 @@ class RobotActor(SupervisedActor):
         self.teleop = on
         for t in list(self.actions.values()):
             if on:
-                self._suspend(t, "robot in teleop", BY_TELEOP)
+                self._feed(t, lc.Suspend(lc.SuspendCause.TELEOP, "robot in teleop"))
             else:
-                self._resume(t, BY_TELEOP)
+                self._feed(t, lc.Resume(lc.SuspendCause.TELEOP, teleop=False))
+
+    # -- the lifecycle decides, this carries out --------------------------------------------
+    def _feed(self, t: _Tracked, event: lc.Event) -> None:
+        """Step the action's lifecycle and perform the effects, in order."""
+        try:
+            t.life, effects = lc.step(t.life, event)
+        except lc.IllegalEvent as exc:
+            log.error("robot %s: action %s: %s", self.robot, t.action.uuid, exc.reason)
+            return
+        for effect in effects:
+            if not self._perform(t, effect):
+                return  # the effect fed another event, which carried on
+
+    def _perform(self, t: _Tracked, effect: lc.Effect) -> bool:
+        """Carry out one effect; False when it fed a follow-up event instead."""
+        if isinstance(effect, lc.Run):
+            return self._run(t, effect.reason)
+        if isinstance(effect, lc.Interrupt):
+            return self._interrupt(t)
+        if isinstance(effect, lc.Check):
+            self._check(t)
+            return False
+        if isinstance(effect, lc.Abandon):
+            self._abandon_skills(t)
+        elif isinstance(effect, lc.ReleaseResources):
+            self.broker.forget_action(t.action.uuid)
+        elif isinstance(effect, lc.Announce):
+            t.action.reason = effect.reason
+            self.emit(t.action.copy(), effect.suspended_by or "")
+        elif isinstance(effect, lc.Publish):
+            self._publish(t, effect)
+        return True
+
+    def _run(self, t: _Tracked, reason: str) -> bool:
+        """Refine the action (again, from its progress) and start its skills."""
+        if t.timer:
+            t.timer.cancel()
+            t.timer = None
+        t.run += 1
+        snapshot = t.action.copy()
+        try:
+            skills = self.layer.refine_action(snapshot)
+            bad = [s for s in skills if not isinstance(s, Skill)]
+            if bad:
+                raise TypeError(f"refine_action returned non-skills {bad!r}")
+        except Exception as exc:
+            why = f"cannot refine {t.action.name}: {exc}"
+            log.warning("robot %s: action %s failed: %s", self.robot, t.action.uuid, why)
+            self._feed(t, lc.RefineFailed(
+                why, FailureCause.TRANSIENT if isinstance(exc, TransientError) else ""))
+            return False
+        # The skills start first (the robot moves sooner), RUNNING is journaled and
+        # published right after: whatever they report is handled after this method, so
+        # the statuses keep their order; a crash in between restores the action anyway.
+        t.refs, t.outcomes = [], [None] * len(skills)
+        t.reasons, t.causes = [""] * len(skills), [""] * len(skills)
+        for index, skill in enumerate(skills):
+            runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
+                                 self.actor_ref.tell, self.host.publish_sup)
+            t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
+        if t.action.state is not ActionState.RUNNING:
+            t.action.transition(ActionState.RUNNING, reason)
+            self.emit(t.action.copy(), "")
+        elif reason:  # restored while RUNNING: no transition, but say so
+            t.action.reason = reason
+            self.emit(t.action.copy(), "")
+        if not skills:
+            self._check(t)
+            return False
+        return True
+
+    def _check(self, t: _Tracked) -> None:
+        """Ask the project whether the action is over (default: AND of its skills)."""
+        all_ended = all(r is None for r in t.refs)
+        try:
+            verdict = self.layer.check_action_status(t.action.copy(), list(t.outcomes))
+        except Exception as exc:
+            verdict, why = ActionState.FAILED, f"check_action_status raised {exc!r}"
+        else:
+            why = next((r for r, o in zip(t.reasons, t.outcomes, strict=True)
+                        if o is not None and o is not SkillOutcome.SUCCEEDED), "")
+        if not isinstance(verdict, ActionState | None):
+            verdict, why = ActionState.FAILED, f"check_action_status returned {verdict!r}"
+        cause = next((c for c in t.causes if c), "")
+        self._feed(t, lc.Verdict(verdict, why, cause, all_ended))
+
+    def _interrupt(self, t: _Tracked) -> bool:
+        """Interrupt the skills still running; with none, the stop is complete."""
+        running = [r for r in t.refs if r is not None]
+        if not running:
+            self._feed(t, lc.Stopped())
+            return False
+        uuid, run = t.action.uuid, t.run
+        t.timer = threading.Timer(self.layer.interrupt_timeout, self._tell_deadline, (uuid, run))
+        t.timer.daemon = True
+        t.timer.start()
+        for ref in running:
+            try:
+                ref.tell(Interrupt())
+            except pykka.ActorDeadError:
+                pass  # ended meanwhile: its SkillEnded is on the way
+        return True
+
+    def _tell_deadline(self, uuid: str, run: int) -> None:
+        try:
+            self.actor_ref.tell(_StopDeadline(uuid, run))
+        except pykka.ActorDeadError:
+            pass
+
+    def _abandon_skills(self, t: _Tracked) -> None:
+        for index, ref in enumerate(t.refs):
+            if ref is not None:
+                log.error("robot %s: skill %d of action %s ignored its interrupt for %.1fs; "
+                          "abandoned", self.robot, index, t.action.uuid,
+                          self.layer.interrupt_timeout)
+                self.broker.release_token(f"{t.action.uuid}/{t.run}/{index}")
+                ref.stop(block=False)
+                t.refs[index], t.outcomes[index] = None, SkillOutcome.INTERRUPTED
+
+    def _publish(self, t: _Tracked, effect: lc.Publish) -> None:
+        if t.timer:
+            t.timer.cancel()
+            t.timer = None
+        t.action.transition(effect.state, effect.reason, effect.cause)
+        if effect.state.terminal:
+            try:
+                self.layer.on_action_end(t.action.copy())
+            except Exception as exc:
+                log.error("robot %s: on_action_end(%s) raised %r", self.robot,
+                          t.action.uuid, exc)
+        self.emit(t.action.copy(), effect.suspended_by or "")
+        if effect.state.terminal:
+            self.broker.forget_action(t.action.uuid)
+            del self.actions[t.action.uuid]

@@ -3,8 +3,14 @@
 `run` may block on a robot link, so the actor never calls it on its own thread: the
 worker drives START -> RUN -> FINISH and reports, while the actor stays free to take an
 `Interrupt` (set the flag, move to INTERRUPT, call `terminate()`), even if `run` never
-returns. A skill that raises is restarted from START up to its `max_restarts`, then fails
-with the exception's message; nothing escapes to the robot actor.
+returns. Nothing a skill raises escapes to the robot actor.
+
+Skill restarts follow the supervision policy (mrss.supervision.policy.RestartPolicy),
+with the skill as the one child of a supervisor `robots/<robot>`: a skill that raises is
+started again from START after the policy's backoff (with jitter), at most
+`max_restarts` times within `restart_period` seconds; one more crash escalates: the
+skill fails with the exception's message, and so its action. Every restart is a
+`sup.restart` event, the escalation a `sup.escalate` event (detail: the action's uuid).
 """
 
 from __future__ import annotations
@@ -19,12 +25,19 @@ import pykka
 
 from mrss.actors.resources import Holder, ResourceBroker
 from mrss.api import Action, Skill, SkillInterrupted, SkillOutcome, SkillState
-from mrss.messages import JsonValue
+from mrss.errors import TransientError
+from mrss.messages import FailureCause, JsonValue
+from mrss.supervision.events import ESCALATE, RESTART, SupEvents
+from mrss.supervision.policy import Action as Verdict
+from mrss.supervision.policy import RestartPolicy
+from mrss.supervision.reason import Cause, ExitReason
+from mrss.supervision.spec import Backoff, ChildSpec, OnExceeded, SupervisorSpec
 from mrss.supervision.threads import ACTOR_THREADS
 
 log = logging.getLogger("mrss.rcl.skill")
 
-RESTART_BACKOFF = 0.05  # seconds before the first restart; doubles, capped at 2 s
+#: A crash-looping skill waits 0.05 s before its second restart, doubling up to 2 s.
+SKILL_BACKOFF = Backoff(initial=0.05, factor=2.0, cap=2.0, jitter=0.2)
 
 
 @dataclass(frozen=True)
@@ -36,6 +49,7 @@ class SkillEnded:
     index: int
     outcome: SkillOutcome
     reason: str
+    cause: str = ""  # FailureCause.TRANSIENT when it failed on a TransientError
 
 
 @dataclass(frozen=True)
@@ -65,14 +79,17 @@ class SkillRunner:
     """The runtime a skill sees (mrss.api.SkillRuntime): link, flag, progress, resources."""
 
     def __init__(self, action: Action, run: int, index: int, link: Any,
-                 broker: ResourceBroker, report: Report) -> None:
+                 broker: ResourceBroker, report: Report,
+                 publish: Callable[[Any], object] | None = None) -> None:
         self.action = action
+        self.publish = publish  # where the skill's sup.* events go
         self.link = link
         self.run = run
         self.index = index
         self.interrupt_event = threading.Event()
         self.lock = threading.Lock()
         self.token = f"{action.uuid}/{run}/{index}"
+        self.cause = ""  # of the last attempt: "transient" after a TransientError
         self._broker = broker
         self._report = report
 
@@ -122,7 +139,8 @@ class SkillActor(pykka.ThreadingActor):
         elif isinstance(message, _WorkerDone):
             try:
                 self.report(SkillEnded(self.runner.action.uuid, self.runner.run,
-                                       self.runner.index, message.outcome, message.reason))
+                                       self.runner.index, message.outcome, message.reason,
+                                       self.runner.cause))
             except pykka.ActorDeadError:
                 log.info("skill %s ended after its robot actor stopped", self.runner.token)
             self.stop()
@@ -156,20 +174,43 @@ class SkillActor(pykka.ThreadingActor):
             log.info("skill %s ended after being abandoned (%s)", self.runner.token, outcome)
 
 
+def restart_policy(skill: Skill) -> RestartPolicy:
+    """The policy deciding a skill's restarts: it alone, its `max_restarts` within its
+    `restart_period`, escalation beyond (the action fails)."""
+    spec = SupervisorSpec(intensity=max(0, int(skill.max_restarts)),
+                          period=float(skill.restart_period), backoff=SKILL_BACKOFF,
+                          on_exceeded=OnExceeded.ESCALATE)
+    return RestartPolicy(spec, [ChildSpec(_child_id(skill), start=None)])
+
+
+def _child_id(skill: Skill) -> str:
+    return skill.name
+
+
 def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
-    """Run the skill's state machine to FINISH on this thread; return outcome and reason."""
-    restarts = 0
+    """Run the skill's state machine to FINISH on this thread; return outcome and reason.
+
+    A crash is decided by the skill's RestartPolicy (see the module docstring)."""
+    policy, child = restart_policy(skill), _child_id(skill)
+    events = SupEvents(f"robots/{runner.action.robot}", runner.publish, log)
     while True:
+        policy.child_started(child)
         outcome, reason, crashed = _attempt(skill, runner)
-        if crashed and restarts < skill.max_restarts and not runner.interrupt_event.is_set():
-            restarts += 1
-            log.warning("skill %s: %s; restart %d of %d", skill.name, reason, restarts,
-                        skill.max_restarts)
+        if crashed and not runner.interrupt_event.is_set():
+            decision = policy.child_exited(child, ExitReason(Cause.CRASHED, reason))
+            if decision.action is not Verdict.RESTART:
+                events.emit(ESCALATE, child, reason=reason, count=decision.count,
+                            note=decision.note, action=runner.action.uuid,
+                            index=runner.index)
+                return _finish(skill, runner, outcome, reason)
+            events.emit(RESTART, child, reason=reason, count=decision.count,
+                        delay=round(decision.delay, 3), action=runner.action.uuid,
+                        index=runner.index)
             _finish(skill, runner, SkillOutcome.FAILED, reason)
             runner.release_all()
             with runner.lock:
                 skill._set_state(SkillState.START)
-            if runner.interrupt_event.wait(min(2.0, RESTART_BACKOFF * 2 ** (restarts - 1))):
+            if runner.interrupt_event.wait(decision.delay):
                 with runner.lock:
                     if skill.state is SkillState.START:
                         skill._set_state(SkillState.INTERRUPT)
@@ -182,6 +223,7 @@ def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
 def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
     """One pass START -> RUN -> FINISH; (outcome, reason, crashed)."""
     outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False
+    runner.cause = ""
     try:
         for resource in skill.resources:
             skill.acquire(resource)
@@ -198,6 +240,8 @@ def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool
     except Exception as exc:
         outcome, crashed = SkillOutcome.FAILED, True
         reason = f"{skill.name} raised {type(exc).__name__}: {exc}"
+        if isinstance(exc, TransientError):
+            runner.cause = FailureCause.TRANSIENT
     with runner.lock:
         if skill.state is SkillState.INTERRUPT:
             outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False

@@ -1,8 +1,16 @@
 """The embedded world model component: SQLite objects, project rules, bus and HTTP access.
 
-Rules' literals are published as percepts. The data layer reaches the world model with
+Rules' literals are percepts, sent on the reliable channel "percept" with a copy on the
+`percept` topic (`mrss.edge.percept_channel`). The data layer reaches the world model with
 requests on `dl.request.wm` (see `mrss.edge.worldmodel_service`); user interfaces use the
 HTTP JSON API on loopback, whose URL is logged and written to `<run_dir>/worldmodel.url`.
+
+The HTTP port is stable across incarnations: with `http_port = 0` the first incarnation
+of a run binds a free port and records it in `<run_dir>/worldmodel.url`; each later one
+binds that port again (SO_REUSEADDR), so clients that kept the URL reconnect. Only if
+the port was taken meanwhile does it pick a new one and rewrite the file. The file stays
+when the component stops. Clients should still look the URL up per call
+(`mrss.edge.worldmodel_access.WorldModelClient`, `ExternalAdapter.world_model()`).
 
 project.toml:
     [worldmodel]
@@ -19,12 +27,16 @@ The `[components.<id>]` free keys of this component are laid over `[worldmodel]`
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
+from urllib.parse import urlsplit
 
+from mrss.config import Check, Option
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
+from mrss.edge.percept_channel import PerceptChannel
+from mrss.edge.worldmodel_access import WORLD_MODEL_URL_FILE
 from mrss.edge.worldmodel_http import WorldModelHttp
 from mrss.edge.worldmodel_rules import RuleEngine
 from mrss.edge.worldmodel_service import (
@@ -40,7 +52,38 @@ from mrss.messages import DataRequest, Envelope, Percept
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.worldmodel")
-URL_FILE = "worldmodel.url"
+URL_FILE = WORLD_MODEL_URL_FILE
+PerceptSend = Callable[[Percept], object]
+
+
+def recorded_port(run_dir: Path | None, host: str) -> int:
+    """The port an earlier incarnation of this run served on (0: none recorded)."""
+    if run_dir is None:
+        return 0
+    try:
+        parts = urlsplit((run_dir / URL_FILE).read_text(encoding="utf-8").strip())
+        port = parts.port
+    except (OSError, ValueError):
+        return 0
+    return port if port and parts.hostname == host else 0
+
+
+def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None) -> WorldModelHttp:
+    """The HTTP API on `port`, or (0) on the port recorded by an earlier incarnation,
+    or a free one; the URL is recorded in the run folder."""
+    wanted = port or recorded_port(run_dir, host)
+    try:
+        http = WorldModelHttp(world, host, wanted)
+    except OSError as exc:
+        if port or not wanted:
+            raise
+        log.warning("world model port %d is taken (%s); serving on a new one", wanted, exc)
+        http = WorldModelHttp(world, host, 0)
+    if run_dir is not None:
+        partial = run_dir / (URL_FILE + ".tmp")
+        partial.write_text(http.url + "\n", encoding="utf-8")
+        partial.replace(run_dir / URL_FILE)
+    return http
 
 
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
@@ -56,27 +99,47 @@ def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
 class WorldModelComponent(Component):
     """Component: the world model, its rules, its bus functions and its HTTP API."""
 
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    SECTION: ClassVar[str] = "worldmodel"  # read from [worldmodel], under its own table's keys
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("path", str, "worldmodel.sqlite",
+               "database file in the run folder, or \":memory:\""),
+        Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
+        Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
+        Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),
+        Option("http", bool, True, "serve the HTTP API"),
+        Option("http_host", str, "127.0.0.1", "address of the HTTP API"),
+        Option("http_port", int, 0, "port of the HTTP API (0: a free one, kept across restarts)",
+               Check.PORT),
+    )
+
     def __init__(self) -> None:
         self.world: WorldModel | None = None
         self.http: WorldModelHttp | None = None
         self._bus: BusPort | None = None
-        self._url_file: Path | None = None
+        self._percepts: PerceptChannel | None = None
 
     def start(self, ctx: ComponentContext) -> None:
-        """Component entry: bus from the context, then `run`."""
+        """Component entry: bus and percept channel from the context, then `run`."""
         bus = bus_port(ctx)
-        self.run(ctx.project_dir, ctx.run_dir, edge_config(ctx, "worldmodel"), bus)
+        self._percepts = PerceptChannel.for_component(ctx)
+        self.run(ctx.project_dir, ctx.run_dir, edge_config(ctx, "worldmodel"), bus,
+                 percepts=self._percepts.send)
         bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path | None, run_dir: Path | None, config: Mapping[str, Any],
-            bus: BusPort) -> None:
-        """Open the store, load rules and seed, serve the bus and (optionally) HTTP."""
+            bus: BusPort, *, percepts: PerceptSend | None = None) -> None:
+        """Open the store, load rules and seed, serve the bus and (optionally) HTTP.
+
+        Rules' percepts go to `percepts` (default: published on `bus`).
+        """
         section = table(config, "worldmodel")
         rules = RuleEngine(load_rules(project_dir, section))
         self._bus = bus
+        send: PerceptSend = percepts or bus.publish
 
         def emit(text: str) -> None:
-            bus.publish(Percept(literal=text))
+            send(Percept(literal=text))
 
         self.world = WorldModel(WorldModelStore(store_path(run_dir, section)), rules, emit)
         seeded = load_seed(self.world, project_dir, section)
@@ -87,11 +150,8 @@ class WorldModelComponent(Component):
             if not isinstance(host, str) or not isinstance(port, int):
                 raise ConfigError("http_host must be a string and http_port an integer",
                                   key="worldmodel.http_port")
-            self.http = WorldModelHttp(self.world, host, port)
+            self.http = serve_http(self.world, host, port, run_dir)
             self.http.start()
-            if run_dir is not None:
-                self._url_file = run_dir / URL_FILE
-                self._url_file.write_text(self.http.url + "\n")
         log.info("world model up: %d rules, %d seeded objects, HTTP %s", len(rules.rules),
                  seeded, self.http.url if self.http else "off")
 
@@ -106,9 +166,10 @@ class WorldModelComponent(Component):
         """Stop HTTP and the bus handlers, close the store."""
         if self.http is not None:
             self.http.stop()
-        if self._url_file is not None:
-            self._url_file.unlink(missing_ok=True)
         if self._bus is not None:
             self._bus.close()
+        if self._percepts is not None:
+            self._percepts.flush(1.0)
+            self._percepts.close()
         if self.world is not None:
             self.world.store.close()

@@ -113,12 +113,13 @@ class Agent(Runtime):
         self._put(("!", parse_literal(literal), None, None))
 
     def complete_action(self, handle: Hashable, success: bool, reason: str | None = None,
-                        result: str | Struct | None = None) -> None:
+                        result: str | Struct | None = None, error: str | None = None) -> None:
         """The host reports the outcome of the action it returned `handle` for. For an
         action the host lists in `open_actions`, `result` is unified with the action
-        literal (a mismatch fails the action)."""
+        literal (a mismatch fails the action). A failure posts `-!g[error(E)]` with `error`
+        as E (an atom naming the cause, as Jason's failure reason), else `action_failed`."""
         res = parse_literal(result) if isinstance(result, str) else result
-        self._put(("done", handle, success, (reason, res)))
+        self._put(("done", handle, success, (reason, res, error)))
 
     # ------------------------------------------------------------------ the cycle
     def _drain(self) -> None:
@@ -127,7 +128,7 @@ class Agent(Runtime):
             self._inbox.clear()
         for kind, a, b, c in items:
             if kind == "done":
-                self.completed.append((a, b, c[0], c[1]))
+                self.completed.append((a, b, c[0], c[1], c[2]))
             elif kind == "+":
                 lit = a if any(x == SOURCE_PERCEPT for x in a.annots) else \
                     Struct(a.functor, a.args, a.annots + (SOURCE_PERCEPT,), a.neg)

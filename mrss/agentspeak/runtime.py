@@ -34,6 +34,8 @@ from mrss.agentspeak.registry import IAContext, InternalAction, Registry
 from mrss.agentspeak.terms import (
     ADD_ACH,
     DEL_ACH,
+    DEL_BEL,
+    SOURCE_PERCEPT,
     Struct,
     Term,
     term_str,
@@ -75,12 +77,16 @@ class Runtime:
         self.runq: deque[Intention] = deque()
         self.intentions: dict[int, Intention] = {}
         self.pending_actions: dict[Hashable, Intention] = {}
-        self.completed: deque[tuple[Hashable, bool, str | None, Term | None]] = deque()
+        self.completed: deque[tuple[Hashable, bool, str | None, Term | None, str | None]] = \
+            deque()
         self.open_actions: frozenset[str] = frozenset(getattr(host, "open_actions", ()))
         self.timers: list[tuple[float, int, Intention, int]] = []
         self.event_waiters: list[Intention] = []
         self.atomic: Intention | None = None
         self.cycle = 0
+        # told when a belief stops being perceived (its source(percept) is gone), by a
+        # percept removal or by the agent's own plans: the reasoner's percept ledger
+        self.on_percept_gone: Callable[[Struct], None] | None = None
         self._ids = itertools.count(1)
         self._seq = itertools.count()
 
@@ -132,6 +138,11 @@ class Runtime:
     def belief_changed(self, op: int, lit: Struct, it: Intention | None) -> None:
         """Post `+b`/`-b` if some plan or `.wait` could react; a body's own belief event
         is handled on top of its intention before its next step."""
+        if op == DEL_BEL and self.on_percept_gone is not None:
+            store = self.bb.store((lit.functor, len(lit.args), lit.neg))
+            held = store.get(lit.args) if store is not None else None
+            if held is None or SOURCE_PERCEPT not in held.annots:
+                self.on_percept_gone(lit)
         if self.plans.has(op, (lit.functor, len(lit.args), lit.neg)):
             if it is not None:
                 it.state = PENDING_EVENT
@@ -261,7 +272,7 @@ class Runtime:
         self.pending_actions[handle] = it
 
     def process_completion(self, handle: Hashable, ok: bool, reason: str | None,
-                           result: Term | None = None) -> None:
+                           result: Term | None = None, error: str | None = None) -> None:
         it = self.pending_actions.pop(handle, None)
         if it is None or it.dropped:
             return  # dropped or unknown: late feedback is ignored
@@ -275,8 +286,8 @@ class Runtime:
         else:
             im = it.stack[-1]
             it.state = RUNNABLE
-            goals.fail(self, it, "action_failed", f"action failed: {reason or 'failure'}",
-                       im.plan.file, it.line)
+            goals.fail(self, it, error or "action_failed",
+                       f"action failed: {reason or 'failure'}", im.plan.file, it.line)
 
     def cancel_action(self, it: Intention) -> None:
         handle = it.action

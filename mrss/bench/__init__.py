@@ -8,4 +8,5 @@ BENCHES: dict[str, str] = {
     "reasoner": "AgentSpeak interpreter throughput vs python-agentspeak",
     "e2e": "latency from percept to the first skill start",
     "edges": "data layer calls and MQTT -> percept latency through the edge components",
+    "journal": "action journal actions/s with and without fsync; size over a 24 h soak",
 }

@@ -11,6 +11,9 @@ new incarnation has reported ready and answered a ping over its control socket.
 Actor row: a handler raises inside a supervised actor; the clock stops when the
 replacement actor answers a call. Failures are spaced out as in production
 (`healthy_after = 0`), so each restart is the immediate first one, without backoff.
+Repeated-fault rows (mrss/bench/restart_chaos.py): the shipped wildfire project under
+`mrss supervise`, a seeded random component SIGKILLed every 0.5-1.5 s, its flags as
+shipped (backoff, healthy_after); SIGKILL -> the root's start of the next incarnation.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from typing import Any
 import pykka
 
 from mrss.bench.report import BenchReport
+from mrss.bench.restart_chaos import chaos_restarts
 from mrss.bench.restart_peers import PHASES, Answer, bus_restarts
 from mrss.messages import Message, SupEvent
 from mrss.supervision.actors import ActorSupervisor, actor_child
@@ -178,6 +182,7 @@ def run(quick: bool) -> BenchReport:
     load = os.getloadavg()
     bus_fork = bus_restarts(15 if quick else 100, "fork")
     bus_exec = bus_restarts(5 if quick else 30, "exec")
+    chaos = chaos_restarts(15 if quick else 60)
     tune_interpreter()  # as component_main does: actors run inside a component
     with _logs_to_devnull():
         fork = process_restarts(15 if quick else 100, "fork")
@@ -194,6 +199,14 @@ def run(quick: bool) -> BenchReport:
         ms = [s * 1000 for s in samples]
         report.add_row(label, len(ms), percentile(ms, 50), percentile(ms, 99), max(ms),
                        sum(ms) / len(ms))
+    every = [s * 1000 for samples in chaos.values() for s in samples]
+    report.add_row("wildfire, a random kill every 0.5-1.5 s: SIGKILL -> next start (all)",
+                   len(every), percentile(every, 50), percentile(every, 99), max(every),
+                   sum(every) / len(every))
+    for child in sorted(chaos):
+        ms = [s * 1000 for s in chaos[child]]
+        report.add_row(f"  ... {child}", len(ms), percentile(ms, 50), percentile(ms, 99),
+                       max(ms), sum(ms) / len(ms))
     report.check("process restart p50 <= 150 ms (on the bus, fork server)",
                  percentile(bus_fork_s, 50) <= 0.150)
     report.check("process restart p99 <= 300 ms (on the bus, fork server)",
@@ -211,6 +224,12 @@ def run(quick: bool) -> BenchReport:
         "the rows include that wait and up to one ping interval (1 ms)")
     report.notes.append(f"where the time goes, p50 ms (fork server): {_phases(bus_fork)}")
     report.notes.append(f"where the time goes, p50 ms (exec): {_phases(bus_exec)}")
+    report.notes.append(
+        "repeated faults: the shipped wildfire project (MRSS_SIM_SPEEDUP=20) under `mrss "
+        "supervise`, shipped flags; a seeded random running component SIGKILLed every "
+        "0.5-1.5 s; SIGKILL -> the root's `start` log line of the next incarnation (ms "
+        "clock), so the time includes exit detection, backoff, fork and the component's "
+        "own start until ready (startup_ms in sup.start)")
     report.notes.append(
         "control channel: in-process root; the new incarnation reported ready and answered "
         "a ping over its control socket (socketpair), no bus involved")

@@ -14,11 +14,12 @@ See docs/bus.md.
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.forwarder import ProxyThread, run_proxy
 from mrss.bus.publisher import Publisher
-from mrss.bus.reliable_receiver import ReliableReceiver
+from mrss.bus.reliable_receiver import NotHandled, ReliableReceiver
 from mrss.bus.reliable_sender import ReliableSender
 from mrss.bus.subscriber import Subscriber
 
 __all__ = [
-    "BusEndpoints", "ProxyThread", "Publisher", "ReliableReceiver", "ReliableSender",
+    "BusEndpoints", "NotHandled", "ProxyThread", "Publisher", "ReliableReceiver",
+    "ReliableSender",
     "Subscriber", "run_proxy",
 ]

@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.proxy import ProxyThread
+from mrss.config import Check, Option
 from mrss.errors import ConfigError
 from mrss.supervision.component import Component, ComponentContext
 
 
 class ProxyComponent(Component):
     """Runs the XSUB/XPUB proxy on the endpoints the supervisor hands every component."""
+
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = ()
 
     def __init__(self) -> None:
         self._proxy: ProxyThread | None = None
@@ -24,6 +28,16 @@ class ProxyComponent(Component):
     def stop(self) -> None:
         if self._proxy is not None:
             self._proxy.stop()
+
+
+#: The keys of `[bus]` (read by endpoints_from_config; `mrss check` validates them).
+BUS_OPTIONS: tuple[Option, ...] = (
+    Option("transport", str, "ipc", "ipc: sockets in the run folder; tcp: host and ports",
+           choices=("ipc", "tcp")),
+    Option("host", str, "127.0.0.1", "tcp: the proxy's address"),
+    Option("frontend_port", int, None, "tcp: the port publishers connect to", Check.PORT),
+    Option("backend_port", int, None, "tcp: the port subscribers connect to", Check.PORT),
+)
 
 
 def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = ""

@@ -33,6 +33,7 @@ FLUSH_IDLE = 50e-6  # the flusher sends a held batch once publishing paused this
 # Subscription notices from the proxy queue up on our XPUB socket; read them now and then.
 _DRAIN_EVERY = 512
 _SNDMORE = int(zmq.SNDMORE)
+_WATCHED = 256  # subscription notices kept for `subscriptions()`
 
 
 class Publisher:
@@ -47,13 +48,16 @@ class Publisher:
 
     The socket is an XPUB connected to the proxy's XSUB, so the publisher can tell when
     the proxy has subscribed to it (`wait_connected`): a short-lived sender such as
-    `mrss send` waits for that before its one message.
+    `mrss send` waits for that before its one message. With `watch_subscriptions` it
+    also reports every subscription the proxy passes on, repeats included
+    (`subscriptions()`): the root supervisor learns so when a subscriber of its events
+    has joined a restarted proxy.
     """
 
     def __init__(
         self, endpoints: BusEndpoints, src: str, inc: int = 0, *,
         hwm: int = sockets.DEFAULT_HWM, linger: float = 1.0, batching: bool = True,
-        context: sockets.Context | None = None,
+        context: sockets.Context | None = None, watch_subscriptions: bool = False,
     ) -> None:
         self.src = src
         self.inc = inc
@@ -76,6 +80,10 @@ class Publisher:
         self._wake = threading.Condition(self._lock)
         self._held: deque[tuple[bytes, ...]] = deque(maxlen=hwm)
         self._joiner: threading.Thread | None = None
+        self._watch = watch_subscriptions
+        self._subscribed: deque[bytes] = deque(maxlen=_WATCHED)
+        if watch_subscriptions:  # repeats too: a restarted proxy subscribes again
+            self._sock.setsockopt(zmq.XPUB_VERBOSE, 1)
 
     def publish(self, msg: Message, topic: str | None = None) -> str:
         """Send `msg` on `topic` (default: the message's own topic); return its id."""
@@ -215,6 +223,17 @@ class Publisher:
                 return
             if notice[:1] == b"\x01":
                 self._connected = True
+                if self._watch:
+                    self._subscribed.append(notice[1:])
+
+    def subscriptions(self) -> list[str]:
+        """Topic prefixes subscribed through the proxy since the last call (with
+        `watch_subscriptions`; "" is the proxy itself taking everything)."""
+        with self._lock:
+            self._drain_subscriptions(self._socket())
+            found = [t.decode("utf-8", "replace") for t in self._subscribed]
+            self._subscribed.clear()
+        return found
 
     def _hold(self, frames: tuple[bytes, ...], sock: sockets.Socket) -> bool:
         """Hold `frames` while the proxy has not subscribed yet (lock held); False if it has."""

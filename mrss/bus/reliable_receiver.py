@@ -4,7 +4,8 @@ Per sender session the receiver keeps a watermark (everything up to it has been
 handled) and the out-of-order messages above it (at most a window's worth). A message
 at or below the watermark is a repeat: it is acknowledged again but not handled.
 Messages are handled in sequence order, and every batch read from the socket is
-answered with one cumulative ack per session.
+answered with one cumulative ack per session. A handler that cannot take a message now
+raises `NotHandled`: it is not acknowledged, and offered again when its sender repeats it.
 
 Memory stays bounded: sessions unheard of for `session_ttl` seconds are forgotten (and
 at most `max_sessions` are kept), and the ids of the last `id_memory` handled messages
@@ -47,11 +48,18 @@ class _Session:
         self.last_seen = now
 
 
+class NotHandled(Exception):
+    """Raised by a handler that could not take a message now (its journal cannot be
+    written, say): the message is not acknowledged, the sender repeats it, and it is
+    offered to the handler again (with everything after it from that sender)."""
+
+
 class ReliableReceiver:
     """Calls `handler(env)` once per message id sent on `channel`, on its own thread.
 
     The handler's exceptions are logged; the message still counts as handled (it is not
-    run again). `handled` counts handler calls; `close()` stops the thread.
+    run again) — except `NotHandled`, which leaves it unacknowledged, to be offered again
+    when its sender repeats it. `handled` counts handler calls; `close()` stops the thread.
     """
 
     def __init__(
@@ -70,6 +78,8 @@ class ReliableReceiver:
         self._recent_ids: OrderedDict[str, None] = OrderedDict()
         self._drops = sockets.DropLog(f"reliable receiver {channel!r}")
         self.handled = 0
+        self.held_back = 0  # NotHandled answers: messages left for their sender to repeat
+        self._held_logged = 0.0
         ctx = sockets.context(context)
         self._sub = sockets.connect(ctx, zmq.SUB, endpoints.backend)
         self._sub.setsockopt(zmq.SUBSCRIBE, wire.data_topic(channel))
@@ -135,8 +145,11 @@ class ReliableReceiver:
             for old in [s for s in state.waiting if s < base]:
                 del state.waiting[old]
             state.watermark = base - 1
-        if seq <= state.watermark or seq in state.waiting:
+        if seq <= state.watermark:
             return  # a repeat: acknowledged again below, never handled twice
+        if seq in state.waiting:  # held back (NotHandled) or out of order: try again
+            self._deliver_in_order(state)
+            return
         if seq - state.watermark > MAX_AHEAD:
             return
         try:
@@ -159,19 +172,27 @@ class ReliableReceiver:
 
     def _deliver_in_order(self, state: _Session) -> None:
         while state.watermark + 1 in state.waiting:
+            env = state.waiting[state.watermark + 1]
+            if env is not None and env.id not in self._recent_ids:
+                try:
+                    self._handler(env)
+                except NotHandled as exc:  # not acknowledged: offered again on a repeat
+                    self.held_back += 1
+                    now = time.monotonic()
+                    if now - self._held_logged >= 1.0:  # at most a line a second
+                        self._held_logged = now
+                        log.warning("channel %r: message %s held back (%d so far): %s",
+                                    self.channel, env.id, self.held_back, exc)
+                    return
+                except Exception:
+                    log.exception("channel %r: handler failed on message %s", self.channel,
+                                  env.id)
+                self.handled += 1
+                self._recent_ids[env.id] = None
+                if len(self._recent_ids) > self._id_memory:
+                    self._recent_ids.popitem(last=False)
             state.watermark += 1
-            env = state.waiting.pop(state.watermark)
-            if env is None or env.id in self._recent_ids:
-                continue
-            self._recent_ids[env.id] = None
-            if len(self._recent_ids) > self._id_memory:
-                self._recent_ids.popitem(last=False)
-            self.handled += 1
-            try:
-                self._handler(env)
-            except Exception:
-                log.exception("channel %r: handler failed on message %s", self.channel,
-                              env.id)
+            del state.waiting[state.watermark]
 
     def _expire_sessions(self, now: float) -> None:
         while self._sessions:

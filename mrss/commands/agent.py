@@ -1,8 +1,18 @@
-"""`mrss agent FILE.asl [--max-time S]`: run one AgentSpeak agent with a console host.
+"""`mrss agent FILE.asl`: run one AgentSpeak agent without the system.
+
+    mrss agent FILE.asl [--max-time S] [--name NAME] [--percept LIT ...] [--answer F=TERM ...]
+    mrss agent FILE.asl --stdin < script.txt     # percepts and outcomes, one per line
 
 `.print` lines and environment actions go to stdout; warnings (failed intentions) to
-stderr. Exit 0 once the agent is idle, 1 if it is still busy after `--max-time`
-seconds, 2 on syntax errors or an unreadable file.
+stderr. Without `--stdin` every action succeeds at once (`action: LIT`) and a
+`query(F, Args, R)` is answered from `--answer F=TERM` (else it fails). With `--stdin`
+actions stay open (`action N: LIT`) until the script ends them; the line protocol is
+mrss.commands.agent_script (docs/agentspeak.md, "Running an agent").
+
+Exit 0 once the agent is idle (with `--stdin`: at the end of the script, with no action
+left open), 1 if it is still busy after `--max-time` seconds or actions are left open,
+2 on syntax errors, an unreadable file, a bad `--percept`/`--answer`, or a rejected
+script line (the rest of the script still runs).
 """
 
 from __future__ import annotations
@@ -10,11 +20,17 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import time
 from pathlib import Path
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.errors import AslSyntaxError
-from mrss.agentspeak.host import ConsoleHost, run_standalone
+from mrss.agentspeak.host import run_standalone
+from mrss.agentspeak.parser import parse_literal
+from mrss.agentspeak.scripted import ScriptedHost
+from mrss.commands.agent_script import AgentScript, ScriptLineError, parse_value
+
+EXIT_BUSY, EXIT_BAD = 1, 2
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -22,11 +38,28 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-time", type=float, default=None, metavar="S",
                         help="give up (exit 1) if the agent is not idle after S seconds")
     parser.add_argument("--name", default=None, help="agent name (default: the file's stem)")
+    parser.add_argument("--percept", action="append", default=[], metavar="LIT",
+                        help="perceive LIT before reasoning (repeatable)")
+    parser.add_argument("--answer", action="append", default=[], metavar="F=TERM",
+                        help="answer every query(F, Args, R) with R = TERM (repeatable)")
+    parser.add_argument("--stdin", action="store_true",
+                        help="read percepts and action outcomes from stdin, one per line; "
+                             "actions stay open until a line ends them")
 
 
 def _line(text: str) -> None:
     sys.stdout.write(text + "\n")
     sys.stdout.flush()
+
+
+def _answers(pairs: list[str]) -> dict[str, str]:
+    answers: dict[str, str] = {}
+    for pair in pairs:
+        function, sep, term = pair.partition("=")
+        if not sep or not function.strip():
+            raise ValueError(f"--answer {pair!r}: expected FUNCTION=TERM")
+        answers[function.strip()] = parse_value(term)
+    return answers
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,15 +69,58 @@ def run(args: argparse.Namespace) -> int:
         source = path.read_text(encoding="utf-8")
     except OSError as exc:
         print(f"mrss agent: cannot read {path}: {exc.strerror or exc}", file=sys.stderr)
-        return 2
-    host = ConsoleHost(_line)
+        return EXIT_BAD
+    try:
+        answers = _answers(args.answer)
+        for lit in args.percept:
+            parse_literal(lit)
+    except (ValueError, AslSyntaxError) as exc:  # ScriptLineError is a ValueError
+        print(f"mrss agent: {exc}", file=sys.stderr)
+        return EXIT_BAD
+    numbered = bool(args.stdin)
+    host = ScriptedHost(
+        hold=numbered, on_cancel=lambda n, text: _line(f"cancel {n}: {text}"),
+        on_action=lambda n, text: _line(f"action {n}: {text}" if numbered else f"action: {text}"))
     try:
         agent = Agent(source, file=str(path), host=host, name=args.name or path.stem, out=_line)
     except AslSyntaxError as exc:
         print(str(exc), file=sys.stderr)
-        return 2
+        return EXIT_BAD
     host.agent = agent
-    if run_standalone(agent, args.max_time):
-        return 0
-    print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
-    return 1
+    for function, term in answers.items():
+        host.answer_terms[function] = term
+    for lit in args.percept:
+        agent.add_percept(lit)
+    if not args.stdin:
+        if run_standalone(agent, args.max_time):
+            return 0
+        print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
+        return EXIT_BUSY
+    return _run_script(agent, host, args.max_time)
+
+
+def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int:
+    script = AgentScript(agent, host, _line)
+    agent.run_until_idle()
+    rejected = 0
+    for number, line in enumerate(sys.stdin, start=1):
+        try:
+            script.apply(line)
+        except ScriptLineError as exc:
+            rejected += 1
+            print(f"stdin:{number}: {exc}", file=sys.stderr)
+    start = time.monotonic()
+    while agent.next_deadline() is not None or agent.has_work():  # timers still to fire
+        waited = time.monotonic() - start
+        if max_time is not None and waited >= max_time:
+            print(f"mrss agent: still busy after {max_time:g} s", file=sys.stderr)
+            return EXIT_BUSY
+        agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))
+        agent.run_until_idle()
+    if rejected:
+        return EXIT_BAD
+    if host.open:
+        for handle, text in host.open.items():
+            print(f"mrss agent: action {handle} still open: {text}", file=sys.stderr)
+        return EXIT_BUSY
+    return 0

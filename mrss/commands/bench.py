@@ -1,4 +1,5 @@
-"""`mrss bench NAME [--quick] [--json]`: run one benchmark and print its table."""
+"""`mrss bench NAME|all [--quick] [--json]`: run one benchmark (or each in turn) and print
+its table (`make bench` runs `mrss bench all` at full size)."""
 
 from __future__ import annotations
 
@@ -11,14 +12,27 @@ from mrss.bench import BENCHES
 
 def configure(parser: argparse.ArgumentParser) -> None:
     names = ", ".join(f"{k} ({v})" for k, v in BENCHES.items())
-    parser.add_argument("name", help=f"benchmark to run: {names}")
+    parser.add_argument("name", help=f"benchmark to run: {names}; or all of them: all")
     parser.add_argument("--quick", action="store_true", help="small sizes, for CI smoke runs")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
+ALL = "all"
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.name == ALL:
+        worst = 0
+        for name in BENCHES:
+            print(f"== mrss bench {name}", flush=True)
+            worst = max(worst, run_one(argparse.Namespace(**{**vars(args), "name": name})))
+        return worst
+    return run_one(args)
+
+
+def run_one(args: argparse.Namespace) -> int:
     if args.name not in BENCHES:
-        print(f"mrss bench: unknown benchmark {args.name!r}; known: {', '.join(BENCHES)}",
+        print(f"mrss bench: unknown benchmark {args.name!r}; known: {', '.join(BENCHES)}, {ALL}",
               file=sys.stderr)
         return 2
     try:

@@ -1,23 +1,24 @@
-"""`mrss check PROJECT`: load and validate a project without starting anything.
+"""`mrss check PROJECT`: prove a project consistent without starting anything.
 
-Validates project.toml (every key; component classes are imported to be sure they
-exist and subclass Component), then the project's own files (`check_parts`): agent.asl
-compiled by the real interpreter (every syntax error as file:line:col with a caret),
-events.py / datalayer.py / rcl.py / skills.py imported from the project folder with
-their expected classes, and the robots' tables and link options. Nothing is started
-and no robot is connected. Errors name the file and line (and the key); all of them
-are printed and the exit code is 2. OK: a summary and exit 0.
+project.toml is loaded and validated (`mrss.config`), then every check of `mrss.check`
+runs on it: options declared and valid, agent actions with recipes, recipes with skills,
+skills with the right hooks, queries the data layer answers, percepts the agent handles.
+Every error is printed as `file:line:col: message` and the exit code is 2; warnings are
+printed and do not change it. `--json` prints the findings as one JSON object for
+editors and CI (same exit codes). OK: a summary and exit 0.
+`mrss supervise` calls `verify` first and refuses to start a project with an error.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
-from mrss.commands.check_parts import check_project_files
+from mrss.check import Report, check_project
 from mrss.config import ProjectConfig, load_project
-from mrss.errors import ConfigError, SupervisionError
-from mrss.supervision.component_main import load_class
+from mrss.errors import ConfigError
+from mrss.supervision.spec import OnExceeded
 
 EXIT_INVALID = 2
 
@@ -26,53 +27,67 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("project", help="project name (projects/<name>/)")
     parser.add_argument("--no-import", action="store_true",
                         help="check project.toml only: import no class, read no project file")
+    parser.add_argument("--json", action="store_true",
+                        help="print the findings as JSON (for editors and CI)")
 
 
 def run(args: argparse.Namespace) -> int:
     try:
         config = load_project(args.project)
-        if not args.no_import:
-            check_classes(config)
     except ConfigError as exc:
-        print(f"mrss check: {exc}", file=sys.stderr)
+        if args.json:
+            print(json.dumps({"project": args.project, "ok": False, "findings": [
+                {"file": exc.file or "", "line": 0, "col": 0, "message": exc.reason,
+                 "severity": "error", "check": "config", "key": exc.key, "detail": ""}]}))
+        else:
+            print(f"mrss check: {exc}", file=sys.stderr)
         return EXIT_INVALID
-    found = None if args.no_import else check_project_files(config)
-    for warning in [*config.warnings, *(found.warnings if found else [])]:
-        print(f"warning: {warning}", file=sys.stderr)
-    if found is not None and found.errors:
-        for error in found.errors:
-            print(f"mrss check: {error}", file=sys.stderr)
-        print(f"mrss check: {config.name}: {len(found.errors)} error(s)", file=sys.stderr)
+    if args.no_import:
+        print(summary(config))
+        return 0
+    report = check_project(config)
+    if args.json:
+        print(json.dumps(report.as_json(), indent=2))
+        return EXIT_INVALID if report.errors else 0
+    print_findings(report)
+    if report.errors:
         return EXIT_INVALID
     print(summary(config))
-    if found is not None:
-        print("\n".join(found.summary))
-        print(f"{config.name}: OK")
+    print("\n".join(report.summary))
+    print(f"{config.name}: OK")
     return 0
 
 
-def check_classes(config: ProjectConfig) -> None:
-    """Import every enabled component's class; a failure is a ConfigError on its module key."""
-    for comp in config.components:
-        if not comp.enabled:
-            continue
-        try:
-            load_class(comp.module, str(config.directory))
-        except SupervisionError as exc:
-            raise ConfigError(str(exc), file=str(config.file),
-                              key=f"components.{comp.id}.module") from None
+def print_findings(report: Report) -> None:
+    for finding in report.warnings:
+        print(finding.text(), file=sys.stderr)
+    for finding in report.errors:
+        print(f"mrss check: {finding.text()}", file=sys.stderr)
+    if report.errors:
+        print(f"mrss check: {report.project}: {len(report.errors)} error(s)", file=sys.stderr)
+
+
+def verify(config: ProjectConfig) -> bool:
+    """Run every check before a start; print the findings; False when there is an error."""
+    report = check_project(config)
+    print_findings(report)
+    return not report.errors
 
 
 def summary(config: ProjectConfig) -> str:
     """A short human summary of the validated project."""
     s = config.supervisor
     spec = s.spec
+    give_up = "stop_system" if spec.on_exceeded is OnExceeded.ESCALATE else \
+        f"stop_component, retry after {spec.probation:g}s"
+    groups = "".join(f"; group {g.name}: {', '.join(g.children)}" for g in spec.groups)
     lines = [
         f"project {config.name}: {config.file}",
-        f"  supervisor: {spec.strategy.value}, intensity {spec.intensity} in {spec.period:g}s, "
-        f"backoff {spec.backoff.initial:g}s x{spec.backoff.factor:g} cap {spec.backoff.cap:g}s "
-        f"jitter {spec.backoff.jitter:g}, on_exceeded {spec.on_exceeded.value}, "
-        f"heartbeat {s.heartbeat_interval:g}s x{s.heartbeat_misses}, launcher {s.launcher}",
+        f"  supervisor: {spec.strategy.value}, intensity {spec.intensity} in {spec.period:g}s "
+        f"per component, backoff {spec.backoff.initial:g}s x{spec.backoff.factor:g} cap "
+        f"{spec.backoff.cap:g}s jitter {spec.backoff.jitter:g}, on_give_up {give_up}, "
+        f"heartbeat {s.heartbeat_interval:g}s x{s.heartbeat_misses}, launcher {s.launcher}"
+        f"{groups}",
         f"  components ({sum(c.enabled for c in config.components)} enabled):",
     ]
     for c in config.components:

@@ -1,4 +1,8 @@
-"""`mrss new NAME [--from PROJECT]`: a new project folder, copied from the template.
+"""`mrss new NAME [--from PROJECT | --with-sims]`: a new project folder, copied from the template.
+
+`--with-sims` copies the template's variant wired to the two built-in simulators
+(`template_sims`: a MAVLink UAV and an MQTT UGV, with recipes and skills that move them);
+it is `--from template_sims`, and refused together with another `--from`.
 
 The copy goes to the projects folder (`$MRSS_PROJECTS`, ./projects, or the source
 tree's). What carries the source's name is renamed: `[project] name` in project.toml,
@@ -23,6 +27,7 @@ EXIT_REFUSED = 2
 NAME = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
 IGNORED = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache", ".mypy_cache",
                                  ".ruff_cache", "run", "*.sqlite*")
+WITH_SIMS = "template_sims"
 SOURCE_TREE_PROJECTS = Path(__file__).resolve().parent.parent.parent / "projects"
 
 
@@ -30,6 +35,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", help="the new project's name (a lowercase identifier)")
     parser.add_argument("--from", dest="source", default="template", metavar="PROJECT",
                         help="the project to copy (default: template)")
+    parser.add_argument("--with-sims", action="store_true",
+                        help="start from the template wired to the simulated UAV (MAVLink) "
+                             f"and UGV (MQTT): the same as --from {WITH_SIMS}")
 
 
 def source_folder(name: str, root: Path) -> Path:
@@ -70,6 +78,12 @@ def run(args: argparse.Namespace) -> int:
               "lowercase letters, digits or _ (it names a folder, test files and modules)",
               file=sys.stderr)
         return EXIT_REFUSED
+    if args.with_sims:
+        if args.source not in ("template", WITH_SIMS):
+            print(f"mrss new: --with-sims copies {WITH_SIMS}; it cannot be combined with "
+                  f"--from {args.source}", file=sys.stderr)
+            return EXIT_REFUSED
+        args.source = WITH_SIMS
     target = root / name
     if target.exists():
         print(f"mrss new: {target} already exists; choose another name or remove it",

@@ -6,7 +6,13 @@ mrss send --run-dir DIR control cancel|suspend|resume|succeed|fail TARGET [--kin
 mrss send --run-dir DIR teleop ROBOT on|off
 mrss send --run-dir DIR command NAME [--target T] [--arg KEY=VALUE ...]
 mrss send --run-dir DIR raw KIND JSON          # any kind of mrss.messages, fields as JSON
+mrss send --run-dir DIR mqtt TOPIC JSON [--project NAME] [--broker URL]
 ```
+
+`mqtt` is not a bus message: it publishes JSON on TOPIC of the project's MQTT broker as
+an outside client would (a citizen's app, a sensor), so the project's events adapter
+can be exercised by hand. The broker is `--broker`, else the project's (`[broker] url`
+of `--project`'s project.toml, else the embedded broker's `broker.url` in the run dir).
 
 The message is built and validated before anything is sent (a bad literal, field or
 JSON exits 2 with the reason and sends nothing); then the sender waits (`--timeout`)
@@ -18,8 +24,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import sys
+from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.errors import AslSyntaxError
@@ -27,6 +35,8 @@ from mrss.agentspeak.parser import parse_term
 from mrss.agentspeak.terms import Struct, is_ground
 from mrss.commands.busargs import add_bus_arguments, connected_publisher, endpoints_from_args
 from mrss.errors import DecodeError, MrssError
+from mrss.links.connect import project_broker_url
+from mrss.links.mqtt_publish import publish_json
 from mrss.messages import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
@@ -37,6 +47,7 @@ from mrss.messages import (
     Percept,
     build,
 )
+from mrss.projects import project_path
 
 EXIT_BAD_INPUT = 2
 _NAME = re.compile(r"\A[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*\Z")
@@ -80,12 +91,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
     m.add_argument("--arg", action="append", default=[], metavar="KEY=VALUE",
                    help="an argument; VALUE is read as JSON if it is JSON, else as text")
 
+    q = kind("mqtt", "a JSON message on the project's MQTT broker (not the bus)")
+    q.add_argument("mqtt_topic", metavar="TOPIC", help="MQTT topic, e.g. mrss/ui/area")
+    q.add_argument("json", metavar="JSON", help="the payload, e.g. '{\"goal\": \"a1\"}'")
+    q.add_argument("--project", default=None, metavar="NAME",
+                   help="the project whose [broker] url to use (default: the run dir's)")
+    q.add_argument("--broker", default=None, metavar="URL", help="this broker instead")
+
     r = kind("raw", "any message kind, its fields given as a JSON object")
     r.add_argument("message_kind", metavar="KIND", help=f"one of: {', '.join(KINDS)}")
     r.add_argument("json", metavar="JSON", help="the message's fields, e.g. '{\"uuid\": \"a1\"}'")
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.kind == "mqtt":
+        return send_mqtt(args)
     try:
         message = build_message(args)
         topic = _topic(message, args.topic)
@@ -102,6 +122,39 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     print(f"sent {message.kind} on {topic or message.topic()} (id {msg_id})")
     return 0
+
+
+def send_mqtt(args: argparse.Namespace) -> int:
+    """Publish the JSON payload on the project's broker; exit 2 naming what is wrong."""
+    try:
+        payload = json.loads(args.json)
+    except ValueError as exc:
+        print(f"mrss send: JSON is not valid: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    topic: str = args.mqtt_topic
+    if not topic or any(c in topic for c in "+#\0"):
+        print(f"mrss send: {topic!r} is not an MQTT topic to publish on (no wildcards + #)",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        broker = args.broker or _project_broker(args)
+        publish_json(broker, topic, payload, client_id=f"mrss-send-{os.getpid()}",
+                     timeout=args.timeout)
+    except MrssError as exc:
+        print(f"mrss send: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"published on {topic} via {broker}")
+    return 0
+
+
+def _project_broker(args: argparse.Namespace) -> str:
+    run_dir: Path | None = getattr(args, "run_dir", None)
+    project = project_path(args.project) if args.project else None
+    url = project_broker_url(project, run_dir)
+    if not url:
+        raise BadInput("no broker: give --broker URL, --project NAME (with a [broker] url), "
+                       "or the --run-dir of a system with the embedded broker")
+    return url
 
 
 def build_message(args: argparse.Namespace) -> Message:

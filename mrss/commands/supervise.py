@@ -2,10 +2,13 @@
 
 Starts the enabled components in file order, each after the previous one is ready;
 on SIGINT/SIGTERM stops them in reverse order within their shutdown limits and exits
-0 (a second signal kills what is left at once). If the root supervisor gives up
-(restart intensity exceeded) it stops everything and exits 1 with a message naming the
-child and its last reason. Bad config exits 2. While it runs, the root answers `ctl.tree`
-and executes `ctl.fault` commands from the bus (`mrss.supervision.remote`, for the TUI).
+0 (a second signal kills what is left at once). A component (or group) that uses up its
+restart budget is stopped and reported (`sup.give_up`) while the rest keeps running, and
+retried after `retry_after`; only with `[supervisor] on_give_up = "stop_system"` does the
+root stop everything and exit 1 with a message naming the child and its last reason.
+Bad config exits 2. While it runs, the root answers `ctl.tree` and executes `ctl.fault`
+commands from the bus (`mrss.supervision.remote`, for the TUI). Its `sup.*` events go
+through an `EventOutbox`, which holds them while the bus proxy is down.
 
 Every record of the run (the root's and every component's) is written to stderr and to
 `<run_dir>/mrss.log` in one line format, and those at INFO and above go on the bus as
@@ -30,10 +33,13 @@ from typing import Any
 from mrss import logs
 from mrss.bus import Publisher
 from mrss.bus.component import endpoints_from_config
-from mrss.config import ProjectConfig, load_project
+from mrss.commands import check
+from mrss.config import PROXY_MODULE, ProjectConfig, load_project
 from mrss.errors import ConfigError
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.events import Publish
+from mrss.supervision.launchers import become_subreaper
+from mrss.supervision.outbox import EventOutbox
 from mrss.supervision.process import ProcessSupervisor
 from mrss.supervision.remote import RemoteControl
 
@@ -102,6 +108,10 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
+    if not check.verify(config):  # a deterministic mistake is reported, never crash-looped
+        print(f"mrss supervise: {config.name}: not started; fix the errors above "
+              f"(`mrss check {args.project}`)", file=sys.stderr)
+        return EXIT_CONFIG
     if wants_tui(args):
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 
@@ -112,8 +122,6 @@ def run(args: argparse.Namespace) -> int:
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
-    for warning in config.warnings:
-        logging.getLogger("mrss.config").warning("%s", warning)
     try:
         return _supervise(config, run_dir, args.launcher, early)
     except ConfigError as exc:
@@ -128,10 +136,16 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
                early: list[int]) -> int:
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
-    publisher = Publisher(endpoints, src="supervisor")
+    publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
     to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
+    outbox = None
+    publish: Publish = publisher.publish
+    bus_child = proxy_child(config)
+    if bus_child:
+        outbox = EventOutbox(publisher.publish, bus_child, publisher.subscriptions)
+        publish = outbox
     try:
-        sup = build_supervisor(config, run_dir, launcher=launcher, publish=publisher.publish,
+        sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
                                bus=endpoints.to_dict())
         remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
         try:
@@ -139,8 +153,16 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
         finally:
             remote.close()
     finally:
+        if outbox is not None:
+            outbox.close()
         logs.remove_bus_handler(to_bus)
         publisher.close()
+
+
+def proxy_child(config: ProjectConfig) -> str:
+    """The id of the component that runs the bus proxy ("" if the project has none)."""
+    return next((c.id for c in config.components
+                 if c.enabled and c.module == PROXY_MODULE), "")
 
 
 def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor,
@@ -152,6 +174,7 @@ def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor,
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    become_subreaper()  # a lost fork server's children stay ours (and in our tree)
     if interrupts:  # signalled while starting up: stop (or kill, if twice) at once
         sup.request_stop(force=len(interrupts) > 1)
     logging.getLogger("mrss.supervise").info(

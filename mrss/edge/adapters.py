@@ -11,9 +11,14 @@ An external adapter turns outside events into percepts (paper IV-B):
         def cancel(self, topic: str, obj: dict) -> None:
             self.percept("goal_cancelled", Atom(obj["goal"]))
 
-A handler that raises is counted and logged with its topic; percepts it published before
-failing are dropped. A `PayloadError`/`PredicateError`/`ValueError`/`KeyError`/`TypeError`
-counts as a bad payload, anything else as a handler error; neither stops the component.
+Handlers run on the events manager's intake thread, one event at a time in arrival
+order (`mrss.edge.intake`). A handler that raises is counted and logged with its topic;
+percepts it published before failing are dropped. A `PayloadError`/`PredicateError`/
+`ValueError`/`KeyError`/`TypeError` counts as a bad payload and is reported back to the
+sender at once; `DependencyUnavailable` (e.g. `WorldModelUnavailable` from
+`self.world_model()`), `TimeoutError` and `ConnectionError` make the event be tried again
+with backoff, and reported as failed once the retry budget is spent (`mrss.edge.retry`);
+anything else is a handler error. None of them stops the component.
 
 A data layer answers grounding requests and external function calls, and forwards robot
 telemetry to the world model (paper IV-C):
@@ -32,13 +37,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
-from mrss.edge.mqtt_client import MqttClient
+from mrss.edge.intake import EventIntake, InboundEvent
+from mrss.edge.mqtt_client import Delivery, MqttClient
 from mrss.edge.payloads import Field, JsonMapping, decode_json_object
 from mrss.edge.percepts import EventCounters, PerceptPublisher
-from mrss.edge.predicates import PredicateError, Term
-from mrss.errors import ConfigError, DecodeError
+from mrss.edge.predicates import Term
+from mrss.edge.retry import BAD_INPUT, Attempt
+from mrss.edge.worldmodel_access import WorldModelClient
+from mrss.errors import ConfigError
 
-BAD_INPUT = (DecodeError, PredicateError, ValueError, KeyError, TypeError)
+__all__ = ["BAD_INPUT", "DataLayer", "DataLayerContext", "EventsContext", "ExternalAdapter",
+           "WorldModelAccess", "external"]
+DEFAULT_WORLD_MODEL_TIMEOUT = 2.0
 JsonHandler = Callable[[str, dict[str, Any]], None]
 RawHandler = Callable[[str, bytes], None]
 
@@ -54,6 +64,7 @@ class EventsContext:
     broker_url: str | None = None
     log: logging.Logger = field(default_factory=lambda: logging.getLogger("mrss.events"))
     run_dir: Path | None = None  # the run folder (worldmodel.url, ...), when supervised
+    intake: EventIntake | None = None  # None: the adapter makes a plain one
 
 
 class ExternalAdapter:
@@ -65,6 +76,7 @@ class ExternalAdapter:
         self.options = context.options
         self.log = context.log
         self.counters: EventCounters = context.percept.counters
+        self.intake = context.intake or EventIntake(context.percept, log=context.log)
 
     @property
     def mqtt(self) -> MqttClient:
@@ -80,11 +92,35 @@ class ExternalAdapter:
     def stop(self) -> None:
         """Release what `start` acquired (the MQTT client is stopped by the manager)."""
 
+    def world_model(self) -> WorldModelClient:
+        """The run's world model over HTTP, found again for every call (it may restart).
+
+        `[events] world_model = "http://..."` names a deployment's own; otherwise it is
+        the embedded one of this run. Calls raise `WorldModelUnavailable` while it is
+        down (the event is retried) and `WorldModelRejected` for a bad object.
+        """
+        url = self.options.get("world_model")
+        timeout = self.options.get("world_model_timeout", DEFAULT_WORLD_MODEL_TIMEOUT)
+        if url is not None and not (isinstance(url, str) and url.startswith(("http://",
+                                                                            "https://"))):
+            raise ConfigError(f"{url!r} must be an http:// URL", key="events.world_model")
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or timeout <= 0:
+            raise ConfigError("must be a positive number of seconds",
+                              key="events.world_model_timeout")
+        if url is None and self.context.run_dir is None:
+            raise ConfigError("no world model: not running supervised and no URL given",
+                              key="events.world_model")
+        return WorldModelClient(run_dir=self.context.run_dir, url=url, timeout=float(timeout))
+
     def on_message(self, topic_filter: str, handler: RawHandler) -> None:
-        """Call `handler(topic, payload)` for each MQTT message; guarded and counted."""
-        def guarded(topic: str, payload: bytes) -> None:
-            self.handle(topic, lambda: handler(topic, payload))
-        self.mqtt.subscribe(topic_filter, guarded)
+        """Call `handler(topic, payload)` for each MQTT message, on the intake thread."""
+        mqtt = self.mqtt
+
+        def take(delivery: Delivery) -> None:
+            event = InboundEvent(delivery.topic, delivery.payload, delivery.redelivered,
+                                 acknowledge=lambda: mqtt.ack(delivery))
+            self.intake.submit(event, lambda: handler(delivery.topic, delivery.payload))
+        mqtt.subscribe_deliveries(topic_filter, take)
 
     def on_json(self, topic_filter: str, handler: JsonHandler) -> None:
         """Like `on_message`, but the payload must be a JSON object (else a bad payload)."""
@@ -104,23 +140,10 @@ class ExternalAdapter:
         return declared
 
     def handle(self, topic: str, work: Callable[[], None]) -> bool:
-        """Run `work` for a message on `topic`: percepts only if it succeeds; True if it did."""
-        counters = self.counters
-        counters.received += 1
-        try:
-            with self.percept.batch():
-                work()
-            return True
-        except BAD_INPUT as exc:
-            counters.bad_payloads += 1
-            counters.bad_by_topic[topic] = counters.bad_by_topic.get(topic, 0) + 1
-            counters.last_error = f"{topic}: {exc}"
-            self.log.warning("bad payload on topic %r: %s", topic, exc)
-        except Exception as exc:
-            counters.handler_errors += 1
-            counters.last_error = f"{topic}: {exc.__class__.__name__}: {exc}"
-            self.log.exception("adapter handler failed on topic %r", topic)
-        return False
+        """Run `work` once, now, for a message on `topic` (no retry, no report):
+        percepts only if it succeeds; True if it did."""
+        self.counters.received += 1
+        return self.intake.run_once(topic, work)[0] is Attempt.ACCEPTED
 
 
 class WorldModelAccess(Protocol):

@@ -5,8 +5,9 @@
     value = client.call("ground", ["h1"], timeout=2.0)      # the result, or DataLayerError
 
 The reasoner's `query(...)` and the RCL's grounding use `call`. A reply that never comes
-becomes an error reply (`ok=False`) after the timeout; replies to unknown or expired
-requests are ignored.
+becomes an error reply (`ok=False`) after the timeout (`call` raises
+`DataLayerUnavailable` then: the data layer may be restarting, so an edge event that
+needed it is retried); replies to unknown or expired requests are ignored.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from mrss.edge.busport import BusPort
+from mrss.edge.retry import DependencyUnavailable
 from mrss.errors import MrssError
 from mrss.messages import DataReply, DataRequest, Envelope, Topic, new_id
 
@@ -30,6 +32,10 @@ class DataLayerError(MrssError):
         self.reason = reason
         self.request_id = request_id
         super().__init__(f"data layer call {function!r} failed: {reason}")
+
+
+class DataLayerUnavailable(DataLayerError, DependencyUnavailable):
+    """No reply came within the timeout: the data layer (or the bus) is down or busy."""
 
 
 class _Pending:
@@ -62,6 +68,21 @@ class DataLayerClient:
     def request(self, function: str, args: Sequence[Any] = (),
                 timeout: float | None = None) -> DataReply:
         """Send a request and wait for its reply; a timeout gives an error reply."""
+        return self._exchange(function, args, timeout)[0]
+
+    def call(self, function: str, args: Sequence[Any] = (),
+             timeout: float | None = None) -> Any:
+        """The result of `function(*args)`, or DataLayerError with the reason
+        (DataLayerUnavailable when no reply came in time)."""
+        reply, answered = self._exchange(function, args, timeout)
+        if not reply.ok:
+            kind = DataLayerError if answered else DataLayerUnavailable
+            raise kind(function, reply.error or "error reply", request_id=reply.request_id)
+        return reply.result
+
+    def _exchange(self, function: str, args: Sequence[Any],
+                  timeout: float | None) -> tuple[DataReply, bool]:
+        """The reply, and whether it came from the data layer (False: timed out)."""
         request_id = new_id()
         waiter = _Pending()
         with self._lock:
@@ -71,21 +92,12 @@ class DataLayerClient:
             self._bus.publish(DataRequest(request_id=request_id, function=function,
                                           args=list(args)), topic=self.request_topic)
             if waiter.done.wait(limit) and waiter.reply is not None:
-                return waiter.reply
+                return waiter.reply, True
             return DataReply(request_id=request_id, ok=False,
-                             error=f"no reply to {function!r} within {limit:g}s")
+                             error=f"no reply to {function!r} within {limit:g}s"), False
         finally:
             with self._lock:
                 self._pending.pop(request_id, None)
-
-    def call(self, function: str, args: Sequence[Any] = (),
-             timeout: float | None = None) -> Any:
-        """The result of `function(*args)`, or DataLayerError with the reason."""
-        reply = self.request(function, args, timeout)
-        if not reply.ok:
-            raise DataLayerError(function, reply.error or "error reply",
-                                 request_id=reply.request_id)
-        return reply.result
 
     def _on_reply(self, env: Envelope) -> None:
         body = env.body

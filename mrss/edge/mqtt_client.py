@@ -11,6 +11,14 @@ The network loop runs on paho's thread. It reconnects with exponential backoff b
 `reconnect_min` and `reconnect_max` seconds and subscribes again to every filter after
 each (re)connect, so a broker restart loses no subscriptions. A callback that raises is
 logged and counted (`callback_errors`), never allowed to kill the network thread.
+
+At-least-once receiving (the events manager): a stable `client_id` with
+`clean_session=False` keeps the broker's session, so QoS 1 messages published while
+the client is away are queued for it; with `manual_ack=True` a QoS 1 message is
+acknowledged (PUBACK) only when the application calls `ack(delivery)`, so a message
+in hand when the process dies is delivered again (`Delivery.redelivered`, the MQTT
+DUP flag). `subscribe_deliveries` hands over the whole `Delivery`; plain `subscribe`
+callbacks are acknowledged as soon as they return.
 """
 
 from __future__ import annotations
@@ -30,6 +38,20 @@ from paho.mqtt.enums import CallbackAPIVersion
 from mrss.errors import ConfigError
 
 MessageCallback = Callable[[str, bytes], None]
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """One received MQTT message, with what is needed to acknowledge it."""
+
+    topic: str
+    payload: bytes
+    qos: int
+    redelivered: bool
+    mid: int
+
+
+DeliveryCallback = Callable[[Delivery], None]
 DEFAULT_PORTS = {"mqtt": 1883, "tcp": 1883, "mqtts": 8883, "ssl": 8883}
 
 
@@ -117,10 +139,12 @@ class MqttClient:
     """A paho-mqtt 2.x client that keeps its subscriptions across reconnects."""
 
     def __init__(self, settings: MqttSettings, *, client_id: str = "",
-                 logger: logging.Logger | None = None) -> None:
+                 logger: logging.Logger | None = None, clean_session: bool = True,
+                 manual_ack: bool = False) -> None:
         self.settings = settings
         self.log = logger or logging.getLogger("mrss.mqtt")
-        self._subs: dict[str, tuple[int, MessageCallback]] = {}
+        self._subs: dict[str, int] = {}
+        self.manual_ack = manual_ack
         self._lock = threading.Lock()
         self._connected = threading.Event()
         self._acked: set[str] = set()
@@ -128,8 +152,12 @@ class MqttClient:
         self._acks = threading.Condition(self._lock)
         self.connects = 0
         self.callback_errors = 0
+        if not clean_session and not client_id:
+            raise ConfigError("a persistent MQTT session needs a client id",
+                              key="events.client_id")
         self._client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id=client_id,
-                                   protocol=mqtt.MQTTv311)
+                                   protocol=mqtt.MQTTv311, clean_session=clean_session,
+                                   manual_ack=manual_ack)
         self._client.reconnect_delay_set(settings.reconnect_min,  # type: ignore[arg-type]
                                          settings.reconnect_max)  # type: ignore[arg-type]
         if settings.username is not None:
@@ -176,11 +204,31 @@ class MqttClient:
 
     def subscribe(self, topic_filter: str, callback: MessageCallback, qos: int = 1) -> None:
         """Deliver messages matching `topic_filter` to `callback(topic, payload)`."""
+        def plain(delivery: Delivery) -> None:
+            try:
+                callback(delivery.topic, delivery.payload)
+            finally:
+                self.ack(delivery)
+        self.subscribe_deliveries(topic_filter, plain, qos)
+
+    def subscribe_deliveries(self, topic_filter: str, callback: DeliveryCallback,
+                             qos: int = 1) -> None:
+        """Deliver messages matching `topic_filter` to `callback(delivery)`; with
+        `manual_ack`, the callback's owner must `ack(delivery)` each one."""
         with self._lock:
-            self._subs[topic_filter] = (qos, callback)
+            self._subs[topic_filter] = qos
         self._client.message_callback_add(topic_filter, self._guarded(topic_filter, callback))
         if self.connected:
             self._send_subscribe(self._client, topic_filter, qos)
+
+    def ack(self, delivery: Delivery) -> None:
+        """Acknowledge a delivery to the broker (only needed with `manual_ack`).
+
+        When the connection is down the acknowledgement is lost and the broker delivers
+        the message again after the reconnect: receivers de-duplicate.
+        """
+        if self.manual_ack and delivery.qos > 0:
+            self._client.ack(delivery.mid, delivery.qos)
 
     def wait_subscribed(self, timeout: float) -> bool:
         """Block until the broker acknowledged every subscription of this session."""
@@ -227,10 +275,11 @@ class MqttClient:
         """Last will, sent by the broker if this client vanishes (call before start)."""
         self._client.will_set(topic, payload, qos=qos, retain=retain)
 
-    def _guarded(self, topic_filter: str, callback: MessageCallback) -> Callable[..., None]:
+    def _guarded(self, topic_filter: str, callback: DeliveryCallback) -> Callable[..., None]:
         def deliver(_client: Any, _userdata: Any, message: mqtt.MQTTMessage) -> None:
             try:
-                callback(message.topic, bytes(message.payload))
+                callback(Delivery(message.topic, bytes(message.payload), int(message.qos),
+                                  bool(message.dup), int(message.mid)))
             except Exception:
                 self.callback_errors += 1
                 self.log.exception("callback for %r failed on topic %r", topic_filter,
@@ -248,7 +297,7 @@ class MqttClient:
             return
         self.connects += 1
         with self._lock:
-            subs = [(topic, qos) for topic, (qos, _cb) in self._subs.items()]
+            subs = list(self._subs.items())
             self._acked.clear()
             self._pending_mids.clear()
         for topic, qos in subs:

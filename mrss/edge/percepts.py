@@ -2,7 +2,12 @@
 
 `PerceptPublisher` is what an adapter calls. Inside a guarded handler the percepts are
 held back and published only when the handler returns normally, so a payload that
-fails half-way through never turns into a percept.
+fails half-way through never turns into a percept. A batch may name the event it
+belongs to (`batch(event_id)`): its percepts then get the message ids
+`<event_id>.0`, `<event_id>.1`, ..., the same however often the event is delivered.
+
+The sink is `sink(percept, msg_id)` (`msg_id` None: the sink picks one); in a component
+it is `mrss.edge.percept_channel.PerceptChannel.send`.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from dataclasses import dataclass, field
 from mrss.edge.predicates import Term, check_literal, literal
 from mrss.messages import Percept
 
-PerceptSink = Callable[[Percept], None]
+PerceptSink = Callable[[Percept, str | None], object]
 
 
 @dataclass
@@ -26,6 +31,9 @@ class EventCounters:
     percepts: int = 0
     bad_payloads: int = 0
     handler_errors: int = 0
+    retries: int = 0  # attempts repeated because a dependency was down
+    failed: int = 0  # events given up on after the retry budget
+    duplicates: int = 0  # redelivered events recognised and not handled again
     bad_by_topic: dict[str, int] = field(default_factory=dict)
     last_error: str = ""
 
@@ -33,6 +41,8 @@ class EventCounters:
         """A plain copy for logs, the TUI and tests."""
         return {"received": self.received, "percepts": self.percepts,
                 "bad_payloads": self.bad_payloads, "handler_errors": self.handler_errors,
+                "retries": self.retries, "failed": self.failed,
+                "duplicates": self.duplicates,
                 "bad_by_topic": dict(self.bad_by_topic), "last_error": self.last_error}
 
 
@@ -64,12 +74,15 @@ class PerceptPublisher:
         if held is not None:
             held.append(percept)
         else:
-            self._emit(percept)
+            self._emit(percept, None)
         return text
 
     @contextmanager
-    def batch(self) -> Iterator[None]:
-        """Hold this thread's percepts until the block ends normally; drop them on error."""
+    def batch(self, event_id: str | None = None) -> Iterator[None]:
+        """Hold this thread's percepts until the block ends normally; drop them on error.
+
+        With `event_id`, the percepts get the ids `<event_id>.<n>` in order.
+        """
         if getattr(self._local, "held", None) is not None:
             yield  # nested: the outer batch decides
             return
@@ -79,10 +92,10 @@ class PerceptPublisher:
             held: list[Percept] = self._local.held
         finally:
             self._local.held = None
-        for percept in held:
-            self._emit(percept)
+        for n, percept in enumerate(held):
+            self._emit(percept, None if event_id is None else f"{event_id}.{n}")
 
-    def _emit(self, percept: Percept) -> None:
-        self._sink(percept)
+    def _emit(self, percept: Percept, msg_id: str | None) -> None:
+        self._sink(percept, msg_id)
         with self._lock:
             self.counters.percepts += 1

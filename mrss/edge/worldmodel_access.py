@@ -11,17 +11,25 @@ from __future__ import annotations
 import json
 import urllib.error
 import urllib.request
+from pathlib import Path
 from typing import Any
 from urllib.parse import quote, urlencode
 
 from mrss.edge.datalayer_client import DataLayerClient
+from mrss.edge.retry import DependencyUnavailable
 from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, WorldModel
 from mrss.edge.worldmodel_store import Position, WorldObject
 from mrss.errors import MrssError
 
+WORLD_MODEL_URL_FILE = "worldmodel.url"
 
-class WorldModelUnavailable(MrssError):
-    """The world model could not be reached or answered with an error."""
+
+class WorldModelUnavailable(DependencyUnavailable):
+    """The world model could not be reached, did not answer in time, or failed (HTTP 5xx)."""
+
+
+class WorldModelRejected(MrssError, ValueError):
+    """The world model refused the request (HTTP 4xx): the object or query is wrong."""
 
 
 class BusWorldModel:
@@ -53,12 +61,18 @@ class HttpWorldModel:
     """A world model behind the HTTP API of `mrss.edge.worldmodel_http`."""
 
     def __init__(self, base_url: str, timeout: float = 5.0) -> None:
-        self.base_url = base_url.rstrip("/")
+        self._base_url = base_url.rstrip("/")
         self.timeout = timeout
+
+    @property
+    def base_url(self) -> str:
+        """Where the API is, e.g. http://127.0.0.1:8765 (no trailing slash)."""
+        return self._base_url
 
     def _request(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
         data = None if body is None else json.dumps(body).encode()
-        req = urllib.request.Request(self.base_url + path, data=data, method=method,
+        base = self.base_url
+        req = urllib.request.Request(base + path, data=data, method=method,
                                      headers={"Content-Type": "application/json"})
         try:
             with urllib.request.urlopen(req, timeout=self.timeout) as resp:
@@ -66,12 +80,14 @@ class HttpWorldModel:
         except urllib.error.HTTPError as exc:
             detail = exc.read().decode("utf-8", "replace")
             return exc.code, {"error": detail}
-        except (OSError, ValueError) as exc:
-            raise WorldModelUnavailable(f"{method} {self.base_url}{path}: {exc}") from exc
+        except (OSError, ValueError) as exc:  # refused, reset, timed out, garbled
+            raise WorldModelUnavailable(f"{method} {base}{path}: {exc}") from exc
 
     def _ok(self, status: int, body: Any, what: str) -> Any:
-        if status >= 400:
+        if status >= 500:
             raise WorldModelUnavailable(f"{what}: HTTP {status}: {body.get('error', body)}")
+        if status >= 400:
+            raise WorldModelRejected(f"{what}: HTTP {status}: {body.get('error', body)}")
         return body
 
     def get(self, object_id: str) -> dict[str, Any] | None:
@@ -96,6 +112,37 @@ class HttpWorldModel:
             params["kind"] = kind
         status, body = self._request("GET", "/objects?" + urlencode(params))
         return list(self._ok(status, body, "near")["objects"])
+
+
+class WorldModelClient(HttpWorldModel):
+    """The world model of a run over HTTP, its URL looked up again for every call.
+
+    `url` names a fixed service (a deployment's own world model); without it the URL is
+    read from `<run_dir>/worldmodel.url`, which the embedded world model writes when it
+    starts. A missing file means the world model is not up (yet): WorldModelUnavailable.
+    """
+
+    def __init__(self, *, run_dir: Path | None = None, url: str | None = None,
+                 timeout: float = 5.0) -> None:
+        if not url and run_dir is None:
+            raise ValueError("a world model client needs a run folder or a URL")
+        super().__init__(url or "", timeout)
+        self.run_dir = run_dir
+        self.fixed_url = bool(url)
+
+    @property
+    def base_url(self) -> str:
+        if self.fixed_url or self.run_dir is None:
+            return self._base_url
+        path = self.run_dir / WORLD_MODEL_URL_FILE
+        try:
+            url = path.read_text(encoding="utf-8").strip()
+        except OSError as exc:
+            raise WorldModelUnavailable(f"the world model is not up: no {path.name} in the "
+                                        f"run folder ({exc.strerror})") from None
+        if not url:
+            raise WorldModelUnavailable(f"the world model is not up: {path.name} is empty")
+        return url.rstrip("/")
 
 
 class LocalWorldModel:

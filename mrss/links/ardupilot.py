@@ -1,14 +1,22 @@
-"""What the simulator and the MAVLink link agree on: ArduCopter modes and hotspot reports.
+"""What the simulator and the MAVLink link agree on: ArduCopter modes, GCS failsafe, hotspots.
 
 Hotspot reports travel as a STATUSTEXT (severity NOTICE) whose text is
 ``HOTSPOT <id> <lat> <lon> <temperature_c>``, e.g. ``HOTSPOT 3 -35.3630000 149.1650000 412``.
 Any ground station shows it as a message; the link turns it into telemetry.
+
+The GCS failsafe is ArduCopter's: parameters FS_GCS_ENABLE (the action) and
+FS_GCS_TIMEOUT (seconds without a GCS heartbeat); the vehicle says ``GCS Failsafe``
+(or ``GCS Failsafe - ...``) when it fires and ``GCS Failsafe Cleared`` when the GCS is
+back, and reports MAV_STATE_CRITICAL in its HEARTBEAT while the failsafe is active.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from enum import StrEnum
+
+from mrss.links.failsafe import FailsafeAction
 
 COPTER_MODES: dict[str, int] = {
     "STABILIZE": 0,
@@ -23,6 +31,37 @@ COPTER_MODES: dict[str, int] = {
     "BRAKE": 17,
 }
 COPTER_MODE_NAMES: dict[int, str] = {number: name for name, number in COPTER_MODES.items()}
+
+# FS_GCS_ENABLE values we set for each declared action: "always RTL", "always land",
+# "brake or land" (ArduCopter 4.x numbering; 0 disables the GCS failsafe).
+FS_GCS_ENABLE = "FS_GCS_ENABLE"
+FS_GCS_TIMEOUT = "FS_GCS_TIMEOUT"
+FS_GCS_DISABLED = 0
+FS_GCS_ENABLE_OF: dict[FailsafeAction, int] = {
+    FailsafeAction.RTL: 1,
+    FailsafeAction.STOP: 5,
+    FailsafeAction.HOLD: 7,
+}
+GCS_FAILSAFE_TEXT = "GCS Failsafe"
+GCS_FAILSAFE_CLEARED_TEXT = "GCS Failsafe Cleared"
+
+
+class GcsFailsafeEvent(StrEnum):
+    """What a vehicle's GCS failsafe STATUSTEXT says happened."""
+
+    ON = "on"
+    CLEARED = "cleared"
+
+
+def gcs_failsafe_event(text: str) -> GcsFailsafeEvent | None:
+    """The GCS failsafe event a STATUSTEXT text reports, or None if it is another text."""
+    text = text.strip("\x00").strip()
+    if text == GCS_FAILSAFE_CLEARED_TEXT:
+        return GcsFailsafeEvent.CLEARED
+    if text.startswith((GCS_FAILSAFE_TEXT, "GCS + Battery Failsafe")):
+        return GcsFailsafeEvent.ON
+    return None
+
 
 STATUSTEXT_MAX = 50
 HOTSPOT_PREFIX = "HOTSPOT"

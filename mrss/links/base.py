@@ -5,6 +5,11 @@ A link is *up* while the robot answers and *down* with a reason a person can rea
 Telemetry arrives as plain dicts with at least ``robot``, ``type`` and ``ts`` keys; the
 fields of each type are listed in docs/robots.md. Callbacks run on the link's own thread:
 they must return quickly and must not wait for a command of the same link.
+
+The link is also the robot's controller as far as the robot's failsafe goes
+(mrss.links.failsafe): it sends the robot heartbeats while `watch_controller`'s check
+says that a live robot actor controls the robot, and it reports a failsafe the robot
+took as a state callback ``(False, "failsafe: ...")``, even when the link was down already.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from collections.abc import Callable
 from typing import Any
 
 from mrss.links.errors import CommandTimeout, LinkDown
+from mrss.links.failsafe import FailsafeEvent, FailsafePolicy, failsafe_reason
 
 Telemetry = dict[str, Any]
 TelemetryCallback = Callable[[Telemetry], None]
@@ -24,7 +30,7 @@ LinkStateCallback = Callable[[bool, str], None]
 
 
 class RobotLink(ABC):
-    """Common state and callback machinery of the MAVLink, MQTT (and later HTTP) links."""
+    """Common state and callback machinery of the MAVLink, MQTT and HTTP links."""
 
     kind = "robot"
 
@@ -34,8 +40,10 @@ class RobotLink(ABC):
         *,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
+        failsafe: FailsafePolicy | None = None,
     ) -> None:
         self.robot_id = robot_id
+        self.failsafe = failsafe
         self.log = logging.getLogger(f"mrss.links.{self.kind}.{robot_id}")
         self._changed = threading.Condition()
         self._dispatch = threading.RLock()
@@ -43,6 +51,10 @@ class RobotLink(ABC):
         self._reason = "not connected yet"
         self._closed = False
         self._latest: dict[str, Telemetry] = {}
+        self._controller_check: Callable[[], bool] | None = None
+        self._controller_was = True
+        self._failsafe_reported = False  # the robot's current failsafe was reported
+        self._in_failsafe = False        # ... and it does not hear us yet
         self._state_callbacks: list[LinkStateCallback] = []
         self._telemetry_callbacks: list[TelemetryCallback] = []
         if on_link_state is not None:
@@ -76,6 +88,15 @@ class RobotLink(ABC):
     def add_telemetry_callback(self, callback: TelemetryCallback) -> None:
         """Call `callback(record)` for every telemetry record received."""
         self._telemetry_callbacks.append(callback)
+
+    def watch_controller(self, check: Callable[[], bool]) -> None:
+        """Send the robot heartbeats only while `check()` is true (a live controller).
+
+        The RCL passes "a live robot actor runs this robot": with its actor gone, the
+        robot hears no controller and its failsafe fires. A check that raises counts as
+        true (logged): a bug here must not land the fleet.
+        """
+        self._controller_check = check
 
     def latest(self, kind: str) -> Telemetry | None:
         """The last telemetry record of a type ("position", "battery", ...), or None."""
@@ -113,6 +134,60 @@ class RobotLink(ABC):
                 self._changed.wait(min(remaining, 0.5))
 
     # -- what the concrete links use -----------------------------------------------------
+    def _controlled(self) -> bool:
+        """Whether the robot has a live controller now (heartbeats go out only then)."""
+        check = self._controller_check
+        try:
+            alive = True if check is None else bool(check())
+        except Exception:
+            self.log.exception("controller check failed; heartbeats go on")
+            alive = True
+        if alive != self._controller_was:
+            self._controller_was = alive
+            self.log.warning("controller %s: heartbeats to the robot %s", "back" if alive
+                             else "gone", "resume" if alive else "stop")
+        return alive
+
+    def _follow_failsafe_state(self, failsafe: bool, controller: bool, mode: str,
+                               where: str = "") -> None:
+        """For a robot whose telemetry says whether it is in its failsafe and whether it
+        hears its controller (MQTT UGV, HTTP): report a failsafe it took, once, and
+        record its end of it once it hears us."""
+        if not failsafe:
+            self._failsafe_reported = self._in_failsafe = False  # commanded since
+            return
+        if not self._failsafe_reported:
+            self._failsafe_reported = self._in_failsafe = True
+            self._failsafe_record(FailsafeEvent.TRIGGERED, mode)
+            self._report_failsafe(failsafe_reason(
+                f"{self.robot_id} lost its controller and took its failsafe (now "
+                f"{mode}{where})"))
+        if self._in_failsafe and controller:
+            self._in_failsafe = False
+            self._failsafe_record(FailsafeEvent.REGAINED, mode)
+
+    def _failsafe_record(self, event: FailsafeEvent, mode: str) -> None:
+        action = self.failsafe.action.value if self.failsafe else None
+        self._publish_telemetry("failsafe", {"event": event.value, "action": action,
+                                             "mode": mode, "detail": f"robot {mode}"})
+
+    def _report_failsafe(self, reason: str) -> None:
+        """The robot took its failsafe: down with `reason` (a `failsafe_reason`), told to
+        the callbacks even if the link was down already."""
+        with self._dispatch:
+            with self._changed:
+                if self._closed:
+                    return
+                self._up = False
+                self._reason = reason
+                self._changed.notify_all()
+            self.log.warning("link down: %s", reason)
+            for callback in list(self._state_callbacks):
+                try:
+                    callback(False, reason)
+                except Exception:
+                    self.log.exception("link state callback failed")
+
     def _set_link_state(self, up: bool, reason: str) -> bool:
         """Record a state; on a change, log it and tell the callbacks. Returns if it changed."""
         with self._dispatch:

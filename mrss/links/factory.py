@@ -7,18 +7,30 @@ from typing import Any
 
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
+from mrss.links.failsafe import FAILSAFE_KEY, TIMEOUT_KEY, failsafe_problems, policy_of
+from mrss.links.http import HttpLink
 from mrss.links.mavlink import MavlinkLink
 from mrss.links.mqtt import MqttLink
 
-# Per kind: option name -> (type, required). Names match the link constructors.
+# Per kind: option name -> (type, required). Names match the link constructors, but for
+# the failsafe keys of every kind, which become one `failsafe` policy (mrss.links.failsafe).
+_FAILSAFE_OPTIONS: dict[str, tuple[type, bool]] = {FAILSAFE_KEY: (str, False),
+                                                   TIMEOUT_KEY: (float, False)}
 LINK_OPTIONS: dict[str, dict[str, tuple[type, bool]]] = {
     "mavlink": {"url": (str, True), "target_system": (int, False),
                 "heartbeat_timeout": (float, False), "command_timeout": (float, False),
-                "retries": (int, False)},
+                "retries": (int, False), **_FAILSAFE_OPTIONS},
     "mqtt": {"broker_url": (str, True), "prefix": (str, False),
              "telemetry_timeout": (float, False), "command_timeout": (float, False),
-             "retries": (int, False), "keepalive": (int, False)},
+             "retries": (int, False), "keepalive": (int, False), **_FAILSAFE_OPTIONS},
+    "http": {"url": (str, True), "poll": (float, False), "timeout": (float, False),
+             "command_timeout": (float, False), "retries": (int, False), **_FAILSAFE_OPTIONS},
 }
+
+
+def option_value_problems(options: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """(key, problem) for option values a type check lets through (a misspelt failsafe)."""
+    return failsafe_problems(options)
 
 
 def _checked(kind: str, options: Mapping[str, Any], source: str | None) -> dict[str, Any]:
@@ -47,7 +59,7 @@ def create_link(robot_id: str, kind: str, options: Mapping[str, Any], *,
                 on_link_state: LinkStateCallback | None = None,
                 on_telemetry: TelemetryCallback | None = None,
                 source: str | None = None) -> RobotLink:
-    """A (not yet started) link of `kind` ("mavlink" or "mqtt"); ConfigError if misconfigured.
+    """A (not yet started) link of `kind` ("mavlink", "mqtt", "http"); ConfigError if not valid.
 
     `source` names the configuration file in error messages.
     """
@@ -55,8 +67,17 @@ def create_link(robot_id: str, kind: str, options: Mapping[str, Any], *,
         raise ConfigError(f"unknown link kind {kind!r}; known: {', '.join(LINK_OPTIONS)}",
                           file=source, key="link")
     checked = _checked(kind, options, source)
+    failsafe = policy_of(checked, source=source)
+    checked.pop(FAILSAFE_KEY, None)
+    checked.pop(TIMEOUT_KEY, None)
     if kind == "mavlink":
         return MavlinkLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
-                           **checked)
+                           failsafe=failsafe, **checked)
+    if kind == "http":
+        try:
+            return HttpLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                            failsafe=failsafe, **checked)
+        except ConfigError as exc:
+            raise ConfigError(exc.reason, file=source, key=exc.key) from None
     return MqttLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
-                    **checked)
+                    failsafe=failsafe, **checked)

@@ -4,6 +4,12 @@ Blocking command helpers (`arm`, `set_mode`, `takeoff`, `goto`, `land`, ...) may
 called from any thread; they retry unanswered commands and raise LinkDown,
 CommandRejected or CommandTimeout (mrss.links.errors). The link is up while heartbeats
 arrive and goes down after `heartbeat_timeout` seconds without one.
+
+Failsafe (mrss.links.failsafe): the link is the vehicle's GCS. It sends a GCS heartbeat
+every second while its controller lives (`watch_controller`), sets FS_GCS_ENABLE and
+FS_GCS_TIMEOUT on every connect when a `failsafe` is declared, and when the vehicle
+says it took its GCS failsafe (``GCS Failsafe...``, or ``GCS Failsafe Cleared`` for one
+it missed) reports it down with a ``failsafe:`` reason until the vehicle hears it again.
 """
 
 from __future__ import annotations
@@ -17,12 +23,14 @@ from typing import Any
 from mrss.links.ardupilot import mode_name, mode_number, parse_hotspot
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
+from mrss.links.failsafe import CONTROLLER_HEARTBEAT_S, FailsafeEvent, FailsafePolicy
 from mrss.links.geo import distance_m
 from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
 from mrss.links.mavlink_telemetry import telemetry_of
 
-GCS_HEARTBEAT_S = 1.0
+GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
 TEXT_REASON_WINDOW_S = 1.0
 
@@ -47,8 +55,10 @@ class MavlinkLink(RobotLink):
         command_timeout: float = 1.0, retries: int = 3,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
+        failsafe: FailsafePolicy | None = None,
     ) -> None:
-        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry)
+        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                         failsafe=failsafe)
         self.url = url
         self.target_system = target_system
         self.heartbeat_timeout = heartbeat_timeout
@@ -69,6 +79,11 @@ class MavlinkLink(RobotLink):
         self._mission_replies: queue.Queue[Any] = queue.Queue()
         self._last_warning: tuple[float, str] | None = None
         self._reported: tuple[str | None, bool, bool | None] = (None, False, None)
+        self._failsafe = VehicleFailsafe(
+            robot_id, failsafe, command_timeout, retries, send_param=self._send_param,
+            record=self._failsafe_record, down=self._report_failsafe,
+            up=lambda why: self._set_link_state(True, why), mode=lambda: self.mode,
+            log=self.log)
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> None:
@@ -248,7 +263,9 @@ class MavlinkLink(RobotLink):
 
     def _receive_loop(self) -> None:
         assert self._conn is not None
+        previous, draining = time.monotonic(), False
         while not self._stop.is_set():
+            msg = None
             try:
                 msg = self._conn.recv(timeout=0.1)
                 if msg is not None:
@@ -256,18 +273,29 @@ class MavlinkLink(RobotLink):
             except Exception:
                 self.log.exception("error handling a MAVLink message; continuing")
             now = time.monotonic()
+            if now - previous > max(1.0, self.heartbeat_timeout / 2):
+                draining = True  # this process was stalled: read what came meanwhile first
+            draining = draining and msg is not None
+            previous = now
             if now >= self._next_gcs_heartbeat:
                 self._next_gcs_heartbeat = now + GCS_HEARTBEAT_S
-                self._send(self._mav().heartbeat_encode(
-                    MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0, MAV.MAV_STATE_ACTIVE))
+                if self._controlled():
+                    self._send(self._mav().heartbeat_encode(
+                        MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0,
+                        MAV.MAV_STATE_ACTIVE))
+            self._failsafe.tick(now)
             last = self._last_heartbeat
-            if self.up and last is not None and now - last > self.heartbeat_timeout:
+            if self.up and not draining and last is not None \
+                    and now - last > self.heartbeat_timeout:
                 self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
 
     def _dispatch_message(self, msg: Any) -> None:
         kind = msg.get_type()
         if kind == "HEARTBEAT":
             self._on_heartbeat(msg)
+            return
+        if kind == "STATUSTEXT" and self.target_system is None:
+            self._failsafe.on_text(_text_of(msg))  # may come before the first heartbeat
             return
         if self.target_system is None or msg.get_srcSystem() != self.target_system:
             return
@@ -287,6 +315,8 @@ class MavlinkLink(RobotLink):
                                 msg.landed_state == MAV.MAV_LANDED_STATE_ON_GROUND)
         elif kind == "STATUSTEXT":
             self._on_text(msg)
+        elif kind == "PARAM_VALUE":
+            self._failsafe.on_param(_text_of(msg, "param_id"), float(msg.param_value))
         else:
             converted = telemetry_of(msg)
             if converted is not None:
@@ -303,13 +333,16 @@ class MavlinkLink(RobotLink):
         self._last_heartbeat = time.monotonic()
         armed = bool(msg.base_mode & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
         self._update_status(mode_name(msg.custom_mode), armed, self.landed)
+        if self._failsafe.on_heartbeat(msg.system_status == MAV.MAV_STATE_CRITICAL):
+            return
         if not self.up:
             what = "heartbeat resumed" if was_seen else "heartbeat"
-            self._set_link_state(True, f"{what} from system {self.target_system}")
+            if self._set_link_state(True, f"{what} from system {self.target_system}"):
+                self._failsafe.connected()
 
     def _on_text(self, msg: Any) -> None:
-        text = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
-        text = text.rstrip("\x00")
+        text = _text_of(msg)
+        self._failsafe.on_text(text)
         spot = parse_hotspot(text)
         if spot is not None:
             self._publish_telemetry("hotspot", {"id": spot.id, "lat": spot.lat,
@@ -320,6 +353,17 @@ class MavlinkLink(RobotLink):
             self._last_warning = (time.monotonic(), text)
         self._publish_telemetry("text", {"severity": msg.severity, "text": text})
 
+    # -- failsafe (mrss.links.mavlink_failsafe) ---------------------------------------------
+    def _send_param(self, name: str, value: float) -> None:
+        if self._conn is not None:
+            self._send(self._mav().param_set_encode(
+                self._target(), 1, name.encode(), value, MAV.MAV_PARAM_TYPE_REAL32))
+
+    def _failsafe_record(self, event: FailsafeEvent, detail: str) -> None:
+        action = self.failsafe.action.value if self.failsafe else None
+        self._publish_telemetry("failsafe", {"event": event.value, "action": action,
+                                             "mode": self.mode, "detail": detail})
+
     def _update_status(self, mode: str | None, armed: bool, landed: bool | None) -> None:
         """Take the vehicle's reported state; publish a status record when it changed."""
         reported = (mode, armed, landed)
@@ -328,6 +372,12 @@ class MavlinkLink(RobotLink):
         self._reported = reported
         self.mode, self.armed, self.landed = reported
         self._publish_telemetry("status", {"mode": mode, "armed": armed, "landed": landed})
+
+
+def _text_of(msg: Any, field: str = "text") -> str:
+    raw = getattr(msg, field)
+    text = raw if isinstance(raw, str) else raw.decode("utf-8", "replace")
+    return str(text).rstrip("\x00")
 
 
 def _enum_name(enum: str, value: int) -> str:

@@ -6,6 +6,12 @@ The link is up while the broker connection stands, the robot's retained status i
 paho reconnects to the broker with a growing delay. Command helpers block until the
 robot accepts (and, with ``wait=True``, finishes) the command, repeating an unanswered
 command with the same id (the robot answers repeats without doing them twice).
+
+Failsafe (mrss.links.failsafe): the link publishes a controller heartbeat every second
+on the robot's ``heartbeat`` topic while its controller lives (`watch_controller`),
+carrying the declared `failsafe`, if any. Telemetry with ``failsafe: true`` that the
+link has not reported yet makes it report the robot down (``failsafe: ...``); it is up
+again once the robot's telemetry says it hears the heartbeats (``controller: true``).
 """
 
 from __future__ import annotations
@@ -21,6 +27,10 @@ from paho.mqtt import client as mqtt
 from mrss.errors import DecodeError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout
+from mrss.links.failsafe import (
+    CONTROLLER_HEARTBEAT_S,
+    FailsafePolicy,
+)
 from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
@@ -28,6 +38,7 @@ from mrss.links.ugv_protocol import (
     ONLINE,
     UgvAck,
     UgvCommand,
+    UgvHeartbeat,
     UgvTelemetry,
     UgvTopics,
     parse_ack,
@@ -46,8 +57,10 @@ class MqttLink(RobotLink):
         command_timeout: float = 2.0, retries: int = 3, keepalive: int = 5,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
+        failsafe: FailsafePolicy | None = None,
     ) -> None:
-        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry)
+        super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                         failsafe=failsafe)
         self.address = parse_broker_url(broker_url)
         self.topics = topics or UgvTopics.for_robot(robot_id, prefix)
         self.telemetry_timeout = telemetry_timeout
@@ -58,7 +71,7 @@ class MqttLink(RobotLink):
         self._connected = False
         self._online: bool | None = None
         self._last_telemetry: float | None = None
-        self._last_status: tuple[str, bool, bool] | None = None
+        self._last_status: tuple[str, bool, bool, bool] | None = None
         self._waiting: dict[str, UgvAck | None] = {}
         self._ids = itertools.count(1)
         self._token = f"{os.getpid():x}{id(self) & 0xFFFF:x}"
@@ -168,6 +181,7 @@ class MqttLink(RobotLink):
         self._connected = True
         for topic in (self.topics.status, self.topics.telemetry, self.topics.ack):
             client.subscribe(topic, qos=1)
+        self._heartbeat()  # the robot hears its controller at once
         self.log.info("connected to broker %s:%d", self.address.host, self.address.port)
 
     def _on_disconnect(self, client: mqtt.Client, userdata: Any, flags: Any,
@@ -212,6 +226,7 @@ class MqttLink(RobotLink):
 
     def _on_telemetry(self, t: UgvTelemetry) -> None:
         self._last_telemetry = time.monotonic()
+        self._follow_failsafe(t)
         self._evaluate()
         self._publish_telemetry("position", {"lat": t.lat, "lon": t.lon,
                                              "heading": t.heading, "speed": t.speed})
@@ -219,21 +234,44 @@ class MqttLink(RobotLink):
                                             "current": None})
         self._publish_telemetry("tank", {"level": t.tank, "capacity": t.tank_capacity,
                                          "pumping": t.pumping})
-        status = (t.mode, t.at_base, t.teleop)
+        status = (t.mode, t.at_base, t.teleop, t.failsafe)
         if status != self._last_status:
             self._last_status = status
             self._publish_telemetry("status", {"mode": t.mode, "at_base": t.at_base,
-                                               "teleop": t.teleop})
+                                               "teleop": t.teleop, "failsafe": t.failsafe})
+
+    # -- failsafe --------------------------------------------------------------------------
+    def _follow_failsafe(self, t: UgvTelemetry) -> None:
+        """Report a failsafe the robot took (once), and its end of it when it hears us."""
+        self._follow_failsafe_state(t.failsafe, t.controller, t.mode,
+                                    ", at base" if t.at_base else "")
+
+    def _heartbeat(self) -> bool:
+        """Publish one controller heartbeat; False if there is no one to send it to."""
+        if not self.topics.heartbeat or not self._connected:
+            return False
+        if self._controlled():
+            policy = self.failsafe
+            beat = UgvHeartbeat(time.time(), policy.action if policy else None,
+                                policy.timeout_s if policy else None)
+            self._client.publish(self.topics.heartbeat, beat.to_json(), qos=0)
+        return True
 
     # -- liveness --------------------------------------------------------------------------
     def _evaluate(self) -> None:
         last = self._last_telemetry
         fresh = last is not None and time.monotonic() - last <= self.telemetry_timeout
-        if self._connected and self._online is not False and fresh:
-            self._set_link_state(True, f"telemetry from {self.robot_id}")
+        if self._connected and self._online is not False and fresh and not self._in_failsafe:
+            regained = self._failsafe_reported and not self.up
+            self._set_link_state(True, "control regained after a failsafe" if regained
+                                 else f"telemetry from {self.robot_id}")
 
     def _watch(self) -> None:
+        next_heartbeat = 0.0
         while not self._stop.wait(0.1):
+            now = time.monotonic()
+            if now >= next_heartbeat and self._heartbeat():
+                next_heartbeat = now + CONTROLLER_HEARTBEAT_S
             last = self._last_telemetry
             if self.up and last is not None \
                     and time.monotonic() - last > self.telemetry_timeout:

@@ -1,9 +1,15 @@
 """The JSON protocol between an MQTT ground robot and its link: topics and message schemas.
 
 Topics under ``<prefix>/<robot id>/`` (default prefix ``mrss/robots``):
-``cmd`` (link -> robot), ``telemetry`` and ``ack`` (robot -> link), and ``status``
-(retained ``online``, last will ``offline``). Every parser raises DecodeError naming
-the topic; nothing malformed gets through. Field lists are in docs/robots.md.
+``cmd`` and ``heartbeat`` (link -> robot), ``telemetry`` and ``ack`` (robot -> link), and
+``status`` (retained ``online``, last will ``offline``). Every parser raises DecodeError
+naming the topic; nothing malformed gets through. Field lists are in docs/robots.md.
+
+Failsafe (mrss.links.failsafe): the link publishes a heartbeat every second, optionally
+carrying the failsafe it wants (``{"ts": ..., "failsafe": "rtl", "timeout": 5.0}``). A
+robot that heard one and then none for the timeout acts on its failsafe and reports
+``failsafe: true`` in its telemetry until it is commanded again; ``controller`` says
+whether it hears heartbeats now.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from mrss.errors import DecodeError
+from mrss.links.failsafe import MAX_TIMEOUT_S, MIN_TIMEOUT_S, FailsafeAction
 
 DEFAULT_PREFIX = "mrss/robots"
 ONLINE = "online"
@@ -28,17 +35,31 @@ MAX_SPEED_MPS = 20.0
 
 @dataclass(frozen=True)
 class UgvTopics:
-    """The four MQTT topics of one ground robot."""
+    """The MQTT topics of one ground robot (no `heartbeat` topic: no failsafe watch)."""
 
     cmd: str
     telemetry: str
     ack: str
     status: str
+    heartbeat: str = ""
 
     @classmethod
     def for_robot(cls, robot_id: str, prefix: str = DEFAULT_PREFIX) -> UgvTopics:
         base = f"{prefix.rstrip('/')}/{robot_id}"
-        return cls(f"{base}/cmd", f"{base}/telemetry", f"{base}/ack", f"{base}/status")
+        return cls(f"{base}/cmd", f"{base}/telemetry", f"{base}/ack", f"{base}/status",
+                   f"{base}/heartbeat")
+
+
+@dataclass(frozen=True)
+class UgvHeartbeat:
+    """The controller's heartbeat; `failsafe`/`timeout`, when set, configure the robot's."""
+
+    ts: float
+    failsafe: FailsafeAction | None = None
+    timeout: float | None = None
+
+    def to_json(self) -> bytes:
+        return json.dumps({k: v for k, v in asdict(self).items() if v is not None}).encode()
 
 
 @dataclass(frozen=True)
@@ -91,6 +112,8 @@ class UgvTelemetry:
     mode: str
     at_base: bool
     teleop: bool
+    failsafe: bool = False     # acting on its failsafe (until commanded again)
+    controller: bool = True    # hears the controller's heartbeats now
 
     def to_json(self) -> bytes:
         return json.dumps(asdict(self)).encode()
@@ -160,6 +183,27 @@ def parse_command(payload: bytes, topic: str | None = None) -> UgvCommand:
     return UgvCommand(str(cmd), ident)
 
 
+def parse_heartbeat(payload: bytes, topic: str | None = None) -> UgvHeartbeat:
+    """A controller heartbeat; DecodeError if malformed (an unknown failsafe, a bad timeout)."""
+    data = _object(payload, topic)
+    ts = _number(data, "ts", topic, 0, 1e11)
+    action: FailsafeAction | None = None
+    if "failsafe" in data:
+        try:
+            action = FailsafeAction(data["failsafe"])
+        except ValueError:
+            known = ", ".join(a.value for a in FailsafeAction)
+            raise DecodeError(f"unknown failsafe {data['failsafe']!r}; known: {known}",
+                              topic=topic) from None
+    timeout = _number(data, "timeout", topic, MIN_TIMEOUT_S, MAX_TIMEOUT_S) \
+        if "timeout" in data else None
+    return UgvHeartbeat(ts, action, timeout)
+
+
+def _optional_flag(data: dict[str, Any], key: str, topic: str | None, default: bool) -> bool:
+    return _flag(data, key, topic) if key in data else default
+
+
 def parse_ack(payload: bytes, topic: str | None = None) -> UgvAck:
     """An ack from a JSON payload; DecodeError if malformed."""
     data = _object(payload, topic)
@@ -191,4 +235,6 @@ def parse_telemetry(payload: bytes, robot_id: str, topic: str | None = None) -> 
         tank=_number(data, "tank", topic, 0, capacity), tank_capacity=capacity,
         pumping=_flag(data, "pumping", topic), mode=str(mode),
         at_base=_flag(data, "at_base", topic), teleop=_flag(data, "teleop", topic),
+        failsafe=_optional_flag(data, "failsafe", topic, False),
+        controller=_optional_flag(data, "controller", topic, True),
     )

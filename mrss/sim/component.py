@@ -10,6 +10,8 @@
     recharge = 5.0                    # % per simulated second, landed and disarmed at home
     camera_radius = 25.0
     port = 0                          # UDP port to listen on; 0: a free one
+    failsafe = "hold"                 # GCS failsafe: hold | rtl | stop (FS_GCS_ENABLE 7/1/5)
+    failsafe_timeout = 5.0            # seconds without GCS heartbeats (FS_GCS_TIMEOUT)
 
     [components.sim_ugv]
     module = "mrss.sim.component:SimUgvComponent"
@@ -18,6 +20,11 @@
     speedup = 4.0                     # $MRSS_SIM_SPEEDUP overrides
     # tank = 200.0, pump_rate = 5.0, speed = 3.0, rate = 2.0, prefix = "mrss/robots"
     # broker_url = "mqtt://..."       # default: the project's broker (run_dir/broker.url)
+    failsafe = "stop"                 # without controller heartbeats: hold | rtl | stop
+    failsafe_timeout = 5.0
+
+Without `failsafe` a simulator has no failsafe of its own; the robot's link may still
+configure one (`failsafe` in the RCL's robot table). See docs/robots.md, "Failsafe".
 
 The UAV listens on a loopback UDP port and writes the connection string a ground
 station uses to reach it (`udpout:127.0.0.1:PORT`) to `<run_dir>/<id>.mavlink`, as the
@@ -33,13 +40,14 @@ import socket
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
-from mrss.config import load_file
-from mrss.edge.component import resolved_broker_url
+from mrss.config import Check, Option
 from mrss.errors import ConfigError
+from mrss.links.connect import ADDRESS_SUFFIX
+from mrss.links.connect import project_broker_url as links_broker_url
+from mrss.links.failsafe import policy_of
 from mrss.links.geo import distance_m
-from mrss.projects import PROJECT_FILE
 from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv
@@ -49,7 +57,6 @@ from mrss.supervision.component import Component, ComponentContext
 log = logging.getLogger("mrss.sim")
 
 SPEEDUP_ENV = "MRSS_SIM_SPEEDUP"
-ADDRESS_SUFFIX = ".mavlink"
 HOME_RADIUS_M = 10.0
 
 
@@ -136,6 +143,22 @@ class GroundCrewUav(SimUav):
 class SimUavComponent(Component):
     """A simulated UAV (MAVLink over loopback UDP) as a supervised component."""
 
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("id", str, "uav1", "the robot id (its address file is <run_dir>/<id>.mavlink)"),
+        Option("home", list, list(DEFAULT_HOME), "[lat, lon, alt] of home", Check.POSITION),
+        Option("hotspots", (list, str), [], "hidden hotspots: tables, or a JSON file"),
+        Option("speedup", float, 1.0, "simulated time per real second ($MRSS_SIM_SPEEDUP wins)",
+               Check.POSITIVE),
+        Option("endurance", float, None, "hover seconds on a full battery", Check.POSITIVE),
+        Option("recharge", float, 5.0, "% per second while landed at home", Check.NON_NEGATIVE),
+        Option("port", int, 0, "UDP port (0: a free one)", Check.PORT),
+        Option("sysid", int, 1, "MAVLink system id", Check.POSITIVE),
+        Option("camera_radius", float, 25.0, "metres the thermal camera sees", Check.POSITIVE),
+        Option("failsafe", str, None, "what the vehicle does without a controller"),
+        Option("failsafe_timeout", float, None, "seconds without a controller", Check.POSITIVE),
+    )
+
     def __init__(self) -> None:
         self.uav: GroundCrewUav | None = None
         self.address_file: Path | None = None
@@ -150,7 +173,7 @@ class SimUavComponent(Component):
             f"udpin:127.0.0.1:{port}", sysid=int(number(opts, "sysid", 1, low=1)),
             home=(home[0], home[1], home[2]), hotspots=hotspots_of(opts, ctx.project_dir),
             speedup=speedup_of(opts), camera_radius_m=number(opts, "camera_radius", 25.0),
-            recharge_pct_per_s=number(opts, "recharge", 5.0))
+            recharge_pct_per_s=number(opts, "recharge", 5.0), failsafe=policy_of(opts))
         uav.model.params.endurance_s = number(opts, "endurance", uav.model.params.endurance_s,
                                               low=1.0)
         uav.start()
@@ -189,9 +212,7 @@ def project_broker_url(ctx: ComponentContext) -> str:
     url = ctx.options.get("broker_url")
     if isinstance(url, str) and url:
         return url
-    project_file = ctx.project_dir / PROJECT_FILE
-    sections = load_file(project_file).sections if project_file.is_file() else {}
-    resolved = resolved_broker_url(sections, ctx.run_dir)
+    resolved = links_broker_url(ctx.project_dir, ctx.run_dir)   # the links' own rule
     if not resolved:
         raise ConfigError("no MQTT broker: set [broker] url, start the embedded broker "
                           "before this component, or give broker_url", key="broker_url")
@@ -200,6 +221,21 @@ def project_broker_url(ctx: ComponentContext) -> str:
 
 class SimUgvComponent(Component):
     """A simulated UGV (JSON over the project's MQTT broker) as a supervised component."""
+
+    #: The options this component reads (`mrss check` validates them; docs/config.md).
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("id", str, "ugv1", "the robot id"),
+        Option("base", list, list(DEFAULT_BASE), "[lat, lon] of the base", Check.POSITION),
+        Option("speed", float, None, "m/s", Check.POSITIVE),
+        Option("tank", float, None, "litres of water", Check.POSITIVE),
+        Option("pump_rate", float, None, "litres per second", Check.POSITIVE),
+        Option("broker_url", str, None, "MQTT broker (default: the project's)", Check.URL),
+        Option("prefix", str, None, "MQTT topic prefix"),
+        Option("rate", float, 2.0, "telemetry per second", Check.POSITIVE),
+        Option("speedup", float, 1.0, "simulated time per real second", Check.POSITIVE),
+        Option("failsafe", str, None, "what the vehicle does without a controller"),
+        Option("failsafe_timeout", float, None, "seconds without a controller", Check.POSITIVE),
+    )
 
     def __init__(self) -> None:
         self.ugv: SimUgv | None = None
@@ -218,7 +254,8 @@ class SimUgvComponent(Component):
         extra: dict[str, Any] = {"prefix": str(prefix)} if prefix else {}
         self.ugv = SimUgv(url, robot, base=(base[0], base[1]), params=params,
                           speedup=speedup_of(opts), telemetry_hz=number(opts, "rate", 2.0,
-                                                                          low=0.1), **extra)
+                                                                          low=0.1),
+                          failsafe=policy_of(opts), **extra)
         self.ugv.start()
         ctx.log.info("simulated %s on %s, base %.6f,%.6f, tank %g l, speedup %g", robot, url,
                      base[0], base[1], params.tank_capacity_l, self.ugv.speedup)

@@ -14,7 +14,11 @@ from mrss.links.geo import approach, bearing_deg, distance_m, step_towards
 from mrss.links.mavconn import MAV
 
 ARMABLE_MODES = {COPTER_MODES[m] for m in ("STABILIZE", "ACRO", "ALT_HOLD", "GUIDED", "LOITER")}
-GUIDED, AUTO, RTL, LAND = (COPTER_MODES[m] for m in ("GUIDED", "AUTO", "RTL", "LAND"))
+GUIDED, AUTO, RTL, LAND, BRAKE = (COPTER_MODES[m]
+                                   for m in ("GUIDED", "AUTO", "RTL", "LAND", "BRAKE"))
+# FS_GCS_ENABLE -> the mode the GCS failsafe switches to (SmartRTL and DO_LAND_START are
+# not simulated: they fall back to RTL or LAND as ArduCopter does without them).
+FS_GCS_MODES = {1: RTL, 3: RTL, 4: LAND, 5: LAND, 6: RTL, 7: BRAKE}
 FORCE_DISARM_MAGIC = 21196
 ARRIVED_M = 1.0
 ARRIVED_ALT_M = 0.3
@@ -154,6 +158,29 @@ class CopterModel:
     def relative_alt(self, frame: int, alt: float) -> float:
         """An altitude given in MAVLink `frame`, as metres above home."""
         return alt if frame in RELATIVE_FRAMES else alt - self.home_alt
+
+    def gcs_failsafe(self, enable: int) -> None:
+        """ArduCopter's GCS failsafe event for FS_GCS_ENABLE `enable` (never 0).
+
+        Disarmed: only a warning. Armed on the ground: disarm. Landing after a battery
+        failsafe: keep landing. Otherwise switch to the mode of `enable`.
+        """
+        warn = MAV.MAV_SEVERITY_WARNING
+        if not self.armed:
+            self.texts.append((warn, "GCS Failsafe"))
+            return
+        if self.landed:
+            self.texts.append((warn, "GCS Failsafe - Disarming"))
+            self.armed, self.target = False, None
+            self.texts.append((MAV.MAV_SEVERITY_INFO, "Disarming motors"))
+            return
+        if self.mode == LAND and self._failsafe_done:
+            self.texts.append((warn, "GCS + Battery Failsafe - Continuing Landing"))
+            return
+        self.texts.append((warn, "GCS Failsafe"))
+        mode = FS_GCS_MODES.get(enable, LAND)
+        if self.mode != mode:
+            self.set_mode(mode)
 
     # -- time ----------------------------------------------------------------------------
     def step(self, dt: float) -> None:

@@ -20,8 +20,10 @@ from types import FrameType
 from typing import Any
 
 from mrss.links.ardupilot import HotspotReport, format_hotspot, mode_name
+from mrss.links.failsafe import FailsafePolicy, parse_policy
 from mrss.links.mavconn import MAV, MavConnection
 from mrss.sim.copter import AUTO, GUIDED, CopterModel
+from mrss.sim.gcs_failsafe import GcsFailsafe
 from mrss.sim.hotspots import Hotspot, ThermalCamera, parse_hotspots
 from mrss.sim.mission_server import MissionServer
 from mrss.sim.uav_handlers import UavHandlers
@@ -29,6 +31,7 @@ from mrss.sim.uav_params import UavParams
 
 log = logging.getLogger("mrss.sim.uav")
 
+CLI_FAILSAFE_KEYS = ("--failsafe", "--failsafe-timeout")
 DEFAULT_HOME = (-35.363262, 149.165237, 584.0)  # ArduPilot SITL's default home
 DEFAULT_RATES = {  # message id -> seconds between sends
     MAV.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
@@ -62,6 +65,7 @@ class UavSnapshot:
     mission_items: int
     mission_seq: int
     hotspots_seen: frozenset[int]
+    failsafe: bool = False  # the GCS failsafe is in force
 
 
 class SimUav:
@@ -70,7 +74,8 @@ class SimUav:
     def __init__(self, url: str, *, sysid: int = 1,
                  home: tuple[float, float, float] = DEFAULT_HOME,
                  hotspots: Sequence[Hotspot] = (), speedup: float = 1.0,
-                 camera_radius_m: float = 25.0) -> None:
+                 camera_radius_m: float = 25.0, failsafe: FailsafePolicy | None = None
+                 ) -> None:
         if speedup <= 0:
             raise ValueError("speedup must be positive")
         self.url = url
@@ -78,6 +83,7 @@ class SimUav:
         self.speedup = speedup
         self.model = CopterModel(home[0], home[1], home[2])
         self.camera = ThermalCamera(hotspots, radius_m=camera_radius_m)
+        self.failsafe = GcsFailsafe(self.model, failsafe)
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -105,7 +111,7 @@ class SimUav:
             m = self.model
             return UavSnapshot(mode_name(m.mode), m.armed, m.landed, m.lat, m.lon, m.alt,
                                m.battery_pct, len(m.mission), m.mission_seq,
-                               frozenset(self.camera.seen))
+                               frozenset(self.camera.seen), self.failsafe.active)
 
     def run(self) -> None:
         """Serve until `stop()`: answer messages, fly, send telemetry."""
@@ -113,9 +119,9 @@ class SimUav:
                              source_component=MAV.MAV_COMP_ID_AUTOPILOT1)
         self._conn = conn
         mission = MissionServer(conn.conn.mav, conn.send, self.model)
-        params = UavParams(self.model, self.camera, self.sysid)
+        params = UavParams(self.model, self.camera, self.sysid, self.failsafe)
         handlers = UavHandlers(conn.conn.mav, conn.send, self.model, mission, params,
-                               self.sysid, self._send_message)
+                               self.sysid, self._send_message, self.failsafe)
         log.info("sim uav %d on %s (speedup %.1f, %d hotspots)", self.sysid, self.url,
                  self.speedup, len(self.camera.hotspots))
         last = time.monotonic()
@@ -130,6 +136,7 @@ class SimUav:
                     except Exception:  # no input may stop the vehicle
                         log.exception("error handling a MAVLink message; continuing")
                     now = time.monotonic()
+                    self.failsafe.check(now)
                     self._advance((now - last) * self.speedup)
                     last = now
                     mission.tick(now)
@@ -184,6 +191,8 @@ class SimUav:
             if m.armed:
                 flags |= MAV.MAV_MODE_FLAG_SAFETY_ARMED
             status = MAV.MAV_STATE_ACTIVE if m.armed else MAV.MAV_STATE_STANDBY
+            if self.failsafe.active:
+                status = MAV.MAV_STATE_CRITICAL  # as ArduCopter while any failsafe is on
             return mav.heartbeat_encode(MAV.MAV_TYPE_QUADROTOR, MAV.MAV_AUTOPILOT_ARDUPILOTMEGA,
                                         flags, m.mode, status)
         if msg_id == MAV.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
@@ -255,6 +264,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="thermal camera footprint radius in metres (default 25)")
     parser.add_argument("--speedup", type=float, default=1.0,
                         help="simulated seconds per wall-clock second (default 1)")
+    parser.add_argument("--failsafe", default=None,
+                        help="GCS failsafe: hold (BRAKE), rtl or stop (LAND); default off "
+                             "(a ground station may set FS_GCS_ENABLE)")
+    parser.add_argument("--failsafe-timeout", type=float, default=None,
+                        help="seconds without a GCS heartbeat before the failsafe (default 5)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -265,7 +279,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         hotspots = parse_hotspots(args.hotspots)
         uav = SimUav(args.out, sysid=args.sysid, home=args.home, hotspots=hotspots,
-                     speedup=args.speedup, camera_radius_m=args.camera_radius)
+                     speedup=args.speedup, camera_radius_m=args.camera_radius,
+                     failsafe=parse_policy(args.failsafe, args.failsafe_timeout,
+                                           keys=CLI_FAILSAFE_KEYS))
     except (ConfigError, ValueError) as exc:
         print(f"mrss sim uav: {exc}", file=sys.stderr)
         return 2

@@ -7,11 +7,13 @@ MAV_RESULT_UNSUPPORTED and unknown messages are ignored, so no input stops the v
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable
 from typing import Any
 
 from mrss.links.mavconn import MAV
 from mrss.sim.copter import AUTO, FORCE_DISARM_MAGIC, GUIDED, LAND, RTL, CopterModel, Refused
+from mrss.sim.gcs_failsafe import GcsFailsafe
 from mrss.sim.mission_server import MissionServer
 from mrss.sim.uav_params import UavParams
 
@@ -25,7 +27,7 @@ class UavHandlers:
 
     def __init__(self, mav: Any, send: Callable[[Any], None], model: CopterModel,
                  mission: MissionServer, params: UavParams, sysid: int,
-                 send_now: Callable[[int], bool]) -> None:
+                 send_now: Callable[[int], bool], failsafe: GcsFailsafe) -> None:
         self.mav = mav
         self.send = send
         self.model = model
@@ -33,6 +35,7 @@ class UavHandlers:
         self.params = params
         self.sysid = sysid
         self.send_now = send_now  # send a message by id on request; False if unknown
+        self.failsafe = failsafe
         self.intervals: dict[int, float] = {}  # msg id -> seconds, from SET_MESSAGE_INTERVAL
 
     def handle(self, msg: Any) -> None:
@@ -42,7 +45,10 @@ class UavHandlers:
             return
         kind = msg.get_type()
         try:
-            if kind == "COMMAND_LONG":
+            if kind == "HEARTBEAT":
+                if msg.type == MAV.MAV_TYPE_GCS:
+                    self.failsafe.heard(msg.get_srcSystem(), time.monotonic())
+            elif kind == "COMMAND_LONG":
                 self._command(msg, msg.command, (msg.param1, msg.param2, msg.param3,
                               msg.param4, msg.param5, msg.param6, msg.param7), None)
             elif kind == "COMMAND_INT":

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from mrss.sim.copter import CopterModel
+from mrss.sim.gcs_failsafe import GcsFailsafe
 from mrss.sim.hotspots import ThermalCamera
 
 
@@ -25,7 +26,8 @@ class ParamSpec:
 class UavParams:
     """The ordered parameter table of one simulated vehicle."""
 
-    def __init__(self, model: CopterModel, camera: ThermalCamera, sysid: int) -> None:
+    def __init__(self, model: CopterModel, camera: ThermalCamera, sysid: int,
+                 failsafe: GcsFailsafe) -> None:
         p = model.params
 
         def setter(attr: str, scale: float) -> Callable[[float], None]:
@@ -40,6 +42,11 @@ class UavParams:
                 raise ValueError("camera radius must be positive")
             camera.radius_m = value
 
+        def set_gcs_sysid(value: float) -> None:
+            if int(value) != value or not 1 <= value <= 255:
+                raise ValueError("SYSID_MYGCS must be a system id 1..255")
+            failsafe.gcs_sysid = int(value)
+
         self._specs = [
             ParamSpec("SYSID_THISMAV", lambda: float(sysid), None),
             ParamSpec("FRAME_CLASS", lambda: 1.0, None),  # quad
@@ -49,6 +56,9 @@ class UavParams:
                       setter("descent_mps", 100)),
             ParamSpec("LAND_SPEED", lambda: p.land_mps * 100, setter("land_mps", 100)),
             ParamSpec("RTL_ALT", lambda: p.rtl_alt_m * 100, setter("rtl_alt_m", 100)),
+            ParamSpec("FS_GCS_ENABLE", lambda: float(failsafe.enable), failsafe.set_enable),
+            ParamSpec("FS_GCS_TIMEOUT", lambda: failsafe.watch.timeout_s, failsafe.set_timeout),
+            ParamSpec("SYSID_MYGCS", lambda: float(failsafe.gcs_sysid), set_gcs_sysid),
             ParamSpec("SIM_ENDURANCE", lambda: p.endurance_s, setter("endurance_s", 1)),
             ParamSpec("SIM_BATT_FS_PCT", lambda: p.failsafe_pct, setter("failsafe_pct", 1)),
             ParamSpec("SIM_CAM_RADIUS", lambda: camera.radius_m, set_radius),

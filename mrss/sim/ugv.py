@@ -5,6 +5,10 @@ Run it as a process (``mrss sim ugv --broker mqtt://127.0.0.1:1883 --id ugv1``, 
 Commands arrive as JSON on ``<prefix>/<id>/cmd``; telemetry, answers and the retained
 online/offline status (offline is also the last will) go out on ``telemetry``, ``ack``
 and ``status``. A bad command is logged and ignored (answered "rejected" if it has an id).
+
+The controller's heartbeats arrive on ``heartbeat``; with a failsafe (its own, or the one
+a heartbeat asks for), the robot that heard one and then none for the timeout acts on
+it (`UgvModel.lose_controller`), as ArduPilot's GCS failsafe does.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from typing import Any
 from paho.mqtt import client as mqtt
 
 from mrss.errors import ConfigError, DecodeError
+from mrss.links.failsafe import DEFAULT_TIMEOUT_S, FailsafePolicy, parse_policy
 from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
@@ -34,7 +39,9 @@ from mrss.links.ugv_protocol import (
     UgvTopics,
     command_id_of,
     parse_command,
+    parse_heartbeat,
 )
+from mrss.sim.controller_watch import ControllerWatch, WatchEvent
 from mrss.sim.ugv_model import UgvModel, UgvParams
 
 log = logging.getLogger("mrss.sim.ugv")
@@ -51,7 +58,8 @@ class SimUgv:
     def __init__(self, broker_url: str, robot_id: str = "ugv1", *,
                  prefix: str = DEFAULT_PREFIX, base: tuple[float, float] = DEFAULT_BASE,
                  params: UgvParams | None = None, speedup: float = 1.0,
-                 telemetry_hz: float = 2.0, keepalive: int = 5) -> None:
+                 telemetry_hz: float = 2.0, keepalive: int = 5,
+                 failsafe: FailsafePolicy | None = None) -> None:
         if speedup <= 0 or telemetry_hz <= 0:
             raise ValueError("speedup and telemetry rate must be positive")
         self.address = parse_broker_url(broker_url)
@@ -62,6 +70,8 @@ class SimUgv:
         self.telemetry_period = 1.0 / telemetry_hz
         self.keepalive = keepalive
         self.bad_commands = 0
+        self.failsafe = failsafe
+        self.watch = ControllerWatch(failsafe.timeout_s if failsafe else DEFAULT_TIMEOUT_S)
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -89,7 +99,7 @@ class SimUgv:
     def snapshot(self) -> UgvTelemetry:
         """The robot's current state."""
         with self._lock:
-            return self.model.telemetry()
+            return self.model.telemetry(self.watch.present(time.monotonic()))
 
     def run(self) -> None:
         """Serve until `stop()`: take commands, drive, pump, publish telemetry."""
@@ -104,10 +114,11 @@ class SimUgv:
             while not self._stop.wait(STEP_S):
                 now = time.monotonic()
                 with self._lock:
+                    self._check_controller(now)
                     self.model.step((now - last) * self.speedup)
                     answers = self.model.take_answers()
                     due = now >= next_telemetry or bool(answers)
-                    sample = self.model.telemetry() if due else None
+                    sample = self.model.telemetry(self.watch.present(now)) if due else None
                 last = now
                 if sample is not None:
                     # Before the answers: a "done" is never newer than the last telemetry.
@@ -129,14 +140,53 @@ class SimUgv:
             return
         disable_nagle(client)
         client.subscribe(self.topics.cmd, qos=1)
+        if self.topics.heartbeat:
+            client.subscribe(self.topics.heartbeat, qos=0)
         client.publish(self.topics.status, ONLINE, qos=1, retain=True)
         log.info("connected to the broker; status online")
 
     def _on_message(self, client: mqtt.Client, userdata: Any, message: Any) -> None:
         try:
-            self._handle_command(bytes(message.payload), str(message.topic))
+            if message.topic == self.topics.heartbeat:
+                self._handle_heartbeat(bytes(message.payload), str(message.topic))
+            else:
+                self._handle_command(bytes(message.payload), str(message.topic))
         except Exception:  # a bug here must not stop the robot
-            log.exception("error handling a command on %s", message.topic)
+            log.exception("error handling a message on %s", message.topic)
+
+    # -- failsafe --------------------------------------------------------------------------
+    def _handle_heartbeat(self, payload: bytes, topic: str) -> None:
+        try:
+            if len(payload) > MAX_PAYLOAD:
+                raise DecodeError(f"payload of {len(payload)} bytes", topic=topic)
+            beat = parse_heartbeat(payload, topic)
+        except DecodeError as exc:
+            self.bad_commands += 1
+            log.warning("bad controller heartbeat ignored: %s", exc)
+            return
+        with self._lock:
+            if beat.failsafe is not None:  # the controller configures the failsafe
+                policy = FailsafePolicy(beat.failsafe, beat.timeout or DEFAULT_TIMEOUT_S)
+                if policy != self.failsafe:
+                    log.info("failsafe set by the controller: %s", policy.describe())
+                    self.failsafe = policy
+                    self.watch.timeout_s = policy.timeout_s
+            if not self.watch.heard_once and self.failsafe is not None:
+                log.info("controller heard: failsafe %s", self.failsafe.describe())
+            self.watch.heard(time.monotonic())
+
+    def _check_controller(self, now: float) -> None:
+        """Act on the failsafe when the controller's heartbeats stop (under the lock)."""
+        policy = self.failsafe
+        if policy is None:
+            return
+        event = self.watch.poll(now)
+        if event is WatchEvent.LOST:
+            why = f"no controller heartbeat for {policy.timeout_s:g} s"
+            log.warning("failsafe (%s): %s", policy.action.value, why)
+            self.model.lose_controller(policy.action, why)
+        elif event is WatchEvent.REGAINED:
+            log.info("controller heartbeats back; failsafe stays until commanded")
 
     def _handle_command(self, payload: bytes, topic: str) -> None:
         if len(payload) > MAX_PAYLOAD:
@@ -200,6 +250,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="simulated seconds per wall-clock second")
     parser.add_argument("--rate", type=float, default=2.0, help="telemetry messages per second")
     parser.add_argument("--keepalive", type=int, default=5, help="MQTT keepalive seconds")
+    parser.add_argument("--failsafe", default=None,
+                        help="without controller heartbeats: hold, rtl or stop (default: "
+                             "none, unless the controller's heartbeat asks for one)")
+    parser.add_argument("--failsafe-timeout", type=float, default=None,
+                        help="seconds without controller heartbeats (default 5)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -208,8 +263,11 @@ def run(args: argparse.Namespace) -> int:
     try:
         params = UgvParams(max_speed_mps=args.speed, tank_capacity_l=args.tank,
                            pump_rate_lps=args.pump_rate)
+        failsafe = parse_policy(args.failsafe, args.failsafe_timeout,
+                                keys=("--failsafe", "--failsafe-timeout"))
         ugv = SimUgv(args.broker, args.id, prefix=args.prefix, base=args.base, params=params,
-                     speedup=args.speedup, telemetry_hz=args.rate, keepalive=args.keepalive)
+                     speedup=args.speedup, telemetry_hz=args.rate, keepalive=args.keepalive,
+                     failsafe=failsafe)
     except (ConfigError, ValueError) as exc:
         print(f"mrss sim ugv: {exc}", file=sys.stderr)
         return 2

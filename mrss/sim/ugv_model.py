@@ -4,6 +4,12 @@ Pure state and arithmetic: `mrss.sim.ugv` feeds it commands from MQTT and publis
 what it reports. A command with an id gets an "accepted" or "rejected" answer, and a
 command that takes time (goto, return_to_base, pump with litres) a terminal one later:
 "done", "failed" or "cancelled" (when another command supersedes it).
+
+Failsafe (`lose_controller`, called by `mrss.sim.ugv` when the controller's heartbeats
+stop): HOLD stops driving (a pump job goes on), STOP stops driving and pumping, RTL
+stops pumping and drives back to base — except in teleop, where the robot only stops.
+The running jobs end "cancelled" with a ``failsafe: ...`` reason, and `failsafe` stays
+true until the next accepted command.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+from mrss.links.failsafe import FailsafeAction
 from mrss.links.geo import bearing_deg, distance_m, offset
 from mrss.links.ugv_protocol import UgvAck, UgvCommand, UgvTelemetry
 
@@ -59,6 +66,7 @@ class UgvModel:
     mode: str = "idle"
     target: tuple[float, float] | None = None
     drive: tuple[float, float] = (0.0, 0.0)  # teleop speed m/s, heading deg
+    failsafe: bool = False
     _move: _Job | None = None
     _pump: _Job | None = None
     _answers: list[UgvAck] = field(default_factory=list)
@@ -93,6 +101,25 @@ class UgvModel:
         refusal: str | None = handler(command)
         if refusal is not None:
             self._answer(command.id, "rejected", refusal)
+        else:
+            self.failsafe = False  # commanded again: the controller has taken over
+
+    def lose_controller(self, action: FailsafeAction, why: str) -> None:
+        """Act on the failsafe `action`: the controller is gone (`why` says how)."""
+        self.failsafe = True
+        reason = f"failsafe: {why}"
+        if action is not FailsafeAction.HOLD:
+            self._end(self._pump, "cancelled", reason)
+            self._pump, self.pumping = None, False
+        going_home = action is FailsafeAction.RTL and not self.teleop and self.battery > 0
+        if going_home and self._move is not None and self._move.kind == "return":
+            return  # already on its way
+        self._end(self._move, "cancelled", reason)
+        self._move, self.target, self.speed, self.drive = None, None, 0.0, (0.0, 0.0)
+        self.mode = "teleop" if self.teleop else "idle"
+        if going_home:
+            self._move = _Job(None, "return")
+            self.target, self.mode = (self.base_lat, self.base_lon), "return"
 
     def _cmd_goto(self, c: UgvCommand) -> str | None:
         assert c.lat is not None and c.lon is not None
@@ -215,12 +242,13 @@ class UgvModel:
                 self._end(job, "done", "tank empty")
             self._pump, self.pumping = None, False
 
-    def telemetry(self) -> UgvTelemetry:
-        """The current state as a telemetry sample."""
+    def telemetry(self, controller: bool = True) -> UgvTelemetry:
+        """The current state as a telemetry sample (`controller`: heartbeats heard now)."""
         return UgvTelemetry(
             id=self.robot_id, ts=time.time(), lat=self.lat, lon=self.lon,
             heading=round(self.heading, 2) % 360.0, speed=round(self.speed, 3),
             battery=round(self.battery, 3),
             tank=round(min(self.tank, self.params.tank_capacity_l), 3),
             tank_capacity=self.params.tank_capacity_l, pumping=self.pumping, mode=self.mode,
-            at_base=self.at_base, teleop=self.teleop)
+            at_base=self.at_base, teleop=self.teleop, failsafe=self.failsafe,
+            controller=controller)

@@ -58,6 +58,7 @@ class Proc:
     verdict: ExitReason | None = None  # why we killed it, overriding the wait status
     told: str = ""  # the reason the child reported before exiting
     then_restart: bool = False  # STOPPING: start again after the exit
+    then_quarantine: bool = False  # STOPPING: its group was given up; stays down after
     last_reason: str = ""
     faults: dict[str, Any] = field(default_factory=dict)  # for the next incarnation only
 

@@ -34,10 +34,34 @@ log = logging.getLogger("mrss.supervision.forkserver")
 PRELOAD = ("mrss.supervision.component_main", "mrss.messages", "pykka", "msgpack", "zmq")
 
 
+COMPONENT_COMM_PREFIX = "mrss:"  # a forked component's process name: "mrss:reasoner"
+
+
+def is_fork_server(cmdline: Sequence[str], name: str) -> bool:
+    """Whether a process (its argv and its name) is a fork server, not a component it
+    forked: those share its argv, but name themselves after their component."""
+    return (any("mrss.supervision.forkserver" in part for part in cmdline)
+            and not name.startswith(COMPONENT_COMM_PREFIX))
+
+
+def _name_process(name: str) -> None:
+    """Set the process name (`ps`, `top`, psutil's name()) to `mrss:<component>`."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        libc.prctl(15, f"{COMPONENT_COMM_PREFIX}{name}"[:15].encode(), 0, 0, 0)  # PR_SET_NAME
+    except OSError:
+        pass
+
+
 def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: int) -> None:
     """In the forked child: become a component; never returns."""
     code = 1
     try:
+        _name_process(str(req["name"]))
         signal.set_wakeup_fd(-1)
         signal.signal(signal.SIGCHLD, signal.SIG_DFL)
         sock.close()

@@ -12,7 +12,6 @@ import json
 import logging
 import os
 import selectors
-import signal
 import socket
 import subprocess
 import sys
@@ -26,7 +25,11 @@ from mrss.supervision.reason import Cause, ExitReason
 
 log = logging.getLogger("mrss.supervision.launchers")
 
+# The exit of a child whose fork server died first: only its parent could have read why.
+_STATUS_LOST = ExitReason(Cause.EXITED, "exit status unknown (its fork server was lost)")
+
 OnExit = Callable[[int, ExitReason], None]
+OnServerLost = Callable[[str, int], None]  # (why, how many of its children live on)
 
 
 class Launcher:
@@ -90,19 +93,34 @@ class ExecLauncher(Launcher):
 
 
 class ForkLauncher(Launcher):
-    """Forks children from a fork server that imported everything once (fast restarts)."""
+    """Forks children from a fork server that imported everything once (fast restarts).
+
+    Losing the fork server is one launcher restart, not a failure of its children: they
+    are separate processes with their own control channels to the supervisor, so they
+    keep running. Under `mrss supervise` the root's process is their child subreaper
+    (`become_subreaper`), so they are re-parented to it and stay in its process tree;
+    their exits are then watched through pidfds and reaped here with their real status
+    (reported as unknown where the supervisor is not their subreaper). A new fork server
+    is started at once for the next spawn; `on_server_lost(why, kept)` tells the
+    supervisor.
+    """
 
     def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
                  preload: Sequence[str] = (), path: Sequence[str | Path] = (),
-                 python: str = sys.executable, start_timeout: float = 30.0) -> None:
+                 python: str = sys.executable, start_timeout: float = 30.0,
+                 on_server_lost: OnServerLost | None = None) -> None:
         super().__init__(selector, on_exit)
         self.preload = list(preload)
         self.path = [str(p) for p in path]
         self.python = python
         self.start_timeout = start_timeout
+        self.on_server_lost = on_server_lost
+        self.servers_lost = 0
         self._sock: socket.socket | None = None
         self._server: subprocess.Popen[bytes] | None = None
+        self._hello = False
         self._children: set[int] = set()
+        self._orphans: dict[int, int] = {}  # pidfd -> pid of a lost server's child
         self._req = 0
         self._exits: list[tuple[int, ExitReason]] = []
 
@@ -111,7 +129,15 @@ class ForkLauncher(Launcher):
         return self._server.pid if self._server else 0
 
     def start(self) -> None:
-        """Start the fork server now (otherwise the first spawn does)."""
+        """Start the fork server now and wait for its hello (otherwise a spawn does)."""
+        self._launch()
+        if not self._hello:
+            hello = self._wait_reply(lambda m: m.get("op") == "hello")
+            self._hello = True
+            log.debug("fork server up, pid %s", hello.get("pid"))
+
+    def _launch(self) -> None:
+        """Start a fork server process without waiting for it to finish its imports."""
         if self._sock is not None:
             return
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -127,13 +153,22 @@ class ForkLauncher(Launcher):
             raise SupervisionError(f"cannot start the fork server: {exc}") from exc
         finally:
             theirs.close()
-        self._sock = ours
-        hello = self._wait_reply(lambda m: m.get("op") == "hello")
-        log.debug("fork server up, pid %s", hello.get("pid"))
+        self._sock, self._hello = ours, False
         self.selector.register(ours, selectors.EVENT_READ, self._readable)
 
     def spawn(self, target: str, name: str, inc: int, context: str,
               control: socket.socket) -> int:
+        lost = self.servers_lost
+        try:
+            return self._spawn_once(target, name, inc, context, control)
+        except SupervisionError:
+            if self.servers_lost == lost:
+                raise
+            log.warning("fork server lost while starting %s; asking the new one", name)
+            return self._spawn_once(target, name, inc, context, control)
+
+    def _spawn_once(self, target: str, name: str, inc: int, context: str,
+                    control: socket.socket) -> int:
         self.start()
         assert self._sock is not None
         self._req += 1
@@ -197,7 +232,9 @@ class ForkLauncher(Launcher):
         self.flush()
 
     def _note(self, msg: dict[str, Any]) -> None:
-        if msg.get("op") == "exit":
+        if msg.get("op") == "hello":
+            self._hello = True
+        elif msg.get("op") == "exit":
             pid = int(msg["pid"])
             self._children.discard(pid)
             self._exits.append((pid, ExitReason.from_wait_status(int(msg["status"]))))
@@ -208,8 +245,7 @@ class ForkLauncher(Launcher):
             self.on_exit(pid, reason)
 
     def _server_lost(self, why: str) -> None:
-        """The fork server died: kill its children (their exit status is lost with it)."""
-        log.error("fork server lost (%s); its children are gone", why)
+        """The fork server died: watch its children by pidfd, start a new server now."""
         if self._sock is not None:
             try:
                 self.selector.unregister(self._sock)
@@ -217,21 +253,45 @@ class ForkLauncher(Launcher):
                 pass
             self._sock.close()
             self._sock = None
+        status = "gone"
         if self._server is not None:
             self._server.kill()
-            self._server.wait()
+            status = str(ExitReason.from_returncode(self._server.wait()))
             self._server = None
+        kept = 0
         for pid in sorted(self._children):
-            for kill in (os.killpg, os.kill):
-                try:
-                    kill(pid, signal.SIGKILL)
-                    break
-                except (ProcessLookupError, PermissionError):
-                    pass
-            self._exits.append((pid, ExitReason(Cause.KILLED, f"fork server lost ({why})")))
+            try:
+                pidfd = os.pidfd_open(pid)
+            except OSError:  # already gone: its exit report went with the server
+                self._exits.append((pid, _reap(pid)))
+                continue
+            self._orphans[pidfd] = pid
+            self.selector.register(pidfd, selectors.EVENT_READ,
+                                   lambda fd=pidfd: self._orphan_exited(fd))
+            kept += 1
         self._children.clear()
+        self.servers_lost += 1
+        log.error("fork server lost (%s, %s); %d of its children keep running; starting a "
+                  "new one", why, status, kept)
+        try:
+            self._launch()
+        except SupervisionError as exc:  # the next spawn tries again
+            log.error("%s", exc)
+        if self.on_server_lost is not None:
+            self.on_server_lost(f"{why} ({status})", kept)
+
+    def _orphan_exited(self, pidfd: int) -> None:
+        pid = self._orphans.pop(pidfd)
+        self.selector.unregister(pidfd)
+        os.close(pidfd)
+        self._exits.append((pid, _reap(pid)))
+        self.flush()
 
     def close(self) -> None:
+        for pidfd in list(self._orphans):
+            self.selector.unregister(pidfd)
+            os.close(pidfd)
+        self._orphans.clear()
         if self._sock is not None:
             try:
                 self.selector.unregister(self._sock)
@@ -246,3 +306,27 @@ class ForkLauncher(Launcher):
                 self._server.kill()
                 self._server.wait()
             self._server = None
+
+
+def become_subreaper() -> None:
+    """Make this process adopt its orphaned descendants (prctl PR_SET_CHILD_SUBREAPER):
+    the children of a lost fork server stay in the supervisor's tree and are reaped here."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(36, 1, 0, 0, 0) != 0:  # PR_SET_CHILD_SUBREAPER
+            log.warning("cannot become a child subreaper (errno %d)", ctypes.get_errno())
+    except OSError as exc:
+        log.warning("cannot become a child subreaper: %s", exc)
+
+
+def _reap(pid: int) -> ExitReason:
+    """The exit of an adopted child of a lost fork server, reaped if it is ours."""
+    try:
+        done, status = os.waitpid(pid, os.WNOHANG)
+    except ChildProcessError:  # not re-parented to us: its status went with the server
+        return _STATUS_LOST
+    return ExitReason.from_wait_status(status) if done == pid else _STATUS_LOST

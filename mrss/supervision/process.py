@@ -5,19 +5,25 @@ TUI, tests) submit commands and read snapshots. The loop starts children one at 
 in order and waits for each to report ready; detects exits (any reason, SIGKILL
 included), start timeouts and hangs (missed heartbeats); stops children in reverse
 order, SIGTERM first and SIGKILL when their shutdown time is up; and applies the
-policy's decisions. If the intensity is exceeded it stops everything and ends with an
-`Outcome` naming the child and its last reason.
+policy's decisions. A component (or group) over its budget is given up: with
+`on_exceeded = quarantine` (config: `on_give_up = "stop_component"`) only it is stopped,
+`sup.give_up` goes out and it is retried after `probation`; with `escalate`
+(`"stop_system"`) everything stops and the loop ends with an `Outcome` naming the child
+and its last reason. A lost fork server is one launcher restart (`sup.restart` of
+`forkserver`): the children it forked keep running.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import random
 import signal
 import threading
 import time
 from collections.abc import Callable, Iterable
+from typing import Any
 
 from mrss.errors import SupervisionError
 from mrss.supervision import control
@@ -33,6 +39,8 @@ from mrss.supervision.spec import ChildKind, ChildSpec, Strategy, SupervisorSpec
 from mrss.supervision.status import ChildState, ChildStatus, Outcome
 
 log = logging.getLogger("mrss.supervision.process")
+
+FORK_SERVER = "forkserver"  # the child name of the fork server in sup.* events
 
 
 class ProcessSupervisor:
@@ -190,9 +198,18 @@ class ProcessSupervisor:
             return ExecLauncher(self._loop.selector, self._on_exit)
         modules = sorted({p.spec.start.module for p in self._procs.values()})
         launcher = ForkLauncher(self._loop.selector, self._on_exit, preload=modules,
-                                path=[self.settings.project_dir])
+                                path=[self.settings.project_dir],
+                                on_server_lost=self._fork_server_lost)
         launcher.start()
         return launcher
+
+    def _fork_server_lost(self, why: str, kept: int) -> None:
+        assert isinstance(self._launcher, ForkLauncher)
+        launcher = self._launcher
+        self.events.emit(ev.RESTART, FORK_SERVER, reason=f"killed: {why}",
+                         count=launcher.servers_lost, kept=kept)
+        if launcher.server_pid:
+            self.events.emit(ev.START, FORK_SERVER, pid=launcher.server_pid)
 
     def _next_deadline(self, now: float) -> float:
         limit = self.settings.heartbeat_interval * self.settings.heartbeat_misses
@@ -365,9 +382,13 @@ class ProcessSupervisor:
         p.last_reason = str(reason)
         self._policy.child_stopped(p.id)
         self.events.emit(ev.EXIT, p.id, pid=p.pid, reason=str(reason), inc=p.incarnation)
-        p.state = ChildState.WAITING if p.then_restart and self._finishing is None \
-            else ChildState.STOPPED
-        p.then_restart = False
+        if self._finishing is None and p.then_restart:
+            p.state = ChildState.WAITING
+        elif self._finishing is None and p.then_quarantine:
+            p.state = ChildState.QUARANTINED
+        else:
+            p.state = ChildState.STOPPED
+        p.then_restart = p.then_quarantine = False
 
     def _failed(self, p: Proc, reason: ExitReason) -> None:
         p.last_reason = str(reason)
@@ -380,7 +401,6 @@ class ProcessSupervisor:
 
     def _apply(self, d: Decision) -> None:
         now = self._clock()
-        p = self._procs[d.child]
         if d.action is Action.RESTART:
             for sid in d.stop:
                 self._procs[sid].then_restart = sid in d.restart
@@ -390,15 +410,31 @@ class ProcessSupervisor:
                 q.not_before = now + d.delay
                 if not q.alive:
                     q.state = ChildState.WAITING
+            extra: dict[str, Any] = {"subtree": d.group, "note": d.note} if d.group else {}
             self.events.emit(ev.RESTART, d.child, reason=str(d.reason), count=d.count,
-                             delay=round(d.delay, 3), group=list(d.restart))
+                             delay=round(d.delay, 3), group=list(d.restart), **extra)
         elif d.action is Action.QUARANTINE:
-            p.state, p.not_before = ChildState.QUARANTINED, now + d.delay
-            self.events.emit(ev.QUARANTINE, d.child, reason=str(d.reason), count=d.count,
-                             probation=d.delay, note=d.note)
+            self._give_up_component(d, now)
         elif d.action is Action.ESCALATE:
-            self.events.emit(ev.GIVE_UP, d.child, reason=str(d.reason), note=d.note)
+            self.events.emit(ev.GIVE_UP, d.child, reason=str(d.reason), note=d.note,
+                             stops="system")
             self._finish(Outcome(True, d.child, str(d.reason), d.note))
+
+    def _give_up_component(self, d: Decision, now: float) -> None:
+        """Stop only the culprit (the child, or its group) and retry it after probation."""
+        retry = now + d.delay if math.isfinite(d.delay) else math.inf
+        for cid in d.drop:
+            q = self._procs[cid]
+            q.not_before = retry
+            if cid in d.stop:
+                q.then_quarantine = True
+                self._stop_queue.append(cid)
+            elif not q.alive:
+                q.state = ChildState.QUARANTINED
+        self.events.emit(
+            ev.GIVE_UP, d.child, reason=str(d.reason), count=d.count, note=d.note,
+            stops="component", subtree=d.group, members=list(d.drop),
+            retry_in=round(d.delay, 3) if math.isfinite(d.delay) else None)
 
     def _begin_shutdown(self) -> None:
         if self._finishing is None:
@@ -416,7 +452,7 @@ class ProcessSupervisor:
     def _finish(self, outcome: Outcome) -> None:
         self._finishing = outcome
         for p in self._procs.values():
-            p.then_restart = False
+            p.then_restart = p.then_quarantine = False
             if p.state in (ChildState.WAITING, ChildState.QUARANTINED):
                 p.state = ChildState.STOPPED
         self._stop_queue = [p.id for p in reversed(self._procs.values()) if p.alive]

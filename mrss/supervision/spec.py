@@ -85,7 +85,8 @@ class ChildSpec(Generic[StartT]):
     """One supervised child: its id, how to start it, and its restart and shutdown rules.
 
     `shutdown` is the seconds a child gets to stop after being asked before it is
-    killed, or "kill" to kill it at once (OTP's brutal_kill).
+    killed, or "kill" to kill it at once (OTP's brutal_kill). `backoff = False` exempts
+    the child from the supervisor's backoff (it still counts toward its intensity).
     """
 
     id: str
@@ -93,12 +94,16 @@ class ChildSpec(Generic[StartT]):
     restart: Restart = Restart.PERMANENT
     shutdown: float | Literal["kill"] = 5.0
     kind: ChildKind = ChildKind.WORKER
+    backoff: bool = True  # False: always restarted at once (the bus proxy: all need it)
 
     def __post_init__(self) -> None:
         if not self.id or not isinstance(self.id, str):
             raise SupervisionError(f"child id must be a non-empty string, not {self.id!r}")
         object.__setattr__(self, "restart", _enum(Restart, self.restart, self.id, "restart"))
         object.__setattr__(self, "kind", _enum(ChildKind, self.kind, self.id, "kind"))
+        if not isinstance(self.backoff, bool):
+            raise SupervisionError(f"child {self.id}: backoff must be true or false, "
+                                   f"not {self.backoff!r}")
         if self.shutdown != KILL:
             if isinstance(self.shutdown, bool) or not isinstance(self.shutdown, int | float):
                 raise SupervisionError(
@@ -113,36 +118,85 @@ class ChildSpec(Generic[StartT]):
 
 
 @dataclass(frozen=True)
+class Group:
+    """A subtree of a supervisor's children: a budget of its own, escalation kept inside.
+
+    A member that exceeds its own intensity restarts the whole group; more than
+    `intensity` such group restarts within `period` seconds (None: the supervisor's
+    period) and the group is given up as one (see `RestartPolicy`).
+    """
+
+    name: str
+    children: tuple[str, ...]
+    intensity: int = 1
+    period: float | None = None
+
+    def __post_init__(self) -> None:
+        _count(self.intensity, f"group {self.name}: intensity")
+        if self.period is not None:
+            _positive(self.period, f"group {self.name}: period")
+        if not self.name or not isinstance(self.name, str):
+            raise SupervisionError(f"group name must be a non-empty string, not {self.name!r}")
+        object.__setattr__(self, "children", tuple(self.children))
+        if not self.children or not all(isinstance(c, str) and c for c in self.children):
+            raise SupervisionError(f"group {self.name}: children must be a non-empty list of "
+                                   f"child ids, not {list(self.children)!r}")
+        if len(set(self.children)) != len(self.children):
+            raise SupervisionError(f"group {self.name}: a child is listed twice")
+
+
+@dataclass(frozen=True)
 class SupervisorSpec:
     """A supervisor's flags: strategy, restart intensity, backoff, and healing rules.
 
-    More than `intensity` restarts within `period` seconds exceeds the intensity. A child
-    that ran for `healthy_after` seconds has its failure streak (and so its backoff)
-    forgotten. With `on_exceeded = quarantine` intensity is counted per child and only
-    the offending child is stopped, to be retried after `probation` seconds.
+    Every child has its own intensity window: more than `intensity` restarts of it within
+    `period` seconds exceed it. `shared_intensity` (opt-in, OTP's classic flag) adds one
+    window over all children's restarts. `groups` are subtrees that escalate inside
+    themselves. What exceeding means is `on_exceeded`: escalate (stop everything, fail to
+    the parent) or quarantine (stop only the culprit, child or group, and retry it after
+    `probation` seconds; `math.inf`: never). A child that ran for `healthy_after` seconds
+    has its failure streak (and so its backoff) forgotten. The rules: `RestartPolicy`.
     """
 
     strategy: Strategy = Strategy.ONE_FOR_ONE
     intensity: int = 3
     period: float = 5.0
     backoff: Backoff = field(default_factory=Backoff)
-    healthy_after: float = 60.0
+    healthy_after: float = 10.0
     on_exceeded: OnExceeded = OnExceeded.ESCALATE
     probation: float = 30.0
+    shared_intensity: int | None = None
+    groups: tuple[Group, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "strategy", _enum(Strategy, self.strategy, "", "strategy"))
         object.__setattr__(
             self, "on_exceeded", _enum(OnExceeded, self.on_exceeded, "", "on_exceeded")
         )
-        if isinstance(self.intensity, bool) or not isinstance(self.intensity, int) \
-                or self.intensity < 0:
-            raise SupervisionError(f"intensity must be an integer >= 0, not {self.intensity!r}")
+        _count(self.intensity, "intensity")
+        if self.shared_intensity is not None:
+            _count(self.shared_intensity, "shared_intensity")
         _positive(self.period, "period")
         _nonneg(self.healthy_after, "healthy_after")
-        _nonneg(self.probation, "probation")
-        if self.on_exceeded is OnExceeded.QUARANTINE and self.strategy is not Strategy.ONE_FOR_ONE:
-            raise SupervisionError("on_exceeded = 'quarantine' needs strategy 'one_for_one'")
+        if isinstance(self.probation, bool) or not isinstance(self.probation, int | float) \
+                or math.isnan(self.probation) or self.probation < 0:
+            raise SupervisionError(f"probation must be seconds >= 0 (inf: never retried), "
+                                   f"not {self.probation!r}")
+        object.__setattr__(self, "groups", tuple(self.groups))
+        if self.groups and self.strategy is not Strategy.ONE_FOR_ONE:
+            raise SupervisionError(f"groups need strategy 'one_for_one', not "
+                                   f"{self.strategy.value!r}")
+        seen: dict[str, str] = {}
+        for group in self.groups:
+            if not isinstance(group, Group):
+                raise SupervisionError(f"groups must be Group values, not {group!r}")
+            if group.name in {g.name for g in self.groups if g is not group}:
+                raise SupervisionError(f"group {group.name} is defined twice")
+            for child in group.children:
+                if child in seen:
+                    raise SupervisionError(f"child {child} is in groups {seen[child]} and "
+                                           f"{group.name}; a child belongs to one group")
+                seen[child] = group.name
 
 
 _E = TypeVar("_E", bound=StrEnum)
@@ -155,6 +209,11 @@ def _enum(cls: type[_E], value: object, child: str, name: str) -> _E:
         options = ", ".join(m.value for m in cls)
         who = f"child {child}: " if child else ""
         raise SupervisionError(f"{who}{name} must be one of {options}, not {value!r}") from None
+
+
+def _count(value: int, name: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise SupervisionError(f"{name} must be an integer >= 0, not {value!r}")
 
 
 def _nonneg(value: float, name: str) -> None:

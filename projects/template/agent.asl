@@ -4,7 +4,12 @@
 //   [source(percept)]; `robot_unavailable(R)` comes from MRSS itself;
 // - an environment action is `name(Robot, Goal, ...)`: the RCL runs it on Robot (rcl.py
 //   refines it into skills) and the plan blocks until it succeeds or fails;
-//   `[priority(P)]` on the action decides who wins a robot's resources;
+//   `[priority(P)]` on the action decides who wins a robot's resources. The rule:
+//   A resource is held by one action at a time (its skills share it). A request
+//   pre-empts the holder if its priority is strictly higher; otherwise it waits.
+//   Whenever the resource is free it goes to the highest-priority candidate among the
+//   actions waiting for it and those pre-empted from it, the oldest request first among
+//   equals. (A pre-empted action is suspended, its progress kept, and resumed then.)
 // - rcl_goal_management(cancel|suspend|resume|succeed|fail, Goal) manages running
 //   actions (by goal id; or action(Uuid), robot(R));
 // - query(Function, [Args], Result) calls a data layer function.

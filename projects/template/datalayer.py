@@ -16,8 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from mrss.edge.adapters import DataLayer, external
-from mrss.links.geo import distance_m
+from mrss.api import DataLayer, distance_m, external
 
 
 class ProjectData(DataLayer):

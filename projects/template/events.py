@@ -7,14 +7,17 @@ into percepts for agent.asl. The events manager gives the adapter:
   `op="remove"` to retract one; arguments are quoted safely (`Atom("a1")` for atoms);
 - `self.map_json(topic, JsonMapping(...))`: a declared payload schema -> one percept;
 - `self.on_json(topic, handler)`: your own handler for JSON objects;
-- `self.options`: the `[events]` table of project.toml.
-A payload that does not fit its schema is logged and counted, never a percept.
+- `self.options`: the `[events]` table of project.toml;
+- `self.world_model()`: the run's world model, found again for every call (restarts).
+A payload that does not fit is counted and reported back on `<topic>/reply`, never a
+percept. A handler whose dependency is down raises `DependencyUnavailable` (the world
+model client does): the message is retried, then reported `failed` on `<topic>/reply`
+and the dashboard. A payload's `"id"` makes a repeat of it one event.
 """
 
 from __future__ import annotations
 
-from mrss.edge.adapters import ExternalAdapter
-from mrss.edge.payloads import Field, JsonMapping
+from mrss.api import ExternalAdapter, Field, JsonMapping, Option
 
 # ADAPT: one schema per message kind. `{"goal": "g1", "lat": 48.2, "lon": 16.37}`
 GOTO = JsonMapping("goto_received", Field("goal", "atom"), Field("lat", "lat"),
@@ -24,6 +27,9 @@ CANCEL = JsonMapping("goal_cancelled", Field("goal", "atom"))
 
 class ProjectEvents(ExternalAdapter):
     """ADAPT: the project's external adapter (exactly one ExternalAdapter subclass here)."""
+
+    #: ADAPT: every key of [events] this adapter reads (`mrss check` rejects the others).
+    OPTIONS = (Option("topic_prefix", str, "mrss/ui", "prefix of the UI's topics"),)
 
     def start(self) -> None:
         prefix = str(self.options.get("topic_prefix", "mrss/ui")).rstrip("/")

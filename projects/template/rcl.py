@@ -2,14 +2,23 @@
 
 ADAPT:
 - `connect_robot(robot, options)`: the link to each robot of
-  `[components.rcl.robots.<id>]` (a real one: `mrss.links.factory.create_link(robot,
-  "mqtt" | "mavlink", options)`); `self.publish_data(robot, record)` sends telemetry to
-  the data layer, `self.report_link(robot, up, reason)` tells MRSS it is reachable;
+  `[components.rcl.robots.<id>]`. A real robot needs no code: `link = "mqtt"` or
+  `"mavlink"` in its table and MRSS connects it (docs/robots.md, "Connecting robots";
+  `mrss new NAME --with-sims` starts from that). This template drives an in-process
+  `PointRobot` instead: `self.publish_data(robot, record)` sends telemetry to the data
+  layer, `self.report_link(robot, up, reason)` tells MRSS it is reachable;
 - `refine_action(action)`: the recipe of each agent action -> the skills that do it;
 - optional: `check_action_status` (when is an action over; default: all skills
   succeeded), `action_cb` (if your actions are not `name(Robot, Goal, ...)`),
   `on_action_end` (keep data from a finished action), `resume_after_restart`.
 Skills live in skills.py, imported below by path (no clash with other projects).
+
+Resources a skill declares are arbitrated by the action's priority. The rule:
+A resource is held by one action at a time (its skills share it). A request
+pre-empts the holder if its priority is strictly higher; otherwise it waits.
+Whenever the resource is free it goes to the highest-priority candidate among the
+actions waiting for it and those pre-empted from it, the oldest request first among
+equals.
 """
 
 from __future__ import annotations
@@ -20,10 +29,17 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from mrss.api import Action, RobotCommLayer, Skill
-from mrss.edge.loader import import_project_module
-from mrss.errors import ActionError
-from mrss.links.geo import distance_m, step_towards
+from mrss.api import (
+    Action,
+    ActionError,
+    Check,
+    Option,
+    RobotCommLayer,
+    Skill,
+    distance_m,
+    import_project_module,
+    step_towards,
+)
 
 skills = import_project_module(Path(__file__).resolve().parent, "skills.py")
 
@@ -81,6 +97,12 @@ class PointRobot:
 
 class ProjectRcl(RobotCommLayer):
     """ADAPT: the project's RCL (exactly one RobotCommLayer subclass in this file)."""
+
+    #: ADAPT: the robot table keys this layer reads itself (`mrss check` type-checks them).
+    robot_settings = (
+        Option("home", list, [0.0, 0.0], "where the simulated robot starts", Check.POSITION),
+        Option("speed", float, 5.0, "m/s, simulated", Check.POSITIVE),
+    )
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> PointRobot:
         home = options.get("home", [0.0, 0.0])

@@ -32,6 +32,14 @@ pending(R, G, c(P, 0, S, G)) :- queued(R, G, P, _) & arrived(G, N) & S = 0 - N.
 known_goal(G) :- queued(_, G, _, _).
 known_goal(G) :- waiting(_, G, _).
 known_goal(G) :- task(_, G, _).
+// failure causes worth another try (the RCL's FailureCause values)
+retryable(transient).
+retryable(link_down).
+retryable(failsafe).
+retryable(quarantined).     // its actor kept crashing: retried after its probation
+max_tries(3).
+tries(G, N) :- tried(G, N).
+tries(G, 0) :- not tried(G, _).
 
 /* ---------------------------------------------------------------- operator percepts */
 +area_goal_received(G, P)[source(percept)] : not known_goal(G) & isuav(R)
@@ -92,16 +100,23 @@ known_goal(G) :- task(_, G, _).
 
 // Teleoperation (paper VI): suspend every goal of the robot, switch it to direct
 // control with a skill; back to autonomy: switch back, resume.
+// A switch that fails (the link is down, the RCL restarted) is tried again every 2 s
+// for as long as the operator still asks for that mode: never left half-switched.
 +teleop(R, on)[source(percept)] : not paused(R, teleop)
    <- .print(R, " switched to teleoperation: its goals are suspended");
       +paused(R, teleop);
       !hold_task(R);
-      teleop_mode(R, on)[priority(1000)].
+      !switch_mode(R, on).
 +teleop(R, off)[source(percept)] : paused(R, teleop)
-   <- teleop_mode(R, off)[priority(1000)];
+   <- !switch_mode(R, off);
       -paused(R, teleop);
       .print(R, " back to autonomous control");
       !schedule(R).
++!switch_mode(R, Mode) <- teleop_mode(R, Mode)[priority(1000)].
+-!switch_mode(R, Mode)[error(E)] : teleop(R, Mode)
+   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): again in 2 s");
+      .wait(2000);
+      !switch_mode(R, Mode).
 
 +robot_unavailable(R)[source(percept)]
    <- .print(R, " is unavailable: its goals wait").
@@ -156,7 +171,18 @@ known_goal(G) :- task(_, G, _).
       supply_water(R, G, Lat, Lon, L)[priority(P)];
       .print(R, " pumped ", L, " l on ", G);
       +supplied(G);
+      -hotspot_detected(G, _, _)[source(percept)];   // dealt with: not re-derived
       !finished(R, G).
+// A failure whose cause is transient (a restarted component, a lost link, the robot's
+// failsafe) puts the goal back in the queue a few times: the scheduler starts it again
+// once the robot is available. Any other failure, or too many, ends the goal.
+-!perform(R, G, P, Job)[error(E)] : retryable(E) & tries(G, N) & max_tries(M) & N < M
+   <- .print("goal ", G, " of ", R, " failed (", E, "): retry ", N + 1, " of ", M);
+      -task(R, G, _); -waiting(R, G, _);
+      -+tried(G, N + 1);
+      .wait(1000);
+      +queued(R, G, P, Job);
+      !schedule(R).
 -!perform(R, G, P, Job)[error(E)]
    <- .print("goal ", G, " of ", R, " failed (", E, ")");
       +failed_goal(G);
@@ -165,11 +191,14 @@ known_goal(G) :- task(_, G, _).
 +!finished(R, G) <- -task(R, G, _); -waiting(R, G, _); !forget(G); !schedule(R).
 
 // Percepts stay beliefs until removed: forget those of a finished goal, so that the
-// operator may send the same goal (or cancel, or priority) again.
+// operator may send the same goal (or cancel, or priority) again. A percept still held
+// is mission state: a restarted reasoner perceives it again and re-derives the goal
+// (its running action is adopted, not redone), so a goal is forgotten only when done.
 +!forget(G)
    <- -area_goal_received(G, _)[source(percept)];
       -goal_cancelled(G)[source(percept)];
       -prioritychange(G, _)[source(percept)];
+      -tried(G, _);
       -arrived(G, _).
 
 // Battery / water service: hold the goal, run the service action above every goal's

@@ -21,9 +21,7 @@ import threading
 from collections.abc import Mapping
 from typing import Any
 
-from mrss.edge.adapters import DataLayer, external
-from mrss.edge.predicates import Atom
-from mrss.links.geo import offset
+from mrss.api import Atom, Check, DataLayer, Option, external, offset
 
 CIRCLE_VERTICES = 24
 
@@ -40,6 +38,18 @@ def circle(lat: float, lon: float, radius_m: float) -> list[list[float]]:
 
 class WildfireData(DataLayer):
     """Telemetry -> world model and threshold percepts; areas -> polygons."""
+
+    #: What this data layer reads from [datalayer] (checked by `mrss check`).
+    OPTIONS = (
+        Option("battery_low", float, 30.0, "% below which battery_low(R) is perceived",
+               Check.NON_NEGATIVE),
+        Option("battery_ok", float, 90.0, "% above which battery_low(R) is removed",
+               Check.NON_NEGATIVE),
+        Option("water_low", float, 25.0, "% of the tank below which water_low(R) is perceived",
+               Check.NON_NEGATIVE),
+        Option("water_ok", float, 95.0, "% of the tank above which water_low(R) is removed",
+               Check.NON_NEGATIVE),
+    )
 
     def start(self) -> None:
         self.battery_low = float(self.options.get("battery_low", 30.0))

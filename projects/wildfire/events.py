@@ -1,6 +1,8 @@
 """Operator events of the wildfire project (paper IV-B): MQTT JSON -> percepts.
 
-Topics (prefix `[events] topic_prefix`, default "mrss/ui"), payloads are JSON objects:
+Topics (prefix `[events] topic_prefix`, default "mrss/ui"), payloads are JSON objects,
+each may carry an `"id"` (a string naming this message: a repeat with the same id is
+not a second event):
 
     <prefix>/area      {"goal": "a1", "priority": 2, "polygon": [[lat, lon], ...]}
                        or {"goal": "a1", "center": [lat, lon] | {"lat", "lon"}, "radius": m}
@@ -12,18 +14,24 @@ Topics (prefix `[events] topic_prefix`, default "mrss/ui"), payloads are JSON ob
                                                           is removed (or the reverse)
 
 Goal ids and robot ids are lowercase identifiers; a payload that does not fit is
-counted as bad and logged, never a percept.
+counted as bad and reported back at once on `<topic>/reply`, never a percept. An area
+waits for the world model while it is down (restarting, hung): the events manager tries
+again with backoff, and reports `failed` on `<topic>/reply` if it stays down past
+`[events] retry_budget`.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
-from mrss.edge.adapters import ExternalAdapter
-from mrss.edge.payloads import Field, JsonMapping
-from mrss.edge.predicates import Atom
-from mrss.edge.worldmodel_access import HttpWorldModel
+from mrss.api import (
+    Atom,
+    ExternalAdapter,
+    Field,
+    JsonMapping,
+    Option,
+    WorldModelClient,
+)
 
 GOAL = Field("goal", "atom")
 PRIORITY = Field("priority", "int", default=1)
@@ -76,31 +84,27 @@ def area_object(obj: dict[str, Any]) -> dict[str, Any]:
 class WildfireEvents(ExternalAdapter):
     """The operator's user interface, seen through MQTT."""
 
+    #: What this adapter reads from [events] (checked by `mrss check`).
+    OPTIONS = (Option("topic_prefix", str, "mrss/ui", "prefix of the operator's topics"),)
+
     def start(self) -> None:
         prefix = str(self.options.get("topic_prefix", "mrss/ui")).rstrip("/")
-        self.world = self._world_model()
+        self.world: WorldModelClient = self.world_model()
         self.on_json(f"{prefix}/area", self.on_area)
         self.map_json(f"{prefix}/cancel", CANCEL)
         self.map_json(f"{prefix}/priority", PRIORITY_CHANGE)
         self.on_json(f"{prefix}/teleop", self.on_teleop)
 
-    def _world_model(self) -> HttpWorldModel | None:
-        """The world model's HTTP API: `world_model` option, else the embedded one's URL."""
-        url = self.options.get("world_model")
-        run_dir: Path | None = self.context.run_dir
-        if not url and run_dir is not None and (run_dir / "worldmodel.url").is_file():
-            url = (run_dir / "worldmodel.url").read_text(encoding="utf-8").strip()
-        if not url:
-            self.log.warning("no world model: area shapes will not be stored")
-            return None
-        return HttpWorldModel(str(url))
-
     def on_area(self, topic: str, obj: dict[str, Any]) -> None:
-        """Store the area's shape (the RCL grounds it from there), then the goal percept."""
+        """Store the area's shape (the RCL grounds it from there), then the goal percept.
+
+        The world model is looked up for this call; while it is down the upsert raises
+        WorldModelUnavailable and the events manager retries the whole message.
+        """
         area = area_object(obj)
-        if self.world is not None:
-            self.world.upsert(area)
-        self.percept(AREA.functor, *AREA.args(obj, topic=topic))
+        args = AREA.args(obj, topic=topic)  # a bad payload is refused before it is stored
+        self.world.upsert(area)
+        self.percept(AREA.functor, *args)
 
     def on_teleop(self, topic: str, obj: dict[str, Any]) -> None:
         """Teleop on/off: the new state is perceived, the old one is not any more."""

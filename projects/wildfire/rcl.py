@@ -3,13 +3,13 @@
 Robots come from `[components.rcl.robots.<id>]` of project.toml:
 
     [components.rcl.robots.uav1]
-    link = "mavlink"
-    url_file = "uav1.mavlink"   # the run folder file the simulator writes; or url = "..."
+    link = "mavlink"            # the simulator with id = "uav1"; or url = "udpin:..."
     altitude = 30.0             # recipe settings (see ROBOT_SETTINGS), the rest goes to the link
     [components.rcl.robots.ugv1]
     link = "mqtt"               # broker_url defaults to the project's broker
 
-Every telemetry record of a link goes to the data layer (`robot.<id>.data`), and a link
+MRSS builds each link (RobotCommLayer.connect_robot, docs/robots.md "Connecting robots"):
+every telemetry record of a link goes to the data layer (`robot.<id>.data`), and a link
 going down makes its robot unavailable (the reasoner perceives `robot_unavailable(R)`).
 
 Recipes (action -> skills), actions being `name(Robot, Goal, ...)`:
@@ -34,14 +34,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from mrss.api import Action, ActionState, RobotCommLayer, Skill
-from mrss.config import load_file
-from mrss.edge.component import resolved_broker_url
-from mrss.edge.loader import import_project_module
-from mrss.errors import ActionError, ConfigError
-from mrss.links.base import RobotLink
-from mrss.links.factory import create_link
-from mrss.projects import PROJECT_FILE
+from mrss.api import (
+    Action,
+    ActionError,
+    ActionState,
+    RobotCommLayer,
+    Skill,
+    import_project_module,
+)
 
 # Sibling modules are imported by path under private names, so two projects' skills.py
 # never collide in one process (and no installed package shadows them).
@@ -64,7 +64,7 @@ class WildfireRcl(RobotCommLayer):
     """Links to the UAV (MAVLink) and the UGV (MQTT), and the recipes of the scenario."""
 
     interrupt_timeout = 10.0  # a MAVLink mode change may take a few retries
-    robot_settings = (*ROBOT_SETTINGS, "url_file")  # not link options (for `mrss check`)
+    robot_settings = tuple(ROBOT_SETTINGS)  # not link options (set aside, and `mrss check`)
 
     def __init__(self) -> None:
         self.settings: dict[str, dict[str, float]] = {}
@@ -72,38 +72,11 @@ class WildfireRcl(RobotCommLayer):
         self._lock = threading.Lock()
 
     # -- links ----------------------------------------------------------------------------
-    def connect_robot(self, robot: str, options: Mapping[str, Any]) -> RobotLink:
-        opts = dict(options)
-        kind = str(opts.pop("link", ""))
-        self.settings[robot] = {k: float(opts.pop(k, default))
+    def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
+        """Keep the recipe settings; MRSS builds the link (simulator addresses, broker)."""
+        self.settings[robot] = {k: float(options.get(k, default))
                                 for k, default in ROBOT_SETTINGS.items()}
-        if kind == "mavlink" and "url_file" in opts:
-            opts["url"] = self._run_file(str(opts.pop("url_file")), robot)
-        if kind == "mqtt" and "broker_url" not in opts:
-            opts["broker_url"] = self._project_broker(robot)
-        link = create_link(robot, kind, opts, source=PROJECT_FILE,
-                           on_link_state=lambda up, why: self.report_link(robot, up, why),
-                           on_telemetry=lambda record: self.publish_data(robot, record))
-        link.start()
-        return link
-
-    def _run_file(self, name: str, robot: str) -> str:
-        """The connection string a simulator wrote into the run folder."""
-        path = (self.run_dir / name) if self.run_dir is not None else None
-        if path is None or not path.is_file():
-            raise ConfigError(f"{name} not found in the run folder {self.run_dir}: is the "
-                              f"simulator of {robot} started before the RCL?",
-                              key=f"robots.{robot}.url_file")
-        return path.read_text(encoding="utf-8").strip()
-
-    def _project_broker(self, robot: str) -> str:
-        sections: Mapping[str, Any] = {}
-        if self.project_dir is not None and (self.project_dir / PROJECT_FILE).is_file():
-            sections = load_file(self.project_dir / PROJECT_FILE).sections
-        url = resolved_broker_url(sections, self.run_dir)
-        if not url:
-            raise ConfigError("no broker for the MQTT link", key=f"robots.{robot}.broker_url")
-        return url
+        return super().connect_robot(robot, options)
 
     # -- recipes --------------------------------------------------------------------------
     def refine_action(self, action: Action) -> list[Skill]:

@@ -21,9 +21,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from mrss.api import Resource, Skill, SkillOutcome
-from mrss.links.errors import LinkError
-from mrss.links.geo import distance_m
+from mrss.api import LinkError, Resource, Skill, SkillOutcome, distance_m
 
 log = logging.getLogger("mrss.rcl.skills")
 MOTION = Resource("motion", per_robot=True)

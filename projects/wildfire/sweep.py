@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from mrss.links.geo import EARTH_RADIUS_M, offset
+from mrss.api import EARTH_RADIUS_M, offset
 
 Point = tuple[float, float]
 

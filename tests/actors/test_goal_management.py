@@ -58,7 +58,7 @@ def test_succeed_and_fail_commands_end_actions_directly(rcl_env: RclEnv) -> None
     wait_until(rcl_env.statuses.reached("a1", "succeeded"))
     wait_until(rcl_env.statuses.reached("a2", "failed"))
     last = rcl_env.statuses.last("a2")
-    assert last is not None and "fail by goal management" in last.reason
+    assert last is not None and "failed by the operator" in last.reason
 
 
 def test_cancel_of_a_suspended_action(rcl_env: RclEnv) -> None:

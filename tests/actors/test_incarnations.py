@@ -1,19 +1,24 @@
-"""Requester incarnations: a new reasoner cancels its predecessor's orphans; late requests
-from a dead incarnation are refused, also across an RCL restart."""
+"""Requester incarnations: a new reasoner adopts what its predecessor left or, after a
+grace, the RCL cancels those orphans; late requests from a dead incarnation are refused,
+also across an RCL restart; reconciliation answers from the journal."""
 
 from __future__ import annotations
 
 from mrss.actors.journal import Requester
-from mrss.messages import ActionRequest
+from mrss.api import Action, Skill, TransientError
+from mrss.messages import ActionInventory, ActionQuery, ActionRequest, FailureCause
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv
 
 
-def _req(uuid: str, robot: str) -> ActionRequest:
-    return ActionRequest(uuid=uuid, name="patrol", args=[robot, "g", ["p1"]])
+def _req(uuid: str, robot: str, goal: str = "g") -> ActionRequest:
+    return ActionRequest(uuid=uuid, name="patrol", args=[robot, goal, ["p1"]],
+                         literal=f"patrol({robot},{goal},[p1])")
 
 
-def test_new_incarnation_cancels_the_old_ones_actions(rcl_env: RclEnv) -> None:
+def test_orphans_of_a_dead_incarnation_are_cancelled_once_the_grace_is_over(
+    rcl_env: RclEnv,
+) -> None:
     core = rcl_env.start()
     core.submit(_req("old1", "ugv1"), Requester("reasoner", 1))
     core.submit(_req("other", "ugv2"), Requester("operator", 1))
@@ -21,9 +26,14 @@ def test_new_incarnation_cancels_the_old_ones_actions(rcl_env: RclEnv) -> None:
     wait_until(rcl_env.statuses.reached("other", "running"))
 
     assert core.saw_incarnation("reasoner", 2) == ["old1"]
+    assert core.cancel_orphans() == []  # within the grace: it keeps running
+    assert "old1" in core.active()
+    rcl_env.now += core.orphans.grace + 0.1
+    assert core.cancel_orphans() == ["old1"]
     wait_until(rcl_env.statuses.reached("old1", "cancelled"))
     last = rcl_env.statuses.last("old1")
     assert last is not None and "orphaned: reasoner incarnation 1 is gone" in last.reason
+    assert last.cause == FailureCause.ORPHANED
     assert core.saw_incarnation("reasoner", 2) == []  # once per incarnation
     assert list(core.active()) == ["other"]
 
@@ -31,9 +41,47 @@ def test_new_incarnation_cancels_the_old_ones_actions(rcl_env: RclEnv) -> None:
     wait_until(rcl_env.statuses.reached("late", "failed"))
     last = rcl_env.statuses.last("late")
     assert last is not None and "incarnation 1, which is gone" in last.reason
+    assert last.cause == FailureCause.REJECTED
 
 
-def test_first_request_of_a_new_incarnation_cancels_orphans_even_after_restart(
+def test_a_new_incarnation_adopts_an_orphan_by_asking_for_its_uuid(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit(_req("old1", "ugv1", "a1"), Requester("reasoner", 1))
+    wait_until(rcl_env.statuses.reached("old1", "running"))
+    core.saw_incarnation("reasoner", 2)
+
+    core.answer_query(ActionQuery(requester="reasoner", inc=2), Requester("reasoner", 2))
+    inventories = [m for m in rcl_env.statuses.others if isinstance(m, ActionInventory)]
+    assert len(inventories) == 1 and inventories[0].inc == 2
+    [item] = inventories[0].actions
+    assert item["uuid"] == "old1" and item["literal"] == "patrol(ugv1,a1,[p1])"
+    assert item["state"] == "running"
+
+    before = len(rcl_env.statuses.of("old1"))
+    core.submit(_req("old1", "ugv1", "a1"), Requester("reasoner", 2))  # the adoption
+    assert len(rcl_env.statuses.of("old1")) == before + 1  # its status again, for the new one
+    assert rcl_env.journal is not None
+    entry = rcl_env.journal.get("old1")
+    assert entry is not None and entry.requester == Requester("reasoner", 2)
+    rcl_env.now += core.orphans.grace_suspended + 1
+    assert core.cancel_orphans() == []  # adopted: no orphan any more
+    assert "old1" in core.active()
+    states = [state.value for state, _ in rcl_env.journal.transitions("old1")]
+    assert states == ["pending", "running"]  # never cancelled and started again
+
+
+def test_reconciliation_answers_each_known_uuid_from_the_journal(rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.submit(_req("a", "ugv1"), Requester("reasoner", 1))
+    wait_until(rcl_env.statuses.reached("a", "running"))
+    before = len(rcl_env.statuses.of("a"))
+    assert core.answer_query(ActionQuery(uuids=["a", "never-seen"])) == 1
+    assert len(rcl_env.statuses.of("a")) == before + 1
+    assert rcl_env.statuses.last("a") is not None
+    assert rcl_env.statuses.of("never-seen") == []
+
+
+def test_first_request_of_a_new_incarnation_marks_orphans_even_after_restart(
     rcl_env: RclEnv,
 ) -> None:
     core = rcl_env.start()
@@ -45,12 +93,13 @@ def test_first_request_of_a_new_incarnation_cancels_orphans_even_after_restart(
     core.submit(_req("late", "uav1"), Requester("reasoner", 3))  # older than the journal's
     wait_until(rcl_env.statuses.reached("late", "failed"))
     core.submit(_req("new1", "ugv2"), Requester("reasoner", 5))
+    rcl_env.now += core.orphans.grace + 0.1
+    assert core.cancel_orphans() == ["old1"]
     wait_until(rcl_env.statuses.reached("old1", "cancelled"))
     wait_until(rcl_env.statuses.reached("new1", "running"))
     assert rcl_env.journal is not None
     entry = rcl_env.journal.get("new1")
     assert entry is not None and entry.requester == Requester("reasoner", 5)
-
 
 
 def test_a_new_run_fails_what_a_previous_run_left_open(rcl_env: RclEnv) -> None:
@@ -64,3 +113,48 @@ def test_a_new_run_fails_what_a_previous_run_left_open(rcl_env: RclEnv) -> None:
     assert last is not None and "previous run" in last.reason
     core.submit(_req("new1", "ugv1"), Requester("reasoner", 1))  # numbering starts over
     wait_until(rcl_env.statuses.reached("new1", "running"))
+
+
+class _Away(Skill):
+    """A skill whose dependency is away: it raises a TransientError."""
+
+    max_restarts = 0
+
+    def run(self) -> bool:
+        raise TransientError("world model restarting")
+
+
+def test_a_transient_failure_reaches_the_status_as_its_cause(rcl_env: RclEnv) -> None:
+    def refine_away(action: Action) -> list[Skill]:
+        raise TransientError("data layer: no reply within 2s")
+
+    rcl_env.layer.recipes["away"] = lambda a: [_Away()]
+    rcl_env.layer.recipes["ungrounded"] = refine_away
+    core = rcl_env.start()
+    core.submit(ActionRequest(uuid="s1", name="away", args=["ugv1", "g1"]))
+    core.submit(ActionRequest(uuid="r1", name="ungrounded", args=["ugv2", "g2"]))
+    for uuid in ("s1", "r1"):
+        wait_until(rcl_env.statuses.reached(uuid, "failed"))
+        last = rcl_env.statuses.last(uuid)
+        assert last is not None and last.cause == FailureCause.TRANSIENT, last
+    assert rcl_env.journal is not None
+    entry = rcl_env.journal.get("s1")
+    assert entry is not None and entry.action.cause == FailureCause.TRANSIENT  # journaled
+
+
+def test_a_request_for_an_unavailable_robot_is_refused_with_the_cause_of_it(
+        rcl_env: RclEnv) -> None:
+    core = rcl_env.start()
+    core.link_state("ugv1", False, "no heartbeat for 3.0 s")
+    core.submit(ActionRequest(uuid="r1", name="patrol", args=["ugv1", "g1", ["p1"]]))
+    wait_until(rcl_env.statuses.reached("r1", "failed"))
+    last = rcl_env.statuses.last("r1")
+    assert last is not None and last.cause == FailureCause.LINK_DOWN  # worth a retry later
+    assert "unavailable" in last.reason
+    core.link_state("ugv1", True)
+    core.submit(ActionRequest(uuid="r2", name="patrol", args=["ugv1", "g1", ["p1"]]))
+    wait_until(rcl_env.statuses.reached("r2", "running"))
+    core.submit(ActionRequest(uuid="r3", name="patrol", args=[]))  # malformed: rejected
+    wait_until(rcl_env.statuses.reached("r3", "failed"))
+    last = rcl_env.statuses.last("r3")
+    assert last is not None and last.cause == FailureCause.REJECTED

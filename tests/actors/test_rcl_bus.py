@@ -65,7 +65,7 @@ def bus() -> Iterator[tuple[BusEndpoints, Path]]:
 def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> None:
     endpoints, run_dir = bus
     ctx = _ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict(),
-              {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}})
+              {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}, "adopt_grace": 0.3})
     service = RclService()
     statuses = Statuses()
     sub = Subscriber(endpoints, prefixes=["action.status", "sup.heartbeat.rcl"])
@@ -101,7 +101,8 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
         assert statuses.states("a2") == ["pending", "running", "suspended", "running",
                                          "cancelled"]
 
-        # a new incarnation of the reasoner: its predecessor's actions are orphans
+        # a new incarnation of the reasoner: its predecessor's actions are orphans, cancelled
+        # when nobody adopted them within the grace
         tx.send(ActionRequest(uuid="a3", name="patrol", args=["uav1", "g4", list(range(500))]))
         wait_until(lambda: statuses.states("a3")[-1:] == ["running"])
         # ... announced by its first heartbeat

@@ -6,9 +6,9 @@ import logging
 
 import pytest
 
-from mrss.messages import ActionRequest
+from mrss.messages import ActionRequest, SupEvent
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl_sim import Crash, RclEnv, request_fields
 
 
 def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:
@@ -53,6 +53,27 @@ def test_crashing_skill_is_restarted_per_its_policy(rcl_env: RclEnv) -> None:
     core.submit_fields(request_fields("f1", "flaky", "ugv1", "g1"))
     wait_until(rcl_env.statuses.reached("f1", "succeeded"))
     assert rcl_env.statuses.states("f1") == ["pending", "running", "succeeded"]
+    restarts = [m for m in rcl_env.statuses.others
+                if isinstance(m, SupEvent) and m.detail.get("action") == "f1"]
+    assert [(e.event, e.child, e.supervisor, e.count) for e in restarts] == [
+        ("restart", "Crash", "robots/ugv1", 1), ("restart", "Crash", "robots/ugv1", 2)]
+    assert restarts[0].reason == "Crash raised RuntimeError: flaky motor"
+
+
+def test_skill_crashing_past_its_intensity_escalates_and_fails_its_action(
+        rcl_env: RclEnv) -> None:
+    rcl_env.layer.recipes["jammed"] = lambda a: [Crash("jammed", restarts=2)]
+    core = rcl_env.start()
+    core.submit_fields(request_fields("j1", "jammed", "ugv1", "g1"))
+    wait_until(rcl_env.statuses.reached("j1", "failed"))
+    events = [(m.event, m.count) for m in rcl_env.statuses.others
+              if isinstance(m, SupEvent) and m.detail.get("action") == "j1"]
+    assert events == [("restart", 1), ("restart", 2), ("escalate", 2)]
+    escalation = [m for m in rcl_env.statuses.others
+                  if isinstance(m, SupEvent) and m.event == "escalate"][0]
+    assert "more than 2 restarts of Crash in 60s" in str(escalation.detail["note"])
+    last = rcl_env.statuses.last("j1")
+    assert last is not None and last.reason == "Crash raised RuntimeError: jammed"
 
 
 def test_skill_returning_failure_fails_the_action_with_its_reason(rcl_env: RclEnv) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 from collections.abc import Iterator
 from pathlib import Path
@@ -41,8 +42,13 @@ class Wire:
         self.controls: list[ActionControl] = []
 
 
-def env(body: Message, src: str = "rcl", inc: int = 1) -> Envelope:
-    return Envelope(topic=body.topic(), id="m", ts=0.0, src=src, inc=inc, body=body)
+_IDS = itertools.count()
+
+
+def env(body: Message, src: str = "rcl", inc: int = 1, msg_id: str | None = None) -> Envelope:
+    """An envelope as the bus delivers it: a unique id unless one is given."""
+    return Envelope(topic=body.topic(), id=msg_id or f"m{next(_IDS)}", ts=0.0, src=src,
+                    inc=inc, body=body)
 
 
 @pytest.fixture()

@@ -11,6 +11,7 @@ import zmq
 
 from mrss.bus import (
     BusEndpoints,
+    NotHandled,
     Publisher,
     ReliableReceiver,
     ReliableSender,
@@ -196,3 +197,26 @@ def test_a_monitor_sees_reliable_messages_as_ordinary_envelopes(ep: BusEndpoints
     assert msg_id in {env.id for env in seen}
     assert all(env.topic == "action.request" and env.body == _request("u1") for env in seen)
     assert monitor.dropped == 0  # acks and the channel's framing are not "malformed"
+
+
+def test_a_message_the_handler_cannot_take_yet_is_repeated_until_it_can_in_order(
+        ep: BusEndpoints) -> None:
+    """NotHandled (a journal that cannot be written): no ack, the sender repeats it, and
+    it is handled once, before the messages sent after it."""
+    handled = Handled()
+    refusals = [3]  # u1 is refused three times (as while the disk is full)
+
+    def handler(env: Envelope) -> None:
+        assert isinstance(env.body, ActionRequest)
+        if env.body.uuid == "u1" and refusals[0] > 0:
+            refusals[0] -= 1
+            raise NotHandled("journal full")
+        handled(env)
+
+    with ReliableReceiver(ep, src="rx", handler=handler) as rx, \
+            ReliableSender(ep, src="tx", resend_after=0.05, max_resend_after=0.1) as tx:
+        for n in range(5):
+            tx.send(_request(f"u{n}"))
+        assert tx.flush(timeout=20)
+        assert rx.held_back == 3 and refusals == [0]
+    assert handled.uuids == ["u0", "u1", "u2", "u3", "u4"]

@@ -83,10 +83,12 @@ class System:
             return [r for r in self.requests(name) if r.goal == goal]
         return wait_until(find, timeout, message=f"request {name} for goal {goal}")[-1]
 
-    def statuses(self, uuid: str) -> list[tuple[int, ActionStatus]]:
-        """(RCL incarnation, status) for one action, in arrival order."""
+    def statuses(self, uuid: str, repeats: bool = False) -> list[tuple[int, ActionStatus]]:
+        """(RCL incarnation, status) for one action, in arrival order: its transitions,
+        and with `repeats` also the statuses sent again by reconciliation."""
         return [(e.inc, e.body) for e in self.envelopes(ActionStatus)
-                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
+                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid
+                and (repeats or not e.body.repeat)]
 
     def last_state(self, uuid: str) -> str | None:
         found = self.statuses(uuid)
@@ -155,6 +157,20 @@ class System:
                 and self.pid("reasoner") is not None
         wait_until(ready, timeout, interval=0.05, message="the system answering on the bus")
 
+    def tree_pid(self, child: str, timeout: float = 10.0) -> int:
+        """The pid of `child` as the root supervisor reports it (`ctl.tree`): for
+        components that send no heartbeat of their own, like the bus proxy."""
+        def ask() -> int:
+            before = len(self.bodies(SupEvent))
+            self.pub.publish(Command(command="tree"))
+            try:
+                trees = wait_until(lambda: [e for e in self.bodies(SupEvent)[before:]
+                                            if e.event == "tree"], 1.0, interval=0.01)
+            except AssertionError:
+                return 0
+            return _find_pid(trees[-1].detail.get("tree"), child)
+        return wait_until(ask, timeout, interval=0.05, message=f"the pid of {child}")
+
     def signal(self, component: str, sig: int) -> int:
         """Send `sig` to a component's current process; returns its pid."""
         pid = self.pid(component)
@@ -198,3 +214,16 @@ def waiting_on_actions(snap: MindSnapshot) -> list[Any]:
     """Intentions of a snapshot blocked on an environment action."""
     return [i for i in snap.intentions
             if isinstance(i, dict) and str(i.get("waiting_on") or "").startswith("action")]
+
+
+def _find_pid(tree: Any, child: str) -> int:
+    """The pid of the node `child` in a `sup.tree` snapshot (0: not there or not running)."""
+    if not isinstance(tree, dict):
+        return 0
+    if tree.get("id") == child and tree.get("state") == "running":
+        return int(tree.get("pid") or 0)
+    for node in tree.get("children") or []:
+        found = _find_pid(node, child)
+        if found:
+            return found
+    return 0

@@ -7,7 +7,7 @@ import msgpack
 import pytest
 
 from mrss.bus import ReliableSender, wire
-from mrss.messages import ActionRequest, MindSnapshot
+from mrss.messages import ActionRequest, MindSnapshot, SupEvent
 from mrss.testing import wait_until
 from tests.e2e.system import System, beliefs, waiting_on_actions
 
@@ -45,6 +45,17 @@ def test_a_raising_skill_fails_its_action_and_the_plan_failure_handler_sees_why(
     probe = system.request("probe", "p1")
     failed = system.wait_state(probe.uuid, "failed")
     assert failed.reason == "Jam raised RuntimeError: gearbox jammed on ugv3"
+    # restarted under the supervision policy, each restart a sup event, then escalated
+    def escalations() -> list[SupEvent]:
+        return [e for e in system.sup_events("Jam")
+                if e.detail.get("action") == probe.uuid and e.event == "escalate"]
+    wait_until(escalations, message="sup.escalate of the skill")
+    skill = escalations()
+    events = [(e.event, e.count, e.supervisor) for e in system.sup_events("Jam")
+              if e.detail.get("action") == probe.uuid]
+    assert events == [("restart", 1, "robots/ugv3"), ("restart", 2, "robots/ugv3"),
+                      ("escalate", 2, "robots/ugv3")]
+    assert "more than 2 restarts of Jam" in str(skill[0].detail["note"])
 
     snap = system.wait_mind(lambda s: beliefs(s, "probe_failed(p1"),
                             message="-!probe handled the failure")

@@ -7,7 +7,7 @@ import socket
 import pytest
 
 from mrss.broker import BrokerError, EmbeddedBroker, resolve_broker, with_broker_url
-from mrss.edge.mqtt_client import MqttClient, MqttSettings
+from mrss.edge.mqtt_client import Delivery, MqttClient, MqttSettings
 from mrss.errors import ConfigError
 from mrss.testing import free_port, wait_until
 
@@ -75,3 +75,55 @@ def test_embedded_broker_on_a_taken_port_fails_clearly() -> None:
             broker.stop()
     with pytest.raises(ConfigError):
         EmbeddedBroker().serve_at("mqtts://127.0.0.1:1")
+
+
+def test_embedded_broker_keeps_a_persistent_session_for_a_client_that_is_away() -> None:
+    """The events manager's goals published while it restarts wait for it (QoS 1)."""
+    broker = EmbeddedBroker()
+    broker.serve_at(f"mqtt://127.0.0.1:{free_port()}")
+    settings = MqttSettings.from_url(broker.url)
+    sender = MqttClient(settings, client_id="operator")
+    watcher = MqttClient(settings, client_id="watcher")  # sees when the broker has it
+    got: list[bytes] = []
+    watched: list[bytes] = []
+    watcher.subscribe("ui/#", lambda _topic, payload: watched.append(payload))
+
+    def session() -> MqttClient:
+        client = MqttClient(settings, client_id="mrss-test-events", clean_session=False,
+                            manual_ack=True)
+
+        def take(delivery: Delivery) -> None:
+            got.append(delivery.payload)
+            client.ack(delivery)
+        client.subscribe_deliveries("ui/#", take)
+        client.start()
+        assert client.wait_subscribed(20)
+        return client
+
+    try:
+        first = session()
+        watcher.start()
+        assert watcher.wait_subscribed(20)
+        sender.start()
+        assert sender.wait_connected(20)
+        sender.publish("ui/area", b"one", qos=1)
+        wait_until(lambda: got == [b"one"], timeout=20, message="delivered while connected")
+        first.stop()  # away (e.g. restarting)
+        # the broker has read the DISCONNECT by the time it answers a connection opened
+        # after it: "two" is then routed to the stored session, not the closing socket
+        probe = MqttClient(settings, client_id="probe")
+        probe.start()
+        assert probe.wait_connected(20)
+        probe.stop()
+        sender.publish("ui/area", b"two", qos=1)
+        wait_until(lambda: b"two" in watched, timeout=20, message="the broker has it")
+        second = session()  # the next incarnation: same client id, same session
+        try:
+            wait_until(lambda: got == [b"one", b"two"], timeout=20,
+                       message="the message published while away")
+        finally:
+            second.stop()
+    finally:
+        sender.stop()
+        watcher.stop()
+        broker.stop()

@@ -5,11 +5,18 @@ from __future__ import annotations
 import http.client
 import json
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
 
-from mrss.edge.worldmodel_access import HttpWorldModel, WorldModelUnavailable
+from mrss.edge.retry import Attempt, classify
+from mrss.edge.worldmodel_access import (
+    HttpWorldModel,
+    WorldModelClient,
+    WorldModelRejected,
+    WorldModelUnavailable,
+)
 from mrss.edge.worldmodel_http import WorldModelHttp
 from mrss.edge.worldmodel_rules import NoObjectWithin, RuleEngine
 from mrss.edge.worldmodel_service import WorldModel
@@ -143,7 +150,21 @@ def test_http_world_model_client_speaks_the_api(served: Served) -> None:
     assert client.get("missing") is None
     assert [o["id"] for o in client.objects("water_source")] == ["w1"]
     assert client.near(10.001, 10, 200)[0]["id"] == "w1"
-    with pytest.raises(WorldModelUnavailable, match="400"):
+    with pytest.raises(WorldModelRejected, match="400") as rejected:
         client.upsert({"id": "bad"})
-    with pytest.raises(WorldModelUnavailable):
+    assert classify(rejected.value) is Attempt.BAD_INPUT  # a bad object: not retried
+    with pytest.raises(WorldModelUnavailable) as down:
         HttpWorldModel("http://127.0.0.1:1", timeout=1).get("x")
+    assert classify(down.value) is Attempt.UNAVAILABLE  # nobody there: retried
+
+
+def test_world_model_client_looks_the_url_up_for_every_call(served: Served,
+                                                            tmp_path: Path) -> None:
+    client = WorldModelClient(run_dir=tmp_path, timeout=2)
+    with pytest.raises(WorldModelUnavailable, match="not up"):
+        client.get("w1")  # no worldmodel.url yet: not up, so worth a retry
+    (tmp_path / "worldmodel.url").write_text("http://127.0.0.1:1\n")
+    with pytest.raises(WorldModelUnavailable):
+        client.get("w1")  # a dead address
+    (tmp_path / "worldmodel.url").write_text(served.http.url + "\n")
+    assert client.upsert({"id": "w1", "kind": "base"})["op"] == "insert"  # same client

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 
@@ -115,15 +116,34 @@ def test_child_ignoring_its_shutdown_time_is_killed(make_tree: MakeTree) -> None
     assert [e.child for e in tree.log.of("exit")] == ["quick", "slow"]
 
 
-def test_fork_server_loss_restarts_its_children(make_tree: MakeTree) -> None:
-    tree = make_tree(worker("a"), worker("b"))
-    pids = {c.pid for c in tree.sup.tree().children}
-    server = {p.ppid() for p in map(psutil.Process, pids)}
-    assert len(server) == 1
-    psutil.Process(server.pop()).send_signal(signal.SIGKILL)
-    wait_until(lambda: tree.all_running() and tree.incarnations() == {"a": 2, "b": 2},
-               timeout=15)
-    assert all(e.reason.startswith("killed") for e in tree.log.of("exit"))
+def test_fork_server_loss_is_one_launcher_restart_and_its_children_keep_running(
+        make_tree: MakeTree) -> None:
+    tree = make_tree(worker("a"), worker("b"), intensity=1)
+    pids = {c.id: c.pid for c in tree.sup.tree().children}
+    (server,) = {psutil.Process(pid).ppid() for pid in pids.values()}
+    psutil.Process(server).send_signal(signal.SIGKILL)
+    (lost,) = tree.log.wait_for("restart", "forkserver", timeout=10)
+    assert lost.reason == "killed: closed its channel (killed: SIGKILL)"
+    assert lost.count == 1 and lost.detail["kept"] == 2
+    (new_server,) = tree.log.wait_for("start", "forkserver", timeout=10)
+    assert new_server.pid not in (0, server) and psutil.pid_exists(new_server.pid)
+    # not a failure of its children: same processes, same incarnations, nothing counted
+    assert {c.id: c.pid for c in tree.sup.tree().children} == pids
+    assert tree.all_running() and tree.incarnations() == {"a": 1, "b": 1}
+    assert tree.sup.ping("a") and tree.sup.ping("b")
+    assert tree.log.of("exit") == [] and [e.child for e in tree.log.of("restart")] == [
+        "forkserver"]
+    # a child of the lost server is still watched: its exit is seen and it is restarted,
+    # now by the new fork server
+    faults.kill(tree.sup, "a")
+    (exit_a,) = tree.log.wait_for("exit", "a", timeout=10)
+    assert exit_a.pid == pids["a"]
+    assert exit_a.reason == "exited: exit status unknown (its fork server was lost)"
+    wait_until(lambda: tree.all_running() and tree.incarnations() == {"a": 2, "b": 1},
+               timeout=15, message="a restarted")
+    assert psutil.Process(tree.sup.pid_of("a")).ppid() == new_server.pid
+    (restart_a,) = tree.log.of("restart", "a")
+    assert restart_a.count == 1  # intensity 1: the fork server's loss did not count
 
 
 def test_quarantined_component_is_retried_after_probation_while_others_run(
@@ -133,13 +153,15 @@ def test_quarantined_component_is_retried_after_probation_while_others_run(
     tree = make_tree(worker("uav_link"), worker("ugv_link"), intensity=0,
                      on_exceeded=OnExceeded.QUARANTINE, probation=0.5)
     faults.kill(tree.sup, "uav_link")
-    (q,) = tree.log.wait_for("quarantine", "uav_link")
-    assert q.reason == "killed: SIGKILL" and q.detail["probation"] == 0.5
+    (q,) = tree.log.wait_for("give_up", "uav_link")
+    assert q.reason == "killed: SIGKILL" and q.detail["retry_in"] == 0.5
+    assert q.detail["stops"] == "component" and q.detail["members"] == ["uav_link"]
     assert tree.sup.tree().find("uav_link").state == "quarantined"  # type: ignore[union-attr]
     assert tree.sup.ping("ugv_link") and tree.incarnations()["ugv_link"] == 1
     tree.log.wait_for("release", "uav_link", timeout=10)
     wait_until(lambda: tree.all_running() and tree.incarnations()["uav_link"] == 2, timeout=10)
-    assert tree.log.of("give_up") == []
+    assert tree.sup.outcome is None  # the root never stopped
+    assert tree.log.of("quarantine") == []  # that word is for robots (robot_unavailable)
 
 
 def test_supervisor_loop_sleeps_while_a_child_is_slow_to_start(make_tree: MakeTree) -> None:
@@ -158,3 +180,32 @@ def test_supervisor_loop_sleeps_while_a_child_is_slow_to_start(make_tree: MakeTr
     wait_until(tree.all_running, timeout=30, message="both running")
     assert tree.incarnations() == {"slow": 1, "next": 1}
     assert cpu_seconds() - before < 0.3  # a spinning loop takes most of the 1.5 s
+
+
+def test_a_group_restarts_as_a_whole_then_is_given_up_as_one_while_the_rest_runs(
+        make_tree: MakeTree) -> None:
+    from mrss.supervision.spec import Group, OnExceeded
+
+    tree = make_tree(worker("a"), worker("b"), worker("c"), intensity=1,
+                     groups=(Group("infra", ("a", "b")),),
+                     on_exceeded=OnExceeded.QUARANTINE, probation=math.inf)
+
+    def kill_a_and_wait(incarnations: dict[str, int]) -> None:
+        faults.kill(tree.sup, "a")
+        wait_until(lambda: tree.all_running() and tree.incarnations() == incarnations,
+                   timeout=15, message=f"incarnations {incarnations}")
+
+    kill_a_and_wait({"a": 2, "b": 1, "c": 1})  # a alone
+    kill_a_and_wait({"a": 3, "b": 2, "c": 1})  # a over its budget: the group restarts
+    (group_restart,) = [e for e in tree.log.of("restart", "a") if e.detail.get("subtree")]
+    assert group_restart.detail["subtree"] == "infra"
+    assert group_restart.detail["group"] == ["a", "b"]
+    kill_a_and_wait({"a": 4, "b": 2, "c": 1})  # fresh budgets after the group restart
+    faults.kill(tree.sup, "a")  # over again: the group is over its window
+    (give_up,) = tree.log.wait_for("give_up", "a", timeout=10)
+    assert give_up.detail["subtree"] == "infra" and give_up.detail["members"] == ["a", "b"]
+    assert give_up.detail["retry_in"] is None  # never retried
+    wait_until(lambda: {c.id: c.state for c in tree.sup.tree().children} == {
+        "a": "quarantined", "b": "quarantined", "c": "running"}, timeout=10)
+    assert tree.sup.ping("c") and tree.incarnations()["c"] == 1 and tree.sup.outcome is None
+    assert [e.reason for e in tree.log.of("exit", "b")][-1] == "shutdown: stopped by supervisor"

@@ -12,6 +12,7 @@ from pathlib import Path
 import psutil
 import pytest
 
+from mrss.supervision.forkserver import is_fork_server
 from mrss.testing import wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"
@@ -77,7 +78,7 @@ def test_sigint_stops_the_tree_and_exits_zero(
     assert "all components stopped" in err
 
 
-def test_intensity_exceeded_escalates_and_supervise_exits_nonzero_naming_the_child(
+def test_budget_exceeded_with_stop_system_makes_supervise_exit_nonzero_naming_the_child(
         supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
     proc = start(supervise, "crashloop", tmp_path)
     _, err = proc.communicate(timeout=60)
@@ -85,24 +86,68 @@ def test_intensity_exceeded_escalates_and_supervise_exits_nonzero_naming_the_chi
     last = err.strip().splitlines()[-1]
     assert last == ("mrss supervise: crashloop: gave up: child 'flaky' failed "
                     "(crashed: RuntimeError in start: flaky refuses to start); "
-                    "more than 2 restarts in 30s")
+                    "more than 2 restarts of flaky in 30s")
     assert err.count("restart flaky") == 2
 
 
-def test_killing_a_component_beyond_intensity_makes_supervise_exit_nonzero(
+def test_a_component_killed_beyond_its_budget_is_stopped_alone_and_the_rest_runs_on(
         supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
-    proc = start(supervise, "demo", tmp_path)
-    for inc in range(1, 5):  # intensity 3: the 4th kill escalates
+    log = tmp_path / "stderr.log"
+    with log.open("w") as err_file:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "mrss", "supervise", "demo", "--run-dir", str(tmp_path)],
+            env=env(), stdout=subprocess.DEVNULL, stderr=err_file, text=True)
+    supervise.append(proc)
+    for inc in range(1, 5):  # intensity 3: the 4th kill is one too many
         marker = tmp_path / f"alpha.{inc}.started"
         wait_until(lambda m=marker: m.exists() and m.read_text(), timeout=20,  # type: ignore[misc]
                    message=f"alpha incarnation {inc}")
         os.kill(int(marker.read_text()), signal.SIGKILL)
-    _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 1, err
-    assert err.strip().splitlines()[-1] == (
-        "mrss supervise: demo: gave up: child 'alpha' failed (killed: SIGKILL); "
-        "more than 3 restarts in 10s")
+    wait_until(lambda: "give_up alpha" in log.read_text(), timeout=20, message="alpha given up")
+    line = next(x for x in log.read_text().splitlines() if "give_up alpha" in x)
+    assert "reason='killed: SIGKILL'" in line and "stops=component" in line
+    assert "note=more than 3 restarts of alpha in 10s" in line and "retry_in=60.0" in line
+    assert proc.poll() is None  # the root keeps the others running
+    for other in ("beta", "gamma"):
+        pid = int((tmp_path / f"{other}.1.started").read_text())
+        assert psutil.pid_exists(pid) and psutil.Process(pid).status() != "zombie"
     assert not (tmp_path / "alpha.5.started").exists()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=30) == 0
+    assert "all components stopped" in log.read_text()
+
+
+def test_a_killed_fork_server_under_mrss_supervise_restarts_no_component(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    proc = start(supervise, "demo", tmp_path)
+    pids = {c: wait_until(lambda c=c: (tmp_path / f"{c}.1.started").exists()  # type: ignore[misc]
+                          and (tmp_path / f"{c}.1.started").read_text(), timeout=20)
+            for c in ("alpha", "beta", "gamma")}
+    (server,) = [p for p in psutil.Process(proc.pid).children()
+                 if is_fork_server(p.cmdline(), p.name())]
+    server.kill()
+    server.wait(timeout=10)
+
+    def new_server() -> list[psutil.Process]:
+        return [p for p in psutil.Process(proc.pid).children()
+                if is_fork_server(p.cmdline(), p.name()) and p.pid != server.pid]
+
+    (replacement,) = wait_until(new_server, timeout=20, message="a new fork server")
+    for pid in pids.values():  # the components live on, unrestarted, adopted by the root
+        assert psutil.Process(int(pid)).status() != "zombie"
+        assert psutil.Process(int(pid)).name().startswith("mrss:")  # named after theirs
+        assert psutil.Process(int(pid)).ppid() == proc.pid  # still in the system's tree
+    os.kill(int(pids["alpha"]), signal.SIGKILL)  # a restart now goes through the new one
+    wait_until(lambda: (tmp_path / "alpha.2.started").exists()
+               and (tmp_path / "alpha.2.started").read_text(), timeout=20, message="alpha 2")
+    alpha2 = int((tmp_path / "alpha.2.started").read_text())
+    assert psutil.Process(alpha2).ppid() == replacement.pid
+    assert not (tmp_path / "beta.2.started").exists()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert "restart forkserver" in err and "kept=3" in err
+    assert "exit status unknown" not in err  # the adopted alpha was reaped with its status
 
 
 def test_bad_config_exits_two_naming_file_and_key(tmp_path: Path) -> None:

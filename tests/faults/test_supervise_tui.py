@@ -165,7 +165,7 @@ def test_a_system_that_gives_up_closes_the_dashboard_and_says_why(tmp_path: Path
     term = supervise_in_terminal("crashloop", tmp_path)
     try:
         assert term.proc.wait(timeout=60) == 1
-        wait_until(lambda: b"more than 2 restarts in 30s" in term.output, timeout=10,
+        wait_until(lambda: b"more than 2 restarts of flaky in 30s" in term.output, timeout=10,
                    message="the root's last words on the terminal")
         assert b"mrss supervise: crashloop: gave up: child 'flaky' failed" in term.output
         assert b"crashloop stopped (exit 1)" in term.output

@@ -23,7 +23,7 @@ def test_builds_each_kind_with_its_options() -> None:
 
 
 @pytest.mark.parametrize("kind, options, message", [
-    ("http", {}, "unknown link kind 'http'"),
+    ("can", {}, "unknown link kind 'can'"),
     ("mavlink", {}, "needs 'url'"),
     ("mavlink", {"url": "udpin:127.0.0.1:1", "speed": 3}, "unknown mavlink link option"),
     ("mavlink", {"url": "udpin:127.0.0.1:1", "retries": "3"}, "'retries' must be of type int"),

@@ -88,6 +88,21 @@ def test_supervision_model_nests_actor_events_under_the_component_that_sent_them
     assert model.nodes["wildfire/rcl"].state == "exited"
 
 
+def test_a_component_given_up_alone_is_marked_and_the_root_runs_on() -> None:
+    model = SupervisionModel(root="wildfire")
+    for child in ("bus", "reasoner", "rcl"):
+        model.apply_event(SupEvent(event="start", child=child, supervisor="wildfire", pid=10),
+                          "supervisor", 100.0)
+    model.apply_event(SupEvent(event="give_up", child="reasoner", supervisor="wildfire",
+                               reason="killed: SIGKILL", detail={
+                                   "stops": "component", "members": ["reasoner", "rcl"]}),
+                      "supervisor", 101.0)
+    states = {n.path: n.state for n in model.rows()}
+    assert states["wildfire/reasoner"] == states["wildfire/rcl"] == "gave up"
+    assert states["wildfire/bus"] == "running" and states["wildfire"] != "gave up"
+    assert model.nodes["wildfire/reasoner"].last_reason == "killed: SIGKILL"
+
+
 def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
     model = SupervisionModel()
     model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {"id": 3}}), "s", 1.0)

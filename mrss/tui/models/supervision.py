@@ -90,6 +90,13 @@ class SupervisionModel:
             node.last_reason = event.reason or node.last_reason
         elif kind == "release":
             node.state = "waiting"
+        elif kind == "give_up" and event.detail.get("stops") == "component":
+            # the root stopped only this component (and its group): the rest runs on
+            members = event.detail.get("members")
+            for member in members if isinstance(members, list) else [event.child]:
+                other = self._ensure(f"{parent}/{member}" if parent else str(member))
+                other.state, other.pid, other.up_since = "gave up", 0, None
+            node.last_reason = event.reason or node.last_reason
         elif kind in ("escalate", "give_up"):
             node.last_reason = event.reason or node.last_reason
             if parent:

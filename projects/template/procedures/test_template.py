@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from mrss.links.geo import distance_m
-from mrss.procedures import RunningProject
+from mrss.api import distance_m
+from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent      # this project's folder
 TARGET = (48.2090, 16.3745)                             # ~100 m from the robot's home

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from mrss.links.geo import distance_m
-from mrss.procedures import RunningProject
+from mrss.api import distance_m
+from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent
 HOTSPOT_1 = (-35.360387, 149.165678)       # far from the pond: the UGV must go

@@ -33,3 +33,8 @@ available(uav1).
 +survey_goal(R, G, P, N)[source(percept)] <- !survey(R, G, P, N).
 +!survey(R, G, P, N) <- survey(R, G, N)[priority(P)]; +surveyed(G).
 -!survey(R, G, P, N)[error_msg(M)] <- +survey_failed(G, M).
+
+/* Gated work: the action ends when the test opens its gate (a file in the run dir). */
++gated_goal(R, G)[source(percept)] <- !gated(R, G).
++!gated(R, G) <- gated(R, G); +gated_done(G); -gated_goal(R, G)[source(percept)].
+-!gated(R, G)[error(E)] <- +gated_failed(G, E).

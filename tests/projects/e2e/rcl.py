@@ -10,7 +10,7 @@ import threading
 from collections.abc import Mapping
 from typing import Any
 
-from skills import Jam, Note, Survey, Travel
+from skills import Gate, Jam, Note, Survey, Travel
 
 from mrss.api import Action, RobotCommLayer, Skill
 
@@ -53,4 +53,6 @@ class E2eRcl(RobotCommLayer):
             return [Jam()]
         if action.name == "report":
             return [Note()]
+        if action.name == "gated" and self.run_dir is not None:
+            return [Gate(self.run_dir / f"{action.goal}.gate")]
         return super().refine_action(action)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mrss.api import Skill
 
 
@@ -40,7 +42,10 @@ class Survey(Travel):
 
 
 class Jam(Skill):
-    """A skill whose robot fails: it raises."""
+    """A skill whose robot fails: it raises, is restarted twice, then escalates."""
+
+    max_restarts = 2
+    restart_period = 60.0
 
     def run(self) -> None:
         raise RuntimeError(f"gearbox jammed on {self.robot}")
@@ -51,4 +56,18 @@ class Note(Skill):
 
     def run(self) -> bool:
         self.link.notes += 1
+        return True
+
+
+class Gate(Skill):
+    """Waits until its gate file exists (the test opens it): an action that ends exactly
+    when the test wants, e.g. while the bus is down."""
+
+    def __init__(self, gate: Path) -> None:
+        self.gate = gate
+
+    def run(self) -> bool:
+        while not self.gate.exists():
+            if self.wait(0.02):
+                return False
         return True

@@ -1,8 +1,8 @@
-"""What a project imports: actions, skills, resources and the Robot Communication Layer base.
+"""Actions, skills, resources and the Robot Communication Layer base (private home).
 
-A project's `rcl.py` subclasses `RobotCommLayer` (the recipes that refine an action into
-skills), its `skills.py` subclasses `Skill`. Everything else in MRSS may change without
-notice; this module is the contract (DESIGN.md, "Actions" and "Skills"; paper IV-E, V).
+Projects import these names from `mrss.api`. What the RCL alone uses (`ACTION_TRANSITIONS`,
+`check_action_transition`, `check_json`, `SkillRuntime`, `RobotCommLayer.bind_runtime`)
+lives here and is not part of the contract (docs/rcl.md, "Actions" and "Skills").
 """
 
 from __future__ import annotations
@@ -17,36 +17,17 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
-from mrss.edge.adapters import DataLayer, ExternalAdapter, external
-from mrss.edge.payloads import Field, JsonMapping, PayloadError
-from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
-from mrss.edge.worldmodel_rules import NoObjectWithin, rule
+from mrss.actors.lifecycle import check_action_transition
+from mrss.config import Option, option_names
 from mrss.errors import ActionError, MrssError
-from mrss.messages import ActionRequest, ActionState, JsonValue, Message, RobotData
-
-__all__ = [
-    "ACTION_TRANSITIONS", "SKILL_TRANSITIONS", "Action", "ActionState", "Atom",
-    "DataLayer", "ExternalAdapter", "Field", "JsonMapping", "NoObjectWithin", "PayloadError",
-    "PredicateError", "Resource", "RobotCommLayer", "Skill", "SkillInterrupted",
-    "SkillOutcome", "SkillState", "Struct", "external", "literal", "rule", "symbol",
-]
-
-_P, _R, _S = ActionState.PENDING, ActionState.RUNNING, ActionState.SUSPENDED
-_OK, _KO, _CA = ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED
-
-#: The one table of legal action transitions; terminal states lead nowhere.
-ACTION_TRANSITIONS: Mapping[ActionState, frozenset[ActionState]] = {
-    _P: frozenset({_R, _S, _OK, _KO, _CA}),  # SUSPENDED: arrived while its robot is in teleop
-    _R: frozenset({_S, _OK, _KO, _CA}),
-    _S: frozenset({_R, _OK, _KO, _CA}),      # RUNNING again: resumed, refined from progress
-    _OK: frozenset(), _KO: frozenset(), _CA: frozenset(),
-}
-
-
-def check_action_transition(old: ActionState, new: ActionState, uuid: str = "") -> None:
-    """Raise ActionError unless `old -> new` is in ACTION_TRANSITIONS."""
-    if new not in ACTION_TRANSITIONS[old]:
-        raise ActionError(f"illegal transition {old.value} -> {new.value}", uuid=uuid or None)
+from mrss.links.connect import connect_link
+from mrss.messages import (
+    ActionRequest,
+    ActionState,
+    JsonValue,
+    Message,
+    RobotData,
+)
 
 
 def check_json(value: Any, what: str) -> None:
@@ -71,16 +52,18 @@ class Action:
     progress: dict[str, JsonValue] = field(default_factory=dict)
     literal: str = ""
     reason: str = ""
+    cause: str = ""  # a FailureCause value once failed for a known cause, else ""
 
     @property
     def terminal(self) -> bool:
         return self.state.terminal
 
-    def transition(self, new: ActionState, reason: str = "") -> None:
+    def transition(self, new: ActionState, reason: str = "", cause: str = "") -> None:
         """Move to `new` (ActionError if the table forbids it) and record why."""
         check_action_transition(self.state, new, self.uuid)
         self.state = new
         self.reason = reason
+        self.cause = cause
 
     def copy(self) -> Action:
         """An independent snapshot (args and progress copied)."""
@@ -151,7 +134,9 @@ class Skill:
     The RCL calls `start()`, then `run()` once on the skill's own thread, then
     `finish(outcome)`. `run` may block on the robot link; it returns None or True
     (succeeded), False or a SkillOutcome. An exception fails the skill with its message
-    (after `max_restarts` re-runs from START). To interrupt (suspend, cancel, pre-emption)
+    (after up to `max_restarts` re-runs from START within `restart_period` seconds, by
+    the supervision policy: backoff with jitter, a `sup.restart` event each, then
+    `sup.escalate` and the action fails). To interrupt (suspend, cancel, pre-emption)
     the RCL sets `interrupted` and calls `terminate()` from another thread: stop the
     robot there so `run` returns soon. Whatever `run` returns then, the outcome is
     INTERRUPTED. Progress recorded with `record_progress` is kept across suspension and
@@ -162,6 +147,8 @@ class Skill:
     resources: ClassVar[tuple[Resource | str, ...]] = ()
     #: How many times a skill that raised is started again before it fails its action.
     max_restarts: ClassVar[int] = 0
+    #: ... within this many seconds (the restart intensity's window).
+    restart_period: ClassVar[float] = 60.0
 
     _runtime: SkillRuntime | None = None
     _progress: dict[str, JsonValue]
@@ -266,14 +253,26 @@ class RobotCommLayer:
 
     #: Seconds an interrupted skill gets to return before it is abandoned.
     interrupt_timeout: float = 5.0
-    #: Keys of a robot's table that the layer reads itself (not link options): `mrss
-    #: check` validates the other keys against the robot's `link` kind.
-    robot_settings: ClassVar[tuple[str, ...]] = ()
+    #: Keys of a robot's table that the layer reads itself (not link options): names, or
+    #: `Option`s that `mrss check` also type-checks; it validates the other keys against
+    #: the robot's `link` kind.
+    robot_settings: ClassVar[tuple[str | Option, ...]] = ()
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
-        """The link object skills of `robot` use (`Skill.link`), from its project.toml
-        options; None by default (skills then talk to the robot some other way)."""
-        return None
+        """The link object skills of `robot` use (`Skill.link`), from its project.toml table.
+
+        Default: the link its `link` key names (mrss.links.connect: simulator addresses
+        and the project's broker resolved, `robot_settings` keys set aside), started, its
+        telemetry sent to the data layer (`publish_data`) and its state to the RCL
+        (`report_link`); None for a table without `link`.
+        """
+        return connect_link(robot, options, project_dir=self.project_dir, run_dir=self.run_dir,
+                            layer_keys=option_names(self.robot_settings),
+                            on_link_state=lambda up, why: self.report_link(robot, up, why),
+                            on_telemetry=lambda record: self._forward_telemetry(robot, record))
+
+    def _forward_telemetry(self, robot: str, record: Mapping[str, JsonValue]) -> None:
+        self.publish_data(robot, record)
 
     def disconnect_robot(self, robot: str, link: Any) -> None:
         """Close a link made by `connect_robot` (default: its `close()` if it has one)."""

@@ -1,12 +1,13 @@
 r"""The operator's console for a running wildfire system (a stand-in for the UI of paper VI).
 
-    python projects/wildfire/operator.py area a1 --center=-35.360567,149.165237 --radius 100 -p 2
-    python projects/wildfire/operator.py area a2 \
+    python projects/wildfire/operator_console.py area a1 --center=-35.360567,149.165237 \
+        --radius 100 -p 2
+    python projects/wildfire/operator_console.py area a2 \
         --polygon="-35.36,149.16;-35.36,149.17;-35.37,149.16"
-    python projects/wildfire/operator.py priority a2 5
-    python projects/wildfire/operator.py cancel a1
-    python projects/wildfire/operator.py teleop ugv1 on        # ... off
-    python projects/wildfire/operator.py status                 # robots, areas, hotspots
+    python projects/wildfire/operator_console.py priority a2 5
+    python projects/wildfire/operator_console.py cancel a1
+    python projects/wildfire/operator_console.py teleop ugv1 on        # ... off
+    python projects/wildfire/operator_console.py status                 # robots, areas, hotspots
 
 It publishes the JSON events of events.py on the system's MQTT broker, and reads the
 world model over its HTTP API. Both addresses come from the run folder (`--run-dir`,
@@ -23,9 +24,7 @@ import urllib.request
 from pathlib import Path
 from typing import Any
 
-from paho.mqtt import client as mqtt
-
-from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.api import BROKER_URL_FILE, WORLD_MODEL_URL_FILE, MrssError, publish_json
 
 TOPIC_PREFIX = "mrss/ui"
 
@@ -33,22 +32,8 @@ TOPIC_PREFIX = "mrss/ui"
 def newest_run_dir() -> Path | None:
     """The most recent run folder of `mrss supervise wildfire` without --run-dir."""
     runs = [p for p in Path(tempfile.gettempdir()).glob("mrss-wildfire-*")
-            if (p / "broker.url").is_file()]
+            if (p / BROKER_URL_FILE).is_file()]
     return max(runs, key=lambda p: p.stat().st_mtime) if runs else None
-
-
-def publish(broker_url: str, topic: str, payload: dict[str, Any]) -> None:
-    """Publish one JSON message (QoS 1) and wait until the broker has it."""
-    address = parse_broker_url(broker_url)
-    client: mqtt.Client = new_client("mrss-operator", address)
-    client.connect(address.host, address.port, keepalive=10)
-    client.loop_start()
-    try:
-        info = client.publish(topic, json.dumps(payload), qos=1)
-        info.wait_for_publish(timeout=5)
-    finally:
-        client.disconnect()
-        client.loop_stop()
 
 
 def point(text: str) -> list[float]:
@@ -57,7 +42,7 @@ def point(text: str) -> list[float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="operator.py", description=__doc__,
+    parser = argparse.ArgumentParser(prog="operator_console.py", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run-dir", type=Path, default=None, help="the system's run folder")
     parser.add_argument("--broker", default=None, help="MQTT broker URL (default: run folder)")
@@ -89,7 +74,7 @@ def message(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         elif args.center:
             payload.update(center=args.center, radius=args.radius)
         else:
-            raise SystemExit("operator.py area: give --center=LAT,LON or --polygon=...")
+            raise SystemExit("operator_console.py area: give --center=LAT,LON or --polygon=...")
         return f"{TOPIC_PREFIX}/area", payload
     if args.command == "cancel":
         return f"{TOPIC_PREFIX}/cancel", {"goal": args.goal}
@@ -99,7 +84,7 @@ def message(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
 
 
 def status(run_dir: Path) -> None:
-    url = (run_dir / "worldmodel.url").read_text(encoding="utf-8").strip()
+    url = (run_dir / WORLD_MODEL_URL_FILE).read_text(encoding="utf-8").strip()
     with urllib.request.urlopen(f"{url}/objects", timeout=5) as resp:
         objects = json.loads(resp.read())["objects"]
     for obj in sorted(objects, key=lambda o: (o["kind"], o["id"])):
@@ -113,18 +98,23 @@ def main(argv: list[str] | None = None) -> int:
     run_dir = args.run_dir or newest_run_dir()
     if args.command == "status":
         if run_dir is None:
-            print("operator.py: no run folder found; give --run-dir", file=sys.stderr)
+            print("operator_console.py: no run folder found; give --run-dir", file=sys.stderr)
             return 2
         status(run_dir)
         return 0
     broker = args.broker
     if broker is None:
-        if run_dir is None or not (run_dir / "broker.url").is_file():
-            print("operator.py: no broker.url found; give --run-dir or --broker", file=sys.stderr)
+        if run_dir is None or not (run_dir / BROKER_URL_FILE).is_file():
+            print("operator_console.py: no broker.url found; give --run-dir or --broker",
+                  file=sys.stderr)
             return 2
-        broker = (run_dir / "broker.url").read_text(encoding="utf-8").strip()
+        broker = (run_dir / BROKER_URL_FILE).read_text(encoding="utf-8").strip()
     topic, payload = message(args)
-    publish(broker, topic, payload)
+    try:
+        publish_json(broker, topic, payload, client_id="mrss-operator")
+    except MrssError as exc:
+        print(f"operator_console.py: {exc}", file=sys.stderr)
+        return 1
     print(f"{topic} {json.dumps(payload)}")
     return 0
 

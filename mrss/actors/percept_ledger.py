@@ -1,0 +1,83 @@
+"""The reasoner's percept ledger: the percepts it stands on, kept across its restarts.
+
+Percepts are mission state: an operator's area goal, a detected hotspot, a low battery
+are facts about the world that must not vanish because the reasoner process did. The
+ledger holds every percept the agent currently perceives, durably (SQLite, WAL):
+
+- a percept is written here when it arrives, before the reliable channel acknowledges
+  it (so one the sender no longer repeats is never only in memory);
+- it leaves when its source removes it, or when the agent's own plans remove it
+  (`-area_goal_received(G, _)[source(percept)]`: the goal was dealt with);
+- a new incarnation of the reasoner asserts every standing percept again, in arrival
+  order, before it hears new ones: its intentions are re-derived from them
+  (level-triggered, like a controller reconciling declared state).
+
+The first incarnation of a run starts with an empty ledger. Literals are keyed without
+their annotations, the way the belief base tells two beliefs apart.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+import threading
+from pathlib import Path
+
+from mrss.agentspeak import Struct, parse_literal, term_str
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS percepts (
+    key TEXT PRIMARY KEY, literal TEXT NOT NULL, seq INTEGER NOT NULL
+);
+"""
+
+
+def percept_key(literal: str | Struct) -> str:
+    """The identity of a percept: its text without annotations (`hs(h1,3)`)."""
+    lit = parse_literal(literal) if isinstance(literal, str) else literal
+    return term_str(Struct(lit.functor, lit.args, (), lit.neg))
+
+
+class PerceptLedger:
+    """The standing percepts of one reasoner; thread-safe (one connection, one lock)."""
+
+    def __init__(self, path: str | Path, *, fresh: bool = False) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._lock = threading.Lock()
+        self._db = sqlite3.connect(str(self.path), check_same_thread=False,
+                                   isolation_level=None)
+        self._db.execute("PRAGMA journal_mode=WAL")
+        self._db.execute("PRAGMA synchronous=NORMAL")  # survives a killed process
+        self._db.executescript(_SCHEMA)
+        if fresh:
+            self._db.execute("DELETE FROM percepts")
+        row = self._db.execute("SELECT COALESCE(MAX(seq), 0) FROM percepts").fetchone()
+        self._seq = int(row[0])
+
+    def add(self, literal: str) -> None:
+        """The agent perceives `literal` (a repeat keeps its first place)."""
+        key = percept_key(literal)
+        with self._lock:
+            self._seq += 1
+            self._db.execute("INSERT INTO percepts VALUES (?,?,?) ON CONFLICT(key) DO "
+                             "UPDATE SET literal=excluded.literal", (key, literal, self._seq))
+
+    def remove(self, literal: str | Struct) -> None:
+        """The agent no longer perceives `literal` (absent: nothing happens)."""
+        key = percept_key(literal)
+        with self._lock:
+            self._db.execute("DELETE FROM percepts WHERE key=?", (key,))
+
+    def standing(self) -> list[str]:
+        """Every standing percept, oldest first."""
+        with self._lock:
+            rows = self._db.execute("SELECT literal FROM percepts ORDER BY seq").fetchall()
+        return [r[0] for r in rows]
+
+    def __len__(self) -> int:
+        with self._lock:
+            return int(self._db.execute("SELECT COUNT(*) FROM percepts").fetchone()[0])
+
+    def close(self) -> None:
+        with self._lock:
+            self._db.close()

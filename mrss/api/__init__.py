@@ -1,0 +1,90 @@
+"""The whole contract for projects: every name a project's files import from MRSS.
+
+A project's `rcl.py` subclasses `RobotCommLayer` (recipes: an action -> skills), its
+`skills.py` subclasses `Skill`, its `datalayer.py` subclasses `DataLayer`, its
+`events.py` subclasses `ExternalAdapter`. Test procedures also use `mrss.api.testing`.
+Any other module of MRSS may change without notice; a test fails when a file under
+projects/ imports one (docs/projects.md, "What a project may import").
+
+By idea:
+- actions and skills: Action, ActionState, FailureCause, Resource, Skill, SkillInterrupted,
+  SkillOutcome, SkillState, RobotCommLayer;
+- the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
+  Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
+  NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
+  DependencyUnavailable;
+- robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
+  CommandRejected, CommandTimeout, publish_json;
+- geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
+- errors: MrssError, ActionError, ConfigError, TransientError;
+- options a project class declares for `mrss check`: Option, Check;
+- the project folder and its run folder: PROJECT_FILE, import_project_module,
+  project_broker_url, simulator_address, BROKER_URL_FILE, WORLD_MODEL_URL_FILE.
+"""
+
+from __future__ import annotations
+
+from mrss.actors.lifecycle import (
+    ACTION_TRANSITIONS as ACTION_TRANSITIONS,  # the RCL's; not part of the contract
+)
+from mrss.api._layer import (
+    SKILL_TRANSITIONS,
+    Action,
+    Resource,
+    RobotCommLayer,
+    Skill,
+    SkillInterrupted,
+    SkillOutcome,
+    SkillState,
+)
+from mrss.api._layer import (
+    check_json as check_json,  # the RCL's; not part of the contract
+)
+from mrss.config import Check, Option
+from mrss.edge.adapters import DataLayer, ExternalAdapter, external
+from mrss.edge.component import BROKER_URL_FILE
+from mrss.edge.loader import import_project_module
+from mrss.edge.payloads import Field, JsonMapping, PayloadError
+from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
+from mrss.edge.retry import DependencyUnavailable
+from mrss.edge.worldmodel_access import (
+    WORLD_MODEL_URL_FILE,
+    WorldModelClient,
+    WorldModelRejected,
+    WorldModelUnavailable,
+)
+from mrss.edge.worldmodel_rules import NoObjectWithin, rule
+from mrss.errors import ActionError, ConfigError, MrssError, TransientError
+from mrss.links.base import RobotLink
+from mrss.links.connect import connect_link, project_broker_url, simulator_address
+from mrss.links.errors import CommandRejected, CommandTimeout, LinkDown, LinkError
+from mrss.links.factory import LINK_OPTIONS, create_link
+from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step_towards
+from mrss.links.mqtt_publish import publish_json
+from mrss.messages import ActionState, FailureCause
+from mrss.projects import PROJECT_FILE
+
+#: The robot link kinds a robot's `link` key may name.
+LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)
+
+__all__ = [
+    # actions and skills
+    "Action", "ActionState", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
+    "Skill", "SkillInterrupted", "SkillOutcome", "SkillState",
+    # the edge
+    "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
+    "NoObjectWithin", "PayloadError", "PredicateError", "Struct", "WorldModelClient",
+    "WorldModelRejected", "WorldModelUnavailable", "external", "literal", "rule", "symbol",
+    # robot links
+    "CommandRejected", "CommandTimeout", "LINK_KINDS", "LinkDown", "LinkError", "RobotLink",
+    "connect_link", "create_link", "publish_json",
+    # geography
+    "EARTH_RADIUS_M", "bearing_deg", "distance_m", "offset", "step_towards",
+    # errors
+    "ActionError", "ConfigError", "MrssError", "TransientError",
+    # the project folder and its run folder
+    "BROKER_URL_FILE", "PROJECT_FILE", "WORLD_MODEL_URL_FILE", "import_project_module",
+    "project_broker_url", "simulator_address",
+    # options a project class reads from its table, declared for `mrss check`
+    "Check", "Option",
+]

@@ -1,0 +1,76 @@
+"""What became of each operator goal: the outcomes of the goal-handled invariant (pure).
+
+An accepted goal (the broker acknowledged its publish) ends SUCCEEDED if an action for
+it succeeded, REPORTED if a message on a reply topic names it, CANCELLED if the operator
+cancelled it, IN_PROGRESS if an action for it is open at the end, HELD if the agent's
+final mind has a belief of the project's `pending_beliefs` naming it, else DROPPED.
+Actions and cancels count for a goal from its publish until the goal is sent again.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from enum import StrEnum
+from typing import Any
+
+from mrss.chaos.history import History
+from mrss.chaos.views import TERMINAL, accepted, last_mind, requests
+
+
+class GoalOutcome(StrEnum):
+    SUCCEEDED = "succeeded"
+    REPORTED = "reported failed"
+    CANCELLED = "cancelled by the operator"
+    IN_PROGRESS = "in progress"
+    HELD = "held by the agent"
+    DROPPED = "dropped"
+
+
+def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
+    """Each accepted operator goal's outcome, and the goals some action was requested for."""
+    actions = h.journal.actions if h.journal is not None else []
+    reqs = list(requests(h).values())
+    outcomes: dict[str, GoalOutcome] = {}
+    acted: set[str] = set()
+    goals = accepted(h, "goal")
+    pending = tuple(str(p) for p in h.campaign.get("pending_beliefs", ()))
+    mind = last_mind(h)
+    for i, step in enumerate(goals):
+        later = [g.t for g in goals[i + 1:] if g.goal == step.goal]
+        until = min(later, default=float("inf"))
+        mine = [a for a in actions if a.goal == step.goal and step.t <= a.created < until]
+        if mine or any(r.body.get("goal") == step.goal and step.t <= r.t < until
+                       for r in reqs):
+            acted.add(step.goal)
+        if any(a.state == "succeeded" for a in mine):
+            outcome = GoalOutcome.SUCCEEDED
+        elif any(_names_goal(r.payload, step.goal) for r in h.replies if r.t >= step.t):
+            outcome = GoalOutcome.REPORTED
+        elif any(c.goal == step.goal and step.t <= c.t < until
+                 for c in accepted(h, "cancel")):
+            outcome = GoalOutcome.CANCELLED
+        elif any(a.state not in TERMINAL for a in mine):
+            outcome = GoalOutcome.IN_PROGRESS
+        elif mind is not None and _held(mind, step.goal, pending):
+            outcome = GoalOutcome.HELD
+        else:
+            outcome = GoalOutcome.DROPPED
+        outcomes[step.goal] = outcome
+    return outcomes, acted
+
+
+def _names_goal(payload: str, goal: str) -> bool:
+    try:
+        obj = json.loads(payload)
+    except ValueError:
+        obj = None
+    if isinstance(obj, dict) and obj.get("goal") == goal:
+        return True
+    return f'"{goal}"' in payload
+
+
+def _held(mind: dict[str, Any], goal: str, functors: tuple[str, ...]) -> bool:
+    arg = re.compile(rf"[(,]{re.escape(goal)}[,)]")
+    return any(arg.search(text) and (not functors or text.startswith(
+        tuple(f"{f}(" for f in functors))) for text in mind.get("beliefs", []))

@@ -1,0 +1,234 @@
+"""One campaign, end to end: start the system, drive it, break it, watch it settle, record.
+
+1. `mrss supervise PROJECT` starts as its own process (`mrss.procedures.RunningProject`)
+   in the run folder; the recorder listens from the start.
+2. After `warmup` seconds the faults of the seeded plan are injected at their times
+   while the project's operator traffic runs; timed faults are healed when they are over.
+3. Once the last fault is over the traffic stops and the system is probed every second
+   until it has converged and at least the checker's latch and cancel bounds have
+   passed (so every rule can be judged), or until the convergence bound is exceeded.
+4. The RCL journal and the run's log are recorded, the system is stopped (SIGINT), and
+   the history file is closed. Checking it is the caller's business (`mrss chaos`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mrss.chaos.campaign import Range, plan
+from mrss.chaos.checker import Bounds
+from mrss.chaos.convergence import probe_problems
+from mrss.chaos.faults import (
+    RCL_MODULE,
+    REASONER_MODULE,
+    Fault,
+    FaultKind,
+    Heal,
+    InjectionError,
+    Injector,
+    components_of,
+    targets,
+)
+from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
+from mrss.chaos.recorder import Recorder
+from mrss.chaos.traffic import Traffic, load_traffic, publish
+from mrss.config import load_project
+from mrss.procedures import RunningProject
+
+Say = Callable[[str], None]
+SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise`, in the run folder
+
+
+@dataclass(frozen=True)
+class Options:
+    project: str
+    run_dir: Path
+    faults: int = 10
+    seed: int = 1
+    kinds: tuple[FaultKind, ...] = tuple(FaultKind)
+    interval: Range = (3.0, 6.0)
+    duration: Range = (2.0, 8.0)
+    only: tuple[str, ...] = ()
+    operator_every: float = 20.0
+    warmup: float = 5.0
+    bounds: Bounds = field(default_factory=Bounds)
+    env: dict[str, str] = field(default_factory=dict)
+
+
+def run(options: Options, say: Say = print) -> Path:
+    """Run the campaign; returns the history file (in the run folder)."""
+    config = load_project(options.project)
+    traffic = load_traffic(config.directory)
+    faults = plan(options.seed, options.faults, options.kinds,
+                  targets(config, options.only), options.interval, options.duration)
+    reasoners = components_of(config, REASONER_MODULE)
+    rcls = components_of(config, RCL_MODULE)
+    options.run_dir.mkdir(parents=True, exist_ok=True)
+    path = options.run_dir / FILE_NAME
+    writer = HistoryWriter(path)
+    system = RunningProject(config.directory, options.run_dir, env=options.env)
+    system.output = options.run_dir / SUPERVISE_LOG
+    recorder: Recorder | None = None
+    heals: list[tuple[float, Fault, int, Heal]] = []
+    try:
+        system.start()
+        recorder = Recorder(options.run_dir, writer,
+                            options.run_dir / f"{rcls[0] if rcls else 'rcl'}-journal.sqlite3",
+                            traffic.reply_topics)
+        writer.write("campaign", t=0.0, project=options.project, seed=options.seed,
+                     wall=recorder.wall0, run_dir=str(options.run_dir),
+                     options=_plain_options(options), reasoners=reasoners, rcls=rcls,
+                     pending_beliefs=list(traffic.pending_beliefs),
+                     mode_beliefs=traffic.mode_beliefs,
+                     planned=[dataclasses.asdict(f) for f in faults])
+        system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=60)
+        say(f"chaos: {options.project} up in {options.run_dir}; "
+            f"{len(faults)} faults, seed {options.seed}")
+        stop_traffic = threading.Event()
+        operator = threading.Thread(target=_operate, args=(
+            traffic, options, recorder, writer, stop_traffic), name="chaos-operator",
+            daemon=True)
+        operator.start()
+        _sleep_until(recorder, options.warmup, system)
+        injector = Injector(_root_pid(system), recorder.pid_of)
+        start = recorder.now()
+        for number, fault in enumerate(faults, 1):
+            _sleep_until(recorder, start + fault.at, system, heals, writer)
+            if not _running(system):
+                say(f"chaos: mrss supervise exited ({_code(system)}); faults stop")
+                break
+            if fault.kind is not FaultKind.FORKSERVER:
+                recorder.tree(timeout=2.0)  # fresh pids when the bus answers
+            _inject(injector, fault, recorder, writer, heals)
+            say(f"chaos: fault {number}/{len(faults)} {fault.kind} {fault.target}"
+                + (f" for {fault.duration:.1f}s" if fault.kind.timed else ""))
+        while heals and _running(system):
+            _sleep_until(recorder, min(h[0] for h in heals), system, heals, writer)
+        _heal_all(heals, recorder, writer)
+        faults_ended = recorder.now()
+        stop_traffic.set()
+        converged = _settle(system, recorder, options.bounds, faults_ended)
+        say(f"chaos: faults over at {faults_ended:.1f}s; "
+            + (f"converged {converged:.1f}s later" if converged is not None
+               else "did not converge"))
+        recorder.record_journal()
+        recorder.record_log(set(reasoners + rcls))
+        operator.join(timeout=15)
+        code = _stop(system)
+        writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code)
+    finally:
+        if recorder is not None:
+            _heal_all(heals, recorder, writer)
+            recorder.close()
+        system.close()
+        writer.close()
+    return path
+
+
+def _plain_options(options: Options) -> dict[str, object]:
+    out = dataclasses.asdict(options)
+    out["run_dir"] = str(options.run_dir)
+    out["kinds"] = [k.value for k in options.kinds]
+    return out
+
+
+def _operate(traffic: Traffic, options: Options, recorder: Recorder, writer: HistoryWriter,
+             stop: threading.Event) -> None:
+    """The operator: publish the project's steps at their pace until told to stop."""
+    for step in traffic.steps(options.seed, options.operator_every):
+        if stop.wait(step.after):
+            return
+        t = recorder.now()
+        sent = publish(options.run_dir, step)
+        writer.write("operator", t=t, intent=step.intent.value, topic=step.topic,
+                     payload=step.payload, ok=sent.ok, goal=step.goal, robot=step.robot,
+                     mode=step.mode, on=step.on, error=sent.error)
+
+
+def _inject(injector: Injector, fault: Fault, recorder: Recorder, writer: HistoryWriter,
+            heals: list[tuple[float, Fault, int, Heal]]) -> None:
+    t = recorder.now()
+    try:
+        pid, heal = injector.inject(fault)
+    except (InjectionError, OSError) as exc:
+        writer.write("fault", t=t, kind=fault.kind.value, target=fault.target, pid=0,
+                     duration=fault.duration, ok=False, error=str(exc))
+        return
+    writer.write("fault", t=t, kind=fault.kind.value, target=fault.target, pid=pid,
+                 duration=fault.duration, ok=True)
+    if heal is not None:
+        heals.append((t + fault.duration, fault, pid, heal))
+
+
+def _heal_due(heals: list[tuple[float, Fault, int, Heal]], recorder: Recorder,
+              writer: HistoryWriter, everything: bool = False) -> None:
+    now = recorder.now()
+    for item in [h for h in heals if everything or h[0] <= now]:
+        heals.remove(item)
+        _, fault, pid, heal = item
+        heal()
+        writer.write("heal", t=recorder.now(), kind=fault.kind.value, target=fault.target,
+                     pid=pid)
+
+
+def _heal_all(heals: list[tuple[float, Fault, int, Heal]], recorder: Recorder,
+              writer: HistoryWriter) -> None:
+    _heal_due(heals, recorder, writer, everything=True)
+
+
+def _sleep_until(recorder: Recorder, t: float, system: RunningProject,
+                 heals: list[tuple[float, Fault, int, Heal]] | None = None,
+                 writer: HistoryWriter | None = None) -> None:
+    """Wait until campaign time `t`, healing timed faults when they are due."""
+    while recorder.now() < t and _running(system):
+        if heals and writer is not None:
+            _heal_due(heals, recorder, writer)
+        time.sleep(min(0.05, max(0.0, t - recorder.now())))
+    if heals and writer is not None:
+        _heal_due(heals, recorder, writer)
+
+
+def _settle(system: RunningProject, recorder: Recorder, bounds: Bounds,
+            faults_ended: float) -> float | None:
+    """Probe until converged and the latch/cancel bounds are over; the convergence time."""
+    calm = max(bounds.latch, bounds.cancel)
+    converged: float | None = None
+    while True:
+        record = recorder.probe(_running(system))
+        now = recorder.now()
+        if converged is None and not probe_problems(parse([{"type": "probe", **record}])
+                                                    .probes[0]):
+            converged = now - faults_ended
+        if (converged is not None and now >= faults_ended + calm) \
+                or now >= faults_ended + max(bounds.converge, calm) or not _running(system):
+            return converged
+        time.sleep(1.0)
+
+
+def _stop(system: RunningProject) -> int | None:
+    """Ctrl-C the system; its exit code (None if it did not stop by itself)."""
+    if not _running(system):
+        return _code(system)
+    try:
+        return system.interrupt(timeout=60)
+    except (AssertionError, subprocess.TimeoutExpired):
+        return _code(system)
+
+
+def _running(system: RunningProject) -> bool:
+    return system.process is not None and system.process.poll() is None
+
+
+def _code(system: RunningProject) -> int | None:
+    return None if system.process is None else system.process.poll()
+
+
+def _root_pid(system: RunningProject) -> int:
+    assert system.process is not None
+    return system.process.pid

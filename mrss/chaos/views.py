@@ -1,0 +1,79 @@
+"""Queries over a campaign history that several invariants share (pure)."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+from mrss.chaos.history import BusEvent, History, OperatorEvent
+
+TERMINAL = ("succeeded", "failed", "cancelled")
+
+
+def reasoners(h: History) -> set[str]:
+    names = h.campaign.get("reasoners") or []
+    return {str(n) for n in names} or {"reasoner"}
+
+
+def statuses(h: History) -> dict[str, list[BusEvent]]:
+    out: dict[str, list[BusEvent]] = defaultdict(list)
+    for e in h.of_kind("action.status"):
+        out[str(e.body.get("uuid"))].append(e)
+    return out
+
+
+def requests(h: History) -> dict[str, BusEvent]:
+    """The first request seen of each uuid (the reliable channel may repeat one)."""
+    out: dict[str, BusEvent] = {}
+    for e in h.of_kind("action.request"):
+        out.setdefault(str(e.body.get("uuid")), e)
+    return out
+
+
+def terminal_at(h: History) -> dict[str, tuple[float, str]]:
+    """uuid -> (time, state) of its first terminal transition in the journal."""
+    out: dict[str, tuple[float, str]] = {}
+    if h.journal is not None:
+        for x in sorted(h.journal.transitions, key=lambda x: x.seq):
+            if x.state in TERMINAL:
+                out.setdefault(x.uuid, (x.t, x.state))
+    return out
+
+
+def death_times(h: History) -> dict[tuple[str, int], float]:
+    """(component, incarnation) -> when it was seen dead: its exit event, or the first
+    message of a newer incarnation of that component."""
+    out: dict[tuple[str, int], float] = {}
+    seen: dict[str, set[int]] = defaultdict(set)
+    for e in h.bus:
+        if e.kind == "sup.event" and e.body.get("event") == "exit":
+            inc = (e.body.get("detail") or {}).get("inc")
+            if isinstance(inc, int):
+                out.setdefault((str(e.body.get("child")), inc), e.t)
+        if e.inc > 0 and e.src:
+            for old in [i for i in seen[e.src] if i < e.inc]:
+                out.setdefault((e.src, old), e.t)
+            seen[e.src].add(e.inc)
+    return out
+
+
+def messages(h: History, components: set[str]) -> list[tuple[float, str]]:
+    """Log messages of `components`, from the bus and from the run's log file."""
+    out = [(e.t, str(e.body.get("message", ""))) for e in h.of_kind("log.record")
+           if e.body.get("component") in components]
+    out += [(x.t, x.message) for x in h.loglines if x.component in components]
+    return sorted(out)
+
+
+def accepted(h: History, intent: str) -> list[OperatorEvent]:
+    return [o for o in h.operator if o.ok and o.intent == intent]
+
+
+def last_mind(h: History) -> dict[str, Any] | None:
+    minds = [p.mind for p in h.probes if p.mind is not None]
+    return minds[-1] if minds else None
+
+
+def end_of(h: History) -> float:
+    """When the campaign stopped looking (the journal's read, else the end record)."""
+    return h.journal.t if h.journal is not None else float(h.end.get("t", 0.0))

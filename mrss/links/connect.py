@@ -1,0 +1,93 @@
+"""A robot's link from its table in project.toml, with the addresses MRSS resolves.
+
+    [components.rcl.robots.uav1]
+    link = "mavlink"        # the simulator `sim_uav` with id = "uav1" is found by itself
+    [components.rcl.robots.ugv1]
+    link = "mqtt"           # on the project's broker
+
+Rules (the one place they are implemented):
+- `link` names the kind (`LINK_OPTIONS` of mrss.links.factory); a table without `link`
+  has no link (the layer talks to its robot some other way).
+- The layer's own keys (`RobotCommLayer.robot_settings`) are set aside: never link options.
+- MAVLink without `url`: the address the simulated copter of the same id wrote to the run
+  folder (`<run_dir>/<robot>.mavlink`); a real vehicle gives `url = "udpin:0.0.0.0:14550"`.
+- MQTT without `broker_url`: the project's broker, `[broker] url` or the embedded
+  broker's `<run_dir>/broker.url`.
+- HTTP needs its `url` (a robot's own API: nothing to find).
+- Every other key goes to the link factory, which checks it (unknown keys, types, the
+  failsafe options of docs/robots.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping
+from pathlib import Path
+from typing import Any
+
+from mrss.config import load_file
+from mrss.edge.component import resolved_broker_url
+from mrss.errors import ConfigError
+from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
+from mrss.links.factory import create_link
+from mrss.projects import PROJECT_FILE
+
+#: The key naming a robot's link kind.
+LINK_KEY = "link"
+#: A simulated copter writes the address a ground station uses to `<run_dir>/<id>` + this.
+ADDRESS_SUFFIX = ".mavlink"
+
+
+def simulator_address(run_dir: Path | None, robot: str) -> str:
+    """The MAVLink URL the simulator of `robot` wrote to the run folder (ConfigError if none)."""
+    path = run_dir / f"{robot}{ADDRESS_SUFFIX}" if run_dir is not None else None
+    if path is None or not path.is_file():
+        raise ConfigError(f"no url, and no simulator address {robot}{ADDRESS_SUFFIX} in the run "
+                          f"folder {run_dir}: start a simulator with id = {robot!r} before the "
+                          "RCL, or give url", key=f"robots.{robot}.url")
+    return path.read_text(encoding="utf-8").strip()
+
+
+def project_broker_url(project_dir: Path | None, run_dir: Path | None) -> str | None:
+    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's."""
+    sections: Mapping[str, Any] = {}
+    if project_dir is not None and (project_dir / PROJECT_FILE).is_file():
+        sections = load_file(project_dir / PROJECT_FILE).sections
+    return resolved_broker_url(sections, run_dir)
+
+
+def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | None,
+                 run_dir: Path | None,
+                 layer_keys: Collection[str] = ()) -> tuple[str, dict[str, Any]]:
+    """(kind, link options) of a robot's table: layer keys removed, addresses resolved.
+
+    The kind is "" when the table has no `link`.
+    """
+    opts = {k: v for k, v in options.items() if k not in layer_keys and k != LINK_KEY}
+    kind = options.get(LINK_KEY, "")
+    if not isinstance(kind, str):
+        raise ConfigError(f"link must be a string, not {kind!r}", key=f"robots.{robot}.link")
+    if kind == "mavlink" and "url" not in opts:
+        opts["url"] = simulator_address(run_dir, robot)
+    if kind == "mqtt" and "broker_url" not in opts:
+        url = project_broker_url(project_dir, run_dir)
+        if not url:
+            raise ConfigError("no broker for the MQTT link: set [broker] url, start the "
+                              "embedded broker before the RCL, or give broker_url",
+                              key=f"robots.{robot}.broker_url")
+        opts["broker_url"] = url
+    return kind, opts
+
+
+def connect_link(robot: str, options: Mapping[str, Any], *, project_dir: Path | None,
+                 run_dir: Path | None, layer_keys: Collection[str] = (),
+                 on_link_state: LinkStateCallback | None = None,
+                 on_telemetry: TelemetryCallback | None = None) -> RobotLink | None:
+    """The started link of a robot's table (None without `link`); ConfigError if misconfigured."""
+    kind, opts = link_options(robot, options, project_dir=project_dir, run_dir=run_dir,
+                              layer_keys=layer_keys)
+    if not kind:
+        return None
+    link = create_link(robot, kind, opts, source=PROJECT_FILE,
+                       on_link_state=on_link_state, on_telemetry=on_telemetry)
+    link.start()
+    return link

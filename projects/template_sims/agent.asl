@@ -1,0 +1,40 @@
+// The reasoner's program: an operator sends a robot to a point (events.py).
+// ADAPT: your beliefs, percept reactions and plans (the template's agent.asl explains
+// the conventions). Environment actions are `name(Robot, Goal, ...)`: `fly` for the UAV,
+// `drive` for the UGV (rcl.py refines them into skills.py's FlyTo and DriveTo).
+// Check it: `mrss agent projects/NAME/agent.asl` or `mrss check NAME`.
+
+uav(uav1).
+ugv(ugv1).
+
++goto_received(G, R, Lat, Lon)[source(percept)]
+   <- .print("goal ", G, ": ", R, " goes to ", Lat, ",", Lon);
+      !reach(R, G, Lat, Lon).
+
++goal_cancelled(G)[source(percept)]
+   <- .drop_intention(reach(_, G, _, _));
+      .print("goal ", G, " cancelled");
+      !forget(G).
+
+// a new goal for a busy robot pre-empts nothing: the RCL queues it on the robot's
+// "motion" resource until the running one ends
++!reach(R, G, Lat, Lon) : uav(R)
+   <- fly(R, G, Lat, Lon);
+      .print("goal ", G, " reached by ", R);
+      !forget(G).
++!reach(R, G, Lat, Lon) : ugv(R)
+   <- drive(R, G, Lat, Lon);
+      .print("goal ", G, " reached by ", R);
+      !forget(G).
++!reach(R, G, _, _)
+   <- .print("goal ", G, ": no robot ", R);
+      !forget(G).
+-!reach(R, G, _, _)[error(E)]
+   <- .print("goal ", G, " failed: ", E);
+      !forget(G).
+
++!forget(G)
+   <- -goto_received(G, _, _, _)[source(percept)];
+      -goal_cancelled(G)[source(percept)].
+
++robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").

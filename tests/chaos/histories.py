@@ -1,0 +1,105 @@
+"""Hand-made campaign histories for the checker's tests: one healthy run, and edits to it.
+
+`healthy()` is a short campaign in which every invariant holds: the operator sends goal
+a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
+releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
+teleop and back; after the faults a probe finds everything running and idle. Each test
+changes one thing and expects one invariant to break.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+U1 = "a" * 32
+U2 = "b" * 32
+
+Record = dict[str, Any]
+
+
+def bus(t: float, kind: str, body: dict[str, Any], src: str = "rcl", inc: int = 1,
+        topic: str = "") -> Record:
+    return {"type": "bus", "t": t, "topic": topic or kind, "src": src, "inc": inc,
+            "kind": kind, "body": body}
+
+
+def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "") -> Record:
+    return bus(t, "action.status", {"uuid": uuid, "state": state, "reason": reason,
+                                    "progress": {}, "robot": "uav1"}, inc=inc)
+
+
+def request(t: float, uuid: str, goal: str, name: str = "cover", inc: int = 1) -> Record:
+    return bus(t, "action.request", {"uuid": uuid, "name": name, "args": ["uav1", goal],
+                                     "robot": "uav1", "goal": goal, "priority": 1,
+                                     "literal": f"{name}(uav1,{goal})"},
+               src="reasoner", inc=inc)
+
+
+def log(t: float, component: str, message: str, pid: int = 100) -> Record:
+    return {"type": "logline", "t": t, "component": component, "pid": pid, "level": "INFO",
+            "message": message}
+
+
+def action(uuid: str, goal: str, state: str, created: float, name: str = "cover",
+           inc: int = 1) -> Record:
+    return {"uuid": uuid, "name": name, "robot": "uav1", "goal": goal, "state": state,
+            "reason": "", "requester": "reasoner", "requester_inc": inc, "created": created}
+
+
+def transitions(uuid: str, *steps: tuple[str, float], first_seq: int = 1) -> list[Record]:
+    return [{"seq": first_seq + i, "uuid": uuid, "state": s, "reason": "", "t": t}
+            for i, (s, t) in enumerate(steps)]
+
+
+def operator(t: float, intent: str, goal: str = "", ok: bool = True, **extra: Any) -> Record:
+    return {"type": "operator", "t": t, "intent": intent, "topic": f"mrss/ui/{intent}",
+            "payload": {}, "ok": ok, "goal": goal, **extra}
+
+
+TREE = {"id": "root", "state": "running", "children": [
+    {"id": "rcl", "state": "running", "children": []},
+    {"id": "reasoner", "state": "running", "children": []},
+    {"id": "datalayer", "state": "running", "restarts": 1, "children": []}]}
+
+
+def probe(t: float, waiting: list[str] = (), open_actions: list[Record] = (),  # type: ignore[assignment]
+          beliefs: list[str] = (), tree: Any = TREE) -> Record:  # type: ignore[assignment]
+    intentions = [{"id": i + 1, "waiting_on": f"action '{u}'"} for i, u in enumerate(waiting)]
+    return {"type": "probe", "t": t, "tree": tree, "system_running": True,
+            "mind": {"agent": "reasoner", "beliefs": list(beliefs), "intentions": intentions,
+                     "events": []},
+            "open_actions": list(open_actions)}
+
+
+def healthy() -> list[Record]:
+    return [
+        {"type": "campaign", "t": 0.0, "project": "test", "seed": 1, "planned": [{}],
+         "reasoners": ["reasoner"], "rcls": ["rcl"],
+         "pending_beliefs": ["queued", "waiting", "task"],
+         "mode_beliefs": {"teleop": "paused({robot},teleop)"}},
+        bus(0.5, "sup.heartbeat", {"component": "reasoner", "pid": 100}, src="reasoner"),
+        operator(1.0, "goal", "a1"),
+        request(2.0, U1, "a1"),
+        status(2.1, U1, "pending"), status(2.2, U1, "running"),
+        operator(3.0, "mode", robot="ugv1", mode="teleop", on=True),
+        operator(4.0, "mode", robot="ugv1", mode="teleop", on=False),
+        bus(4.5, "robot.data", {"robot": "ugv1", "data": {"type": "status", "teleop": False}}),
+        {"type": "fault", "t": 5.0, "kind": "kill", "target": "datalayer", "pid": 7,
+         "duration": 0.0, "ok": True},
+        status(10.0, U1, "succeeded"),
+        bus(10.3, "sup.event", {"event": "restart", "child": "datalayer", "detail": {}},
+            src="supervisor", inc=0),
+        log(10.05, "reasoner", f"action {U1} cover(uav1,a1) succeeded"),
+        probe(30.0),
+        {"type": "journal", "t": 40.0,
+         "actions": [action(U1, "a1", "succeeded", 2.1)],
+         "transitions": transitions(U1, ("pending", 2.1), ("running", 2.2),
+                                    ("succeeded", 10.0)),
+         "teleop": {}},
+        {"type": "end", "t": 41.0, "faults_ended": 5.0, "exit_code": 0},
+    ]
+
+
+def edit(records: list[Record], record_type: str) -> Record:
+    """The (first) record of a type, to change in place."""
+    return next(r for r in records if r["type"] == record_type)

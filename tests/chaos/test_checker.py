@@ -1,0 +1,308 @@
+"""The checker's rules, each on hand-made histories: one that holds, ones that break it."""
+
+from __future__ import annotations
+
+from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Verdict, check
+from mrss.chaos.history import parse
+from tests.chaos.histories import (
+    TREE,
+    U1,
+    U2,
+    Record,
+    action,
+    bus,
+    edit,
+    healthy,
+    log,
+    operator,
+    probe,
+    request,
+    status,
+    transitions,
+)
+
+
+def verdict(records: list[Record]) -> Verdict:
+    return check(parse(records), Bounds(latch=15.0, cancel=15.0, converge=60.0))
+
+
+def broken(records: list[Record]) -> set[Invariant]:
+    return {v.invariant for v in verdict(records).violations}
+
+
+def with_second_action(records: list[Record], state: str, created: float,
+                       ended: float | None = None, inc: int = 1) -> list[Record]:
+    """Add U2, cover(uav1,a2), to the journal (terminal at `ended` if given)."""
+    journal = edit(records, "journal")
+    journal["actions"].append(action(U2, "a2", state, created, inc=inc))
+    steps = [("pending", created), ("running", created + 0.1)]
+    if ended is not None:
+        steps.append((state, ended))
+    journal["transitions"] += transitions(U2, *steps, first_seq=10)
+    records.append(request(created - 0.1, U2, "a2", inc=inc))
+    return records
+
+
+def test_the_healthy_history_holds_every_invariant() -> None:
+    v = verdict(healthy())
+    assert v.violations == []
+    assert v.goals == {"a1": GoalOutcome.SUCCEEDED}
+    assert v.acted_on == {"a1"}
+    assert v.converged_after == 25.0
+
+
+# -- exactly one terminal state -----------------------------------------------------------
+def test_two_terminal_transitions_in_the_journal_break_one_terminal_state() -> None:
+    records = healthy()
+    edit(records, "journal")["transitions"] += transitions(U1, ("failed", 11.0), first_seq=4)
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U1]
+    assert "failed" in found[0].evidence[1]
+
+
+def test_two_different_terminal_statuses_on_the_bus_break_one_terminal_state() -> None:
+    records = healthy() + [status(11.0, U1, "failed")]
+    assert Invariant.ONE_TERMINAL in broken(records)
+
+
+def test_a_repeated_terminal_status_is_not_a_second_one() -> None:
+    records = healthy() + [status(11.0, U1, "succeeded")]
+    assert broken(records) == set()
+
+
+def test_a_request_never_journaled_breaks_one_terminal_state() -> None:
+    records = healthy() + [request(12.0, U2, "a1")]
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U2]
+    assert found[0].evidence[1] == "never in the RCL journal"
+
+
+def test_a_request_of_an_incarnation_that_died_right_after_may_be_lost() -> None:
+    records = healthy() + [request(12.0, U2, "a1"),
+                           bus(13.0, "sup.heartbeat", {"component": "reasoner", "pid": 101},
+                               src="reasoner", inc=2)]
+    assert Invariant.ONE_TERMINAL not in broken(records)
+
+
+# -- no transition after a terminal one -----------------------------------------------------
+def test_a_journal_transition_after_the_terminal_one_is_caught() -> None:
+    records = healthy()
+    edit(records, "journal")["transitions"] += transitions(U1, ("running", 11.0), first_seq=4)
+    found = verdict(records).of(Invariant.NO_TRANSITION_AFTER_TERMINAL)
+    assert [v.subject for v in found] == [U1]
+    assert "running" in found[0].evidence[-1]
+
+
+def test_a_status_published_after_the_terminal_one_is_caught() -> None:
+    records = healthy() + [status(11.0, U1, "running")]
+    assert broken(records) == {Invariant.NO_TRANSITION_AFTER_TERMINAL}
+
+
+def test_a_late_status_of_an_older_rcl_incarnation_is_ignored() -> None:
+    records = healthy()
+    for r in records:
+        if r["type"] == "bus" and r["kind"] == "action.status":
+            r["inc"] = 2
+    records.append(status(11.0, U1, "running", inc=1))
+    assert broken(records) == set()
+
+
+# -- latches released ------------------------------------------------------------------------
+def test_no_release_of_the_latch_breaks_latch_released() -> None:
+    records = [r for r in healthy() if r["type"] != "logline"]
+    found = verdict(records).of(Invariant.LATCH_RELEASED)
+    assert [v.subject for v in found] == [U1]
+    assert "requester still alive" in found[0].evidence[-1]
+
+
+def test_a_release_later_than_the_bound_breaks_latch_released() -> None:
+    records = [r for r in healthy() if r["type"] != "logline"]
+    records.append(log(30.0, "reasoner", f"action {U1} cover(uav1,a1) succeeded"))
+    assert broken(records) == {Invariant.LATCH_RELEASED}
+
+
+def test_a_release_seen_on_the_bus_log_counts() -> None:
+    records = [r for r in healthy() if r["type"] != "logline"]
+    records.append(bus(10.2, "log.record", {"component": "reasoner", "level": "INFO",
+                                            "message": f"action {U1} cover(uav1,a1) "
+                                                       "succeeded"}, src="reasoner"))
+    assert broken(records) == set()
+
+
+def test_a_latch_of_a_dead_reasoner_incarnation_is_released_by_its_death() -> None:
+    records = [r for r in healthy() if r["type"] != "logline"]
+    records.append(bus(12.0, "sup.event", {"event": "exit", "child": "reasoner",
+                                           "detail": {"inc": 1}}, src="supervisor", inc=0))
+    assert Invariant.LATCH_RELEASED not in broken(records)
+
+
+# -- operator goals ----------------------------------------------------------------------------
+def test_an_accepted_goal_nobody_acted_on_is_dropped() -> None:
+    records = healthy() + [operator(20.0, "goal", "a2")]
+    v = verdict(records)
+    assert v.goals["a2"] is GoalOutcome.DROPPED
+    assert [x.subject for x in v.of(Invariant.GOAL_HANDLED)] == ["a2"]
+
+
+def test_a_goal_reported_failed_to_the_operator_is_handled() -> None:
+    records = healthy() + [operator(20.0, "goal", "a2"),
+                           {"type": "reply", "t": 25.0, "topic": "mrss/ui/reply/area",
+                            "payload": '{"goal": "a2", "error": "world model down"}'}]
+    v = verdict(records)
+    assert v.goals["a2"] is GoalOutcome.REPORTED and v.violations == []
+
+
+def test_a_goal_the_agent_still_holds_at_the_end_is_handled() -> None:
+    records = healthy() + [operator(20.0, "goal", "a2")]
+    records.append(probe(35.0, beliefs=["queued(uav1,a2,3,cover)[source(self)]"]))
+    assert verdict(records).goals["a2"] is GoalOutcome.HELD
+
+
+def test_a_belief_outside_the_pending_ones_does_not_hold_a_goal() -> None:
+    records = healthy() + [operator(20.0, "goal", "a2")]
+    records.append(probe(35.0, beliefs=["failed_goal(a2)[source(self)]"]))
+    assert verdict(records).goals["a2"] is GoalOutcome.DROPPED
+
+
+def test_a_goal_whose_action_failed_silently_is_dropped() -> None:
+    records = with_second_action(healthy() + [operator(19.0, "goal", "a2")], "failed",
+                                 20.0, ended=21.0)
+    records.append(log(21.05, "reasoner", f"action {U2} cover(uav1,a2) failed"))
+    v = verdict(records)
+    assert v.goals["a2"] is GoalOutcome.DROPPED and "a2" in v.acted_on
+    assert "cover failed" in v.of(Invariant.GOAL_HANDLED)[0].evidence[1]
+
+
+def test_a_goal_the_broker_did_not_accept_is_not_counted() -> None:
+    records = healthy() + [operator(20.0, "goal", "a2", ok=False)]
+    assert "a2" not in verdict(records).goals
+
+
+# -- no robot command for a cancelled or orphaned action -----------------------------------------
+def test_skills_started_for_a_terminal_action_are_caught() -> None:
+    records = healthy() + [log(11.0, "rcl", f"action {U1} is already cancelled; running "
+                                            "dropped")]
+    found = verdict(records).of(Invariant.NO_COMMAND_AFTER_CANCEL)
+    assert [v.subject for v in found] == [U1]
+
+
+def test_an_action_still_running_long_after_the_reasoner_cancelled_it_is_caught() -> None:
+    records = with_second_action(healthy(), "running", 11.0)
+    records.append(bus(12.0, "action.control", {"command": "cancel", "target": U2,
+                                                "target_kind": "action"}, src="reasoner"))
+    records.append(probe(35.0, waiting=[U2], open_actions=[
+        {"uuid": U2, "state": "running", "robot": "uav1", "goal": "a2",
+         "requester": "reasoner", "requester_inc": 1}]))
+    found = verdict(records).of(Invariant.NO_COMMAND_AFTER_CANCEL)
+    assert [v.subject for v in found] == [U2]
+    assert "still running at the end" in found[0].evidence[1]
+
+
+def test_an_action_cancelled_in_time_is_fine() -> None:
+    records = with_second_action(healthy(), "cancelled", 11.0, ended=13.0)
+    records.append(bus(12.0, "action.control", {"command": "cancel", "target": U2,
+                                                "target_kind": "action"}, src="reasoner"))
+    records.append(log(13.1, "reasoner", f"action {U2} cover(uav1,a2) cancelled"))
+    assert Invariant.NO_COMMAND_AFTER_CANCEL not in broken(records)
+
+
+def test_an_action_of_a_goal_the_operator_cancelled_must_stop() -> None:
+    records = healthy()
+    records.append(operator(5.0, "cancel", "a1"))
+    edit(records, "journal")["transitions"][-1]["t"] = 25.0
+    found = verdict(records).of(Invariant.NO_COMMAND_AFTER_CANCEL)
+    assert [v.subject for v in found] == [U1]
+    assert "succeeded only at 25.0s" in found[0].evidence[1]
+
+
+def test_an_action_requested_for_a_cancelled_goal_is_caught() -> None:
+    records = healthy() + [operator(0.5, "goal", "a2"), operator(5.0, "cancel", "a2")]
+    records = with_second_action(records, "cancelled", 11.0, ended=12.0)
+    records.append(log(12.1, "reasoner", f"action {U2} cover(uav1,a2) cancelled"))
+    found = verdict(records).of(Invariant.NO_COMMAND_AFTER_CANCEL)
+    assert [v.subject for v in found] == [U2]
+    assert "requested for it at 11.0s" in found[0].evidence[1]
+
+
+def test_an_orphan_of_a_dead_reasoner_that_keeps_running_is_caught() -> None:
+    records = with_second_action(healthy(), "running", 11.0)
+    records.append(bus(12.0, "sup.heartbeat", {"component": "reasoner", "pid": 101},
+                       src="reasoner", inc=2))
+    found = verdict(records).of(Invariant.NO_COMMAND_AFTER_CANCEL)
+    assert [v.subject for v in found] == [U2]
+    assert "not adopted" in found[0].evidence[1]
+
+
+def test_an_orphan_adopted_by_the_new_incarnation_is_fine() -> None:
+    records = with_second_action(healthy(), "running", 11.0)
+    records.append(bus(12.0, "sup.heartbeat", {"component": "reasoner", "pid": 101},
+                       src="reasoner", inc=2))
+    records.append(request(13.0, "c" * 32, "a2", inc=2))
+    assert Invariant.NO_COMMAND_AFTER_CANCEL not in broken(records)
+
+
+# -- modes -----------------------------------------------------------------------------------------
+def test_a_robot_left_in_teleop_after_the_operator_switched_it_off_is_caught() -> None:
+    records = healthy() + [bus(6.0, "robot.data", {"robot": "ugv1", "data": {"teleop": True}})]
+    found = verdict(records).of(Invariant.MODE_CONSISTENT)
+    assert [v.subject for v in found] == ["ugv1 teleop"]
+    assert found[0].evidence[1] == "robot sees it on"
+
+
+def test_a_reasoner_that_still_believes_in_teleop_is_caught() -> None:
+    records = healthy() + [probe(35.0, beliefs=["paused(ugv1,teleop)[source(self)]"])]
+    assert broken(records) == {Invariant.MODE_CONSISTENT}
+
+
+def test_an_rcl_journal_with_teleop_on_is_caught() -> None:
+    records = healthy()
+    edit(records, "journal")["teleop"] = {"ugv1": True}
+    assert "rcl sees it on" in verdict(records).of(Invariant.MODE_CONSISTENT)[0].evidence
+
+
+def test_teleop_left_on_by_the_operator_is_consistent_when_everyone_sees_it_on() -> None:
+    records = healthy() + [operator(4.2, "mode", robot="ugv1", mode="teleop", on=True),
+                           bus(4.6, "robot.data", {"robot": "ugv1", "data": {"teleop": True}}),
+                           probe(35.0, beliefs=["paused(ugv1,teleop)[source(self)]"])]
+    edit(records, "journal")["teleop"] = {"ugv1": True}
+    assert broken(records) == set()
+
+
+# -- convergence -----------------------------------------------------------------------------------
+def test_an_intention_waiting_on_a_finished_action_is_not_converged() -> None:
+    records = [r for r in healthy() if r["type"] != "probe"] + [probe(30.0, waiting=[U1])]
+    v = verdict(records)
+    assert v.converged_after is None
+    found = v.of(Invariant.CONVERGED)
+    assert any(f"waits on action {U1}" in e for e in found[0].evidence)
+
+
+def test_an_open_action_nobody_waits_on_is_not_converged() -> None:
+    orphan = {"uuid": U2, "state": "running", "robot": "uav1", "goal": "a2",
+              "requester": "reasoner", "requester_inc": 1}
+    records = [r for r in healthy() if r["type"] != "probe"] + [probe(30.0, open_actions=[
+        orphan])]
+    assert any("no intention waits on it" in e
+               for e in verdict(records).of(Invariant.CONVERGED)[0].evidence)
+
+
+def test_a_component_down_is_not_converged_and_a_later_probe_may_be() -> None:
+    down = {**TREE, "children": [{"id": "rcl", "state": "waiting", "children": []}]}
+    records = [r for r in healthy() if r["type"] != "probe"]
+    records += [probe(20.0, tree=down), probe(30.0)]
+    v = verdict(records)
+    assert v.violations == [] and v.converged_after == 25.0
+
+
+def test_converging_later_than_the_bound_is_a_violation() -> None:
+    records = healthy()
+    edit(records, "probe")["t"] = 90.0
+    found = verdict(records).of(Invariant.CONVERGED)
+    assert "converged only 85.0s later" in found[0].evidence
+
+
+def test_no_probe_after_the_faults_is_not_converged() -> None:
+    records = [r for r in healthy() if r["type"] != "probe"]
+    edit(records, "end")["exit_code"] = 1
+    found = verdict(records).of(Invariant.CONVERGED)
+    assert "mrss supervise exited 1" in found[0].evidence[1]

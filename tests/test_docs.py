@@ -1,0 +1,82 @@
+"""The documents hold: no reference outside the repository, every example config loads."""
+
+from __future__ import annotations
+
+import importlib
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from mrss.config import load_file
+from mrss.links.factory import LINK_OPTIONS, option_value_problems
+
+REPO = Path(__file__).resolve().parent.parent
+DOCUMENTS = sorted((REPO / "docs").glob("*.md")) + [REPO / "README.md"]
+# Files outside the repository, a developer's machine, a virtualenv by absolute path.
+FORBIDDEN = re.compile(r"shared/|/work/|/root/|/home/\w|/Users/\w|(?<![\w.])/\S*\.venv/")
+TOML_BLOCK = re.compile(r"```toml\n(.*?)```", re.S)
+# What a fragment of project.toml is completed with (the components it does not define).
+BASE_COMPONENTS = {
+    "bus": "mrss.bus.component:ProxyComponent", "broker": "mrss.broker:EmbeddedBroker",
+    "worldmodel": "mrss.actors.worldmodel:WorldModelComponent",
+    "datalayer": "mrss.actors.datalayer:DataLayerComponent",
+    "events": "mrss.actors.events:ExternalEventsManager",
+    "rcl": "mrss.actors.rcl_service:RclService",
+    "reasoner": "mrss.actors.reasoner:ReasonerComponent",
+}
+
+
+def examples() -> list[tuple[str, str]]:
+    return [(f"{doc.name}#{n}", m.group(1)) for doc in DOCUMENTS
+            for n, m in enumerate(TOML_BLOCK.finditer(doc.read_text(encoding="utf-8")), 1)]
+
+
+def completed(block: str) -> str:
+    """`block` with the components it does not define (a fragment becomes a project)."""
+    missing = [c for c in BASE_COMPONENTS if not re.search(rf"^\[components\.{c}\]", block, re.M)]
+    prelude = "".join(f'[components.{c}]\nmodule = "{BASE_COMPONENTS[c]}"\n' for c in missing)
+    return prelude + block
+
+
+@pytest.mark.parametrize("doc", DOCUMENTS, ids=lambda p: p.name)
+def test_no_document_refers_outside_the_repository(doc: Path) -> None:
+    hits = [f"{doc.name}:{n}: {line.strip()}"
+            for n, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1)
+            if FORBIDDEN.search(line)]
+    assert not hits, "\n".join(hits)
+
+
+def test_the_forbidden_pattern_catches_what_it_should() -> None:
+    for bad in ("see `shared/DESIGN.md`", "/work/main/.venv/bin/python -m pytest",
+                "/root/.cache", "/home/alice/mrss/.venv/bin/mrss"):
+        assert FORBIDDEN.search(bad), bad
+    for good in (".venv/bin/python -m pytest", "installed (PATH or `/usr/sbin`)"):
+        assert not FORBIDDEN.search(good), good
+
+
+def test_every_document_has_its_toml_examples_found() -> None:
+    names = {name.split("#")[0] for name, _ in examples()}
+    assert {"config.md", "robots.md", "rcl.md", "edges.md"} <= names
+
+
+@pytest.mark.parametrize(("where", "block"), examples(), ids=[w for w, _ in examples()])
+def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path: Path) -> None:
+    tomllib.loads(block)  # the example as written is TOML
+    path = tmp_path / "project.toml"
+    path.write_text(completed(block), encoding="utf-8")
+    config = load_file(path)
+    for comp in config.components:
+        module, _, cls = comp.module.partition(":")
+        if module.startswith("mrss."):
+            assert hasattr(importlib.import_module(module), cls), f"{where}: {comp.module}"
+        robots = comp.options.get("robots", {})
+        for robot, options in robots.items():
+            kind = options.get("link")
+            if kind is None:
+                continue
+            assert kind in LINK_OPTIONS, f"{where}: robot {robot}: link {kind!r}"
+            unknown = set(options) - set(LINK_OPTIONS[kind]) - {"link"}
+            assert not unknown, f"{where}: robot {robot}: unknown link options {unknown}"
+            assert not option_value_problems(options), f"{where}: robot {robot}"
