@@ -42,6 +42,7 @@ class Supervised:
         self.events: list[SupEvent] = []
         self.logs: list[LogRecord] = []
         self._trees: list[dict[str, Any]] = []
+        self.killed: set[int] = set()  # pids this test killed: never "running" again
         endpoints = BusEndpoints.ipc(run_dir)
         self.sub = Subscriber(endpoints, prefixes=list(prefixes), name="faults-test")
         self.sub.start(self._record)
@@ -90,18 +91,28 @@ class Supervised:
         """The root's children by id, from a fresh tree."""
         return {c["id"]: c for c in self.tree()["children"]}
 
+    def running(self) -> dict[str, dict[str, Any]]:
+        """The children running now, by id, from a fresh tree. A child whose killed
+        process the root has not reaped yet still reads "running" with the dead pid:
+        it is left out until its new incarnation runs."""
+        return self._running(self.children())
+
+    def _running(self, kids: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        return {cid: c for cid, c in kids.items()
+                if c["state"] == "running" and c.get("pid") not in self.killed}
+
     def wait_all_running(self, timeout: float = 60.0) -> dict[str, dict[str, Any]]:
         """Wait until every component of the project runs; its children by id."""
-        def running() -> dict[str, dict[str, Any]] | None:
+        def all_up() -> dict[str, dict[str, Any]] | None:
             self.alive()
             try:
                 kids = self.children()
             except WaitTimeout:
                 return None  # no answer this time (e.g. the proxy restarting): ask again
-            return kids if kids and all(c["state"] == "running" for c in kids.values()) \
-                else None
+            up = self._running(kids)
+            return up if kids and up.keys() == kids.keys() else None
         found: dict[str, dict[str, Any]] = wait_until(
-            running, timeout, interval=0.2, message="every component running")
+            all_up, timeout, interval=0.2, message="every component running")
         return found
 
     def alive(self) -> None:
@@ -116,6 +127,7 @@ class Supervised:
     # -- faults ------------------------------------------------------------------------
     def kill(self, pid: int) -> None:
         """SIGKILL one process of the tree and wait until it is gone."""
+        self.killed.add(pid)
         os.kill(pid, signal.SIGKILL)
         wait_until(lambda: not _alive(pid), 10, message=f"pid {pid} gone")
 
