@@ -39,7 +39,7 @@ from typing import Any, ClassVar
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
-from mrss.bus import BusEndpoints, NotHandled, ReliableReceiver, Subscriber
+from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
 from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
@@ -123,6 +123,7 @@ class RclService(Component):
         self.links: dict[str, Any] = {}
         self._rx: ReliableReceiver | None = None
         self._sub: Subscriber | None = None
+        self.incarnations = Incarnations("rcl")  # replaced at start (named for the component)
         self._name = "rcl"
         self._stop = threading.Event()
         self._beat: threading.Thread | None = None
@@ -152,8 +153,15 @@ class RclService(Component):
         # Subscribed before the restored actions are announced, so that the answers to
         # those statuses (a cancel, a suspend) are heard: they wait in the socket until
         # the core has started. Ready also means controls are heard.
+        # One filter of dead incarnations for both receivers; after a restart of the RCL
+        # it knows from the journal which requester incarnations are gone.
+        self.incarnations = Incarnations(ctx.name)
+        if ctx.incarnation > 1:
+            for src, inc in self.journal.incarnations().items():
+                self.incarnations.learn(src, inc)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
-                                                    "ctl.teleop", "sup.heartbeat."])
+                                                    "ctl.teleop", "sup.heartbeat."],
+                               incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
@@ -171,7 +179,8 @@ class RclService(Component):
         self.core.start(new_run=ctx.incarnation <= 1)
         self._sub.start(self._on_message)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
-                                    channel=ACTION_CHANNEL, handler=self._on_request)
+                                    channel=ACTION_CHANNEL, handler=self._on_request,
+                                    incarnations=self.incarnations)
         period = float(opts.get("heartbeat", 0.5))
         self._beat = threading.Thread(target=self._heartbeat, args=(publisher, period),
                                       name=f"{ctx.name}-heartbeat", daemon=True)

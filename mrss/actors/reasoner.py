@@ -37,6 +37,7 @@ from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak import Agent, AslSyntaxError, parse_literal
 from mrss.bus import (
     BusEndpoints,
+    Incarnations,
     NotHandled,
     Publisher,
     ReliableReceiver,
@@ -290,12 +291,14 @@ class ReasonerComponent(Component):
         publisher.publish(heartbeat)  # announce this incarnation before anything else
         if restarted:
             reasoner.host.expect_inventory(ctx.name, ctx.incarnation)
+        live = Incarnations(ctx.name)  # one filter of dead incarnations for both receivers
         self._sub = Subscriber(endpoints, prefixes=["percept", "action.status",
                                                     "action.inventory", "sup.", "robot.",
-                                                    "ctl.mind"])
+                                                    "ctl.mind"], incarnations=live)
         self._sub.start(reasoner.on_message)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
-                                    channel=PERCEPT_CHANNEL, handler=reasoner.on_message)
+                                    channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
+                                    incarnations=live)
         reasoner.start()
         log.info("%s: reasoning on %s (incarnation %d)", ctx.name, agent_file, ctx.incarnation)
 

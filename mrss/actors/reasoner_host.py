@@ -295,10 +295,7 @@ class ReasonerHost:
         """A status from the RCL: a terminal one releases its latch."""
         terminal = ActionState(status.state).terminal
         abandoned = False
-        with self._lock:
-            if src_inc < self.rcl_incarnation:
-                log.debug("dropped a status of dead RCL incarnation %d", src_inc)
-                return
+        with self._lock:  # a dead incarnation's statuses never get here (bus/incarnations.py)
             self.rcl_incarnation = src_inc
             self.rcl_heard_at = self._clock()
             latch = self._latches.get(status.uuid)
@@ -328,9 +325,8 @@ class ReasonerHost:
     def heard_from_rcl(self, src_inc: int) -> None:
         """Any message of the RCL (heartbeat, robot state) renews the lease."""
         with self._lock:
-            if src_inc >= self.rcl_incarnation:
-                self.rcl_incarnation = src_inc
-                self.rcl_heard_at = self._clock()
+            self.rcl_incarnation = src_inc
+            self.rcl_heard_at = self._clock()
 
     def reconcile(self) -> None:
         """Ask the RCL, when due, for the statuses of the waiting actions and, after a

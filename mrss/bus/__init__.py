@@ -13,13 +13,14 @@ See docs/bus.md.
 
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.forwarder import ProxyThread, run_proxy
+from mrss.bus.incarnations import Incarnations, Stale
 from mrss.bus.publisher import Publisher
 from mrss.bus.reliable_receiver import NotHandled, ReliableReceiver
 from mrss.bus.reliable_sender import ReliableSender
 from mrss.bus.subscriber import Subscriber
 
 __all__ = [
-    "BusEndpoints", "NotHandled", "ProxyThread", "Publisher", "ReliableReceiver",
-    "ReliableSender",
+    "BusEndpoints", "Incarnations", "NotHandled", "ProxyThread", "Publisher", "ReliableReceiver",
+    "ReliableSender", "Stale",
     "Subscriber", "run_proxy",
 ]

@@ -26,6 +26,7 @@ import zmq
 
 from mrss.bus import sockets, wire
 from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.incarnations import Incarnations
 from mrss.bus.publisher import Publisher
 from mrss.errors import DecodeError
 from mrss.messages import Envelope
@@ -59,14 +60,16 @@ class ReliableReceiver:
 
     The handler's exceptions are logged; the message still counts as handled (it is not
     run again) — except `NotHandled`, which leaves it unacknowledged, to be offered again
-    when its sender repeats it. `handled` counts handler calls; `close()` stops the thread.
+    when its sender repeats it. A message of a dead incarnation is acknowledged and never
+    handled (mrss/bus/incarnations.py). `handled` counts handler calls; `close()` stops
+    the thread.
     """
 
     def __init__(
         self, endpoints: BusEndpoints, src: str, inc: int = 0, channel: str = "action", *,
         handler: Callable[[Envelope], object], session_ttl: float = 600.0,
         max_sessions: int = 4096, id_memory: int = 65536,
-        context: sockets.Context | None = None,
+        context: sockets.Context | None = None, incarnations: Incarnations | None = None,
     ) -> None:
         self.channel = wire.check_channel(channel)
         self.src, self.inc = src, inc
@@ -77,6 +80,7 @@ class ReliableReceiver:
         self._sessions: OrderedDict[bytes, _Session] = OrderedDict()
         self._recent_ids: OrderedDict[str, None] = OrderedDict()
         self._drops = sockets.DropLog(f"reliable receiver {channel!r}")
+        self._incarnations = incarnations or Incarnations(f"reliable receiver {channel!r}")
         self.handled = 0
         self.held_back = 0  # NotHandled answers: messages left for their sender to repeat
         self._held_logged = 0.0
@@ -98,6 +102,11 @@ class ReliableReceiver:
     def dropped(self) -> int:
         """How many malformed messages were dropped."""
         return self._drops.dropped
+
+    @property
+    def stale(self) -> int:
+        """How many messages of dead incarnations were dropped (acknowledged, not handled)."""
+        return self._incarnations.dropped
 
     def _serve(self) -> None:
         try:
@@ -173,7 +182,8 @@ class ReliableReceiver:
     def _deliver_in_order(self, state: _Session) -> None:
         while state.watermark + 1 in state.waiting:
             env = state.waiting[state.watermark + 1]
-            if env is not None and env.id not in self._recent_ids:
+            if env is not None and env.id not in self._recent_ids \
+                    and self._incarnations.admit(env):
                 try:
                     self._handler(env)
                 except NotHandled as exc:  # not acknowledged: offered again on a repeat

@@ -12,6 +12,7 @@ import zmq
 
 from mrss.bus import sockets
 from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.incarnations import ANNOUNCEMENT, Incarnations, Stale
 from mrss.bus.wire import WELCOME, message_frames
 from mrss.errors import BusError, DecodeError
 from mrss.messages import Envelope, decode
@@ -37,7 +38,9 @@ class Subscriber:
     Malformed messages are logged with topic and reason and dropped (`dropped` counts
     them). Reliable-channel data is delivered like any other message; acks and the
     proxy's welcome are not. After a proxy restart ZeroMQ reconnects and re-sends the
-    subscriptions, so the subscriber carries on by itself.
+    subscriptions, so the subscriber carries on by itself. Messages of a dead incarnation
+    are dropped (`stale` counts them; mrss/bus/incarnations.py states the rule) unless
+    `stale=Stale.KEEP`.
 
     Use one of `recv`, iteration or `start(callback)`; `close()` may be called from any
     thread and ends an iteration or a callback thread.
@@ -46,12 +49,17 @@ class Subscriber:
     def __init__(
         self, endpoints: BusEndpoints, prefixes: Iterable[str] = ("",), *,
         hwm: int = sockets.DEFAULT_HWM, name: str = "subscriber",
-        context: sockets.Context | None = None,
+        context: sockets.Context | None = None, stale: Stale = Stale.DROP,
+        incarnations: Incarnations | None = None,
     ) -> None:
         if isinstance(prefixes, str):
             raise TypeError("prefixes must be a list of strings, not one string")
         self.endpoints = endpoints
         self.prefixes = tuple(prefixes)
+        self._incarnations = (incarnations or Incarnations(name)) if stale is Stale.DROP \
+            else None
+        # The supervisor's announcements teach the filter; delivered only when asked for.
+        self._listen_only = self._incarnations is not None and not self._wants(ANNOUNCEMENT)
         self._early: deque[Envelope] = deque()
         self._batch: deque[tuple[bytes, bytes]] = deque()  # rest of a received batch
         self._drops = sockets.DropLog(name)
@@ -63,15 +71,41 @@ class Subscriber:
         sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
         for prefix in self.prefixes:
             sock.setsockopt(zmq.SUBSCRIBE, prefix.encode())
+        if self._listen_only:
+            sock.setsockopt(zmq.SUBSCRIBE, ANNOUNCEMENT.encode())
         self._sock = sock
+
+    def _wants(self, topic: str) -> bool:
+        return any(topic.startswith(prefix) for prefix in self.prefixes)
 
     @property
     def dropped(self) -> int:
         """How many malformed messages were dropped."""
         return self._drops.dropped
 
+    @property
+    def stale(self) -> int:
+        """How many messages of dead incarnations were dropped."""
+        return 0 if self._incarnations is None else self._incarnations.dropped
+
     def recv(self, timeout: float | None = None) -> Envelope | None:
         """The next message, or None when `timeout` seconds pass first (None: wait forever)."""
+        incarnations = self._incarnations
+        if incarnations is None:
+            return self._recv_any(timeout)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            env = self._recv_any(timeout)
+            if env is not None and incarnations.admit(env) and not (
+                    self._listen_only and env.topic == ANNOUNCEMENT):
+                return env
+            if env is None or (deadline is not None and time.monotonic() >= deadline):
+                return None
+            if deadline is not None:
+                timeout = max(0.0, deadline - time.monotonic())
+
+    def _recv_any(self, timeout: float | None) -> Envelope | None:
+        """The next well-formed message, live or not."""
         if self._early:
             return self._early.popleft()
         if self._batch:

@@ -28,7 +28,7 @@ from typing import Any
 
 from paho.mqtt import client as mqtt
 
-from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
 from mrss.chaos.history import HistoryWriter, OpenAction
 from mrss.chaos.views import TERMINAL
 from mrss.links.mqtt_url import new_client, parse_broker_url
@@ -55,7 +55,8 @@ class Recorder:
         self._answer = threading.Condition(self._lock)
         endpoints = BusEndpoints.ipc(run_dir)
         self._pub = Publisher(endpoints, src="chaos")
-        self._sub = Subscriber(endpoints, prefixes=PREFIXES, name="chaos-recorder")
+        self._sub = Subscriber(endpoints, prefixes=PREFIXES, name="chaos-recorder",
+                               stale=Stale.KEEP)  # the history judges stale messages itself
         self._sub.start(self._on_bus)
         self._mqtt = ReplyListener(run_dir, list(reply_topics), self._on_reply)
 

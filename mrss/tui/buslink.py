@@ -13,7 +13,7 @@ import threading
 from collections import deque
 from collections.abc import Callable
 
-from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
 from mrss.messages import Envelope, Message
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
@@ -42,7 +42,8 @@ class BusLink:
         """Connect; `wake()` is called (on the bus thread) when the inbox gets messages."""
         self._wake = wake
         self._pub = Publisher(self.endpoints, src=self.src)
-        self._sub = Subscriber(self.endpoints, prefixes=self._prefixes, name=self.src)
+        self._sub = Subscriber(self.endpoints, prefixes=self._prefixes, name=self.src,
+                               stale=Stale.KEEP)  # an observer, across system restarts too
         self._sub.start(self._deliver)
 
     def _deliver(self, env: Envelope) -> None:

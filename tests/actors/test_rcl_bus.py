@@ -64,8 +64,8 @@ def bus() -> Iterator[tuple[BusEndpoints, Path]]:
 
 def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> None:
     endpoints, run_dir = bus
-    ctx = _ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict(),
-              {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}, "adopt_grace": 0.3})
+    options = {"robots": {"ugv1": {"leg": 0.01}, "uav1": {"leg": 0.01}}, "adopt_grace": 0.3}
+    ctx = _ctx("rcl", 1, PROJECT, run_dir, endpoints.to_dict(), options)
     service = RclService()
     statuses = Statuses()
     sub = Subscriber(endpoints, prefixes=["action.status", "sup.heartbeat.rcl"])
@@ -116,6 +116,23 @@ def test_rcl_service_end_to_end_over_the_bus(bus: tuple[BusEndpoints, Path]) -> 
         try:
             tx2.send(ActionRequest(uuid="a4", name="patrol", args=["ugv1", "g5", [1]]))
             wait_until(lambda: statuses.states("a4")[-1:] == ["succeeded"])
+            # a late request of the dead incarnation 1: acknowledged, never run
+            tx.send(ActionRequest(uuid="late1", name="patrol", args=["ugv1", "g6", [1]]))
+            wait_until(lambda: tx.pending() == 0, message="late1 acknowledged")
+            assert service.incarnations.dropped == 1 and statuses.states("late1") == []
+
+            # the RCL restarts: from its journal it knows incarnation 1 is gone
+            service.stop()
+            ctx.publisher.close()
+            ctx = _ctx("rcl", 2, PROJECT, run_dir, endpoints.to_dict(), options)
+            service = RclService()
+            service.start(ctx)
+            assert service.incarnations.live("reasoner") == 2
+            tx.send(ActionRequest(uuid="late2", name="patrol", args=["ugv1", "g7", [1]]))
+            tx2.send(ActionRequest(uuid="a5", name="patrol", args=["ugv1", "g8", [1]]))
+            wait_until(lambda: statuses.states("a5")[-1:] == ["succeeded"])
+            wait_until(lambda: tx.pending() == 0, message="late2 acknowledged")
+            assert statuses.states("late2") == [] and service.incarnations.dropped == 1
         finally:
             tx2.close()
     finally:

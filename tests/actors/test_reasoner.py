@@ -15,7 +15,6 @@ from mrss.messages import (
     ActionRequest,
     ActionStatus,
     Envelope,
-    Heartbeat,
     Message,
     Percept,
     SupEvent,
@@ -128,17 +127,6 @@ def test_goal_management_sends_controls_for_robots_and_goals(
         ActionControl(command="suspend", target="ugv1", target_kind="robot"),
         ActionControl(command="resume", target="g7", target_kind="goal"),
     ]
-
-
-def test_statuses_of_a_dead_rcl_incarnation_are_dropped(wired: tuple[Reasoner, Wire]) -> None:
-    reasoner, wire = wired
-    reasoner.on_message(env(Heartbeat(component="rcl", pid=1), inc=2))
-    reasoner.on_message(env(Percept(literal="area(g1, 3)")))
-    req = wait_until(lambda: wire.requests and wire.requests[0])
-    reasoner.on_message(env(ActionStatus(uuid=req.uuid, state="succeeded"), inc=1))
-    assert [latch.uuid for latch in reasoner.host.latches()] == [req.uuid]
-    reasoner.on_message(env(ActionStatus(uuid=req.uuid, state="succeeded"), inc=2))
-    wait_until(lambda: reasoner.agent.believes("covered(g1)"))
 
 
 def test_quarantine_becomes_a_robot_unavailable_percept(wired: tuple[Reasoner, Wire]) -> None:
