@@ -33,7 +33,7 @@ from mrss.actors.skill import (
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
 from mrss.errors import TransientError
 from mrss.messages import ActionState, FailureCause, Message
-from mrss.supervision import ActorContext, SupervisedActor
+from mrss.supervision import ActorContext, Escalation, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
 
@@ -199,6 +199,8 @@ class RobotActor(SupervisedActor):
         t.outcomes[msg.index], t.reasons[msg.index] = msg.outcome, msg.reason
         t.causes[msg.index] = msg.cause
         self._feed(t, lc.SkillEnded(all_ended=all(r is None for r in t.refs)))
+        if msg.escalated:  # its action has failed above; now this actor fails in turn
+            raise Escalation(f"skill {msg.index} of action {msg.uuid} escalated: {msg.reason}")
 
     def _deadline(self, msg: _StopDeadline) -> None:
         t = self.actions.get(msg.uuid)

@@ -9,8 +9,12 @@ Skill restarts follow the supervision policy (mrss.supervision.policy.RestartPol
 with the skill as the one child of a supervisor `robots/<robot>`: a skill that raises is
 started again from START after the policy's backoff (with jitter), at most
 `max_restarts` times within `restart_period` seconds; one more crash escalates: the
-skill fails with the exception's message, and so its action. Every restart is a
-`sup.restart` event, the escalation a `sup.escalate` event (detail: the action's uuid).
+skill fails with the exception's message, and so its action, and the escalation goes on
+to the robot's supervisor as a crash of the robot actor (restarted, its other actions
+taken back from the journal, and counted in `max_robot_restarts`: a robot whose skills
+keep escalating is quarantined). Every restart is a `sup.restart` event, the escalation a
+`sup.escalate` event (detail: the action's uuid). A skill without a restart budget
+(`max_restarts = 0`, the default) only fails its action: it has nothing to escalate.
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ class SkillEnded:
     outcome: SkillOutcome
     reason: str
     cause: str = ""  # FailureCause.TRANSIENT when it failed on a TransientError
+    escalated: bool = False  # crashed past its restart budget: the robot actor fails too
 
 
 @dataclass(frozen=True)
@@ -70,6 +75,7 @@ class Interrupt:
 class _WorkerDone:
     outcome: SkillOutcome
     reason: str
+    escalated: bool = False
 
 
 Report = Callable[[object], None]
@@ -140,7 +146,7 @@ class SkillActor(pykka.ThreadingActor):
             try:
                 self.report(SkillEnded(self.runner.action.uuid, self.runner.run,
                                        self.runner.index, message.outcome, message.reason,
-                                       self.runner.cause))
+                                       self.runner.cause, message.escalated))
             except pykka.ActorDeadError:
                 log.info("skill %s ended after its robot actor stopped", self.runner.token)
             self.stop()
@@ -162,14 +168,15 @@ class SkillActor(pykka.ThreadingActor):
                       type(exc).__name__, exc)
 
     def _work(self) -> None:
+        escalated = False
         try:
-            outcome, reason = drive(self.skill, self.runner)
+            outcome, reason, escalated = drive(self.skill, self.runner)
         except BaseException as exc:  # noqa: BLE001 - never lose the report
             outcome, reason = SkillOutcome.FAILED, f"{self.skill.name}: {exc!r}"
         finally:
             self.runner.release_all()
         try:
-            self.actor_ref.tell(_WorkerDone(outcome, reason))
+            self.actor_ref.tell(_WorkerDone(outcome, reason, escalated))
         except pykka.ActorDeadError:
             log.info("skill %s ended after being abandoned (%s)", self.runner.token, outcome)
 
@@ -187,8 +194,9 @@ def _child_id(skill: Skill) -> str:
     return skill.name
 
 
-def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
-    """Run the skill's state machine to FINISH on this thread; return outcome and reason.
+def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
+    """Run the skill's state machine to FINISH on this thread; return outcome, reason and
+    whether it escalated.
 
     A crash is decided by the skill's RestartPolicy (see the module docstring)."""
     policy, child = restart_policy(skill), _child_id(skill)
@@ -197,12 +205,14 @@ def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
         policy.child_started(child)
         outcome, reason, crashed = _attempt(skill, runner)
         if crashed and not runner.interrupt_event.is_set():
+            if skill.max_restarts <= 0:  # no budget: nothing to restart or escalate
+                return (*_finish(skill, runner, outcome, reason), False)
             decision = policy.child_exited(child, ExitReason(Cause.CRASHED, reason))
             if decision.action is not Verdict.RESTART:
                 events.emit(ESCALATE, child, reason=reason, count=decision.count,
                             note=decision.note, action=runner.action.uuid,
                             index=runner.index)
-                return _finish(skill, runner, outcome, reason)
+                return (*_finish(skill, runner, outcome, reason), True)
             events.emit(RESTART, child, reason=reason, count=decision.count,
                         delay=round(decision.delay, 3), action=runner.action.uuid,
                         index=runner.index)
@@ -215,9 +225,9 @@ def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str]:
                     if skill.state is SkillState.START:
                         skill._set_state(SkillState.INTERRUPT)
                     skill._set_state(SkillState.FINISH)
-                return _finish(skill, runner, SkillOutcome.INTERRUPTED, "")
+                return (*_finish(skill, runner, SkillOutcome.INTERRUPTED, ""), False)
             continue
-        return _finish(skill, runner, outcome, reason)
+        return (*_finish(skill, runner, outcome, reason), False)
 
 
 def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:

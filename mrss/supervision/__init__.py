@@ -26,6 +26,7 @@ from mrss.supervision.status import ChildState, ChildStatus, Outcome
 from mrss.supervision.supervised import (
     ActorContext,
     ActorStart,
+    Escalation,
     LinkDown,
     SupervisedActor,
     actor_child,
@@ -34,7 +35,7 @@ from mrss.supervision.supervised import (
 __all__ = [
     "KILL", "Action", "ActorContext", "ActorStart", "ActorSupervisor", "Backoff", "Cause",
     "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "Component", "ComponentContext",
-    "ComponentStart", "Decision", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
+    "ComponentStart", "Decision", "Escalation", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
     "Outcome", "ProcessSettings", "ProcessSupervisor", "Restart", "RestartPolicy", "Strategy",
     "SupEvents", "SupervisedActor", "SupervisorSpec", "actor_child",
 ]

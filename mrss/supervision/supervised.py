@@ -3,8 +3,10 @@
 A `SupervisedActor` reports its own failures to its supervisor: an exception escaping
 any handler (tell, ask or proxy call) or the `setup` start hook fails the actor, except
 the `caller_errors` it declares, which an ask returns to its caller (like a gen_server
-replying an error). Raising `LinkDown` fails it with the distinct cause "link_down".
-Each start is a new incarnation with a fresh object: `setup` rebuilds the state.
+replying an error). Raising `LinkDown` fails it with the distinct cause "link_down";
+raising `Escalation` (something the actor supervises gave up: a skill past its restart
+budget) fails it with the cause "escalated". Each start is a new incarnation with a
+fresh object: `setup` rebuilds the state.
 """
 
 from __future__ import annotations
@@ -30,6 +32,10 @@ log = logging.getLogger("mrss.supervision.actors")
 
 class LinkDown(Exception):  # noqa: N818 - reads as the event it is: raise LinkDown(...)
     """Raise from a robot actor when its robot is unreachable (not a bug in our code)."""
+
+
+class Escalation(Exception):  # noqa: N818 - reads as the event it is
+    """Raise from a supervised actor when a child of its own (a skill) escalated to it."""
 
 
 @dataclass(frozen=True)
@@ -194,6 +200,8 @@ class SupervisedActor(pykka.ThreadingActor):
             log.exception("teardown of %s failed after a crash", self.ctx.child)
         if isinstance(exc, LinkDown):
             reason = ExitReason(Cause.LINK_DOWN, str(exc))
+        elif isinstance(exc, Escalation):
+            reason = ExitReason(Cause.ESCALATED, str(exc))
         else:
             reason = ExitReason.crashed(exc)
         self._report(reason)

@@ -230,12 +230,13 @@ class RclEnv:
     check_journal_first: bool = True
     now: float = 1000.0  # the core's clock (orphan grace); tests move it on by hand
 
-    def start(self, robots: dict[str, SimRobot] | None = None, new_run: bool = False) -> RclCore:
+    def start(self, robots: dict[str, SimRobot] | None = None, new_run: bool = False,
+              **options: Any) -> RclCore:
         self.journal = ActionJournal(self.journal_path)
         self.statuses.check = self._journaled_before_publish if self.check_journal_first else None
         links = robots if robots is not None else self.robots
         self.core = RclCore(self.layer, self.journal, self.statuses, links,
-                            clock=lambda: self.now)
+                            clock=lambda: self.now, **options)
         self.core.start(new_run=new_run)
         return self.core
 

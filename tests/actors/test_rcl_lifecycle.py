@@ -6,7 +6,7 @@ import logging
 
 import pytest
 
-from mrss.messages import ActionRequest, SupEvent
+from mrss.messages import ActionRequest, FailureCause, SupEvent
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import Crash, RclEnv, request_fields
 
@@ -63,6 +63,7 @@ def test_crashing_skill_is_restarted_per_its_policy(rcl_env: RclEnv) -> None:
 def test_skill_crashing_past_its_intensity_escalates_and_fails_its_action(
         rcl_env: RclEnv) -> None:
     rcl_env.layer.recipes["jammed"] = lambda a: [Crash("jammed", restarts=2)]
+    rcl_env.robots["ugv1"].auto = True
     core = rcl_env.start()
     core.submit_fields(request_fields("j1", "jammed", "ugv1", "g1"))
     wait_until(rcl_env.statuses.reached("j1", "failed"))
@@ -74,6 +75,36 @@ def test_skill_crashing_past_its_intensity_escalates_and_fails_its_action(
     assert "more than 2 restarts of Crash in 60s" in str(escalation.detail["note"])
     last = rcl_env.statuses.last("j1")
     assert last is not None and last.reason == "Crash raised RuntimeError: jammed"
+    # the escalation goes on to the robot's supervisor: the robot actor restarts
+    robot_restart = wait_until(lambda: [
+        m for m in rcl_env.statuses.others if isinstance(m, SupEvent)
+        and m.event == "restart" and m.child == "ugv1"], message="the robot actor's restart")
+    assert robot_restart[0].supervisor == "robots"
+    assert robot_restart[0].reason.startswith("escalated: skill 0 of action j1 escalated")
+    core.submit_fields(request_fields("a2", "patrol", "ugv1", "g2", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a2", "succeeded"))
+
+
+def test_a_robot_whose_skills_keep_escalating_is_quarantined(rcl_env: RclEnv) -> None:
+    rcl_env.layer.recipes["jammed"] = lambda a: [Crash("jammed", restarts=1)]
+    rcl_env.robots["ugv2"].auto = True
+    core = rcl_env.start(max_robot_restarts=1)
+    for n in (1, 2):  # one robot restart is allowed, the second escalation is one too many
+        core.submit_fields(request_fields(f"j{n}", "jammed", "ugv1", f"g{n}"))
+        wait_until(rcl_env.statuses.reached(f"j{n}", "failed"))
+        wait_until(lambda n=n: len([m for m in rcl_env.statuses.others
+                                    if isinstance(m, SupEvent) and m.child == "ugv1"
+                                    and m.event in ("restart", "quarantine")]) >= n,
+                   message=f"escalation {n} handled by the robot supervisor")
+    quarantine = [m for m in rcl_env.statuses.others
+                  if isinstance(m, SupEvent) and m.event == "quarantine" and m.child == "ugv1"]
+    assert len(quarantine) == 1 and quarantine[0].reason.startswith("escalated:")
+    core.submit_fields(request_fields("a3", "patrol", "ugv1", "g3", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a3", "failed"))
+    last = rcl_env.statuses.last("a3")
+    assert last is not None and last.cause == FailureCause.QUARANTINED
+    core.submit_fields(request_fields("a4", "patrol", "ugv2", "g4", ["p1"]))  # the others run
+    wait_until(rcl_env.statuses.reached("a4", "succeeded"))
 
 
 def test_skill_returning_failure_fails_the_action_with_its_reason(rcl_env: RclEnv) -> None:
