@@ -56,6 +56,10 @@ def test_a_raising_skill_fails_its_action_and_the_plan_failure_handler_sees_why(
     assert events == [("restart", 1, "robots/ugv3"), ("restart", 2, "robots/ugv3"),
                       ("escalate", 2, "robots/ugv3")]
     assert "more than 2 restarts of Jam" in str(skill[0].detail["note"])
+    # ... on to the robot's supervisor: the robot actor fails and is restarted
+    (robot,) = wait_until(lambda: [e for e in system.sup_events("ugv3") if e.event == "restart"],
+                          message="the robot actor's restart after the escalation")
+    assert robot.supervisor == "robots" and robot.reason.startswith("escalated: ")
 
     snap = system.wait_mind(lambda s: beliefs(s, "probe_failed(p1"),
                             message="-!probe handled the failure")
