@@ -14,7 +14,7 @@ By idea:
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
   DependencyUnavailable;
 - robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
-  CommandRejected, CommandTimeout, publish_json;
+  CommandRejected, CommandTimeout, publish_json, request_json;
 - geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
 - errors: MrssError, ActionError, ConfigError, TransientError;
 - options a project class declares for `mrss check`: Option, Check;
@@ -61,6 +61,7 @@ from mrss.links.errors import CommandRejected, CommandTimeout, LinkDown, LinkErr
 from mrss.links.factory import LINK_OPTIONS, create_link
 from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step_towards
 from mrss.links.mqtt_publish import publish_json
+from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
 from mrss.projects import PROJECT_FILE
 
@@ -77,7 +78,7 @@ __all__ = [
     "WorldModelRejected", "WorldModelUnavailable", "external", "literal", "rule", "symbol",
     # robot links
     "CommandRejected", "CommandTimeout", "LINK_KINDS", "LinkDown", "LinkError", "RobotLink",
-    "connect_link", "create_link", "publish_json",
+    "connect_link", "create_link", "publish_json", "request_json",
     # geography
     "EARTH_RADIUS_M", "bearing_deg", "distance_m", "offset", "step_towards",
     # errors

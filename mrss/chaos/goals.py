@@ -16,6 +16,7 @@ from typing import Any
 
 from mrss.chaos.history import History
 from mrss.chaos.views import TERMINAL, accepted, last_mind, requests
+from mrss.messages import EventStatus
 
 
 class GoalOutcome(StrEnum):
@@ -60,13 +61,21 @@ def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
     return outcomes, acted
 
 
+NOT_AN_OUTCOME = (EventStatus.ACCEPTED.value, EventStatus.DUPLICATE.value)
+
+
 def _names_goal(payload: str, goal: str) -> bool:
+    """Whether a reply tells the operator what became of `goal`: an answer that only
+    says the event was accepted (or seen twice) does not."""
     try:
         obj = json.loads(payload)
     except ValueError:
         obj = None
-    if isinstance(obj, dict) and obj.get("goal") == goal:
-        return True
+    if isinstance(obj, dict):
+        if obj.get("status") in NOT_AN_OUTCOME:
+            return False
+        if obj.get("goal") == goal:
+            return True
     return f'"{goal}"' in payload
 
 

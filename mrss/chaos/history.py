@@ -81,6 +81,7 @@ class OperatorEvent:
     mode: str = ""
     on: bool = False
     error: str = ""
+    attempts: int = 1  # sent again while the system did not answer
 
 
 @dataclass(frozen=True)
@@ -260,7 +261,8 @@ def _add(h: History, r: dict[str, Any]) -> None:
         h.operator.append(OperatorEvent(
             float(r["t"]), str(r["intent"]), str(r["topic"]), dict(r["payload"]),
             bool(r["ok"]), str(r.get("goal", "")), str(r.get("robot", "")),
-            str(r.get("mode", "")), bool(r.get("on", False)), str(r.get("error", ""))))
+            str(r.get("mode", "")), bool(r.get("on", False)), str(r.get("error", "")),
+            int(r.get("attempts", 1))))
     elif kind == "reply":
         h.replies.append(Reply(float(r["t"]), str(r["topic"]), str(r["payload"])))
     elif kind == "probe":

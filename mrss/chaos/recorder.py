@@ -16,6 +16,7 @@ Wall-clock times (journal, log) are moved onto the campaign's time line by its s
 
 from __future__ import annotations
 
+import json
 import re
 import sqlite3
 import threading
@@ -53,6 +54,7 @@ class Recorder:
         self._incs: set[tuple[str, int]] = set()
         self._replies: dict[str, Envelope] = {}
         self._answer = threading.Condition(self._lock)
+        self._answered: set[str] = set()  # ids of operator steps a reply named
         endpoints = BusEndpoints.ipc(run_dir)
         self._pub = Publisher(endpoints, src="chaos")
         self._sub = Subscriber(endpoints, prefixes=PREFIXES, name="chaos-recorder",
@@ -133,8 +135,26 @@ class Recorder:
 
     # -- the operator's side -------------------------------------------------------------------
     def _on_reply(self, topic: str, payload: bytes) -> None:
-        self.writer.write("reply", t=self.now(), topic=topic,
-                          payload=payload.decode("utf-8", errors="replace"))
+        text = payload.decode("utf-8", errors="replace")
+        self.writer.write("reply", t=self.now(), topic=topic, payload=text)
+        try:
+            answer = json.loads(text)
+        except ValueError:
+            return
+        if isinstance(answer, dict) and isinstance(answer.get("id"), str):
+            with self._answer:
+                self._answered.add(answer["id"])
+                self._answer.notify_all()
+
+    @property
+    def answers_expected(self) -> bool:
+        """Whether the project answers the operator (it declares reply topics)."""
+        return bool(self._mqtt.topics)
+
+    def wait_answer(self, event_id: str, timeout: float) -> bool:
+        """Whether a reply naming `event_id` arrives within `timeout` s (or came already)."""
+        with self._answer:
+            return self._answer.wait_for(lambda: event_id in self._answered, timeout)
 
     # -- probes and the end ----------------------------------------------------------------------
     def probe(self, system_running: bool) -> dict[str, Any]:

@@ -37,7 +37,7 @@ from mrss.chaos.faults import (
 )
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.recorder import Recorder
-from mrss.chaos.traffic import Traffic, load_traffic, publish
+from mrss.chaos.traffic import OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config import load_project
 from mrss.procedures import RunningProject
 
@@ -56,6 +56,8 @@ class Options:
     duration: Range = (2.0, 8.0)
     only: tuple[str, ...] = ()
     operator_every: float = 20.0
+    answer_within: float = 5.0  # an operator step unanswered this long is sent again
+    answer_patience: float = 30.0  # ... for at most this long
     warmup: float = 5.0
     bounds: Bounds = field(default_factory=Bounds)
     env: dict[str, str] = field(default_factory=dict)
@@ -112,14 +114,14 @@ def run(options: Options, say: Say = print) -> Path:
             _sleep_until(recorder, min(h[0] for h in heals), system, heals, writer)
         _heal_all(heals, recorder, writer)
         faults_ended = recorder.now()
-        stop_traffic.set()
+        stop_traffic.set()  # no new step; the one in hand is delivered (answered) first
+        operator.join(timeout=options.answer_patience + 15)
         converged = _settle(system, recorder, options.bounds, faults_ended)
         say(f"chaos: faults over at {faults_ended:.1f}s; "
             + (f"converged {converged:.1f}s later" if converged is not None
                else "did not converge"))
         recorder.record_journal()
         recorder.record_log(set(reasoners + rcls))
-        operator.join(timeout=15)
         code = _stop(system)
         writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code)
     finally:
@@ -141,14 +143,36 @@ def _plain_options(options: Options) -> dict[str, object]:
 def _operate(traffic: Traffic, options: Options, recorder: Recorder, writer: HistoryWriter,
              stop: threading.Event) -> None:
     """The operator: publish the project's steps at their pace until told to stop."""
-    for step in traffic.steps(options.seed, options.operator_every):
+    for n, step in enumerate(traffic.steps(options.seed, options.operator_every), 1):
         if stop.wait(step.after):
             return
+        if "id" not in step.payload:  # every message of an operator's console has one
+            step = dataclasses.replace(step, payload={**step.payload, "id": f"op-{n}"})
         t = recorder.now()
-        sent = publish(options.run_dir, step)
+        sent, attempts = _deliver(step, options, recorder)
         writer.write("operator", t=t, intent=step.intent.value, topic=step.topic,
                      payload=step.payload, ok=sent.ok, goal=step.goal, robot=step.robot,
-                     mode=step.mode, on=step.on, error=sent.error)
+                     mode=step.mode, on=step.on, error=sent.error, attempts=attempts)
+
+
+def _deliver(step: OperatorStep, options: Options, recorder: Recorder) -> tuple[Sent, int]:
+    """Publish a step until the system answers it, as an operator's console does: the
+    broker's acknowledgement alone is not enough (a broker that dies after acknowledging
+    loses the message). Sent again, with the same id, when no reply names its id within
+    `answer_within` s, for at most `answer_patience` s; a project without reply topics
+    is never answered, so its steps go once. A step in hand is delivered even when the
+    campaign stops sending. Returns the last outcome and the attempts."""
+    deadline = time.monotonic() + options.answer_patience
+    event_id = str(step.payload["id"])
+    attempts = 0
+    while True:
+        attempts += 1
+        sent = publish(options.run_dir, step)
+        if not sent.ok or not recorder.answers_expected:
+            return sent, attempts
+        if recorder.wait_answer(event_id, options.answer_within) \
+                or time.monotonic() >= deadline:
+            return sent, attempts
 
 
 def _inject(injector: Injector, fault: Fault, recorder: Recorder, writer: HistoryWriter,

@@ -7,8 +7,9 @@ Every event the intake finishes is reported three ways (`EventReporter.report`):
 - in the log with a stable event name: `event_failed ...` at ERROR, `event_rejected ...`
   at WARNING, `event_duplicate ...` at INFO (`accepted` at DEBUG); records at INFO and
   above reach the dashboard's log as `LogRecord`s;
-- back to the sender on MQTT, for `rejected` and `failed` (and `accepted` with
-  `[events] reply_accepted = true`): a JSON object on the reply topic
+- back to the sender on MQTT, for `rejected` and `failed` (and `accepted` and
+  `duplicate` with `[events] reply_accepted = true`, so a sender that sends again
+  because an answer was lost is answered too): a JSON object on the reply topic
   `[events] reply_topic` (default `"{topic}/reply"`, `{topic}` being the event's topic;
   `""` turns replies off):
 
@@ -67,7 +68,8 @@ class EventReporter:
         self._bus = bus
         self._replies = replies
         self.reply_topic = reply_topic
-        self.replied = REPLIED | ({EventStatus.ACCEPTED} if reply_accepted else set())
+        self.replied = REPLIED | ({EventStatus.ACCEPTED, EventStatus.DUPLICATE}
+                                  if reply_accepted else set())
         self.log = log or logging.getLogger("mrss.events")
 
     def reply_topic_for(self, topic: str) -> str | None:

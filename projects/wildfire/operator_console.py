@@ -9,8 +9,10 @@ r"""The operator's console for a running wildfire system (a stand-in for the UI 
     python projects/wildfire/operator_console.py teleop ugv1 on        # ... off
     python projects/wildfire/operator_console.py status                 # robots, areas, hotspots
 
-It publishes the JSON events of events.py on the system's MQTT broker, and reads the
-world model over its HTTP API. Both addresses come from the run folder (`--run-dir`,
+It publishes the JSON events of events.py on the system's MQTT broker, sending each
+again (same id) until the events manager answers it, prints the answer (accepted,
+rejected or failed, with the reason; exit 1 unless accepted), and reads the world model
+over its HTTP API. Both addresses come from the run folder (`--run-dir`,
 default: the newest /tmp/mrss-wildfire-* that has a broker.url) or `--broker URL`.
 """
 
@@ -24,7 +26,7 @@ import urllib.request
 from pathlib import Path
 from typing import Any
 
-from mrss.api import BROKER_URL_FILE, WORLD_MODEL_URL_FILE, MrssError, publish_json
+from mrss.api import BROKER_URL_FILE, WORLD_MODEL_URL_FILE, MrssError, request_json
 
 TOPIC_PREFIX = "mrss/ui"
 
@@ -46,6 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run-dir", type=Path, default=None, help="the system's run folder")
     parser.add_argument("--broker", default=None, help="MQTT broker URL (default: run folder)")
+    parser.add_argument("--patience", type=float, default=30.0,
+                        help="seconds to keep sending until the system answers (default 30)")
     sub = parser.add_subparsers(dest="command", required=True)
     area = sub.add_parser("area", help="send an area to cover")
     area.add_argument("goal")
@@ -110,13 +114,16 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         broker = (run_dir / BROKER_URL_FILE).read_text(encoding="utf-8").strip()
     topic, payload = message(args)
-    try:
-        publish_json(broker, topic, payload, client_id="mrss-operator")
+    try:  # sent again until the events manager answers (project.toml: reply_accepted)
+        answer = request_json(broker, topic, payload, client_id="mrss-operator",
+                              patience=args.patience)
     except MrssError as exc:
         print(f"operator_console.py: {exc}", file=sys.stderr)
         return 1
-    print(f"{topic} {json.dumps(payload)}")
-    return 0
+    outcome = str(answer.get("status", "?"))
+    reason = f": {answer['reason']}" if answer.get("reason") else ""
+    print(f"{topic} {json.dumps(payload)} -> {outcome}{reason}")
+    return 0 if outcome in ("accepted", "duplicate") else 1
 
 
 if __name__ == "__main__":

@@ -60,9 +60,11 @@ class Replies:
         self.publish = outbox.reply
 
 
-def make_intake(outbox: Outbox, policy: RetryPolicy = FAST) -> EventIntake:
+def make_intake(outbox: Outbox, policy: RetryPolicy = FAST,
+                reply_accepted: bool = False) -> EventIntake:
     publisher = PerceptPublisher(outbox.percept)
-    reporter = EventReporter("events", bus=outbox, replies=Replies(outbox))
+    reporter = EventReporter("events", bus=outbox, replies=Replies(outbox),
+                             reply_accepted=reply_accepted)
     intake = EventIntake(publisher, policy=policy, reporter=reporter)
     intake.start()
     return intake
@@ -212,6 +214,22 @@ def test_repeats_are_one_event_and_events_keep_their_order() -> None:
     assert len(outbox.reports(EventStatus.DUPLICATE)) == 2
     assert intake.counters.duplicates == 2
     assert len(outbox.acks) == 6  # every delivery is acknowledged, duplicates too
+
+
+def test_with_reply_accepted_a_sender_that_sends_again_is_answered_each_time() -> None:
+    """An operator's console sends again, with the same id, until it is answered."""
+    outbox = Outbox()
+    intake = make_intake(outbox, reply_accepted=True)
+    try:
+        for _ in range(2):
+            intake.submit(event(outbox, "ui/area", {"id": "op-1", "goal": "a1"}),
+                          lambda: intake.percept("goal", Atom("a1")))
+        assert intake.wait_idle(30)
+    finally:
+        intake.stop()
+    assert [p for p, _ in outbox.percepts] == ["goal(a1)"]
+    assert sorted((t, a["status"], a["id"]) for t, a in outbox.replies) == [
+        ("ui/area/reply", "accepted", "op-1"), ("ui/area/reply", "duplicate", "op-1")]
 
 
 def test_an_event_in_hand_when_the_intake_stops_is_not_acknowledged() -> None:

@@ -12,6 +12,8 @@ The simulators run 20 times faster than real time (MRSS_SIM_SPEEDUP); about 20 s
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -21,7 +23,13 @@ from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent
 HOTSPOT_1 = (-35.360387, 149.165678)       # far from the pond: the UGV must go
-AREA = {"goal": "a1", "priority": 2, "center": [-35.360567, 149.165237], "radius": 100}
+CONSOLE = PROJECT / "operator_console.py"
+
+
+def operator(run_dir: Path, *command: str) -> subprocess.CompletedProcess[str]:
+    """The operator's console, as a user runs it (it waits for the system's answer)."""
+    return subprocess.run([sys.executable, str(CONSOLE), "--run-dir", str(run_dir),
+                           *command], capture_output=True, text=True, timeout=60)
 
 
 @pytest.mark.slow
@@ -35,7 +43,11 @@ def test_area_goal_to_water_on_the_hotspot(tmp_path: Path) -> None:
 
         system.wait_for(robots_reporting, 20, "telemetry of both robots in the world model")
 
-        system.publish("mrss/ui/area", AREA)
+        sent = operator(tmp_path / "run", "area", "a1", "--center=-35.360567,149.165237",
+                        "--radius", "100", "-p", "2")
+        assert sent.returncode == 0 and sent.stdout.rstrip().endswith("-> accepted"), sent
+        refused = operator(tmp_path / "run", "area", "a0", "--polygon=-35.36,149.16")
+        assert refused.returncode == 1 and "-> rejected: " in refused.stdout, refused
 
         # the UAV covers the area; its thermal camera sees both hidden hotspots
         covered = system.wait_for(lambda: system.statuses("uav1", "succeeded"), 40,
@@ -53,13 +65,13 @@ def test_area_goal_to_water_on_the_hotspot(tmp_path: Path) -> None:
         # ... and the operator takes it over on the way (paper VI): its goal is suspended
         # and the teleop skill switches the robot to direct control; back in autonomy,
         # the goal goes on from where it stopped
-        system.publish("mrss/ui/teleop", {"robot": "ugv1", "on": True})
+        assert operator(tmp_path / "run", "teleop", "ugv1", "on").returncode == 0
         system.wait_for(lambda: [s for s in system.statuses("ugv1", "suspended")
                                  if s.uuid == supply.uuid], 10, "the supply to be suspended")
         system.wait_for(lambda: (system.world("ugv1") or {}).get("attributes", {})
                         .get("teleop"), 10, "the UGV to report teleoperation")
         assert not [s for s in system.statuses("ugv1", "succeeded") if s.uuid == supply.uuid]
-        system.publish("mrss/ui/teleop", {"robot": "ugv1", "on": False})
+        assert operator(tmp_path / "run", "teleop", "ugv1", "off").returncode == 0
 
         supplied = system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
                                             if s.uuid == supply.uuid], 40,
