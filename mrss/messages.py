@@ -73,6 +73,7 @@ class FailureCause(StrEnum):
     QUARANTINED = "quarantined"  # the robot's actor kept crashing
     REJECTED = "rejected"  # the request was malformed or refused
     ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
+    PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
 
 
 CONTROL_COMMANDS = ("cancel", "suspend", "resume", "succeed", "fail")

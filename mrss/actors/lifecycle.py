@@ -132,6 +132,7 @@ class EndCause(StrEnum):
     QUARANTINED = "quarantined"  # the robot's actor kept crashing
     RCL_RESTARTED = "rcl_restarted"  # an RCL restart could not resume it
     REJECTED = "rejected"  # the request was malformed or refused
+    PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
 
 
 #: The FailureCause the agent sees (`error(Cause)`) for each end cause; "" = by state.
@@ -140,6 +141,7 @@ FAILURE_OF: Mapping[EndCause, str] = {
     EndCause.LINK_LOST: FailureCause.LINK_DOWN, EndCause.FAILSAFE: FailureCause.FAILSAFE,
     EndCause.ORPHANED: FailureCause.ORPHANED, EndCause.QUARANTINED: FailureCause.QUARANTINED,
     EndCause.RCL_RESTARTED: FailureCause.TRANSIENT, EndCause.REJECTED: FailureCause.REJECTED,
+    EndCause.PREEMPTED: FailureCause.PREEMPTED,
 }
 
 

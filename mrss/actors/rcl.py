@@ -86,7 +86,7 @@ class RclCore:
                  robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
                  restart_period: float = 60.0, probation: float = 30.0,
                  robot_watchdog: float | None = 30.0, adopt_grace: float = 10.0,
-                 adopt_grace_suspended: float = 120.0,
+                 adopt_grace_suspended: float = 120.0, preempted_timeout: float = 0.0,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
@@ -95,6 +95,7 @@ class RclCore:
                                          on_exceeded=OnExceeded.QUARANTINE,
                                          probation=probation)
         self.robot_watchdog = robot_watchdog
+        self._preempted_timeout = preempted_timeout
         self.robots: pykka.ActorRef[ActorSupervisor] | None = None
         self._lock = threading.RLock()
         self._index: dict[str, _Entry] = {}
@@ -158,6 +159,11 @@ class RclCore:
             log.error("robot supervisor did not stop in time")
         with self._lock:
             self._refs.clear()
+
+    @property
+    def preempted_timeout(self) -> float:
+        """Seconds a pre-empted action may wait before it fails (0: for ever)."""
+        return self._preempted_timeout
 
     def _robot_factory(self, robot: str) -> Callable[[ActorContext], pykka.ActorRef[Any]]:
         def start(ctx: ActorContext) -> pykka.ActorRef[Any]:

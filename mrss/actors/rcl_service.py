@@ -106,6 +106,9 @@ class RclService(Component):
                Check.NON_NEGATIVE),
         Option("adopt_grace_suspended", float, 120.0, "the same for suspended actions",
                Check.NON_NEGATIVE),
+        Option("preempted_timeout", float, 0.0,
+               "seconds a pre-empted action may wait for its resource before it fails "
+               "with error(preempted) (0: it waits for ever)", Check.NON_NEGATIVE),
         Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
         Option("journal_keep_seconds", float, 86400.0,
                "ended actions older than this are compacted out of the journal",
@@ -170,7 +173,8 @@ class RclService(Component):
                             probation=float(opts.get("probation", 30.0)),
                             adopt_grace=float(opts.get("adopt_grace", 10.0)),
                             adopt_grace_suspended=float(opts.get("adopt_grace_suspended",
-                                                                 120.0)))
+                                                                 120.0)),
+                            preempted_timeout=float(opts.get("preempted_timeout", 0.0)))
         self.layer.bind_runtime(link_state=self.core.link_state)
         self._compaction = (float(opts.get("journal_keep_seconds", 86400.0)),
                             int(opts.get("journal_keep_last", 1000)),

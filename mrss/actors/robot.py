@@ -59,6 +59,10 @@ class RobotHost(Protocol):
     def claim_control(self, seq: int) -> None:
         """A control was applied: it is no longer pending."""
 
+    @property
+    def preempted_timeout(self) -> float:
+        """Seconds a pre-empted action may wait before it fails (0: for ever)."""
+
     def publish_sup(self, event: Message) -> object:
         """Publish a supervision event (a skill's restart or escalation)."""
 
@@ -91,6 +95,12 @@ class _StopDeadline:
     run: int
 
 
+@dataclass(frozen=True)
+class _PreemptedTooLong:
+    uuid: str
+    episode: int  # which pre-emption of the action the timer was set for
+
+
 @dataclass
 class _Tracked:
     action: Action
@@ -101,6 +111,8 @@ class _Tracked:
     reasons: list[str] = field(default_factory=list)
     causes: list[str] = field(default_factory=list)
     timer: threading.Timer | None = None
+    preempted_timer: threading.Timer | None = None
+    preemptions: int = 0
 
 
 class RobotActor(SupervisedActor):
@@ -155,6 +167,8 @@ class RobotActor(SupervisedActor):
             self._set_teleop(message.on)
         elif isinstance(message, _StopDeadline):
             self._deadline(message)
+        elif isinstance(message, _PreemptedTooLong):
+            self._preempted_too_long(message)
         else:
             log.warning("robot %s: unexpected message %r", self.robot, message)
         return None
@@ -163,8 +177,9 @@ class RobotActor(SupervisedActor):
         """Stop or crash: stop every skill, change no state (the journal has them)."""
         refs = [r for t in self.actions.values() for r in t.refs if r is not None]
         for t in self.actions.values():
-            if t.timer:
-                t.timer.cancel()
+            for timer in (t.timer, t.preempted_timer):
+                if timer:
+                    timer.cancel()
         for ref in refs:
             try:
                 ref.tell(Interrupt())
@@ -201,6 +216,38 @@ class RobotActor(SupervisedActor):
         self._feed(t, lc.SkillEnded(all_ended=all(r is None for r in t.refs)))
         if msg.escalated:  # its action has failed above; now this actor fails in turn
             raise Escalation(f"skill {msg.index} of action {msg.uuid} escalated: {msg.reason}")
+
+    def _preempted_too_long(self, msg: _PreemptedTooLong) -> None:
+        t = self.actions.get(msg.uuid)
+        if t is None or t.preemptions != msg.episode \
+                or t.life.suspended_by is not lc.SuspendCause.PREEMPTED:
+            return
+        limit = self.host.preempted_timeout
+        log.warning("robot %s: action %s pre-empted for more than %gs: failed", self.robot,
+                    msg.uuid, limit)
+        self._feed(t, lc.End(ActionState.FAILED, lc.EndCause.PREEMPTED,
+                             f"pre-empted for more than {limit:g}s (preempted_timeout)"))
+
+    def _watch_preemption(self, t: _Tracked) -> None:
+        """The project's policy `preempted_timeout`: a timer while the action is
+        suspended by pre-emption alone."""
+        preempted = t.life.suspended_by is lc.SuspendCause.PREEMPTED \
+            and t.action.uuid in self.actions
+        if preempted and t.preempted_timer is None and self.host.preempted_timeout > 0:
+            t.preemptions += 1
+            t.preempted_timer = threading.Timer(self.host.preempted_timeout, self._tell, (
+                _PreemptedTooLong(t.action.uuid, t.preemptions),))
+            t.preempted_timer.daemon = True
+            t.preempted_timer.start()
+        elif not preempted and t.preempted_timer is not None:
+            t.preempted_timer.cancel()
+            t.preempted_timer = None
+
+    def _tell(self, message: object) -> None:
+        try:
+            self.actor_ref.tell(message)
+        except pykka.ActorDeadError:
+            pass
 
     def _deadline(self, msg: _StopDeadline) -> None:
         t = self.actions.get(msg.uuid)
@@ -246,6 +293,7 @@ class RobotActor(SupervisedActor):
         for effect in effects:
             if not self._perform(t, effect):
                 return  # the effect fed another event, which carried on
+        self._watch_preemption(t)
 
     def _perform(self, t: _Tracked, effect: lc.Effect) -> bool:
         """Carry out one effect; False when it fed a follow-up event instead."""

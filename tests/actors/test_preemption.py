@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import time
+
 from mrss.actors.rcl import RclCore
-from mrss.messages import ActionControl
+from mrss.messages import ActionControl, FailureCause
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv, request_fields
 
@@ -100,3 +102,40 @@ def test_preempted_action_suspended_by_control_stays_suspended(rcl_env: RclEnv) 
     assert core.active()["low"].value == "suspended"
     core.control(ActionControl("resume", "low"))
     wait_until(lambda: ugv.is_moving_to("x"))
+
+
+def test_with_preempted_timeout_an_action_preempted_too_long_fails_as_preempted(
+        rcl_env: RclEnv) -> None:
+    core = rcl_env.start(preempted_timeout=0.2)
+    ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+    _hold(core, "low", "ugv1", "x", priority=1)
+    wait_until(lambda: ugv.is_moving_to("x"))
+    _hold(core, "high", "uav1", "y", priority=5)
+    wait_until(rcl_env.statuses.reached("low", "failed"), message="low failed after 0.2 s")
+    failed = rcl_env.statuses.last("low")
+    assert failed is not None and failed.cause == FailureCause.PREEMPTED
+    assert failed.reason == "pre-empted for more than 0.2s (preempted_timeout)"
+    assert rcl_env.statuses.states("low") == ["pending", "running", "suspended", "failed"]
+    assert core.broker.waiting("airspace") == [] and uav.is_moving_to("y")
+    uav.arrive()
+    wait_until(rcl_env.statuses.reached("high", "succeeded"))
+    assert not ugv.is_moving_to("x")  # nothing left to resume
+
+
+def test_a_preempted_action_resumed_in_time_is_not_failed_by_the_timeout(
+        rcl_env: RclEnv) -> None:
+    core = rcl_env.start(preempted_timeout=0.5)
+    ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+    _hold(core, "low", "ugv1", "x", priority=1)
+    for n in range(2):  # pre-empted twice, resumed in time: each episode has its own timer
+        wait_until(lambda: ugv.is_moving_to("x"), message="low running")
+        _hold(core, f"high{n}", "uav1", "y", priority=5)
+        wait_until(lambda: uav.is_moving_to("y"))
+        uav.arrive()
+        wait_until(rcl_env.statuses.reached(f"high{n}", "succeeded"))
+    wait_until(lambda: ugv.is_moving_to("x"), message="low resumed")
+    time.sleep(0.8)  # longer than the timeout: a timer left running would fail low now
+    ugv.arrive()
+    wait_until(rcl_env.statuses.reached("low", "succeeded"))
+    assert rcl_env.statuses.states("low") == [
+        "pending", "running", "suspended", "running", "suspended", "running", "succeeded"]
