@@ -27,8 +27,8 @@ _TOKEN_TEXT = {
     "QMARK": "?", "MINUS": "-", "NEG": "~", "AT": "@", "ATOM": "an atom",
     "VAR": "a variable", "NUMBER": "a number", "STRING": "a string",
     "IA_NAME": "an internal action", "TRIGGER_OP": "a triggering event",
-    "REL_OP": "a relational operator", "ADD_OP": "+ or -", "MUL_OP": "*, /, div or mod",
-    "ADD_BEL_OP": "+", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
+    "REL_OP": "a relational operator", "PLUS": "+", "MUL_OP": "*, /, div or mod",
+    "ADD_BEL_OP": "+< or +>", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
 }
 
 
