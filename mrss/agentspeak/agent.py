@@ -67,6 +67,7 @@ class Agent(Runtime):
         problems: list[SyntaxProblem] = []
         program = parse_program(source, self.file, collect=problems)
         compiled = compile_program(program, self.registry, source, problems)
+        compiled.functions.rt = self
         for lit in compiled.beliefs:
             self.bb.add(lit, front=False)
         for extra in beliefs:

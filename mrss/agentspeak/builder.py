@@ -10,7 +10,7 @@ from typing import Any
 
 from lark import Token, Transformer, v_args
 
-from mrss.agentspeak.arith import ARITY
+from mrss.agentspeak.functions import is_function
 from mrss.agentspeak.syntax import (
     BeliefSrc,
     BodyItem,
@@ -117,7 +117,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
                 args = x[1]
             elif isinstance(x, tuple):
                 annots = x[1]
-        if name in ARITY and not neg and not annots:
+        if not neg and not annots and is_function(name, len(args)):
             return Expr(name, tuple(args))
         return Struct(name, tuple(args), tuple(annots), neg)
 
@@ -169,6 +169,8 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         if len(c) == 3:
             return BodyItem("constraint", Struct(str(c[1]), (c[0], c[2])), line)
         t = c[0]
+        if type(t) is Expr and t.op.startswith("."):  # `.length(L)` alone: the action
+            t = Struct(t.op, t.args)
         if type(t) is Struct:
             kind = "ia" if t.functor.startswith(".") else "action"
             return BodyItem(kind, t, line, self._col(meta))
@@ -289,8 +291,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def start(self, c: list[Any]) -> Statement:
         st: Statement = c[0]
-        if isinstance(st, PlanSrc | RuleSrc):
-            st.nslots = self.nslots
+        st.nslots = self.nslots
         if isinstance(st, PlanSrc):
             names = ["_"] * self.nslots
             for name, slot in self.scope.items():

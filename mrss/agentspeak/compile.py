@@ -13,6 +13,7 @@ from typing import Any
 from mrss.agentspeak.beliefs import Rule, has_source
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.formulas import Query, compile_query
+from mrss.agentspeak.functions import FunctionEnv, bind_functions
 from mrss.agentspeak.instructions import (
     Achieve,
     AchieveNew,
@@ -61,6 +62,7 @@ class Compiled:
     rules: list[Rule] = field(default_factory=list)
     goals: list[Struct] = field(default_factory=list)
     plans: list[Plan] = field(default_factory=list)
+    functions: FunctionEnv = field(default_factory=FunctionEnv)  # the agent sets .rt
 
 
 def with_self_source(lit: Struct) -> Struct:
@@ -76,13 +78,22 @@ class _Compiler:
         self.registry = registry
         self.lines = lines
         self.problems: list[SyntaxProblem] = []
+        self.env = FunctionEnv()
 
     def problem(self, line: int, message: str, col: int = 0) -> None:
         src = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
         col = col or len(src) - len(src.lstrip()) + 1
         self.problems.append(SyntaxProblem(self.program.file, line, col, message, src))
 
+    def bind(self, t: Term, line: int) -> None:
+        """Attach the implementations of the functions (`.count(Q)`, ...) inside `t`."""
+        found: list[str] = []
+        bind_functions(t, self.env, lambda q: self.query(q, line), found)
+        for message in found:
+            self.problem(line, message)
+
     def query(self, t: Term, line: int) -> Query:
+        self.bind(t, line)
         try:
             self._check_ias(t, line)
             return compile_query(t, self.registry)
@@ -146,6 +157,7 @@ class _Compiler:
 
     def item(self, node: BodyItem, code: list[Instr]) -> None:
         kind, t, line = node.kind, node.term, node.line
+        self.bind(t, line)
         if kind == "constraint":
             code.append(Constraint(self.query(t, line), t, line))
             return
@@ -198,22 +210,35 @@ class _Compiler:
                     self.program.file, src.annots, src.varnames)
 
     def run(self) -> Compiled:
-        out = Compiled(self.program.file)
+        out = Compiled(self.program.file, functions=self.env)
         for st in self.program.statements:
             if isinstance(st, PlanSrc):
                 self._check_ias(st.trigger, st.line)
+                self.bind(st.trigger, st.line)
                 out.plans.append(self.plan(st))
             elif isinstance(st, RuleSrc):
+                self.bind(st.head, st.line)
                 text = f"{term_str(st.head)} :- {term_str(st.body)}"
                 out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
                                       st.line, text))
-            elif isinstance(st, BeliefSrc):
-                lit: Any = resolve(st.lit, [None] * 64) if not st.lit.ground else st.lit
-                out.beliefs.append(with_self_source(lit))
-            elif isinstance(st, GoalSrc):
-                g: Any = resolve(st.lit, [None] * 64) if not st.lit.ground else st.lit
-                out.goals.append(with_self_source(g))
+            else:
+                lit = self.initial(st)
+                if lit is not None:
+                    (out.beliefs if isinstance(st, BeliefSrc) else out.goals).append(
+                        with_self_source(lit))
         return out
+
+    def initial(self, st: BeliefSrc | GoalSrc) -> Struct | None:
+        """The runtime literal of an initial belief or goal (its arithmetic evaluated)."""
+        if st.lit.ground:
+            return st.lit
+        self.bind(st.lit, st.line)
+        try:
+            lit: Any = resolve(st.lit, [None] * st.nslots)
+        except AslRuntimeError as exc:
+            self.problem(st.line, exc.message)
+            return None
+        return lit  # type: ignore[no-any-return]
 
 
 def compile_program(program: Program, registry: Registry, text: str = "",
@@ -222,7 +247,7 @@ def compile_program(program: Program, registry: Registry, text: str = "",
     already found by the parser, passed in `problems`, included)."""
     c = _Compiler(program, registry, text.splitlines())
     out = c.run()
-    found = list(problems or []) + c.problems
+    found = list(dict.fromkeys(list(problems or []) + c.problems))  # each once
     if found:
         raise AslSyntaxError(sorted(found, key=lambda p: (p.line, p.col)))
     return out

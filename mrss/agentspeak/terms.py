@@ -11,7 +11,8 @@ template is resolved against a frame).
 from __future__ import annotations
 
 import itertools
-from typing import TypeAlias
+from collections.abc import Callable
+from typing import Any, TypeAlias
 
 Term: TypeAlias = (
     "int | float | str | Struct | Var | Slot | Expr | PList | Trigger | tuple[Term, ...]")
@@ -113,11 +114,14 @@ class PList:
 class Expr:
     """An arithmetic expression or function call in a template, e.g. `N+1`, `math.abs(X)`."""
 
-    __slots__ = ("op", "args")
+    __slots__ = ("op", "args", "fn")
 
     def __init__(self, op: str, args: tuple[Term, ...]) -> None:
         self.op = op
         self.args = args
+        # a function over terms (`.length(L)`, `.count(Q)`): its implementation, given
+        # the expression and the frame (attached by the compiler); None for arithmetic
+        self.fn: Callable[[Expr, Any], Term] | None = None
 
 
 class Trigger:

@@ -212,6 +212,8 @@ def resolve(t: Term, frame: Frame | None) -> Term:
 def evaluate(t: Term, frame: Frame | None) -> Term:
     """Evaluate an arithmetic expression template to a number."""
     e: Expr = t  # type: ignore[assignment]
+    if e.fn is not None:
+        return e.fn(e, frame)
     args: list[Number] = []
     for a in e.args:
         v = resolve(a, frame)

@@ -80,3 +80,10 @@ def test_runtime_errors_fail_the_intention_naming_file_and_line(
     assert any("rt.asl:4: arithmetic on a non-number" in m for m in messages), messages
     assert any("rt.asl:5: unbound variable Where in action move(Where)" in m for m in messages)
     assert agent.intentions == {}
+
+
+def test_wrong_argument_count_of_a_math_function_is_a_load_error() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent("+!g <- X = math.abs(1, 2) + 1.", file="f.asl")
+    assert [str(p.message) for p in info.value.problems] == [
+        "math.abs takes 1 argument, not 2"]
