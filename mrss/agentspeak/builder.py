@@ -29,12 +29,14 @@ from mrss.agentspeak.terms import (
     DEL_ACH,
     DEL_BEL,
     DEL_TEST,
+    AnnotTail,
     Expr,
     PList,
     Slot,
     Struct,
     Term,
     Trigger,
+    VarAnnot,
 )
 
 TRIGGER_OPS = {"+": ADD_BEL, "-": DEL_BEL, "+!": ADD_ACH, "-!": DEL_ACH,
@@ -102,6 +104,12 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def annots(self, c: list[Any]) -> tuple[str, list[Term]]:
         return ("annots", [x for x in c if x is not None])
 
+    def annot_tail(self, c: list[Term]) -> Term:
+        return AnnotTail(c[0])
+
+    def goal_var(self, c: list[Token]) -> Term:
+        return self._slot(str(c[0]))
+
     def literal(self, c: list[Any]) -> Term:
         neg = False
         name = ""
@@ -121,11 +129,8 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
             return Expr(name, tuple(args))
         return Struct(name, tuple(args), tuple(annots), neg)
 
-    @v_args(meta=True)
-    def var_annots(self, meta: Any, c: list[Any]) -> Term:
-        self.problems.append((meta.line, meta.column,
-                              "annotations on a variable are not supported"))
-        return self._slot(str(c[0]))
+    def var_annots(self, c: list[Any]) -> Term:
+        return VarAnnot(self._slot(str(c[0])), tuple(c[1][1]))
 
     def list_tail(self, c: list[Term]) -> tuple[str, Term]:
         return ("tail", c[0])
@@ -180,8 +185,11 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def _item(self, kind: str, meta: Any, c: list[Any]) -> BodyItem:
         lit = c[-1]
-        if type(lit) is not Struct:
-            self.problems.append((meta.line, meta.column, "expected a literal"))
+        if type(lit) is not Struct and not (
+                kind in ("achieve", "achieve_new", "test") and type(lit) in (Slot, VarAnnot)):
+            what = "a variable" if type(lit) in (Slot, VarAnnot) else "this term"
+            self.problems.append((meta.line, meta.column,
+                                  f"expected a literal here, not {what}"))
         return BodyItem(kind, lit, self._line(meta))
 
     @v_args(meta=True)

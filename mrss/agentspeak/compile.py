@@ -17,6 +17,8 @@ from mrss.agentspeak.functions import FunctionEnv, bind_functions
 from mrss.agentspeak.instructions import (
     Achieve,
     AchieveNew,
+    AchieveNewVar,
+    AchieveVar,
     Action,
     AddBelief,
     CallIA,
@@ -46,8 +48,10 @@ from mrss.agentspeak.syntax import (
 from mrss.agentspeak.terms import (
     OP_TEXT,
     SOURCE_SELF,
+    Slot,
     Struct,
     Term,
+    VarAnnot,
     term_str,
 )
 from mrss.agentspeak.unify import resolve
@@ -161,6 +165,12 @@ class _Compiler:
         if kind == "constraint":
             code.append(Constraint(self.query(t, line), t, line))
             return
+        if kind == "test":
+            code.append(TestGoal(t, self.query(t, line), line))
+            return
+        if kind in ("achieve", "achieve_new") and type(t) in (Slot, VarAnnot):
+            code.append(AchieveVar(t, line) if kind == "achieve" else AchieveNewVar(t, line))
+            return
         if type(t) is not Struct:
             self.problem(line, f"expected a literal, not {term_str(t)}")
             return
@@ -168,8 +178,6 @@ class _Compiler:
             code.append(Achieve(with_self_source(t), line))
         elif kind == "achieve_new":
             code.append(AchieveNew(with_self_source(t), line))
-        elif kind == "test":
-            code.append(TestGoal(t, line))
         elif kind in ("add", "add_end"):
             code.append(AddBelief(with_self_source(t), kind == "add", line))
         elif kind == "del":

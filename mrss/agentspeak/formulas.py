@@ -17,6 +17,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    VarAnnot,
     compare,
     deref,
     is_number,
@@ -281,6 +282,14 @@ class VarQuery(Query):
         t = resolve(self.var, frame)
         if type(t) is Var:
             raise AslRuntimeError(f"unbound variable {term_str(t)} used as a formula")
+        if type(t) is VarAnnot:  # `X[source(a)]` with X free: every belief that matches
+            trail = rt.trail
+            mark = len(trail)
+            for b in list(rt.bb):
+                if unify(self.var, frame, b if b.ground else rename(b), trail):
+                    yield
+                undo(trail, mark)
+            return
         yield from compile_query(t, self.registry).solve(rt, frame)
 
 
@@ -306,6 +315,6 @@ def compile_query(t: Term, registry: Registry) -> Query:
                 raise AslRuntimeError(f"unknown internal action {s.functor}")
             return IAQuery(ia, s.args, registry)
         return LiteralQuery(s)
-    if tt is Slot or tt is Var:
+    if tt is Slot or tt is Var or tt is VarAnnot:
         return VarQuery(t, registry)
     raise AslRuntimeError(f"not a logical formula: {term_str(t)}")
