@@ -68,15 +68,16 @@ class Agent(Runtime):
         program = parse_program(source, self.file, collect=problems)
         compiled = compile_program(program, self.registry, source, problems)
         compiled.functions.rt = self
-        for lit in compiled.beliefs:
-            self.bb.add(lit, front=False)
+        for clause in compiled.clauses:  # facts and rules in program order
+            if type(clause) is Struct:
+                self.bb.add(clause, front=False)
+            else:
+                h = clause.head  # type: ignore[union-attr]
+                self.bb.add_rule((h.functor, len(h.args), h.neg), clause)  # type: ignore
         for extra in beliefs:
             from mrss.agentspeak.compile import with_self_source
 
             self.bb.add(with_self_source(parse_literal(extra)), front=False)
-        for rule in compiled.rules:
-            h = rule.head
-            self.bb.add_rule((h.functor, len(h.args), h.neg), rule)
         for plan in compiled.plans:
             self.plans.add(plan)
         for goal in compiled.goals:

@@ -67,6 +67,7 @@ class Compiled:
     goals: list[Struct] = field(default_factory=list)
     plans: list[Plan] = field(default_factory=list)
     functions: FunctionEnv = field(default_factory=FunctionEnv)  # the agent sets .rt
+    clauses: list[Struct | Rule] = field(default_factory=list)  # beliefs and rules in order
 
 
 def with_self_source(lit: Struct) -> Struct:
@@ -229,11 +230,14 @@ class _Compiler:
                 text = f"{term_str(st.head)} :- {term_str(st.body)}"
                 out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
                                       st.line, text))
+                out.clauses.append(out.rules[-1])
             else:
                 lit = self.initial(st)
                 if lit is not None:
                     (out.beliefs if isinstance(st, BeliefSrc) else out.goals).append(
                         with_self_source(lit))
+                    if isinstance(st, BeliefSrc):
+                        out.clauses.append(out.beliefs[-1])
         return out
 
     def initial(self, st: BeliefSrc | GoalSrc) -> Struct | None:

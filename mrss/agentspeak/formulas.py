@@ -107,21 +107,36 @@ class LiteralQuery(Query):
                 return
         trail = rt.trail
         mark = len(trail)
+        if store.rules:
+            yield from self._with_rules(rt, frame, store)
+            return
         for b in store.facts():
             if not b.ground:
                 b = rename(b)  # type: ignore[assignment]
             if unify(lit, frame, b, trail):
                 yield
             undo(trail, mark)
-        if store.rules:
-            q = resolve(Struct(lit.functor, lit.args, (), lit.neg), frame)
-            for rule in list(store.rules):
-                rframe: list[Any] = [None] * rule.nslots
-                head = rule.head
+
+    def _with_rules(self, rt: Runtime, frame: Any, store: Any) -> Iterator[None]:
+        """Facts and rules of the predicate in Jason's one order (see `clauses`)."""
+        lit = self.lit
+        trail = rt.trail
+        mark = len(trail)
+        q = None
+        for c in store.clauses():
+            if type(c) is Struct:
+                b: Any = c if c.ground else rename(c)
+                if unify(lit, frame, b, trail):
+                    yield
+            else:
+                if q is None:
+                    q = resolve(Struct(lit.functor, lit.args, (), lit.neg), frame)
+                rframe: list[Any] = [None] * c.nslots
+                head = c.head
                 if unify(Struct(head.functor, head.args, (), head.neg), rframe, q, trail):
-                    for _ in rule.body.solve(rt, rframe):
+                    for _ in c.body.solve(rt, rframe):
                         yield
-                undo(trail, mark)
+            undo(trail, mark)
 
 
 class AndQuery(Query):
