@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.compile import compile_program
+from mrss.agentspeak.depth import ensure_recursion_limit
 from mrss.agentspeak.errors import SyntaxProblem
 from mrss.agentspeak.intentions import RUNNABLE
 from mrss.agentspeak.parser import parse_literal, parse_program
@@ -59,6 +60,7 @@ class Agent(Runtime):
                  clock: Callable[[], float] = time.monotonic,
                  out: Callable[[str], None] | None = None) -> None:
         super().__init__(name, host, actions or default_registry(), clock, out or _print_line)
+        ensure_recursion_limit()  # deep terms and rule recursion (see `depth`)
         if source is None:
             if file is None:
                 raise ValueError("Agent needs a source text or a file")

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.agentspeak.beliefs import Rule, has_source
+from mrss.agentspeak.depth import PARSE_DEPTH
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.formulas import Query, compile_query
 from mrss.agentspeak.functions import FunctionEnv, bind_functions
@@ -44,6 +45,7 @@ from mrss.agentspeak.syntax import (
     PlanSrc,
     Program,
     RuleSrc,
+    Statement,
 )
 from mrss.agentspeak.terms import (
     OP_TEXT,
@@ -221,24 +223,31 @@ class _Compiler:
     def run(self) -> Compiled:
         out = Compiled(self.program.file, functions=self.env)
         for st in self.program.statements:
-            if isinstance(st, PlanSrc):
-                self._check_ias(st.trigger, st.line)
-                self.bind(st.trigger, st.line)
-                out.plans.append(self.plan(st))
-            elif isinstance(st, RuleSrc):
-                self.bind(st.head, st.line)
-                text = f"{term_str(st.head)} :- {term_str(st.body)}"
-                out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
-                                      st.line, text))
-                out.clauses.append(out.rules[-1])
-            else:
-                lit = self.initial(st)
-                if lit is not None:
-                    (out.beliefs if isinstance(st, BeliefSrc) else out.goals).append(
-                        with_self_source(lit))
-                    if isinstance(st, BeliefSrc):
-                        out.clauses.append(out.beliefs[-1])
+            try:
+                self.statement(st, out)
+            except RecursionError:
+                self.problem(st.line, f"a term is nested too deeply (more than about "
+                                      f"{PARSE_DEPTH} levels)")
         return out
+
+    def statement(self, st: Statement, out: Compiled) -> None:
+        if isinstance(st, PlanSrc):
+            self._check_ias(st.trigger, st.line)
+            self.bind(st.trigger, st.line)
+            out.plans.append(self.plan(st))
+        elif isinstance(st, RuleSrc):
+            self.bind(st.head, st.line)
+            text = f"{term_str(st.head)} :- {term_str(st.body)}"
+            out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
+                                  st.line, text))
+            out.clauses.append(out.rules[-1])
+        else:
+            lit = self.initial(st)
+            if lit is not None:
+                (out.beliefs if isinstance(st, BeliefSrc) else out.goals).append(
+                    with_self_source(lit))
+                if isinstance(st, BeliefSrc):
+                    out.clauses.append(out.beliefs[-1])
 
     def initial(self, st: BeliefSrc | GoalSrc) -> Struct | None:
         """The runtime literal of an initial belief or goal (its arithmetic evaluated)."""

@@ -14,6 +14,7 @@ from pathlib import Path
 import lark
 
 from mrss.agentspeak.builder import TreeBuilder
+from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
 from mrss.agentspeak.syntax import BeliefSrc, Program
@@ -148,8 +149,13 @@ def parse_program(text: str, file: str = "<string>",
         local: list[tuple[int, int, str]] = []
         statement = None
         try:
-            tree = _lark().parse(chunk)
-            statement = TreeBuilder(line0, local, col0).transform(tree)
+            with deep_recursion():
+                tree = _lark().parse(chunk)
+                statement = TreeBuilder(line0, local, col0).transform(tree)
+        except RecursionError:
+            line, col = _position(chunk, len(chunk) - len(chunk.lstrip()))
+            local.append((line, col, f"a term is nested too deeply (more than about "
+                                     f"{PARSE_DEPTH} levels)"))
         except lark.exceptions.UnexpectedInput as exc:
             line = getattr(exc, "line", -1)
             col = getattr(exc, "column", -1)

@@ -67,6 +67,10 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
         if tt is Var:
             r = deref(r)
             if r is not t:
+                tr = type(r)
+                if ((tr is Struct and not r.ground) or tr is tuple  # type: ignore[union-attr]
+                        or tr is PList) and occurs(t, r):  # type: ignore[arg-type]
+                    raise _cyclic(t, r)  # type: ignore[arg-type]
                 t.ref = r  # type: ignore[union-attr]
                 trail.append(t)
                 trail.append(-1)
@@ -76,7 +80,12 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
         r = deref(r)
         rt = type(r)
         if rt is Var:
-            r.ref = resolve(t, frame)  # type: ignore[union-attr]
+            v = resolve(t, frame)
+            tv = type(v)
+            if ((tv is Struct and not v.ground) or tv is tuple  # type: ignore[union-attr]
+                    or tv is PList) and occurs(r, v):  # type: ignore[arg-type]
+                raise _cyclic(r, v)  # type: ignore[arg-type]
+            r.ref = v  # type: ignore[union-attr]
             trail.append(r)
             trail.append(-1)
             return True
@@ -114,6 +123,37 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
     if tt is VarAnnot:
         return _unify_var_annot(t, frame, r, trail)  # type: ignore[arg-type]
     return False
+
+
+def occurs(v: Var, t: Term) -> bool:
+    """Whether free variable `v` occurs in runtime term `t` (iterative: any depth)."""
+    stack = [t]
+    while stack:
+        x = deref(stack.pop())
+        tx = type(x)
+        if x is v:
+            return True
+        if tx is Struct:
+            if not x.ground:  # type: ignore[union-attr]
+                stack.extend(x.args)  # type: ignore[union-attr]
+                stack.extend(x.annots)  # type: ignore[union-attr]
+        elif tx is tuple:
+            stack.extend(x)  # type: ignore[arg-type]
+        elif tx is PList:
+            stack.extend(x.items)  # type: ignore[union-attr]
+            stack.append(x.tail)  # type: ignore[union-attr]
+        elif tx is AnnotTail:
+            stack.append(x.tail)  # type: ignore[union-attr]
+        elif tx is VarAnnot:
+            stack.append(x.var)  # type: ignore[union-attr]
+            stack.extend(x.annots)  # type: ignore[union-attr]
+    return False
+
+
+def _cyclic(v: Var, t: Term) -> AslRuntimeError:
+    return AslRuntimeError(f"cyclic term: {v.name} would be bound to {term_str(t)}, which "
+                           f"contains {v.name} (cyclic terms are not supported)",
+                           error="cyclic_term")
 
 
 def unify_annots(tannots: tuple[Term, ...], frame: Frame | None,
