@@ -58,6 +58,22 @@ from mrss.agentspeak.terms import (
 )
 from mrss.agentspeak.unify import resolve
 
+# Jason's internal actions that this interpreter leaves out, and why
+_COMMUNICATION = "agent communication"
+_PLANS = "changing the plan library"
+_AGENTS = "creating and stopping agents"
+JASON_UNSUPPORTED = {
+    ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
+    ".df_register": _COMMUNICATION, ".df_deregister": _COMMUNICATION,
+    ".df_search": _COMMUNICATION, ".df_subscribe": _COMMUNICATION,
+    ".add_plan": _PLANS, ".remove_plan": _PLANS, ".relevant_plans": _PLANS,
+    ".relevant_plan": _PLANS, ".plan_label": _PLANS, ".list_plans": _PLANS,
+    ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
+    ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
+    ".include": "directives", ".namespace": "namespaces",
+    ".fork": "fork and join", ".join": "fork and join",
+}
+
 
 @dataclass
 class Compiled:
@@ -118,7 +134,9 @@ class _Compiler:
     def _ia(self, lit: Struct, line: int, col: int = 0) -> Any:
         ia = self.registry.get(lit.functor)
         if ia is None:
-            self.problem(line, f"unknown internal action {lit.functor}", col)
+            why = JASON_UNSUPPORTED.get(lit.functor)
+            self.problem(line, f"internal action {lit.functor} is not supported ({why})"
+                         if why else f"unknown internal action {lit.functor}", col)
             return None
         n = len(lit.args)
         if n < ia.min_args or (ia.max_args is not None and n > ia.max_args):

@@ -111,6 +111,46 @@ def _describe(exc: lark.exceptions.LarkError) -> str:
     return str(exc)
 
 
+def _closing_brace(chunk: str, i: int) -> int | None:
+    """Offset of the `}` closing the `{` at `i` (strings skipped), or None."""
+    depth = 0
+    while i < len(chunk):
+        c = chunk[i]
+        if c == '"':
+            j = chunk.find('"', i + 1)
+            while j > 0 and chunk[j - 1] == "\\":
+                j = chunk.find('"', j + 1)
+            if j < 0:
+                return None
+            i = j
+        elif c == "{":
+            depth += 1
+        elif c == "}":
+            depth -= 1
+            if depth == 0:
+                return i
+        i += 1
+    return None
+
+
+def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None:
+    """A message naming the Jason construct that is not supported, when the syntax
+    error is where one starts."""
+    pos = getattr(exc, "pos_in_stream", None)
+    if pos is None or pos < 0 or pos >= len(chunk):
+        return None
+    here = chunk[pos:pos + 3]
+    if here.startswith("^"):
+        return "goal-state meta-events (^!g[state(S)]) are not supported"
+    if here in ("|&|", "|||"):
+        return "fork and join (|&| and |||) are not supported"
+    if here.startswith("::"):
+        return "namespaces (ns::literal) are not supported"
+    if here.startswith("<-") and chunk.rfind("{", 0, pos) > chunk.rfind("}", 0, pos):
+        return "plan terms ({+!g <- ...}) are not supported"
+    return None
+
+
 def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | None:
     """Where to resume after an error inside `chunk`, if a new statement probably starts
     there: the offending token itself when it opens its line (a missing `.`), else the
@@ -148,6 +188,15 @@ def parse_program(text: str, file: str = "<string>",
         line0, col0 = _position(text, start)
         local: list[tuple[int, int, str]] = []
         statement = None
+        lead = len(chunk) - len(chunk.lstrip())
+        if chunk[lead:lead + 1] == "{":  # a directive has no `.`: report it, parse the rest
+            close = _closing_brace(chunk, lead)
+            line, col = _position(chunk, lead)
+            add(line0 + line - 1, col + (col0 - 1 if line == 1 else 0),
+                "directives ({include(...)}, {begin ...}) are not supported")
+            if close is not None and chunk[close + 1:].strip():
+                pending.append((start + close + 1, end))
+            continue
         try:
             with deep_recursion():
                 tree = _lark().parse(chunk)
@@ -162,7 +211,7 @@ def parse_program(text: str, file: str = "<string>",
             if line is None or line < 1:  # end of input: point just past the chunk
                 line, col = _position(chunk, len(chunk.rstrip()))
                 col += 1
-            local.append((line, col, _describe(exc)))
+            local.append((line, col, _unsupported(chunk, exc) or _describe(exc)))
             restart = _restart_offset(chunk, exc)
             if restart is not None:  # probably a missing `.`: parse the rest on its own
                 pending.append((start + restart, end))

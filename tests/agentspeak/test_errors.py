@@ -140,3 +140,28 @@ def test_mrss_agent_reports_endless_recursion_without_a_traceback(tmp_path: Path
     assert proc.returncode == 0
     assert "Traceback" not in proc.stderr
     assert f"{src}:3: ?p(1): recursion too deep" in proc.stderr
+
+
+UNSUPPORTED = """\
+{ include("common.asl") }
+!start.
++!start <- !a |&| !b.
+^!g[state(S)] <- .print(S).
++!n <- ns::b(1).
++!m <- .add_plan({+!x <- true}).
++!s <- .send(bob, tell, hi).
+"""
+
+
+def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(UNSUPPORTED, file="u.asl")
+    found = [(p.line, p.col, p.message) for p in info.value.problems]
+    assert found == [
+        (1, 1, "directives ({include(...)}, {begin ...}) are not supported"),
+        (3, 15, "fork and join (|&| and |||) are not supported"),
+        (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
+        (5, 10, "namespaces (ns::literal) are not supported"),
+        (6, 23, "plan terms ({+!g <- ...}) are not supported"),
+        (7, 8, "internal action .send is not supported (agent communication)"),
+    ]
