@@ -160,8 +160,8 @@ def unify_annots(tannots: tuple[Term, ...], frame: Frame | None,
                  rannots: tuple[Term, ...], trail: Trail) -> bool:
     """Each annotation of the template unifies with some annotation of the runtime term;
     a tail (`[a|T]`) takes the annotations left over."""
-    if type(tannots[-1]) is AnnotTail:
-        return _unify_annots_tail(tannots, frame, rannots, trail)
+    if len(tannots) > 1 or type(tannots[-1]) is AnnotTail:
+        return _unify_annots_apart(tannots, frame, rannots, trail)
     for a in tannots:
         mark = len(trail)
         for b in rannots:
@@ -173,12 +173,15 @@ def unify_annots(tannots: tuple[Term, ...], frame: Frame | None,
     return True
 
 
-def _unify_annots_tail(tannots: tuple[Term, ...], frame: Frame | None,
+def _unify_annots_apart(tannots: tuple[Term, ...], frame: Frame | None,
                        rannots: tuple[Term, ...], trail: Trail) -> bool:
+    """As Jason: each annotation takes a different one of the other side's (the first
+    that unifies); a tail takes those left over."""
     if not rannots:
         return False  # as Jason: an annotation list never matches a literal without any
     left = [b for b in rannots if type(b) is not AnnotTail]
-    for a in tannots[:-1]:
+    tail = tannots[-1] if type(tannots[-1]) is AnnotTail else None
+    for a in (tannots if tail is None else tannots[:-1]):
         for i, b in enumerate(left):
             mark = len(trail)
             if unify(a, frame, b, trail):
@@ -187,7 +190,7 @@ def _unify_annots_tail(tannots: tuple[Term, ...], frame: Frame | None,
             undo(trail, mark)
         else:
             return False
-    return unify(tannots[-1].tail, frame, tuple(left), trail)  # type: ignore[union-attr]
+    return tail is None or unify(tail.tail, frame, tuple(left), trail)  # type: ignore[union-attr]
 
 
 def _split(t: Term, frame: Frame | None) -> tuple[list[Term], Term | None]:

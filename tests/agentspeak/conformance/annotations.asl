@@ -15,6 +15,8 @@ task(t7)[source(boss)].
       Y = p(1)[a]; Z = Y[b]; .print("Z = ", Z);
       if (q[x] = q[x, y]) { .print("q[x] unifies with q[x,y]") };
       if (not (q[x, y] = q[x])) { .print("q[x,y] does not unify with q[x]") };
+      if (not (q[A1, A2] = q[x])) { .print("two annotations need two to match") };
+      if (q[B1, B2] = q[x, y]) { .print("q[B1,B2] = q[x,y]: ", B1, " ", B2) };
       !g(task(t7)[source(boss)]);
       .print("end").
 +!g(Name[source(Who)]) <- .print("g of ", Name, " from ", Who).
