@@ -50,6 +50,7 @@ from mrss.agentspeak.syntax import (
 from mrss.agentspeak.terms import (
     OP_TEXT,
     SOURCE_SELF,
+    AnnotTail,
     Slot,
     Struct,
     Term,
@@ -271,6 +272,10 @@ class _Compiler:
         """The runtime literal of an initial belief or goal (its arithmetic evaluated)."""
         if st.lit.ground:
             return st.lit
+        if st.lit.annots and type(st.lit.annots[-1]) is AnnotTail:
+            self.problem(st.line, "an initial belief or goal cannot have an annotation tail "
+                                  f"({term_str(st.lit)})")
+            return None
         self.bind(st.lit, st.line)
         try:
             lit: Any = resolve(st.lit, [None] * st.nslots)

@@ -165,3 +165,9 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         (6, 23, "plan terms ({+!g <- ...}) are not supported"),
         (7, 8, "internal action .send is not supported (agent communication)"),
     ]
+
+
+def test_an_initial_belief_with_an_annotation_tail_is_a_load_error() -> None:
+    with pytest.raises(AslSyntaxError, match=r"b.asl:1:1: an initial belief or goal cannot "
+                                             r"have an annotation tail \(b\[a\|T\]\)"):
+        Agent("b[a|T].\n", file="b.asl")
