@@ -9,7 +9,7 @@ from typing import Any
 
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
-from mrss.agentspeak.terms import PList, Struct, Term, Trigger, Var, deref, is_ground, is_number
+from mrss.agentspeak.terms import PList, Struct, Term, Var, deref, is_ground, is_number
 from mrss.agentspeak.unify import undo
 
 _FORMULAS = frozenset({"&", "|", "not", "<", ">", "<=", ">=", "==", "\\==", "="})
@@ -29,7 +29,7 @@ def is_list(t: Term) -> bool:
 
 
 def is_structure(t: Term) -> bool:
-    return type(t) is Struct or type(t) is tuple or type(t) is PList or type(t) is Trigger
+    return type(t) is Struct or type(t) is tuple or type(t) is PList
 
 
 # in Jason's order, the most primitive first (what `.type(X, T)` enumerates)
