@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.compile import compile_program
+from mrss.agentspeak.depth import ensure_recursion_limit
 from mrss.agentspeak.errors import SyntaxProblem
 from mrss.agentspeak.intentions import RUNNABLE
 from mrss.agentspeak.parser import parse_literal, parse_program
@@ -59,6 +60,7 @@ class Agent(Runtime):
                  clock: Callable[[], float] = time.monotonic,
                  out: Callable[[str], None] | None = None) -> None:
         super().__init__(name, host, actions or default_registry(), clock, out or _print_line)
+        ensure_recursion_limit()  # deep terms and rule recursion (see `depth`)
         if source is None:
             if file is None:
                 raise ValueError("Agent needs a source text or a file")
@@ -67,15 +69,17 @@ class Agent(Runtime):
         problems: list[SyntaxProblem] = []
         program = parse_program(source, self.file, collect=problems)
         compiled = compile_program(program, self.registry, source, problems)
-        for lit in compiled.beliefs:
-            self.bb.add(lit, front=False)
+        compiled.functions.rt = self
+        for clause in compiled.clauses:  # facts and rules in program order
+            if type(clause) is Struct:
+                self.bb.add(clause, front=False)
+            else:
+                h = clause.head  # type: ignore[union-attr]
+                self.bb.add_rule((h.functor, len(h.args), h.neg), clause)  # type: ignore
         for extra in beliefs:
             from mrss.agentspeak.compile import with_self_source
 
             self.bb.add(with_self_source(parse_literal(extra)), front=False)
-        for rule in compiled.rules:
-            h = rule.head
-            self.bb.add_rule((h.functor, len(h.args), h.neg), rule)
         for plan in compiled.plans:
             self.plans.add(plan)
         for goal in compiled.goals:

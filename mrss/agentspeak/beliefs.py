@@ -21,7 +21,7 @@ Key = tuple[str, int, bool]
 class Rule:
     """A rule `head :- body`, compiled: the body is a query run in a frame of `nslots`."""
 
-    __slots__ = ("head", "body", "nslots", "line", "text")
+    __slots__ = ("head", "body", "nslots", "line", "text", "seq")
 
     def __init__(self, head: Struct, body: Any, nslots: int, line: int, text: str) -> None:
         self.head = head
@@ -29,17 +29,37 @@ class Rule:
         self.nslots = nslots
         self.line = line
         self.text = text
+        self.seq = 0  # its place among the facts at the end of its predicate (`born`)
 
 
 class PredStore:
     """The beliefs and rules of one predicate indicator."""
 
-    __slots__ = ("front", "back", "rules")
+    __slots__ = ("front", "back", "rules", "born", "seq")
 
     def __init__(self) -> None:
         self.front: dict[tuple[Term, ...], Struct] = {}
         self.back: dict[tuple[Term, ...], Struct] = {}
         self.rules: list[Rule] = []
+        # facts at the end and rules share one program order: each gets the next `seq`
+        # (only counted once the predicate has a rule, when the order matters)
+        self.born: dict[tuple[Term, ...], int] = {}
+        self.seq = 0
+
+    def clauses(self) -> Iterator[Struct | Rule]:
+        """Facts and rules in Jason's order: facts added in front (newest first), then
+        the facts at the end and the rules, interleaved in the order they were added."""
+        yield from reversed(list(self.front.values()))
+        rules = self.rules
+        born = self.born
+        i = 0
+        for args, b in list(self.back.items()):
+            n = born.get(args, -1)
+            while i < len(rules) and rules[i].seq < n:
+                yield rules[i]
+                i += 1
+            yield b
+        yield from rules[i:]
 
     def get(self, args: tuple[Term, ...]) -> Struct | None:
         b = self.front.get(args)
@@ -61,6 +81,8 @@ class PredStore:
     def _pop(self, args: tuple[Term, ...]) -> None:
         if self.front.pop(args, None) is None:
             self.back.pop(args, None)
+            if self.born:
+                self.born.pop(args, None)
 
 
 def _merge(old: tuple[Term, ...], new: tuple[Term, ...]) -> tuple[Term, ...] | None:
@@ -105,6 +127,9 @@ class BeliefBase:
                 s.front[args] = lit
             else:
                 s.back[args] = lit
+                if s.rules:
+                    s.seq += 1
+                    s.born[args] = s.seq
             self.size += 1
             return True
         merged = _merge(old.annots, lit.annots)
@@ -151,7 +176,14 @@ class BeliefBase:
         return gone
 
     def add_rule(self, key: Key, rule: Rule) -> None:
-        self._store(key).rules.append(rule)
+        """Add a rule after the facts and rules of its predicate added so far."""
+        s = self._store(key)
+        if not s.rules:  # from now on the order of facts and rules matters
+            s.born = {args: i for i, args in enumerate(s.back)}
+            s.seq = len(s.back)
+        s.seq += 1
+        rule.seq = s.seq
+        s.rules.append(rule)
 
     def __iter__(self) -> Iterator[Struct]:
         for s in self.preds.values():
@@ -161,6 +193,6 @@ class BeliefBase:
         """Every belief and rule as Jason prints it, in belief-base order."""
         out: list[str] = []
         for s in self.preds.values():
-            out.extend(term_str(b) for b in s.facts())
-            out.extend(r.text for r in s.rules)
+            out.extend(c.text if type(c) is Rule else term_str(c)  # type: ignore[union-attr, arg-type]
+                       for c in (s.clauses() if s.rules else s.facts()))
         return out

@@ -10,7 +10,7 @@ from typing import Any
 
 from lark import Token, Transformer, v_args
 
-from mrss.agentspeak.arith import ARITY
+from mrss.agentspeak.functions import is_function
 from mrss.agentspeak.syntax import (
     BeliefSrc,
     BodyItem,
@@ -29,12 +29,14 @@ from mrss.agentspeak.terms import (
     DEL_ACH,
     DEL_BEL,
     DEL_TEST,
+    AnnotTail,
     Expr,
     PList,
     Slot,
     Struct,
     Term,
     Trigger,
+    VarAnnot,
 )
 
 TRIGGER_OPS = {"+": ADD_BEL, "-": DEL_BEL, "+!": ADD_ACH, "-!": DEL_ACH,
@@ -102,6 +104,12 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def annots(self, c: list[Any]) -> tuple[str, list[Term]]:
         return ("annots", [x for x in c if x is not None])
 
+    def annot_tail(self, c: list[Term]) -> Term:
+        return AnnotTail(c[0])
+
+    def goal_var(self, c: list[Token]) -> Term:
+        return self._slot(str(c[0]))
+
     def literal(self, c: list[Any]) -> Term:
         neg = False
         name = ""
@@ -117,15 +125,12 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
                 args = x[1]
             elif isinstance(x, tuple):
                 annots = x[1]
-        if name in ARITY and not neg and not annots:
+        if not neg and not annots and is_function(name, len(args)):
             return Expr(name, tuple(args))
         return Struct(name, tuple(args), tuple(annots), neg)
 
-    @v_args(meta=True)
-    def var_annots(self, meta: Any, c: list[Any]) -> Term:
-        self.problems.append((meta.line, meta.column,
-                              "annotations on a variable are not supported"))
-        return self._slot(str(c[0]))
+    def var_annots(self, c: list[Any]) -> Term:
+        return VarAnnot(self._slot(str(c[0])), tuple(c[1][1]))
 
     def list_tail(self, c: list[Term]) -> tuple[str, Term]:
         return ("tail", c[0])
@@ -169,6 +174,8 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         if len(c) == 3:
             return BodyItem("constraint", Struct(str(c[1]), (c[0], c[2])), line)
         t = c[0]
+        if type(t) is Expr and t.op.startswith("."):  # `.length(L)` alone: the action
+            t = Struct(t.op, t.args)
         if type(t) is Struct:
             kind = "ia" if t.functor.startswith(".") else "action"
             return BodyItem(kind, t, line, self._col(meta))
@@ -178,8 +185,11 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def _item(self, kind: str, meta: Any, c: list[Any]) -> BodyItem:
         lit = c[-1]
-        if type(lit) is not Struct:
-            self.problems.append((meta.line, meta.column, "expected a literal"))
+        if type(lit) is not Struct and not (
+                kind in ("achieve", "achieve_new", "test") and type(lit) in (Slot, VarAnnot)):
+            what = "a variable" if type(lit) in (Slot, VarAnnot) else "this term"
+            self.problems.append((meta.line, meta.column,
+                                  f"expected a literal here, not {what}"))
         return BodyItem(kind, lit, self._line(meta))
 
     @v_args(meta=True)
@@ -289,8 +299,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def start(self, c: list[Any]) -> Statement:
         st: Statement = c[0]
-        if isinstance(st, PlanSrc | RuleSrc):
-            st.nslots = self.nslots
+        st.nslots = self.nslots
         if isinstance(st, PlanSrc):
             names = ["_"] * self.nslots
             for name, slot in self.scope.items():

@@ -11,11 +11,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.agentspeak.beliefs import Rule, has_source
+from mrss.agentspeak.depth import PARSE_DEPTH
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.formulas import Query, compile_query
+from mrss.agentspeak.functions import FunctionEnv, bind_functions
 from mrss.agentspeak.instructions import (
     Achieve,
     AchieveNew,
+    AchieveNewVar,
+    AchieveVar,
     Action,
     AddBelief,
     CallIA,
@@ -41,15 +45,35 @@ from mrss.agentspeak.syntax import (
     PlanSrc,
     Program,
     RuleSrc,
+    Statement,
 )
 from mrss.agentspeak.terms import (
     OP_TEXT,
     SOURCE_SELF,
+    AnnotTail,
+    Slot,
     Struct,
     Term,
+    VarAnnot,
     term_str,
 )
 from mrss.agentspeak.unify import resolve
+
+# Jason's internal actions that this interpreter leaves out, and why
+_COMMUNICATION = "agent communication"
+_PLANS = "changing the plan library"
+_AGENTS = "creating and stopping agents"
+JASON_UNSUPPORTED = {
+    ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
+    ".df_register": _COMMUNICATION, ".df_deregister": _COMMUNICATION,
+    ".df_search": _COMMUNICATION, ".df_subscribe": _COMMUNICATION,
+    ".add_plan": _PLANS, ".remove_plan": _PLANS, ".relevant_plans": _PLANS,
+    ".relevant_plan": _PLANS, ".plan_label": _PLANS, ".list_plans": _PLANS,
+    ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
+    ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
+    ".include": "directives", ".namespace": "namespaces",
+    ".fork": "fork and join", ".join": "fork and join",
+}
 
 
 @dataclass
@@ -61,6 +85,8 @@ class Compiled:
     rules: list[Rule] = field(default_factory=list)
     goals: list[Struct] = field(default_factory=list)
     plans: list[Plan] = field(default_factory=list)
+    functions: FunctionEnv = field(default_factory=FunctionEnv)  # the agent sets .rt
+    clauses: list[Struct | Rule] = field(default_factory=list)  # beliefs and rules in order
 
 
 def with_self_source(lit: Struct) -> Struct:
@@ -76,13 +102,22 @@ class _Compiler:
         self.registry = registry
         self.lines = lines
         self.problems: list[SyntaxProblem] = []
+        self.env = FunctionEnv()
 
     def problem(self, line: int, message: str, col: int = 0) -> None:
         src = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
         col = col or len(src) - len(src.lstrip()) + 1
         self.problems.append(SyntaxProblem(self.program.file, line, col, message, src))
 
+    def bind(self, t: Term, line: int) -> None:
+        """Attach the implementations of the functions (`.count(Q)`, ...) inside `t`."""
+        found: list[str] = []
+        bind_functions(t, self.env, lambda q: self.query(q, line), found)
+        for message in found:
+            self.problem(line, message)
+
     def query(self, t: Term, line: int) -> Query:
+        self.bind(t, line)
         try:
             self._check_ias(t, line)
             return compile_query(t, self.registry)
@@ -100,7 +135,9 @@ class _Compiler:
     def _ia(self, lit: Struct, line: int, col: int = 0) -> Any:
         ia = self.registry.get(lit.functor)
         if ia is None:
-            self.problem(line, f"unknown internal action {lit.functor}", col)
+            why = JASON_UNSUPPORTED.get(lit.functor)
+            self.problem(line, f"internal action {lit.functor} is not supported ({why})"
+                         if why else f"unknown internal action {lit.functor}", col)
             return None
         n = len(lit.args)
         if n < ia.min_args or (ia.max_args is not None and n > ia.max_args):
@@ -146,8 +183,15 @@ class _Compiler:
 
     def item(self, node: BodyItem, code: list[Instr]) -> None:
         kind, t, line = node.kind, node.term, node.line
+        self.bind(t, line)
         if kind == "constraint":
             code.append(Constraint(self.query(t, line), t, line))
+            return
+        if kind == "test":
+            code.append(TestGoal(t, self.query(t, line), line))
+            return
+        if kind in ("achieve", "achieve_new") and type(t) in (Slot, VarAnnot):
+            code.append(AchieveVar(t, line) if kind == "achieve" else AchieveNewVar(t, line))
             return
         if type(t) is not Struct:
             self.problem(line, f"expected a literal, not {term_str(t)}")
@@ -156,8 +200,6 @@ class _Compiler:
             code.append(Achieve(with_self_source(t), line))
         elif kind == "achieve_new":
             code.append(AchieveNew(with_self_source(t), line))
-        elif kind == "test":
-            code.append(TestGoal(t, line))
         elif kind in ("add", "add_end"):
             code.append(AddBelief(with_self_source(t), kind == "add", line))
         elif kind == "del":
@@ -198,22 +240,49 @@ class _Compiler:
                     self.program.file, src.annots, src.varnames)
 
     def run(self) -> Compiled:
-        out = Compiled(self.program.file)
+        out = Compiled(self.program.file, functions=self.env)
         for st in self.program.statements:
-            if isinstance(st, PlanSrc):
-                self._check_ias(st.trigger, st.line)
-                out.plans.append(self.plan(st))
-            elif isinstance(st, RuleSrc):
-                text = f"{term_str(st.head)} :- {term_str(st.body)}"
-                out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
-                                      st.line, text))
-            elif isinstance(st, BeliefSrc):
-                lit: Any = resolve(st.lit, [None] * 64) if not st.lit.ground else st.lit
-                out.beliefs.append(with_self_source(lit))
-            elif isinstance(st, GoalSrc):
-                g: Any = resolve(st.lit, [None] * 64) if not st.lit.ground else st.lit
-                out.goals.append(with_self_source(g))
+            try:
+                self.statement(st, out)
+            except RecursionError:
+                self.problem(st.line, f"a term is nested too deeply (more than about "
+                                      f"{PARSE_DEPTH} levels)")
         return out
+
+    def statement(self, st: Statement, out: Compiled) -> None:
+        if isinstance(st, PlanSrc):
+            self._check_ias(st.trigger, st.line)
+            self.bind(st.trigger, st.line)
+            out.plans.append(self.plan(st))
+        elif isinstance(st, RuleSrc):
+            self.bind(st.head, st.line)
+            text = f"{term_str(st.head)} :- {term_str(st.body)}"
+            out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
+                                  st.line, text))
+            out.clauses.append(out.rules[-1])
+        else:
+            lit = self.initial(st)
+            if lit is not None:
+                (out.beliefs if isinstance(st, BeliefSrc) else out.goals).append(
+                    with_self_source(lit))
+                if isinstance(st, BeliefSrc):
+                    out.clauses.append(out.beliefs[-1])
+
+    def initial(self, st: BeliefSrc | GoalSrc) -> Struct | None:
+        """The runtime literal of an initial belief or goal (its arithmetic evaluated)."""
+        if st.lit.ground:
+            return st.lit
+        if st.lit.annots and type(st.lit.annots[-1]) is AnnotTail:
+            self.problem(st.line, "an initial belief or goal cannot have an annotation tail "
+                                  f"({term_str(st.lit)})")
+            return None
+        self.bind(st.lit, st.line)
+        try:
+            lit: Any = resolve(st.lit, [None] * st.nslots)
+        except AslRuntimeError as exc:
+            self.problem(st.line, exc.message)
+            return None
+        return lit  # type: ignore[no-any-return]
 
 
 def compile_program(program: Program, registry: Registry, text: str = "",
@@ -222,7 +291,7 @@ def compile_program(program: Program, registry: Registry, text: str = "",
     already found by the parser, passed in `problems`, included)."""
     c = _Compiler(program, registry, text.splitlines())
     out = c.run()
-    found = list(problems or []) + c.problems
+    found = list(dict.fromkeys(list(problems or []) + c.problems))  # each once
     if found:
         raise AslSyntaxError(sorted(found, key=lambda p: (p.line, p.col)))
     return out

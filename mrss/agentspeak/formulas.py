@@ -17,6 +17,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    VarAnnot,
     compare,
     deref,
     is_number,
@@ -106,21 +107,36 @@ class LiteralQuery(Query):
                 return
         trail = rt.trail
         mark = len(trail)
+        if store.rules:
+            yield from self._with_rules(rt, frame, store)
+            return
         for b in store.facts():
             if not b.ground:
                 b = rename(b)  # type: ignore[assignment]
             if unify(lit, frame, b, trail):
                 yield
             undo(trail, mark)
-        if store.rules:
-            q = resolve(Struct(lit.functor, lit.args, (), lit.neg), frame)
-            for rule in list(store.rules):
-                rframe: list[Any] = [None] * rule.nslots
-                head = rule.head
+
+    def _with_rules(self, rt: Runtime, frame: Any, store: Any) -> Iterator[None]:
+        """Facts and rules of the predicate in Jason's one order (see `clauses`)."""
+        lit = self.lit
+        trail = rt.trail
+        mark = len(trail)
+        q = None
+        for c in store.clauses():
+            if type(c) is Struct:
+                b: Any = c if c.ground else rename(c)
+                if unify(lit, frame, b, trail):
+                    yield
+            else:
+                if q is None:
+                    q = resolve(Struct(lit.functor, lit.args, (), lit.neg), frame)
+                rframe: list[Any] = [None] * c.nslots
+                head = c.head
                 if unify(Struct(head.functor, head.args, (), head.neg), rframe, q, trail):
-                    for _ in rule.body.solve(rt, rframe):
+                    for _ in c.body.solve(rt, rframe):
                         yield
-                undo(trail, mark)
+            undo(trail, mark)
 
 
 class AndQuery(Query):
@@ -281,6 +297,14 @@ class VarQuery(Query):
         t = resolve(self.var, frame)
         if type(t) is Var:
             raise AslRuntimeError(f"unbound variable {term_str(t)} used as a formula")
+        if type(t) is VarAnnot:  # `X[source(a)]` with X free: every belief that matches
+            trail = rt.trail
+            mark = len(trail)
+            for b in list(rt.bb):
+                if unify(self.var, frame, b if b.ground else rename(b), trail):
+                    yield
+                undo(trail, mark)
+            return
         yield from compile_query(t, self.registry).solve(rt, frame)
 
 
@@ -306,6 +330,6 @@ def compile_query(t: Term, registry: Registry) -> Query:
                 raise AslRuntimeError(f"unknown internal action {s.functor}")
             return IAQuery(ia, s.args, registry)
         return LiteralQuery(s)
-    if tt is Slot or tt is Var:
+    if tt is Slot or tt is Var or tt is VarAnnot:
         return VarQuery(t, registry)
     raise AslRuntimeError(f"not a logical formula: {term_str(t)}")

@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak.depth import depth_message
+from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.intentions import (
     PENDING_EVENT,
     RUNNABLE,
@@ -169,10 +171,16 @@ def notify_waiters(rt: Runtime, op: int, lit: Struct) -> None:
             else:
                 undo(trail, mark)
         elif w.query is not None:
-            for _ in w.query.solve(rt, w.frame):
-                del trail[mark:]
-                resume(rt, it, rt.clock())
-                break
+            try:
+                for _ in w.query.solve(rt, w.frame):
+                    del trail[mark:]
+                    resume(rt, it, rt.clock())
+                    break
+            except (AslRuntimeError, RecursionError) as exc:
+                undo(trail, mark)
+                rt.warn(f"the condition of .wait of intention {it.id} cannot be checked: "
+                        + (exc.message if isinstance(exc, AslRuntimeError)
+                           else depth_message("the condition")))
 
 
 # ----------------------------------------------------------------------------- goal surgery

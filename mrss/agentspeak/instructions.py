@@ -20,6 +20,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    VarAnnot,
     is_ground,
     rename,
     term_str,
@@ -55,7 +56,7 @@ class Achieve(Instr):
     __slots__ = ("lit", "tail")
     prefix = "!"
 
-    def __init__(self, lit: Struct, line: int) -> None:
+    def __init__(self, lit: Term, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.tail = False
@@ -72,7 +73,7 @@ class AchieveNew(Instr):
     __slots__ = ("lit",)
     prefix = "!!"
 
-    def __init__(self, lit: Struct, line: int) -> None:
+    def __init__(self, lit: Term, line: int) -> None:
         super().__init__(line)
         self.lit = lit
 
@@ -82,23 +83,58 @@ class AchieveNew(Instr):
         rt.post_goal(rename(lit), None)  # type: ignore[arg-type]
 
 
+def goal_literal(t: Term, frame: Any) -> Struct:
+    """The literal a goal variable (`!G`, `!!G`) stands for, annotated `source(self)`."""
+    lit = resolve(t, frame)
+    if type(lit) is not Struct:
+        raise AslRuntimeError(f"the goal {term_str(t)} is {term_str(lit)}, not a literal"
+                              if type(lit) is not Var and type(lit) is not VarAnnot else
+                              f"unbound variable {term_str(t)} used as a goal")
+    if not any(type(a) is Struct and a.functor == "source" for a in lit.annots):
+        lit = Struct(lit.functor, lit.args, lit.annots + (SOURCE_SELF,), lit.neg)
+    return lit
+
+
+class AchieveVar(Achieve):
+    """`!G` with G a variable bound to the goal literal."""
+
+    __slots__ = ()
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit = goal_literal(self.lit, im.frame)
+        im.pc = len(im.code) if self.tail else im.pc + 1
+        rt.post_subgoal(it, lit, self.tail, self.line)
+
+
+class AchieveNewVar(AchieveNew):
+    """`!!G` with G a variable bound to the goal literal."""
+
+    __slots__ = ()
+
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+        lit = goal_literal(self.lit, im.frame)
+        im.pc += 1
+        rt.post_goal(rename(lit), None)  # type: ignore[arg-type]
+
+
 class TestGoal(Instr):
-    """`?b`: query the beliefs; if nothing matches, try `+?b` plans; else fail."""
+    """`?b` (or `?(formula)`, `?X[a]`): query the beliefs; if nothing matches, try `+?b`
+    plans; else fail."""
 
     __slots__ = ("lit", "query")
     prefix = "?"
 
-    def __init__(self, lit: Struct, line: int) -> None:
+    def __init__(self, lit: Term, query: Query, line: int) -> None:
         super().__init__(line)
         self.lit = lit
-        self.query = LiteralQuery(lit)
+        self.query = query
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
         for _ in self.query.solve(rt, im.frame):
             im.pc += 1
             return
         lit = resolve(self.lit, im.frame)
-        if rt.plans.has(ADD_TEST, lit.key):  # type: ignore[union-attr]
+        if type(lit) is Struct and rt.plans.has(ADD_TEST, lit.key):
             im.pc += 1
             rt.post_subgoal(it, lit, False, self.line, ADD_TEST)  # type: ignore[arg-type]
             return

@@ -14,6 +14,7 @@ from pathlib import Path
 import lark
 
 from mrss.agentspeak.builder import TreeBuilder
+from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
 from mrss.agentspeak.syntax import BeliefSrc, Program
@@ -27,8 +28,8 @@ _TOKEN_TEXT = {
     "QMARK": "?", "MINUS": "-", "NEG": "~", "AT": "@", "ATOM": "an atom",
     "VAR": "a variable", "NUMBER": "a number", "STRING": "a string",
     "IA_NAME": "an internal action", "TRIGGER_OP": "a triggering event",
-    "REL_OP": "a relational operator", "ADD_OP": "+ or -", "MUL_OP": "*, /, div or mod",
-    "ADD_BEL_OP": "+", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
+    "REL_OP": "a relational operator", "PLUS": "+", "MUL_OP": "*, /, div or mod",
+    "ADD_BEL_OP": "+< or +>", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
 }
 
 
@@ -110,6 +111,46 @@ def _describe(exc: lark.exceptions.LarkError) -> str:
     return str(exc)
 
 
+def _closing_brace(chunk: str, i: int) -> int | None:
+    """Offset of the `}` closing the `{` at `i` (strings skipped), or None."""
+    depth = 0
+    while i < len(chunk):
+        c = chunk[i]
+        if c == '"':
+            j = chunk.find('"', i + 1)
+            while j > 0 and chunk[j - 1] == "\\":
+                j = chunk.find('"', j + 1)
+            if j < 0:
+                return None
+            i = j
+        elif c == "{":
+            depth += 1
+        elif c == "}":
+            depth -= 1
+            if depth == 0:
+                return i
+        i += 1
+    return None
+
+
+def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None:
+    """A message naming the Jason construct that is not supported, when the syntax
+    error is where one starts."""
+    pos = getattr(exc, "pos_in_stream", None)
+    if pos is None or pos < 0 or pos >= len(chunk):
+        return None
+    here = chunk[pos:pos + 3]
+    if here.startswith("^"):
+        return "goal-state meta-events (^!g[state(S)]) are not supported"
+    if here in ("|&|", "|||"):
+        return "fork and join (|&| and |||) are not supported"
+    if here.startswith("::"):
+        return "namespaces (ns::literal) are not supported"
+    if here.startswith("<-") and chunk.rfind("{", 0, pos) > chunk.rfind("}", 0, pos):
+        return "plan terms ({+!g <- ...}) are not supported"
+    return None
+
+
 def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | None:
     """Where to resume after an error inside `chunk`, if a new statement probably starts
     there: the offending token itself when it opens its line (a missing `.`), else the
@@ -147,16 +188,30 @@ def parse_program(text: str, file: str = "<string>",
         line0, col0 = _position(text, start)
         local: list[tuple[int, int, str]] = []
         statement = None
+        lead = len(chunk) - len(chunk.lstrip())
+        if chunk[lead:lead + 1] == "{":  # a directive has no `.`: report it, parse the rest
+            close = _closing_brace(chunk, lead)
+            line, col = _position(chunk, lead)
+            add(line0 + line - 1, col + (col0 - 1 if line == 1 else 0),
+                "directives ({include(...)}, {begin ...}) are not supported")
+            if close is not None and chunk[close + 1:].strip():
+                pending.append((start + close + 1, end))
+            continue
         try:
-            tree = _lark().parse(chunk)
-            statement = TreeBuilder(line0, local, col0).transform(tree)
+            with deep_recursion():
+                tree = _lark().parse(chunk)
+                statement = TreeBuilder(line0, local, col0).transform(tree)
+        except RecursionError:
+            line, col = _position(chunk, len(chunk) - len(chunk.lstrip()))
+            local.append((line, col, f"a term is nested too deeply (more than about "
+                                     f"{PARSE_DEPTH} levels)"))
         except lark.exceptions.UnexpectedInput as exc:
             line = getattr(exc, "line", -1)
             col = getattr(exc, "column", -1)
             if line is None or line < 1:  # end of input: point just past the chunk
                 line, col = _position(chunk, len(chunk.rstrip()))
                 col += 1
-            local.append((line, col, _describe(exc)))
+            local.append((line, col, _unsupported(chunk, exc) or _describe(exc)))
             restart = _restart_offset(chunk, exc)
             if restart is not None:  # probably a missing `.`: parse the rest on its own
                 pending.append((start + restart, end))

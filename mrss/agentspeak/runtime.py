@@ -16,6 +16,7 @@ from typing import Any, Protocol
 
 from mrss.agentspeak import goals
 from mrss.agentspeak.beliefs import BeliefBase
+from mrss.agentspeak.depth import DEPTH_ERROR, depth_message
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import Query, compile_query
 from mrss.agentspeak.instructions import Jump
@@ -184,6 +185,9 @@ class Runtime:
                 except AslRuntimeError as exc:
                     self.warn(f"{plan.file}:{plan.line}: error in the context of "
                               f"{plan.trigger_text()}: {exc.message}")
+                except RecursionError:
+                    self.warn(f"{plan.file}:{plan.line}: "
+                              + depth_message(f"the context of {plan.trigger_text()}"))
                 if chosen is not None:
                     break
                 undo(trail, mark0)
@@ -231,6 +235,11 @@ class Runtime:
                         self.trail.clear()
                     goals.fail(self, it, exc.error, exc.message, im.plan.file, ins.line,
                                exc.annots)
+                    return
+                except RecursionError:
+                    self.trail.clear()
+                    goals.fail(self, it, DEPTH_ERROR, depth_message(ins.text()),
+                               im.plan.file, ins.line)
                     return
                 if self.trail:
                     self.trail.clear()

@@ -76,6 +76,7 @@ class BeliefSrc:
 
     lit: Struct
     line: int
+    nslots: int = 0
 
 
 @dataclass
@@ -84,6 +85,7 @@ class GoalSrc:
 
     lit: Struct
     line: int
+    nslots: int = 0
 
 
 Statement = PlanSrc | RuleSrc | BeliefSrc | GoalSrc

@@ -11,10 +11,12 @@ template is resolved against a frame).
 from __future__ import annotations
 
 import itertools
-from typing import TypeAlias
+from collections.abc import Callable
+from typing import Any, TypeAlias
 
 Term: TypeAlias = (
-    "int | float | str | Struct | Var | Slot | Expr | PList | Trigger | tuple[Term, ...]")
+    "int | float | str | Struct | Var | Slot | Expr | PList | Trigger | AnnotTail | VarAnnot"
+    " | tuple[Term, ...]")
 
 # Trigger operators (the kind of an event).
 ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST = range(6)
@@ -113,11 +115,51 @@ class PList:
 class Expr:
     """An arithmetic expression or function call in a template, e.g. `N+1`, `math.abs(X)`."""
 
-    __slots__ = ("op", "args")
+    __slots__ = ("op", "args", "fn")
 
     def __init__(self, op: str, args: tuple[Term, ...]) -> None:
         self.op = op
         self.args = args
+        # a function over terms (`.length(L)`, `.count(Q)`): its implementation, given
+        # the expression and the frame (attached by the compiler); None for arithmetic
+        self.fn: Callable[[Expr, Any], Term] | None = None
+
+
+class AnnotTail:
+    """The open tail of an annotation list, `p[a|T]` or `p[|T]`: always the last element
+    of `Struct.annots`; once T is bound to a list its items take its place."""
+
+    __slots__ = ("tail",)
+
+    def __init__(self, tail: Term) -> None:
+        self.tail = tail
+
+
+class VarAnnot:
+    """A variable with annotations, `X[source(A)]`: it unifies with a literal whose
+    annotations include these, and X takes the literal without its annotations."""
+
+    __slots__ = ("var", "annots")
+
+    def __init__(self, var: Term, annots: tuple[Term, ...]) -> None:
+        self.var = var
+        self.annots = annots
+
+
+def splice_annots(annots: tuple[Term, ...]) -> tuple[Term, ...]:
+    """Runtime annotations with a bound tail replaced by the items of its list."""
+    last = annots[-1]
+    if type(last) is not AnnotTail:
+        return annots
+    tail = deref(last.tail)  # type: ignore[union-attr]
+    head = annots[:-1]
+    if type(tail) is tuple:
+        extra: tuple[Term, ...] = tail  # type: ignore[assignment]
+        return head + tuple(a for a in extra if a not in head)
+    if type(tail) is PList:
+        p: PList = tail  # type: ignore[assignment]
+        return head + p.items + (AnnotTail(p.tail),)
+    return head + (AnnotTail(tail),)
 
 
 class Trigger:
@@ -183,14 +225,15 @@ def value(t: Term) -> Term:
         s: Struct = t  # type: ignore[assignment]
         if s.ground:
             return s
-        return Struct(
-            s.functor,
-            tuple([value(a) for a in s.args]),
-            tuple([value(a) for a in s.annots]),
-            s.neg,
-        )
+        annots = tuple([value(a) for a in s.annots])
+        return Struct(s.functor, tuple([value(a) for a in s.args]),
+                      splice_annots(annots) if annots else annots, s.neg)
     if tt is tuple:
         return tuple([value(a) for a in t])  # type: ignore[union-attr]
+    if tt is AnnotTail:
+        return AnnotTail(value(t.tail))  # type: ignore[union-attr]
+    if tt is VarAnnot:
+        return VarAnnot(value(t.var), tuple([value(a) for a in t.annots]))  # type: ignore
     if tt is PList:
         p: PList = t  # type: ignore[assignment]
         items = tuple([value(a) for a in p.items])
@@ -219,6 +262,8 @@ def is_ground(t: Term) -> bool:
         return False if type(deref(t.tail)) is Var else is_ground(value(t))  # type: ignore[union-attr]
     if tt is Trigger:
         return is_ground(t.lit)  # type: ignore[union-attr]
+    if tt is AnnotTail or tt is VarAnnot:
+        return False
     return tt is not Var
 
 
@@ -246,6 +291,11 @@ def rename(t: Term, mapping: dict[int, Var] | None = None) -> Term:
         return PList(tuple([rename(a, mapping) for a in p.items]), rename(p.tail, mapping))
     if tt is Trigger:
         return Trigger(t.op, rename(t.lit, mapping))  # type: ignore
+    if tt is AnnotTail:
+        return AnnotTail(rename(t.tail, mapping))  # type: ignore[union-attr]
+    if tt is VarAnnot:
+        return VarAnnot(rename(t.var, mapping),  # type: ignore[union-attr]
+                        tuple([rename(a, mapping) for a in t.annots]))  # type: ignore
     return t
 
 
@@ -291,7 +341,7 @@ def term_str(t: Term, top: bool = False) -> str:
             if s.args:
                 text += "(" + ",".join([term_str(a) for a in s.args]) + ")"
         if s.annots:
-            text += "[" + ",".join([term_str(a) for a in s.annots]) + "]"
+            text += _annots_str(s.annots)
         return text
     if tt is tuple:
         return "[" + ",".join([term_str(a) for a in t]) + "]"  # type: ignore[union-attr]
@@ -311,7 +361,18 @@ def term_str(t: Term, top: bool = False) -> str:
         return e.op + "(" + ",".join([term_str(a) for a in e.args]) + ")"
     if tt is Trigger:
         return OP_TEXT[t.op] + term_str(t.lit)  # type: ignore
+    if tt is VarAnnot:
+        return term_str(t.var) + _annots_str(t.annots)  # type: ignore[union-attr]
+    if tt is AnnotTail:
+        return "|" + term_str(t.tail)  # type: ignore[union-attr]
     return repr(t)
+
+
+def _annots_str(annots: tuple[Term, ...]) -> str:
+    last = annots[-1]
+    if type(last) is AnnotTail:
+        return "[" + ",".join([term_str(a) for a in annots[:-1]]) + term_str(last) + "]"
+    return "[" + ",".join([term_str(a) for a in annots]) + "]"
 
 
 # ----------------------------------------------------------------------------- ordering

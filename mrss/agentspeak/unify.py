@@ -8,11 +8,13 @@ annotations of the second (each one unifying with some annotation there).
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 from mrss.agentspeak.arith import Number, apply_op
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.terms import (
+    AnnotTail,
     Expr,
     PList,
     Slot,
@@ -20,11 +22,16 @@ from mrss.agentspeak.terms import (
     Term,
     Trigger,
     Var,
+    VarAnnot,
+    compare,
     deref,
     fresh_var,
+    splice_annots,
     term_str,
     value,
 )
+
+_order = functools.cmp_to_key(compare)
 
 Frame = list[Any]  # slot values: None (unbound) or runtime terms
 Trail = list[Any]
@@ -60,6 +67,10 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
         if tt is Var:
             r = deref(r)
             if r is not t:
+                tr = type(r)
+                if ((tr is Struct and not r.ground) or tr is tuple  # type: ignore[union-attr]
+                        or tr is PList) and occurs(t, r):  # type: ignore[arg-type]
+                    raise _cyclic(t, r)  # type: ignore[arg-type]
                 t.ref = r  # type: ignore[union-attr]
                 trail.append(t)
                 trail.append(-1)
@@ -69,13 +80,18 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
         r = deref(r)
         rt = type(r)
         if rt is Var:
-            r.ref = resolve(t, frame)  # type: ignore[union-attr]
+            v = resolve(t, frame)
+            tv = type(v)
+            if ((tv is Struct and not v.ground) or tv is tuple  # type: ignore[union-attr]
+                    or tv is PList) and occurs(r, v):  # type: ignore[arg-type]
+                raise _cyclic(r, v)  # type: ignore[arg-type]
+            r.ref = v  # type: ignore[union-attr]
             trail.append(r)
             trail.append(-1)
             return True
     if tt is Struct:
-        if rt is not Struct:
-            return False
+        if rt is not Struct:  # a free annotated variable on the runtime side: its variable
+            return rt is VarAnnot and unify(t, frame, r.var, trail)  # type: ignore[union-attr]
         ts: Struct = t  # type: ignore[assignment]
         rs: Struct = r  # type: ignore[assignment]
         if ts.functor != rs.functor or ts.neg != rs.neg:
@@ -104,12 +120,48 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
     if tt is Trigger:
         return (rt is Trigger and t.op == r.op  # type: ignore[union-attr]
                 and unify(t.lit, frame, r.lit, trail))  # type: ignore[union-attr]
+    if tt is VarAnnot:
+        return _unify_var_annot(t, frame, r, trail)  # type: ignore[arg-type]
     return False
+
+
+def occurs(v: Var, t: Term) -> bool:
+    """Whether free variable `v` occurs in runtime term `t` (iterative: any depth)."""
+    stack = [t]
+    while stack:
+        x = deref(stack.pop())
+        tx = type(x)
+        if x is v:
+            return True
+        if tx is Struct:
+            if not x.ground:  # type: ignore[union-attr]
+                stack.extend(x.args)  # type: ignore[union-attr]
+                stack.extend(x.annots)  # type: ignore[union-attr]
+        elif tx is tuple:
+            stack.extend(x)  # type: ignore[arg-type]
+        elif tx is PList:
+            stack.extend(x.items)  # type: ignore[union-attr]
+            stack.append(x.tail)  # type: ignore[union-attr]
+        elif tx is AnnotTail:
+            stack.append(x.tail)  # type: ignore[union-attr]
+        elif tx is VarAnnot:
+            stack.append(x.var)  # type: ignore[union-attr]
+            stack.extend(x.annots)  # type: ignore[union-attr]
+    return False
+
+
+def _cyclic(v: Var, t: Term) -> AslRuntimeError:
+    return AslRuntimeError(f"cyclic term: {v.name} would be bound to {term_str(t)}, which "
+                           f"contains {v.name} (cyclic terms are not supported)",
+                           error="cyclic_term")
 
 
 def unify_annots(tannots: tuple[Term, ...], frame: Frame | None,
                  rannots: tuple[Term, ...], trail: Trail) -> bool:
-    """Each annotation of the template unifies with some annotation of the runtime term."""
+    """Each annotation of the template unifies with some annotation of the runtime term;
+    a tail (`[a|T]`) takes the annotations left over."""
+    if len(tannots) > 1 or type(tannots[-1]) is AnnotTail:
+        return _unify_annots_apart(tannots, frame, rannots, trail)
     for a in tannots:
         mark = len(trail)
         for b in rannots:
@@ -119,6 +171,26 @@ def unify_annots(tannots: tuple[Term, ...], frame: Frame | None,
         else:
             return False
     return True
+
+
+def _unify_annots_apart(tannots: tuple[Term, ...], frame: Frame | None,
+                       rannots: tuple[Term, ...], trail: Trail) -> bool:
+    """As Jason: each annotation takes a different one of the other side's (the first
+    that unifies); a tail takes those left over."""
+    if not rannots:
+        return False  # as Jason: an annotation list never matches a literal without any
+    left = [b for b in rannots if type(b) is not AnnotTail]
+    tail = tannots[-1] if type(tannots[-1]) is AnnotTail else None
+    for a in (tannots if tail is None else tannots[:-1]):
+        for i, b in enumerate(left):
+            mark = len(trail)
+            if unify(a, frame, b, trail):
+                del left[i]
+                break
+            undo(trail, mark)
+        else:
+            return False
+    return tail is None or unify(tail.tail, frame, tuple(left), trail)  # type: ignore[union-attr]
 
 
 def _split(t: Term, frame: Frame | None) -> tuple[list[Term], Term | None]:
@@ -175,12 +247,13 @@ def resolve(t: Term, frame: Frame | None) -> Term:
         s: Struct = t  # type: ignore[assignment]
         if s.ground:
             return s
-        return Struct(
-            s.functor,
-            tuple([resolve(a, frame) for a in s.args]),
-            tuple([resolve(a, frame) for a in s.annots]) if s.annots else (),
-            s.neg,
-        )
+        if s.annots:
+            annots = tuple([resolve(a, frame) for a in s.annots])
+            if type(annots[-1]) is AnnotTail:
+                annots = splice_annots(annots)
+        else:
+            annots = ()
+        return Struct(s.functor, tuple([resolve(a, frame) for a in s.args]), annots, s.neg)
     if tt is Slot:
         v = frame[t.index]  # type: ignore[index, union-attr]
         if v is None:
@@ -206,12 +279,49 @@ def resolve(t: Term, frame: Frame | None) -> Term:
         return PList(items, tail)
     if tt is Trigger:
         return Trigger(t.op, resolve(t.lit, frame))  # type: ignore
+    if tt is AnnotTail:
+        return AnnotTail(resolve(t.tail, frame))  # type: ignore[union-attr]
+    if tt is VarAnnot:
+        return _resolve_var_annot(t, frame)  # type: ignore[arg-type]
     return t
+
+
+def _resolve_var_annot(t: VarAnnot, frame: Frame | None) -> Term:
+    """`X[a]`: X's literal with the annotations added; a free X stays annotated."""
+    v = resolve(t.var, frame)
+    annots = tuple([resolve(a, frame) for a in t.annots])
+    if annots and type(annots[-1]) is AnnotTail:
+        annots = splice_annots(annots)
+    if type(v) is Struct:
+        merged = list(v.annots) + [a for a in annots if a not in v.annots]
+        if len(merged) > 1 and type(merged[-1]) is not AnnotTail:
+            merged.sort(key=_order)
+        return Struct(v.functor, v.args, tuple(merged), v.neg)
+    if type(v) is Var:
+        return VarAnnot(v, annots)
+    return v
+
+
+def _unify_var_annot(t: VarAnnot, frame: Frame | None, r: Term, trail: Trail) -> bool:
+    """Jason: the annotations of `X[..]` must be a subset of the literal's; X takes the
+    literal without its annotations."""
+    r = deref(r)
+    if type(r) is VarAnnot:
+        r = deref(r.var)  # type: ignore[union-attr]
+    if type(r) is Struct:
+        rs: Struct = r  # type: ignore[assignment]
+        if t.annots and not unify_annots(t.annots, frame, rs.annots, trail):
+            return False
+        if rs.annots:
+            r = Struct(rs.functor, rs.args, (), rs.neg)
+    return unify(t.var, frame, r, trail)
 
 
 def evaluate(t: Term, frame: Frame | None) -> Term:
     """Evaluate an arithmetic expression template to a number."""
     e: Expr = t  # type: ignore[assignment]
+    if e.fn is not None:
+        return e.fn(e, frame)
     args: list[Number] = []
     for a in e.args:
         v = resolve(a, frame)

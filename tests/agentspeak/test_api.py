@@ -106,3 +106,16 @@ def test_free_variable_in_an_ordinary_action_still_fails() -> None:
     agent.run_until_idle()
     assert host.actions == []
     assert out == ["action_failed"]
+
+
+def test_wait_for_a_goal_event_with_an_annotated_variable_binds_goal_and_source() -> None:
+    out: list[str] = []
+    src = """\
+!w. !kick.
++!w <- .wait({+!T[source(A)]}); .print(T, " from ", A).
++!kick <- !go(1).
++!go(X) <- true.
+"""
+    agent = Agent(src, out=out.append)
+    agent.run_until_idle()
+    assert out == ["go(1) from self"]

@@ -80,3 +80,94 @@ def test_runtime_errors_fail_the_intention_naming_file_and_line(
     assert any("rt.asl:4: arithmetic on a non-number" in m for m in messages), messages
     assert any("rt.asl:5: unbound variable Where in action move(Where)" in m for m in messages)
     assert agent.intentions == {}
+
+
+def test_wrong_argument_count_of_a_math_function_is_a_load_error() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent("+!g <- X = math.abs(1, 2) + 1.", file="f.asl")
+    assert [str(p.message) for p in info.value.problems] == [
+        "math.abs takes 1 argument, not 2"]
+
+
+def _nested(depth: int) -> str:
+    return "f(" * depth + "a" + ")" * depth
+
+
+def test_a_term_300_deep_parses_unifies_and_prints() -> None:
+    out: list[str] = []
+    src = f"!g.\n+!g <- X = {_nested(300)}; +b(X); ?b(Y); .length([Y], N); .print(N).\n"
+    agent = Agent(src, file="deep.asl", out=out.append)
+    agent.run_until_idle()
+    assert out == ["1"]
+
+
+def test_a_term_nested_too_deeply_is_a_syntax_error_with_its_line() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(f"!g.\n+!g <- X = {_nested(1500)}.\n+!h <- true.\n", file="deep.asl")
+    [problem] = info.value.problems
+    assert (problem.line, problem.col) == (2, 1)
+    assert "nested too deeply" in problem.message
+
+
+def test_endless_rule_recursion_and_cyclic_terms_fail_their_intention_only(
+        caplog: pytest.LogCaptureFixture) -> None:
+    out: list[str] = []
+    src = """\
+len([_|T], N) :- len(T, M) & N = M + 1.
+len([], 0).
+!endless.
+!cyclic.
+!fine.
++!endless <- ?len([a|T], N); .print("never").
++!cyclic <- X = [1|X]; .print("never").
++!fine <- .print(one).
+"""
+    agent = Agent(src, file="rec.asl", out=out.append)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        agent.run_until_idle()
+    assert out == ["one"]
+    messages = [r.getMessage() for r in caplog.records]
+    assert any("rec.asl:6: ?len([a|T],N): recursion too deep" in m for m in messages), messages
+    assert any("rec.asl:7: cyclic term: X would be bound to [1|X]" in m for m in messages)
+    assert agent.intentions == {}
+
+
+def test_mrss_agent_reports_endless_recursion_without_a_traceback(tmp_path: Path) -> None:
+    src = tmp_path / "rec.asl"
+    src.write_text("p(X) :- p(X).\n!g.\n+!g <- ?p(1).\n")
+    proc = subprocess.run([sys.executable, "-m", "mrss", "agent", str(src)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0
+    assert "Traceback" not in proc.stderr
+    assert f"{src}:3: ?p(1): recursion too deep" in proc.stderr
+
+
+UNSUPPORTED = """\
+{ include("common.asl") }
+!start.
++!start <- !a |&| !b.
+^!g[state(S)] <- .print(S).
++!n <- ns::b(1).
++!m <- .add_plan({+!x <- true}).
++!s <- .send(bob, tell, hi).
+"""
+
+
+def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(UNSUPPORTED, file="u.asl")
+    found = [(p.line, p.col, p.message) for p in info.value.problems]
+    assert found == [
+        (1, 1, "directives ({include(...)}, {begin ...}) are not supported"),
+        (3, 15, "fork and join (|&| and |||) are not supported"),
+        (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
+        (5, 10, "namespaces (ns::literal) are not supported"),
+        (6, 23, "plan terms ({+!g <- ...}) are not supported"),
+        (7, 8, "internal action .send is not supported (agent communication)"),
+    ]
+
+
+def test_an_initial_belief_with_an_annotation_tail_is_a_load_error() -> None:
+    with pytest.raises(AslSyntaxError, match=r"b.asl:1:1: an initial belief or goal cannot "
+                                             r"have an annotation tail \(b\[a\|T\]\)"):
+        Agent("b[a|T].\n", file="b.asl")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime
+import enum
 import random as _random
 import time as _time
 from collections.abc import Iterator
@@ -17,7 +18,6 @@ from mrss.agentspeak.terms import (
     Term,
     Var,
     deref,
-    is_number,
     term_str,
     value,
 )
@@ -33,6 +33,36 @@ def text_of(t: Term) -> str:
 def print_(ctx: IAContext, args: list[Any]) -> bool:
     """Print the arguments concatenated, no separator, one line per call."""
     ctx.runtime.out("".join(text_of(a) for a in args))
+    return True
+
+
+class LogLevel(enum.Enum):
+    """The levels of `.log` (java.util.logging's); Jason's default console shows INFO
+    and above."""
+
+    SEVERE = "severe"
+    WARNING = "warning"
+    INFO = "info"
+    FINE = "fine"
+    FINER = "finer"
+    FINEST = "finest"
+
+
+_SHOWN = {LogLevel.SEVERE, LogLevel.WARNING, LogLevel.INFO}
+
+
+@STDLIB.action(".log", min_args=1)
+def log_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.log(Level, Args...)`: like `.print` at severe, warning and info (any other
+    atom counts as info, as in Jason); fine, finer and finest are not shown."""
+    level = deref(args[0])
+    if type(level) is not Struct or level.args or level.annots or level.neg:
+        raise ctx.error(f"the level must be an atom (severe, warning, info, fine, finer or "
+                        f"finest), not {term_str(level)}")
+    known = {lv.value: lv for lv in LogLevel}
+    if known.get(level.functor, LogLevel.INFO) in _SHOWN:
+        ctx.runtime.out("".join(text_of(a) + ("<no-value>" if type(deref(a)) is Var else "")
+                                for a in args[1:]))
     return True
 
 
@@ -151,26 +181,3 @@ def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         if len(args) < 3 or ctx.unify(args[2], start):
             yield
         start = whole.find(sub, start + 1)
-
-
-@STDLIB.action(".string", min_args=1, max_args=1)
-def string_(ctx: IAContext, args: list[Any]) -> bool:
-    return type(deref(args[0])) is str
-
-
-@STDLIB.action(".number", min_args=1, max_args=1)
-def number_(ctx: IAContext, args: list[Any]) -> bool:
-    return is_number(deref(args[0]))
-
-
-@STDLIB.action(".atom", min_args=1, max_args=1)
-def atom_(ctx: IAContext, args: list[Any]) -> bool:
-    t = deref(args[0])
-    return type(t) is Struct and not t.args and not t.neg
-
-
-@STDLIB.action(".ground", min_args=1, max_args=1)
-def ground_(ctx: IAContext, args: list[Any]) -> bool:
-    from mrss.agentspeak.terms import is_ground
-
-    return is_ground(args[0])
