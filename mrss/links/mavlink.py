@@ -55,7 +55,7 @@ class MavlinkLink(RobotLink):
         command_timeout: float = 1.0, retries: int = 3,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
-        failsafe: FailsafePolicy | None = None,
+        failsafe: FailsafePolicy | None = None, signing_key: bytes | None = None,
     ) -> None:
         super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
                          failsafe=failsafe)
@@ -64,6 +64,7 @@ class MavlinkLink(RobotLink):
         self.heartbeat_timeout = heartbeat_timeout
         self.command_timeout = command_timeout
         self.retries = retries
+        self.signing_key = signing_key
         self.mode: str | None = None
         self.armed = False
         self.landed: bool | None = None
@@ -91,7 +92,9 @@ class MavlinkLink(RobotLink):
         try:
             self._conn = MavConnection(self.url, source_system=255,
                                        source_component=MAV.MAV_COMP_ID_MISSIONPLANNER,
-                                       udp_timeout=self.heartbeat_timeout)
+                                       udp_timeout=self.heartbeat_timeout,
+                                       signing_key=self.signing_key, link_id=1,
+                                       name=f"link {self.robot_id}", log=self.log)
         except (OSError, ValueError) as exc:
             raise LinkError(self.robot_id, f"cannot open {self.url}: {exc}") from exc
         self._set_link_state(False, "waiting for first heartbeat")
@@ -107,6 +110,15 @@ class MavlinkLink(RobotLink):
         if self._conn is not None:
             self._conn.close()
         self._mark_closed()
+
+    @property
+    def signed(self) -> bool:
+        """Whether the link signs its messages and refuses unsigned ones."""
+        return self.signing_key is not None
+
+    def refused(self) -> dict[str, int]:
+        """Incoming messages refused under signing, by reason ({} without signing)."""
+        return self._conn.refused() if self._conn is not None else {}
 
     # -- commands --------------------------------------------------------------------------
     def command(self, command: int, *params: float, timeout: float | None = None) -> int:
