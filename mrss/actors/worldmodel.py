@@ -96,6 +96,28 @@ def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None, *,
     return http
 
 
+def http_settings(section: Mapping[str, Any], project_dir: Path | None
+                  ) -> tuple[tuple[str, int] | None, str | None, float]:
+    """((host, port) or None without HTTP, token, timeout); ConfigError naming the key,
+    also when the API would be served beyond loopback without a token."""
+    if not section.get("http", True):
+        return None, None, DEFAULT_TIMEOUT
+    host = section.get("http_host", "127.0.0.1")
+    port = section.get("http_port", 0)
+    timeout = section.get("http_timeout", DEFAULT_TIMEOUT)
+    if not isinstance(host, str) or not host:
+        raise ConfigError("must be a host name or address", key="worldmodel.http_host")
+    if isinstance(port, bool) or not isinstance(port, int):
+        raise ConfigError("must be an integer", key="worldmodel.http_port")
+    if isinstance(timeout, bool) or not isinstance(timeout, int | float) or timeout <= 0:
+        raise ConfigError("must be a positive number of seconds", key="worldmodel.http_timeout")
+    token = configured_token(section, project_dir)
+    problem = exposure_problem(host, token is not None)
+    if problem:
+        raise ConfigError(problem, key=f"worldmodel.{TOKEN_FILE_KEY}")
+    return (host, port), token, float(timeout)
+
+
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
     """Where the SQLite file goes: `path` under the run folder, or ':memory:'."""
     path = section.get("path", "worldmodel.sqlite")
@@ -138,10 +160,11 @@ class WorldModelComponent(Component):
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus and percept channel from the context, then `run`."""
+        config = edge_config(ctx, "worldmodel")
+        http_settings(table(config, "worldmodel"), ctx.project_dir)  # refused before the bus
         bus = bus_port(ctx)
         self._percepts = PerceptChannel.for_component(ctx)
-        self.run(ctx.project_dir, ctx.run_dir, edge_config(ctx, "worldmodel"), bus,
-                 percepts=self._percepts.send)
+        self.run(ctx.project_dir, ctx.run_dir, config, bus, percepts=self._percepts.send)
         bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path | None, run_dir: Path | None, config: Mapping[str, Any],
@@ -151,6 +174,7 @@ class WorldModelComponent(Component):
         Rules' percepts go to `percepts` (default: published on `bus`).
         """
         section = table(config, "worldmodel")
+        http, token, timeout = http_settings(section, project_dir)  # refused before anything
         rules = RuleEngine(load_rules(project_dir, section))
         self._bus = bus
         send: PerceptSend = percepts or bus.publish
@@ -161,23 +185,9 @@ class WorldModelComponent(Component):
         self.world = WorldModel(WorldModelStore(store_path(run_dir, section)), rules, emit)
         seeded = load_seed(self.world, project_dir, section)
         bus.subscribe([WM_REQUEST_TOPIC], self._on_request)
-        if section.get("http", True):
-            host = section.get("http_host", "127.0.0.1")
-            port = section.get("http_port", 0)
-            timeout = section.get("http_timeout", DEFAULT_TIMEOUT)
-            if not isinstance(host, str) or not isinstance(port, int):
-                raise ConfigError("http_host must be a string and http_port an integer",
-                                  key="worldmodel.http_port")
-            if isinstance(timeout, bool) or not isinstance(timeout, int | float) \
-                    or timeout <= 0:
-                raise ConfigError("must be a positive number of seconds",
-                                  key="worldmodel.http_timeout")
-            token = configured_token(section, project_dir)
-            problem = exposure_problem(host, token is not None)
-            if problem:
-                raise ConfigError(problem, key=f"worldmodel.{TOKEN_FILE_KEY}")
-            self.http = serve_http(self.world, host, port, run_dir, token=token,
-                                   timeout=float(timeout))
+        if http is not None:
+            self.http = serve_http(self.world, *http, run_dir, token=token,
+                                   timeout=timeout)
             self.http.start()
         log.info("world model up: %d rules, %d seeded objects, HTTP %s%s", len(rules.rules),
                  seeded, self.http.url if self.http else "off",

@@ -118,8 +118,8 @@ class _Handler(BaseHTTPRequestHandler):
                 self.send_error(HTTPStatus.REQUEST_URI_TOO_LONG,
                                 f"request line over {MAX_REQUEST_LINE} bytes")
                 return
-            if not self.raw_requestline:
-                self.close_connection = True
+            if not self.raw_requestline.endswith(b"\n"):
+                self.close_connection = True  # the client left mid-line (or sent nothing)
                 return
             if not self.parse_request():
                 return
@@ -130,6 +130,8 @@ class _Handler(BaseHTTPRequestHandler):
                 return
             method()
             self.wfile.flush()
+        except (ConnectionError, BrokenPipeError):
+            self.close_connection = True  # the client went away: nothing to answer
         except TimeoutError:
             self.close_connection = True
             if self._answered:
@@ -162,6 +164,8 @@ class _Handler(BaseHTTPRequestHandler):
             status, body = self._route(method)
         except _HttpError as exc:
             status, body = exc.status, {"error": exc.message}
+        except TimeoutError:
+            raise  # the body did not arrive in time: answered 408 by handle_one_request
         except Exception as exc:  # keep serving whatever the service did
             log.exception("world model HTTP %s %s failed", method, self.path)
             status, body = 500, {"error": f"internal error: {exc.__class__.__name__}"}
@@ -253,6 +257,11 @@ def _no_constant(name: str) -> Any:
 
 class _Server(ThreadingHTTPServer):
     daemon_threads = True
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """One line, never a traceback on stderr: a client's bad luck is not ours."""
+        log.warning("world model HTTP: connection from %s failed", client_address,
+                    exc_info=log.isEnabledFor(logging.DEBUG))
 
     def __init__(self, address: tuple[str, int], service: ObjectService, token: str | None,
                  timeout_s: float) -> None:
