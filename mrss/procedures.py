@@ -28,14 +28,18 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
+from urllib.parse import quote
 
 import psutil
 
 from mrss.bus import Subscriber
 from mrss.bus.component import endpoints_from_config
+from mrss.config import load_file
+from mrss.edge.http_token import configured_token
 from mrss.errors import MrssError
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
+from mrss.projects import PROJECT_FILE
 from mrss.testing import WaitTimeout, wait_until
 
 T = TypeVar("T")
@@ -190,9 +194,15 @@ class RunningProject:
 
     def world(self, object_id: str) -> dict[str, Any] | None:
         """A world model object over its HTTP API (None if there is no such object)."""
-        url = f"{self.file('worldmodel.url')}/objects/{object_id}"
+        url = f"{self.file('worldmodel.url')}/objects/{quote(object_id, safe='')}"
+        sections = load_file(self.project_dir / PROJECT_FILE).sections
+        worldmodel = sections.get("worldmodel", {})
+        token = configured_token(worldmodel if isinstance(worldmodel, dict) else {},
+                                 self.project_dir)
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
         try:
-            with urllib.request.urlopen(url, timeout=5) as resp:
+            with urllib.request.urlopen(urllib.request.Request(url, headers=headers),
+                                        timeout=5) as resp:
                 result: dict[str, Any] = json.loads(resp.read())
                 return result
         except urllib.error.HTTPError as exc:
