@@ -1,8 +1,10 @@
-"""The world model's HTTP API: never open beyond loopback without a token.
+"""What the project exposes: the world model's HTTP API and the embedded MQTT broker.
 
-`http_host` not a loopback address needs `token_file` or `token_env` in `[worldmodel]`
-(`mrss.edge.http_token`); both at once is an error; a `token_env` variable unset where
-`mrss check` runs is a warning (the world model refuses to start without it).
+- `http_host` not a loopback address needs `token_file` or `token_env` in `[worldmodel]`
+  (`mrss.edge.http_token`); both at once is an error; a `token_env` variable unset where
+  `mrss check` runs is a warning (the world model refuses to start without it).
+- `[broker.embedded] password_file` needs `[broker] username` (and a password): the
+  project's own clients log in with them (`mrss.edge.broker_auth`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from typing import Any
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, section_key
 from mrss.config import ProjectConfig
+from mrss.edge.broker_auth import PASSWORD_FILE_KEY
 from mrss.edge.http_token import TOKEN_ENV_KEY, TOKEN_FILE_KEY, exposure_problem
 
 
@@ -46,4 +49,23 @@ def check_exposure(config: ProjectConfig, report: Report, table: Mapping[str, An
         host_key, _ = where("http_host")
         key, _ = where(TOKEN_FILE_KEY)
         report.error(str(config.file), problem, line=key_line(config, host_key),
+                     check="options", key=key)
+
+
+def check_broker_login(config: ProjectConfig, report: Report) -> None:
+    """A password file for the embedded broker needs the project's own login."""
+    broker = config.sections.get("broker", {})
+    embedded = broker.get("embedded", {}) if isinstance(broker, Mapping) else {}
+    if not isinstance(embedded, Mapping) or embedded.get(PASSWORD_FILE_KEY) is None \
+            or broker.get("url"):
+        return
+    missing = [k for k in ("username",) if not broker.get(k)]
+    if not (broker.get("password") or broker.get("password_env")):
+        missing.append("password_env")
+    if missing:
+        key = f"broker.embedded.{PASSWORD_FILE_KEY}"
+        report.error(str(config.file), "the embedded broker only lets in the users of its "
+                     "password file, and the project's own clients (events manager, MQTT "
+                     "links, simulators) log in with [broker] username and password_env (or "
+                     f"password): set {' and '.join(missing)}", line=key_line(config, key),
                      check="options", key=key)

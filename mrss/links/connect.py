@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.config import load_file
-from mrss.edge.component import resolved_broker_url
+from mrss.edge.component import resolved_broker_url, with_login
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.factory import create_link
@@ -53,11 +53,14 @@ def simulator_address(run_dir: Path | None, robot: str) -> str:
 
 
 def project_broker_url(project_dir: Path | None, run_dir: Path | None) -> str | None:
-    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's."""
+    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's,
+    with the project's login (`[broker] username`, `password`/`password_env`) if any."""
     sections: Mapping[str, Any] = {}
     if project_dir is not None and (project_dir / PROJECT_FILE).is_file():
         sections = load_file(project_dir / PROJECT_FILE).sections
-    return resolved_broker_url(sections, run_dir)
+    url = resolved_broker_url(sections, run_dir)
+    broker = sections.get("broker", {})
+    return with_login(url, broker) if url and isinstance(broker, Mapping) else url
 
 
 def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | None,

@@ -115,6 +115,10 @@ MISTAKES = [
     Mistake("world model token too short", "project.toml", "[worldmodel]",
             '[worldmodel]\ntoken_file = "agent.asl"', 'token_file = "agent.asl"',
             r"must be 16 to 512 characters|visible ASCII characters without spaces"),
+    Mistake("embedded broker password file missing", "project.toml", "",
+            '\n[broker]\nusername = "ops"\npassword_env = "MQTT_PASSWORD"\n'
+            '[broker.embedded]\npassword_file = "secrets/mqtt.passwd"\n', "mqtt.passwd",
+            r"cannot read password file 'secrets/mqtt.passwd'"),
     Mistake("robot id not an atom", "project.toml", "[components.rcl.robots.robot1]",
             "[components.rcl.robots.Robot1]", "Robot1", r"a robot id must be a lowercase"),
     # agent.asl
