@@ -11,6 +11,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mrss.edge.http_token import configured_token, exposure_problem, is_loopback
 from mrss.edge.worldmodel_access import HttpWorldModel, WorldModelClient, WorldModelRejected
@@ -244,3 +246,33 @@ def test_a_slow_client_waits_alone(guarded: WorldModelHttp) -> None:
             sock.close()
     wait_until(lambda: request(guarded, "GET", "/objects", headers=bearer(TOKEN))[0] == 200,
                timeout=10, message="serving after the stalled clients left")
+
+
+@pytest.fixture(scope="module")
+def shared() -> Iterator[WorldModelHttp]:
+    server = serve(TOKEN, timeout=2.0)
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@settings(max_examples=80, deadline=None)
+@given(line=st.binary(max_size=120), headers=st.lists(st.binary(max_size=60), max_size=5))
+def test_any_bytes_get_a_json_answer_or_a_closed_connection(
+        shared: WorldModelHttp, line: bytes, headers: list[bytes]) -> None:
+    data = line + b"\r\n" + b"".join(h.replace(b"\n", b"") + b"\r\n" for h in headers) \
+        + b"Connection: close\r\n\r\n"
+    with socket.create_connection(address(shared), timeout=10) as sock:
+        sock.sendall(data)
+        received = b""
+        while chunk := sock.recv(65536):
+            received += chunk
+    if received:
+        head, _, body = received.partition(b"\r\n\r\n")
+        assert head.startswith(b"HTTP/1.1 "), received[:200]
+        assert b"content-type: application/json" in head.lower()
+        answer = json.loads(body)
+        assert isinstance(answer, dict) and set(answer) == {"error"}
+    status, _, _ = request(shared, "GET", "/objects", headers=bearer(TOKEN))
+    assert status == 200

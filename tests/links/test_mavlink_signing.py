@@ -10,11 +10,14 @@ from __future__ import annotations
 import secrets
 import socket
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mrss.errors import ConfigError
 from mrss.links.errors import CommandTimeout, LinkDown
@@ -241,3 +244,48 @@ def test_bad_key_files_are_refused_naming_the_option(tmp_path: Path, content: by
     with pytest.raises(ConfigError, match="cannot read signing key file"):
         create_link("uav1", "mavlink", {"url": "udpin:127.0.0.1:14550",
                                         "signing_key": str(tmp_path / "none.key")})
+
+
+@pytest.fixture(scope="module")
+def fuzzed(tmp_path_factory: pytest.TempPathFactory
+           ) -> Iterator[tuple[MavlinkLink, list[dict[str, Any]], int, MavConnection]]:
+    path, key = key_file(tmp_path_factory.mktemp("fuzz"))
+    port = free_udp_port()
+    records: list[dict[str, Any]] = []
+    link = MavlinkLink("uav9", f"udpin:127.0.0.1:{port}", signing_key=load_key(path),
+                       on_telemetry=records.append)
+    link.start()
+    vehicle = Vehicle(port, key)
+    try:
+        link.wait_up(timeout=10)
+        yield link, records, port, vehicle.conn
+    finally:
+        vehicle.close()
+        link.close()
+
+
+@settings(max_examples=60, deadline=None)
+@given(where=st.integers(0, 200), flip=st.integers(1, 255))
+def test_a_signed_message_altered_in_any_byte_is_refused(
+        fuzzed: tuple[MavlinkLink, list[dict[str, Any]], int, MavConnection],
+        where: int, flip: int) -> None:
+    link, records, port, genuine = fuzzed
+    mav = genuine.conn.mav
+    with genuine._send_lock:  # the vehicle thread signs with the same state
+        packet = bytearray(mav.statustext_encode(
+            MAV.MAV_SEVERITY_NOTICE, b"HOTSPOT 7 -35.3625430 149.1652370 400").pack(mav))
+    packet[where % len(packet)] ^= flip
+    records.clear()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.sendto(bytes(packet), ("127.0.0.1", port))
+    sentinel = f"SENTINEL {where}.{flip}"
+    sent_at = [0.0]
+
+    def heard() -> bool:  # said again every 0.5 s, should a datagram be lost
+        if time.monotonic() - sent_at[0] > 0.5:
+            sent_at[0] = time.monotonic()
+            say(genuine, sentinel)
+        return sentinel in texts(records)
+    wait_until(heard, timeout=10, message=sentinel)
+    assert not [r for r in list(records) if r["type"] == "hotspot"]
+    assert set(texts(records)) == {sentinel} and link.up
