@@ -107,8 +107,8 @@ MISTAKES = [
             SIM_UAV + 'signing_key = "keys/uav.key"\n', "keys/uav.key",
             r"cannot read signing key file 'keys/uav.key'"),
     Mistake("world model served beyond loopback without a token", "project.toml",
-            "[worldmodel]", '[worldmodel]\nhttp_host = "0.0.0.0"', "http_host =",
-            r"http_host '0.0.0.0' is not a loopback address.*set \[worldmodel\] token_file"),
+            "[worldmodel]", '[worldmodel]\nhttp_host = "10.1.2.3"', "10.1.2.3",
+            r"http_host '10.1.2.3' is not a loopback address.*set \[worldmodel\] token_file"),
     Mistake("world model token file missing", "project.toml", "[worldmodel]",
             '[worldmodel]\ntoken_file = "secrets/wm.token"', "secrets/wm.token",
             r"cannot read token file 'secrets/wm.token'"),
@@ -117,8 +117,8 @@ MISTAKES = [
             r"must be 16 to 512 characters|visible ASCII characters without spaces"),
     Mistake("embedded broker password file missing", "project.toml", "",
             '\n[broker]\nusername = "ops"\npassword_env = "MQTT_PASSWORD"\n'
-            '[broker.embedded]\npassword_file = "secrets/mqtt.passwd"\n', "mqtt.passwd",
-            r"cannot read password file 'secrets/mqtt.passwd'"),
+            '[broker.embedded]\npassword_file = "secrets/broker.passwd"\n', "broker.passwd",
+            r"cannot read password file 'secrets/broker.passwd'"),
     Mistake("robot id not an atom", "project.toml", "[components.rcl.robots.robot1]",
             "[components.rcl.robots.Robot1]", "Robot1", r"a robot id must be a lowercase"),
     # agent.asl
