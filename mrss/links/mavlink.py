@@ -33,6 +33,9 @@ from mrss.links.mavlink_telemetry import telemetry_of
 GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
 TEXT_REASON_WINDOW_S = 1.0
+REFUSAL_CHECK_S = 0.5
+REFUSED_SUFFIX = "; refused "
+HEARTBEAT_REASONS = ("waiting for first heartbeat", "no heartbeat for")
 
 
 class _PendingCommand:
@@ -80,6 +83,8 @@ class MavlinkLink(RobotLink):
         self._mission_replies: queue.Queue[Any] = queue.Queue()
         self._last_warning: tuple[float, str] | None = None
         self._reported: tuple[str | None, bool, bool | None] = (None, False, None)
+        self._next_refusal_check = 0.0
+        self._refusals_explained = 0
         self._failsafe = VehicleFailsafe(
             robot_id, failsafe, command_timeout, retries, send_param=self._send_param,
             record=self._failsafe_record, down=self._report_failsafe,
@@ -296,10 +301,27 @@ class MavlinkLink(RobotLink):
                         MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0,
                         MAV.MAV_STATE_ACTIVE))
             self._failsafe.tick(now)
+            self._explain_refusals(now)
             last = self._last_heartbeat
             if self.up and not draining and last is not None \
                     and now - last > self.heartbeat_timeout:
                 self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
+
+    def _explain_refusals(self, now: float) -> None:
+        """While no heartbeat comes, say in the down reason what signing refused."""
+        conn = self._conn
+        if self.up or conn is None or conn.signing is None or now < self._next_refusal_check:
+            return
+        self._next_refusal_check = now + REFUSAL_CHECK_S
+        totals = conn.refused()
+        count = sum(totals.values())
+        base = self.reason.split(REFUSED_SUFFIX)[0]
+        if count <= self._refusals_explained or not base.startswith(HEARTBEAT_REASONS):
+            return
+        self._refusals_explained = count
+        detail = ", ".join(f"{n} {why}" for why, n in totals.items() if n)
+        self._set_link_state(False, f"{base}{REFUSED_SUFFIX}{count} messages not signed "
+                                    f"with this link's key ({detail})")
 
     def _dispatch_message(self, msg: Any) -> None:
         kind = msg.get_type()

@@ -7,6 +7,7 @@ replayed messages are counted, never handled.
 
 from __future__ import annotations
 
+import logging
 import secrets
 import socket
 import threading
@@ -20,6 +21,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mrss.errors import ConfigError
+from mrss.links import mavlink_signing
 from mrss.links.errors import CommandTimeout, LinkDown
 from mrss.links.factory import create_link
 from mrss.links.geo import offset
@@ -120,6 +122,27 @@ def test_unsigned_and_wrongly_signed_statustexts_are_refused_a_signed_one_passes
     assert link.up and link.refused()["replayed"] == 0
 
 
+def test_a_flood_of_refusals_is_logged_once_per_interval_without_traceback(
+        signed_link: tuple[MavlinkLink, list[dict[str, Any]], int, bytes],
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    link, _, port, _ = signed_link
+    monkeypatch.setattr(mavlink_signing, "LOG_INTERVAL_S", 3600.0)
+    caplog.set_level(logging.WARNING)
+    spoofer = MavConnection(f"udpout:127.0.0.1:{port}", source_system=SYSID,
+                            source_component=1)
+    try:
+        for n in range(30):
+            say(spoofer, f"spoof {n}")
+        wait_until(lambda: link.refused()["unsigned"] >= 30, timeout=10,
+                   message="30 refusals")
+    finally:
+        spoofer.close()
+    lines = [r for r in caplog.records if "refused MAVLink messages" in r.getMessage()]
+    assert len(lines) == 1 and lines[0].exc_info is None
+    assert "1 unsigned" in lines[0].getMessage()
+    assert not [r for r in caplog.records if r.exc_info]
+
+
 def test_a_replayed_signed_datagram_is_refused(
         signed_link: tuple[MavlinkLink, list[dict[str, Any]], int, bytes]) -> None:
     link, records, port, key = signed_link
@@ -169,7 +192,11 @@ def test_a_signed_link_never_comes_up_on_an_unsigned_vehicle(tmp_path: Path) -> 
     try:
         wait_until(lambda: link.refused()["unsigned"] >= 3, timeout=10,
                    message="heartbeats refused")
-        with pytest.raises(LinkDown, match="waiting for first heartbeat"):
+        wait_until(lambda: "not signed with this link's key" in link.reason, timeout=10,
+                   message="the reason names the refusals")
+        with pytest.raises(LinkDown, match=r"waiting for first heartbeat; refused \d+ "
+                                           r"messages not signed with this link's key "
+                                           r"\(\d+ unsigned\)"):
             link.wait_up(timeout=0.1)
         assert link.target_system is None
     finally:
