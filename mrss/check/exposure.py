@@ -5,12 +5,15 @@
   `mrss check` runs is a warning (the world model refuses to start without it).
 - `[broker.embedded] password_file` needs `[broker] username` (and a password): the
   project's own clients log in with them (`mrss.edge.broker_auth`).
+- A secret file (signing key, token, password file) others than its owner may read is a
+  warning (`secret_mode_warning`).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from mrss.check.findings import Report
@@ -32,6 +35,7 @@ def check_exposure(config: ProjectConfig, report: Report, table: Mapping[str, An
         key = section_key(config, "worldmodel", comp_id, name)
         return key, key_line(config, key)
 
+    warn_secret(config, report, where(TOKEN_FILE_KEY)[0], file_name, "token file")
     if file_name is not None and env_name is not None:
         key, line = where(TOKEN_ENV_KEY)
         report.error(str(config.file), f"give {TOKEN_FILE_KEY} or {TOKEN_ENV_KEY}, not both",
@@ -59,6 +63,8 @@ def check_broker_login(config: ProjectConfig, report: Report) -> None:
     if not isinstance(embedded, Mapping) or embedded.get(PASSWORD_FILE_KEY) is None \
             or broker.get("url"):
         return
+    warn_secret(config, report, f"broker.embedded.{PASSWORD_FILE_KEY}",
+                embedded.get(PASSWORD_FILE_KEY), "password file")
     missing = [k for k in ("username",) if not broker.get(k)]
     if not (broker.get("password") or broker.get("password_env")):
         missing.append("password_env")
@@ -69,3 +75,25 @@ def check_broker_login(config: ProjectConfig, report: Report) -> None:
                      "links, simulators) log in with [broker] username and password_env (or "
                      f"password): set {' and '.join(missing)}", line=key_line(config, key),
                      check="options", key=key)
+
+
+def secret_mode_warning(path: Path, shown: str, what: str) -> str | None:
+    """A warning when others than the owner may read a secret file (POSIX modes), or None."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return None  # a missing file is the options check's error
+    if mode & 0o077:
+        return (f"{what} {shown!r} may be read by others than its owner (mode "
+                f"{mode & 0o777:o}); chmod 600 it")
+    return None
+
+
+def warn_secret(config: ProjectConfig, report: Report, key: str, value: Any,
+                what: str) -> None:
+    """`secret_mode_warning` of a project-relative file named at `key`, as a finding."""
+    if isinstance(value, str) and value:
+        warning = secret_mode_warning(config.directory / value, value, what)
+        if warning:
+            report.warning(str(config.file), warning, line=key_line(config, key),
+                           check="options", key=key)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from mrss.check.exposure import warn_secret
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.options import mavlink_url_problem, url_problem, value_problem
 from mrss.check.toml_lines import key_line
@@ -20,7 +21,7 @@ from mrss.config import Option, ProjectConfig
 from mrss.edge.predicates import is_atom_name
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
-from mrss.links.mavlink_signing import key_problem, key_warning
+from mrss.links.mavlink_signing import key_problem
 
 URL_OPTIONS = {("mavlink", "url"): mavlink_url_problem, ("mqtt", "broker_url"): url_problem,
                ("http", "url"): http_url_problem}
@@ -63,11 +64,9 @@ def check_robots(config: ProjectConfig, report: Report, comp_id: str, robots: An
             problem = key_problem(config.directory / key_file, key_file)
             if problem:
                 problems.append(("signing_key", problem))
-            warning = None if problem else key_warning(config.directory / key_file, key_file)
-            if warning:
-                report.warning(str(config.file), warning,
-                               line=key_line(config, f"{rkey}.signing_key"), check="robots",
-                               key=f"{rkey}.signing_key")
+            if not problem:
+                warn_secret(config, report, f"{rkey}.signing_key", key_file,
+                            "signing key file")
         for name, problem in problems:
             report.error(str(config.file), problem, line=key_line(config, f"{rkey}.{name}"),
                          check="robots", key=f"{rkey}.{name}")

@@ -67,18 +67,6 @@ def key_problem(path: Path, shown: str | None = None) -> str | None:
     return None
 
 
-def key_warning(path: Path, shown: str | None = None) -> str | None:
-    """A warning when others than the owner may read the key file (POSIX modes), or None."""
-    try:
-        mode = path.stat().st_mode
-    except OSError:
-        return None
-    if mode & 0o077:
-        return (f"signing key file {shown or str(path)!r} may be read by others than its "
-                f"owner (mode {mode & 0o777:o}); chmod 600 it")
-    return None
-
-
 def load_key(path: str | Path, base: Path | None = None, *, key: str = "signing_key") -> bytes:
     """The 32-byte secret of a key file (relative to `base`); ConfigError naming `key`."""
     full = Path(path)

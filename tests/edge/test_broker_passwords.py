@@ -155,7 +155,12 @@ def test_mrss_check_wants_the_projects_login_with_a_password_file(tmp_path: Path
     assert "set username and password_env" in errors[0]["message"]
     (folder / "project.toml").write_text(PROJECT_TOML.replace(
         "[broker]", '[components.broker]\nmodule = "mrss.broker:EmbeddedBroker"\n[broker]'))
+    (folder / "secrets" / "mqtt.passwd").chmod(0o644)
     out = subprocess.run([sys.executable, "-m", "mrss", "check", "guarded", "--json"],
                          capture_output=True, text=True, timeout=120,
                          env={"MRSS_PROJECTS": str(folder.parent), "PATH": "/usr/bin:/bin"})
-    assert json.loads(out.stdout)["ok"], out.stdout
+    report = json.loads(out.stdout)
+    assert report["ok"], out.stdout
+    assert [(f["severity"], f["key"]) for f in report["findings"]] == [
+        ("warning", "broker.embedded.password_file")]
+    assert "chmod 600" in report["findings"][0]["message"]
