@@ -150,17 +150,27 @@ class _Handler(BaseHTTPRequestHandler):
             except OSError:
                 pass
 
+    def handle_expect_100(self) -> bool:
+        """`Expect: 100-continue`: a request without the token is refused before its body."""
+        if not authorized(self.headers.get("Authorization"), self.server.token):
+            self._refuse_unauthorized(self.command or "?")
+            return False
+        return bool(super().handle_expect_100())
+
+    def _refuse_unauthorized(self, method: str) -> None:
+        log.info("world model HTTP: %s %s from %s without a valid token", method,
+                 urlsplit(self.path).path[:80], self.address_string())
+        self._reply(HTTPStatus.UNAUTHORIZED, {
+            "error": "missing or wrong token: send 'Authorization: Bearer <token>' "
+                     "(the [worldmodel] token of the project)"}, close=True)
+
     def end_headers(self) -> None:
         self._answered = True
         super().end_headers()
 
     def _dispatch(self, method: str) -> None:
         if not authorized(self.headers.get("Authorization"), self.server.token):
-            log.info("world model HTTP: %s %s from %s without a valid token", method,
-                     urlsplit(self.path).path[:80], self.address_string())
-            self._reply(HTTPStatus.UNAUTHORIZED, {
-                "error": "missing or wrong token: send 'Authorization: Bearer <token>' "
-                         "(the [worldmodel] token of the project)"}, close=True)
+            self._refuse_unauthorized(method)
             return
         self._body_read = False
         try:

@@ -110,6 +110,14 @@ def test_a_refused_post_body_is_never_read_as_the_next_request(
     assert status == 401 and head["connection"] == "close"  # raw() read to the end: one answer
 
 
+def test_expect_100_continue_without_the_token_is_refused_before_the_body(
+        guarded: WorldModelHttp) -> None:
+    status, head, body = raw(guarded, b"POST /objects HTTP/1.1\r\nContent-Length: 20\r\n"
+                             b"Expect: 100-continue\r\n\r\n")
+    assert status == 401 and head["connection"] == "close"   # no "100 Continue" first
+    assert "Authorization: Bearer" in body["error"]
+
+
 def test_the_clients_send_the_token(guarded: WorldModelHttp, tmp_path: Path) -> None:
     client = HttpWorldModel(guarded.url, token=TOKEN)
     assert client.upsert(HOTSPOT)["op"] == "insert"
