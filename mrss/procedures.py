@@ -34,12 +34,10 @@ import psutil
 
 from mrss.bus import Subscriber
 from mrss.bus.component import endpoints_from_config
-from mrss.config import load_file
-from mrss.edge.http_token import configured_token
+from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
-from mrss.projects import PROJECT_FILE
 from mrss.testing import WaitTimeout, wait_until
 
 T = TypeVar("T")
@@ -195,10 +193,7 @@ class RunningProject:
     def world(self, object_id: str) -> dict[str, Any] | None:
         """A world model object over its HTTP API (None if there is no such object)."""
         url = f"{self.file('worldmodel.url')}/objects/{quote(object_id, safe='')}"
-        sections = load_file(self.project_dir / PROJECT_FILE).sections
-        worldmodel = sections.get("worldmodel", {})
-        token = configured_token(worldmodel if isinstance(worldmodel, dict) else {},
-                                 self.project_dir)
+        token = project_token(self.project_dir)
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         try:
             with urllib.request.urlopen(urllib.request.Request(url, headers=headers),

@@ -98,6 +98,19 @@ def configured_token(section: Mapping[str, Any], project_dir: Path | None) -> st
     return None
 
 
+def project_token(project_dir: Path) -> str | None:
+    """The world model token of the project in `project_dir` (its project.toml's
+    `[worldmodel]`), or None; ConfigError naming the key when it cannot be read."""
+    from mrss.config import load_file
+    from mrss.projects import PROJECT_FILE
+
+    path = project_dir / PROJECT_FILE
+    if not path.is_file():
+        return None
+    section = load_file(path).sections.get(SECTION, {})
+    return configured_token(section if isinstance(section, Mapping) else {}, project_dir)
+
+
 def exposure_problem(host: str, has_token: bool) -> str | None:
     """Why serving on `host` is refused (beyond loopback without a token), or None."""
     if has_token or is_loopback(host):
