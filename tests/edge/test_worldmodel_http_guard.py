@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mrss.api import world_model_token
 from mrss.edge.http_token import configured_token, exposure_problem, is_loopback
 from mrss.edge.worldmodel_access import HttpWorldModel, WorldModelClient, WorldModelRejected
 from mrss.edge.worldmodel_http import WorldModelHttp
@@ -209,6 +210,9 @@ def test_token_configuration_and_exposure_rules(tmp_path: Path,
     monkeypatch.setenv("WM_TOKEN", TOKEN)
     assert configured_token({"token_env": "WM_TOKEN"}, tmp_path) == TOKEN
     assert configured_token({}, tmp_path) is None
+    assert world_model_token(tmp_path) is None                       # no project.toml
+    (tmp_path / "project.toml").write_text('[worldmodel]\ntoken_file = "wm.token"\n')
+    assert world_model_token(tmp_path) == TOKEN                      # mrss.api's helper
     for section, key, says in [
         ({"token_file": "none.token"}, "worldmodel.token_file", "cannot read token file"),
         ({"token_env": "NO_SUCH_VAR_XYZ"}, "worldmodel.token_env", "is not set"),
