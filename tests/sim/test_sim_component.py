@@ -130,6 +130,12 @@ def test_signed_uav_component_and_the_robot_table_share_a_project_key_file(
         # unsigned link hears nothing, while the signed one stays up.
         assert not unsigned.up and unsigned.target_system is None
         assert signed.up and sim.uav is not None and sim.uav.snapshot().mode == "GUIDED"
+        sim.stop()                                 # a new incarnation signs with a new
+        wait_until(lambda: not signed.up, 15, message="the link to drop")  # timestamp
+        sim = SimUavComponent()
+        sim.start(ctx)
+        wait_until(lambda: signed.up, 15, message="the signed link back up")
+        assert signed.refused()["replayed"] == 0
     finally:
         for link in links:
             link.close()
