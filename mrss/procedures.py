@@ -36,6 +36,7 @@ from mrss.bus import Subscriber
 from mrss.bus.component import endpoints_from_config
 from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
+from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
 from mrss.testing import WaitTimeout, wait_until
@@ -206,10 +207,11 @@ class RunningProject:
             raise
 
     def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
-        """Publish a JSON message (QoS 1) on the system's broker, as an outside client."""
+        """Publish a JSON message (QoS 1) on the system's broker, as an outside client
+        (with the project's `[broker]` login, if it has one)."""
         try:
-            publish_json(self.file("broker.url"), topic, payload,
-                         client_id=f"procedure-{os.getpid()}")
+            url = project_broker_url(self.project_dir, self.run_dir) or self.file("broker.url")
+            publish_json(url, topic, payload, client_id=f"procedure-{os.getpid()}")
         except MrssError as exc:
             raise AssertionError(str(exc)) from None
 
