@@ -61,6 +61,7 @@ class RunningProject:
         self._lock = threading.Lock()
         self._sub: Subscriber | None = None
         self._tree: list[psutil.Process] = []
+        self._token: tuple[str | None] | None = None  # the world model token, once read
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> RunningProject:
@@ -194,7 +195,9 @@ class RunningProject:
     def world(self, object_id: str) -> dict[str, Any] | None:
         """A world model object over its HTTP API (None if there is no such object)."""
         url = f"{self.file('worldmodel.url')}/objects/{quote(object_id, safe='')}"
-        token = project_token(self.project_dir)
+        if self._token is None:
+            self._token = (project_token(self.project_dir),)  # read once
+        token = self._token[0]
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         try:
             with urllib.request.urlopen(urllib.request.Request(url, headers=headers),
