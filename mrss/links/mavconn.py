@@ -155,3 +155,16 @@ def _bind_loopback_sender(conn: Any) -> None:
             conn.port.bind(("127.0.0.1", 0))
     except (ValueError, OSError):
         return
+
+
+def text_of(msg: Any, field: str = "text") -> str:
+    """A message's text field (STATUSTEXT text, PARAM_VALUE param_id) as a str."""
+    raw = getattr(msg, field)
+    text = raw if isinstance(raw, str) else raw.decode("utf-8", "replace")
+    return str(text).rstrip("\x00")
+
+
+def enum_name(enum: str, value: int) -> str:
+    """The name of a MAVLink enum value, e.g. MAV_RESULT_DENIED, or ENUM(n) if unknown."""
+    entry = MAV.enums.get(enum, {}).get(value)
+    return entry.name if entry is not None else f"{enum}({value})"

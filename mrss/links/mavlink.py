@@ -25,17 +25,16 @@ from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
 from mrss.links.failsafe import CONTROLLER_HEARTBEAT_S, FailsafeEvent, FailsafePolicy
 from mrss.links.geo import distance_m
-from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavconn import MAV, MavConnection, enum_name, text_of
 from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
+from mrss.links.mavlink_signing import down_reason
 from mrss.links.mavlink_telemetry import telemetry_of
 
 GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
 TEXT_REASON_WINDOW_S = 1.0
 REFUSAL_CHECK_S = 0.5
-REFUSED_SUFFIX = "; refused "
-HEARTBEAT_REASONS = ("waiting for first heartbeat", "no heartbeat for")
 
 
 class _PendingCommand:
@@ -129,7 +128,7 @@ class MavlinkLink(RobotLink):
     def command(self, command: int, *params: float, timeout: float | None = None) -> int:
         """Send a COMMAND_LONG until acknowledged; return the MAV_RESULT if ACCEPTED."""
         timeout = self.command_timeout if timeout is None else timeout
-        name = _enum_name("MAV_CMD", command)
+        name = enum_name("MAV_CMD", command)
         values = [float(p) for p in params] + [0.0] * (7 - len(params))
         with self._command_lock:
             for attempt in range(self.retries):
@@ -272,7 +271,7 @@ class MavlinkLink(RobotLink):
                 return None
 
     def _describe(self, result: int, sent_at: float) -> str:
-        text = _enum_name("MAV_RESULT", result)
+        text = enum_name("MAV_RESULT", result)
         warning = self._last_warning
         if warning is not None and warning[0] >= sent_at - TEXT_REASON_WINDOW_S:
             text += f" ({warning[1]})"
@@ -314,14 +313,10 @@ class MavlinkLink(RobotLink):
             return
         self._next_refusal_check = now + REFUSAL_CHECK_S
         totals = conn.refused()
-        count = sum(totals.values())
-        base = self.reason.split(REFUSED_SUFFIX)[0]
-        if count <= self._refusals_explained or not base.startswith(HEARTBEAT_REASONS):
-            return
-        self._refusals_explained = count
-        detail = ", ".join(f"{n} {why}" for why, n in totals.items() if n)
-        self._set_link_state(False, f"{base}{REFUSED_SUFFIX}{count} messages not signed "
-                                    f"with this link's key ({detail})")
+        reason = down_reason(self.reason, totals, self._refusals_explained)
+        if reason is not None:
+            self._refusals_explained = sum(totals.values())
+            self._set_link_state(False, reason)
 
     def _dispatch_message(self, msg: Any) -> None:
         kind = msg.get_type()
@@ -329,7 +324,7 @@ class MavlinkLink(RobotLink):
             self._on_heartbeat(msg)
             return
         if kind == "STATUSTEXT" and self.target_system is None:
-            self._failsafe.on_text(_text_of(msg))  # may come before the first heartbeat
+            self._failsafe.on_text(text_of(msg))  # may come before the first heartbeat
             return
         if self.target_system is None or msg.get_srcSystem() != self.target_system:
             return
@@ -350,7 +345,7 @@ class MavlinkLink(RobotLink):
         elif kind == "STATUSTEXT":
             self._on_text(msg)
         elif kind == "PARAM_VALUE":
-            self._failsafe.on_param(_text_of(msg, "param_id"), float(msg.param_value))
+            self._failsafe.on_param(text_of(msg, "param_id"), float(msg.param_value))
         else:
             converted = telemetry_of(msg)
             if converted is not None:
@@ -375,7 +370,7 @@ class MavlinkLink(RobotLink):
                 self._failsafe.connected()
 
     def _on_text(self, msg: Any) -> None:
-        text = _text_of(msg)
+        text = text_of(msg)
         self._failsafe.on_text(text)
         spot = parse_hotspot(text)
         if spot is not None:
@@ -406,14 +401,3 @@ class MavlinkLink(RobotLink):
         self._reported = reported
         self.mode, self.armed, self.landed = reported
         self._publish_telemetry("status", {"mode": mode, "armed": armed, "landed": landed})
-
-
-def _text_of(msg: Any, field: str = "text") -> str:
-    raw = getattr(msg, field)
-    text = raw if isinstance(raw, str) else raw.decode("utf-8", "replace")
-    return str(text).rstrip("\x00")
-
-
-def _enum_name(enum: str, value: int) -> str:
-    entry = MAV.enums.get(enum, {}).get(value)
-    return entry.name if entry is not None else f"{enum}({value})"

@@ -84,6 +84,21 @@ def signing_timestamp(now: float | None = None) -> int:
     return int(seconds * 100_000)
 
 
+REFUSED_SUFFIX = "; refused "
+HEARTBEAT_REASONS = ("waiting for first heartbeat", "no heartbeat for")
+
+
+def down_reason(reason: str, totals: dict[str, int], explained: int) -> str | None:
+    """A link's down `reason` extended with the refusals (`totals`) when there are more
+    than `explained` and the link waits for heartbeats; None to leave it."""
+    count = sum(totals.values())
+    base = reason.split(REFUSED_SUFFIX)[0]
+    if count <= explained or not base.startswith(HEARTBEAT_REASONS):
+        return None
+    detail = ", ".join(f"{n} {why}" for why, n in totals.items() if n)
+    return f"{base}{REFUSED_SUFFIX}{count} messages not signed with this link's key ({detail})"
+
+
 class SigningParser(mavlink2.MAVLink):  # type: ignore[misc]  # untyped base
     """The ardupilotmega MAVLink 2 codec with the signature checked before the timestamp."""
 
