@@ -133,7 +133,7 @@ class _Handler(BaseHTTPRequestHandler):
                 return
             method()
             self.wfile.flush()
-        except (ConnectionError, BrokenPipeError):
+        except ConnectionError:
             self.close_connection = True  # the client went away: nothing to answer
         except TimeoutError:
             self.close_connection = True
@@ -182,7 +182,9 @@ class _Handler(BaseHTTPRequestHandler):
         except Exception as exc:  # keep serving whatever the service did
             log.exception("world model HTTP %s %s failed", method, self.path)
             status, body = 500, {"error": f"internal error: {exc.__class__.__name__}"}
-        unread = self.headers.get("Content-Length", "0").strip() != "0" and not self._body_read
+        has_body = self.headers.get("Content-Length", "0").strip() != "0" \
+            or "Transfer-Encoding" in self.headers
+        unread = has_body and not self._body_read
         self._reply(status, body, close=unread)  # an unread body would be the next request
 
     def _route(self, method: str) -> tuple[int, Any]:

@@ -162,6 +162,15 @@ def test_bad_bodies_are_json_errors(guarded: WorldModelHttp, data: bytes, status
     assert got == status and says in body["error"], body
 
 
+def test_a_chunked_body_is_refused_and_never_read_as_a_request(
+        guarded: WorldModelHttp) -> None:
+    smuggled = b"GET /objects HTTP/1.1\r\nHost: x\r\n\r\n"
+    status, head, body = raw(guarded, b"POST /objects HTTP/1.1\r\nAuthorization: Bearer "
+                             + TOKEN.encode() + b"\r\nTransfer-Encoding: chunked\r\n\r\n"
+                             + b"%x\r\n" % len(smuggled) + smuggled + b"\r\n0\r\n\r\n")
+    assert status == 411 and head["connection"] == "close"   # one answer, then closed
+
+
 def test_a_stalled_client_does_not_delay_another(guarded: WorldModelHttp) -> None:
     with socket.create_connection(address(guarded), timeout=10) as stalled:
         stalled.sendall(b"GET /objects HTTP/1.1\r\nHost: x\r\nAuthoriz")  # ... and stops
