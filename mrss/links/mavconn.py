@@ -73,7 +73,7 @@ class MavConnection:
         return msg
 
     def refused(self) -> dict[str, int]:
-        """Messages refused under signing, by reason (all 0 without a key)."""
+        """Messages refused under signing, by reason ({} without a key)."""
         if self.signing is None:
             return {}
         return self.signing.totals()
