@@ -9,7 +9,9 @@ every component the filled-in configuration. Also runnable on its own:
 `python -m mrss.broker --host 127.0.0.1 --port N` serves until SIGTERM/SIGINT.
 
 Sessions: clients are accepted without credentials (the broker listens on loopback
-unless configured), but not as amqtt's "anonymous" clients, whose sessions amqtt never
+unless configured) unless `[broker.embedded] password_file` names a password file
+(`mrss.edge.broker_auth`): then only its users get in. Either way not as amqtt's
+"anonymous" clients, whose sessions amqtt never
 keeps. So a client connecting with clean_session false (the events manager) keeps its
 session and its QoS 1 subscriptions while it is away, and messages published meanwhile
 wait for it. The limit: amqtt keeps sessions in memory only, so a restart of the
@@ -23,6 +25,8 @@ project.toml:
     [broker.embedded]
     host = "127.0.0.1"              # loopback unless configured
     port = 0                        # 0: a free port
+    password_file = "secrets/mqtt.passwd"   # only its users get in ([broker] username
+                                    # and password / password_env are the project's login)
 """
 
 from __future__ import annotations
@@ -33,12 +37,15 @@ import copy
 import logging
 import signal
 import socket
+import sys
 import threading
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
 from mrss.config import Check, Option
+from mrss.edge.broker_auth import PASSWORD_FILE_KEY, password_file_problem
 from mrss.errors import ConfigError, MrssError
 from mrss.supervision.component import Component, ComponentContext
 
@@ -49,11 +56,16 @@ class BrokerError(MrssError):
     """The embedded broker could not start."""
 
 
-def broker_config(host: str, port: int) -> dict[str, Any]:
-    """amqtt configuration: one plain TCP listener, every client accepted, sessions kept."""
+def broker_config(host: str, port: int, password_file: str | None = None) -> dict[str, Any]:
+    """amqtt configuration: one plain TCP listener, sessions kept; every client accepted,
+    or with a `password_file` (an absolute path) only its users."""
+    plugin: dict[str, Any] = {"mrss.edge.amqtt_sessions.OpenSessionsAuthPlugin": {}}
+    if password_file:
+        plugin = {"mrss.edge.amqtt_sessions.PasswordFileAuthPlugin":
+                  {"password_file": password_file}}
     return {
         "listeners": {"default": {"type": "tcp", "bind": f"{host}:{port}"}},
-        "plugins": {"mrss.edge.amqtt_sessions.OpenSessionsAuthPlugin": {}},
+        "plugins": plugin,
     }
 
 
@@ -86,7 +98,30 @@ BROKER_OPTIONS: tuple[Option, ...] = (
 BROKER_EMBEDDED_OPTIONS: tuple[Option, ...] = (
     Option("host", str, "127.0.0.1", "the address the embedded broker listens on"),
     Option("port", int, 0, "its port (0: a free one)", Check.PORT),
+    Option(PASSWORD_FILE_KEY, str, None, "user:argon2-hash lines (python -m "
+           "mrss.edge.broker_auth FILE USER); only those users may connect",
+           Check.PASSWORD_FILE),
 )
+
+
+def embedded_password_file(config: Mapping[str, Any], project_dir: Path | None) -> str | None:
+    """The embedded broker's password file (absolute), or None; ConfigError naming the key
+    when it is unusable."""
+    section = config.get("broker", {})
+    embedded = section.get("embedded", {}) if isinstance(section, Mapping) else {}
+    value = embedded.get(PASSWORD_FILE_KEY) if isinstance(embedded, Mapping) else None
+    if value is None:
+        return None
+    key = f"broker.embedded.{PASSWORD_FILE_KEY}"
+    if not isinstance(value, str) or not value:
+        raise ConfigError("must be a file name in the project folder", key=key)
+    path = Path(value)
+    if project_dir is not None and not path.is_absolute():
+        path = project_dir / path
+    problem = password_file_problem(path, value)
+    if problem:
+        raise ConfigError(problem, key=key)
+    return str(path.resolve())
 
 
 def resolve_broker(config: Mapping[str, Any]) -> tuple[str, bool]:
@@ -123,13 +158,15 @@ def with_broker_url(config: Mapping[str, Any]) -> tuple[dict[str, Any], bool]:
 
 
 async def serve(host: str, port: int, stop: asyncio.Event,
-                started: threading.Event | None = None) -> None:
+                started: threading.Event | None = None, password_file: str | None = None
+                ) -> None:
     """Run the broker until `stop` is set (`started` is set once it listens)."""
     from amqtt.broker import Broker
 
-    broker = Broker(broker_config(host, port))
+    broker = Broker(broker_config(host, port, password_file))
     await broker.start()
-    log.info("embedded MQTT broker listening on %s:%d", host, port)
+    log.info("embedded MQTT broker listening on %s:%d%s", host, port,
+             " (password file: only its users)" if password_file else "")
     if started is not None:
         started.set()
     try:
@@ -159,20 +196,24 @@ class EmbeddedBroker(Component):
         """Component entry: serve on loopback unless the project names a broker."""
         from mrss.edge.component import BROKER_URL_FILE, edge_config
 
-        url, embedded = resolve_broker(edge_config(ctx, "broker"))
+        config = edge_config(ctx, "broker")
+        url, embedded = resolve_broker(config)
         if not embedded:
             log.info("broker %s is configured; the embedded broker does not start", url)
             return
+        password_file = embedded_password_file(config, ctx.project_dir)
         url_file = ctx.run_dir / BROKER_URL_FILE
         if url_file.is_file():  # a restart: same port, so clients reconnect to it
             url = url_file.read_text(encoding="utf-8").strip() or url
-        self.serve_at(url)
+        self.serve_at(url, password_file=password_file)
         partial = url_file.with_suffix(".tmp")
         partial.write_text(url + "\n", encoding="utf-8")
         partial.replace(url_file)
 
-    def serve_at(self, url: str, timeout: float = 20.0) -> None:
-        """Start serving at `url` (mqtt://host:port); BrokerError if it does not come up."""
+    def serve_at(self, url: str, timeout: float = 20.0, *,
+                 password_file: str | None = None) -> None:
+        """Start serving at `url` (mqtt://host:port), with only the users of
+        `password_file` if given; BrokerError if it does not come up."""
         parts = urlsplit(url)
         if parts.scheme != "mqtt" or not parts.hostname or not parts.port:
             raise ConfigError(f"the embedded broker needs mqtt://host:port, not {url!r}",
@@ -188,7 +229,8 @@ class EmbeddedBroker(Component):
             asyncio.set_event_loop(self._loop)
             self._stop = asyncio.Event()
             try:
-                self._loop.run_until_complete(serve(host, port, self._stop, started))
+                self._loop.run_until_complete(serve(host, port, self._stop, started,
+                                                    password_file))
             except BaseException as exc:  # reported to start() below
                 self._error = exc
                 started.set()
@@ -220,7 +262,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m mrss.broker")
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=1883)
+    parser.add_argument("--password-file", default=None,
+                        help="only the users of this file (python -m mrss.edge.broker_auth)")
     args = parser.parse_args(argv)
+    password_file = None
+    if args.password_file:
+        problem = password_file_problem(Path(args.password_file))
+        if problem:
+            print(f"python -m mrss.broker: {problem}", file=sys.stderr)
+            return 2
+        password_file = str(Path(args.password_file).resolve())
     logging.basicConfig(level=logging.WARNING)
 
     async def runner() -> None:
@@ -228,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGTERM, signal.SIGINT):
             loop.add_signal_handler(sig, stop.set)
-        await serve(args.host, args.port, stop)
+        await serve(args.host, args.port, stop, password_file=password_file)
 
     asyncio.run(runner())
     return 0

@@ -73,6 +73,9 @@ class Check(StrEnum):
     MAVLINK_URL = "mavlink_url"  # udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, ...
     PROJECT_FILE = "project_file"  # a file that exists in the project folder
     POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
+    SIGNING_KEY = "signing_key"  # a MAVLink signing key file (64 hex chars) in the project
+    PASSWORD_FILE = "password_file"  # an MQTT password file (mrss.edge.broker_auth)
+    TOKEN_FILE = "token_file"  # an HTTP bearer token file in the project (mrss.edge.http_token)
 
 
 @dataclass(frozen=True)

@@ -28,12 +28,15 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
+from urllib.parse import quote
 
 import psutil
 
 from mrss.bus import Subscriber
 from mrss.bus.component import endpoints_from_config
+from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
+from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
 from mrss.testing import WaitTimeout, wait_until
@@ -58,6 +61,7 @@ class RunningProject:
         self._lock = threading.Lock()
         self._sub: Subscriber | None = None
         self._tree: list[psutil.Process] = []
+        self._token: tuple[str | None] | None = None  # the world model token, once read
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> RunningProject:
@@ -190,9 +194,14 @@ class RunningProject:
 
     def world(self, object_id: str) -> dict[str, Any] | None:
         """A world model object over its HTTP API (None if there is no such object)."""
-        url = f"{self.file('worldmodel.url')}/objects/{object_id}"
+        url = f"{self.file('worldmodel.url')}/objects/{quote(object_id, safe='')}"
+        if self._token is None:
+            self._token = (project_token(self.project_dir),)  # read once
+        token = self._token[0]
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
         try:
-            with urllib.request.urlopen(url, timeout=5) as resp:
+            with urllib.request.urlopen(urllib.request.Request(url, headers=headers),
+                                        timeout=5) as resp:
                 result: dict[str, Any] = json.loads(resp.read())
                 return result
         except urllib.error.HTTPError as exc:
@@ -201,10 +210,11 @@ class RunningProject:
             raise
 
     def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
-        """Publish a JSON message (QoS 1) on the system's broker, as an outside client."""
+        """Publish a JSON message (QoS 1) on the system's broker, as an outside client
+        (with the project's `[broker]` login, if it has one)."""
         try:
-            publish_json(self.file("broker.url"), topic, payload,
-                         client_id=f"procedure-{os.getpid()}")
+            url = project_broker_url(self.project_dir, self.run_dir) or self.file("broker.url")
+            publish_json(url, topic, payload, client_id=f"procedure-{os.getpid()}")
         except MrssError as exc:
             raise AssertionError(str(exc)) from None
 

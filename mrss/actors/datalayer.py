@@ -34,6 +34,7 @@ from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
 from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
+from mrss.edge.http_token import configured_token
 from mrss.edge.loader import load_project_class, project_file
 from mrss.edge.percept_channel import PerceptChannel
 from mrss.edge.percepts import PerceptPublisher, PerceptSink
@@ -117,8 +118,10 @@ class DataLayerService:
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 
-def world_access(section: Mapping[str, Any], bus: BusPort | None) -> WorldModelAccess | None:
-    """The world model the `[datalayer] world_model` option points to."""
+def world_access(section: Mapping[str, Any], bus: BusPort | None, *,
+                 token: str | None = None) -> WorldModelAccess | None:
+    """The world model the `[datalayer] world_model` option points to (over HTTP with
+    the project's world model `token`)."""
     target = section.get("world_model", "bus")
     if target == "none":
         return None
@@ -127,7 +130,7 @@ def world_access(section: Mapping[str, Any], bus: BusPort | None) -> WorldModelA
             raise ConfigError("world_model = 'bus' needs the bus", key="datalayer.world_model")
         return BusWorldModel(bus)
     if isinstance(target, str) and target.startswith(("http://", "https://")):
-        return HttpWorldModel(target)
+        return HttpWorldModel(target, token=token)
     raise ConfigError(f"{target!r}: use 'bus', 'none' or an http:// URL",
                       key="datalayer.world_model")
 
@@ -191,7 +194,10 @@ class DataLayerComponent(Component):
         timeout = _positive(section, "call_timeout", 5.0)
         workers = int(_positive(section, "workers", 4))
         self._bus = bus
-        self._world = world_access(section, bus)
+        over_http = str(section.get("world_model", "bus")).startswith(("http://", "https://"))
+        token = configured_token(table(config, "worldmodel"), project_dir) if over_http \
+            else None
+        self._world = world_access(section, bus, token=token)
 
         def to_bus(percept: Percept, _msg_id: str | None) -> None:
             bus.publish(percept)

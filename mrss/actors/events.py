@@ -45,6 +45,7 @@ from mrss.edge.adapters import EventsContext, ExternalAdapter
 from mrss.edge.busport import BusPort, MessagePublisher
 from mrss.edge.component import bus_port, edge_config, table, with_broker
 from mrss.edge.event_reports import EventReporter, reply_template
+from mrss.edge.http_token import configured_token
 from mrss.edge.intake import DEFAULT_MEMORY, EventIntake
 from mrss.edge.loader import load_project_class
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
@@ -152,10 +153,11 @@ class ExternalEventsManager(Component):
         self.intake = EventIntake(publish, policy=policy, reporter=reporter, log=self.log,
                                   memory=_memory(events))
         options = {k: v for k, v in events.items() if k not in ("module", "class")}
+        token = configured_token(table(config, "worldmodel"), project_dir)
         self.adapter = adapter_cls(EventsContext(
             percept=publish, mqtt=self.mqtt, options=options, project_dir=project_dir,
             broker_url=self.mqtt.settings.url if self.mqtt else None, log=self.log,
-            run_dir=run_dir, intake=self.intake))
+            run_dir=run_dir, intake=self.intake, world_model_token=token))
         self.intake.start()
         self.adapter.start()  # subscriptions first, so the first (re)connect sends them all
         if self.mqtt is not None:

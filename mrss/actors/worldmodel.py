@@ -18,8 +18,11 @@ project.toml:
     seed = "world.json"          # objects to load at start, in the project folder
     rules_module = "worldmodel.py"
     http = true                  # serve the HTTP API
-    http_host = "127.0.0.1"      # loopback unless configured
+    http_host = "127.0.0.1"      # loopback unless configured (beyond it: a token is required)
     http_port = 0                # 0: a free port
+    http_timeout = 10.0          # seconds a connection may take to send its request
+    token_file = "secrets/worldmodel.token"   # or token_env = "VAR": requests need
+                                 # Authorization: Bearer <token> (mrss.edge.http_token)
     [[worldmodel.rules]]  ...    # built-in rules (see mrss.edge.worldmodel_service)
 The `[components.<id>]` free keys of this component are laid over `[worldmodel]`.
 """
@@ -35,9 +38,15 @@ from urllib.parse import urlsplit
 from mrss.config import Check, Option
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
+from mrss.edge.http_token import (
+    TOKEN_ENV_KEY,
+    TOKEN_FILE_KEY,
+    configured_token,
+    exposure_problem,
+)
 from mrss.edge.percept_channel import PerceptChannel
 from mrss.edge.worldmodel_access import WORLD_MODEL_URL_FILE
-from mrss.edge.worldmodel_http import WorldModelHttp
+from mrss.edge.worldmodel_http import DEFAULT_TIMEOUT, WorldModelHttp
 from mrss.edge.worldmodel_rules import RuleEngine
 from mrss.edge.worldmodel_service import (
     WM_REPLY_TOPIC,
@@ -68,22 +77,45 @@ def recorded_port(run_dir: Path | None, host: str) -> int:
     return port if port and parts.hostname == host else 0
 
 
-def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None) -> WorldModelHttp:
+def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None, *,
+               token: str | None = None, timeout: float = DEFAULT_TIMEOUT) -> WorldModelHttp:
     """The HTTP API on `port`, or (0) on the port recorded by an earlier incarnation,
     or a free one; the URL is recorded in the run folder."""
     wanted = port or recorded_port(run_dir, host)
     try:
-        http = WorldModelHttp(world, host, wanted)
+        http = WorldModelHttp(world, host, wanted, token=token, timeout=timeout)
     except OSError as exc:
         if port or not wanted:
             raise
         log.warning("world model port %d is taken (%s); serving on a new one", wanted, exc)
-        http = WorldModelHttp(world, host, 0)
+        http = WorldModelHttp(world, host, 0, token=token, timeout=timeout)
     if run_dir is not None:
         partial = run_dir / (URL_FILE + ".tmp")
         partial.write_text(http.url + "\n", encoding="utf-8")
         partial.replace(run_dir / URL_FILE)
     return http
+
+
+def http_settings(section: Mapping[str, Any], project_dir: Path | None
+                  ) -> tuple[tuple[str, int] | None, str | None, float]:
+    """((host, port) or None without HTTP, token, timeout); ConfigError naming the key,
+    also when the API would be served beyond loopback without a token."""
+    if not section.get("http", True):
+        return None, None, DEFAULT_TIMEOUT
+    host = section.get("http_host", "127.0.0.1")
+    port = section.get("http_port", 0)
+    timeout = section.get("http_timeout", DEFAULT_TIMEOUT)
+    if not isinstance(host, str) or not host:
+        raise ConfigError("must be a host name or address", key="worldmodel.http_host")
+    if isinstance(port, bool) or not isinstance(port, int):
+        raise ConfigError("must be an integer", key="worldmodel.http_port")
+    if isinstance(timeout, bool) or not isinstance(timeout, int | float) or timeout <= 0:
+        raise ConfigError("must be a positive number of seconds", key="worldmodel.http_timeout")
+    token = configured_token(section, project_dir)
+    problem = exposure_problem(host, token is not None)
+    if problem:
+        raise ConfigError(problem, key=f"worldmodel.{TOKEN_FILE_KEY}")
+    return (host, port), token, float(timeout)
 
 
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
@@ -111,6 +143,13 @@ class WorldModelComponent(Component):
         Option("http_host", str, "127.0.0.1", "address of the HTTP API"),
         Option("http_port", int, 0, "port of the HTTP API (0: a free one, kept across restarts)",
                Check.PORT),
+        Option("http_timeout", float, DEFAULT_TIMEOUT,
+               "seconds a connection may take to send a request before it is dropped",
+               Check.POSITIVE),
+        Option(TOKEN_FILE_KEY, str, None, "file (in the project) holding the HTTP API's "
+               "bearer token; required when http_host is not loopback", Check.TOKEN_FILE),
+        Option(TOKEN_ENV_KEY, str, None, "environment variable holding the bearer token "
+               "(instead of token_file)"),
     )
 
     def __init__(self) -> None:
@@ -121,10 +160,11 @@ class WorldModelComponent(Component):
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus and percept channel from the context, then `run`."""
+        config = edge_config(ctx, "worldmodel")
+        http_settings(table(config, "worldmodel"), ctx.project_dir)  # refused before the bus
         bus = bus_port(ctx)
         self._percepts = PerceptChannel.for_component(ctx)
-        self.run(ctx.project_dir, ctx.run_dir, edge_config(ctx, "worldmodel"), bus,
-                 percepts=self._percepts.send)
+        self.run(ctx.project_dir, ctx.run_dir, config, bus, percepts=self._percepts.send)
         bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path | None, run_dir: Path | None, config: Mapping[str, Any],
@@ -134,6 +174,7 @@ class WorldModelComponent(Component):
         Rules' percepts go to `percepts` (default: published on `bus`).
         """
         section = table(config, "worldmodel")
+        http, token, timeout = http_settings(section, project_dir)  # refused before anything
         rules = RuleEngine(load_rules(project_dir, section))
         self._bus = bus
         send: PerceptSend = percepts or bus.publish
@@ -144,16 +185,13 @@ class WorldModelComponent(Component):
         self.world = WorldModel(WorldModelStore(store_path(run_dir, section)), rules, emit)
         seeded = load_seed(self.world, project_dir, section)
         bus.subscribe([WM_REQUEST_TOPIC], self._on_request)
-        if section.get("http", True):
-            host = section.get("http_host", "127.0.0.1")
-            port = section.get("http_port", 0)
-            if not isinstance(host, str) or not isinstance(port, int):
-                raise ConfigError("http_host must be a string and http_port an integer",
-                                  key="worldmodel.http_port")
-            self.http = serve_http(self.world, host, port, run_dir)
+        if http is not None:
+            self.http = serve_http(self.world, *http, run_dir, token=token,
+                                   timeout=timeout)
             self.http.start()
-        log.info("world model up: %d rules, %d seeded objects, HTTP %s", len(rules.rules),
-                 seeded, self.http.url if self.http else "off")
+        log.info("world model up: %d rules, %d seeded objects, HTTP %s%s", len(rules.rules),
+                 seeded, self.http.url if self.http else "off",
+                 " (token required)" if self.http and self.http.token_required else "")
 
     def _on_request(self, env: Envelope) -> None:
         body = env.body

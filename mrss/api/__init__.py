@@ -12,7 +12,7 @@ By idea:
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
-  DependencyUnavailable;
+  world_model_token, DependencyUnavailable;
 - robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
   CommandRejected, CommandTimeout, publish_json, request_json;
 - geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
@@ -43,6 +43,7 @@ from mrss.api._layer import (
 from mrss.config import Check, Option
 from mrss.edge.adapters import DataLayer, ExternalAdapter, external
 from mrss.edge.component import BROKER_URL_FILE
+from mrss.edge.http_token import project_token as world_model_token
 from mrss.edge.loader import import_project_module
 from mrss.edge.payloads import Field, JsonMapping, PayloadError
 from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
@@ -76,6 +77,7 @@ __all__ = [
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
     "NoObjectWithin", "PayloadError", "PredicateError", "Struct", "WorldModelClient",
     "WorldModelRejected", "WorldModelUnavailable", "external", "literal", "rule", "symbol",
+    "world_model_token",
     # robot links
     "CommandRejected", "CommandTimeout", "LINK_KINDS", "LinkDown", "LinkError", "RobotLink",
     "connect_link", "create_link", "publish_json", "request_json",

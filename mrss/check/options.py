@@ -29,6 +29,9 @@ from mrss.bus.component import BUS_OPTIONS
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import key_line
 from mrss.config import COMPONENT_KEYS, OTHER_SECTIONS, Check, Option, ProjectConfig
+from mrss.edge.broker_auth import password_file_problem
+from mrss.edge.http_token import token_file_problem
+from mrss.links.mavlink_signing import key_problem
 
 MAVLINK_URL = re.compile(r"^(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:]+):(.+)$")
 
@@ -101,6 +104,12 @@ def check_problem(check: Check, value: Any, project_dir: Path) -> str | None:
     if check is Check.PROJECT_FILE and isinstance(value, str) \
             and not (project_dir / value).is_file():
         return f"no file {value!r} in the project folder"
+    if check is Check.SIGNING_KEY and isinstance(value, str):
+        return key_problem(project_dir / value, value)
+    if check is Check.PASSWORD_FILE and isinstance(value, str):
+        return password_file_problem(project_dir / value, value)
+    if check is Check.TOKEN_FILE and isinstance(value, str):
+        return token_file_problem(project_dir / value, value)
     if check is Check.POSITION and isinstance(value, list) and (
             len(value) not in (2, 3) or not all(isinstance(v, int | float)
                                                 and not isinstance(v, bool) for v in value)):

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from mrss.check.exposure import warn_secret
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.options import mavlink_url_problem, url_problem, value_problem
 from mrss.check.toml_lines import key_line
@@ -20,6 +21,7 @@ from mrss.config import Option, ProjectConfig
 from mrss.edge.predicates import is_atom_name
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
+from mrss.links.mavlink_signing import key_problem
 
 URL_OPTIONS = {("mavlink", "url"): mavlink_url_problem, ("mqtt", "broker_url"): url_problem,
                ("http", "url"): http_url_problem}
@@ -56,7 +58,16 @@ def check_robots(config: ProjectConfig, report: Report, comp_id: str, robots: An
         if kind is None:
             described.append(str(robot))
             continue
-        for name, problem in link_problems(str(kind), options, own):
+        problems = link_problems(str(kind), options, own)
+        key_file = options.get("signing_key")
+        if kind == "mavlink" and isinstance(key_file, str) and "signing_key" not in own:
+            problem = key_problem(config.directory / key_file, key_file)
+            if problem:
+                problems.append(("signing_key", problem))
+            if not problem:
+                warn_secret(config, report, f"{rkey}.signing_key", key_file,
+                            "signing key file")
+        for name, problem in problems:
             report.error(str(config.file), problem, line=key_line(config, f"{rkey}.{name}"),
                          check="robots", key=f"{rkey}.{name}")
         described.append(f"{robot} ({kind})")

@@ -17,6 +17,7 @@ from typing import Any
 
 from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
+from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
@@ -46,6 +47,7 @@ def check_project(config: ProjectConfig) -> Report:
     report = Report(config.name)
     sources = Sources(config.directory, report)
     check_tables(config, report)
+    check_broker_login(config, report)
     classes = _component_classes(config, report)
     uses = _agent(config, report)
     skills = _skills(config, sources, report)
@@ -227,6 +229,7 @@ def _worldmodel(config: ProjectConfig, report: Report, classes: dict[str, type])
     check_values(config, report, table, declared_options(classes[comps[0].id]),
                  lambda n: section_key(config, "worldmodel", comps[0].id, n),
                  owner="[worldmodel] (WorldModelComponent)", hints=COMPONENT_KEYS)
+    check_exposure(config, report, table, comps[0].id)
 
 
 def _queries(uses: AgentUses, datalayer: tuple[PySource | None, type | None] | None,

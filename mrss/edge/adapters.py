@@ -65,6 +65,7 @@ class EventsContext:
     log: logging.Logger = field(default_factory=lambda: logging.getLogger("mrss.events"))
     run_dir: Path | None = None  # the run folder (worldmodel.url, ...), when supervised
     intake: EventIntake | None = None  # None: the adapter makes a plain one
+    world_model_token: str | None = None  # [worldmodel] token: sent by world_model()
 
 
 class ExternalAdapter:
@@ -97,7 +98,8 @@ class ExternalAdapter:
 
         `[events] world_model = "http://..."` names a deployment's own; otherwise it is
         the embedded one of this run. Calls raise `WorldModelUnavailable` while it is
-        down (the event is retried) and `WorldModelRejected` for a bad object.
+        down (the event is retried) and `WorldModelRejected` for a bad object. The
+        project's world model token (`[worldmodel] token_file`) is sent with every call.
         """
         url = self.options.get("world_model")
         timeout = self.options.get("world_model_timeout", DEFAULT_WORLD_MODEL_TIMEOUT)
@@ -110,7 +112,8 @@ class ExternalAdapter:
         if url is None and self.context.run_dir is None:
             raise ConfigError("no world model: not running supervised and no URL given",
                               key="events.world_model")
-        return WorldModelClient(run_dir=self.context.run_dir, url=url, timeout=float(timeout))
+        return WorldModelClient(run_dir=self.context.run_dir, url=url, timeout=float(timeout),
+                                token=self.context.world_model_token)
 
     def on_message(self, topic_filter: str, handler: RawHandler) -> None:
         """Call `handler(topic, payload)` for each MQTT message, on the intake thread."""

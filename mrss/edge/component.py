@@ -11,10 +11,12 @@ component wrote to `<run_dir>/broker.url` (it starts first, so the file is there
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote, urlsplit, urlunsplit
 
 from mrss.bus import BusEndpoints, Subscriber
 from mrss.config import load_file
@@ -57,6 +59,27 @@ def resolved_broker_url(config: Mapping[str, Any], run_dir: Path | None) -> str 
         if path.is_file():
             return path.read_text(encoding="utf-8").strip() or None
     return None
+
+
+def with_login(url: str, broker: Mapping[str, Any]) -> str:
+    """`url` with the project's MQTT login (`[broker] username`, `password` or
+    `password_env`) when it carries none; ConfigError when password_env is not set."""
+    user = broker.get("username")
+    parts = urlsplit(url)
+    if not isinstance(user, str) or not user or parts.username:
+        return url
+    password = broker.get("password")
+    env = broker.get("password_env")
+    if isinstance(env, str) and env:
+        if env not in os.environ:
+            raise ConfigError(f"environment variable {env!r} is not set",
+                              key="broker.password_env")
+        password = os.environ[env]
+    login = quote(user, safe="")
+    if isinstance(password, str) and password:
+        login += ":" + quote(password, safe="")
+    return urlunsplit((parts.scheme, f"{login}@{parts.netloc}", parts.path, parts.query,
+                       parts.fragment))
 
 
 def with_broker(config: Mapping[str, Any], run_dir: Path | None) -> dict[str, Any]:

@@ -58,11 +58,17 @@ class BusWorldModel:
 
 
 class HttpWorldModel:
-    """A world model behind the HTTP API of `mrss.edge.worldmodel_http`."""
+    """A world model behind the HTTP API of `mrss.edge.worldmodel_http`.
 
-    def __init__(self, base_url: str, timeout: float = 5.0) -> None:
+    With a `token` every request carries ``Authorization: Bearer <token>``.
+    """
+
+    def __init__(self, base_url: str, timeout: float = 5.0, *, token: str | None = None) -> None:
         self._base_url = base_url.rstrip("/")
         self.timeout = timeout
+        self._headers = {"Content-Type": "application/json"}
+        if token is not None:
+            self._headers["Authorization"] = f"Bearer {token}"
 
     @property
     def base_url(self) -> str:
@@ -73,12 +79,18 @@ class HttpWorldModel:
         data = None if body is None else json.dumps(body).encode()
         base = self.base_url
         req = urllib.request.Request(base + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
+                                     headers=self._headers)
         try:
             with urllib.request.urlopen(req, timeout=self.timeout) as resp:
                 return resp.status, json.loads(resp.read() or b"null")
         except urllib.error.HTTPError as exc:
             detail = exc.read().decode("utf-8", "replace")
+            try:
+                answer = json.loads(detail)
+            except ValueError:
+                answer = None
+            if isinstance(answer, dict) and isinstance(answer.get("error"), str):
+                detail = answer["error"]
             return exc.code, {"error": detail}
         except (OSError, ValueError) as exc:  # refused, reset, timed out, garbled
             raise WorldModelUnavailable(f"{method} {base}{path}: {exc}") from exc
@@ -120,13 +132,14 @@ class WorldModelClient(HttpWorldModel):
     `url` names a fixed service (a deployment's own world model); without it the URL is
     read from `<run_dir>/worldmodel.url`, which the embedded world model writes when it
     starts. A missing file means the world model is not up (yet): WorldModelUnavailable.
+    `token` is the world model's bearer token (`[worldmodel] token_file`/`token_env`).
     """
 
     def __init__(self, *, run_dir: Path | None = None, url: str | None = None,
-                 timeout: float = 5.0) -> None:
+                 timeout: float = 5.0, token: str | None = None) -> None:
         if not url and run_dir is None:
             raise ValueError("a world model client needs a run folder or a URL")
-        super().__init__(url or "", timeout)
+        super().__init__(url or "", timeout, token=token)
         self.run_dir = run_dir
         self.fixed_url = bool(url)
 

@@ -13,6 +13,9 @@ Rules (the one place they are implemented):
   folder (`<run_dir>/<robot>.mavlink`); a real vehicle gives `url = "udpin:0.0.0.0:14550"`.
 - MQTT without `broker_url`: the project's broker, `[broker] url` or the embedded
   broker's `<run_dir>/broker.url`.
+- MAVLink `signing_key` is a key file relative to the project folder
+  (`mrss.links.mavlink_signing`): the link signs what it sends and refuses what is not
+  signed with that key.
 - HTTP needs its `url` (a robot's own API: nothing to find).
 - Every other key goes to the link factory, which checks it (unknown keys, types, the
   failsafe options of docs/robots.md).
@@ -25,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.config import load_file
-from mrss.edge.component import resolved_broker_url
+from mrss.edge.component import resolved_broker_url, with_login
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.factory import create_link
@@ -33,6 +36,8 @@ from mrss.projects import PROJECT_FILE
 
 #: The key naming a robot's link kind.
 LINK_KEY = "link"
+#: A MAVLink robot's key file (relative to the project folder): signing on.
+SIGNING_KEY = "signing_key"
 #: A simulated copter writes the address a ground station uses to `<run_dir>/<id>` + this.
 ADDRESS_SUFFIX = ".mavlink"
 
@@ -48,11 +53,14 @@ def simulator_address(run_dir: Path | None, robot: str) -> str:
 
 
 def project_broker_url(project_dir: Path | None, run_dir: Path | None) -> str | None:
-    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's."""
+    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's,
+    with the project's login (`[broker] username`, `password`/`password_env`) if any."""
     sections: Mapping[str, Any] = {}
     if project_dir is not None and (project_dir / PROJECT_FILE).is_file():
         sections = load_file(project_dir / PROJECT_FILE).sections
-    return resolved_broker_url(sections, run_dir)
+    url = resolved_broker_url(sections, run_dir)
+    broker = sections.get("broker", {})
+    return with_login(url, broker) if url and isinstance(broker, Mapping) else url
 
 
 def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | None,
@@ -68,6 +76,9 @@ def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | 
         raise ConfigError(f"link must be a string, not {kind!r}", key=f"robots.{robot}.link")
     if kind == "mavlink" and "url" not in opts:
         opts["url"] = simulator_address(run_dir, robot)
+    key_file = opts.get(SIGNING_KEY)
+    if kind == "mavlink" and isinstance(key_file, str) and project_dir is not None:
+        opts[SIGNING_KEY] = str(project_dir / key_file)
     if kind == "mqtt" and "broker_url" not in opts:
         url = project_broker_url(project_dir, run_dir)
         if not url:

@@ -10,6 +10,7 @@ from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.failsafe import FAILSAFE_KEY, TIMEOUT_KEY, failsafe_problems, policy_of
 from mrss.links.http import HttpLink
 from mrss.links.mavlink import MavlinkLink
+from mrss.links.mavlink_signing import load_key
 from mrss.links.mqtt import MqttLink
 
 # Per kind: option name -> (type, required). Names match the link constructors, but for
@@ -19,7 +20,7 @@ _FAILSAFE_OPTIONS: dict[str, tuple[type, bool]] = {FAILSAFE_KEY: (str, False),
 LINK_OPTIONS: dict[str, dict[str, tuple[type, bool]]] = {
     "mavlink": {"url": (str, True), "target_system": (int, False),
                 "heartbeat_timeout": (float, False), "command_timeout": (float, False),
-                "retries": (int, False), **_FAILSAFE_OPTIONS},
+                "retries": (int, False), "signing_key": (str, False), **_FAILSAFE_OPTIONS},
     "mqtt": {"broker_url": (str, True), "prefix": (str, False),
              "telemetry_timeout": (float, False), "command_timeout": (float, False),
              "retries": (int, False), "keepalive": (int, False), **_FAILSAFE_OPTIONS},
@@ -71,6 +72,11 @@ def create_link(robot_id: str, kind: str, options: Mapping[str, Any], *,
     checked.pop(FAILSAFE_KEY, None)
     checked.pop(TIMEOUT_KEY, None)
     if kind == "mavlink":
+        if "signing_key" in checked:
+            try:
+                checked["signing_key"] = load_key(checked["signing_key"])
+            except ConfigError as exc:
+                raise ConfigError(exc.reason, file=source, key=exc.key) from None
         return MavlinkLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
                            failsafe=failsafe, **checked)
     if kind == "http":

@@ -25,14 +25,16 @@ from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
 from mrss.links.failsafe import CONTROLLER_HEARTBEAT_S, FailsafeEvent, FailsafePolicy
 from mrss.links.geo import distance_m
-from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavconn import MAV, MavConnection, enum_name, text_of
 from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
+from mrss.links.mavlink_signing import down_reason
 from mrss.links.mavlink_telemetry import telemetry_of
 
 GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
 TEXT_REASON_WINDOW_S = 1.0
+REFUSAL_CHECK_S = 0.5
 
 
 class _PendingCommand:
@@ -55,7 +57,7 @@ class MavlinkLink(RobotLink):
         command_timeout: float = 1.0, retries: int = 3,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
-        failsafe: FailsafePolicy | None = None,
+        failsafe: FailsafePolicy | None = None, signing_key: bytes | None = None,
     ) -> None:
         super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
                          failsafe=failsafe)
@@ -64,6 +66,7 @@ class MavlinkLink(RobotLink):
         self.heartbeat_timeout = heartbeat_timeout
         self.command_timeout = command_timeout
         self.retries = retries
+        self.signing_key = signing_key
         self.mode: str | None = None
         self.armed = False
         self.landed: bool | None = None
@@ -79,6 +82,8 @@ class MavlinkLink(RobotLink):
         self._mission_replies: queue.Queue[Any] = queue.Queue()
         self._last_warning: tuple[float, str] | None = None
         self._reported: tuple[str | None, bool, bool | None] = (None, False, None)
+        self._next_refusal_check = 0.0
+        self._refusals_explained = 0
         self._failsafe = VehicleFailsafe(
             robot_id, failsafe, command_timeout, retries, send_param=self._send_param,
             record=self._failsafe_record, down=self._report_failsafe,
@@ -91,7 +96,9 @@ class MavlinkLink(RobotLink):
         try:
             self._conn = MavConnection(self.url, source_system=255,
                                        source_component=MAV.MAV_COMP_ID_MISSIONPLANNER,
-                                       udp_timeout=self.heartbeat_timeout)
+                                       udp_timeout=self.heartbeat_timeout,
+                                       signing_key=self.signing_key, link_id=1,
+                                       name=f"link {self.robot_id}", log=self.log)
         except (OSError, ValueError) as exc:
             raise LinkError(self.robot_id, f"cannot open {self.url}: {exc}") from exc
         self._set_link_state(False, "waiting for first heartbeat")
@@ -108,11 +115,20 @@ class MavlinkLink(RobotLink):
             self._conn.close()
         self._mark_closed()
 
+    @property
+    def signed(self) -> bool:
+        """Whether the link signs its messages and refuses unsigned ones."""
+        return self.signing_key is not None
+
+    def refused(self) -> dict[str, int]:
+        """Incoming messages refused under signing, by reason ({} without signing)."""
+        return self._conn.refused() if self._conn is not None else {}
+
     # -- commands --------------------------------------------------------------------------
     def command(self, command: int, *params: float, timeout: float | None = None) -> int:
         """Send a COMMAND_LONG until acknowledged; return the MAV_RESULT if ACCEPTED."""
         timeout = self.command_timeout if timeout is None else timeout
-        name = _enum_name("MAV_CMD", command)
+        name = enum_name("MAV_CMD", command)
         values = [float(p) for p in params] + [0.0] * (7 - len(params))
         with self._command_lock:
             for attempt in range(self.retries):
@@ -255,7 +271,7 @@ class MavlinkLink(RobotLink):
                 return None
 
     def _describe(self, result: int, sent_at: float) -> str:
-        text = _enum_name("MAV_RESULT", result)
+        text = enum_name("MAV_RESULT", result)
         warning = self._last_warning
         if warning is not None and warning[0] >= sent_at - TEXT_REASON_WINDOW_S:
             text += f" ({warning[1]})"
@@ -284,10 +300,23 @@ class MavlinkLink(RobotLink):
                         MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0,
                         MAV.MAV_STATE_ACTIVE))
             self._failsafe.tick(now)
+            self._explain_refusals(now)
             last = self._last_heartbeat
             if self.up and not draining and last is not None \
                     and now - last > self.heartbeat_timeout:
                 self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
+
+    def _explain_refusals(self, now: float) -> None:
+        """While no heartbeat comes, say in the down reason what signing refused."""
+        conn = self._conn
+        if self.up or conn is None or conn.signing is None or now < self._next_refusal_check:
+            return
+        self._next_refusal_check = now + REFUSAL_CHECK_S
+        totals = conn.refused()
+        reason = down_reason(self.reason, totals, self._refusals_explained)
+        if reason is not None:
+            self._refusals_explained = sum(totals.values())
+            self._set_link_state(False, reason)
 
     def _dispatch_message(self, msg: Any) -> None:
         kind = msg.get_type()
@@ -295,7 +324,7 @@ class MavlinkLink(RobotLink):
             self._on_heartbeat(msg)
             return
         if kind == "STATUSTEXT" and self.target_system is None:
-            self._failsafe.on_text(_text_of(msg))  # may come before the first heartbeat
+            self._failsafe.on_text(text_of(msg))  # may come before the first heartbeat
             return
         if self.target_system is None or msg.get_srcSystem() != self.target_system:
             return
@@ -316,7 +345,7 @@ class MavlinkLink(RobotLink):
         elif kind == "STATUSTEXT":
             self._on_text(msg)
         elif kind == "PARAM_VALUE":
-            self._failsafe.on_param(_text_of(msg, "param_id"), float(msg.param_value))
+            self._failsafe.on_param(text_of(msg, "param_id"), float(msg.param_value))
         else:
             converted = telemetry_of(msg)
             if converted is not None:
@@ -341,7 +370,7 @@ class MavlinkLink(RobotLink):
                 self._failsafe.connected()
 
     def _on_text(self, msg: Any) -> None:
-        text = _text_of(msg)
+        text = text_of(msg)
         self._failsafe.on_text(text)
         spot = parse_hotspot(text)
         if spot is not None:
@@ -372,14 +401,3 @@ class MavlinkLink(RobotLink):
         self._reported = reported
         self.mode, self.armed, self.landed = reported
         self._publish_telemetry("status", {"mode": mode, "armed": armed, "landed": landed})
-
-
-def _text_of(msg: Any, field: str = "text") -> str:
-    raw = getattr(msg, field)
-    text = raw if isinstance(raw, str) else raw.decode("utf-8", "replace")
-    return str(text).rstrip("\x00")
-
-
-def _enum_name(enum: str, value: int) -> str:
-    entry = MAV.enums.get(enum, {}).get(value)
-    return entry.name if entry is not None else f"{enum}({value})"

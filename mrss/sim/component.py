@@ -12,6 +12,7 @@
     port = 0                          # UDP port to listen on; 0: a free one
     failsafe = "hold"                 # GCS failsafe: hold | rtl | stop (FS_GCS_ENABLE 7/1/5)
     failsafe_timeout = 5.0            # seconds without GCS heartbeats (FS_GCS_TIMEOUT)
+    signing_key = "keys/uav1.key"     # MAVLink 2 signing (the robot's link names the same file)
 
     [components.sim_ugv]
     module = "mrss.sim.component:SimUgvComponent"
@@ -48,6 +49,7 @@ from mrss.links.connect import ADDRESS_SUFFIX
 from mrss.links.connect import project_broker_url as links_broker_url
 from mrss.links.failsafe import policy_of
 from mrss.links.geo import distance_m
+from mrss.links.mavlink_signing import load_key
 from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv
@@ -110,6 +112,16 @@ def hotspots_of(options: Mapping[str, Any], project_dir: Path) -> list[Hotspot]:
     raise ConfigError("must be a list of {lat, lon} tables or a string", key="hotspots")
 
 
+def signing_key_of(options: Mapping[str, Any], project_dir: Path) -> bytes | None:
+    """The `signing_key` file's key (relative to the project folder), or None."""
+    value = options.get("signing_key")
+    if value is None:
+        return None
+    if not isinstance(value, str):
+        raise ConfigError(f"must be a key file name, not {value!r}", key="signing_key")
+    return load_key(value, project_dir)
+
+
 def free_udp_port(host: str = "127.0.0.1") -> int:
     """A UDP port nobody uses right now on `host`."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
@@ -157,6 +169,8 @@ class SimUavComponent(Component):
         Option("camera_radius", float, 25.0, "metres the thermal camera sees", Check.POSITIVE),
         Option("failsafe", str, None, "what the vehicle does without a controller"),
         Option("failsafe_timeout", float, None, "seconds without a controller", Check.POSITIVE),
+        Option("signing_key", str, None, "MAVLink 2 signing key file (64 hex characters)",
+               Check.SIGNING_KEY),
     )
 
     def __init__(self) -> None:
@@ -173,7 +187,8 @@ class SimUavComponent(Component):
             f"udpin:127.0.0.1:{port}", sysid=int(number(opts, "sysid", 1, low=1)),
             home=(home[0], home[1], home[2]), hotspots=hotspots_of(opts, ctx.project_dir),
             speedup=speedup_of(opts), camera_radius_m=number(opts, "camera_radius", 25.0),
-            recharge_pct_per_s=number(opts, "recharge", 5.0), failsafe=policy_of(opts))
+            recharge_pct_per_s=number(opts, "recharge", 5.0), failsafe=policy_of(opts),
+            signing_key=signing_key_of(opts, ctx.project_dir))
         uav.model.params.endurance_s = number(opts, "endurance", uav.model.params.endurance_s,
                                               low=1.0)
         uav.start()

@@ -22,6 +22,7 @@ from typing import Any
 from mrss.links.ardupilot import HotspotReport, format_hotspot, mode_name
 from mrss.links.failsafe import FailsafePolicy, parse_policy
 from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavlink_signing import load_key
 from mrss.sim.copter import AUTO, GUIDED, CopterModel
 from mrss.sim.gcs_failsafe import GcsFailsafe
 from mrss.sim.hotspots import Hotspot, ThermalCamera, parse_hotspots
@@ -74,12 +75,13 @@ class SimUav:
     def __init__(self, url: str, *, sysid: int = 1,
                  home: tuple[float, float, float] = DEFAULT_HOME,
                  hotspots: Sequence[Hotspot] = (), speedup: float = 1.0,
-                 camera_radius_m: float = 25.0, failsafe: FailsafePolicy | None = None
-                 ) -> None:
+                 camera_radius_m: float = 25.0, failsafe: FailsafePolicy | None = None,
+                 signing_key: bytes | None = None) -> None:
         if speedup <= 0:
             raise ValueError("speedup must be positive")
         self.url = url
         self.sysid = sysid
+        self.signing_key = signing_key
         self.speedup = speedup
         self.model = CopterModel(home[0], home[1], home[2])
         self.camera = ThermalCamera(hotspots, radius_m=camera_radius_m)
@@ -105,6 +107,11 @@ class SimUav:
         if self._thread is not None:
             self._thread.join(timeout=5)
 
+    def refused(self) -> dict[str, int]:
+        """Incoming messages refused under signing, by reason ({} without signing)."""
+        conn = self._conn
+        return conn.refused() if conn is not None else {}
+
     def snapshot(self) -> UavSnapshot:
         """A consistent copy of the vehicle's state."""
         with self._lock:
@@ -116,14 +123,17 @@ class SimUav:
     def run(self) -> None:
         """Serve until `stop()`: answer messages, fly, send telemetry."""
         conn = MavConnection(self.url, source_system=self.sysid,
-                             source_component=MAV.MAV_COMP_ID_AUTOPILOT1)
+                             source_component=MAV.MAV_COMP_ID_AUTOPILOT1,
+                             signing_key=self.signing_key, name=f"sim uav {self.sysid}",
+                             log=log)
         self._conn = conn
         mission = MissionServer(conn.conn.mav, conn.send, self.model)
         params = UavParams(self.model, self.camera, self.sysid, self.failsafe)
         handlers = UavHandlers(conn.conn.mav, conn.send, self.model, mission, params,
                                self.sysid, self._send_message, self.failsafe)
-        log.info("sim uav %d on %s (speedup %.1f, %d hotspots)", self.sysid, self.url,
-                 self.speedup, len(self.camera.hotspots))
+        log.info("sim uav %d on %s (speedup %.1f, %d hotspots, signing %s)", self.sysid,
+                 self.url, self.speedup, len(self.camera.hotspots),
+                 "on" if self.signing_key else "off")
         last = time.monotonic()
         try:
             while not self._stop.is_set():
@@ -269,6 +279,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "(a ground station may set FS_GCS_ENABLE)")
     parser.add_argument("--failsafe-timeout", type=float, default=None,
                         help="seconds without a GCS heartbeat before the failsafe (default 5)")
+    parser.add_argument("--signing-key", default=None, metavar="FILE",
+                        help="MAVLink 2 signing: a key file of 64 hex characters; sign "
+                             "everything sent, refuse what is not signed with it")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -278,10 +291,12 @@ def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     try:
         hotspots = parse_hotspots(args.hotspots)
+        key = None if args.signing_key is None else load_key(args.signing_key,
+                                                             key="--signing-key")
         uav = SimUav(args.out, sysid=args.sysid, home=args.home, hotspots=hotspots,
                      speedup=args.speedup, camera_radius_m=args.camera_radius,
                      failsafe=parse_policy(args.failsafe, args.failsafe_timeout,
-                                           keys=CLI_FAILSAFE_KEYS))
+                                           keys=CLI_FAILSAFE_KEYS), signing_key=key)
     except (ConfigError, ValueError) as exc:
         print(f"mrss sim uav: {exc}", file=sys.stderr)
         return 2

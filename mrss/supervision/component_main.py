@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from types import FrameType
 
 from mrss import logs
-from mrss.errors import SupervisionError
+from mrss.errors import ConfigError, SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
 from mrss.supervision.threads import tune_interpreter
@@ -129,8 +129,11 @@ class _Runtime:
         return 0
 
     def _failed(self, phase: str, exc: Exception) -> int:
-        self.log.error("%s of %s failed:\n%s", phase, self.ctx.name,
-                       "".join(traceback.format_exception(exc)).rstrip())
+        if isinstance(exc, ConfigError):  # bad configuration: its message says it all
+            self.log.error("%s of %s failed: %s", phase, self.ctx.name, exc)
+        else:
+            self.log.error("%s of %s failed:\n%s", phase, self.ctx.name,
+                           "".join(traceback.format_exception(exc)).rstrip())
         self._send(control.FAIL, f"crashed: {type(exc).__name__} in {phase}: {exc}")
         return EXIT_FAILED
 

@@ -22,11 +22,16 @@ import argparse
 import json
 import sys
 import tempfile
-import urllib.request
 from pathlib import Path
 from typing import Any
 
-from mrss.api import BROKER_URL_FILE, WORLD_MODEL_URL_FILE, MrssError, request_json
+from mrss.api import (
+    BROKER_URL_FILE,
+    MrssError,
+    WorldModelClient,
+    request_json,
+    world_model_token,
+)
 
 TOPIC_PREFIX = "mrss/ui"
 
@@ -88,9 +93,10 @@ def message(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
 
 
 def status(run_dir: Path) -> None:
-    url = (run_dir / WORLD_MODEL_URL_FILE).read_text(encoding="utf-8").strip()
-    with urllib.request.urlopen(f"{url}/objects", timeout=5) as resp:
-        objects = json.loads(resp.read())["objects"]
+    # The project's world model token ([worldmodel] token_file), if it sets one.
+    client = WorldModelClient(run_dir=run_dir, timeout=5,
+                              token=world_model_token(Path(__file__).resolve().parent))
+    objects = client.objects()
     for obj in sorted(objects, key=lambda o: (o["kind"], o["id"])):
         pos = obj.get("position") or {}
         where = f"{pos['lat']:.6f},{pos['lon']:.6f}" if pos else "-"

@@ -77,31 +77,39 @@ world_model_timeout = 0.5
 
 [worldmodel]
 seed = "world.json"
-"""
+{worldmodel_extra}"""
 
 
-def write_project(projects: Path, broker_url: str | None) -> Path:
-    """The test project under `projects/edgefaults/`, with the wildfire adapter."""
+def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str = "",
+                  files: dict[str, str] | None = None) -> Path:
+    """The test project under `projects/edgefaults/`, with the wildfire adapter; more
+    `[worldmodel]` lines and project files (name -> text) when given."""
     folder = projects / PROJECT
     folder.mkdir(parents=True)
     shutil.copy(WILDFIRE / "events.py", folder / "events.py")
     shutil.copy(WILDFIRE / "world.json", folder / "world.json")
+    for name, text in (files or {}).items():
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        (folder / name).write_text(text)
     broker_component = "" if broker_url else (
         '\n[components.broker]\nmodule = "mrss.broker:EmbeddedBroker"\n')
     (folder / "project.toml").write_text(PROJECT_TOML.format(
         name=PROJECT, broker_component=broker_component,
-        broker_url=f'url = "{broker_url}"\n' if broker_url else ""))
+        broker_url=f'url = "{broker_url}"\n' if broker_url else "",
+        worldmodel_extra=worldmodel_extra))
     return folder
 
 
 class SupervisedEdge:
     """One `mrss supervise edgefaults` run and what the test saw of it."""
 
-    def __init__(self, root: Path, broker_url: str | None = None) -> None:
+    def __init__(self, root: Path, broker_url: str | None = None, *,
+                 worldmodel_extra: str = "", files: dict[str, str] | None = None,
+                 token: str | None = None) -> None:
         self.root = root
         self.run_dir = root / "run"
         self.run_dir.mkdir()
-        write_project(root / "projects", broker_url)
+        write_project(root / "projects", broker_url, worldmodel_extra, files)
         self.endpoints = BusEndpoints.ipc(self.run_dir)
         self._lock = threading.Lock()
         self.seen: list[Envelope] = []
@@ -118,7 +126,7 @@ class SupervisedEdge:
              str(self.run_dir)],
             env={**os.environ, "MRSS_PROJECTS": str(root / "projects")},
             stdout=self._log, stderr=subprocess.STDOUT, start_new_session=True)
-        self.world = WorldModelClient(run_dir=self.run_dir, timeout=2.0)
+        self.world = WorldModelClient(run_dir=self.run_dir, timeout=2.0, token=token)
         self.mqtt: MqttClient | None = None
         self.replies: list[dict[str, Any]] = []
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import secrets
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -10,7 +11,7 @@ import pytest
 from mrss.api import ConfigError, RobotCommLayer
 from mrss.links.connect import connect_link, link_options
 from mrss.messages import Message, RobotData
-from mrss.testing import BrokerInfo, wait_until
+from mrss.testing import BrokerInfo, free_udp_port, wait_until
 
 from .conftest import Spawn
 
@@ -95,3 +96,26 @@ def test_default_connect_robot_forwards_telemetry_and_link_state(
         assert link.failsafe.timeout_s == 5.0
     finally:
         layer.disconnect_robot(robot, link)
+
+
+def test_default_connect_robot_signs_with_the_projects_key_file(tmp_path: Path,
+                                                                spawn: Spawn) -> None:
+    (tmp_path / "keys").mkdir()
+    (tmp_path / "keys" / "uav1.key").write_text(secrets.token_hex(32) + "\n")
+    run = tmp_path / "run"
+    run.mkdir()
+    port = free_udp_port()
+    (run / "uav1.mavlink").write_text(f"udpin:127.0.0.1:{port}\n")  # as the sim component
+    spawn("mrss", "sim", "uav", "--out", f"udpout:127.0.0.1:{port}",
+          f"--signing-key={tmp_path / 'keys' / 'uav1.key'}")
+    states: list[tuple[str, bool, str]] = []
+    layer = Layer()
+    layer.bind_runtime(project_dir=tmp_path, run_dir=run, publish=lambda _m: None,
+                       link_state=lambda r, up, why: states.append((r, up, why)))
+    link: Any = layer.connect_robot("uav1", {"link": "mavlink",
+                                             "signing_key": "keys/uav1.key"})
+    try:
+        wait_until(lambda: any(up for _, up, _ in states), 20, message="signed link up")
+        assert link.signed and link.refused()["bad signature"] == 0
+    finally:
+        layer.disconnect_robot("uav1", link)

@@ -3,6 +3,7 @@ change its mode, checked from the simulator's own state."""
 
 from __future__ import annotations
 
+import hashlib
 import os
 import subprocess
 import sys
@@ -97,3 +98,32 @@ def test_mavproxy_sees_arms_flies_and_switches_modes(
     assert gcs.said("Got COMMAND_ACK: DO_SET_MODE: ACCEPTED")
     assert gcs.said("Got COMMAND_ACK: COMPONENT_ARM_DISARM: ACCEPTED")
     assert not gcs.said("fence breach")
+
+
+@pytest.mark.slow
+def test_mavproxy_with_the_passphrase_of_a_key_file_commands_a_signed_vehicle(
+        tmp_path: object) -> None:
+    """A key file is SHA-256(passphrase) in hex: MAVProxy's `signing key PASSPHRASE`
+    then speaks to a simulator signing with that file's key; before it, it cannot."""
+    passphrase = "wildfire-ops-2026"
+    key = hashlib.sha256(passphrase.encode()).digest()
+    port = free_udp_port()
+    uav = SimUav(f"udpout:127.0.0.1:{port}", speedup=10, signing_key=key)
+    gcs = MavProxy(f"udpin:127.0.0.1:{port}", str(tmp_path))
+    uav.start()
+    try:
+        wait_until(lambda: gcs.said("STABILIZE>"), timeout=60, message="MAVProxy sees it")
+        gcs.type("mode GUIDED")                    # unsigned: refused by the vehicle
+        wait_until(lambda: uav.refused()["unsigned"] > 0, timeout=20,
+                   message="the unsigned command refused")
+        assert uav.snapshot().mode == "STABILIZE"
+        gcs.type("module load signing")
+        gcs.type(f"signing key {passphrase}")
+        wait_until(lambda: gcs.said("Setup signing key"), timeout=20,
+                   message="MAVProxy signs")
+        gcs.type("mode GUIDED")
+        wait_until(lambda: uav.snapshot().mode == "GUIDED", timeout=30,
+                   message="the signed command obeyed")
+    finally:
+        gcs.close()
+        uav.stop()

@@ -24,6 +24,9 @@ def test_bad_arguments_exit_2_with_a_clear_message() -> None:
     assert out.returncode == 2 and "out of range" in out.stderr
     out = run_cli("uav", "--speedup", "0")
     assert out.returncode == 2 and "speedup must be positive" in out.stderr
+    out = run_cli("uav", "--signing-key", "/nonexistent/uav.key")
+    assert out.returncode == 2 and "key '--signing-key': cannot read signing key file" \
+        in out.stderr and "Traceback" not in out.stderr
     out = run_cli("ugv", "--broker", "http://127.0.0.1:1")
     assert out.returncode == 2 and "mqtt://" in out.stderr
     out = run_cli()

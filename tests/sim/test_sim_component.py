@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import secrets
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from mrss.errors import ConfigError
+from mrss.links.connect import connect_link
 from mrss.links.mavlink import MavlinkLink
 from mrss.links.mqtt import MqttLink
 from mrss.sim.component import SimUavComponent, SimUgvComponent, speedup_of
@@ -95,12 +97,49 @@ def test_ugv_joins_the_projects_broker(tmp_path: Path, mqtt_broker: BrokerInfo) 
     ({"speedup": 0}, "speedup"),
     ({"recharge": -1}, "recharge"),
     ({"hotspots": 7}, "hotspots"),
+    ({"signing_key": "keys/none.key"}, "signing_key"),
 ])
 def test_bad_options_name_their_key(tmp_path: Path, options: dict[str, Any],
                                     key: str) -> None:
     with pytest.raises(ConfigError) as info:
         SimUavComponent().start(context(tmp_path, "sim_uav", **options))
     assert info.value.key == key
+
+
+def test_signed_uav_component_and_the_robot_table_share_a_project_key_file(
+        tmp_path: Path) -> None:
+    (tmp_path / "keys").mkdir()
+    (tmp_path / "keys" / "uav1.key").write_text(secrets.token_hex(32) + "\n")
+    ctx = context(tmp_path, "sim_uav", speedup=5, signing_key="keys/uav1.key")
+    sim = SimUavComponent()
+    sim.start(ctx)
+    links = []
+    try:
+        for table in ({"link": "mavlink", "signing_key": "keys/uav1.key"}, {"link": "mavlink"}):
+            link = connect_link("uav1", table, project_dir=tmp_path, run_dir=ctx.run_dir)
+            assert isinstance(link, MavlinkLink)
+            links.append(link)
+        signed, unsigned = links
+        signed.wait_up(10)
+        signed.set_mode("GUIDED")                  # a signed command is obeyed
+        wait_until(lambda: sim.uav is not None and sim.uav.snapshot().mode == "GUIDED", 5,
+                   message="GUIDED")
+        wait_until(lambda: sim.uav is not None and sim.uav.refused()["unsigned"] >= 2, 10,
+                   message="the unsigned link's heartbeats refused")
+        # A sender whose datagrams are all refused never becomes the vehicle's peer: the
+        # unsigned link hears nothing, while the signed one stays up.
+        assert not unsigned.up and unsigned.target_system is None
+        assert signed.up and sim.uav is not None and sim.uav.snapshot().mode == "GUIDED"
+        sim.stop()                                 # a new incarnation signs with a new
+        wait_until(lambda: not signed.up, 15, message="the link to drop")  # timestamp
+        sim = SimUavComponent()
+        sim.start(ctx)
+        wait_until(lambda: signed.up, 15, message="the signed link back up")
+        assert signed.refused()["replayed"] == 0
+    finally:
+        for link in links:
+            link.close()
+        sim.stop()
 
 
 def test_ugv_without_a_broker_says_how_to_get_one(tmp_path: Path) -> None:
