@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak.closures import tester
 from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
 
 if TYPE_CHECKING:
@@ -16,7 +17,7 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames", "arg_slots")
+                 "file", "index", "annots", "varnames", "arg_slots", "test")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
@@ -26,6 +27,8 @@ class Plan:
         self.op = op
         self.trigger = trigger
         self.context = context
+        # the context as one Python function when it is simple enough (see `closures`)
+        self.test = tester(context)
         self.code = code
         self.nslots = nslots
         self.annots = annots

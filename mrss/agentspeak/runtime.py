@@ -179,9 +179,14 @@ class Runtime:
                     chosen = plan
                     break
                 try:
-                    for _ in plan.context.solve(self, frame):
-                        chosen = plan
-                        break
+                    test = plan.test
+                    if test is not None:
+                        if test(self, frame):
+                            chosen = plan
+                    else:
+                        for _ in plan.context.solve(self, frame):
+                            chosen = plan
+                            break
                 except AslRuntimeError as exc:
                     self.warn(f"{plan.file}:{plan.line}: error in the context of "
                               f"{plan.trigger_text()}: {exc.message}")
