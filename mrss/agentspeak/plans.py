@@ -17,7 +17,7 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames", "arg_slots", "test")
+                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
@@ -43,6 +43,10 @@ class Plan:
             idx = tuple(a.index for a in trigger.args if type(a) is Slot)
             if len(set(idx)) == len(idx):
                 self.arg_slots = idx
+        # ... and when they are slots 0, 1, ..., the frame is the event's arguments padded
+        self.pad: tuple[None, ...] | None = None
+        if self.arg_slots is not None and self.arg_slots == tuple(range(len(trigger.args))):
+            self.pad = (None,) * (nslots - len(trigger.args))
 
     @property
     def key(self) -> PlanKey:

@@ -165,15 +165,19 @@ class Runtime:
             trail = self.trail
             mark0 = len(trail)
             for plan in plans:
-                frame = [None] * plan.nslots
-                slots = plan.arg_slots
-                if slots is not None:
-                    args = lit.args
-                    for i in range(len(slots)):
-                        frame[slots[i]] = args[i]
-                elif not unify(plan.trigger, frame, lit, trail):
-                    undo(trail, mark0)
-                    continue
+                pad = plan.pad
+                if pad is not None:  # the trigger's arguments are the first slots
+                    frame = [*lit.args, *pad]
+                else:
+                    frame = [None] * plan.nslots
+                    slots = plan.arg_slots
+                    if slots is not None:
+                        args = lit.args
+                        for i in range(len(slots)):
+                            frame[slots[i]] = args[i]
+                    elif not unify(plan.trigger, frame, lit, trail):
+                        undo(trail, mark0)
+                        continue
                 relevant = True
                 if plan.context is None:
                     chosen = plan
@@ -209,9 +213,10 @@ class Runtime:
                 im.fail_target = ev.target
             elif ev.tail and stack:
                 top = stack[-1]
+                tl = top.lit
                 if (top.op == ADD_ACH and top.fail_target is None and top.pc >= len(top.code)
-                        and top.lit.functor == lit.functor and len(top.lit.args) == len(lit.args)
-                        and not self.plans.has(DEL_ACH, top.lit.key)):
+                        and tl.functor == lit.functor and len(tl.args) == len(lit.args)
+                        and (DEL_ACH, tl.functor, len(tl.args), tl.neg) not in self.plans.index):
                     stack.pop()  # tail-recursion optimisation: replace, don't stack
         it.stack.append(im)
         if chosen.atomic and self.atomic is None:
