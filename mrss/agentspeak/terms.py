@@ -60,6 +60,7 @@ class Struct:
     """
 
     __slots__ = ("functor", "args", "annots", "neg", "ground")
+    ground: bool
 
     def __init__(
         self,
