@@ -4,8 +4,9 @@
 with contexts (one percept at a time, each processed until idle), (c) the cost of a
 reasoning cycle while many intentions are blocked on environment actions, and of
 releasing them; (d), (e) and (f) are issue 12's programs through `mrss agent` and its
-memory figure (`reasoner_agent`). python-agentspeak is installed by this benchmark into a throwaway venv
-under the user cache directory (never a dependency of MRSS) and run in a subprocess.
+memory figure (`reasoner_agent`). python-agentspeak is installed by this benchmark
+into a throwaway venv under the user cache directory (never a dependency of MRSS) and
+run in a subprocess.
 """
 
 from __future__ import annotations
