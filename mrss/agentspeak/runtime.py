@@ -3,6 +3,26 @@
 Holds beliefs, plans, the event queue, intentions (a round-robin queue of runnable
 ones; parked ones are not in it, so blocked intentions cost nothing per cycle), the
 environment actions in progress and the `.wait` timers. `agent.Agent` drives it.
+
+Jason's transition rules (Bordini et al., "Programming Multi-Agent Systems in
+AgentSpeak using Jason", formal semantics) and where each one is:
+
+- SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
+  an `[atomic]` intention runs, its own `atomic_events`).
+- RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
+  functor, arity and negation), then trigger unification in `Runtime.handle_event`.
+- ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
+  and lazy: contexts are tried in source order (`Plan.test`, a compiled function, or
+  `Plan.context.solve`) and the first applicable plan is taken.
+- AddIM (add the intended means): the end of `Runtime.handle_event`: pushed on the
+  intention that posted the event, or on a new intention for an external event
+  (with tail-recursion optimisation).
+- SelInt (select an intention): `Agent.step`, round-robin over `runq` (runnable ones
+  only; the `[atomic]` one alone while it runs).
+- ExecInt (execute one formula): `Runtime.run_step`, which runs one compiled formula
+  (`instructions.Instr.run`); environment actions leave through `start_action` and
+  come back through `process_completion`.
+- ClrInt (clear finished plans): `Runtime.pop_finished`.
 """
 
 from __future__ import annotations
