@@ -147,7 +147,7 @@ class BeliefBase:
         old = s.get(lit.args)
         if old is None:
             return False
-        if not lit.annots:
+        if not lit.annots or lit.annots == old.annots:  # every annotation goes
             s._pop(lit.args)
             self.size -= 1
             return True

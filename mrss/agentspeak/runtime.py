@@ -164,7 +164,7 @@ class Runtime:
             held = store.get(lit.args) if store is not None else None
             if held is None or SOURCE_PERCEPT not in held.annots:
                 self.on_percept_gone(lit)
-        if self.plans.has(op, (lit.functor, len(lit.args), lit.neg)):
+        if (op, lit.functor, len(lit.args), lit.neg) in self.plans.index:
             if it is not None:
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
@@ -177,7 +177,7 @@ class Runtime:
         if it is not None and (it.dropped or it.gen != ev.gen):
             return
         lit = ev.lit
-        plans = self.plans.relevant(ev.op, lit)
+        plans = self.plans.index.get((ev.op, lit.functor, len(lit.args), lit.neg))  # RelPl
         chosen = None
         frame: list[Any] = []
         relevant = False
