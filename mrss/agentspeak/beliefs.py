@@ -32,10 +32,32 @@ class Rule:
         self.seq = 0  # its place among the facts at the end of its predicate (`born`)
 
 
-class PredStore:
-    """The beliefs and rules of one predicate indicator."""
+NO_KEY = object()  # a first argument the first-argument index does not hold
+INDEX_FROM = 16  # a predicate gets its first-argument index once it has this many facts
 
-    __slots__ = ("front", "back", "rules", "born", "seq")
+
+def first_key(t: Term) -> Any:
+    """The first-argument index key of a (dereferenced) argument: a number, a string or
+    an atom without annotations (equal keys are exactly the terms that unify), else
+    NO_KEY."""
+    tt = type(t)
+    if tt is int or tt is float or tt is str:
+        return t
+    if tt is Struct and not t.args and not t.annots:  # type: ignore[union-attr]
+        return t
+    return NO_KEY
+
+
+class PredStore:
+    """The beliefs and rules of one predicate indicator.
+
+    `first` indexes the facts by first argument (built when a query with a bound first
+    argument meets a predicate of `INDEX_FROM` facts or more, then kept up to date):
+    per key, the facts of `front` and of `back` with that first argument, in the same
+    order as there; `irregular` counts facts whose first argument has no key (then
+    queries scan all facts, as such a fact may unify with anything)."""
+
+    __slots__ = ("front", "back", "rules", "born", "seq", "first", "irregular")
 
     def __init__(self) -> None:
         self.front: dict[tuple[Term, ...], Struct] = {}
@@ -45,6 +67,52 @@ class PredStore:
         # (only counted once the predicate has a rule, when the order matters)
         self.born: dict[tuple[Term, ...], int] = {}
         self.seq = 0
+        self.first: dict[Any, tuple[dict[tuple[Term, ...], Struct],
+                                    dict[tuple[Term, ...], Struct]]] | None = None
+        self.irregular = 0
+
+    def facts_with_first(self, key: Any) -> Iterator[Struct] | None:
+        """The facts whose first argument may unify with `key` (a `first_key`), in
+        `facts()` order; None when the index cannot tell (then scan `facts()`)."""
+        if self.first is None:
+            if len(self.front) + len(self.back) < INDEX_FROM:
+                return None
+            self._build_first()
+        if self.irregular:
+            return None
+        pair = self.first.get(key)  # type: ignore[union-attr]
+        if pair is None:
+            return iter(())
+        return _chain_facts(pair[0], pair[1])
+
+    def _build_first(self) -> None:
+        self.first = {}
+        self.irregular = 0
+        for front, facts in ((True, self.front), (False, self.back)):
+            for args, lit in facts.items():
+                self._index(args, lit, front)
+
+    def _index(self, args: tuple[Term, ...], lit: Struct, front: bool) -> None:
+        k = first_key(args[0])
+        if k is NO_KEY:
+            self.irregular += 1
+            return
+        pair = self.first.get(k)  # type: ignore[union-attr]
+        if pair is None:
+            pair = self.first[k] = ({}, {})  # type: ignore[index]
+        pair[0 if front else 1][args] = lit
+
+    def _unindex(self, args: tuple[Term, ...]) -> None:
+        k = first_key(args[0])
+        if k is NO_KEY:
+            self.irregular -= 1
+            return
+        pair = self.first.get(k)  # type: ignore[union-attr]
+        if pair is not None:
+            if pair[0].pop(args, None) is None:
+                pair[1].pop(args, None)
+            if not pair[0] and not pair[1]:
+                del self.first[k]  # type: ignore[union-attr]
 
     def clauses(self) -> Iterator[Struct | Rule]:
         """Facts and rules in Jason's order: facts added in front (newest first), then
@@ -72,17 +140,34 @@ class PredStore:
     def __len__(self) -> int:
         return len(self.front) + len(self.back)
 
+    def _add(self, args: tuple[Term, ...], lit: Struct, front: bool) -> None:
+        """A new fact (no fact with these arguments is there)."""
+        (self.front if front else self.back)[args] = lit
+        if self.first is not None:
+            self._index(args, lit, front)
+
     def _put(self, args: tuple[Term, ...], lit: Struct) -> None:
-        if args in self.front:
-            self.front[args] = lit
-        else:
-            self.back[args] = lit
+        """Replace the fact with these arguments in its place."""
+        front = args in self.front
+        (self.front if front else self.back)[args] = lit
+        if self.first is not None:
+            self._index(args, lit, front)  # an existing key: keeps its place
+            if first_key(args[0]) is NO_KEY:
+                self.irregular -= 1  # counted once already
 
     def _pop(self, args: tuple[Term, ...]) -> None:
+        if self.first is not None and (args in self.front or args in self.back):
+            self._unindex(args)
         if self.front.pop(args, None) is None:
             self.back.pop(args, None)
             if self.born:
                 self.born.pop(args, None)
+
+
+def _chain_facts(front: dict[tuple[Term, ...], Struct],
+                 back: dict[tuple[Term, ...], Struct]) -> Iterator[Struct]:
+    yield from reversed(front.values())
+    yield from back.values()
 
 
 def _merge(old: tuple[Term, ...], new: tuple[Term, ...]) -> tuple[Term, ...] | None:
@@ -123,13 +208,10 @@ class BeliefBase:
         args = lit.args
         old = s.get(args)
         if old is None:
-            if front:
-                s.front[args] = lit
-            else:
-                s.back[args] = lit
-                if s.rules:
-                    s.seq += 1
-                    s.born[args] = s.seq
+            s._add(args, lit, front)
+            if not front and s.rules:
+                s.seq += 1
+                s.born[args] = s.seq
             self.size += 1
             return True
         merged = _merge(old.annots, lit.annots)
