@@ -115,17 +115,16 @@ class _Gen:
             return f"({done} if {test} else {slow})"
         return slow
 
-    def test(self, q: Query, last: bool) -> str:
-        """A Python boolean expression (over `rt`, `f`) for query `q`; `last` when
-        nothing follows it in the conjunction (then it may have several solutions)."""
+    def condition(self, q: Query) -> str | None:
+        """A Python boolean expression (over `rt`, `f`) for a query with one solution at
+        most, or None if `q` may have several (then it needs a loop)."""
         tq = type(q)
         if tq is TrueQuery:
             return "True"
         if tq is FalseQuery:
             return "False"
-        if tq is AndQuery:
-            a: AndQuery = q  # type: ignore[assignment]
-            return f"({self.test(a.left, False)} and {self.test(a.right, last)})"
+        if tq is NotQuery:  # one solution at most, binding nothing
+            return f"_first({self.const(q)}, rt, f)"
         if tq is RelQuery:
             r: RelQuery = q  # type: ignore[assignment]
             op = _COMPARE.get(r.op)
@@ -135,9 +134,35 @@ class _Gen:
             a1, b1 = self.temp(), self.temp()
             return (f"(({a1} {op} {b1}) if type({a1} := {self.term(r.left)}) in _NUM and "
                     f"type({b1} := {self.term(r.right)}) in _NUM else {slow})")
-        if last or tq is NotQuery:  # a negation has one solution at most, binding nothing
-            return f"_first({self.const(q)}, rt, f)"
-        raise _TooBig  # a query with several solutions followed by more: backtracking
+        return None
+
+    def conjunction(self, q: Query) -> list[str]:
+        """The body of a function returning whether conjunction `q` has a solution: the
+        conditions as `if`s, each query with several solutions as a `for` over its
+        solutions (a later condition that fails tries the next one: backtracking; each
+        query's solutions undo the bindings made after it before the next)."""
+        lines: list[str] = []
+        depth = 1
+        for part in _conjuncts(q):
+            pad = "    " * depth
+            cond = self.condition(part)
+            if cond is None:
+                lines.append(f"{pad}for _ in {self.const(part)}.solve(rt, f):")
+                depth += 1
+            else:
+                lines.append(f"{pad}if not {cond}:")
+                lines.append(f"{pad}    {'return False' if depth == 1 else 'continue'}")
+        lines.append("    " * depth + "return True")
+        if depth > 1:
+            lines.append("    return False")
+        return lines
+
+
+def _conjuncts(q: Query) -> list[Query]:
+    if type(q) is AndQuery:
+        a: AndQuery = q  # type: ignore[assignment]
+        return _conjuncts(a.left) + _conjuncts(a.right)
+    return [q]
 
 
 class _TooBig(Exception):
@@ -184,13 +209,17 @@ def tester(q: Query | None) -> Tester | None:
     solution's bindings kept in the frame), or None if `q` is not simple enough."""
     if q is None:
         return None
+    parts = _conjuncts(q)
+    if len(parts) == 1 and type(q) not in (RelQuery, NotQuery):
+        return None  # a single general query: its own generator is as fast
+    if len(parts) > MAX_NODES:
+        return None
     g = _Gen()
     try:
-        body = g.test(q, True)
+        lines = g.conjunction(q)
     except (_TooBig, RecursionError):
         return None
-    if body.startswith("_first(") and body.count("(") == 1:
-        return None  # a single general query: its generator is as fast
-    fn: Tester = _build("test_context", "rt, f", body, g.env)
+    src = "def test_context(rt, f):\n" + "\n".join(lines) + "\n"
+    exec(compile(src, "<asl test_context>", "exec"), g.env)  # noqa: S102 -- generated
+    fn: Tester = g.env["test_context"]
     return fn
-
