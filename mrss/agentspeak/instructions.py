@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from mrss.agentspeak.closures import resolver
+from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
 from mrss.agentspeak.terms import (
@@ -285,19 +285,35 @@ class CallIA(Instr):
 class Constraint(Instr):
     """A relational formula in a body, e.g. `X = Y + 1` or `N > 0`: fails if false."""
 
-    __slots__ = ("query", "lit")
+    __slots__ = ("query", "lit", "test")
 
     def __init__(self, query: Query, lit: Term, line: int) -> None:
         super().__init__(line)
         self.query = query
         self.lit = lit
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        for _ in self.query.solve(rt, im.frame):
+        if _holds(self.query, self.test, rt, im.frame):
             im.pc += 1
             return
         raise AslRuntimeError(f"constraint {term_str(self.lit)} does not hold",
                               error="constraint_failed")
+
+
+def _holds(query: Query, test: Tester | None, rt: Runtime, frame: Any) -> bool:
+    """Whether `query` has a solution, its first solution's bindings kept (none left
+    when it has none): the compiled `test` if there is one, else the query."""
+    if test is None:
+        for _ in query.solve(rt, frame):
+            return True
+        return False
+    trail = rt.trail
+    mark = len(trail)
+    if test(rt, frame):
+        return True
+    undo(trail, mark)  # a condition that held before one that failed
+    return False
 
 
 class Jump(Instr):
@@ -316,7 +332,7 @@ class Jump(Instr):
 class JumpUnless(Instr):
     """`if`/`elif` condition: on its first solution go on (bindings kept), else jump."""
 
-    __slots__ = ("query", "target", "lit", "keyword")
+    __slots__ = ("query", "target", "lit", "keyword", "test")
 
     def __init__(self, query: Query, lit: Term, line: int, keyword: str = "if") -> None:
         super().__init__(line)
@@ -324,9 +340,10 @@ class JumpUnless(Instr):
         self.lit = lit
         self.target = -1
         self.keyword = keyword
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        for _ in self.query.solve(rt, im.frame):
+        if _holds(self.query, self.test, rt, im.frame):
             im.pc += 1
             return
         im.pc = self.target
@@ -338,13 +355,14 @@ class JumpUnless(Instr):
 class WhileTest(Instr):
     """`while (c)`: each round starts from the bindings before the loop (Jason's loop)."""
 
-    __slots__ = ("query", "target", "lit")
+    __slots__ = ("query", "target", "lit", "test")
 
     def __init__(self, query: Query, lit: Term, line: int) -> None:
         super().__init__(line)
         self.query = query
         self.lit = lit
         self.target = -1
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
         frame = im.frame
@@ -357,7 +375,7 @@ class WhileTest(Instr):
             if loops is None:
                 loops = im.loops = []
             loops.append([self, backup])
-        for _ in self.query.solve(rt, frame):
+        if _holds(self.query, self.test, rt, frame):
             im.pc += 1
             return
         loops.pop()

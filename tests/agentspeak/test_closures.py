@@ -105,3 +105,15 @@ def test_compiled_contexts_answer_as_the_general_query(agent: Agent) -> None:
                 assert _show(f1) == _show(f2), (plan.line, _show(frame))
             checked += 1
     assert checked > 1000
+
+
+def test_a_failed_compiled_condition_leaves_no_binding() -> None:
+    lines: list[str] = []
+    program = """
+!go.
++!go <- if (X = 3 & X > 5) { .print(yes) } else { .print(no) };
+    if (X = 4) { .print(X) };
+    +c(0); while (c(J) & K = J & K < 3) { .print(K); -+c(K + 1) }; ?c(N); .print(done(N)).
+"""
+    Agent(program, name="cond", out=lines.append).run_until_idle()
+    assert lines == ["no", "4", "0", "1", "2", "done(3)"]
