@@ -53,9 +53,11 @@ class PredStore:
 
     `first` indexes the facts by first argument (built when a query with a bound first
     argument meets a predicate of `INDEX_FROM` facts or more, then kept up to date):
-    per key, the facts of `front` and of `back` with that first argument, in the same
-    order as there; `irregular` counts facts whose first argument has no key (then
-    queries scan all facts, as such a fact may unify with anything)."""
+    per key, the argument tuple of its one fact, or a dict of the argument tuples of
+    its facts (in the order they were added, each mapped to whether it is in `front`);
+    the facts themselves stay in `front` and `back`. `irregular` counts facts whose
+    first argument has no key (then queries scan all facts, as such a fact may unify
+    with anything)."""
 
     __slots__ = ("front", "back", "rules", "born", "seq", "first", "irregular")
 
@@ -67,52 +69,73 @@ class PredStore:
         # (only counted once the predicate has a rule, when the order matters)
         self.born: dict[tuple[Term, ...], int] = {}
         self.seq = 0
-        self.first: dict[Any, tuple[dict[tuple[Term, ...], Struct],
-                                    dict[tuple[Term, ...], Struct]]] | None = None
+        self.first: dict[Any, Any] | None = None
         self.irregular = 0
 
     def facts_with_first(self, key: Any) -> Iterator[Struct] | None:
         """The facts whose first argument may unify with `key` (a `first_key`), in
         `facts()` order; None when the index cannot tell (then scan `facts()`)."""
-        if self.first is None:
+        first = self.first
+        if first is None:
             if len(self.front) + len(self.back) < INDEX_FROM:
                 return None
-            self._build_first()
+            first = self._build_first()
         if self.irregular:
             return None
-        pair = self.first.get(key)  # type: ignore[union-attr]
-        if pair is None:
+        entry = first.get(key)
+        if entry is None:
             return iter(())
-        return _chain_facts(pair[0], pair[1])
+        if type(entry) is tuple:
+            b = self.get(entry)
+            return iter(() if b is None else (b,))
+        return self._facts_in(entry)
 
-    def _build_first(self) -> None:
+    def _facts_in(self, entry: dict[tuple[Term, ...], bool]) -> Iterator[Struct]:
+        front = self.front
+        for args, in_front in reversed(entry.items()):
+            if in_front:
+                yield front[args]
+        back = self.back
+        for args, in_front in entry.items():
+            if not in_front:
+                yield back[args]
+
+    def _build_first(self) -> dict[Any, Any]:
         self.first = {}
         self.irregular = 0
         for front, facts in ((True, self.front), (False, self.back)):
-            for args, lit in facts.items():
-                self._index(args, lit, front)
+            for args in facts:
+                self._index(args, front)
+        return self.first
 
-    def _index(self, args: tuple[Term, ...], lit: Struct, front: bool) -> None:
+    def _index(self, args: tuple[Term, ...], front: bool) -> None:
         k = first_key(args[0])
         if k is NO_KEY:
             self.irregular += 1
             return
-        pair = self.first.get(k)  # type: ignore[union-attr]
-        if pair is None:
-            pair = self.first[k] = ({}, {})  # type: ignore[index]
-        pair[0 if front else 1][args] = lit
+        first: dict[Any, Any] = self.first  # type: ignore[assignment]
+        entry = first.get(k)
+        if entry is None:
+            first[k] = args
+        elif type(entry) is tuple:
+            first[k] = {entry: entry in self.front, args: front}
+        else:
+            entry[args] = front
 
     def _unindex(self, args: tuple[Term, ...]) -> None:
         k = first_key(args[0])
         if k is NO_KEY:
             self.irregular -= 1
             return
-        pair = self.first.get(k)  # type: ignore[union-attr]
-        if pair is not None:
-            if pair[0].pop(args, None) is None:
-                pair[1].pop(args, None)
-            if not pair[0] and not pair[1]:
-                del self.first[k]  # type: ignore[union-attr]
+        first: dict[Any, Any] = self.first  # type: ignore[assignment]
+        entry = first.get(k)
+        if type(entry) is tuple:
+            if entry == args:
+                del first[k]
+        elif entry is not None:
+            entry.pop(args, None)
+            if not entry:
+                del first[k]
 
     def clauses(self) -> Iterator[Struct | Rule]:
         """Facts and rules in Jason's order: facts added in front (newest first), then
@@ -144,16 +167,15 @@ class PredStore:
         """A new fact (no fact with these arguments is there)."""
         (self.front if front else self.back)[args] = lit
         if self.first is not None:
-            self._index(args, lit, front)
+            self._index(args, front)
 
     def _put(self, args: tuple[Term, ...], lit: Struct) -> None:
-        """Replace the fact with these arguments in its place."""
-        front = args in self.front
-        (self.front if front else self.back)[args] = lit
-        if self.first is not None:
-            self._index(args, lit, front)  # an existing key: keeps its place
-            if first_key(args[0]) is NO_KEY:
-                self.irregular -= 1  # counted once already
+        """Replace the fact with these arguments in its place (the index holds only
+        the arguments: it stays as it is)."""
+        if args in self.front:
+            self.front[args] = lit
+        else:
+            self.back[args] = lit
 
     def _pop(self, args: tuple[Term, ...]) -> None:
         if self.first is not None and (args in self.front or args in self.back):
@@ -162,12 +184,6 @@ class PredStore:
             self.back.pop(args, None)
             if self.born:
                 self.born.pop(args, None)
-
-
-def _chain_facts(front: dict[tuple[Term, ...], Struct],
-                 back: dict[tuple[Term, ...], Struct]) -> Iterator[Struct]:
-    yield from reversed(front.values())
-    yield from back.values()
 
 
 def _merge(old: tuple[Term, ...], new: tuple[Term, ...]) -> tuple[Term, ...] | None:

@@ -88,3 +88,17 @@ def test_plan_contexts_use_the_index_with_bound_slots() -> None:
         "7 [97,87,77,67,57,47,37,27,17,7]",
         "42 []",
     ]
+
+
+def test_a_key_with_one_fact_at_the_end_then_more() -> None:
+    agent = Agent("", name="index", out=lambda _: None)
+    for i in range(INDEX_FROM + 4):
+        agent.bb.add(Struct("p", (i, 0)), front=False)  # initial beliefs: at the end
+    query = Struct("p", (3, Var("X")))
+    assert _answers(agent, query) == ["p(3,0)"]  # builds the index: one fact per key
+    agent.bb.add(Struct("p", (3, 1)), front=True)
+    agent.bb.add(Struct("p", (3, 2)), front=False)
+    assert _answers(agent, query) == _scan(agent, query) == ["p(3,1)", "p(3,0)", "p(3,2)"]
+    agent.bb.remove(Struct("p", (3, 0)))
+    agent.bb.remove(Struct("p", (3, 1)))
+    assert _answers(agent, query) == _scan(agent, query) == ["p(3,2)"]
