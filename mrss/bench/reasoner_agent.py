@@ -69,8 +69,8 @@ MEMORY_PROGRAM = """+go(I) <- act(I); +done(I).
 
 
 def memory_child(beliefs: int, blocked: int) -> dict[str, float]:
-    """In this process: an agent with `beliefs` beliefs and `blocked` intentions parked
-    on actions; the peak RSS in MB."""
+    """In this process: an agent with `beliefs` beliefs (indexed by first argument) and
+    `blocked` intentions parked on actions; the peak RSS in MB."""
     import resource
 
     from mrss.agentspeak.agent import Agent
@@ -95,6 +95,8 @@ def memory_child(beliefs: int, blocked: int) -> dict[str, float]:
         agent.add_percept(Struct("go", (i,)))
     agent.run_until_idle()
     assert agent.bb.size >= beliefs + blocked and len(agent.pending_actions) == blocked
+    # a query with a bound first argument: the predicate's first-argument index is built
+    assert agent.believes(f"fact({beliefs // 2}, _, _)")
     rss_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KB on Linux
     return {"rss_mb": rss_kb / 1024.0}
 
