@@ -17,7 +17,7 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad")
+                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad", "const_args")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
@@ -47,6 +47,11 @@ class Plan:
         self.pad: tuple[None, ...] | None = None
         if self.arg_slots is not None and self.arg_slots == tuple(range(len(trigger.args))):
             self.pad = (None,) * (nslots - len(trigger.args))
+        # a trigger whose arguments are numbers and strings, without annotations: a ground
+        # event matches it when the arguments are equal (what unification would decide)
+        self.const_args: tuple[Term, ...] | None = None
+        if not trigger.annots and all(type(a) in (int, float, str) for a in trigger.args):
+            self.const_args = trigger.args
 
     @property
     def key(self) -> PlanKey:

@@ -188,6 +188,10 @@ class Runtime:
                 pad = plan.pad
                 if pad is not None:  # the trigger's arguments are the first slots
                     frame = [*lit.args, *pad]
+                elif plan.const_args is not None and lit.ground:  # e.g. +!count(0)
+                    if lit.args != plan.const_args:
+                        continue
+                    frame = [None] * plan.nslots
                 else:
                     frame = [None] * plan.nslots
                     slots = plan.arg_slots
