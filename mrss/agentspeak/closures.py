@@ -1,9 +1,10 @@
 """Templates and simple contexts compiled to Python functions (the hot paths of a cycle).
 
 `resolver(t)` is a function `frame -> term` equal to `unify.resolve(t, frame)`;
-`tester(q)` is a function `(rt, frame) -> bool` equal to "does `q.solve(rt, frame)`
-have a first solution" (its bindings kept, as a caller that stops at the first
-solution keeps them), or None when `q` is not simple enough.
+`tester(q)`, for a conjunction `q` (a context, an `if`/`while` condition), is a
+function `(rt, frame) -> bool` equal to "does `q.solve(rt, frame)` have a first
+solution" (its bindings kept, as a caller that stops at the first solution keeps
+them), or None when the query's own generator would do as well.
 
 Both are generated as Python source and compiled once per plan formula. The generated
 code takes a fast path for the common case -- slots holding numbers, strings or
@@ -30,6 +31,7 @@ Resolver = Callable[[list[Any]], Term]
 Tester = Callable[["Runtime", list[Any]], bool]
 
 MAX_NODES = 64  # larger templates are resolved by the general function
+MAX_LOOPS = 12  # a context with more belief queries keeps its general query
 _INLINE_OPS = {"+": "+", "-": "-", "*": "*"}
 _COMPARE = {"<": "<", ">": ">", "<=": "<=", ">=": ">=", "==": "==", "\\==": "!="}
 _PLAIN = (int, str, float)
@@ -136,17 +138,19 @@ class _Gen:
                     f"type({b1} := {self.term(r.right)}) in _NUM else {slow})")
         return None
 
-    def conjunction(self, q: Query) -> list[str]:
+    def conjunction(self, parts: list[Query]) -> list[str]:
         """The body of a function returning whether conjunction `q` has a solution: the
         conditions as `if`s, each query with several solutions as a `for` over its
         solutions (a later condition that fails tries the next one: backtracking; each
         query's solutions undo the bindings made after it before the next)."""
         lines: list[str] = []
         depth = 1
-        for part in _conjuncts(q):
+        for part in parts:
             pad = "    " * depth
             cond = self.condition(part)
             if cond is None:
+                if depth > MAX_LOOPS:
+                    raise _TooBig  # Python allows 20 nested blocks
                 lines.append(f"{pad}for _ in {self.const(part)}.solve(rt, f):")
                 depth += 1
             else:
@@ -186,8 +190,8 @@ def _pure(e: Expr) -> bool:
 
 
 def _build(name: str, params: str, body: str, env: dict[str, Any]) -> Any:
-    src = f"def {name}({params}):\n    return {body}\n"
-    exec(compile(src, f"<asl {name}>", "exec"), env)  # noqa: S102 -- our own generated code
+    code = compile(f"def {name}({params}):\n    return {body}\n", f"<asl {name}>", "exec")
+    exec(code, env)  # noqa: S102 -- our own generated code
     return env[name]
 
 
@@ -197,10 +201,9 @@ def resolver(t: Term) -> Resolver:
         return lambda frame: t
     g = _Gen()
     try:
-        body = g.term(t)
-    except (_TooBig, RecursionError):
+        fn: Resolver = _build("resolve_template", "f", g.term(t), g.env)
+    except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: nested too deeply
         return lambda frame: resolve(t, frame)
-    fn: Resolver = _build("resolve_template", "f", body, g.env)
     return fn
 
 
@@ -209,17 +212,18 @@ def tester(q: Query | None) -> Tester | None:
     solution's bindings kept in the frame), or None if `q` is not simple enough."""
     if q is None:
         return None
-    parts = _conjuncts(q)
-    if len(parts) == 1 and type(q) not in (RelQuery, NotQuery):
-        return None  # a single general query: its own generator is as fast
-    if len(parts) > MAX_NODES:
-        return None
     g = _Gen()
     try:
-        lines = g.conjunction(q)
-    except (_TooBig, RecursionError):
+        parts = _conjuncts(q)
+        if len(parts) == 1 and type(q) not in (RelQuery, NotQuery):
+            return None  # a single general query: its own generator is as fast
+        if len(parts) > MAX_NODES:
+            raise _TooBig
+        lines = g.conjunction(parts)
+        src = "def test_context(rt, f):\n" + "\n".join(lines) + "\n"
+        code = compile(src, "<asl test_context>", "exec")
+    except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: loops nested too deep
         return None
-    src = "def test_context(rt, f):\n" + "\n".join(lines) + "\n"
-    exec(compile(src, "<asl test_context>", "exec"), g.env)  # noqa: S102 -- generated
+    exec(code, g.env)  # noqa: S102 -- our own generated code
     fn: Tester = g.env["test_context"]
     return fn

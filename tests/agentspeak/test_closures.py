@@ -117,3 +117,25 @@ def test_a_failed_compiled_condition_leaves_no_binding() -> None:
 """
     Agent(program, name="cond", out=lines.append).run_until_idle()
     assert lines == ["no", "4", "0", "1", "2", "done(3)"]
+
+
+def test_a_context_of_many_belief_queries_still_loads_and_answers() -> None:
+    lines: list[str] = []
+    queries = " & ".join(f"b(X{i})" for i in range(30))
+    program = f"b(1).\n!go.\n+!go : {queries} & X29 > 0 <- .print(ok(X0)).\n"
+    agent = Agent(program, name="many", out=lines.append)
+    agent.run_until_idle()
+    assert lines == ["ok(1)"]
+    assert agent.plans.plans[0].test is None  # too many nested loops: the general query
+
+
+def test_deeply_nested_templates_still_load_and_resolve() -> None:
+    lines: list[str] = []
+    for depth in (10, 30, 63, 200):
+        nested = "f(" * depth + "X" + ")" * depth
+        arith = "X" + " + 1" * depth
+        program = (f"!go(1).\n+!go(X) <- +b({nested}); !show({arith}); ?b(B); .print(B).\n"
+                   "+!show(V) <- .print(V).\n")
+        lines.clear()
+        Agent(program, name="deep", out=lines.append).run_until_idle()
+        assert lines == [str(1 + depth), "f(" * depth + "1" + ")" * depth]
