@@ -6,7 +6,7 @@ import argparse
 import importlib
 import importlib.util
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 from mrss import __version__
@@ -47,8 +47,10 @@ def _verb_module(name: str) -> str:
     return f"mrss.commands.{name}"
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with one sub-parser per verb."""
+def build_parser(configure: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser with one sub-parser per verb; only the verbs in `configure`
+    (default: all) import their module to declare their arguments -- `main` configures
+    just the verb it runs, so `mrss agent` does not import the whole system."""
     parser = argparse.ArgumentParser(
         prog="mrss", description="MRSS: multi-robot support system for disaster response."
     )
@@ -56,7 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="verb", metavar="VERB")
     for verb in VERBS:
         p = sub.add_parser(verb.name, help=verb.help, description=verb.help)
-        if verb.built or _module_exists(verb.name):
+        if configure is not None and verb.name not in configure:
+            p.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+        elif verb.built or _module_exists(verb.name):
             module = importlib.import_module(_verb_module(verb.name))
             module.configure(p)
         else:
@@ -72,8 +76,10 @@ def _module_exists(name: str) -> bool:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `mrss` console script; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    chosen = next((w for w in words if not w.startswith("-")), None)  # the verb, if any
+    parser = build_parser([chosen] if chosen is not None else [])
+    args = parser.parse_args(words)
     if args.verb is None:
         parser.print_help()
         return NOT_BUILT_EXIT

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -61,3 +62,19 @@ def test_unknown_project_exits_2_listing_the_known_ones(
 def test_unknown_benchmark_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "nonesuch"]) == 2
     assert "unknown benchmark" in capsys.readouterr().err
+
+
+def test_a_verb_imports_only_its_own_module(tmp_path: Path) -> None:
+    # `mrss agent` used to import every verb (the check runner, the links, pymavlink ...)
+    # before running: most of its time for a short agent
+    program = tmp_path / "hello.asl"
+    program.write_text("!hello.\n+!hello <- .print(hi).\n")
+    code = ("import sys\nfrom mrss.cli import main\n"
+            f"code = main(['agent', {str(program)!r}])\n"
+            "heavy = sorted(m for m in ('mrss.commands.check', 'mrss.check', 'mrss.links',"
+            " 'mrss.supervision', 'pymavlink', 'mrss.commands.tui') if m in sys.modules)\n"
+            "print(code, heavy)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["hi", "0 []"]

@@ -134,7 +134,7 @@ class Agent(Runtime):
             if kind == "done":
                 self.completed.append((a, b, c[0], c[1], c[2]))
             elif kind == "+":
-                lit = a if any(x == SOURCE_PERCEPT for x in a.annots) else \
+                lit = a if SOURCE_PERCEPT in a.annots else \
                     Struct(a.functor, a.args, a.annots + (SOURCE_PERCEPT,), a.neg)
                 if self.bb.add(lit, front=True):
                     self.belief_changed(ADD_BEL, lit, None)

@@ -32,10 +32,34 @@ class Rule:
         self.seq = 0  # its place among the facts at the end of its predicate (`born`)
 
 
-class PredStore:
-    """The beliefs and rules of one predicate indicator."""
+NO_KEY = object()  # a first argument the first-argument index does not hold
+INDEX_FROM = 16  # a predicate gets its first-argument index once it has this many facts
 
-    __slots__ = ("front", "back", "rules", "born", "seq")
+
+def first_key(t: Term) -> Any:
+    """The first-argument index key of a (dereferenced) argument: a number, a string or
+    an atom without annotations (equal keys are exactly the terms that unify), else
+    NO_KEY."""
+    tt = type(t)
+    if tt is int or tt is float or tt is str:
+        return t
+    if tt is Struct and not t.args and not t.annots:  # type: ignore[union-attr]
+        return t
+    return NO_KEY
+
+
+class PredStore:
+    """The beliefs and rules of one predicate indicator.
+
+    `first` indexes the facts by first argument (built when a query with a bound first
+    argument meets a predicate of `INDEX_FROM` facts or more, then kept up to date):
+    per key, the argument tuple of its one fact, or a dict of the argument tuples of
+    its facts (in the order they were added, each mapped to whether it is in `front`);
+    the facts themselves stay in `front` and `back`. `irregular` counts facts whose
+    first argument has no key (then queries scan all facts, as such a fact may unify
+    with anything)."""
+
+    __slots__ = ("front", "back", "rules", "born", "seq", "first", "irregular")
 
     def __init__(self) -> None:
         self.front: dict[tuple[Term, ...], Struct] = {}
@@ -45,6 +69,73 @@ class PredStore:
         # (only counted once the predicate has a rule, when the order matters)
         self.born: dict[tuple[Term, ...], int] = {}
         self.seq = 0
+        self.first: dict[Any, Any] | None = None
+        self.irregular = 0
+
+    def facts_with_first(self, key: Any) -> Iterator[Struct] | None:
+        """The facts whose first argument may unify with `key` (a `first_key`), in
+        `facts()` order; None when the index cannot tell (then scan `facts()`)."""
+        first = self.first
+        if first is None:
+            if len(self.front) + len(self.back) < INDEX_FROM:
+                return None
+            first = self._build_first()
+        if self.irregular:
+            return None
+        entry = first.get(key)
+        if entry is None:
+            return iter(())
+        if type(entry) is tuple:
+            b = self.get(entry)
+            return iter(() if b is None else (b,))
+        return self._facts_in(entry)
+
+    def _facts_in(self, entry: dict[tuple[Term, ...], bool]) -> Iterator[Struct]:
+        front = self.front
+        for args, in_front in reversed(entry.items()):
+            if in_front:
+                yield front[args]
+        back = self.back
+        for args, in_front in entry.items():
+            if not in_front:
+                yield back[args]
+
+    def _build_first(self) -> dict[Any, Any]:
+        self.first = {}
+        self.irregular = 0
+        for front, facts in ((True, self.front), (False, self.back)):
+            for args in facts:
+                self._index(args, front)
+        return self.first
+
+    def _index(self, args: tuple[Term, ...], front: bool) -> None:
+        k = first_key(args[0])
+        if k is NO_KEY:
+            self.irregular += 1
+            return
+        first: dict[Any, Any] = self.first  # type: ignore[assignment]
+        entry = first.get(k)
+        if entry is None:
+            first[k] = args
+        elif type(entry) is tuple:
+            first[k] = {entry: entry in self.front, args: front}
+        else:
+            entry[args] = front
+
+    def _unindex(self, args: tuple[Term, ...]) -> None:
+        k = first_key(args[0])
+        if k is NO_KEY:
+            self.irregular -= 1
+            return
+        first: dict[Any, Any] = self.first  # type: ignore[assignment]
+        entry = first.get(k)
+        if type(entry) is tuple:
+            if entry == args:
+                del first[k]
+        elif entry is not None:
+            entry.pop(args, None)
+            if not entry:
+                del first[k]
 
     def clauses(self) -> Iterator[Struct | Rule]:
         """Facts and rules in Jason's order: facts added in front (newest first), then
@@ -72,13 +163,23 @@ class PredStore:
     def __len__(self) -> int:
         return len(self.front) + len(self.back)
 
+    def _add(self, args: tuple[Term, ...], lit: Struct, front: bool) -> None:
+        """A new fact (no fact with these arguments is there)."""
+        (self.front if front else self.back)[args] = lit
+        if self.first is not None:
+            self._index(args, front)
+
     def _put(self, args: tuple[Term, ...], lit: Struct) -> None:
+        """Replace the fact with these arguments in its place (the index holds only
+        the arguments: it stays as it is)."""
         if args in self.front:
             self.front[args] = lit
         else:
             self.back[args] = lit
 
     def _pop(self, args: tuple[Term, ...]) -> None:
+        if self.first is not None and (args in self.front or args in self.back):
+            self._unindex(args)
         if self.front.pop(args, None) is None:
             self.back.pop(args, None)
             if self.born:
@@ -123,13 +224,10 @@ class BeliefBase:
         args = lit.args
         old = s.get(args)
         if old is None:
-            if front:
-                s.front[args] = lit
-            else:
-                s.back[args] = lit
-                if s.rules:
-                    s.seq += 1
-                    s.born[args] = s.seq
+            s._add(args, lit, front)
+            if not front and s.rules:
+                s.seq += 1
+                s.born[args] = s.seq
             self.size += 1
             return True
         merged = _merge(old.annots, lit.annots)
@@ -147,7 +245,7 @@ class BeliefBase:
         old = s.get(lit.args)
         if old is None:
             return False
-        if not lit.annots:
+        if not lit.annots or lit.annots == old.annots:  # every annotation goes
             s._pop(lit.args)
             self.size -= 1
             return True

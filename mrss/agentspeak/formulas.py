@@ -11,6 +11,7 @@ import operator
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak.beliefs import NO_KEY, first_key
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.terms import (
     Slot,
@@ -110,7 +111,18 @@ class LiteralQuery(Query):
         if store.rules:
             yield from self._with_rules(rt, frame, store)
             return
-        for b in store.facts():
+        facts = None
+        if lit.args:  # a bound first argument: only the facts indexed under it
+            a0: Any = lit.args[0]
+            if type(a0) is Slot:
+                a0 = frame[a0.index]
+                if type(a0) is Var:
+                    a0 = deref(a0)
+            if a0 is not None:
+                key = first_key(a0)
+                if key is not NO_KEY:
+                    facts = store.facts_with_first(key)
+        for b in store.facts() if facts is None else facts:
             if not b.ground:
                 b = rename(b)  # type: ignore[assignment]
             if unify(lit, frame, b, trail):

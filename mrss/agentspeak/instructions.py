@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
 from mrss.agentspeak.terms import (
@@ -53,16 +54,17 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail")
+    __slots__ = ("lit", "tail", "res")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.tail = False
+        self.res = resolver(lit)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        lit = resolve(self.lit, im.frame)
+        lit = self.res(im.frame)
         im.pc = len(im.code) if self.tail else im.pc + 1
         rt.post_subgoal(it, lit, self.tail, self.line)  # type: ignore[arg-type]
 
@@ -145,16 +147,17 @@ class TestGoal(Instr):
 class AddBelief(Instr):
     """`+b` (in front) or `+>b` (at the end); annotated `source(self)`."""
 
-    __slots__ = ("lit", "front")
+    __slots__ = ("lit", "front", "res")
     prefix = "+"
 
     def __init__(self, lit: Struct, front: bool, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.front = front
+        self.res = resolver(lit)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        lit: Any = resolve(self.lit, im.frame)
+        lit: Any = self.res(im.frame)
         if not lit.ground:
             lit = rename(lit)
         im.pc += 1
@@ -165,24 +168,25 @@ class AddBelief(Instr):
 class DelBelief(Instr):
     """`-b`: remove the first matching belief (its `source(self)`); never fails."""
 
-    __slots__ = ("lit", "query")
+    __slots__ = ("lit", "query", "res")
     prefix = "-"
 
     def __init__(self, lit: Struct, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.query = LiteralQuery(lit)
+        self.res = resolver(lit)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
         frame = im.frame
         im.pc += 1
-        lit: Any = resolve(self.lit, frame)
+        lit: Any = self.res(frame)
         if not lit.ground:
             for _ in self.query.solve(rt, frame):
                 break
             else:
                 return
-            lit = resolve(self.lit, frame)
+            lit = self.res(frame)
         if rt.bb.remove(lit):
             rt.belief_changed(DEL_BEL, lit, it)
 
@@ -234,14 +238,15 @@ def _first_free(t: Term) -> Var | None:
 class Action(Instr):
     """An environment action: sent to the host; the intention waits for the outcome."""
 
-    __slots__ = ("lit",)
+    __slots__ = ("lit", "res")
 
     def __init__(self, lit: Struct, line: int) -> None:
         super().__init__(line)
         self.lit = lit
+        self.res = resolver(lit)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        lit: Any = resolve(self.lit, im.frame)
+        lit: Any = self.res(im.frame)
         if not lit.ground and lit.functor not in rt.open_actions and not is_ground(lit):
             free = _first_free(lit)
             raise AslRuntimeError(f"unbound variable {term_str(free) if free else '?'} in "
@@ -280,19 +285,35 @@ class CallIA(Instr):
 class Constraint(Instr):
     """A relational formula in a body, e.g. `X = Y + 1` or `N > 0`: fails if false."""
 
-    __slots__ = ("query", "lit")
+    __slots__ = ("query", "lit", "test")
 
     def __init__(self, query: Query, lit: Term, line: int) -> None:
         super().__init__(line)
         self.query = query
         self.lit = lit
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        for _ in self.query.solve(rt, im.frame):
+        if _holds(self.query, self.test, rt, im.frame):
             im.pc += 1
             return
         raise AslRuntimeError(f"constraint {term_str(self.lit)} does not hold",
                               error="constraint_failed")
+
+
+def _holds(query: Query, test: Tester | None, rt: Runtime, frame: Any) -> bool:
+    """Whether `query` has a solution, its first solution's bindings kept (none left
+    when it has none): the compiled `test` if there is one, else the query."""
+    if test is None:
+        for _ in query.solve(rt, frame):
+            return True
+        return False
+    trail = rt.trail
+    mark = len(trail)
+    if test(rt, frame):
+        return True
+    undo(trail, mark)  # a condition that held before one that failed
+    return False
 
 
 class Jump(Instr):
@@ -311,7 +332,7 @@ class Jump(Instr):
 class JumpUnless(Instr):
     """`if`/`elif` condition: on its first solution go on (bindings kept), else jump."""
 
-    __slots__ = ("query", "target", "lit", "keyword")
+    __slots__ = ("query", "target", "lit", "keyword", "test")
 
     def __init__(self, query: Query, lit: Term, line: int, keyword: str = "if") -> None:
         super().__init__(line)
@@ -319,9 +340,10 @@ class JumpUnless(Instr):
         self.lit = lit
         self.target = -1
         self.keyword = keyword
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        for _ in self.query.solve(rt, im.frame):
+        if _holds(self.query, self.test, rt, im.frame):
             im.pc += 1
             return
         im.pc = self.target
@@ -333,13 +355,14 @@ class JumpUnless(Instr):
 class WhileTest(Instr):
     """`while (c)`: each round starts from the bindings before the loop (Jason's loop)."""
 
-    __slots__ = ("query", "target", "lit")
+    __slots__ = ("query", "target", "lit", "test")
 
     def __init__(self, query: Query, lit: Term, line: int) -> None:
         super().__init__(line)
         self.query = query
         self.lit = lit
         self.target = -1
+        self.test = tester(query)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
         frame = im.frame
@@ -352,7 +375,7 @@ class WhileTest(Instr):
             if loops is None:
                 loops = im.loops = []
             loops.append([self, backup])
-        for _ in self.query.solve(rt, frame):
+        if _holds(self.query, self.test, rt, frame):
             im.pc += 1
             return
         loops.pop()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak.closures import tester
 from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
 
 if TYPE_CHECKING:
@@ -16,7 +17,7 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames", "arg_slots")
+                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad", "const_args")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
@@ -26,6 +27,8 @@ class Plan:
         self.op = op
         self.trigger = trigger
         self.context = context
+        # the context as one Python function when it is simple enough (see `closures`)
+        self.test = tester(context)
         self.code = code
         self.nslots = nslots
         self.annots = annots
@@ -40,6 +43,15 @@ class Plan:
             idx = tuple(a.index for a in trigger.args if type(a) is Slot)
             if len(set(idx)) == len(idx):
                 self.arg_slots = idx
+        # ... and when they are slots 0, 1, ..., the frame is the event's arguments padded
+        self.pad: tuple[None, ...] | None = None
+        if self.arg_slots is not None and self.arg_slots == tuple(range(len(trigger.args))):
+            self.pad = (None,) * (nslots - len(trigger.args))
+        # a trigger whose arguments are numbers and strings, without annotations: a ground
+        # event matches it when the arguments are equal (what unification would decide)
+        self.const_args: tuple[Term, ...] | None = None
+        if not trigger.annots and all(type(a) in (int, float, str) for a in trigger.args):
+            self.const_args = trigger.args
 
     @property
     def key(self) -> PlanKey:

@@ -3,6 +3,26 @@
 Holds beliefs, plans, the event queue, intentions (a round-robin queue of runnable
 ones; parked ones are not in it, so blocked intentions cost nothing per cycle), the
 environment actions in progress and the `.wait` timers. `agent.Agent` drives it.
+
+Jason's transition rules (Bordini et al., "Programming Multi-Agent Systems in
+AgentSpeak using Jason", formal semantics) and where each one is:
+
+- SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
+  an `[atomic]` intention runs, its own `atomic_events`).
+- RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
+  functor, arity and negation), then trigger unification in `Runtime.handle_event`.
+- ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
+  and lazy: contexts are tried in source order (`Plan.test`, a compiled function, or
+  `Plan.context.solve`) and the first applicable plan is taken.
+- AddIM (add the intended means): the end of `Runtime.handle_event`: pushed on the
+  intention that posted the event, or on a new intention for an external event
+  (with tail-recursion optimisation).
+- SelInt (select an intention): `Agent.step`, round-robin over `runq` (runnable ones
+  only; the `[atomic]` one alone while it runs).
+- ExecInt (execute one formula): `Runtime.run_step`, which runs one compiled formula
+  (`instructions.Instr.run`); environment actions leave through `start_action` and
+  come back through `process_completion`.
+- ClrInt (clear finished plans): `Runtime.pop_finished`.
 """
 
 from __future__ import annotations
@@ -144,7 +164,7 @@ class Runtime:
             held = store.get(lit.args) if store is not None else None
             if held is None or SOURCE_PERCEPT not in held.annots:
                 self.on_percept_gone(lit)
-        if self.plans.has(op, (lit.functor, len(lit.args), lit.neg)):
+        if (op, lit.functor, len(lit.args), lit.neg) in self.plans.index:
             if it is not None:
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
@@ -157,7 +177,7 @@ class Runtime:
         if it is not None and (it.dropped or it.gen != ev.gen):
             return
         lit = ev.lit
-        plans = self.plans.relevant(ev.op, lit)
+        plans = self.plans.index.get((ev.op, lit.functor, len(lit.args), lit.neg))  # RelPl
         chosen = None
         frame: list[Any] = []
         relevant = False
@@ -165,23 +185,36 @@ class Runtime:
             trail = self.trail
             mark0 = len(trail)
             for plan in plans:
-                frame = [None] * plan.nslots
-                slots = plan.arg_slots
-                if slots is not None:
-                    args = lit.args
-                    for i in range(len(slots)):
-                        frame[slots[i]] = args[i]
-                elif not unify(plan.trigger, frame, lit, trail):
-                    undo(trail, mark0)
-                    continue
+                pad = plan.pad
+                if pad is not None:  # the trigger's arguments are the first slots
+                    frame = [*lit.args, *pad]
+                elif plan.const_args is not None and lit.ground:  # e.g. +!count(0)
+                    if lit.args != plan.const_args:
+                        continue
+                    frame = [None] * plan.nslots
+                else:
+                    frame = [None] * plan.nslots
+                    slots = plan.arg_slots
+                    if slots is not None:
+                        args = lit.args
+                        for i in range(len(slots)):
+                            frame[slots[i]] = args[i]
+                    elif not unify(plan.trigger, frame, lit, trail):
+                        undo(trail, mark0)
+                        continue
                 relevant = True
                 if plan.context is None:
                     chosen = plan
                     break
                 try:
-                    for _ in plan.context.solve(self, frame):
-                        chosen = plan
-                        break
+                    test = plan.test
+                    if test is not None:
+                        if test(self, frame):
+                            chosen = plan
+                    else:
+                        for _ in plan.context.solve(self, frame):
+                            chosen = plan
+                            break
                 except AslRuntimeError as exc:
                     self.warn(f"{plan.file}:{plan.line}: error in the context of "
                               f"{plan.trigger_text()}: {exc.message}")
@@ -204,9 +237,10 @@ class Runtime:
                 im.fail_target = ev.target
             elif ev.tail and stack:
                 top = stack[-1]
+                tl = top.lit
                 if (top.op == ADD_ACH and top.fail_target is None and top.pc >= len(top.code)
-                        and top.lit.functor == lit.functor and len(top.lit.args) == len(lit.args)
-                        and not self.plans.has(DEL_ACH, top.lit.key)):
+                        and tl.functor == lit.functor and len(tl.args) == len(lit.args)
+                        and (DEL_ACH, tl.functor, len(tl.args), tl.neg) not in self.plans.index):
                     stack.pop()  # tail-recursion optimisation: replace, don't stack
         it.stack.append(im)
         if chosen.atomic and self.atomic is None:

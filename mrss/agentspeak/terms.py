@@ -60,6 +60,7 @@ class Struct:
     """
 
     __slots__ = ("functor", "args", "annots", "neg", "ground")
+    ground: bool
 
     def __init__(
         self,
@@ -72,7 +73,21 @@ class Struct:
         self.args = args
         self.annots = annots
         self.neg = neg
-        self.ground = _all_ground(args) and (not annots or _all_ground(annots))
+        # inline for speed (a Struct is built per goal and belief): `_all_ground` of both
+        for a in args:
+            t = type(a)
+            if t is int or t is str or t is float or (t is Struct and a.ground):  # type: ignore[union-attr]
+                continue
+            if t is not tuple or not _all_ground(a):  # type: ignore[arg-type]
+                self.ground = False
+                return
+        for a in annots:
+            if type(a) is Struct and a.ground:  # type: ignore[union-attr]
+                continue
+            if not _all_ground((a,)):
+                self.ground = False
+                return
+        self.ground = True
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not Struct:

@@ -3,8 +3,10 @@
 (a) a chain of recursive achievement sub-goals, (b) percepts each matched against plans
 with contexts (one percept at a time, each processed until idle), (c) the cost of a
 reasoning cycle while many intentions are blocked on environment actions, and of
-releasing them. python-agentspeak is installed by this benchmark into a throwaway venv
-under the user cache directory (never a dependency of MRSS) and run in a subprocess.
+releasing them; (d), (e), (f) and (g) are issue 12's programs through `mrss agent`,
+the start-up of `mrss agent` and issue 12's memory figure (`reasoner_agent`).
+python-agentspeak is installed by this benchmark into a throwaway venv under the user
+cache directory (never a dependency of MRSS) and run in a subprocess.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
+from mrss.bench import reasoner_agent as ia
 from mrss.bench.report import BenchReport
 
 PEER = "agentspeak==0.2.2"
@@ -218,9 +221,50 @@ def run(quick: bool) -> BenchReport:
     growth = max(costs) / costs[0]
     report.check(f"(c) per-cycle cost does not grow with blocked intentions "
                  f"(max/min {growth:.2f}, limit 1.5)", growth <= 1.5)
+    _through_mrss_agent(report, quick)
     report.notes.append("throughput and costs are CPU time (time.process_time) of the "
                         "interpreter's process, best of several runs: the machine is shared")
     report.notes.append("(b) feeds one percept at a time and runs each until idle, in both "
                         "interpreters; (c) is ours only: python-agentspeak has no asynchronous "
                         "actions (its step scans every intention)")
+    report.notes.append("(d) and (e) are issue 12's programs run by `mrss agent` in a "
+                        "subprocess, timed by the program itself (.nano_time, wall clock): "
+                        "the best round; (f) is the wall time of a whole `mrss agent` run, "
+                        "best of several; (g) the peak RSS of a fresh process")
     return report
+
+
+def _through_mrss_agent(report: BenchReport, quick: bool) -> None:
+    """Issue 12's two programs through `mrss agent`, its start-up, the memory figure."""
+    rounds = 3 if quick else 5
+    for key, label, program in (
+            ("count", "(d) recursive sub-goals via mrss agent", ia.COUNT),
+            ("seen", "(e) +seen/-seen vs 3 plans via mrss agent", ia.SEEN)):
+        n = ia.ISSUE_SIZE[key] // (5 if quick else 1)
+        try:
+            ms = ia.best_round_ms(program, n, rounds, timeout=120 if quick else 600)
+        except (RuntimeError, subprocess.SubprocessError) as exc:
+            report.notes.append(f"{label} did not run: {exc}")
+            continue
+        report.add_row(label, n, ms, None, None, "ms/round")
+        if not quick:
+            limit = ia.ISSUE_MS[key] / ia.SPEEDUP
+            report.check(f"{label}: <= {limit:.0f} ms ({ia.SPEEDUP:g}x faster than issue 12's "
+                         f"{ia.ISSUE_MS[key]:.0f} ms; got {ms:.0f} ms)", ms <= limit)
+    try:
+        start = ia.startup_ms(3 if quick else 5, timeout=60)
+        report.add_row("(f) mrss agent start-up, one-line program", 1, start, None, None,
+                       "ms")
+    except (RuntimeError, subprocess.SubprocessError) as exc:
+        report.notes.append(f"(f) start-up did not run: {exc}")
+    beliefs, blocked = (20_000, 2_000) if quick else (100_000, 10_000)
+    try:
+        rss = ia.peak_rss_mb(beliefs, blocked, timeout=120 if quick else 600)
+    except (RuntimeError, subprocess.SubprocessError, ValueError) as exc:
+        report.notes.append(f"(g) memory did not run: {exc}")
+        return
+    report.add_row(f"(g) peak RSS, {beliefs:,} beliefs + {blocked:,} blocked intentions",
+                   beliefs, rss, None, None, "MB")
+    if not quick:
+        report.check(f"(g) {beliefs:,} beliefs and {blocked:,} blocked intentions in <= "
+                     f"{ia.RSS_LIMIT_MB:.0f} MB RSS (got {rss:.0f} MB)", rss <= ia.RSS_LIMIT_MB)
