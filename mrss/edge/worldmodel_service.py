@@ -25,7 +25,7 @@ from typing import Any
 
 from mrss.edge.loader import import_project_module, project_file
 from mrss.edge.worldmodel_rules import NoObjectWithin, Rule, RuleEngine
-from mrss.edge.worldmodel_store import Change, Position, WorldModelStore, WorldObject
+from mrss.edge.worldmodel_store import Change, Position, WorldObject, WorldStore
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest
 
@@ -37,7 +37,7 @@ log = logging.getLogger("mrss.worldmodel")
 class WorldModel:
     """The store, its rules, and where rule literals go (`emit(literal)`)."""
 
-    def __init__(self, store: WorldModelStore, rules: RuleEngine | None = None,
+    def __init__(self, store: WorldStore, rules: RuleEngine | None = None,
                  emit: Callable[[str], None] | None = None) -> None:
         self.store = store
         self.rules = rules or RuleEngine()
