@@ -113,7 +113,7 @@ class Geometry:
         if extra:
             raise ValueError(f"geometry has unknown key(s) {sorted(extra)}")
         try:
-            kind = GeometryType(value.get("type"))
+            kind = GeometryType(str(value.get("type")))
         except ValueError:
             raise ValueError(f"geometry type {value.get('type')!r} is not one of "
                              f"{[t.value for t in GeometryType]}") from None
