@@ -1,4 +1,5 @@
-"""The embedded world model component: SQLite objects, project rules, bus and HTTP access.
+"""The world model component: objects (embedded SQLite, or PostGIS), project rules, bus and
+HTTP access.
 
 Rules' literals are percepts, sent on the reliable channel "percept" with a copy on the
 `percept` topic (`mrss.edge.percept_channel`). The data layer reaches the world model with
@@ -15,6 +16,7 @@ when the component stops. Clients should still look the URL up per call
 project.toml:
     [worldmodel]
     path = "worldmodel.sqlite"   # in the run folder (default), or ":memory:"
+    url = "postgresql://mrss@db.example:5432/world"  # PostGIS instead of SQLite (optional)
     seed = "world.json"          # objects to load at start, in the project folder
     rules_module = "worldmodel.py"
     http = true                  # serve the HTTP API
@@ -46,13 +48,14 @@ from mrss.edge.worldmodel_service import (
     load_rules,
     load_seed,
 )
-from mrss.edge.worldmodel_store import WorldModelStore
+from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.worldmodel")
 URL_FILE = WORLD_MODEL_URL_FILE
+POSTGRES_SCHEMES = ("postgresql", "postgres")
 PerceptSend = Callable[[Percept], object]
 
 
@@ -86,6 +89,19 @@ def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None) ->
     return http
 
 
+def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
+    """The store the configuration names: PostGIS at `url`, else SQLite at `path`."""
+    url = section.get("url")
+    if url is None:
+        return SqliteWorldStore(store_path(run_dir, section))
+    if not isinstance(url, str) or urlsplit(url).scheme not in POSTGRES_SCHEMES:
+        raise ConfigError(f"{url!r} is not a PostgreSQL URL; did you mean "
+                          "postgresql://user@host:5432/database? (leave url out for the "
+                          "embedded SQLite store)", key="worldmodel.url")
+    from mrss.edge.worldmodel_postgis import PostgisWorldStore
+    return PostgisWorldStore(url)
+
+
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
     """Where the SQLite file goes: `path` under the run folder, or ':memory:'."""
     path = section.get("path", "worldmodel.sqlite")
@@ -103,7 +119,9 @@ class WorldModelComponent(Component):
     SECTION: ClassVar[str] = "worldmodel"  # read from [worldmodel], under its own table's keys
     OPTIONS: ClassVar[tuple[Option, ...]] = (
         Option("path", str, "worldmodel.sqlite",
-               "database file in the run folder, or \":memory:\""),
+               "database file in the run folder, or \":memory:\" (without url)"),
+        Option("url", str, None, "postgresql://user@host:port/db: keep the objects in "
+               "PostGIS instead of the embedded SQLite file", Check.URL),
         Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
         Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
         Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),
@@ -141,7 +159,7 @@ class WorldModelComponent(Component):
         def emit(text: str) -> None:
             send(Percept(literal=text))
 
-        self.world = WorldModel(WorldModelStore(store_path(run_dir, section)), rules, emit)
+        self.world = WorldModel(open_store(run_dir, section), rules, emit)
         seeded = load_seed(self.world, project_dir, section)
         bus.subscribe([WM_REQUEST_TOPIC], self._on_request)
         if section.get("http", True):
@@ -152,8 +170,9 @@ class WorldModelComponent(Component):
                                   key="worldmodel.http_port")
             self.http = serve_http(self.world, host, port, run_dir)
             self.http.start()
-        log.info("world model up: %d rules, %d seeded objects, HTTP %s", len(rules.rules),
-                 seeded, self.http.url if self.http else "off")
+        log.info("world model up: %s, %d rules, %d seeded objects, HTTP %s",
+                 getattr(self.world.store, "where", type(self.world.store).__name__),
+                 len(rules.rules), seeded, self.http.url if self.http else "off")
 
     def _on_request(self, env: Envelope) -> None:
         body = env.body
