@@ -14,13 +14,16 @@ One connection, serialised by a lock. When the server goes away, the request in 
 fails with `WorldStoreUnavailable` (a write in flight is not acknowledged, so it may or
 may not have been stored); later requests reconnect, trying at most once per backoff
 delay (0.1 s doubling to 5 s) and failing at once in between, so nothing waits on a dead
-server. An upsert returns only after its transaction committed: an acknowledged write is
-durable in the server.
+server. A request that gets no answer within `request_timeout` (a frozen server or
+network) has its connection cut and fails the same way. An upsert returns only after its
+transaction committed: an acknowledged write is durable in the server.
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -73,11 +76,12 @@ def safe_url(url: str) -> str:
 class PostgisWorldStore:
     """World model objects in PostGIS at `url` (a libpq URL, postgresql://...)."""
 
-    def __init__(self, url: str, *, connect_timeout: float = 3.0,
+    def __init__(self, url: str, *, connect_timeout: float = 3.0, request_timeout: float = 10.0,
                  backoff_initial: float = 0.1, backoff_max: float = 5.0) -> None:
         self.url = url
         self.where = safe_url(url)
         self.connect_timeout = connect_timeout
+        self.request_timeout = request_timeout
         self._backoff_initial, self._backoff_max = backoff_initial, backoff_max
         self._delay = backoff_initial
         self._next_attempt = 0.0
@@ -121,14 +125,21 @@ class PostgisWorldStore:
     def _run(self, work: Callable[[psycopg.Connection[Any]], T]) -> T:
         with self._lock:
             conn = self._connection()
+            watchdog = _Watchdog(conn, self.request_timeout)
             try:
                 return work(conn)
             except (psycopg.OperationalError, psycopg.InterfaceError) as exc:
                 self.failures += 1
                 self._drop()
+                if watchdog.fired:
+                    raise WorldStoreUnavailable(
+                        f"world model database {self.where} did not answer within "
+                        f"{self.request_timeout:g} s") from None
                 raise WorldStoreUnavailable(
                     f"world model database {self.where} failed: "
                     f"{str(exc).strip() or type(exc).__name__}") from None
+            finally:
+                watchdog.cancel()
 
     def _drop(self) -> None:
         conn, self._conn = self._conn, None
@@ -211,6 +222,37 @@ class PostgisWorldStore:
         row = self._run(lambda conn: conn.execute(
             "SELECT max(version) FROM wm_schema_version").fetchone())
         return int(row[0]) if row and row[0] is not None else 0
+
+
+class _Watchdog:
+    """Cuts the connection of a request that runs past `timeout` (a frozen server or
+    network): the blocked call then fails instead of waiting for ever."""
+
+    def __init__(self, conn: psycopg.Connection[Any], timeout: float) -> None:
+        self._conn = conn
+        self._guard = threading.Lock()
+        self._done = False
+        self.fired = False
+        self._timer = threading.Timer(timeout, self._fire)
+        self._timer.daemon = True
+        self._timer.start()
+
+    def _fire(self) -> None:
+        with self._guard:
+            if self._done:
+                return
+            self.fired = True
+            try:
+                with socket.socket(fileno=os.dup(self._conn.pgconn.socket)) as sock:
+                    sock.shutdown(socket.SHUT_RDWR)
+            except (OSError, psycopg.Error):
+                pass
+
+    def cancel(self) -> None:
+        """The request is over: never fire."""
+        with self._guard:
+            self._done = True
+        self._timer.cancel()
 
 
 def _migrate(conn: psycopg.Connection[Any]) -> None:

@@ -98,19 +98,35 @@ class PgCluster:
             return None
         return pid if psutil.pid_exists(pid) else None
 
-    def kill(self) -> None:
-        """Crash the server: SIGKILL to the postmaster and all its processes."""
+    def processes(self) -> list[psutil.Process]:
+        """The postmaster and all its processes (none when it is not running)."""
         pid = self.postmaster_pid()
         if pid is None:
-            return
+            return []
         server = psutil.Process(pid)
-        processes = [server, *server.children(recursive=True)]
+        return [server, *server.children(recursive=True)]
+
+    def signal_all(self, signum: int) -> list[psutil.Process]:
+        """Send `signum` to every process of the server; the processes."""
+        processes = self.processes()
         for each in processes:
             try:
-                each.send_signal(signal.SIGKILL)
+                each.send_signal(signum)
             except psutil.NoSuchProcess:
                 pass
-        psutil.wait_procs(processes, timeout=30)
+        return processes
+
+    def kill(self) -> None:
+        """Crash the server: SIGKILL to the postmaster and all its processes."""
+        psutil.wait_procs(self.signal_all(signal.SIGKILL), timeout=30)
+
+    def freeze(self) -> None:
+        """SIGSTOP the server: connections stay open, nothing answers."""
+        self.signal_all(signal.SIGSTOP)
+
+    def thaw(self) -> None:
+        """SIGCONT the server."""
+        self.signal_all(signal.SIGCONT)
 
     def restart_after_crash(self) -> None:
         """Start again after `kill` (the server recovers from its WAL)."""

@@ -63,6 +63,7 @@ def test_server_crash_errors_in_flight_reconnects_and_loses_no_acknowledged_writ
         thread.join(timeout=30)
         assert not thread.is_alive()
         assert store.connects >= 2 and store.failures >= 1
+        assert any("next attempt in" in e for e in errors), "no backoff between attempts"
         check = PostgisWorldStore(url)
         stored = {o.id: o.attributes["i"] for o in check.objects("robot")}
         check.close()
@@ -71,3 +72,33 @@ def test_server_crash_errors_in_flight_reconnects_and_loses_no_acknowledged_writ
         store.close()
     finally:
         cluster.stop()
+
+
+@pytest.mark.slow
+def test_a_frozen_server_times_requests_out_instead_of_hanging() -> None:
+    cluster = started_cluster()
+    try:
+        url = cluster.create_database("wm")
+        store = PostgisWorldStore(url, connect_timeout=2.0, request_timeout=1.0)
+        store.upsert(WorldObject("a", "robot", Position(43.6, 1.44)))
+        cluster.freeze()
+        try:
+            with pytest.raises(WorldStoreUnavailable, match="did not answer within 1 s"):
+                store.get("a")
+            with pytest.raises(WorldStoreUnavailable, match="cannot reach|next attempt"):
+                store.get("a")  # reconnecting to a frozen server times out too
+        finally:
+            cluster.thaw()
+        found = wait_until(lambda: _get_or_none(store, "a"), timeout=60,
+                           message="the store back after the server thawed")
+        assert found.id == "a" and store.connects == 2
+        store.close()
+    finally:
+        cluster.stop()
+
+
+def _get_or_none(store: PostgisWorldStore, object_id: str) -> WorldObject | None:
+    try:
+        return store.get(object_id)
+    except WorldStoreUnavailable:
+        return None
