@@ -82,6 +82,7 @@ class PostgisWorldStore:
         self.where = safe_url(url)
         self.connect_timeout = connect_timeout
         self.request_timeout = request_timeout
+        self._watchdog = _Watchdog(request_timeout)
         self._backoff_initial, self._backoff_max = backoff_initial, backoff_max
         self._delay = backoff_initial
         self._next_attempt = 0.0
@@ -125,7 +126,8 @@ class PostgisWorldStore:
     def _run(self, work: Callable[[psycopg.Connection[Any]], T]) -> T:
         with self._lock:
             conn = self._connection()
-            watchdog = _Watchdog(conn, self.request_timeout)
+            watchdog = self._watchdog
+            watchdog.arm(conn)
             try:
                 return work(conn)
             except (psycopg.OperationalError, psycopg.InterfaceError) as exc:
@@ -139,7 +141,7 @@ class PostgisWorldStore:
                     f"world model database {self.where} failed: "
                     f"{str(exc).strip() or type(exc).__name__}") from None
             finally:
-                watchdog.cancel()
+                watchdog.disarm()
 
     def _drop(self) -> None:
         conn, self._conn = self._conn, None
@@ -154,6 +156,7 @@ class PostgisWorldStore:
         with self._lock:
             self._drop()
             self._next_attempt = float("inf")
+            self._watchdog.close()
 
     # --- the store ----------------------------------------------------------------
 
@@ -225,34 +228,67 @@ class PostgisWorldStore:
 
 
 class _Watchdog:
-    """Cuts the connection of a request that runs past `timeout` (a frozen server or
-    network): the blocked call then fails instead of waiting for ever."""
+    """One thread per store that cuts the connection of a request running past its
+    deadline (a frozen server or network): the blocked call then fails instead of
+    waiting for ever. `arm` before a request, `disarm` after it."""
 
-    def __init__(self, conn: psycopg.Connection[Any], timeout: float) -> None:
-        self._conn = conn
-        self._guard = threading.Lock()
-        self._done = False
+    def __init__(self, timeout: float) -> None:
+        self.timeout = timeout
         self.fired = False
-        self._timer = threading.Timer(timeout, self._fire)
-        self._timer.daemon = True
-        self._timer.start()
+        self._cond = threading.Condition()
+        self._conn: psycopg.Connection[Any] | None = None
+        self._deadline: float | None = None
+        self._idle = False
+        self._closed = False
+        self._thread: threading.Thread | None = None
 
-    def _fire(self) -> None:
-        with self._guard:
-            if self._done:
-                return
-            self.fired = True
-            try:
-                with socket.socket(fileno=os.dup(self._conn.pgconn.socket)) as sock:
-                    sock.shutdown(socket.SHUT_RDWR)
-            except (OSError, psycopg.Error):
-                pass
+    def arm(self, conn: psycopg.Connection[Any]) -> None:
+        """A request on `conn` starts now."""
+        with self._cond:
+            self._conn, self.fired = conn, False
+            self._deadline = time.monotonic() + self.timeout
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._watch, daemon=True,
+                                                name="worldmodel-pg-watchdog")
+                self._thread.start()
+            elif self._idle:
+                self._cond.notify()
 
-    def cancel(self) -> None:
-        """The request is over: never fire."""
-        with self._guard:
-            self._done = True
-        self._timer.cancel()
+    def disarm(self) -> None:
+        """The request is over."""
+        with self._cond:
+            self._conn, self._deadline = None, None
+
+    def close(self) -> None:
+        """Stop the thread."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify()
+
+    def _watch(self) -> None:
+        with self._cond:
+            while not self._closed:
+                if self._deadline is None:
+                    self._idle = True
+                    self._cond.wait()
+                    self._idle = False
+                    continue
+                left = self._deadline - time.monotonic()
+                if left > 0:
+                    self._cond.wait(left)
+                    continue
+                self._deadline, self.fired = None, True
+                if self._conn is not None:
+                    _cut(self._conn)
+
+
+def _cut(conn: psycopg.Connection[Any]) -> None:
+    """Shut the connection's socket down under libpq: its blocked call returns an error."""
+    try:
+        with socket.socket(fileno=os.dup(conn.pgconn.socket)) as sock:
+            sock.shutdown(socket.SHUT_RDWR)
+    except (OSError, psycopg.Error):
+        pass
 
 
 def _migrate(conn: psycopg.Connection[Any]) -> None:
