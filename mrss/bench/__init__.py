@@ -9,4 +9,5 @@ BENCHES: dict[str, str] = {
     "e2e": "latency from percept to the first skill start",
     "edges": "data layer calls and MQTT -> percept latency through the edge components",
     "journal": "action journal actions/s with and without fsync; size over a 24 h soak",
+    "worldmodel": "world model store operations, embedded SQLite and PostGIS",
 }
