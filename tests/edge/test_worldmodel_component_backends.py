@@ -51,6 +51,12 @@ def test_component_with_url_keeps_the_world_in_postgis(postgis_url: str) -> None
                 assert seeded["kind"] == "water_source"
                 assert bus.upsert({"id": "z1", "kind": "zone", "geometry": ZONE})["op"] == \
                     "insert"
+                assert [o["id"] for o in bus.intersecting(ZONE)] == ["z1"]
+                assert [o["id"] for o in bus.within(ZONE, "zone")] == ["z1"]
+                near = bus.within_distance({"type": "Point", "coordinates": [1.2, 43.05]},
+                                           10_000, "zone")
+                assert [o["id"] for o in near] == ["z1"]
+                assert near[0]["distance_m"] == pytest.approx(8_130, rel=0.01)
             finally:
                 bus.close()
                 port.close()
