@@ -27,7 +27,14 @@ from typing import Any
 
 from mrss.edge.loader import import_project_module, project_file
 from mrss.edge.worldmodel_rules import NoObjectWithin, Rule, RuleEngine
-from mrss.edge.worldmodel_store import Change, Geometry, Position, WorldObject, WorldStore
+from mrss.edge.worldmodel_store import (
+    Change,
+    Geometry,
+    Position,
+    WorldObject,
+    WorldStore,
+    WorldStoreUnavailable,
+)
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest
 
@@ -140,6 +147,11 @@ class WorldModel:
         except (ValueError, LookupError, TypeError) as exc:
             self.request_errors += 1
             return DataReply(request_id=request.request_id, ok=False, error=str(exc))
+        except WorldStoreUnavailable as exc:  # the database is down: no bug, no traceback
+            self.request_errors += 1
+            log.warning("world model request %s failed: %s", request.function, exc)
+            return DataReply(request_id=request.request_id, ok=False,
+                             error=f"WorldStoreUnavailable: {exc}")
         except Exception as exc:
             self.request_errors += 1
             log.exception("world model request %s failed", request.function)

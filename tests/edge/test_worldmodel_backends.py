@@ -179,7 +179,12 @@ def test_rules_see_the_same_world_on_every_backend(open_store: StoreFactory) -> 
     world.upsert(WorldObject("lake", "water_source", at(2000)))
     world.upsert(WorldObject("h1", "hotspot", BASE))
     world.upsert(WorldObject("h2", "hotspot", at(1700)))
-    assert [e.split(",")[0] for e in emitted] == ["hotspot_detected(h1"]
+    # Water drawn as an area counts by its nearest point.
+    world.upsert(obj("pond", "water_source", geometry=square(4800, -100, 200)))
+    world.upsert(WorldObject("h3", "hotspot", at(5400)))  # 400 m north of the pond
+    world.upsert(WorldObject("h4", "hotspot", at(5600)))  # 600 m
+    assert [e.split(",")[0] for e in emitted] == ["hotspot_detected(h1",
+                                                  "hotspot_detected(h4"]
 
 
 def test_bus_predicates_answer_and_refuse_bad_geometry(open_store: StoreFactory) -> None:
