@@ -59,10 +59,13 @@ class PgCluster:
             unavailable("no PostgreSQL bin folder with the postgis extension files")
         assert bindir is not None
         self.bindir = bindir
-        self.root = Path(tempfile.mkdtemp(prefix="mrss-pg-"))
+        self.as_root = os.geteuid() == 0
+        # As root the folder is the postgres user's: under /tmp, which it can reach (and
+        # a short path keeps the server's Unix socket under the length limit).
+        where = "/tmp" if self.as_root and os.path.isdir("/tmp") else None
+        self.root = Path(tempfile.mkdtemp(prefix="mrss-pg-", dir=where))
         self.data = self.root / "data"
         self.port = free_port()
-        self.as_root = os.geteuid() == 0
         if self.as_root:
             shutil.chown(self.root, "postgres", "postgres")
         try:
