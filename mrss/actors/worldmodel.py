@@ -48,14 +48,13 @@ from mrss.edge.worldmodel_service import (
     load_rules,
     load_seed,
 )
-from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore
+from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore, postgres_url_problem
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.worldmodel")
 URL_FILE = WORLD_MODEL_URL_FILE
-POSTGRES_SCHEMES = ("postgresql", "postgres")
 PerceptSend = Callable[[Percept], object]
 
 
@@ -94,12 +93,12 @@ def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
     url = section.get("url")
     if url is None:
         return SqliteWorldStore(store_path(run_dir, section))
-    if not isinstance(url, str) or urlsplit(url).scheme not in POSTGRES_SCHEMES:
-        raise ConfigError(f"{url!r} is not a PostgreSQL URL; did you mean "
-                          "postgresql://user@host:5432/database? (leave url out for the "
-                          "embedded SQLite store)", key="worldmodel.url")
+    text = url if isinstance(url, str) else repr(url)
+    problem = postgres_url_problem(text)
+    if problem:
+        raise ConfigError(problem, key="worldmodel.url")
     from mrss.edge.worldmodel_postgis import PostgisWorldStore
-    return PostgisWorldStore(url)
+    return PostgisWorldStore(text)
 
 
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
@@ -121,7 +120,7 @@ class WorldModelComponent(Component):
         Option("path", str, "worldmodel.sqlite",
                "database file in the run folder, or \":memory:\" (without url)"),
         Option("url", str, None, "postgresql://user@host:port/db: keep the objects in "
-               "PostGIS instead of the embedded SQLite file", Check.URL),
+               "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
         Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
         Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
         Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),

@@ -13,15 +13,16 @@ server raises `WorldStoreUnavailable` (a `DependencyUnavailable`) and reconnects
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
+from urllib.parse import urlsplit
 
 from mrss.edge.retry import DependencyUnavailable
 from mrss.edge.worldmodel_geometry import EARTH_RADIUS_M, Geometry, haversine_m
 from mrss.edge.worldmodel_objects import Change, ChangeOp, Position, WorldObject, merge
 from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 
-__all__ = ["EARTH_RADIUS_M", "Change", "ChangeOp", "Geometry", "Position", "SqliteWorldStore",
-           "WorldModelStore", "WorldObject", "WorldStore", "WorldStoreUnavailable",
-           "haversine_m", "merge"]
+__all__ = ["EARTH_RADIUS_M", "POSTGRES_SCHEMES", "Change", "ChangeOp", "Geometry", "Position",
+           "SqliteWorldStore", "WorldModelStore", "WorldObject", "WorldStore",
+           "WorldStoreUnavailable", "haversine_m", "merge", "postgres_url_problem"]
 
 
 class WorldStoreUnavailable(DependencyUnavailable):
@@ -72,6 +73,23 @@ class WorldStore(Protocol):
                         kind: str | None = None) -> list[tuple[WorldObject, float]]:
         """Objects within `distance_m` metres of `geometry`, nearest first, with distances."""
         ...
+
+
+POSTGRES_SCHEMES = ("postgresql", "postgres")
+
+
+def postgres_url_problem(value: str) -> str | None:
+    """Why `value` is not a PostgreSQL URL for `[worldmodel] url`, or None."""
+    try:
+        parts = urlsplit(value)
+        parts.port  # noqa: B018 (raises for a bad port)
+    except ValueError as exc:
+        return f"not a valid URL {value!r}: {exc}"
+    if parts.scheme not in POSTGRES_SCHEMES or not parts.hostname:
+        return (f"{value!r} is not a PostgreSQL URL; did you mean "
+                "postgresql://user@host:5432/database? (leave url out for the embedded "
+                "SQLite store)")
+    return None
 
 
 #: The embedded store under its historical name (`WorldModelStore(path)`).
