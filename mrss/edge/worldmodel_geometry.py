@@ -20,8 +20,9 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
+from functools import cached_property
 from typing import Any
 
 import shapely
@@ -81,23 +82,16 @@ class Geometry:
 
     type: GeometryType
     coordinates: Any
-    _shape: BaseGeometry = field(init=False, repr=False, compare=False)
 
-    def __post_init__(self) -> None:
-        made: BaseGeometry
-        if self.type is GeometryType.POINT:
-            made = Point(self.coordinates[:2])
-        elif self.type is GeometryType.LINESTRING:
-            made = LineString([c[:2] for c in self.coordinates])
-        else:
-            made = Polygon([c[:2] for c in self.coordinates[0]],
-                           [[c[:2] for c in ring] for ring in self.coordinates[1:]])
-        object.__setattr__(self, "_shape", made)
-
-    @property
+    @cached_property
     def shape(self) -> BaseGeometry:
-        """The shapely geometry, x = lon and y = lat in degrees."""
-        return self._shape
+        """The shapely geometry, x = lon and y = lat in degrees (made on first use)."""
+        if self.type is GeometryType.POINT:
+            return Point(self.coordinates[:2])
+        if self.type is GeometryType.LINESTRING:
+            return LineString([c[:2] for c in self.coordinates])
+        return Polygon([c[:2] for c in self.coordinates[0]],
+                       [[c[:2] for c in ring] for ring in self.coordinates[1:]])
 
     @classmethod
     def point(cls, lon: float, lat: float) -> Geometry:

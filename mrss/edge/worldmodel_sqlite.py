@@ -1,8 +1,9 @@
 """The embedded world model store: objects in SQLite, spatial predicates with shapely.
 
 Each row keeps the object's shape (position columns for a point, GeoJSON text for a
-line or polygon) and its bounding box in degrees, which prefilters the predicates in SQL
-before shapely decides them (`mrss.edge.worldmodel_geometry` for the distance method).
+line or polygon) and its bounding box in degrees, kept in an R*Tree (`objects_box`, by
+triggers) that prefilters the predicates in SQL before shapely decides them
+(`mrss.edge.worldmodel_geometry` for the distance method).
 Safe to share between threads (the bus handler and the HTTP server): one lock serialises
 every statement. The schema version is SQLite's `user_version`; files of older versions
 are migrated when opened.
@@ -25,7 +26,7 @@ from mrss.edge.worldmodel_geometry import (
 )
 from mrss.edge.worldmodel_objects import Change, Position, WorldObject, merge
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 _MIGRATIONS = {
     1: """
 CREATE TABLE IF NOT EXISTS objects (
@@ -43,9 +44,25 @@ UPDATE objects SET minlon = lon, maxlon = lon, minlat = lat, maxlat = lat
     WHERE lat IS NOT NULL;
 CREATE INDEX IF NOT EXISTS objects_bbox ON objects(minlat, maxlat);
 """,
+    3: """
+DROP INDEX IF EXISTS objects_bbox;
+CREATE VIRTUAL TABLE objects_box USING rtree(rid, minlon, maxlon, minlat, maxlat);
+INSERT INTO objects_box SELECT rowid, minlon, maxlon, minlat, maxlat FROM objects
+    WHERE minlon IS NOT NULL;
+CREATE TRIGGER objects_box_insert AFTER INSERT ON objects WHEN new.minlon IS NOT NULL BEGIN
+    INSERT INTO objects_box VALUES (new.rowid, new.minlon, new.maxlon, new.minlat, new.maxlat);
+END;
+CREATE TRIGGER objects_box_delete AFTER DELETE ON objects BEGIN
+    DELETE FROM objects_box WHERE rid = old.rowid;
+END;
+CREATE TRIGGER objects_box_update AFTER UPDATE ON objects BEGIN
+    DELETE FROM objects_box WHERE rid = old.rowid;
+    INSERT INTO objects_box SELECT new.rowid, new.minlon, new.maxlon, new.minlat, new.maxlat
+        WHERE new.minlon IS NOT NULL;
+END;
+""",
 }
 _COLUMNS = "id, kind, lat, lon, alt, attributes, version, updated, geometry"
-_SHAPED = "(lat IS NOT NULL OR geometry IS NOT NULL)"
 _METRES_PER_DEGREE = EARTH_RADIUS_M * math.pi / 180
 
 
@@ -83,8 +100,13 @@ class SqliteWorldStore:
             pos, shape = new.position, new.shape
             box = shape.bounds if shape is not None else (None, None, None, None)
             self._db.execute(
-                f"INSERT OR REPLACE INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
-                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                f"INSERT INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
+                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (id) DO UPDATE SET "
+                "kind = excluded.kind, lat = excluded.lat, lon = excluded.lon, "
+                "alt = excluded.alt, attributes = excluded.attributes, "
+                "version = excluded.version, updated = excluded.updated, "
+                "geometry = excluded.geometry, minlon = excluded.minlon, "
+                "minlat = excluded.minlat, maxlon = excluded.maxlon, maxlat = excluded.maxlat",
                 (new.id, new.kind, pos.lat if pos else None, pos.lon if pos else None,
                  pos.alt if pos else None, json.dumps(new.attributes, allow_nan=False),
                  new.version, new.updated,
@@ -142,9 +164,10 @@ class SqliteWorldStore:
         minlon, minlat, maxlon, maxlat = box
         with self._lock:
             rows = self._db.execute(
-                f"SELECT {_COLUMNS} FROM objects WHERE {_SHAPED} AND (? IS NULL OR kind = ?) "
-                "AND maxlat >= ? AND minlat <= ? AND maxlon >= ? AND minlon <= ? ORDER BY id",
-                (kind, kind, minlat, maxlat, minlon, maxlon)).fetchall()
+                f"SELECT {_COLUMNS} FROM objects WHERE rowid IN (SELECT rid FROM objects_box "
+                "WHERE maxlon >= ? AND minlon <= ? AND maxlat >= ? AND minlat <= ?) "
+                "AND (? IS NULL OR kind = ?) ORDER BY id",
+                (minlon, maxlon, minlat, maxlat, kind, kind)).fetchall()
         return [_row_object(r) for r in rows]
 
     def _get(self, object_id: str) -> WorldObject | None:

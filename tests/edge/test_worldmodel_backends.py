@@ -82,7 +82,9 @@ def test_upsert_merges_reports_changes_and_survives_reopening(open_store: StoreF
     assert got.attributes == {"x": [1, {"y": None}]}
     assert [o.id for o in reopened.objects("robot")] == ["uav1"]
     assert reopened.objects("hotspot") == [] and reopened.get("nope") is None
+    assert ids(reopened.near(at(10), 5)) == ["uav1"]
     assert reopened.delete("uav1") and not reopened.delete("uav1")
+    assert reopened.near(at(10), 5) == [] and reopened.objects() == []
 
 
 def test_lines_and_polygons_round_trip_and_a_shape_can_change(open_store: StoreFactory) -> None:

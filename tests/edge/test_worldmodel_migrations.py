@@ -36,7 +36,7 @@ def test_a_first_release_sqlite_file_is_migrated_in_place(tmp_path: Path) -> Non
         assert [o.id for o, _ in store.near(Position(43.6, 1.44), 10)] == ["lake"]
         store.close()
     (version,) = sqlite3.connect(path).execute("PRAGMA user_version").fetchone()
-    assert version == SQLITE_VERSION == 2
+    assert version == SQLITE_VERSION == 3
 
 
 def test_postgis_schema_is_created_once_by_concurrent_starts(postgis_url: str) -> None:
