@@ -71,6 +71,7 @@ class Check(StrEnum):
     PORT = "port"  # 0 (a free port) .. 65535
     URL = "url"  # scheme://host[:port][/path], the port a number
     MAVLINK_URL = "mavlink_url"  # udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, ...
+    POSTGRES_URL = "postgres_url"  # postgresql://user@host:port/database
     PROJECT_FILE = "project_file"  # a file that exists in the project folder
     POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
     SIGNING_KEY = "signing_key"  # a MAVLink signing key file (64 hex chars) in the project

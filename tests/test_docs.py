@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import re
 import tomllib
 from pathlib import Path
@@ -80,3 +81,18 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
             unknown = set(options) - set(LINK_OPTIONS[kind]) - {"link"}
             assert not unknown, f"{where}: robot {robot}: unknown link options {unknown}"
             assert not option_value_problems(options), f"{where}: robot {robot}"
+
+
+def test_the_world_model_json_example_is_a_valid_seed() -> None:
+    from mrss.edge.worldmodel_service import WorldModel
+    from mrss.edge.worldmodel_store import Position, SqliteWorldStore
+
+    text = (REPO / "docs" / "edges.md").read_text(encoding="utf-8")
+    section = text.split("## The world model", 1)[1]
+    block = re.search(r"```json\n(.*?)```", section, re.S)
+    assert block, "the world model section shows a seed in a ```json block"
+    world = WorldModel(SqliteWorldStore())
+    assert world.seed(json.loads(block.group(1))) == 3
+    zone = world.get("zone_a")
+    assert zone is not None and zone.geometry is not None
+    assert [o.id for o, _ in world.near(Position(43.61, 1.45), 0)] == ["zone_a"]

@@ -1,4 +1,5 @@
-"""The embedded world model component: SQLite objects, project rules, bus and HTTP access.
+"""The world model component: objects (embedded SQLite, or PostGIS), project rules, bus and
+HTTP access.
 
 Rules' literals are percepts, sent on the reliable channel "percept" with a copy on the
 `percept` topic (`mrss.edge.percept_channel`). The data layer reaches the world model with
@@ -15,6 +16,7 @@ when the component stops. Clients should still look the URL up per call
 project.toml:
     [worldmodel]
     path = "worldmodel.sqlite"   # in the run folder (default), or ":memory:"
+    url = "postgresql://mrss@db.example:5432/world"  # PostGIS instead of SQLite (optional)
     seed = "world.json"          # objects to load at start, in the project folder
     rules_module = "worldmodel.py"
     http = true                  # serve the HTTP API
@@ -55,7 +57,7 @@ from mrss.edge.worldmodel_service import (
     load_rules,
     load_seed,
 )
-from mrss.edge.worldmodel_store import WorldModelStore
+from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore, postgres_url_problem
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
 from mrss.supervision.component import Component, ComponentContext
@@ -118,6 +120,19 @@ def http_settings(section: Mapping[str, Any], project_dir: Path | None
     return (host, port), token, float(timeout)
 
 
+def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
+    """The store the configuration names: PostGIS at `url`, else SQLite at `path`."""
+    url = section.get("url")
+    if url is None:
+        return SqliteWorldStore(store_path(run_dir, section))
+    text = url if isinstance(url, str) else repr(url)
+    problem = postgres_url_problem(text)
+    if problem:
+        raise ConfigError(problem, key="worldmodel.url")
+    from mrss.edge.worldmodel_postgis import PostgisWorldStore
+    return PostgisWorldStore(text)
+
+
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
     """Where the SQLite file goes: `path` under the run folder, or ':memory:'."""
     path = section.get("path", "worldmodel.sqlite")
@@ -135,7 +150,9 @@ class WorldModelComponent(Component):
     SECTION: ClassVar[str] = "worldmodel"  # read from [worldmodel], under its own table's keys
     OPTIONS: ClassVar[tuple[Option, ...]] = (
         Option("path", str, "worldmodel.sqlite",
-               "database file in the run folder, or \":memory:\""),
+               "database file in the run folder, or \":memory:\" (without url)"),
+        Option("url", str, None, "postgresql://user@host:port/db: keep the objects in "
+               "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
         Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
         Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
         Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),
@@ -182,15 +199,16 @@ class WorldModelComponent(Component):
         def emit(text: str) -> None:
             send(Percept(literal=text))
 
-        self.world = WorldModel(WorldModelStore(store_path(run_dir, section)), rules, emit)
+        self.world = WorldModel(open_store(run_dir, section), rules, emit)
         seeded = load_seed(self.world, project_dir, section)
         bus.subscribe([WM_REQUEST_TOPIC], self._on_request)
         if http is not None:
             self.http = serve_http(self.world, *http, run_dir, token=token,
                                    timeout=timeout)
             self.http.start()
-        log.info("world model up: %d rules, %d seeded objects, HTTP %s%s", len(rules.rules),
-                 seeded, self.http.url if self.http else "off",
+        log.info("world model up: %s, %d rules, %d seeded objects, HTTP %s%s",
+                 getattr(self.world.store, "where", type(self.world.store).__name__),
+                 len(rules.rules), seeded, self.http.url if self.http else "off",
                  " (token required)" if self.http and self.http.token_required else "")
 
     def _on_request(self, env: Envelope) -> None:

@@ -12,7 +12,9 @@ By idea:
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
-  world_model_token, DependencyUnavailable;
+  world_model_token, DependencyUnavailable; what a world model rule is given: WorldStore (the
+  store and its spatial predicates), Geometry (a GeoJSON shape to ask about),
+  WorldStoreUnavailable;
 - robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
   CommandRejected, CommandTimeout, publish_json, request_json;
 - geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
@@ -55,6 +57,7 @@ from mrss.edge.worldmodel_access import (
     WorldModelUnavailable,
 )
 from mrss.edge.worldmodel_rules import NoObjectWithin, rule
+from mrss.edge.worldmodel_store import Geometry, WorldStore, WorldStoreUnavailable
 from mrss.errors import ActionError, ConfigError, MrssError, TransientError
 from mrss.links.base import RobotLink
 from mrss.links.connect import connect_link, project_broker_url, simulator_address
@@ -78,6 +81,7 @@ __all__ = [
     "NoObjectWithin", "PayloadError", "PredicateError", "Struct", "WorldModelClient",
     "WorldModelRejected", "WorldModelUnavailable", "external", "literal", "rule", "symbol",
     "world_model_token",
+    "Geometry", "WorldStore", "WorldStoreUnavailable",
     # robot links
     "CommandRejected", "CommandTimeout", "LINK_KINDS", "LinkDown", "LinkError", "RobotLink",
     "connect_link", "create_link", "publish_json", "request_json",

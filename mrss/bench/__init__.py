@@ -10,4 +10,5 @@ BENCHES: dict[str, str] = {
     "edges": "data layer calls and MQTT -> percept latency through the edge components",
     "journal": "action journal actions/s with and without fsync; size over a 24 h soak",
     "security": "cost of MAVLink signing per message and of the world model's bearer token",
+    "worldmodel": "world model store operations, embedded SQLite and PostGIS",
 }

@@ -31,6 +31,7 @@ from mrss.check.toml_lines import key_line
 from mrss.config import COMPONENT_KEYS, OTHER_SECTIONS, Check, Option, ProjectConfig
 from mrss.edge.broker_auth import password_file_problem
 from mrss.edge.http_token import token_file_problem
+from mrss.edge.worldmodel_store import postgres_url_problem
 from mrss.links.mavlink_signing import key_problem
 
 MAVLINK_URL = re.compile(r"^(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:]+):(.+)$")
@@ -101,6 +102,8 @@ def check_problem(check: Check, value: Any, project_dir: Path) -> str | None:
         return url_problem(value)
     if check is Check.MAVLINK_URL and isinstance(value, str):
         return mavlink_url_problem(value)
+    if check is Check.POSTGRES_URL and isinstance(value, str):
+        return postgres_url_problem(value)
     if check is Check.PROJECT_FILE and isinstance(value, str) \
             and not (project_dir / value).is_file():
         return f"no file {value!r} in the project folder"

@@ -1,9 +1,11 @@
 """Ways for the data layer to reach a world model: over the bus, over HTTP, or in-process.
 
-All three give plain JSON objects (`{"id", "kind", "position", "attributes", ...}`) and
-satisfy `mrss.edge.adapters.WorldModelAccess`. The bus one talks to the embedded world
-model component; the HTTP one to any service with the same small API (a deployment's own
-world model); the local one wraps a `WorldModel` in the same process.
+All three give plain JSON objects (`{"id", "kind", "position", "geometry", "attributes",
+...}`) and satisfy `mrss.edge.adapters.WorldModelAccess`; the bus and local ones also ask
+the spatial predicates (`intersecting`, `within`, `within_distance`, GeoJSON in). The bus
+one talks to the world model component; the HTTP one to any service with the same small
+API (a deployment's own world model); the local one wraps a `WorldModel` in the same
+process.
 """
 
 from __future__ import annotations
@@ -55,6 +57,20 @@ class BusWorldModel:
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
         return list(self.client.call("wm.near", [lat, lon, radius_m, kind]))
+
+    def intersecting(self, geometry: dict[str, Any],
+                     kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects sharing a point with a GeoJSON geometry."""
+        return list(self.client.call("wm.intersecting", [geometry, kind]))
+
+    def within(self, geometry: dict[str, Any], kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects inside a GeoJSON geometry."""
+        return list(self.client.call("wm.within", [geometry, kind]))
+
+    def within_distance(self, geometry: dict[str, Any], distance_m: float,
+                        kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects within `distance_m` of a GeoJSON geometry, nearest first."""
+        return list(self.client.call("wm.within_distance", [geometry, distance_m, kind]))
 
 
 class HttpWorldModel:
@@ -179,3 +195,17 @@ class LocalWorldModel:
              kind: str | None = None) -> list[dict[str, Any]]:
         return [{**o.to_json(), "distance_m": d}
                 for o, d in self.world.near(Position(lat, lon), radius_m, kind)]
+
+    def intersecting(self, geometry: dict[str, Any],
+                     kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects sharing a point with a GeoJSON geometry."""
+        return list(self.world.call("wm.intersecting", [geometry, kind]))
+
+    def within(self, geometry: dict[str, Any], kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects inside a GeoJSON geometry."""
+        return list(self.world.call("wm.within", [geometry, kind]))
+
+    def within_distance(self, geometry: dict[str, Any], distance_m: float,
+                        kind: str | None = None) -> list[dict[str, Any]]:
+        """Objects within `distance_m` of a GeoJSON geometry, nearest first."""
+        return list(self.world.call("wm.within_distance", [geometry, distance_m, kind]))

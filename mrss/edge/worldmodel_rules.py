@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from mrss.edge.predicates import check_literal, literal, symbol
-from mrss.edge.worldmodel_store import Change, ChangeOp, WorldModelStore
+from mrss.edge.worldmodel_store import Change, ChangeOp, WorldStore
 
 log = logging.getLogger("mrss.worldmodel.rules")
 
@@ -35,12 +35,12 @@ class Rule(Protocol):
         """Shown in logs when the rule fails."""
         ...
 
-    def fire(self, change: Change, world: WorldModelStore) -> Iterable[str]:
+    def fire(self, change: Change, world: WorldStore) -> Iterable[str]:
         """Literals to publish for this change."""
         ...
 
 
-RuleBody = Callable[[Change, WorldModelStore], Iterable[str]]
+RuleBody = Callable[[Change, WorldStore], Iterable[str]]
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ class FunctionRule:
     kind: str | None = None
     ops: tuple[ChangeOp, ...] = ("insert", "update")
 
-    def fire(self, change: Change, world: WorldModelStore) -> Iterable[str]:
+    def fire(self, change: Change, world: WorldStore) -> Iterable[str]:
         if change.op not in self.ops or (self.kind and change.obj.kind != self.kind):
             return ()
         return self.body(change, world)
@@ -87,7 +87,7 @@ class NoObjectWithin:
         if self.radius_m < 0:
             raise ValueError("radius_m must not be negative")
 
-    def fire(self, change: Change, world: WorldModelStore) -> Iterable[str]:
+    def fire(self, change: Change, world: WorldStore) -> Iterable[str]:
         obj = change.obj
         if change.op not in self.ops or obj.kind != self.kind or obj.position is None:
             return []
@@ -108,7 +108,7 @@ class RuleEngine:
         """Add a rule."""
         self.rules.append(new_rule)
 
-    def apply(self, change: Change, world: WorldModelStore) -> list[str]:
+    def apply(self, change: Change, world: WorldStore) -> list[str]:
         """The literals every rule emits for `change`; a failing rule is logged and skipped."""
         if change.op == "unchanged":
             return []

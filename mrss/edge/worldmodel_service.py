@@ -4,7 +4,9 @@ Every write goes through `WorldModel.upsert`, whichever way it came (bus, HTTP, 
 so project rules fire for all of them and their literals are emitted as percepts.
 On the bus the world model answers `DataRequest`s on `dl.request.wm` with `DataReply`s
 on `dl.reply.wm`; functions: `wm.get(id)`, `wm.list(kind)`, `wm.upsert(object)`,
-`wm.near(lat, lon, radius_m, kind)`, `wm.delete(id)`.
+`wm.near(lat, lon, radius_m, kind)`, `wm.delete(id)`, and the spatial predicates over a
+GeoJSON geometry: `wm.intersecting(geometry, kind)`, `wm.within(geometry, kind)`,
+`wm.within_distance(geometry, distance_m, kind)` (nearest first, with distance_m).
 
 Project configuration (`[worldmodel]` of project.toml):
     seed = "world.json"          # objects loaded at start (a JSON list), in the project folder
@@ -25,7 +27,14 @@ from typing import Any
 
 from mrss.edge.loader import import_project_module, project_file
 from mrss.edge.worldmodel_rules import NoObjectWithin, Rule, RuleEngine
-from mrss.edge.worldmodel_store import Change, Position, WorldModelStore, WorldObject
+from mrss.edge.worldmodel_store import (
+    Change,
+    Geometry,
+    Position,
+    WorldObject,
+    WorldStore,
+    WorldStoreUnavailable,
+)
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest
 
@@ -37,7 +46,7 @@ log = logging.getLogger("mrss.worldmodel")
 class WorldModel:
     """The store, its rules, and where rule literals go (`emit(literal)`)."""
 
-    def __init__(self, store: WorldModelStore, rules: RuleEngine | None = None,
+    def __init__(self, store: WorldStore, rules: RuleEngine | None = None,
                  emit: Callable[[str], None] | None = None) -> None:
         self.store = store
         self.rules = rules or RuleEngine()
@@ -58,6 +67,19 @@ class WorldModel:
              kind: str | None = None) -> list[tuple[WorldObject, float]]:
         """Objects within `radius_m` metres of `position`, nearest first."""
         return self.store.near(position, radius_m, kind)
+
+    def intersecting(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
+        """Objects whose shape shares a point with `geometry`."""
+        return self.store.intersecting(geometry, kind)
+
+    def within(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
+        """Objects whose shape lies inside `geometry`."""
+        return self.store.within(geometry, kind)
+
+    def within_distance(self, geometry: Geometry, distance_m: float,
+                        kind: str | None = None) -> list[tuple[WorldObject, float]]:
+        """Objects within `distance_m` metres of `geometry`, nearest first."""
+        return self.store.within_distance(geometry, distance_m, kind)
 
     def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
         """Store `obj`, then run the rules and emit what they produce."""
@@ -100,6 +122,17 @@ class WorldModel:
             found = self.near(Position(lat, lon), _number(radius, "radius_m"),
                                     _opt_string(rest[0] if rest else None))
             return [{**o.to_json(), "distance_m": d} for o, d in found]
+        if function in ("wm.intersecting", "wm.within"):
+            geometry, *rest = _arity(function, args, 1, 2)
+            predicate = self.intersecting if function == "wm.intersecting" else self.within
+            return [o.to_json() for o in predicate(
+                Geometry.from_json(geometry), _opt_string(rest[0] if rest else None))]
+        if function == "wm.within_distance":
+            geometry, distance, *rest = _arity(function, args, 2, 3)
+            found = self.within_distance(Geometry.from_json(geometry),
+                                         _number(distance, "distance_m"),
+                                         _opt_string(rest[0] if rest else None))
+            return [{**o.to_json(), "distance_m": d} for o, d in found]
         if function == "wm.delete":
             (object_id,) = _arity(function, args, 1)
             return self.store.delete(_string(object_id, "id"))
@@ -114,6 +147,11 @@ class WorldModel:
         except (ValueError, LookupError, TypeError) as exc:
             self.request_errors += 1
             return DataReply(request_id=request.request_id, ok=False, error=str(exc))
+        except WorldStoreUnavailable as exc:  # the database is down: no bug, no traceback
+            self.request_errors += 1
+            log.warning("world model request %s failed: %s", request.function, exc)
+            return DataReply(request_id=request.request_id, ok=False,
+                             error=f"WorldStoreUnavailable: {exc}")
         except Exception as exc:
             self.request_errors += 1
             log.exception("world model request %s failed", request.function)

@@ -8,13 +8,17 @@ import socket
 import subprocess
 import sys
 import tempfile
-from collections.abc import Iterator
+import uuid
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
+from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore
 from mrss.testing import find_mosquitto, free_port, wait_until
+
+from .pgcluster import PgCluster, started_cluster
 
 PROJECT_FIXTURE = Path(__file__).parent / "project_fixture"
 
@@ -116,3 +120,49 @@ def restartable_amqtt() -> Iterator[RestartableAmqtt]:
         yield broker
     finally:
         broker.stop()
+
+
+# --- world model backends -------------------------------------------------------------
+
+
+@pytest.fixture(scope="session")
+def postgis_cluster() -> Iterator[PgCluster]:
+    """One private PostgreSQL + PostGIS server for the session's tests (see pgcluster.py)."""
+    cluster = started_cluster()
+    try:
+        yield cluster
+    finally:
+        cluster.stop()
+
+
+@pytest.fixture
+def postgis_url(postgis_cluster: PgCluster) -> str:
+    """A fresh, empty database of the session's PostGIS server."""
+    return postgis_cluster.create_database("wm_" + uuid.uuid4().hex[:16])
+
+
+StoreFactory = Callable[[], WorldStore]
+
+
+@pytest.fixture(params=["sqlite", "postgis"])
+def open_store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[StoreFactory]:
+    """Opens the world store of one backend; every call opens the same database again."""
+    if request.param == "sqlite":
+        def factory() -> WorldStore:
+            return SqliteWorldStore(tmp_path / "wm.sqlite")
+    else:
+        url = request.getfixturevalue("postgis_url")
+
+        def factory() -> WorldStore:
+            from mrss.edge.worldmodel_postgis import PostgisWorldStore
+            return PostgisWorldStore(url)
+    opened: list[WorldStore] = []
+
+    def tracked() -> WorldStore:
+        opened.append(factory())
+        return opened[-1]
+    try:
+        yield tracked
+    finally:
+        for store in opened:
+            store.close()

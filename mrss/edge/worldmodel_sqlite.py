@@ -1,0 +1,196 @@
+"""The embedded world model store: objects in SQLite, spatial predicates with shapely.
+
+Each row keeps the object's shape (position columns for a point, GeoJSON text for a
+line or polygon) and its bounding box in degrees, kept in an R*Tree (`objects_box`, by
+triggers) that prefilters the predicates in SQL before shapely decides them
+(`mrss.edge.worldmodel_geometry` for the distance method).
+Safe to share between threads (the bus handler and the HTTP server): one lock serialises
+every statement. The schema version is SQLite's `user_version`; files of older versions
+are migrated when opened.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+import threading
+from pathlib import Path
+from typing import Any
+
+from mrss.edge.worldmodel_geometry import (
+    EARTH_RADIUS_M,
+    Geometry,
+    geometry_from_text,
+    metric_distance_m,
+)
+from mrss.edge.worldmodel_objects import Change, Position, WorldObject, merge
+
+SCHEMA_VERSION = 3
+_MIGRATIONS = {
+    1: """
+CREATE TABLE IF NOT EXISTS objects (
+    id TEXT PRIMARY KEY, kind TEXT NOT NULL, lat REAL, lon REAL, alt REAL,
+    attributes TEXT NOT NULL, version INTEGER NOT NULL, updated REAL NOT NULL);
+CREATE INDEX IF NOT EXISTS objects_kind ON objects(kind);
+""",
+    2: """
+ALTER TABLE objects ADD COLUMN geometry TEXT;
+ALTER TABLE objects ADD COLUMN minlon REAL;
+ALTER TABLE objects ADD COLUMN minlat REAL;
+ALTER TABLE objects ADD COLUMN maxlon REAL;
+ALTER TABLE objects ADD COLUMN maxlat REAL;
+UPDATE objects SET minlon = lon, maxlon = lon, minlat = lat, maxlat = lat
+    WHERE lat IS NOT NULL;
+CREATE INDEX IF NOT EXISTS objects_bbox ON objects(minlat, maxlat);
+""",
+    3: """
+DROP INDEX IF EXISTS objects_bbox;
+CREATE VIRTUAL TABLE objects_box USING rtree(rid, minlon, maxlon, minlat, maxlat);
+INSERT INTO objects_box SELECT rowid, minlon, maxlon, minlat, maxlat FROM objects
+    WHERE minlon IS NOT NULL;
+CREATE TRIGGER objects_box_insert AFTER INSERT ON objects WHEN new.minlon IS NOT NULL BEGIN
+    INSERT INTO objects_box VALUES (new.rowid, new.minlon, new.maxlon, new.minlat, new.maxlat);
+END;
+CREATE TRIGGER objects_box_delete AFTER DELETE ON objects BEGIN
+    DELETE FROM objects_box WHERE rid = old.rowid;
+END;
+CREATE TRIGGER objects_box_update AFTER UPDATE ON objects BEGIN
+    DELETE FROM objects_box WHERE rid = old.rowid;
+    INSERT INTO objects_box SELECT new.rowid, new.minlon, new.maxlon, new.minlat, new.maxlat
+        WHERE new.minlon IS NOT NULL;
+END;
+""",
+}
+_COLUMNS = "id, kind, lat, lon, alt, attributes, version, updated, geometry"
+_METRES_PER_DEGREE = EARTH_RADIUS_M * math.pi / 180
+
+
+class SqliteWorldStore:
+    """SQLite-backed object store; `path` is a file, or ':memory:' for a throwaway one."""
+
+    def __init__(self, path: str | Path = ":memory:") -> None:
+        self._lock = threading.Lock()
+        self._db = sqlite3.connect(str(path), check_same_thread=False, isolation_level=None)
+        if str(path) != ":memory:":
+            self._db.execute("PRAGMA journal_mode=WAL")
+        self._migrate()
+
+    def _migrate(self) -> None:
+        (version,) = self._db.execute("PRAGMA user_version").fetchone()
+        if version == 0 and self._db.execute(
+                "SELECT 1 FROM sqlite_master WHERE name = 'objects'").fetchone():
+            version = 1  # a file of the first release, before versions were recorded
+        for step in range(version + 1, SCHEMA_VERSION + 1):
+            self._db.executescript(f"BEGIN; {_MIGRATIONS[step]} PRAGMA user_version = {step};"
+                                   " COMMIT;")
+
+    def close(self) -> None:
+        """Close the database."""
+        with self._lock:
+            self._db.close()
+
+    def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
+        """Insert `obj`, or update the object with its id (`worldmodel_objects.merge`)."""
+        with self._lock:
+            change = merge(obj, self._get(obj.id), replace_attributes=replace_attributes)
+            if change.op == "unchanged":
+                return change
+            new = change.obj
+            pos, shape = new.position, new.shape
+            box = shape.bounds if shape is not None else (None, None, None, None)
+            self._db.execute(
+                f"INSERT INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
+                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (id) DO UPDATE SET "
+                "kind = excluded.kind, lat = excluded.lat, lon = excluded.lon, "
+                "alt = excluded.alt, attributes = excluded.attributes, "
+                "version = excluded.version, updated = excluded.updated, "
+                "geometry = excluded.geometry, minlon = excluded.minlon, "
+                "minlat = excluded.minlat, maxlon = excluded.maxlon, maxlat = excluded.maxlat",
+                (new.id, new.kind, pos.lat if pos else None, pos.lon if pos else None,
+                 pos.alt if pos else None, json.dumps(new.attributes, allow_nan=False),
+                 new.version, new.updated,
+                 None if new.geometry is None else new.geometry.to_text(), *box))
+            return change
+
+    def get(self, object_id: str) -> WorldObject | None:
+        """The object with this id, or None."""
+        with self._lock:
+            return self._get(object_id)
+
+    def delete(self, object_id: str) -> bool:
+        """Remove an object; False when there was none."""
+        with self._lock:
+            cur = self._db.execute("DELETE FROM objects WHERE id = ?", (object_id,))
+            return cur.rowcount > 0
+
+    def objects(self, kind: str | None = None) -> list[WorldObject]:
+        """Every object, or those of one kind, ordered by id."""
+        with self._lock:
+            rows = self._db.execute(
+                f"SELECT {_COLUMNS} FROM objects WHERE (? IS NULL OR kind = ?) ORDER BY id",
+                (kind, kind)).fetchall()
+        return [_row_object(r) for r in rows]
+
+    def near(self, position: Position, radius_m: float,
+             kind: str | None = None) -> list[tuple[WorldObject, float]]:
+        """Objects within `radius_m` metres of `position`, nearest first, with distances."""
+        return self.within_distance(position.geometry(), radius_m, kind)
+
+    def intersecting(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
+        """Objects whose shape shares a point with `geometry`, ordered by id."""
+        query = geometry.shape
+        return [o for o in self._candidates(kind, query.bounds)
+                if o.shape is not None and o.shape.intersects(query)]
+
+    def within(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
+        """Objects whose shape lies inside `geometry`, ordered by id."""
+        query = geometry.shape
+        return [o for o in self._candidates(kind, query.bounds)
+                if o.shape is not None and o.shape.within(query)]
+
+    def within_distance(self, geometry: Geometry, distance_m: float,
+                        kind: str | None = None) -> list[tuple[WorldObject, float]]:
+        """Objects within `distance_m` metres of `geometry`, nearest first, with distances."""
+        query = geometry.shape
+        candidates = self._candidates(kind, _expanded(query.bounds, distance_m))
+        distances = metric_distance_m(query, [o.shape for o in candidates if o.shape])
+        found = [(o, d) for o, d in zip(candidates, distances, strict=True)
+                 if d <= distance_m]
+        return sorted(found, key=lambda pair: (pair[1], pair[0].id))
+
+    def _candidates(self, kind: str | None,
+                    box: tuple[float, float, float, float]) -> list[WorldObject]:
+        minlon, minlat, maxlon, maxlat = box
+        with self._lock:
+            rows = self._db.execute(
+                f"SELECT {_COLUMNS} FROM objects WHERE rowid IN (SELECT rid FROM objects_box "
+                "WHERE maxlon >= ? AND minlon <= ? AND maxlat >= ? AND minlat <= ?) "
+                "AND (? IS NULL OR kind = ?) ORDER BY id",
+                (minlon, maxlon, minlat, maxlat, kind, kind)).fetchall()
+        return [_row_object(r) for r in rows]
+
+    def _get(self, object_id: str) -> WorldObject | None:
+        row = self._db.execute(f"SELECT {_COLUMNS} FROM objects WHERE id = ?",
+                               (object_id,)).fetchone()
+        return None if row is None else _row_object(row)
+
+
+def _expanded(box: tuple[float, float, float, float],
+              metres: float) -> tuple[float, float, float, float]:
+    """A lon/lat box holding every point within `metres` of `box` (generously)."""
+    minlon, minlat, maxlon, maxlat = box
+    dlat = metres * 1.01 / _METRES_PER_DEGREE + 1e-9
+    low, high = max(-90.0, minlat - dlat), min(90.0, maxlat + dlat)
+    widest = max(abs(low), abs(high))
+    if widest >= 89.0 or dlat >= 45.0:
+        return -180.0, low, 180.0, high
+    dlon = dlat / math.cos(math.radians(widest))
+    return max(-180.0, minlon - dlon), low, min(180.0, maxlon + dlon), high
+
+
+def _row_object(row: Any) -> WorldObject:
+    oid, kind, lat, lon, alt, attributes, version, updated, geometry = row
+    position = None if lat is None else Position(lat, lon, alt or 0.0)
+    return WorldObject(oid, kind, position, json.loads(attributes), version, updated,
+                       None if geometry is None else geometry_from_text(geometry))
