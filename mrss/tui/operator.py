@@ -4,7 +4,9 @@
   it must parse as one ground AgentSpeak literal, or `OperatorError` says why;
 - `action.control` for the selected action (cancel / suspend / resume);
 - `ctl.teleop` for a robot, `ctl.fault` for a component (executed by the root supervisor,
-  `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests.
+  `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
+- `ctl.snapshot` (the RCL re-announces every robot and open action) and `ctl.stop`
+  (the root supervisor stops the whole system in order).
 """
 
 from __future__ import annotations
@@ -96,3 +98,15 @@ def mind_request(agent: str = "") -> Command:
 def tree_request() -> Command:
     """Ask the root supervisor for a `sup.tree` snapshot: on `ctl.tree`."""
     return Command(command="tree")
+
+
+def snapshot_request() -> Command:
+    """Ask the RCL for every robot's state and every open action's status: `ctl.snapshot`."""
+    return Command(command="snapshot")
+
+
+def stop_request(root: str) -> Command:
+    """Ask the root supervisor `root` to stop the whole system in order: on `ctl.stop`."""
+    if not root:
+        raise OperatorError("the system's name is not known yet")
+    return Command(command="stop", target=root)
