@@ -2,16 +2,8 @@
 
 from __future__ import annotations
 
-import os
-import shutil
-import signal
-import subprocess
-import sys
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 
-import psutil
 import pytest
 from textual.widgets import Input
 
@@ -27,44 +19,6 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 from tests.tui.tui_helpers import has_row, row_text, run, until
 
 COMPONENTS = ("bus", "rcl", "reasoner", "telemetry")
-HERE = Path(__file__).resolve().parent
-PROJECTS = HERE.parent / "projects"
-
-
-def supervise(project: str, projects: Path, run_dir: Path) -> Iterator[Path]:
-    """`mrss supervise PROJECT --run-dir run_dir` as a real process, stopped at the end."""
-    env = {**os.environ, "MRSS_PROJECTS": str(projects)}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir)],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        yield run_dir
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=30)
-        assert proc.returncode == 0, err
-    finally:
-        if proc.poll() is None:
-            for child in psutil.Process(proc.pid).children(recursive=True):
-                child.kill()
-            proc.kill()
-            proc.communicate(timeout=10)
-
-
-@pytest.fixture()
-def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
-    """tests/projects/busdemo running; its run dir."""
-    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
-    yield from supervise("busdemo", PROJECTS, tmp_path)
-
-
-@pytest.fixture()
-def tuidemo() -> Iterator[Path]:
-    """tests/tui/tuidemo (bus, RCL with two UGVs, reasoner, telemetry) running; its run dir."""
-    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuidemo-"))
-    try:
-        yield from supervise("tuidemo", HERE, run_dir)
-    finally:
-        shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_component(

@@ -23,9 +23,9 @@ from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 SIZE = (180, 50)
 
 
-def make_app(endpoints: BusEndpoints, **kw: float) -> MrssApp:
-    opts = {"mind_every": 0.0, "tree_every": 0.0, **kw}
-    return MrssApp(endpoints, project="demo", **opts)
+def make_app(endpoints: BusEndpoints, **kw: float | bool) -> MrssApp:
+    opts: dict[str, float | bool] = {"mind_every": 0.0, "tree_every": 0.0, **kw}
+    return MrssApp(endpoints, project="demo", **opts)  # type: ignore[arg-type]
 
 
 def tree_snapshot(announcer_state: str = "running", inc: int = 1, restarts: int = 0,

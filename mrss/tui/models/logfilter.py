@@ -4,7 +4,7 @@ A filter is words, all of which must match a line (case-insensitive):
 
 - `level:warning` (or `l:w`, `level:err`): the line's level is that one or worse;
 - `comp:rcl` (or `c:rcl`, `@rcl`): the line's component contains `rcl`;
-- any other word: the line's text contains it.
+- any other word: the line's text (without its time stamp) contains it.
 
 An empty filter shows everything. A word like `level:loud` is an error
 (`LogFilterError`, the text says what would be understood); the pane keeps the
@@ -37,6 +37,11 @@ class LogEntry:
     @property
     def plain(self) -> str:
         return self.text.plain
+
+    @property
+    def searchable(self) -> str:
+        """The text the filter's words look in: the line without its time stamp."""
+        return self.text.plain.partition(" ")[2].lower()
 
 
 def level_of(name: str) -> int:
@@ -88,5 +93,5 @@ class LogFilter:
         component = entry.component.lower()
         if self.components and not any(c in component for c in self.components):
             return False
-        plain = entry.plain.lower()
-        return all(word in plain for word in self.words)
+        text = entry.searchable
+        return all(word in text for word in self.words)
