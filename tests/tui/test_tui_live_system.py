@@ -114,15 +114,15 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         "fire(area1)[source(percept)]" in mind.snapshot.beliefs
                         and len(mind.snapshot.intentions) == 1, message="intention in mind")
             robots.focus()
-            await pilot.press("t")  # ugv1 (the first row) to teleop: its action is suspended
+            await pilot.press("t", "y")  # ugv1 (the first row) to teleop: its action suspended
             await until(pilot, lambda: action_state() == "suspended: robot in teleop",
                         message="suspended by teleop")
             await until(pilot, lambda: row_text(robots, "ugv1")[3] == "on", message="teleop on")
-            await pilot.press("t")
+            await pilot.press("t", "y")
             await until(pilot, lambda: action_state().startswith("running"),
                         message="resumed after teleop")
             actions.focus()
-            await pilot.press("c")
+            await pilot.press("c", "y")
             await until(pilot, lambda: action_state().startswith("cancelled"),
                         message="cancelled from the dashboard")
             await until(pilot, lambda: mind.snapshot is not None
