@@ -65,11 +65,13 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
                                       args={"fault": "explode"}))
                 other.publish(Command(command="fault", target="nobody",
                                       args={"fault": "kill"}))
-            await until(pilot, lambda: sum("refused" in line for line in log.lines_text()) == 2,
-                        message="two refusals logged")
+                other.publish(Command(command="stop", target="wildfire"))  # another system
+            await until(pilot, lambda: sum("refused" in line for line in log.lines_text()) == 3,
+                        message="three refusals logged")
             refusals = [line for line in log.lines_text() if "refused" in line]
             assert "unknown fault 'explode'" in refusals[0]
             assert "has no child 'nobody'" in refusals[1]
+            assert "stop of 'wildfire' from operator2 refused: this is 'busdemo'" in refusals[2]
             assert announcer(4) is not None
     run(body())
 
