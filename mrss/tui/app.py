@@ -30,6 +30,7 @@ from mrss.messages import (
     ActionRequest,
     ActionStatus,
     Envelope,
+    Message,
     MindSnapshot,
     RobotData,
     RobotState,
@@ -235,10 +236,15 @@ class MrssApp(App[None]):
                 self.set_timer(delay, self.ask_snapshot)
 
     def ask_snapshot(self) -> None:
-        """Ask for everything: the tree (root), robots and open actions (RCL), the mind."""
+        """Ask for everything: the tree (root), robots and open actions (RCL), the mind;
+        and the status of every action shown open (it may have ended unseen)."""
         self.snapshots_asked += 1
-        for request in (operator.tree_request(), operator.snapshot_request(),
-                        operator.mind_request(self.agent)):
+        requests: list[Message] = [operator.tree_request(), operator.snapshot_request(),
+                                   operator.mind_request(self.agent)]
+        shown_open = [v.uuid for v in self.actions.newest_first() if not v.terminal]
+        if shown_open:
+            requests.append(operator.status_query(shown_open))
+        for request in requests:
             with suppress(Exception):  # not connected yet: the next ask will do
                 self.link.publish(request)
 

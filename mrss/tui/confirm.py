@@ -1,18 +1,18 @@
 """ConfirmScreen: a modal question before anything that stops, cancels or takes over.
 
-It names what will be affected ("stops: components bus, rcl, reasoner; robots ugv1,
-ugv2 (2 actions running)"), and only `y` says yes: `n`, `Esc` (and every other key)
-leave everything as it was. The answer is the screen's result (`True` for yes).
+It names what will be affected ("components: bus, rcl, reasoner", "robots: ugv1,
+ugv2", "open actions: 2"), and only `y` says yes: `n`, `Esc` and every other key (but
+the app's Ctrl-Q) say no and leave everything as it was; no key reaches the panels
+underneath while it shows. The answer is the screen's result (`True` for yes).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import ClassVar
 
 from rich.text import Text
+from textual import events
 from textual.app import ComposeResult
-from textual.binding import Binding, BindingType
 from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Static
@@ -30,12 +30,6 @@ class ConfirmScreen(ModalScreen[bool]):
     ConfirmScreen #question { text-style: bold; }
     ConfirmScreen #details { margin: 1 0; }
     """
-    BINDINGS: ClassVar[list[BindingType]] = [
-        Binding("y", "answer(True)", "Yes"),
-        Binding("n", "answer(False)", "No"),
-        Binding("escape", "answer(False)", "No"),
-    ]
-
     def __init__(self, question: str, details: Sequence[str] = (),
                  yes: str = "yes") -> None:
         super().__init__()
@@ -52,5 +46,8 @@ class ConfirmScreen(ModalScreen[bool]):
                                        ("n", "bold"), " / ", ("Esc", "bold"),
                                        ": no, leave it running"), id="keys")
 
-    def action_answer(self, yes: bool) -> None:
-        self.dismiss(yes)
+    def on_key(self, event: events.Key) -> None:
+        """Any other key is a no: a stray key never confirms, nor acts underneath."""
+        event.stop()
+        event.prevent_default()
+        self.dismiss(event.key == "y")

@@ -5,15 +5,16 @@
 - `action.control` for the selected action (cancel / suspend / resume);
 - `ctl.teleop` for a robot, `ctl.fault` for a component (executed by the root supervisor,
   `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
-- `ctl.snapshot` (the RCL re-announces every robot and open action) and `ctl.stop`
-  (the root supervisor stops the whole system in order).
+- `ctl.snapshot` (the RCL re-announces every robot and open action), with an
+  `action.query` for the actions the dashboard believes open, and `ctl.stop` (the
+  root supervisor stops the whole system in order).
 """
 
 from __future__ import annotations
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct
-from mrss.messages import ActionControl, Command, Percept
+from mrss.messages import ActionControl, ActionQuery, Command, Percept
 
 FAULTS = ("kill", "hang", "crash", "term")
 ACTION_COMMANDS = ("cancel", "suspend", "resume")
@@ -103,6 +104,15 @@ def tree_request() -> Command:
 def snapshot_request() -> Command:
     """Ask the RCL for every robot's state and every open action's status: `ctl.snapshot`."""
     return Command(command="snapshot")
+
+
+QUERY_LIMIT = 500  # uuids per ActionQuery
+
+
+def status_query(uuids: list[str]) -> ActionQuery:
+    """Ask the RCL for the journaled status of actions the dashboard believes open (the
+    reconciliation query the reasoner uses): one that ended unseen shows its end."""
+    return ActionQuery(uuids=uuids[:QUERY_LIMIT])
 
 
 def stop_request(root: str) -> Command:

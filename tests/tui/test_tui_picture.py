@@ -10,8 +10,8 @@ from pathlib import Path
 
 from textual.widgets import Header, Input
 
-from mrss.bus import BusEndpoints, ProxyThread
-from mrss.messages import ActionStatus, Command, Heartbeat, LogRecord, SupEvent
+from mrss.bus import BusEndpoints, ProxyThread, Subscriber
+from mrss.messages import ActionQuery, ActionStatus, Command, Heartbeat, LogRecord, SupEvent
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane, LogView
 from tests.tui.test_tui_panels import SIZE, make_app
@@ -55,6 +55,38 @@ def test_snapshot_is_asked_for_on_connect_on_f5_and_after_a_proxy_restart() -> N
         peer.close()
         proxy.stop()
         shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def test_f5_asks_the_rcl_for_actions_shown_open_and_one_that_ended_unseen_shows_its_end(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    queries: list[ActionQuery] = []
+    rcl_side = Subscriber(endpoints, prefixes=["action.query"])
+    rcl_side.start(lambda env: queries.append(env.body)
+                   if isinstance(env.body, ActionQuery) and env.src == "tui" else None)
+
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            assert rcl_side.wait_connected(10)
+            table = app.query_one(ActionsTable)
+            running, done = "d" * 32, "e" * 32
+            peer.publish(ActionStatus(uuid=running, state="running", robot="ugv1"))
+            peer.publish(ActionStatus(uuid=done, state="succeeded", robot="ugv1"))
+            await until(pilot, lambda: table.row_count == 2, message="two actions")
+            await pilot.press("f5")
+            await until(pilot, lambda: queries, message="the status query")
+            assert queries[-1] == ActionQuery(uuids=[running])  # only the ones shown open
+            # the RCL answers from its journal: it was cancelled while we were away
+            peer.publish(ActionStatus(uuid=running, state="cancelled", robot="ugv1",
+                                      reason="cancelled by the operator", repeat=True))
+            await until(pilot, lambda: row_text(table, running)[4] == "cancelled",
+                        message="the end shown")
+
+    try:
+        run(body())
+    finally:
+        rcl_side.close()
 
 
 def test_banner_turns_red_when_the_system_goes_quiet_and_keeps_a_give_up(

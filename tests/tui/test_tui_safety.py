@@ -51,6 +51,11 @@ def test_stop_key_asks_naming_components_robots_and_actions_and_sends_ctl_stop_o
             await pilot.press("n")  # declined: the system keeps running
             bar = app.query_one(OperatorBar)
             await until(pilot, lambda: "declined" in bar.status_text, message="declined")
+            # any other key is a no too, and does not act underneath (q would detach)
+            await pilot.press("X", "q")
+            await until(pilot, lambda: not isinstance(app.screen, ConfirmScreen),
+                        message="q declined")
+            assert app.is_running and commands(peer) == []
             await pilot.press("X", "y")
             await until(pilot, lambda: commands(peer), message="stop sent")
             assert commands(peer) == [Command(command="stop", target="demo")]
