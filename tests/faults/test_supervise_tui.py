@@ -196,3 +196,32 @@ def test_no_tui_keeps_plain_logs_on_stderr_even_in_a_terminal(tmp_path: Path) ->
         assert "all components stopped" in (tmp_path / "mrss.log").read_text()
     finally:
         term.close()
+
+
+@pytest.mark.slow
+def test_mrss_tui_readonly_in_a_terminal_refuses_controls_and_q_only_detaches(
+        tmp_path: Path) -> None:
+    """`mrss supervise busdemo --no-tui` runs; `mrss tui --readonly` on another terminal:
+    X is refused with the notice, q detaches and the system runs on."""
+    system = supervise_in_terminal("busdemo", tmp_path, "--no-tui")
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
+    viewer = Terminal([sys.executable, "-m", "mrss", "tui", "busdemo", "--run-dir",
+                       str(tmp_path), "--readonly"], env)
+    try:
+        wait_until(lambda: b"announcer" in viewer.output and b"read-only" in viewer.output,
+                   timeout=30, message="the read-only dashboard shows the tree")
+        viewer.press(b"X")
+        wait_until(lambda: b"no controls" in viewer.output, timeout=10,
+                   message="the refusal notice")
+        viewer.press(b"q")
+        assert viewer.proc.wait(timeout=30) == 0
+        wait_until(lambda: b"detached from busdemo; it keeps running" in viewer.output,
+                   timeout=10, message="the parting words")
+        assert system.proc.poll() is None  # still running
+        system.proc.send_signal(signal.SIGTERM)
+        assert system.proc.wait(timeout=30) == 0
+        log = (tmp_path / "mrss.log").read_text()
+        assert "stopping busdemo: asked by" not in log  # nobody asked the root to stop
+    finally:
+        viewer.close()
+        system.close()
