@@ -34,7 +34,9 @@ import subprocess
 import sys
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, ClassVar
+
+from textual.binding import Binding, BindingType
 
 from mrss import logs
 from mrss.bus import BusEndpoints
@@ -54,6 +56,8 @@ log = logging.getLogger("mrss.supervise")
 
 class SupervisedApp(MrssApp):
     """The dashboard of a system this process started (see the module docstring)."""
+
+    BINDINGS: ClassVar[list[BindingType]] = [Binding("q", "close", "Quit (asks)")]
 
     def __init__(self, endpoints: BusEndpoints, system: subprocess.Popen[bytes],
                  log_path: Path | None = None, **options: Any) -> None:
