@@ -210,12 +210,26 @@ class MrssApp(App[None]):
             self.query_one(LogPane).add(lines)
 
     def _system_end(self, event: SupEvent, src: str) -> None:
-        """The root giving up on the whole system ends it: the banner keeps the reason."""
-        if src == ROOT_SRC and event.event == "give_up" \
-                and event.detail.get("stops") == "system":
+        """The root giving up on the whole system ends it: the banner keeps the reason.
+        A component started by the root afterwards is a new run: the banner clears."""
+        if src != ROOT_SRC:
+            return
+        if event.event == "give_up" and event.detail.get("stops") == "system":
             root = event.supervisor or self.supervision.root or self.project
             self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
             self._show_liveness()
+        elif event.event == "start" and self.liveness.ended:
+            self.liveness.ended = ""
+
+    def _stopped_quietly(self) -> bool:
+        """Silent, and every component of the root stopped (but perhaps the bus proxy,
+        which cannot tell its own end over the bus): the system was stopped."""
+        if self.liveness.silence() < self.liveness.stale_after:
+            return False
+        root = self.supervision.root or self.project
+        states = [n.state for n in self.supervision.nodes.values() if n.parent == root]
+        down = sum(state in ("stopped", "exited", "gave up") for state in states)
+        return "stopped" in states and down >= len(states) - 1
 
     def _tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
@@ -250,6 +264,9 @@ class MrssApp(App[None]):
 
     def banner_text(self) -> str:
         """What the red banner says ("" when the picture is current)."""
+        if not self.liveness.ended and self._stopped_quietly():
+            root = self.supervision.root or self.project
+            self.liveness.end(f"system stopped: every component of {root} stopped")
         return self.liveness.banner(self.link.connected)
 
     def _show_liveness(self) -> None:

@@ -14,7 +14,7 @@ from mrss.bus import BusEndpoints, ProxyThread, Subscriber
 from mrss.messages import ActionQuery, ActionStatus, Command, Heartbeat, LogRecord, SupEvent
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane, LogView
-from tests.tui.test_tui_panels import SIZE, make_app
+from tests.tui.test_tui_panels import SIZE, make_app, tree_snapshot
 from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 
 
@@ -33,9 +33,8 @@ def test_snapshot_is_asked_for_on_connect_on_f5_and_after_a_proxy_restart() -> N
         app = make_app(endpoints)
         async with app.run_test(size=SIZE) as pilot:
             await connected(pilot, peer)
-            await until(pilot, lambda: snapshots(peer) >= 1, message="snapshot on connect")
-            asked = [c.command for c in peer.received(Command)]
-            assert {"tree", "snapshot", "mind"} <= set(asked)
+            await until(pilot, lambda: {"tree", "snapshot", "mind"} <= {
+                c.command for c in peer.received(Command)}, message="the picture asked for")
             await until(pilot, lambda: app.snapshots_asked == 3, message="the retries")
             seen = snapshots(peer)
             await pilot.press("f5")
@@ -114,6 +113,26 @@ def test_banner_turns_red_when_the_system_goes_quiet_and_keeps_a_give_up(
             await until(pilot, lambda: app.link.received > 10, message="more traffic")
             assert app.banner_text() == "demo gave up: rcl: 5 restarts in 10 s"
             assert header.has_class("-stale") and app.is_running
+    run(body())
+
+
+def test_a_system_whose_components_all_stopped_and_went_quiet_shows_stopped(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints, stale_after=0.5)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            peer.publish(tree_snapshot())
+            await until(pilot, lambda: app.supervision.root == "demo", message="the tree")
+            # the root stops its children in reverse order; the proxy's own exit never
+            # makes it onto the bus it was
+            peer.publish(SupEvent(event="exit", child="announcer", supervisor="demo",
+                                  reason="shutdown: stopped by supervisor"))
+            await until(pilot, lambda: app.banner_text() ==
+                        "system stopped: every component of demo stopped",
+                        message="system stopped")
+            peer.publish(SupEvent(event="start", child="bus", supervisor="demo", pid=7))
+            await until(pilot, lambda: app.banner_text() == "", message="a new run")
     run(body())
 
 
