@@ -74,8 +74,9 @@ def test_a_late_dashboard_gets_the_whole_picture_then_progress_and_x_stops_the_s
                         getattr(app.screen, "question", ""), message="the question")
             assert app.screen.details[0].startswith("components: bus, rcl")  # type: ignore[attr-defined]
             await pilot.press("y")
-            await until(pilot, lambda: app.banner_text().startswith("no heartbeat"),
-                        timeout=30, message="the system went quiet")
+            await until(pilot, lambda: app.banner_text() ==
+                        "system stopped: every component of tuidemo stopped",
+                        timeout=30, message="the system stopped and went quiet")
             assert app.is_running  # the last picture stays
 
     run(start_patrol())
