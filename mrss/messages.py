@@ -145,6 +145,8 @@ class ActionStatus(Message):
     robot: str = ""
     cause: str = ""  # a FailureCause value for a failed action, else ""
     repeat: bool = False  # the last state sent again (a reconciliation), not a transition
+    name: str = ""  # the action's name and goal, so an observer that attached late knows it
+    goal: str = ""
 
     def validate(self) -> None:
         _nonempty(self.uuid, "uuid")

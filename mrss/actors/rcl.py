@@ -38,6 +38,7 @@ from mrss.actors import controls
 from mrss.actors import lifecycle as lc
 from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.orphans import Orphans
+from mrss.actors.progress_feed import ProgressFeed
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.robot import Control, RobotActor, SetTeleop, StartAction
 from mrss.api import Action, RobotCommLayer, check_json
@@ -87,6 +88,7 @@ class RclCore:
                  restart_period: float = 60.0, probation: float = 30.0,
                  robot_watchdog: float | None = 30.0, adopt_grace: float = 10.0,
                  adopt_grace_suspended: float = 120.0, preempted_timeout: float = 0.0,
+                 progress_every: float = 0.0,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
@@ -104,6 +106,7 @@ class RclCore:
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
         self._incarnations: dict[str, int] = {}
         self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
+        self.progress = ProgressFeed(progress_every, clock)
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -178,6 +181,9 @@ class RclCore:
 
     def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
         self.journal.save_progress(uuid, progress)
+        if self.progress.enabled:
+            self.progress.record(uuid, progress)
+            self.publish_progress()
 
     def register(self, robot: str, ref: pykka.ActorRef[Any]) -> None:
         with self._lock:
@@ -406,6 +412,35 @@ class RclCore:
                 log.error("publishing the inventory for %s failed: %r", query.requester, exc)
         return sent
 
+    def publish_progress(self) -> int:
+        """Publish the progress that is due (`ProgressFeed`) as repeat statuses; how many.
+
+        Under the lock that also covers a transition's publication, and only for an action
+        whose journaled state is the one last published: a progress status never goes out
+        after its action's terminal status, nor before a transition already journaled."""
+        sent = 0
+        with self._lock:
+            for uuid, progress in self.progress.take_due().items():
+                known, entry = self._index.get(uuid), self.journal.get(uuid)
+                if known is None or entry is None or entry.action.state is not known.state:
+                    continue
+                action = entry.action
+                action.progress = progress
+                self._publish(action, repeat=True)
+                sent += 1
+        return sent
+
+    def snapshot(self) -> int:
+        """Answer an observer's `Command("snapshot")`: every robot's state and every open
+        action's current status (`repeat`, with name and goal), so a dashboard that
+        attaches late misses nothing. Returns how many statuses went out."""
+        self.announce_robots()
+        with self._lock:
+            entries = [e for e in self.journal.open_actions() if e.action.uuid in self._index]
+            for entry in entries:
+                self._publish(entry.action, repeat=True)
+        return len(entries)
+
     def announce_robots(self) -> None:
         """Publish every robot's state (availability, link, teleop): level-triggered, so a
         restarted reasoner or dashboard knows where each robot stands."""
@@ -489,18 +524,20 @@ class RclCore:
         if requester is None:
             requester = known.requester if known else NOBODY
         self.journal.record(action, suspended_by, requester)
-        with self._lock:
+        with self._lock:  # with the publication: see publish_progress
             if action.terminal:
                 self._index.pop(action.uuid, None)
+                self.progress.forget(action.uuid)
             else:
                 self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
                                                   requester)
-        self._publish(action)
+            self._publish(action)
 
     def _publish(self, action: Action, repeat: bool = False) -> None:
         status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
                               progress=dict(action.progress), robot=action.robot,
-                              cause=action.cause, repeat=repeat)
+                              cause=action.cause, repeat=repeat, name=action.name,
+                              goal=action.goal)
         try:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks

@@ -8,10 +8,14 @@
   seconds for the new incarnation to adopt them, then are cancelled), and
   `action.query` (reconciliation: statuses from the journal, and the inventory of a
   restarted requester's predecessors);
+- `ctl.snapshot` (Command, from an observer such as the dashboard) is answered with
+  every robot's state and every open action's status (`repeat`): `RclCore.snapshot`;
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
   each action status after its journal commit; `sup.*` events of the robot supervisor
   too; and a `sup.heartbeat.<name>` every `heartbeat` seconds while the robot
-  supervisor lives, which renews the reasoner's lease on its waiting actions.
+  supervisor lives, which renews the reasoner's lease on its waiting actions; with it,
+  the progress skills recorded since the last one, as `repeat` statuses at most once
+  every `progress_every` seconds per action (`mrss.actors.progress_feed`).
 
 Options (project.toml, the component's table): `layer` ("rcl.py:ClassName" relative to
 the project folder, default: the RobotCommLayer subclass in rcl.py), `robots` (robot id
@@ -110,6 +114,9 @@ class RclService(Component):
                "seconds a pre-empted action may wait for its resource before it fails "
                "with error(preempted) (0: it waits for ever)", Check.NON_NEGATIVE),
         Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
+        Option("progress_every", float, 1.0,
+               "at most one progress status (repeat) per action every this many seconds "
+               "(0: progress goes out with transitions only)", Check.NON_NEGATIVE),
         Option("journal_keep_seconds", float, 86400.0,
                "ended actions older than this are compacted out of the journal",
                Check.NON_NEGATIVE),
@@ -163,7 +170,8 @@ class RclService(Component):
             for src, inc in self.journal.incarnations().items():
                 self.incarnations.learn(src, inc)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
-                                                    "ctl.teleop", "sup.heartbeat."],
+                                                    "ctl.teleop", "ctl.snapshot",
+                                                    "sup.heartbeat."],
                                incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
@@ -174,7 +182,8 @@ class RclService(Component):
                             adopt_grace=float(opts.get("adopt_grace", 10.0)),
                             adopt_grace_suspended=float(opts.get("adopt_grace_suspended",
                                                                  120.0)),
-                            preempted_timeout=float(opts.get("preempted_timeout", 0.0)))
+                            preempted_timeout=float(opts.get("preempted_timeout", 0.0)),
+                            progress_every=float(opts.get("progress_every", 1.0)))
         self.layer.bind_runtime(link_state=self.core.link_state)
         self._compaction = (float(opts.get("journal_keep_seconds", 86400.0)),
                             int(opts.get("journal_keep_last", 1000)),
@@ -215,6 +224,7 @@ class RclService(Component):
                     publisher.publish(beat)
                     if self.core is not None:
                         self.core.cancel_orphans()
+                        self.core.publish_progress()
                 except Exception as exc:
                     log.error("heartbeat not published: %r", exc)
             if time.monotonic() >= next_compaction:
@@ -278,6 +288,8 @@ class RclService(Component):
                 if not isinstance(on, bool):
                     raise MrssError(f"teleop command needs args.on true/false, not {on!r}")
                 core.set_teleop(body.target, on)
+            elif isinstance(body, Command) and body.command == "snapshot":
+                core.snapshot()
             elif isinstance(body, Heartbeat):
                 core.saw_incarnation(env.src, env.inc)
         except MrssError as exc:

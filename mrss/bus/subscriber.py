@@ -66,6 +66,7 @@ class Subscriber:
         self._lock = threading.Lock()
         self._closed = False
         self._connected = threading.Event()
+        self.welcomes = 0  # proxy greetings: one more after each proxy restart
         self._thread: threading.Thread | None = None
         sock = sockets.connect(sockets.context(context), zmq.SUB, endpoints.backend, hwm=hwm)
         sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
@@ -137,6 +138,7 @@ class Subscriber:
             return None
         if not pairs:
             if frames[0] == WELCOME:
+                self.welcomes += 1
                 self._connected.set()
             return None
         self._batch.extend(pairs)

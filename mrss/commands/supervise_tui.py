@@ -6,13 +6,17 @@ its components inherit them, so every line of the run lands in the log file and 
 on the screen. This process owns the terminal and runs the dashboard (`MrssApp`) on the
 system's bus. A crash of either side cannot take the other down.
 
-- `q` (or Ctrl-Q) closes the dashboard, then the system is stopped with SIGINT, the
-  same path as Ctrl-C without the dashboard; its exit code is ours.
+- `q` (or Ctrl-Q) asks first, naming what stops; on yes the dashboard closes, then the
+  system is stopped with SIGINT, the same path as Ctrl-C without the dashboard; its
+  exit code is ours. On no everything keeps running. `X` stops the system too (after
+  the same question) but keeps the dashboard open on the stopping system.
 - Ctrl-C (the dashboard lets the terminal send signals) and SIGTERM/SIGHUP to this
   process are passed on to the system, so a first one stops it in order and a second
   kills what is left; the dashboard shows the stopping and closes when the system ends.
-- If the system ends by itself (the root gave up), the dashboard closes and its last
-  words are printed. If this process is killed, the system gets SIGTERM (PDEATHSIG).
+- If the system ends by itself (the root gave up), the dashboard stays open on the
+  final picture with the reason in its red banner until the operator closes it (`q`,
+  no question then); the last words are printed too. If this process is killed, the
+  system gets SIGTERM (PDEATHSIG).
 
 A temporary run dir is kept (emptied but for the log) so the log outlives the run.
 """
@@ -30,7 +34,9 @@ import subprocess
 import sys
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, ClassVar
+
+from textual.binding import Binding, BindingType
 
 from mrss import logs
 from mrss.bus import BusEndpoints
@@ -39,6 +45,7 @@ from mrss.commands.supervise import run_dir_for
 from mrss.config import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.tui.app import MrssApp
+from mrss.tui.confirm import ConfirmScreen
 
 EXIT_CONFIG = 2
 WATCH_EVERY = 0.2  # seconds between two looks whether the system is still running
@@ -48,19 +55,71 @@ log = logging.getLogger("mrss.supervise")
 
 
 class SupervisedApp(MrssApp):
-    """The dashboard of a system this process started: it closes when the system ends."""
+    """The dashboard of a system this process started (see the module docstring)."""
+
+    BINDINGS: ClassVar[list[BindingType]] = [Binding("q", "close", "Quit (asks)")]
 
     def __init__(self, endpoints: BusEndpoints, system: subprocess.Popen[bytes],
-                 **options: Any) -> None:
+                 log_path: Path | None = None, **options: Any) -> None:
         super().__init__(endpoints, **options)
         self.system = system
+        self.log_path = log_path
+        self.stop_requested = False  # by the operator: close once the system has ended
 
     def on_mount(self) -> None:  # runs after MrssApp.on_mount (Textual calls each class's)
         self.set_interval(WATCH_EVERY, self._watch_system)
 
     def _watch_system(self) -> None:
+        code = self.system.poll()
+        if code is None or self.liveness.ended.startswith("system stopped"):
+            return
+        if self.stop_requested:
+            self.exit()
+            return
+        last = _last_words(self.log_path) if self.log_path is not None else ""
+        self.liveness.ended = f"system stopped (exit {code})" + (f": {last}" if last else "")
+        self._show_liveness()
+
+    def stop_system(self) -> None:
+        """Stop the system in order (SIGINT, as Ctrl-C); the dashboard closes when it ends."""
+        self.stop_requested = True
+        with contextlib.suppress(ProcessLookupError):
+            self.system.send_signal(signal.SIGINT)
+
+    def action_stop_system(self) -> None:
+        if self.readonly:
+            super().action_stop_system()  # refused, with the notice
+            return
+        if self.system.poll() is not None:
+            self._say(f"{self.project} is not running", error=True)
+            return
+        self.push_screen(ConfirmScreen(f"Stop the whole system {self.project}?",
+                                       self.stop_details()), self._stop_answer)
+
+    def _stop_answer(self, yes: bool | None) -> None:
+        if yes:
+            self._say(f"stopping {self.project} ...")
+            self.stop_system()
+        else:
+            self._say(f"{self.project} keeps running")
+
+    def action_close(self) -> None:
+        """`q`: this dashboard owns the system, so closing it stops the system: ask."""
         if self.system.poll() is not None:
             self.exit()
+            return
+        self.push_screen(ConfirmScreen(
+            f"Close the dashboard and stop {self.project}?",
+            [*self.stop_details(), "(`mrss supervise --no-tui` and `mrss tui` keep the "
+             "system running without this dashboard)"], yes="yes, stop everything"),
+            self._close_answer)
+
+    def _close_answer(self, yes: bool | None) -> None:
+        if yes:
+            self.stop_requested = True
+            self.exit()  # then run() stops the system with SIGINT
+        else:
+            self._say(f"{self.project} keeps running")
 
 
 def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
@@ -95,14 +154,16 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     system = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
+    app = SupervisedApp(endpoints, system, log_path, project=config.name)
+
     def forward(signum: int, frame: FrameType | None) -> None:
+        app.stop_requested = True  # asked for: the dashboard closes when it is done
         with contextlib.suppress(ProcessLookupError):
             system.send_signal(signal.SIGINT if signum == signal.SIGINT else signal.SIGTERM)
 
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, forward)
     os.environ["TEXTUAL_ALLOW_SIGNALS"] = "1"  # Ctrl-C stops the system, as without us
-    app = SupervisedApp(endpoints, system, project=config.name)
     try:
         app.run()
     except Exception:

@@ -2,7 +2,8 @@
 
 Connects to the bus of a running `mrss supervise PROJECT` (see `mrss.tui.discovery` for
 how the bus is found) and shows the supervision tree, robots, actions, the reasoner's
-mind and the log, with operator commands. Exits 0 when closed, 2 if no bus is found.
+mind and the log, with operator commands. `q` detaches: the system keeps running.
+`--readonly` refuses every control. Exits 0 when closed, 2 if no bus is found.
 """
 
 from __future__ import annotations
@@ -28,6 +29,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="ask for a mind snapshot every S seconds (0: only on m)")
     parser.add_argument("--tree-every", type=float, default=2.0, metavar="S",
                         help="ask the supervisor for its tree every S seconds (0: only on F5)")
+    parser.add_argument("--stale-after", type=float, default=5.0, metavar="S",
+                        help="turn the header red when nothing came from the system for S "
+                             "seconds (default 5)")
+    parser.add_argument("--readonly", action="store_true",
+                        help="watch only: every control (percepts, cancel, teleop, faults, "
+                             "stop) is refused")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,6 +49,10 @@ def run(args: argparse.Namespace) -> int:
     from mrss.tui.app import MrssApp
 
     app = MrssApp(endpoints, project=name, agent=args.agent,
-                  mind_every=args.mind_every, tree_every=args.tree_every)
+                  mind_every=args.mind_every, tree_every=args.tree_every,
+                  readonly=args.readonly, stale_after=args.stale_after)
     app.run()
+    ended = app.liveness.ended
+    print(f"mrss tui: {name}: {ended}" if ended else
+          f"mrss tui: detached from {name}; it keeps running", file=sys.stderr)
     return 0

@@ -1,4 +1,4 @@
-"""Operator commands for the root supervisor over the bus: `ctl.tree` and `ctl.fault`.
+"""Operator commands for the root supervisor over the bus: `ctl.tree`, `ctl.fault`, `ctl.stop`.
 
 The TUI runs in another process than `mrss supervise`, so it cannot call
 `ProcessSupervisor.tree()` or `mrss.supervision.faults` itself. `RemoteControl`
@@ -8,7 +8,9 @@ subscribes the root to two `Command`s and answers on the bus:
   `detail.tree` = `ProcessSupervisor.tree().to_dict()`;
 - `Command("fault", target=component, args={"fault": "kill" | "term" | "hang" | "crash" |
   "slow_start", "seconds": S})` -> `faults.inject`, and a `LogRecord` on `log.<root>`
-  saying what was done or why it was refused (unknown child, not running, bad fault).
+  saying what was done or why it was refused (unknown child, not running, bad fault);
+- `Command("stop", target=root name)` -> `request_stop()`: the same ordered stop as
+  Ctrl-C (a `LogRecord` says who asked). A stop naming another system is refused.
 
 Only process faults on the root's own children are wired; actor faults need the
 component's in-process actor supervisor and are not reachable from here.
@@ -38,13 +40,13 @@ def tree_event(sup: ProcessSupervisor) -> SupEvent:
 
 
 class RemoteControl:
-    """Answers `ctl.tree` and executes `ctl.fault` for one root supervisor."""
+    """Answers `ctl.tree`, executes `ctl.fault` and `ctl.stop` for one root supervisor."""
 
     def __init__(self, sup: ProcessSupervisor, endpoints: BusEndpoints,
                  publish: Publish) -> None:
         self.sup = sup
         self._publish = publish
-        self._sub = Subscriber(endpoints, prefixes=["ctl.tree", "ctl.fault"],
+        self._sub = Subscriber(endpoints, prefixes=["ctl.tree", "ctl.fault", "ctl.stop"],
                                name="supervisor-ctl")
 
     def start(self) -> RemoteControl:
@@ -63,6 +65,13 @@ class RemoteControl:
             self._publish(tree_event(self.sup))
         elif body.command == "fault":
             self._fault(body, env.src)
+        elif body.command == "stop":
+            if body.target != self.sup.name:
+                self._say("WARNING", f"stop of {body.target!r} from {env.src} refused: "
+                          f"this is {self.sup.name!r}")
+                return
+            self._say("WARNING", f"stopping {self.sup.name}: asked by {env.src}")
+            self.sup.request_stop()
 
     def _fault(self, cmd: Command, sender: str) -> None:
         fault = cmd.args.get("fault")

@@ -5,6 +5,12 @@ under them the operator's percept line. The app owns the `BusLink` and the model
 bus messages are drained from the link's inbox on the app's thread (at most every
 `min_refresh` seconds, so a burst becomes one redraw), applied to the models, and the
 panels that changed are redrawn. Widgets ask for bus messages with `SendRequested`.
+
+Safety: `q` only detaches this viewer (the system runs on); stopping the system is `X`
+and asks first, naming what stops; so do cancel and teleop. `readonly` refuses every
+control. A picture that never lies: on connecting (and after a proxy restart, and on
+F5) the app asks for a full snapshot (tree, robots, open actions, mind), and a red
+banner says when the system has gone quiet or ended (`models/liveness.py`).
 """
 
 from __future__ import annotations
@@ -13,18 +19,18 @@ import time
 from contextlib import suppress
 from typing import ClassVar
 
-from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal
 from textual.css.query import NoMatches
-from textual.widgets import Footer, Header, Input
+from textual.widgets import Footer, Header, Input, Static
 
 from mrss.bus import BusEndpoints
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
     Envelope,
+    Message,
     MindSnapshot,
     RobotData,
     RobotState,
@@ -32,16 +38,21 @@ from mrss.messages import (
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
-from mrss.tui.events import BusActivity, Note, SendRequested
+from mrss.tui.confirm import ConfirmScreen
+from mrss.tui.events import READONLY_NOTICE, BusActivity, Note, SendRequested
 from mrss.tui.models.actions import ActionsModel
+from mrss.tui.models.liveness import Liveness
+from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.robots import RobotsModel
-from mrss.tui.models.supervision import SupervisionModel
+from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane, log_line
 from mrss.tui.widgets.mind_inspector import MindInspector
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
+
+SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
 
 
 class MrssApp(App[None]):
@@ -55,37 +66,50 @@ class MrssApp(App[None]):
     .panel:focus-within { border: round $accent; }
     #supervision, #mind { width: 1fr; }
     #robots, #log { width: 1fr; }
+    #banner { display: none; height: 1; padding: 0 1; background: $error;
+              color: $text; text-style: bold; }
+    #banner.-shown { display: block; }
+    Header.-stale { background: $error; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("m", "mind", "Mind now"),
         Binding("a", "auto_mind", "Auto mind on/off"),
         Binding("p", "focus_percept", "Percept"),
         Binding("escape", "focus_actions", "Actions", show=False),
-        Binding("f5", "tree", "Refresh tree"),
-        Binding("q", "quit", "Quit"),
+        Binding("f5", "refresh_all", "Refresh all"),
+        Binding("slash", "log_filter", "Filter log"),
+        Binding("X", "stop_system", "Stop system"),
+        Binding("q", "close", "Detach"),
+        Binding("ctrl+q", "close", "Detach", show=False, priority=True),
     ]
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
-                 min_refresh: float = 0.1) -> None:
+                 min_refresh: float = 0.1, readonly: bool = False,
+                 stale_after: float = 5.0) -> None:
         super().__init__()
         self.project = project
         self.agent = agent
+        self.readonly = readonly
         self.link = BusLink(endpoints)
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()
         self.actions = ActionsModel()
+        self.liveness = Liveness(stale_after)
         self.auto_mind = mind_every > 0
         self.mind_every = mind_every
         self.tree_every = tree_every
         self.min_refresh = min_refresh
         self.flushes = 0  # drains that found messages (tests check batching with it)
+        self.snapshots_asked = 0
+        self._welcomes = 0
         self._last_drain = 0.0
         self._drain_pending = False
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
         yield Header(show_clock=True)
+        yield Static("", id="banner")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
             yield RobotsTable(self.robots, id="robots")
@@ -99,19 +123,23 @@ class MrssApp(App[None]):
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
                   "robots": "Robots (t teleop)", "actions": "Actions (c cancel, s suspend, "
-                  "r resume)", "mind": "Mind (m refresh, a auto)", "log": "Log"}
+                  "r resume)", "mind": "Mind (m refresh, a auto)",
+                  "log": "Log (/ filter, End follow)"}
         for ident, title in titles.items():
             widget = self.query_one(f"#{ident}")
             widget.add_class("panel")
             widget.border_title = title
-        self.sub_title = self._connection_text()
+        if self.readonly:
+            self.query_one("#percept", Input).disabled = True
+            self.title = f"{self.TITLE} (read-only)"
+        self._show_liveness()
         self.link.start(wake=lambda: self.post_message(BusActivity()))
         self.set_interval(1.0, self._tick)
+        self.set_interval(0.25, self._watch_link)
         if self.mind_every > 0:
             self.set_interval(self.mind_every, self._poll_mind)
         if self.tree_every > 0:
             self.set_interval(self.tree_every, self._poll_tree)
-        self._poll_tree()
         self.query_one("#actions").focus()
 
     def on_unmount(self) -> None:
@@ -142,10 +170,12 @@ class MrssApp(App[None]):
     def apply(self, envelopes: list[Envelope]) -> None:
         """Apply a batch of bus messages to the models, then redraw what changed."""
         dirty: set[str] = set()
-        lines: list[Text] = []
+        lines: list[LogEntry] = []
         mind: Envelope | None = None
         for env in envelopes:
             body = env.body
+            if env.src != self.link.src:
+                self.liveness.heard()
             if isinstance(body, ActionStatus):
                 self.actions.apply_status(body, env.ts)
                 dirty.add("actions")
@@ -160,6 +190,7 @@ class MrssApp(App[None]):
                 dirty.add("robots")
             elif isinstance(body, SupEvent):
                 self.supervision.apply_event(body, env.src, env.ts)
+                self._system_end(body, env.src)
                 dirty.add("supervision")
             elif isinstance(body, MindSnapshot) and body.agent in ("", self.agent or body.agent):
                 mind = env
@@ -168,7 +199,7 @@ class MrssApp(App[None]):
                 lines.append(line)
         now = time.time()
         if "actions" in dirty:
-            self.query_one(ActionsTable).refresh_rows()
+            self.query_one(ActionsTable).refresh_rows(now)
         if "robots" in dirty:
             self.query_one(RobotsTable).refresh_rows(now)
         if "supervision" in dirty:
@@ -178,21 +209,98 @@ class MrssApp(App[None]):
         if lines:
             self.query_one(LogPane).add(lines)
 
+    def _system_end(self, event: SupEvent, src: str) -> None:
+        """The root giving up on the whole system ends it: the banner keeps the reason.
+        A component started by the root afterwards is a new run: the banner clears."""
+        if src != ROOT_SRC:
+            return
+        if event.event == "give_up" and event.detail.get("stops") == "system":
+            root = event.supervisor or self.supervision.root or self.project
+            self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
+            self._show_liveness()
+        elif event.event == "start" and self.liveness.ended:
+            self.liveness.ended = ""
+
+    def _stopped_quietly(self) -> bool:
+        """Silent, and every component of the root stopped (but perhaps the bus proxy,
+        which cannot tell its own end over the bus): the system was stopped."""
+        if self.liveness.silence() < self.liveness.stale_after:
+            return False
+        root = self.supervision.root or self.project
+        states = [n.state for n in self.supervision.nodes.values() if n.parent == root]
+        down = sum(state in ("stopped", "exited", "gave up") for state in states)
+        return "stopped" in states and down >= len(states) - 1
+
     def _tick(self) -> None:
-        """Once a second: uptimes, data ages and the connection state move on."""
+        """Once a second: uptimes, ages and the connection state move on."""
         now = time.time()
         with suppress(NoMatches):  # the panels are gone: the app is closing
             self.query_one(SupervisionTable).refresh_rows(now)
             self.query_one(RobotsTable).refresh_rows(now)
-        self.sub_title = self._connection_text()
+            self.query_one(ActionsTable).refresh_rows(now)
+            self._show_liveness()
+
+    def _watch_link(self) -> None:
+        """A (new) greeting from the proxy: we (re)connected, so ask for the whole picture."""
+        welcomes = self.link.welcomes
+        if welcomes != self._welcomes:
+            self._welcomes = welcomes
+            self.ask_snapshot()
+            for delay in SNAPSHOT_RETRIES:
+                self.set_timer(delay, self.ask_snapshot)
+
+    def ask_snapshot(self) -> None:
+        """Ask for everything: the tree (root), robots and open actions (RCL), the mind;
+        and the status of every action shown open (it may have ended unseen)."""
+        self.snapshots_asked += 1
+        requests: list[Message] = [operator.tree_request(), operator.snapshot_request(),
+                                   operator.mind_request(self.agent)]
+        shown_open = [v.uuid for v in self.actions.newest_first() if not v.terminal]
+        if shown_open:
+            requests.append(operator.status_query(shown_open))
+        for request in requests:
+            with suppress(Exception):  # not connected yet: the next ask will do
+                self.link.publish(request)
+
+    def banner_text(self) -> str:
+        """What the red banner says ("" when the picture is current)."""
+        if not self.liveness.ended and self._stopped_quietly():
+            root = self.supervision.root or self.project
+            self.liveness.end(f"system stopped: every component of {root} stopped")
+        return self.liveness.banner(self.link.connected)
+
+    def _show_liveness(self) -> None:
+        text = self.banner_text()
+        with suppress(NoMatches):
+            banner = self.query_one("#banner", Static)
+            banner.update(text)
+            banner.set_class(bool(text), "-shown")
+            self.query_one(Header).set_class(bool(text), "-stale")
+        self.sub_title = text or self._connection_text()
 
     def _connection_text(self) -> str:
-        state = "connected" if self.link.connected else "waiting for the bus proxy"
         project = f"{self.project} · " if self.project else ""
-        return f"{project}{state} · {self.link.endpoints.backend} · {self.link.received} msgs"
+        return f"{project}connected · {self.link.endpoints.backend} · {self.link.received} msgs"
 
     # -- operator ---------------------------------------------------------------------------
     def on_send_requested(self, request: SendRequested) -> None:
+        if self.readonly:
+            self._say(f"{request.what} refused: {READONLY_NOTICE}", error=True)
+            self.notify(READONLY_NOTICE, severity="warning")
+            return
+        if not request.confirm:
+            self._send(request)
+            return
+
+        def answered(yes: bool | None) -> None:
+            if yes:
+                self._send(request)
+            else:
+                self._say(f"not sent (declined): {request.what}")
+
+        self.push_screen(ConfirmScreen(request.confirm, request.details), answered)
+
+    def _send(self, request: SendRequested) -> None:
         try:
             self.link.publish(request.body)
         except Exception as exc:  # the dashboard stays up whatever the bus does
@@ -208,12 +316,48 @@ class MrssApp(App[None]):
             self.query_one(OperatorBar).set_status(text, error=error)
             self.query_one(LogPane).note(text, error=error)
 
+    def open_actions_of(self, robot: str) -> list[str]:
+        """The names of the actions the dashboard knows open on `robot`."""
+        return [view.name or view.uuid[:8] for view in self.actions.newest_first()
+                if view.robot == robot and view.state and not view.terminal]
+
+    def stop_details(self) -> list[str]:
+        """What stopping the system stops, for the confirmation."""
+        root = self.supervision.root or self.project
+        components = [n.name for n in self.supervision.nodes.values()
+                      if n.parent == root and n.state not in ("stopped", "gave up")]
+        running = [v for v in self.actions.newest_first() if v.state and not v.terminal]
+        return [f"components: {', '.join(components) or 'none known'}",
+                f"robots: {', '.join(self.robots.robots) or 'none known'}",
+                f"open actions: {len(running)} (ended as the RCL stops)"]
+
+    def action_stop_system(self) -> None:
+        if self.readonly:
+            self._say(f"stop refused: {READONLY_NOTICE}", error=True)
+            self.notify(READONLY_NOTICE, severity="warning")
+            return
+        root = self.supervision.root or self.project
+        try:
+            request = operator.stop_request(root)
+        except operator.OperatorError as exc:
+            self._say(f"stop not sent: {exc}", error=True)
+            return
+        self.post_message(SendRequested(
+            request, f"stop {root}", confirm=f"Stop the whole system {root}?",
+            details=self.stop_details()))
+
+    def action_close(self) -> None:
+        """`q`: detach this viewer; the system keeps running."""
+        self.exit()
+
     def _poll_mind(self) -> None:
         if self.auto_mind:
-            self.link.publish(operator.mind_request(self.agent))
+            with suppress(Exception):
+                self.link.publish(operator.mind_request(self.agent))
 
     def _poll_tree(self) -> None:
-        self.link.publish(operator.tree_request())
+        with suppress(Exception):
+            self.link.publish(operator.tree_request())
 
     def action_mind(self) -> None:
         self.link.publish(operator.mind_request(self.agent))
@@ -223,11 +367,18 @@ class MrssApp(App[None]):
         self._say(f"mind snapshots every {self.mind_every:g} s" if self.auto_mind
                   else "mind snapshots only on m")
 
-    def action_tree(self) -> None:
-        self._poll_tree()
+    def action_refresh_all(self) -> None:
+        self.ask_snapshot()
+        self._say("asked for a full snapshot (tree, robots, actions, mind)")
 
     def action_focus_percept(self) -> None:
+        if self.readonly:
+            self._say(f"percept line: {READONLY_NOTICE}", error=True)
+            return
         self.query_one("#percept", Input).focus()
 
     def action_focus_actions(self) -> None:
         self.query_one(ActionsTable).focus()
+
+    def action_log_filter(self) -> None:
+        self.query_one(LogPane).open_filter()

@@ -71,6 +71,11 @@ class BusLink:
         """Whether the proxy has greeted the subscriber (its topics are subscribed)."""
         return self._sub is not None and self._sub.wait_connected(timeout=0)
 
+    @property
+    def welcomes(self) -> int:
+        """How many times the proxy greeted the subscriber: it grows after a proxy restart."""
+        return self._sub.welcomes if self._sub is not None else 0
+
     def publish(self, msg: Message) -> str:
         """Send one operator message; its id."""
         if self._pub is None:

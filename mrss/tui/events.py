@@ -1,10 +1,14 @@
 """The Textual messages the dashboard's widgets send up to the app.
 
 Widgets never touch the bus: a key pressed on a panel becomes one of these, and the
-app (which owns the `BusLink`) turns it into a bus message and says what it did.
+app (which owns the `BusLink`) turns it into a bus message and says what it did. A
+read-only dashboard refuses every `SendRequested`; one with a `confirm` question is
+sent only once the operator said yes to it (`mrss.tui.confirm`).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 from textual.message import Message
 
@@ -27,7 +31,18 @@ class Note(Message):
 class SendRequested(Message):
     """A widget wants `body` published on the bus; `what` describes it for the operator."""
 
-    def __init__(self, body: BusMessage, what: str) -> None:
+    def __init__(self, body: BusMessage, what: str, *, confirm: str = "",
+                 details: Sequence[str] = ()) -> None:
         super().__init__()
         self.body = body
         self.what = what
+        self.confirm = confirm  # the question to ask first ("" : send at once)
+        self.details = tuple(details)  # what it affects, for the question
+
+
+READONLY_NOTICE = "read-only dashboard (--readonly): no controls"
+
+
+def readonly(widget: object) -> bool:
+    """Whether the widget's app is read-only (then every control is refused)."""
+    return bool(getattr(getattr(widget, "app", None), "readonly", False))

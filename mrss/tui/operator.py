@@ -4,14 +4,17 @@
   it must parse as one ground AgentSpeak literal, or `OperatorError` says why;
 - `action.control` for the selected action (cancel / suspend / resume);
 - `ctl.teleop` for a robot, `ctl.fault` for a component (executed by the root supervisor,
-  `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests.
+  `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
+- `ctl.snapshot` (the RCL re-announces every robot and open action), with an
+  `action.query` for the actions the dashboard believes open, and `ctl.stop` (the
+  root supervisor stops the whole system in order).
 """
 
 from __future__ import annotations
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct
-from mrss.messages import ActionControl, Command, Percept
+from mrss.messages import ActionControl, ActionQuery, Command, Percept
 
 FAULTS = ("kill", "hang", "crash", "term")
 ACTION_COMMANDS = ("cancel", "suspend", "resume")
@@ -96,3 +99,24 @@ def mind_request(agent: str = "") -> Command:
 def tree_request() -> Command:
     """Ask the root supervisor for a `sup.tree` snapshot: on `ctl.tree`."""
     return Command(command="tree")
+
+
+def snapshot_request() -> Command:
+    """Ask the RCL for every robot's state and every open action's status: `ctl.snapshot`."""
+    return Command(command="snapshot")
+
+
+QUERY_LIMIT = 500  # uuids per ActionQuery
+
+
+def status_query(uuids: list[str]) -> ActionQuery:
+    """Ask the RCL for the journaled status of actions the dashboard believes open (the
+    reconciliation query the reasoner uses): one that ended unseen shows its end."""
+    return ActionQuery(uuids=uuids[:QUERY_LIMIT])
+
+
+def stop_request(root: str) -> Command:
+    """Ask the root supervisor `root` to stop the whole system in order: on `ctl.stop`."""
+    if not root:
+        raise OperatorError("the system's name is not known yet")
+    return Command(command="stop", target=root)

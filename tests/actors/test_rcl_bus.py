@@ -42,8 +42,10 @@ class Statuses:
         self.envs.append(env)
 
     def states(self, uuid: str) -> list[str]:
+        """The transitions of `uuid` (not progress or reconciliation repeats)."""
         return [e.body.state for e in list(self.envs)
-                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
+                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid
+                and not e.body.repeat]
 
     def last(self, uuid: str) -> ActionStatus | None:
         found = [e.body for e in list(self.envs)

@@ -91,6 +91,26 @@ def test_terminal_success_releases_the_latch_and_the_plan_continues(
     assert reasoner.host.latches() == []
 
 
+def test_progress_repeats_keep_the_latch_and_only_the_terminal_status_releases_it(
+        wired: tuple[Reasoner, Wire]) -> None:
+    """The RCL's throttled progress statuses (repeat=True, the current state again) are
+    no transitions: the agent keeps waiting and sees the progress on its latch."""
+    reasoner, wire = wired
+    reasoner.on_message(env(Percept(literal="area(g1, 3)")))
+    req = wait_until(lambda: wire.requests and wire.requests[0])
+    reasoner.on_message(status(req, "running"))
+    for leg in (1, 2, 3):
+        reasoner.on_message(env(ActionStatus(uuid=req.uuid, state="running", robot=req.robot,
+                                             progress={"leg": leg, "of": 4}, repeat=True,
+                                             name=req.name, goal=req.goal)))
+    [latch] = reasoner.host.latches()
+    assert (latch.last_status, latch.progress) == ("running", {"leg": 3, "of": 4})
+    assert not reasoner.agent.believes("covered(g1)") and wire.controls == []
+    reasoner.on_message(status(req, "succeeded"))
+    wait_until(lambda: reasoner.agent.believes("covered(g1)"), message="plan continued")
+    assert reasoner.host.latches() == []
+
+
 def test_failed_status_fails_the_plan_with_the_rcl_reason(wired: tuple[Reasoner, Wire]) -> None:
     reasoner, wire = wired
     reasoner.on_message(env(Percept(literal="area(g2, 1)")))

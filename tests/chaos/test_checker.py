@@ -98,6 +98,19 @@ def test_a_status_published_after_the_terminal_one_is_caught() -> None:
     assert broken(records) == {Invariant.NO_TRANSITION_AFTER_TERMINAL}
 
 
+def test_progress_repeats_while_running_break_nothing_but_one_after_the_end_is_caught() -> None:
+    progress = [status(t, U1, "running") for t in (3.0, 4.0, 5.0)]
+    for record, leg in zip(progress, (1, 2, 3), strict=True):
+        record["body"].update(progress={"leg": leg, "of": 4}, repeat=True)
+    records = healthy()
+    end = next(i for i, r in enumerate(records) if r.get("kind") == "action.status"
+               and r["body"]["state"] == "succeeded")
+    assert broken(records[:end] + progress + records[end:]) == set()
+    late = status(11.0, U1, "running")  # the RCL must never let one out after the end
+    late["body"].update(progress={"leg": 4, "of": 4}, repeat=True)
+    assert broken(healthy() + [late]) == {Invariant.NO_TRANSITION_AFTER_TERMINAL}
+
+
 def test_a_late_status_of_an_older_rcl_incarnation_is_ignored() -> None:
     records = healthy()
     for r in records:

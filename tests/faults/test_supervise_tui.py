@@ -120,7 +120,10 @@ def test_q_in_the_dashboard_stops_the_system_cleanly(terminal: Terminal,
     procs = _system_up(terminal, tmp_path)
     # the log lines go to the file, not over the dashboard
     assert not re.search(rb"busdemo\[\d+\] INFO", terminal.output)
-    terminal.press(b"q")
+    terminal.press(b"q")  # asks first: closing this dashboard stops the system
+    wait_until(lambda: b"Close the dashboard and stop busdemo?" in terminal.output,
+               timeout=30, message="the question")
+    terminal.press(b"y")
     assert terminal.proc.wait(timeout=30) == 0
     wait_until(lambda: _gone(procs), timeout=10, message="no process of the run left")
     log = (tmp_path / "mrss.log").read_text()
@@ -155,16 +158,24 @@ def test_the_log_pane_shows_the_records_the_log_file_has(tmp_path: Path) -> None
                          (tmp_path / "mrss.log").read_text(), re.M)
         assert b"via the bus logger" not in term.output  # file only, as on the bus
         term.press(b"q")
+        wait_until(lambda: b"Close the dashboard" in term.output, timeout=30,
+                   message="the question")
+        term.press(b"y")
         assert term.proc.wait(timeout=30) == 0
     finally:
         term.close()
 
 
 @pytest.mark.slow
-def test_a_system_that_gives_up_closes_the_dashboard_and_says_why(tmp_path: Path) -> None:
+def test_a_system_that_gives_up_keeps_the_final_picture_until_q_and_says_why(
+        tmp_path: Path) -> None:
     term = supervise_in_terminal("crashloop", tmp_path)
     try:
-        assert term.proc.wait(timeout=60) == 1
+        wait_until(lambda: b"system stopped (exit 1)" in term.output, timeout=60,
+                   message="the red banner on the final picture")
+        assert term.proc.poll() is None  # the dashboard stays for the operator to read
+        term.press(b"q")  # no question: the system has ended
+        assert term.proc.wait(timeout=30) == 1
         wait_until(lambda: b"more than 2 restarts of flaky in 30s" in term.output, timeout=10,
                    message="the root's last words on the terminal")
         assert b"mrss supervise: crashloop: gave up: child 'flaky' failed" in term.output
@@ -185,3 +196,32 @@ def test_no_tui_keeps_plain_logs_on_stderr_even_in_a_terminal(tmp_path: Path) ->
         assert "all components stopped" in (tmp_path / "mrss.log").read_text()
     finally:
         term.close()
+
+
+@pytest.mark.slow
+def test_mrss_tui_readonly_in_a_terminal_refuses_controls_and_q_only_detaches(
+        tmp_path: Path) -> None:
+    """`mrss supervise busdemo --no-tui` runs; `mrss tui --readonly` on another terminal:
+    X is refused with the notice, q detaches and the system runs on."""
+    system = supervise_in_terminal("busdemo", tmp_path, "--no-tui")
+    env = {**os.environ, "MRSS_PROJECTS": str(PROJECTS), "TERM": "xterm-256color"}
+    viewer = Terminal([sys.executable, "-m", "mrss", "tui", "busdemo", "--run-dir",
+                       str(tmp_path), "--readonly"], env)
+    try:
+        wait_until(lambda: b"announcer" in viewer.output and b"read-only" in viewer.output,
+                   timeout=30, message="the read-only dashboard shows the tree")
+        viewer.press(b"X")
+        wait_until(lambda: b"no controls" in viewer.output, timeout=10,
+                   message="the refusal notice")
+        viewer.press(b"q")
+        assert viewer.proc.wait(timeout=30) == 0
+        wait_until(lambda: b"detached from busdemo; it keeps running" in viewer.output,
+                   timeout=10, message="the parting words")
+        assert system.proc.poll() is None  # still running
+        system.proc.send_signal(signal.SIGTERM)
+        assert system.proc.wait(timeout=30) == 0
+        log = (tmp_path / "mrss.log").read_text()
+        assert "stopping busdemo: asked by" not in log  # nobody asked the root to stop
+    finally:
+        viewer.close()
+        system.close()

@@ -2,16 +2,8 @@
 
 from __future__ import annotations
 
-import os
-import shutil
-import signal
-import subprocess
-import sys
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 
-import psutil
 import pytest
 from textual.widgets import Input
 
@@ -27,44 +19,6 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 from tests.tui.tui_helpers import has_row, row_text, run, until
 
 COMPONENTS = ("bus", "rcl", "reasoner", "telemetry")
-HERE = Path(__file__).resolve().parent
-PROJECTS = HERE.parent / "projects"
-
-
-def supervise(project: str, projects: Path, run_dir: Path) -> Iterator[Path]:
-    """`mrss supervise PROJECT --run-dir run_dir` as a real process, stopped at the end."""
-    env = {**os.environ, "MRSS_PROJECTS": str(projects)}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir)],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        yield run_dir
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=30)
-        assert proc.returncode == 0, err
-    finally:
-        if proc.poll() is None:
-            for child in psutil.Process(proc.pid).children(recursive=True):
-                child.kill()
-            proc.kill()
-            proc.communicate(timeout=10)
-
-
-@pytest.fixture()
-def busdemo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
-    """tests/projects/busdemo running; its run dir."""
-    monkeypatch.setenv("MRSS_PROJECTS", str(PROJECTS))
-    yield from supervise("busdemo", PROJECTS, tmp_path)
-
-
-@pytest.fixture()
-def tuidemo() -> Iterator[Path]:
-    """tests/tui/tuidemo (bus, RCL with two UGVs, reasoner, telemetry) running; its run dir."""
-    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuidemo-"))
-    try:
-        yield from supervise("tuidemo", HERE, run_dir)
-    finally:
-        shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_component(
@@ -111,11 +65,13 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
                                       args={"fault": "explode"}))
                 other.publish(Command(command="fault", target="nobody",
                                       args={"fault": "kill"}))
-            await until(pilot, lambda: sum("refused" in line for line in log.lines_text()) == 2,
-                        message="two refusals logged")
+                other.publish(Command(command="stop", target="wildfire"))  # another system
+            await until(pilot, lambda: sum("refused" in line for line in log.lines_text()) == 3,
+                        message="three refusals logged")
             refusals = [line for line in log.lines_text() if "refused" in line]
             assert "unknown fault 'explode'" in refusals[0]
             assert "has no child 'nobody'" in refusals[1]
+            assert "stop of 'wildfire' from operator2 refused: this is 'busdemo'" in refusals[2]
             assert announcer(4) is not None
     run(body())
 
@@ -160,15 +116,15 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         "fire(area1)[source(percept)]" in mind.snapshot.beliefs
                         and len(mind.snapshot.intentions) == 1, message="intention in mind")
             robots.focus()
-            await pilot.press("t")  # ugv1 (the first row) to teleop: its action is suspended
+            await pilot.press("t", "y")  # ugv1 (the first row) to teleop: its action suspended
             await until(pilot, lambda: action_state() == "suspended: robot in teleop",
                         message="suspended by teleop")
             await until(pilot, lambda: row_text(robots, "ugv1")[3] == "on", message="teleop on")
-            await pilot.press("t")
+            await pilot.press("t", "y")
             await until(pilot, lambda: action_state().startswith("running"),
                         message="resumed after teleop")
             actions.focus()
-            await pilot.press("c")
+            await pilot.press("c", "y")
             await until(pilot, lambda: action_state().startswith("cancelled"),
                         message="cancelled from the dashboard")
             await until(pilot, lambda: mind.snapshot is not None

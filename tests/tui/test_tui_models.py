@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from rich.text import Text
 
 from mrss.errors import ConfigError
 from mrss.messages import ActionRequest, ActionStatus, Percept, RobotData, SupEvent
 from mrss.tui import operator
 from mrss.tui.discovery import find_endpoints
-from mrss.tui.models.actions import ActionsModel
+from mrss.tui.models.actions import ActionsModel, ActionView, bar
+from mrss.tui.models.liveness import Liveness
+from mrss.tui.models.logfilter import LogEntry, LogFilter, LogFilterError
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.widgets.mind_inspector import event_text
@@ -172,3 +176,48 @@ def test_mrss_tui_without_a_running_system_exits_2_with_a_hint(tmp_path: Path) -
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2, proc.stderr
         assert message in proc.stderr
+
+
+def test_liveness_banner_says_what_is_wrong_most_serious_first() -> None:
+    now = [100.0]
+    live = Liveness(stale_after=5.0, clock=lambda: now[0])
+    assert live.banner(connected=False) == "waiting for the bus proxy"
+    assert live.banner(connected=True) == ""  # just started
+    now[0] = 106.0
+    assert live.banner(connected=True) == "nothing heard from the system in 6 s"
+    live.heard()
+    assert live.banner(connected=True) == ""
+    now[0] = 118.0
+    assert live.banner(connected=True).startswith("no heartbeat for 12 s")
+    live.end("demo gave up: rcl: too many restarts")
+    live.end("system stopped (exit 1)")  # the first reason stays
+    live.heard()
+    assert live.banner(connected=False) == "demo gave up: rcl: too many restarts"
+
+
+def test_log_filter_by_level_component_and_words() -> None:
+    def entry(text: str, level: int = logging.INFO, component: str = "") -> LogEntry:
+        return LogEntry(Text(f"12:00:00 {text}"), level, component)
+
+    warn = entry("WARN rcl: journal slow", logging.WARNING, "rcl")
+    info = entry("INFO reasoner: plan 12 selected", logging.INFO, "reasoner")
+    assert LogFilter.parse("").matches(warn) and not LogFilter.parse("").active
+    assert [LogFilter.parse(f).matches(e) for f in ("level:warn", "l:e", "@rcl", "comp:reas",
+                                                     "journal SLOW", "12")
+            for e in (warn, info)] == [True, False, False, False, True, False, False, True,
+                                       True, False, False, True]
+    with pytest.raises(LogFilterError, match="unknown level 'loud'"):
+        LogFilter.parse("level:loud")
+    with pytest.raises(LogFilterError, match="comp: needs a component"):
+        LogFilter.parse("comp:")
+
+
+def test_progress_with_a_known_count_is_a_bar_and_other_keys_follow() -> None:
+    view = ActionView("u", 0, progress={"waypoint": 6, "waypoints": 12, "eta": 41.25})
+    assert view.progress_text() == "6/12 █████░░░░░ eta=41.2"
+    assert ActionView("u", 0, progress={"leg": 0, "of": 4}).progress_text() == "0/4 ░░░░░░░░░░"
+    # not a count: as key=value
+    assert ActionView("u", 0, progress={"waypoint": 2, "of": 0}).progress_text() == \
+        "waypoint=2 of=0"
+    assert ActionView("u", 0, progress={"pumped": 12.5}).progress_text() == "pumped=12.5"
+    assert bar(1.5, 4) == "████" and bar(-1, 4) == "░░░░"

@@ -9,6 +9,7 @@ from textual.widgets import Input
 from mrss.bus import BusEndpoints
 from mrss.messages import ActionControl, ActionStatus, Command, Percept, RobotState
 from mrss.tui.app import MrssApp
+from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
@@ -19,7 +20,7 @@ from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 
 def commands(peer: Peer) -> list[Command]:
     """The operator commands the TUI sent (not its periodic tree and mind requests)."""
-    return [c for c in peer.received(Command) if c.command not in ("tree", "mind")]
+    return [c for c in peer.received(Command) if c.command not in ("tree", "mind", "snapshot")]
 
 
 def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(
@@ -38,7 +39,21 @@ def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(
             table.focus()
             await pilot.press("down")  # from the newest to the older one
             assert table.selected_key == older
-            await pilot.press("c", "s", "r")
+            # cancel asks first, naming the action; n (or Esc) sends nothing
+            await pilot.press("c")
+            screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
+                                 and app.screen, message="cancel confirmation")
+            assert screen.question.startswith(f"Cancel action {older[:8]} (? on ugv1")
+            await pilot.press("n")
+            bar = app.query_one(OperatorBar)
+            await until(pilot, lambda: "declined" in bar.status_text, message="declined")
+            assert not isinstance(app.screen, ConfirmScreen)
+            await pilot.press("c", "escape")
+            await until(pilot, lambda: not isinstance(app.screen, ConfirmScreen),
+                        message="escape declines")
+            assert peer.received(ActionControl) == []
+            # y sends it; suspend and resume need no confirmation
+            await pilot.press("c", "y", "s", "r")
             await until(pilot, lambda: len(peer.received(ActionControl)) == 3,
                         message="three controls")
             assert peer.received(ActionControl) == [
@@ -52,10 +67,10 @@ def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(
             await pilot.press("down")
             assert table.selected_key == done
             await pilot.press("c")
-            bar = app.query_one(OperatorBar)
             await until(pilot, lambda: bar.status_error, message="refusal shown")
             assert "already succeeded" in bar.status_text
-            await pilot.press("up", "c")
+            assert not isinstance(app.screen, ConfirmScreen)
+            await pilot.press("up", "c", "y")
             await until(pilot, lambda: len(peer.received(ActionControl)) == 4,
                         message="fourth control")
             assert peer.received(ActionControl)[-1].target == older
@@ -104,12 +119,16 @@ def test_teleop_key_toggles_teleop_for_the_selected_robot(
             await until(pilot, lambda: has_row(table, "ugv1"), message="robot row")
             table.focus()
             await pilot.press("t")
+            screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
+                                 and app.screen, message="teleop confirmation")
+            assert screen.question == "Teleop ON for ugv1: take ugv1 over by hand?"
+            await pilot.press("y")
             await until(pilot, lambda: commands(peer), message="teleop on")
             # the RCL answers with the robot's new state; the next t turns it off
             peer.publish(RobotState(robot="ugv1", available=True, attributes={"teleop": True}),
                          src="rcl")
             await until(pilot, lambda: row_text(table, "ugv1")[3] == "on", message="teleop shown")
-            await pilot.press("t")
+            await pilot.press("t", "y")
             await until(pilot, lambda: len(commands(peer)) == 2, message="teleop off")
             assert commands(peer) == [
                 Command(command="teleop", target="ugv1", args={"on": True}),
@@ -170,7 +189,7 @@ def test_a_burst_of_a_thousand_statuses_is_drawn_in_a_few_batches(
             assert table.rebuilds - rebuilds < 100
             # and the app still answers keys at once
             table.focus()
-            await pilot.press("c")
+            await pilot.press("c", "y")
             await until(pilot, lambda: peer.received(ActionControl), message="control")
             assert peer.received(ActionControl)[0].target == f"{999:032x}"
     run(body())

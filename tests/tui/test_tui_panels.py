@@ -23,9 +23,9 @@ from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 SIZE = (180, 50)
 
 
-def make_app(endpoints: BusEndpoints, **kw: float) -> MrssApp:
-    opts = {"mind_every": 0.0, "tree_every": 0.0, **kw}
-    return MrssApp(endpoints, project="demo", **opts)
+def make_app(endpoints: BusEndpoints, **kw: float | bool) -> MrssApp:
+    opts: dict[str, float | bool] = {"mind_every": 0.0, "tree_every": 0.0, **kw}
+    return MrssApp(endpoints, project="demo", **opts)  # type: ignore[arg-type]
 
 
 def tree_snapshot(announcer_state: str = "running", inc: int = 1, restarts: int = 0,
@@ -123,14 +123,16 @@ def test_actions_table_lists_actions_newest_first_with_state_reason_and_progress
             peer.publish(ActionRequest(uuid=first, name="go_to", args=["area1"], robot="ugv1",
                                        goal="extinguish(area1)"))
             peer.publish(ActionStatus(uuid=first, state="running", robot="ugv1",
-                                      progress={"waypoint": 2, "of": 5}))
+                                      progress={"waypoint": 2, "waypoints": 5, "eta": 3.5}))
             await until(pilot, lambda: has_row(table, first), message="first action")
             peer.publish(ActionStatus(uuid=second, state="failed", reason="link down",
                                       robot="uav1"))
             await until(pilot, lambda: has_row(table, second), message="second action")
             assert [k.value for k in table.rows] == [second, first]
-            assert row_text(table, first) == ["aaaaaaaa", "go_to", "ugv1", "extinguish(area1)",
-                                              "running", "", "waypoint=2 of=5"]
+            row = row_text(table, first)
+            assert row[:7] == ["aaaaaaaa", "go_to", "ugv1", "extinguish(area1)", "running", "",
+                               "2/5 ████░░░░░░ eta=3.5"]
+            assert row[7].endswith("s")  # its age: seconds since the latest status
             assert row_text(table, second)[1:6] == ["?", "uav1", "", "failed", "link down"]
             peer.publish(ActionStatus(uuid=first, state="succeeded", robot="ugv1"))
             await until(pilot, lambda: row_text(table, first)[4] == "succeeded",

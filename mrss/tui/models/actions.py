@@ -34,9 +34,35 @@ class ActionView:
         return self.state in {s.value for s in ActionState if s.terminal}
 
     def progress_text(self, width: int = 40) -> str:
-        """`key=value` pairs of the progress map, cut to `width` characters."""
-        text = " ".join(f"{k}={_short(v)}" for k, v in self.progress.items())
+        """`4/12 ███░░░░░░░` when the progress has a known count (`waypoint`/`waypoints`,
+        `leg`/`of`, `done`/`total`, `step`/`steps`), then the other `key=value` pairs;
+        cut to `width` characters."""
+        parts, used = [], set()
+        for done_key, total_key in COUNTS:
+            done, total = self.progress.get(done_key), self.progress.get(total_key)
+            if isinstance(done, int) and isinstance(total, int) and _count(done) \
+                    and _count(total) and total > 0:
+                parts.append(f"{done}/{total} {bar(done / total)}")
+                used |= {done_key, total_key}
+                break
+        parts += [f"{k}={_short(v)}" for k, v in self.progress.items() if k not in used]
+        text = " ".join(parts)
         return text if len(text) <= width else text[: width - 1] + "…"
+
+    def age(self, now: float) -> float | None:
+        """Seconds since the latest news of this action."""
+        return max(0.0, now - self.updated) if self.updated else None
+
+
+# (done, total) progress keys the table draws as a bar, the first pair present wins
+COUNTS = (("waypoint", "waypoints"), ("leg", "of"), ("done", "total"), ("step", "steps"))
+BAR_WIDTH = 10
+
+
+def bar(fraction: float, width: int = BAR_WIDTH) -> str:
+    """A text progress bar: `bar(0.25, 8)` is `██░░░░░░`."""
+    filled = round(max(0.0, min(1.0, fraction)) * width)
+    return "█" * filled + "░" * (width - filled)
 
 
 class ActionsModel:
@@ -64,10 +90,15 @@ class ActionsModel:
         view.updated = max(view.updated, ts)
 
     def apply_status(self, status: ActionStatus, ts: float) -> None:
+        """A transition, or a repeat (progress, snapshot, reconciliation): both say where
+        the action stands now; a repeat also names an action whose request went by
+        before the dashboard attached."""
         view = self._action(status.uuid)
         view.state, view.reason = status.state, status.reason
         view.progress = dict(status.progress)
         view.robot = status.robot or view.robot
+        view.name = view.name or status.name
+        view.goal = view.goal or status.goal
         view.updated = ts
 
     def newest_first(self) -> list[ActionView]:
@@ -79,6 +110,10 @@ class ActionsModel:
         order = sorted(self.actions.values(), key=lambda a: (not a.terminal, a.seq))
         for view in order[: len(self.actions) - keep]:
             del self.actions[view.uuid]
+
+
+def _count(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
 def _short(value: Any) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import ClassVar
 
 from textual.binding import Binding, BindingType
@@ -9,7 +10,7 @@ from textual.binding import Binding, BindingType
 from mrss.tui import operator
 from mrss.tui.events import Note, SendRequested
 from mrss.tui.models.actions import ActionsModel, ActionView
-from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
+from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 
 STATE_STYLES = {
     "requested": "dim", "pending": "yellow", "running": "bold green", "suspended": "magenta",
@@ -21,7 +22,8 @@ class ActionsTable(KeyedTable):
     """uuid (short), name, robot, goal, state, reason, progress of every known action."""
 
     COLUMNS = (("uuid", "uuid"), ("name", "name"), ("robot", "robot"), ("goal", "goal"),
-               ("state", "state"), ("reason", "reason"), ("progress", "progress"))
+               ("state", "state"), ("reason", "reason"), ("progress", "progress"),
+               ("age", "age"))
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("c", "control('cancel')", "Cancel"),
         Binding("s", "control('suspend')", "Suspend"),
@@ -34,19 +36,22 @@ class ActionsTable(KeyedTable):
 
     MAX_ROWS = 200  # the newest; drawing more costs the operator responsiveness
 
-    def refresh_rows(self) -> None:
+    def refresh_rows(self, now: float | None = None) -> None:
+        now = time.time() if now is None else now
         views = self.model.newest_first()
-        self.show([self._row(view) for view in views[: self.MAX_ROWS]])
+        self.show([self._row(view, now) for view in views[: self.MAX_ROWS]])
         self.border_subtitle = (f"newest {self.MAX_ROWS} of {len(views)}"
                                 if len(views) > self.MAX_ROWS else "")
 
     @staticmethod
-    def _row(view: ActionView) -> Row:
+    def _row(view: ActionView, now: float) -> Row:
         name = view.name or "?"
+        age = view.age(now)
         return view.uuid, (
             cell(view.uuid[:8], "dim"), cell(name, "bold"), cell(view.robot),
             cell(view.goal), cell(view.state, STATE_STYLES.get(view.state, "")),
-            cell(view.reason, "italic"), cell(view.progress_text()))
+            cell(view.reason, "italic"), cell(view.progress_text()),
+            cell("" if age is None else age_text(age), "dim"))
 
     def action_control(self, command: str) -> None:
         uuid = self.selected_key
@@ -58,5 +63,13 @@ class ActionsTable(KeyedTable):
             self.post_message(Note(f"action {uuid[:8]} is already {view.state}", error=True))
             return
         name = view.name if view is not None and view.name else "?"
-        self.post_message(SendRequested(operator.action_control(command, uuid),
-                                        f"{command} action {uuid[:8]} ({name})"))
+        what = f"{command} action {uuid[:8]} ({name})"
+        confirm, details = "", []
+        if command == "cancel":
+            robot = view.robot if view is not None and view.robot else "?"
+            goal = view.goal if view is not None and view.goal else "?"
+            confirm = f"Cancel action {uuid[:8]} ({name} on {robot}, goal {goal})?"
+            details = [f"{robot} stops this action; it ends cancelled and cannot be resumed.",
+                       "The agent is told it was cancelled by the operator."]
+        self.post_message(SendRequested(operator.action_control(command, uuid), what,
+                                        confirm=confirm, details=details))

@@ -61,3 +61,11 @@ class KeyedTable(DataTable[Text]):
 def cell(text: object, style: str = "") -> Text:
     """A table cell: plain text (never markup), optionally styled."""
     return Text(str(text), style=style, no_wrap=True, overflow="ellipsis")
+
+
+def age_text(seconds: float) -> str:
+    """`3s`, `4m`, `2h`: how long ago."""
+    s = int(seconds)
+    if s < 60:
+        return f"{s}s"
+    return f"{s // 60}m" if s < 3600 else f"{s // 3600}h"

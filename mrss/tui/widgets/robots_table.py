@@ -50,5 +50,23 @@ class RobotsTable(KeyedTable):
             self.post_message(Note("no robot selected", error=True))
             return
         on = not self.model.robots[robot].teleop
+        actions = self.open_actions(robot)
+        if on:
+            confirm = f"Teleop ON for {robot}: take {robot} over by hand?"
+            details = [f"{robot} stops executing its actions: {actions} suspended until "
+                       "teleop is off.", "New actions for it wait as well."]
+        else:
+            confirm = f"Teleop OFF for {robot}: hand {robot} back to the system?"
+            details = [f"Its suspended actions ({actions}) resume from their progress; "
+                       f"{robot} may start moving at once."]
         self.post_message(SendRequested(operator.teleop(robot, on),
-                                        f"teleop {'on' if on else 'off'} for {robot}"))
+                                        f"teleop {'on' if on else 'off'} for {robot}",
+                                        confirm=confirm, details=details))
+
+    def open_actions(self, robot: str) -> str:
+        """`2 actions (patrol, survey)` the dashboard knows open on `robot`."""
+        counter = getattr(self.app, "open_actions_of", None)
+        names: list[str] = counter(robot) if callable(counter) else []
+        if not names:
+            return "no known actions"
+        return f"{len(names)} action{'s' if len(names) > 1 else ''} ({', '.join(names)})"

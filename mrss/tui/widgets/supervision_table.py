@@ -13,7 +13,7 @@ from typing import ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss.tui import operator
-from mrss.tui.events import Note, SendRequested
+from mrss.tui.events import READONLY_NOTICE, Note, SendRequested, readonly
 from mrss.tui.models.supervision import SupervisionModel, SupNode
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
 
@@ -66,6 +66,9 @@ class SupervisionTable(KeyedTable):
             cell(uptime_text(node.uptime(now))), cell(node.last_reason, "italic"))
 
     def action_fault(self, kind: str) -> None:
+        if readonly(self):
+            self.post_message(Note(READONLY_NOTICE, error=True))
+            return
         path = self.selected_key
         if path is None:
             self.post_message(Note("no component selected", error=True))
