@@ -29,9 +29,25 @@ LINK_OPTIONS: dict[str, dict[str, tuple[type, bool]]] = {
 }
 
 
+def _range_problem(name: str, value: Any) -> str:
+    """What is wrong with a well-typed option value ("" if nothing): durations must be
+    positive, counts not negative, a MAVLink system id in 1..255."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return ""
+    if (name.endswith("timeout") or name in ("poll", "keepalive")) and not value > 0:
+        return f"must be a positive number of seconds, got {value!r}"
+    if name == "retries" and value < 0:
+        return f"must be 0 or more, got {value!r}"
+    if name == "target_system" and not 1 <= value <= 255:
+        return f"must be a MAVLink system id in 1..255, got {value!r}"
+    return ""
+
+
 def option_value_problems(options: Mapping[str, Any]) -> list[tuple[str, str]]:
-    """(key, problem) for option values a type check lets through (a misspelt failsafe)."""
-    return failsafe_problems(options)
+    """(key, problem) for option values a type check lets through (a misspelt failsafe,
+    a zero or negative duration, a negative count)."""
+    ranges = [(k, why) for k, v in options.items() if (why := _range_problem(k, v))]
+    return ranges + failsafe_problems(options)
 
 
 def _checked(kind: str, options: Mapping[str, Any], source: str | None) -> dict[str, Any]:
@@ -52,6 +68,9 @@ def _checked(kind: str, options: Mapping[str, Any], source: str | None) -> dict[
         if not isinstance(value, kind_type) or isinstance(value, bool):
             raise ConfigError(f"{name!r} must be of type {kind_type.__name__}, got {value!r}",
                               file=source, key=name)
+        problem = _range_problem(name, value)
+        if problem:
+            raise ConfigError(f"{name!r} {problem}", file=source, key=name)
         checked[name] = value
     return checked
 

@@ -183,7 +183,7 @@ def test_a_robot_never_reached_is_down_with_the_reason(recorder: Recorder) -> No
     ({"url": "http://robot:port"}, "url", "not a valid URL"),
     ({"url": "http://robot:80", "pol": 0.5}, "pol", "unknown http link option"),
     ({"url": "http://robot:80", "poll": "fast"}, "poll", "must be of type float"),
-    ({"url": "http://robot:80", "timeout": 0}, "timeout", "must be > 0"),
+    ({"url": "http://robot:80", "timeout": 0}, "timeout", "must be a positive number of seconds"),
     ({"url": "http://robot:80", "failsafe": "hodl"}, "failsafe", "did you mean 'hold'"),
 ])
 def test_bad_options_are_config_errors_naming_the_key(options: dict[str, Any], key: str,
