@@ -30,7 +30,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 import pykka
 
@@ -39,22 +39,19 @@ from mrss.actors import lifecycle as lc
 from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.orphans import Orphans
 from mrss.actors.progress_feed import ProgressFeed
+from mrss.actors.rcl_availability import RobotAvailability
+from mrss.actors.rcl_requesters import Entry, RequesterDuties
 from mrss.actors.resources import ResourceBroker
-from mrss.actors.robot import Control, RobotActor, SetTeleop, StartAction
+from mrss.actors.robot import Control, RobotActor, StartAction
 from mrss.api import Action, RobotCommLayer, check_json
 from mrss.errors import ActionError, DecodeError
-from mrss.links.failsafe import LinkDownCause, link_down_cause
 from mrss.messages import (
     ActionControl,
-    ActionInventory,
-    ActionQuery,
     ActionRequest,
     ActionState,
     ActionStatus,
     FailureCause,
     Message,
-    RobotState,
-    SupEvent,
     build,
 )
 from mrss.supervision import (
@@ -70,17 +67,8 @@ log = logging.getLogger("mrss.rcl")
 Publish = Callable[[Message], object]
 
 
-class _Entry(NamedTuple):
-    robot: str
-    goal: str
-    state: ActionState
-    requester: Requester
 
-
-LINK_DOWN = "link down"
-
-
-class RclCore:
+class RclCore(RequesterDuties, RobotAvailability):
     """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
 
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
@@ -100,7 +88,7 @@ class RclCore:
         self._preempted_timeout = preempted_timeout
         self.robots: pykka.ActorRef[ActorSupervisor] | None = None
         self._lock = threading.RLock()
-        self._index: dict[str, _Entry] = {}
+        self._index: dict[str, Entry] = {}
         self._refs: dict[str, pykka.ActorRef[Any]] = {}
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
@@ -203,7 +191,7 @@ class RclCore:
                 continue
             self.broker.forget_action(action.uuid)  # holds of a dead incarnation
             with self._lock:
-                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
+                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
                                                   entry.requester)
             log.info("restoring action %s (%s) on %s", action.uuid, action.state.value, robot)
             entries.append(entry)
@@ -285,38 +273,6 @@ class RclCore:
             self._emit(action.copy(), "", requester)
             self._tell(action.robot, StartAction(action))  # under the lock: before controls
 
-    def _repeat(self, uuid: str, requester: Requester = NOBODY) -> bool:
-        """A uuid seen before: re-send its last status (the sender may have missed it).
-
-        From a newer incarnation of the action's requester it is an adoption: the new
-        incarnation waits for the action now, so it is no orphan any more; one that its
-        dead predecessor suspended is resumed (the new one asks for it to run)."""
-        entry = self.journal.get(uuid)
-        if entry is None:
-            return False
-        old = entry.requester
-        if (requester.src and requester.src == old.src and requester.inc > old.inc):
-            self._adopt(entry, requester)
-        else:
-            log.info("duplicate action request %s ignored (%s)", uuid,
-                     entry.action.state.value)
-        self._publish(entry.action, repeat=True)
-        return True
-
-    def _adopt(self, entry: JournalEntry, requester: Requester) -> None:
-        action = entry.action
-        log.info("action %s %s adopted by %s incarnation %d (was %d's, %s)", action.uuid,
-                 action.literal or action.name, requester.src, requester.inc,
-                 entry.requester.inc, action.state.value)
-        self.journal.adopt(action.uuid, requester)
-        self.orphans.adopted(action.uuid)
-        known = self._index.get(action.uuid)
-        if known is not None:
-            self._index[action.uuid] = known._replace(requester=requester)
-            by = lc.SuspendCause.parse(entry.suspended_by)
-            if action.state is ActionState.SUSPENDED and by is not None and by.goal_management:
-                self._tell(action.robot, Control(action.uuid, lc.Resume(lc.SuspendCause.AGENT)))
-
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
                 cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
@@ -354,64 +310,6 @@ class RclCore:
             self._tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
         return targets
 
-    def saw_incarnation(self, src: str, inc: int) -> list[str]:
-        """`src` now runs as incarnation `inc`: cancel what its older incarnations asked for.
-
-        Nobody waits for those actions any more, so no robot should keep working on them.
-        Returns the uuids being cancelled.
-        """
-        with self._lock:
-            if inc <= self._incarnations.get(src, -1):
-                return []
-            first_seen = src not in self._incarnations
-            self._incarnations[src] = inc
-            orphans = {u: e for u, e in self._index.items()
-                       if e.requester.src == src and e.requester.inc < inc}
-            for uuid, entry in orphans.items():
-                grace = self.orphans.add(uuid, entry.state)
-                log.warning("action %s is an orphan of %s incarnation %d: cancelled in %.0fs "
-                            "unless incarnation %d adopts it", uuid, src, entry.requester.inc,
-                            grace, inc)
-        if not first_seen:  # a restarted requester: tell it where every robot stands
-            self.announce_robots()
-        if self.orphans.grace <= 0:
-            self.cancel_orphans()
-        return sorted(orphans)
-
-    def cancel_orphans(self) -> list[str]:
-        """Cancel the orphans whose grace is over (called on a timer); their uuids."""
-        with self._lock:
-            due = self.orphans.take_due()
-            entries = {u: self._index[u] for u in due if u in self._index}
-        for uuid, entry in entries.items():
-            log.warning("cancelling action %s: orphaned by %s incarnation %d, not adopted",
-                        uuid, entry.requester.src, entry.requester.inc)
-            self._tell(entry.robot, Control(uuid, lc.End(
-                ActionState.CANCELLED, lc.EndCause.ORPHANED,
-                f"orphaned: {entry.requester.src} incarnation {entry.requester.inc} is gone")))
-        return sorted(entries)
-
-    def answer_query(self, query: ActionQuery, requester: Requester = NOBODY) -> int:
-        """Reconciliation: re-send the journaled status of each asked uuid, and, for a
-        requester, the inventory of what its older incarnations left. Returns how many
-        statuses went out."""
-        if requester.src:
-            self.saw_incarnation(requester.src, requester.inc)
-        sent = 0
-        for uuid in query.uuids:
-            entry = self.journal.get(uuid)
-            if entry is not None:
-                self._publish(entry.action, repeat=True)
-                sent += 1
-        if query.requester:
-            items = self.orphans.inventory(self.journal, query.requester, query.inc)
-            try:
-                self.publish(ActionInventory(requester=query.requester, inc=query.inc,
-                                             actions=items))
-            except Exception as exc:
-                log.error("publishing the inventory for %s failed: %r", query.requester, exc)
-        return sent
-
     def publish_progress(self) -> int:
         """Publish the progress that is due (`ProgressFeed`) as repeat statuses; how many.
 
@@ -440,64 +338,6 @@ class RclCore:
             for entry in entries:
                 self._publish(entry.action, repeat=True)
         return len(entries)
-
-    def announce_robots(self) -> None:
-        """Publish every robot's state (availability, link, teleop): level-triggered, so a
-        restarted reasoner or dashboard knows where each robot stands."""
-        teleop = self.journal.teleop_robots()
-        for robot in self.links:
-            self._robot_state(robot, teleop=robot in teleop)
-
-    def set_teleop(self, robot: str, on: bool) -> None:
-        """Teleop on suspends every action of `robot`; off resumes them from progress."""
-        if robot not in self.links:
-            raise ActionError(f"teleop for unknown robot {robot!r}")
-        self.journal.set_teleop(robot, on)
-        self._tell(robot, SetTeleop(on))
-        self._robot_state(robot, teleop=on)
-
-    def set_available(self, robot: str, available: bool, reason: str = "",
-                      cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
-        """Mark `robot` (un)available; new actions for an unavailable robot are refused,
-        with `cause` (a lost link, a quarantine: the agent may try again later)."""
-        with self._lock:
-            before = self._unavailable.get(robot)
-            if available:
-                self._unavailable.pop(robot, None)
-                self._unavailable_cause.pop(robot, None)
-            else:
-                self._unavailable[robot] = reason or "unavailable"
-                self._unavailable_cause[robot] = cause
-            changed = before != self._unavailable.get(robot)
-        if changed:
-            self._robot_state(robot)
-
-    def link_state(self, robot: str, up: bool, reason: str = "") -> list[str]:
-        """The robot's link went down (robot unreachable) or came back.
-
-        Down: the robot is marked unavailable and its open actions fail with the link's
-        reason ("robot uav1 unreachable: no heartbeat for 3.0 s"). Up: available again,
-        unless something else (a quarantine) still holds it. Returns the failed uuids.
-        """
-        if robot not in self.links:
-            return []
-        with self._lock:
-            current = self._unavailable.get(robot, "")
-        if up:
-            if current.startswith(LINK_DOWN):
-                self.set_available(robot, True)
-            return []
-        self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
-                           lc.EndCause.FAILSAFE if link_down_cause(reason)
-                           is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
-        with self._lock:
-            targets = [u for u, e in self._index.items() if e.robot == robot]
-        why, cause = f"robot {robot} unreachable: {reason or 'link down'}", lc.EndCause.LINK_LOST
-        if link_down_cause(reason) is LinkDownCause.FAILSAFE:
-            why, cause = reason, lc.EndCause.FAILSAFE  # the robot overtook the command
-        for uuid in targets:
-            self._control_one(uuid, lc.End(ActionState.FAILED, cause, why))
-        return targets
 
     def state(self, uuid: str) -> ActionState | None:
         """The last journaled state of an action (None if never seen)."""
@@ -529,7 +369,7 @@ class RclCore:
                 self._index.pop(action.uuid, None)
                 self.progress.forget(action.uuid)
             else:
-                self._index[action.uuid] = _Entry(action.robot, action.goal, action.state,
+                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
                                                   requester)
             self._publish(action)
 
@@ -542,17 +382,6 @@ class RclCore:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks
             log.error("publishing status of %s failed: %r", action.uuid, exc)
-
-    def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
-        attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
-        with self._lock:
-            reason = self._unavailable.get(robot, "")
-        try:
-            self.publish(RobotState(robot=robot, available=not reason, reason=reason,
-                                    link="down" if reason.startswith(LINK_DOWN) else "up",
-                                    attributes=attrs))
-        except Exception as exc:
-            log.error("publishing state of robot %s failed: %r", robot, exc)
 
     def _end_unrouted(self, action: Action, end: lc.End) -> None:
         """End an action no robot actor runs (lifecycle.end_unrouted)."""
@@ -599,26 +428,6 @@ class RclCore:
             entry = self._index.get(uuid)
         if entry is not None:
             self._tell(entry.robot, Control(uuid, event))
-
-    def _publish_sup(self, event: Message) -> object:
-        """Supervision events go out; a quarantine also fails the robot's open actions."""
-        if isinstance(event, SupEvent) and event.child in self.links:
-            if event.event == "quarantine":
-                self._quarantined(event.child, event.reason)
-            elif event.event == "release":
-                self.set_available(event.child, True)
-        return self.publish(event)
-
-    def _quarantined(self, robot: str, reason: str) -> None:
-        self.set_available(robot, False, f"quarantined after repeated crashes ({reason})",
-                           lc.EndCause.QUARANTINED)
-        self.journal.drop_controls(robot)  # its actions fail below
-        for entry in self.journal.open_actions():
-            if entry.action.robot == robot:
-                self.broker.forget_action(entry.action.uuid)
-                self._end_unrouted(entry.action, lc.End(
-                    ActionState.FAILED, lc.EndCause.QUARANTINED,
-                    f"robot {robot} quarantined: its actor keeps crashing ({reason})"))
 
 
 _END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,
