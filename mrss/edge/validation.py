@@ -161,7 +161,10 @@ RECORDS: dict[str, dict[str, Spec]] = {
     "tank": {"level": _num("tank"), "capacity": _num("tank"), "pumping": FLAG},
 }
 #: The envelope fields every record has (besides its declared ones).
-COMMON: dict[str, Spec] = {"robot": TEXT, "type": TEXT, "ts": _num(Range(0.0, 1e11))}
+#: Fields checked wherever a record's type does not declare them (a project's own records).
+COMMON: dict[str, Spec] = {"robot": TEXT, "type": TEXT, "ts": _num(Range(0.0, 1e11)),
+                           "lat": _num(LAT), "lon": _num(LON), "alt": _num("alt"),
+                           "battery": _num(PERCENT), "temperature": _num("temperature")}
 
 
 # ---------------------------------------------------------------------- primitives

@@ -83,7 +83,8 @@ def test_telemetry_updates_the_robot_in_the_world_model(service: DataLayerServic
     assert result["kind"] == "robot" and result["position"]["alt"] == 30
     assert result["attributes"] == {"battery": 77}
     assert not service.telemetry(RobotData(robot="uav1", data={"lat": 95, "lon": 0}))
-    assert service.telemetry_errors == 1
+    assert service.telemetry_errors == 0  # refused by validation, never handed on
+    assert service.rejections.stats() == {"uav1: record.lat out of range": 1}
 
 
 def test_default_datalayer_without_world_model_reports_it() -> None:
