@@ -42,21 +42,26 @@ class RejectionLog:
 
     def reject(self, source: str, reason: str, detail: str = "") -> None:
         """Count one refusal; log it unless that (source, reason) was logged this interval."""
+        if not self.seen(source, reason):
+            self.log.warning("refused %s from %s: %s%s (more like it are counted, "
+                             "summarised every %gs)", self.what, source[:64], reason[:120],
+                             f" ({detail[:200]})" if detail else "", self.interval)
+
+    def seen(self, source: str, reason: str) -> bool:
+        """Count one refusal the caller logs itself when this returns False (the first of
+        its (source, reason) this interval); True: held back, summarised later."""
         key = (source[:64], reason[:120])
         with self._lock:
             self.counts[key] += 1
             summary = self._roll()
-            first = key not in self._logged
-            if first:
-                self._logged.add(key)
-            else:
+            held = key in self._logged
+            if held:
                 self._held[key] += 1
+            else:
+                self._logged.add(key)
         if summary:
             self.log.warning("%s", summary)
-        if first:
-            self.log.warning("refused %s from %s: %s%s (more like it are counted, "
-                             "summarised every %gs)", self.what, key[0], key[1],
-                             f" ({detail[:200]})" if detail else "", self.interval)
+        return held
 
     def flush(self) -> None:
         """Log the summary of refusals held back so far (e.g. when stopping)."""
