@@ -180,10 +180,10 @@ def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
 def robot_validator(project_dir: Path, section: Mapping[str, Any]) -> RecordValidator:
     """The check of robot data for a project: its robots (`robots`, else the RCL's robots
     table) and their limits (the robot type's, with the `*_range` options over them)."""
-    sections: Mapping[str, Any] = {}
+    components: dict[str, Any] = {}
     if (project_dir / PROJECT_FILE).is_file():
-        sections = load_file(project_dir / PROJECT_FILE).sections
-    types = configured_robots(sections)
+        components = {c.id: c.options for c in load_file(project_dir / PROJECT_FILE).components}
+    types = configured_robots({"components": components})
     listed = section.get("robots")
     if listed is not None:
         if not isinstance(listed, list) or not all(isinstance(r, str) for r in listed):
