@@ -14,10 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.bus import Publisher
-from mrss.bus.component import endpoints_from_config
-from mrss.messages import RobotData
-from mrss.procedures import RunningProject
+from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent
 FORGED = [
@@ -44,18 +41,15 @@ def test_forged_and_out_of_range_robot_data_make_no_object_no_percept_no_action(
         system.wait_ready()
         system.wait_for(lambda: (system.world("ugv1") or {}).get("position"), 30,
                         "UGV telemetry in the world model")
-        publisher = Publisher(endpoints_from_config({}, system.run_dir), src="forger")
-        try:
-            def taken() -> dict[str, object] | None:
-                for _ in range(2):  # twice: the second is only counted
-                    for robot, data in FORGED:
-                        publisher.publish(RobotData(robot=robot, data=data))
-                publisher.publish(RobotData(robot="uav1", data=MARKER))
-                return system.world("hs96")
-            # (the first messages may go out before the proxy forwards this new publisher)
-            system.wait_for(taken, 30, "the valid hotspot after the forged data")
-        finally:
-            publisher.close()
+
+        def taken() -> dict[str, object] | None:
+            for _ in range(2):  # twice: the second is only counted
+                for robot, data in FORGED:
+                    system.robot_data(robot, data)
+            system.robot_data("uav1", MARKER)
+            return system.world("hs96")
+        # (the first messages may go out before the proxy forwards this new publisher)
+        system.wait_for(taken, 30, "the valid hotspot after the forged data")
 
         for ident in ("hs99", "hs98", "hs97", "fz9"):
             assert system.world(ident) is None, ident
