@@ -58,6 +58,7 @@ class RobotLink(ABC):
         #: the limits of the robot's type before anyone sees it; refusals are counted.
         self.limits: Limits = DEFAULT_LIMITS[LINK_TYPES.get(self.kind, RobotType.GROUND)]
         self.rejections = RejectionLog(self.log, "telemetry record")
+        self._validator: RecordValidator | None = None
         self._changed = threading.Condition()
         self._dispatch = threading.RLock()
         self._up = False
@@ -237,7 +238,9 @@ class RobotLink(ABC):
         per reason and interval, neither stored nor handed on (None)."""
         record: Telemetry = {"robot": self.robot_id, "type": kind, "ts": time.time(), **fields}
         try:
-            RecordValidator([self.robot_id], default=self.limits).check(self.robot_id, record)
+            if self._validator is None or self._validator.default is not self.limits:
+                self._validator = RecordValidator([self.robot_id], default=self.limits)
+            self._validator.check(self.robot_id, record)
         except Rejected as exc:
             self.rejections.reject(self.robot_id, exc.reason, exc.detail)
             return None
