@@ -53,6 +53,7 @@ from mrss.edge.validation import (
     Rejected,
     RobotType,
     configured_robots,
+    limit_overrides,
 )
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError
@@ -189,16 +190,10 @@ def robot_validator(project_dir: Path, section: Mapping[str, Any]) -> RecordVali
         if not isinstance(listed, list) or not all(isinstance(r, str) for r in listed):
             raise ConfigError("must be a list of robot ids", key="datalayer.robots")
         types = {r: types.get(r, RobotType.GROUND) for r in listed}
-    overrides = {}
-    for name in LIMIT_NAMES:
-        value = section.get(f"{name}_range")
-        if value is not None:
-            if (not isinstance(value, list) or len(value) != 2
-                    or not all(isinstance(v, int | float) and not isinstance(v, bool)
-                               and math.isfinite(v) for v in value) or value[0] > value[1]):
-                raise ConfigError("must be [low, high], finite numbers, low <= high",
-                                  key=f"datalayer.{name}_range")
-            overrides[name] = value
+    try:
+        overrides = limit_overrides(section)
+    except Rejected as exc:
+        raise ConfigError(exc.detail, key=f"datalayer.{exc.reason}") from None
     if not types:
         log.info("robot ids of robot data are not checked: no robot is configured")
     limits = {robot: DEFAULT_LIMITS[kind].overridden(overrides) for robot, kind in types.items()}

@@ -294,6 +294,22 @@ class RecordValidator:
         return checked
 
 
+def limit_overrides(section: Mapping[str, Any]) -> dict[str, list[float]]:
+    """The `<limit>_range = [low, high]` keys of a `[datalayer]` table, by limit name;
+    Rejected(reason=the key) for one that is not two finite numbers with low <= high."""
+    overrides: dict[str, list[float]] = {}
+    for name in LIMIT_NAMES:
+        value = section.get(f"{name}_range")
+        if value is None:
+            continue
+        if (not isinstance(value, list) or len(value) != 2
+                or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                           and math.isfinite(v) for v in value) or value[0] > value[1]):
+            raise Rejected(f"{name}_range", "must be [low, high], finite numbers, low <= high")
+        overrides[name] = [float(value[0]), float(value[1])]
+    return overrides
+
+
 def configured_robots(sections: Mapping[str, Any]) -> dict[str, RobotType]:
     """The robots of a project configuration (`[components.<id>.robots.<robot>]`, the
     RCL's robots table) and their types (by their `link` kind; ground without one)."""
