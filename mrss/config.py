@@ -74,6 +74,7 @@ class Check(StrEnum):
     POSTGRES_URL = "postgres_url"  # postgresql://user@host:port/database
     PROJECT_FILE = "project_file"  # a file that exists in the project folder
     POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
+    RANGE = "range"  # [low, high], finite numbers, low <= high
     SIGNING_KEY = "signing_key"  # a MAVLink signing key file (64 hex chars) in the project
     PASSWORD_FILE = "password_file"  # an MQTT password file (mrss.edge.broker_auth)
     TOKEN_FILE = "token_file"  # an HTTP bearer token file in the project (mrss.edge.http_token)

@@ -32,13 +32,13 @@ from urllib.parse import quote
 
 import psutil
 
-from mrss.bus import Subscriber
+from mrss.bus import Publisher, Subscriber
 from mrss.bus.component import endpoints_from_config
 from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
 from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
-from mrss.messages import ActionStatus, Envelope, Heartbeat, Percept
+from mrss.messages import ActionStatus, Envelope, Heartbeat, JsonValue, Percept, RobotData
 from mrss.testing import WaitTimeout, wait_until
 
 T = TypeVar("T")
@@ -60,6 +60,7 @@ class RunningProject:
         self.incarnations: dict[str, tuple[int, int]] = {}  # component -> (inc, pid)
         self._lock = threading.Lock()
         self._sub: Subscriber | None = None
+        self._pub: Publisher | None = None
         self._tree: list[psutil.Process] = []
         self._token: tuple[str | None] | None = None  # the world model token, once read
 
@@ -110,6 +111,9 @@ class RunningProject:
         if self._sub is not None:
             self._sub.close()
             self._sub = None
+        if self._pub is not None:
+            self._pub.close()
+            self._pub = None
         if self.process is not None and self.process.poll() is None:
             tree = self._children()
             self.process.kill()
@@ -208,6 +212,13 @@ class RunningProject:
             if exc.code == 404:
                 return None
             raise
+
+    def robot_data(self, robot: str, data: Mapping[str, JsonValue]) -> None:
+        """Put robot data on the bus (`robot.<robot>.data`) as any bus client could: a
+        forged or broken record, to see what the system makes of it."""
+        if self._pub is None:
+            self._pub = Publisher(endpoints_from_config({}, self.run_dir), src="procedure")
+        self._pub.publish(RobotData(robot=robot, data=dict(data)))
 
     def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
         """Publish a JSON message (QoS 1) on the system's broker, as an outside client

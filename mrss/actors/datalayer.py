@@ -16,7 +16,14 @@ project.toml:
     call_timeout = 5.0          # seconds before a call is answered with an error
     workers = 4                 # calls running at once
     world_model = "bus"         # "bus" (embedded component), "http://host:port", or "none"
+    robots = ["uav1", "ugv1"]   # who may send robot data (default: the RCL's robots table)
+    alt_range = [-500, 12000]   # physical limits over the robot type's (mrss.edge.validation)
 The `[components.<id>]` free keys of this component are laid over `[datalayer]`.
+
+Robot data is checked before the project sees it (`mrss.edge.validation`): a record from
+a robot that is not configured, or outside its declaration and limits, is refused —
+counted (`DataLayerService.rejections`), logged once per (robot, reason) and interval
+with a summary, and never handed to `on_telemetry` (so no world model write, no percept).
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from pathlib import Path
 from typing import Any, ClassVar
 
-from mrss.config import Check, Option
+from mrss.config import Check, Option, load_file
 from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
@@ -38,9 +45,20 @@ from mrss.edge.http_token import configured_token
 from mrss.edge.loader import load_project_class, project_file
 from mrss.edge.percept_channel import PerceptChannel
 from mrss.edge.percepts import PerceptPublisher, PerceptSink
+from mrss.edge.rejections import RejectionLog
+from mrss.edge.validation import (
+    DEFAULT_LIMITS,
+    LIMIT_NAMES,
+    RecordValidator,
+    Rejected,
+    RobotType,
+    configured_robots,
+    limit_overrides,
+)
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
+from mrss.projects import PROJECT_FILE
 from mrss.supervision.component import Component, ComponentContext
 
 __all__ = ["DataLayerClient", "DataLayerComponent", "DataLayerError", "DataLayerService"]
@@ -69,8 +87,11 @@ class DataLayerService:
     """Runs calls on a worker pool with a time limit; every request gets one reply."""
 
     def __init__(self, datalayer: DataLayer, *, call_timeout: float = 5.0,
-                 workers: int = 4) -> None:
+                 workers: int = 4, validator: RecordValidator | None = None,
+                 reject_interval: float = 60.0) -> None:
         self.datalayer = datalayer
+        self.validator = validator or RecordValidator()
+        self.rejections = RejectionLog(log, "robot data", interval=reject_interval)
         self.call_timeout = call_timeout
         self.functions = datalayer.functions()
         self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="dl-call")
@@ -100,9 +121,15 @@ class DataLayerService:
         return DataReply(request_id=request.request_id, ok=True, result=result)
 
     def telemetry(self, data: RobotData) -> bool:
-        """Hand telemetry to the project; a failure is logged and counted."""
+        """Hand telemetry to the project once it passed validation; a refusal or a
+        failure is logged and counted."""
         try:
-            self.datalayer.on_telemetry(data.robot, data.data)
+            record = self.validator.check(data.robot, data.data)
+        except Rejected as exc:
+            self.rejections.reject(str(data.robot), exc.reason, exc.detail)
+            return False
+        try:
+            self.datalayer.on_telemetry(data.robot, record)
             return True
         except Exception:
             self.telemetry_errors += 1
@@ -151,6 +178,29 @@ def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
     return float(value)
 
 
+def robot_validator(project_dir: Path, section: Mapping[str, Any]) -> RecordValidator:
+    """The check of robot data for a project: its robots (`robots`, else the RCL's robots
+    table) and their limits (the robot type's, with the `*_range` options over them)."""
+    components: dict[str, Any] = {}
+    if (project_dir / PROJECT_FILE).is_file():
+        components = {c.id: c.options for c in load_file(project_dir / PROJECT_FILE).components}
+    types = configured_robots({"components": components})
+    listed = section.get("robots")
+    if listed is not None:
+        if not isinstance(listed, list) or not all(isinstance(r, str) for r in listed):
+            raise ConfigError("must be a list of robot ids", key="datalayer.robots")
+        types = {r: types.get(r, RobotType.GROUND) for r in listed}
+    try:
+        overrides = limit_overrides(section)
+    except Rejected as exc:
+        raise ConfigError(exc.detail, key=f"datalayer.{exc.reason}") from None
+    if not types:
+        log.info("robot ids of robot data are not checked: no robot is configured")
+    limits = {robot: DEFAULT_LIMITS[kind].overridden(overrides) for robot, kind in types.items()}
+    return RecordValidator(types or None, limits=limits,
+                           default=DEFAULT_LIMITS[RobotType.GROUND].overridden(overrides))
+
+
 class DataLayerComponent(Component):
     """Component: serves `dl.request` and forwards `robot.*.data` telemetry."""
 
@@ -164,6 +214,13 @@ class DataLayerComponent(Component):
         Option("workers", int, 4, "calls running at once", Check.POSITIVE),
         Option("world_model", str, "bus", "\"bus\", \"none\" or the world model's http:// URL"),
         Option("world_model_timeout", float, 2.0, "seconds per world model call", Check.POSITIVE),
+        Option("robots", list, None, "robot ids whose data is taken (default: the RCL's "
+               "robots table; unchecked when no robot is configured anywhere)"),
+        Option("reject_log_interval", float, 60.0, "seconds between summaries of refused "
+               "robot data", Check.POSITIVE),
+        *(Option(f"{name}_range", list, None, f"[low, high] of {name.replace('_', ' ')} "
+                 "over the robot type's default (mrss.edge.validation)", Check.RANGE)
+          for name in LIMIT_NAMES),
     )
 
     def __init__(self) -> None:
@@ -206,7 +263,10 @@ class DataLayerComponent(Component):
         self.datalayer = cls(DataLayerContext(world=self._world, percept=PerceptPublisher(
             percepts or to_bus), options=options, project_dir=project_dir, log=log))
         self.datalayer.start()
-        self.service = DataLayerService(self.datalayer, call_timeout=timeout, workers=workers)
+        self.service = DataLayerService(
+            self.datalayer, call_timeout=timeout, workers=workers,
+            validator=robot_validator(project_dir, section),
+            reject_interval=_positive(section, "reject_log_interval", 60.0))
         # Dispatch threads wait on calls, so a slow call never holds up the others.
         self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
                                             thread_name_prefix="dl-dispatch")
@@ -234,6 +294,15 @@ class DataLayerComponent(Component):
                               error=f"internal error: {exc.__class__.__name__}")
         self._bus.publish(reply)
 
+    def stats(self) -> dict[str, object]:
+        """Counters for logs and dashboards: calls, errors, refused robot data."""
+        svc = self.service
+        if svc is None:
+            return {}
+        return {"requests": svc.requests, "errors": svc.errors, "timeouts": svc.timeouts,
+                "telemetry_errors": svc.telemetry_errors,
+                "rejected": svc.rejections.total, "rejected_by": svc.rejections.stats()}
+
     def stop(self) -> None:
         """Stop serving, then stop the project's data layer."""
         if self._bus is not None:
@@ -246,6 +315,7 @@ class DataLayerComponent(Component):
                 self.datalayer.stop()
         finally:
             if self.service is not None:
+                self.service.rejections.flush()
                 self.service.close()
             if self._percepts is not None:
                 self._percepts.flush(1.0)

@@ -1,6 +1,8 @@
 """The Reasoner component: the project's AgentSpeak agent on the bus (paper IV-D).
 
-- `percept` messages become percepts (`source(percept)`), add or remove; they arrive on
+- `percept` messages become percepts (`source(percept)`), add or remove, once they pass
+  `mrss.actors.percept_guard` (ground, bounded, finite, no sender-set `source(...)`):
+  others are refused, counted (`Reasoner.rejections`) and logged at a limited rate; they arrive on
   the reliable channel "percept" (acknowledged after the percept ledger has them) and,
   from best-effort senders, on the plain `percept` topic; a message heard on both is
   taken once (by envelope id). The ledger (`PerceptLedger`) is asserted again by every
@@ -32,9 +34,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
+from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
 from mrss.actors.reasoner_host import ReasonerHost
-from mrss.agentspeak import Agent, AslSyntaxError, parse_literal
+from mrss.agentspeak import Agent, AslSyntaxError
 from mrss.bus import (
     BusEndpoints,
     Incarnations,
@@ -47,6 +50,8 @@ from mrss.bus import (
 from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
+from mrss.edge.rejections import RejectionLog
+from mrss.edge.validation import Rejected
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import (
     ActionControl,
@@ -95,6 +100,7 @@ class Reasoner:
                                      beliefs=beliefs or [], out=self._print)
         self.host.agent = self.agent
         self.ledger = ledger
+        self.rejections = RejectionLog(log, "percept")
         self._seen: OrderedDict[str, None] = OrderedDict()
         self._seen_lock = threading.Lock()
         if ledger is not None:
@@ -123,6 +129,7 @@ class Reasoner:
         self.agent.wake()
         self._thread.join(timeout=5)
         self.host.close()
+        self.rejections.flush()
 
     def request_snapshot(self) -> None:
         self._snapshot_wanted.set()
@@ -154,7 +161,7 @@ class Reasoner:
         body = env.body
         try:
             if isinstance(body, Percept):
-                self._perceive(body, env.id)
+                self._perceive(body, env.id, env.src)
             elif isinstance(body, ActionStatus):
                 self.host.on_status(body, env.inc)
             elif isinstance(body, ActionInventory):
@@ -175,13 +182,18 @@ class Reasoner:
             log.warning("%s: dropped %s from %s on %s: %s", self.name, env.kind, env.src,
                         env.topic, exc)
 
-    def _perceive(self, percept: Percept, msg_id: str) -> None:
-        """Ledger first (the sender may stop repeating it), then the agent. A ledger that
+    def _perceive(self, percept: Percept, msg_id: str, sender: str = "?") -> None:
+        """Checked (a refused percept is counted and logged, and taken as handled), then
+        ledger first (the sender may stop repeating it), then the agent. A ledger that
         cannot be written leaves the percept unacknowledged (NotHandled): it comes again."""
         with self._seen_lock:
             if msg_id in self._seen:
                 return
-        literal = parse_literal(percept.literal)
+        try:
+            literal = checked_literal(percept.literal)
+        except Rejected as exc:
+            self.rejections.reject(sender, exc.reason, exc.detail)
+            return
         if self.ledger is not None:
             try:
                 if percept.op == "add":
@@ -211,7 +223,11 @@ class Reasoner:
             self._set_unavailable(robot, False)
 
     def _set_unavailable(self, robot: str, unavailable: bool) -> None:
-        literal = unavailable_percept(robot)
+        try:  # the robot name comes from the bus: `X` or `r(X)` is no robot
+            literal = checked_literal(unavailable_percept(robot))
+        except Rejected as exc:
+            self.rejections.reject(robot, exc.reason, exc.detail)
+            return
         if unavailable:
             self.agent.add_percept(literal)
         else:

@@ -18,6 +18,7 @@ Rules:
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -117,7 +118,15 @@ def check_problem(check: Check, value: Any, project_dir: Path) -> str | None:
             len(value) not in (2, 3) or not all(isinstance(v, int | float)
                                                 and not isinstance(v, bool) for v in value)):
         return f"expected [lat, lon] or [lat, lon, alt] (numbers), not {value!r}"
+    if check is Check.RANGE and isinstance(value, list) and not _is_range(value):
+        return f"expected [low, high] (finite numbers, low <= high), not {value!r}"
     return None
+
+
+def _is_range(value: list[Any]) -> bool:
+    return (len(value) == 2 and all(isinstance(v, int | float) and not isinstance(v, bool)
+                                    and math.isfinite(v) for v in value)
+            and value[0] <= value[1])
 
 
 def url_problem(value: str) -> str | None:

@@ -5,8 +5,9 @@ Every event the intake finishes is reported three ways (`EventReporter.report`):
 - on the bus, an `mrss.messages.EventReport` on `edge.<status>` (for the dashboard,
   `mrss record` and `mrss chaos`);
 - in the log with a stable event name: `event_failed ...` at ERROR, `event_rejected ...`
-  at WARNING, `event_duplicate ...` at INFO (`accepted` at DEBUG); records at INFO and
-  above reach the dashboard's log as `LogRecord`s;
+  at WARNING (once per topic and reason per minute; the others are counted and
+  summarised, `mrss.edge.rejections`), `event_duplicate ...` at INFO (`accepted` at
+  DEBUG); records at INFO and above reach the dashboard's log as `LogRecord`s;
 - back to the sender on MQTT, for `rejected` and `failed` (and `accepted` and
   `duplicate` with `[events] reply_accepted = true`, so a sender that sends again
   because an answer was lost is answered too): a JSON object on the reply topic
@@ -30,6 +31,7 @@ from collections.abc import Mapping
 from typing import Any, Protocol
 
 from mrss.edge.busport import MessagePublisher
+from mrss.edge.rejections import RejectionLog
 from mrss.errors import ConfigError
 from mrss.messages import EventReport, EventStatus, JsonValue
 
@@ -71,6 +73,7 @@ class EventReporter:
         self.replied = REPLIED | ({EventStatus.ACCEPTED, EventStatus.DUPLICATE}
                                   if reply_accepted else set())
         self.log = log or logging.getLogger("mrss.events")
+        self.rejections = RejectionLog(self.log, "event")
 
     def reply_topic_for(self, topic: str) -> str | None:
         """Where the answer to an event on `topic` goes (None: replies are off)."""
@@ -94,10 +97,14 @@ class EventReporter:
                detail: Mapping[str, JsonValue] | None = None) -> None:
         """Tell the bus, the log and (for the statuses replied to) the sender."""
         extra = dict(detail or {})
-        self.log.log(LOG_LEVELS[status], "event_%s topic=%s id=%s attempts=%d%s%s",
-                     status.value, topic, event_id or "-", attempts,
-                     "".join(f" {k}={v}" for k, v in extra.items()),
-                     f": {reason}" if reason else "")
+        if status is EventStatus.REJECTED and self.rejections.seen(
+                topic, reason.split(":", 1)[0]):
+            pass  # counted; summarised by the rejection log
+        else:
+            self.log.log(LOG_LEVELS[status], "event_%s topic=%s id=%s attempts=%d%s%s",
+                         status.value, topic, event_id or "-", attempts,
+                         "".join(f" {k}={v}" for k, v in extra.items()),
+                         f": {reason}" if reason else "")
         if self._bus is not None:
             try:
                 self._bus.publish(EventReport(

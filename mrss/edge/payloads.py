@@ -10,6 +10,10 @@ Field kinds: `atom` (must be a lowercase identifier), `symbol` (atom if it can b
 string), `string`, `int`, `number`, `lat`, `lon`, `bool`, `list` (of scalars or lists),
 `term` (any JSON scalar or list), or a callable that converts the value and raises
 ValueError for bad input. A field name may be a dotted path into nested objects.
+
+Every value is also held to the bounds of `mrss.edge.validation`: strings of at most
+MAX_TEXT characters, integers within +-2**53, finite numbers, lists of at most
+MAX_ITEMS items nested at most MAX_DEPTH deep.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final
 
+from mrss.edge import validation
 from mrss.edge.predicates import Atom, PredicateError, Term, is_atom_name, literal, symbol
 from mrss.errors import DecodeError
 
@@ -67,13 +72,13 @@ def decode_json_object(payload: bytes, *, topic: str | None = None) -> dict[str,
 def _as_str(value: Any) -> str:
     if not isinstance(value, str):
         raise ValueError(f"expected a string, got {type(value).__name__}")
-    return value
+    return validation.text(value, "string")
 
 
 def _as_int(value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"expected an integer, got {type(value).__name__}")
-    return value
+    return validation.integer(value, "integer")
 
 
 def _as_number(value: Any) -> int | float:
@@ -81,7 +86,7 @@ def _as_number(value: Any) -> int | float:
         raise ValueError(f"expected a number, got {type(value).__name__}")
     if isinstance(value, float) and not math.isfinite(value):
         raise ValueError("number is not finite")
-    return value
+    return validation.number(value, "number")
 
 
 def _ranged(low: float, high: float) -> Callable[[Any], Term]:
@@ -106,14 +111,20 @@ def _as_atom(value: Any) -> Atom:
     return Atom(text)
 
 
-def json_term(value: Any) -> Term:
+def json_term(value: Any, depth: int = 0) -> Term:
     """A JSON scalar or list as a term: strings stay strings; objects and null are refused."""
-    if isinstance(value, (str, bool)):
+    if isinstance(value, bool):
         return value
+    if isinstance(value, str):
+        return _as_str(value)
     if isinstance(value, (int, float)):
         return _as_number(value)
     if isinstance(value, list):
-        return [json_term(v) for v in value]
+        if depth >= validation.MAX_DEPTH:
+            raise ValueError(f"list nested more than {validation.MAX_DEPTH} deep")
+        if len(value) > validation.MAX_ITEMS:
+            raise ValueError(f"list of {len(value)} items > {validation.MAX_ITEMS}")
+        return [json_term(v, depth + 1) for v in value]
     raise ValueError(f"a JSON {type(value).__name__} has no term form")
 
 

@@ -21,6 +21,15 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
 
+from mrss.edge.rejections import RejectionLog
+from mrss.edge.validation import (
+    DEFAULT_LIMITS,
+    LINK_TYPES,
+    Limits,
+    RecordValidator,
+    Rejected,
+    RobotType,
+)
 from mrss.links.errors import CommandTimeout, LinkDown
 from mrss.links.failsafe import FailsafeEvent, FailsafePolicy, failsafe_reason
 
@@ -45,6 +54,11 @@ class RobotLink(ABC):
         self.robot_id = robot_id
         self.failsafe = failsafe
         self.log = logging.getLogger(f"mrss.links.{self.kind}.{robot_id}")
+        #: Every record is checked against its declaration (mrss.edge.validation) with
+        #: the limits of the robot's type before anyone sees it; refusals are counted.
+        self.limits: Limits = DEFAULT_LIMITS[LINK_TYPES.get(self.kind, RobotType.GROUND)]
+        self.rejections = RejectionLog(self.log, "telemetry record")
+        self._validator: RecordValidator | None = None
         self._changed = threading.Condition()
         self._dispatch = threading.RLock()
         self._up = False
@@ -218,9 +232,18 @@ class RobotLink(ABC):
             self._reason = "link closed"
             self._changed.notify_all()
 
-    def _publish_telemetry(self, kind: str, fields: dict[str, Any]) -> Telemetry:
-        """Store a telemetry record of type `kind` and hand it to the callbacks."""
+    def _publish_telemetry(self, kind: str, fields: dict[str, Any]) -> Telemetry | None:
+        """Store a telemetry record of type `kind` and hand it to the callbacks; a record
+        outside its declaration (mrss.edge.validation) is refused: counted, logged once
+        per reason and interval, neither stored nor handed on (None)."""
         record: Telemetry = {"robot": self.robot_id, "type": kind, "ts": time.time(), **fields}
+        try:
+            if self._validator is None or self._validator.default is not self.limits:
+                self._validator = RecordValidator([self.robot_id], default=self.limits)
+            self._validator.check(self.robot_id, record)
+        except Rejected as exc:
+            self.rejections.reject(self.robot_id, exc.reason, exc.detail)
+            return None
         with self._changed:
             self._latest[kind] = record
             self._changed.notify_all()

@@ -17,6 +17,8 @@ Rules (the one place they are implemented):
   (`mrss.links.mavlink_signing`): the link signs what it sends and refuses what is not
   signed with that key.
 - HTTP needs its `url` (a robot's own API: nothing to find).
+- The link checks telemetry with its robot type's limits, with the project's
+  `[datalayer]` `*_range` overrides over them (mrss.edge.validation).
 - Every other key goes to the link factory, which checks it (unknown keys, types, the
   failsafe options of docs/robots.md).
 """
@@ -29,6 +31,7 @@ from typing import Any
 
 from mrss.config import load_file
 from mrss.edge.component import resolved_broker_url, with_login
+from mrss.edge.validation import Rejected, limit_overrides
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.factory import create_link
@@ -61,6 +64,18 @@ def project_broker_url(project_dir: Path | None, run_dir: Path | None) -> str | 
     url = resolved_broker_url(sections, run_dir)
     broker = sections.get("broker", {})
     return with_login(url, broker) if url and isinstance(broker, Mapping) else url
+
+
+def project_limits(project_dir: Path | None) -> dict[str, list[float]]:
+    """The project's `[datalayer]` `*_range` limits, which its links apply too (a
+    malformed one is left to the data layer and `mrss check` to report)."""
+    if project_dir is None or not (project_dir / PROJECT_FILE).is_file():
+        return {}
+    section = load_file(project_dir / PROJECT_FILE).sections.get("datalayer", {})
+    try:
+        return limit_overrides(section) if isinstance(section, Mapping) else {}
+    except Rejected:
+        return {}
 
 
 def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | None,
@@ -100,5 +115,6 @@ def connect_link(robot: str, options: Mapping[str, Any], *, project_dir: Path | 
         return None
     link = create_link(robot, kind, opts, source=PROJECT_FILE,
                        on_link_state=on_link_state, on_telemetry=on_telemetry)
+    link.limits = link.limits.overridden(project_limits(project_dir))
     link.start()
     return link

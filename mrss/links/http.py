@@ -193,7 +193,7 @@ class HttpLink(RobotLink):
             sample = parse_telemetry(payload, self.robot_id)
         except DecodeError as exc:
             self.bad_messages += 1
-            self.log.warning("bad telemetry dropped: %s", exc)
+            self.rejections.reject(self.robot_id, "bad telemetry", str(exc))
             self._failed(f"bad telemetry: {exc}")
             return
         except OSError as exc:

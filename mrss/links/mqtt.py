@@ -201,7 +201,7 @@ class MqttLink(RobotLink):
                 self._on_status(payload, topic)
         except DecodeError as exc:
             self.bad_messages += 1
-            self.log.warning("bad message dropped: %s", exc)
+            self.rejections.reject(self.robot_id, f"bad message on {topic}", str(exc))
         except Exception:  # a bug here must not stop the link
             self.log.exception("error handling a message on %s", topic)
 

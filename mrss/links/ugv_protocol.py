@@ -15,10 +15,10 @@ whether it hears heartbeats now.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from mrss.edge import validation
 from mrss.errors import DecodeError
 from mrss.links.failsafe import MAX_TIMEOUT_S, MIN_TIMEOUT_S, FailsafeAction
 
@@ -130,13 +130,10 @@ def _object(payload: bytes, topic: str | None) -> dict[str, Any]:
 
 
 def _number(data: dict[str, Any], key: str, topic: str | None, lo: float, hi: float) -> float:
-    value = data.get(key)
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise DecodeError(f"{key!r} must be a number, got {value!r}", topic=topic)
-    number = float(value)
-    if not math.isfinite(number) or not lo <= number <= hi:
-        raise DecodeError(f"{key!r} out of range [{lo}, {hi}]: {value!r}", topic=topic)
-    return number
+    try:  # bounded before float(): a 400-digit integer is refused, never an OverflowError
+        return float(validation.number(data.get(key), repr(key), validation.Range(lo, hi)))
+    except validation.Rejected as exc:
+        raise DecodeError(str(exc)[:200], topic=topic) from None
 
 
 def _flag(data: dict[str, Any], key: str, topic: str | None) -> bool:

@@ -3,11 +3,19 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
-from mrss.actors.datalayer import DataLayerService, load_datalayer_class, plain, world_access
+from mrss.actors.datalayer import (
+    DataLayerService,
+    load_datalayer_class,
+    plain,
+    robot_validator,
+    world_access,
+)
 from mrss.edge.adapters import DataLayer, DataLayerContext
+from mrss.edge.validation import Rejected
 from mrss.edge.worldmodel_access import HttpWorldModel, LocalWorldModel
 from mrss.edge.worldmodel_service import WorldModel
 from mrss.edge.worldmodel_store import WorldModelStore
@@ -83,7 +91,8 @@ def test_telemetry_updates_the_robot_in_the_world_model(service: DataLayerServic
     assert result["kind"] == "robot" and result["position"]["alt"] == 30
     assert result["attributes"] == {"battery": 77}
     assert not service.telemetry(RobotData(robot="uav1", data={"lat": 95, "lon": 0}))
-    assert service.telemetry_errors == 1
+    assert service.telemetry_errors == 0  # refused by validation, never handed on
+    assert service.rejections.stats() == {"uav1: record.lat out of range": 1}
 
 
 def test_default_datalayer_without_world_model_reports_it() -> None:
@@ -110,3 +119,46 @@ def test_world_model_option() -> None:
         world_access({}, None)
     with pytest.raises(ConfigError, match="datalayer.world_model"):
         world_access({"world_model": "ftp://x"}, None)
+
+
+PROJECT_WITH_ROBOTS = """\
+[components.rcl]
+module = "mrss.actors.rcl_service:RclService"
+[components.rcl.robots.uav1]
+link = "mavlink"
+[components.rcl.robots.ugv1]
+link = "mqtt"
+"""
+
+
+def test_robot_data_is_taken_only_from_configured_robots_within_their_limits(
+        tmp_path: Path) -> None:
+    folder = tmp_path
+    (folder / "project.toml").write_text(PROJECT_WITH_ROBOTS)
+    validator = robot_validator(folder, {"temperature_range": [-50, 900]})
+    assert validator.robots == {"uav1", "ugv1"}
+    climb = {"type": "position", "lat": 1, "lon": 2, "alt": 11_000}
+    assert validator.check("uav1", climb) == climb  # aerial: up to 12 km
+    with pytest.raises(Rejected, match="position.alt out of range"):
+        validator.check("ugv1", climb)  # ground: 9 km at most
+    with pytest.raises(Rejected, match="hotspot.temperature out of range"):  # overridden
+        validator.check("uav1", {"type": "hotspot", "id": 1, "lat": 0, "lon": 0,
+                                 "temperature": 1000})
+    with pytest.raises(Rejected, match="unknown robot"):
+        validator.check("fz9", {"type": "battery", "remaining": 50})
+    only = robot_validator(folder, {"robots": ["ugv1"]})
+    with pytest.raises(Rejected, match="unknown robot"):
+        only.check("uav1", {"type": "battery", "remaining": 50})
+    with pytest.raises(ConfigError, match="low <= high"):
+        robot_validator(folder, {"alt_range": [10, -10]})
+
+
+def test_refused_robot_data_never_reaches_the_project(service: DataLayerService) -> None:
+    seen: list[tuple[str, object]] = []
+    service.datalayer.on_telemetry = lambda robot, data: seen.append((robot, data))  # type: ignore[method-assign]
+    for data in ({"type": "hotspot", "id": 9, "lat": 0, "lon": 0, "temperature": 1e308},
+                 {"type": "battery", "remaining": -128.0}, {"type": "x", "v": [[[]]] * 300}):
+        assert not service.telemetry(RobotData(robot="uav1", data=data))
+    assert not seen and service.rejections.total == 3
+    assert service.telemetry(RobotData(robot="uav1", data={"type": "battery", "remaining": 50}))
+    assert seen == [("uav1", {"type": "battery", "remaining": 50})]

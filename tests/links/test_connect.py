@@ -9,6 +9,7 @@ from typing import Any, ClassVar
 import pytest
 
 from mrss.api import ConfigError, RobotCommLayer
+from mrss.edge.validation import DEFAULT_LIMITS, RobotType
 from mrss.links.connect import connect_link, link_options
 from mrss.messages import Message, RobotData
 from mrss.testing import BrokerInfo, free_udp_port, wait_until
@@ -119,3 +120,15 @@ def test_default_connect_robot_signs_with_the_projects_key_file(tmp_path: Path,
         assert link.signed and link.refused()["bad signature"] == 0
     finally:
         layer.disconnect_robot("uav1", link)
+
+
+def test_a_link_applies_the_projects_limits_over_its_robot_types(tmp_path: Path) -> None:
+    (tmp_path / "project.toml").write_text('[datalayer]\nalt_range = [-10, 30000]\n')
+    link = connect_link("r1", {"link": "http", "url": "http://127.0.0.1:1"},
+                        project_dir=tmp_path, run_dir=tmp_path)
+    assert link is not None
+    try:
+        assert (link.limits.alt.low, link.limits.alt.high) == (-10.0, 30_000.0)
+        assert link.limits.speed == DEFAULT_LIMITS[RobotType.GROUND].speed  # the rest stays
+    finally:
+        link.close()

@@ -124,6 +124,29 @@ def test_status_texts_become_hotspots_only_when_well_formed(
     assert len(spots) == (1 if parse_hotspot(wire) is not None else 0)
 
 
+def test_spoofed_absurd_telemetry_never_reaches_the_callbacks(
+        silent: tuple[MavlinkLink, SilentVehicle, list[dict[str, Any]], int]) -> None:
+    link, vehicle, records, _ = silent
+    records.clear()
+    mav = vehicle.conn.conn.mav
+    before = link.rejections.total
+    for remaining in (-128, 127):  # int8 battery_remaining: -1 is "unknown", not these
+        vehicle.conn.send(mav.sys_status_encode(0, 0, 0, 500, 12000, 100, remaining,
+                                                0, 0, 0, 0, 0, 0))
+    vehicle.conn.send(mav.global_position_int_encode(0, 2_147_000_000, 0, 30_000, 1_000,
+                                                     0, 0, 0, 0))  # lat 214.7
+    vehicle.conn.send(mav.global_position_int_encode(0, -353_632_620, 1_491_652_370,
+                                                     2_100_000_000, 1_000, 0, 0, 0, 0))
+    _sentinel(vehicle, records, 1)
+    assert not [r for r in records if r["type"] in ("battery", "position")], records
+    assert link.latest("battery") is None and link.latest("position") is None
+    assert link.rejections.total == before + 4
+    assert set(link.rejections.stats()) >= {"uav7: battery.remaining out of range",
+                                            "uav7: position.lat out of range",
+                                            "uav7: position.alt out of range"}
+    assert link.up
+
+
 @given(text=st.text(max_size=80))
 def test_parse_hotspot_never_raises(text: str) -> None:
     report = parse_hotspot(text)

@@ -167,3 +167,28 @@ def test_parse_command_raises_only_decode_error(payload: bytes) -> None:
         return
     for value in (command.lat, command.lon, command.speed, command.heading, command.litres):
         assert value is None or math.isfinite(value)
+
+
+@pytest.mark.parametrize("key", ["lat", "lon", "battery", "tank", "tank_capacity", "speed"])
+def test_a_huge_integer_is_refused_not_an_overflow(key: str) -> None:
+    payload = json.dumps(dict(VALID_TELEMETRY, **{key: 10 ** 400})).encode()
+    with pytest.raises(DecodeError, match="out of range"):
+        parse_telemetry(payload, "fz1")
+
+
+def test_a_huge_integer_over_the_broker_is_a_counted_bad_message(
+        fuzz_link: tuple[MqttLink, list[dict[str, Any]], Probe],
+        caplog: pytest.LogCaptureFixture) -> None:
+    link, records, probe = fuzz_link
+    topics = UgvTopics.for_robot("fz1")
+    before = link.rejections.total
+    with caplog.at_level("WARNING"):
+        for _ in range(5):
+            probe.publish(topics.telemetry, json.dumps(dict(VALID_TELEMETRY, lat=10 ** 400)))
+        wait_until(lambda: link.rejections.total >= before + 5, timeout=5,
+                   message="the five refusals counted")
+    assert not [r for r in caplog.records if "error handling" in r.getMessage()]
+    assert not [r for r in caplog.records if r.exc_info]  # no traceback
+    assert sum("'lat' out of range" in r.getMessage() for r in caplog.records) <= 1
+    assert not [r for r in records if r.get("lat") == 10 ** 400]
+    assert link.up

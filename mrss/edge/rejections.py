@@ -1,0 +1,97 @@
+"""Counting and logging what was refused, without flooding the log.
+
+A refused record is counted by (source, reason) — source: the robot or sender, reason:
+`mrss.edge.validation.Rejected.reason`. The first refusal of a (source, reason) in an
+interval is logged with its detail; the others in that interval are only counted, and
+once the interval is over the next refusal (or `flush`) logs one summary line of what
+was held back. No traceback is ever logged for bad data.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+
+DEFAULT_INTERVAL = 60.0
+
+
+class RejectionLog:
+    """Counters and rate-limited warnings of refused input (thread-safe)."""
+
+    def __init__(self, log: logging.Logger, what: str = "record", *,
+                 interval: float = DEFAULT_INTERVAL,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.log = log
+        self.what = what
+        self.interval = interval
+        self.clock = clock
+        self.counts: Counter[tuple[str, str]] = Counter()  # since start
+        self._held: Counter[tuple[str, str]] = Counter()  # not logged yet
+        self._logged: set[tuple[str, str]] = set()  # logged in this interval
+        self._since = clock()
+        self._lock = threading.Lock()
+
+    @property
+    def total(self) -> int:
+        """Refusals since start."""
+        with self._lock:
+            return sum(self.counts.values())
+
+    def reject(self, source: str, reason: str, detail: str = "") -> None:
+        """Count one refusal; log it unless that (source, reason) was logged this interval."""
+        if not self.seen(source, reason):
+            self.log.warning("refused %s from %s: %s%s (more like it are counted, "
+                             "summarised every %gs)", self.what, source[:64], reason[:120],
+                             f" ({detail[:200]})" if detail else "", self.interval)
+
+    def seen(self, source: str, reason: str) -> bool:
+        """Count one refusal the caller logs itself when this returns False (the first of
+        its (source, reason) this interval); True: held back, summarised later."""
+        key = (source[:64], reason[:120])
+        with self._lock:
+            self.counts[key] += 1
+            summary = self._roll()
+            held = key in self._logged
+            if held:
+                self._held[key] += 1
+            else:
+                self._logged.add(key)
+        if summary:
+            self.log.warning("%s", summary)
+        return held
+
+    def flush(self) -> None:
+        """Log the summary of refusals held back so far (e.g. when stopping)."""
+        with self._lock:
+            summary = self._summary()
+            self._held.clear()
+        if summary:
+            self.log.warning("%s", summary)
+
+    def stats(self) -> dict[str, int]:
+        """Refusals since start, as "source: reason" -> count (for stats and dashboards)."""
+        with self._lock:
+            return {f"{source}: {reason}": n for (source, reason), n in self.counts.items()}
+
+    def _roll(self) -> str:
+        now = self.clock()
+        if now - self._since < self.interval:
+            return ""
+        summary = self._summary()
+        self._since = now
+        self._held.clear()
+        self._logged.clear()
+        return summary
+
+    def _summary(self) -> str:
+        if not self._held:
+            return ""
+        parts = ", ".join(f"{source}: {reason} x{n}"
+                          for (source, reason), n in self._held.most_common(10))
+        more = len(self._held) - 10
+        return (f"refused {sum(self._held.values())} more {self.what}(s) "
+                f"(total {sum(self.counts.values())}): {parts}"
+                + (f" and {more} more kinds" if more > 0 else ""))

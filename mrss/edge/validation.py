@@ -1,0 +1,327 @@
+"""The one validation layer for data that comes from a robot or from outside MRSS.
+
+Everything a robot reports (a link's telemetry record, a project's `publish_data`, a
+`robot.<id>.data` bus message) and every outside payload field is checked against a
+declaration here before anything acts on it:
+
+- **who**: the robot id must be a configured robot (`RecordValidator.robots`);
+- **what**: each record type (`RECORDS`) declares its fields: kind (number, integer,
+  text, flag), whether it is required, and its range: a fixed one (latitude [-90, 90],
+  longitude [-180, 180], battery [0, 100] %) or a physical limit of the robot's type
+  (`Limits`: altitude, speeds, temperature, tank, voltage, current), with defaults per
+  robot type (`DEFAULT_LIMITS`) that project.toml may override (`[datalayer]`
+  `*_range` options, docs/config.md);
+- **how much**: fields a declaration does not list (and record types it does not know)
+  must still be plain bounded data (`plain`): finite numbers, integers within
+  +-2**53, strings up to `MAX_TEXT` characters, lists up to `MAX_ITEMS`, nesting up to
+  `MAX_DEPTH`.
+
+A value that does not fit raises `Rejected` with a short `reason` (stable, for counting:
+"unknown robot", "position.lat out of range") and a `detail` for the log. Nothing here
+logs: `mrss.edge.rejections.RejectionLog` counts and logs what callers refuse.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, fields, replace
+from enum import Enum, StrEnum
+from typing import Any
+
+MAX_TEXT = 1024  # characters of one string
+MAX_ITEMS = 256  # items of one list or object
+MAX_DEPTH = 16  # nesting of lists and objects
+MAX_INT = 2 ** 53  # integers are exact as JSON numbers within +-2**53
+MAX_ID = 64  # characters of a robot id
+
+
+class Rejected(ValueError):
+    """A value that does not fit its declaration: `reason` to count, `detail` to read."""
+
+    def __init__(self, reason: str, detail: str = "") -> None:
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason = reason
+        self.detail = detail
+
+
+class RobotType(StrEnum):
+    """What kind of machine a robot is, for its physical limits."""
+
+    AERIAL = "aerial"
+    GROUND = "ground"
+
+
+#: The robot type of each link kind (a copter speaks MAVLink; the UGV and HTTP robots
+#: drive on the ground).
+LINK_TYPES: dict[str, RobotType] = {"mavlink": RobotType.AERIAL, "mqtt": RobotType.GROUND,
+                                    "http": RobotType.GROUND}
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval of allowed values."""
+
+    low: float
+    high: float
+
+    def __contains__(self, value: object) -> bool:
+        return isinstance(value, int | float) and self.low <= value <= self.high
+
+    def __str__(self) -> str:
+        return f"[{self.low:g}, {self.high:g}]"
+
+
+LAT = Range(-90.0, 90.0)
+LON = Range(-180.0, 180.0)
+PERCENT = Range(0.0, 100.0)
+HEADING = Range(-360.0, 360.0)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The physical ranges of one robot type (units: m, m/s, degrees C, L, V, A)."""
+
+    alt: Range  # altitude above mean sea level
+    relative_alt: Range  # altitude above home
+    velocity: Range  # one component of the velocity (vx, vy, vz)
+    speed: Range  # ground speed
+    temperature: Range  # a sensed temperature (a hotspot's)
+    tank: Range  # a tank's level and capacity
+    voltage: Range
+    current: Range
+
+    def overridden(self, overrides: Mapping[str, Any]) -> Limits:
+        """These limits with some replaced: name -> [low, high] (names: `LIMIT_NAMES`)."""
+        changes = {name: Range(float(value[0]), float(value[1]))
+                   for name, value in overrides.items() if value is not None}
+        return replace(self, **changes)
+
+
+LIMIT_NAMES = tuple(f.name for f in fields(Limits))
+
+DEFAULT_LIMITS: dict[RobotType, Limits] = {
+    RobotType.AERIAL: Limits(alt=Range(-500.0, 12_000.0), relative_alt=Range(-1_000.0, 12_000.0),
+                             velocity=Range(-100.0, 100.0), speed=Range(0.0, 100.0),
+                             temperature=Range(-100.0, 2_000.0), tank=Range(0.0, 10_000.0),
+                             voltage=Range(0.0, 1_000.0), current=Range(-1_000.0, 1_000.0)),
+    RobotType.GROUND: Limits(alt=Range(-500.0, 9_000.0), relative_alt=Range(-1_000.0, 9_000.0),
+                             velocity=Range(-50.0, 50.0), speed=Range(0.0, 50.0),
+                             temperature=Range(-100.0, 2_000.0), tank=Range(0.0, 100_000.0),
+                             voltage=Range(0.0, 1_000.0), current=Range(-1_000.0, 1_000.0)),
+}
+
+
+class FieldKind(Enum):
+    """What a declared field holds."""
+
+    NUMBER = "number"
+    INT = "int"
+    TEXT = "text"
+    FLAG = "flag"
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One declared field: its kind, its range (fixed, or a `Limits` name), and whether it
+    must be there (a field that is not required may also be None: "unknown")."""
+
+    kind: FieldKind
+    bound: Range | str | None = None
+    required: bool = False
+
+
+def _num(bound: Range | str | None = None, required: bool = False) -> Spec:
+    return Spec(FieldKind.NUMBER, bound, required)
+
+
+def _int(bound: Range | str | None = None, required: bool = False) -> Spec:
+    return Spec(FieldKind.INT, bound, required)
+
+
+TEXT = Spec(FieldKind.TEXT)
+FLAG = Spec(FieldKind.FLAG)
+
+#: The telemetry record types (docs/robots.md) and their fields.
+RECORDS: dict[str, dict[str, Spec]] = {
+    "position": {"lat": _num(LAT, True), "lon": _num(LON, True), "heading": _num(HEADING),
+                 "alt": _num("alt"), "relative_alt": _num("relative_alt"),
+                 "vx": _num("velocity"), "vy": _num("velocity"), "vz": _num("velocity"),
+                 "speed": _num("speed")},
+    "battery": {"remaining": _num(PERCENT), "voltage": _num("voltage"),
+                "current": _num("current")},
+    "status": {"mode": TEXT, "armed": FLAG, "landed": FLAG, "at_base": FLAG, "teleop": FLAG,
+               "failsafe": FLAG},
+    "failsafe": {"event": TEXT, "action": TEXT, "mode": TEXT, "detail": TEXT},
+    "hotspot": {"id": _int(Range(0, 2 ** 31 - 1), True), "lat": _num(LAT, True),
+                "lon": _num(LON, True), "temperature": _num("temperature")},
+    "text": {"severity": _int(Range(0, 7)), "text": TEXT},
+    "mission": {"current": _int(Range(0, 65_535)), "total": _int(Range(0, 65_535)),
+                "reached": _int(Range(0, 65_535))},
+    "tank": {"level": _num("tank"), "capacity": _num("tank"), "pumping": FLAG},
+}
+#: The envelope fields every record has (besides its declared ones).
+#: Fields checked wherever a record's type does not declare them (a project's own records).
+COMMON: dict[str, Spec] = {"robot": TEXT, "type": TEXT, "ts": _num(Range(0.0, 1e11)),
+                           "lat": _num(LAT), "lon": _num(LON), "alt": _num("alt"),
+                           "battery": _num(PERCENT), "temperature": _num("temperature")}
+
+
+# ---------------------------------------------------------------------- primitives
+def number(value: Any, where: str = "value", bound: Range | None = None) -> float | int:
+    """A finite number (bool is not one), within `bound` when given; Rejected otherwise.
+    Integers are held to +-MAX_INT, so no later float() overflows."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise Rejected(f"{where} not a number", f"got {type(value).__name__}")
+    if isinstance(value, int) and not -MAX_INT <= value <= MAX_INT:
+        raise Rejected(f"{where} out of range", f"an integer of {len(str(abs(value)))} digits")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise Rejected(f"{where} not finite", repr(value))
+    if bound is not None and value not in bound:
+        raise Rejected(f"{where} out of range", f"{value!r} not in {bound}")
+    return value
+
+
+def integer(value: Any, where: str = "value", bound: Range | None = None) -> int:
+    """A bounded integer (not a bool); Rejected otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise Rejected(f"{where} not an integer", f"got {type(value).__name__}")
+    number(value, where, bound)
+    return value
+
+
+def text(value: Any, where: str = "value", max_length: int = MAX_TEXT) -> str:
+    """A string of at most `max_length` characters; Rejected otherwise."""
+    if not isinstance(value, str):
+        raise Rejected(f"{where} not a string", f"got {type(value).__name__}")
+    if len(value) > max_length:
+        raise Rejected(f"{where} too long", f"{len(value)} characters > {max_length}")
+    return value
+
+
+def plain(value: Any, where: str = "value", depth: int = 0) -> Any:
+    """Plain bounded data (None, flags, numbers, strings, lists, string-keyed objects)."""
+    if depth > MAX_DEPTH:
+        raise Rejected(f"{where} nested too deeply", f"more than {MAX_DEPTH} levels")
+    if value is None or isinstance(value, bool):
+        return value
+    if isinstance(value, int | float):
+        return number(value, where)
+    if isinstance(value, str):
+        return text(value, where)
+    if isinstance(value, list | tuple):
+        _count(value, where)
+        return [plain(v, where, depth + 1) for v in value]
+    if isinstance(value, Mapping):
+        _count(value, where)
+        return {text(k, f"{where} key", MAX_TEXT): plain(v, where, depth + 1)
+                for k, v in value.items()}
+    raise Rejected(f"{where} not plain data", f"a {type(value).__name__}")
+
+
+def _count(items: Iterable[Any] | Mapping[str, Any], where: str) -> None:
+    size = len(items)  # type: ignore[arg-type]
+    if size > MAX_ITEMS:
+        raise Rejected(f"{where} too many items", f"{size} > {MAX_ITEMS}")
+
+
+def robot_id(value: Any) -> str:
+    """A robot id's shape: a non-empty string of at most MAX_ID characters."""
+    ident = text(value, "robot id", MAX_ID)
+    if not ident:
+        raise Rejected("robot id empty")
+    return ident
+
+
+def _field(spec: Spec, value: Any, where: str, limits: Limits) -> None:
+    if value is None and not spec.required:
+        return
+    bound = getattr(limits, spec.bound) if isinstance(spec.bound, str) else spec.bound
+    if spec.kind is FieldKind.NUMBER:
+        number(value, where, bound)
+    elif spec.kind is FieldKind.INT:
+        integer(value, where, bound)
+    elif spec.kind is FieldKind.TEXT:
+        text(value, where)
+    elif not isinstance(value, bool):
+        raise Rejected(f"{where} not true or false", f"got {type(value).__name__}")
+
+
+def check_record(record: Any, limits: Limits) -> dict[str, Any]:
+    """One telemetry record checked against its type's declaration (`RECORDS`); a type
+    not declared there is checked as plain bounded data. Returns the record."""
+    if not isinstance(record, Mapping):
+        raise Rejected("record not an object", f"a {type(record).__name__}")
+    _count(record, "record")
+    kind = record.get("type")
+    declared = RECORDS.get(kind, {}) if isinstance(kind, str) else {}
+    name = kind if isinstance(kind, str) and kind in RECORDS else "record"
+    for key, wanted in declared.items():
+        if wanted.required and key not in record:
+            raise Rejected(f"{name}.{key} missing")
+    for key, value in record.items():
+        key = text(key, "record key", 64)
+        spec: Spec | None = declared.get(key) or COMMON.get(key)
+        if spec is None:
+            plain(value, f"{name}.{key}", 1)
+        else:
+            _field(spec, value, f"{name}.{key}", limits)
+    return dict(record)
+
+
+class RecordValidator:
+    """Checks robot data: a configured robot (when `robots` is given), a valid record.
+
+    `limits` maps a robot id to its limits; a robot not in it gets `default`.
+    """
+
+    def __init__(self, robots: Iterable[str] | None = None, *,
+                 limits: Mapping[str, Limits] | None = None,
+                 default: Limits = DEFAULT_LIMITS[RobotType.GROUND]) -> None:
+        self.robots = frozenset(robots) if robots is not None else None
+        self.limits = dict(limits or {})
+        self.default = default
+
+    def check(self, robot: Any, record: Any) -> dict[str, Any]:
+        """The record if `robot` may send it and it fits its declaration; Rejected else."""
+        ident = robot_id(robot)
+        if self.robots is not None and ident not in self.robots:
+            raise Rejected("unknown robot", f"{ident!r} is not a configured robot")
+        checked = check_record(record, self.limits.get(ident, self.default))
+        sender = checked.get("robot")
+        if sender is not None and sender != ident:
+            raise Rejected("robot mismatch", f"record of {sender!r} sent as {ident!r}")
+        return checked
+
+
+def limit_overrides(section: Mapping[str, Any]) -> dict[str, list[float]]:
+    """The `<limit>_range = [low, high]` keys of a `[datalayer]` table, by limit name;
+    Rejected(reason=the key) for one that is not two finite numbers with low <= high."""
+    overrides: dict[str, list[float]] = {}
+    for name in LIMIT_NAMES:
+        value = section.get(f"{name}_range")
+        if value is None:
+            continue
+        if (not isinstance(value, list) or len(value) != 2
+                or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                           and math.isfinite(v) for v in value) or value[0] > value[1]):
+            raise Rejected(f"{name}_range", "must be [low, high], finite numbers, low <= high")
+        overrides[name] = [float(value[0]), float(value[1])]
+    return overrides
+
+
+def configured_robots(sections: Mapping[str, Any]) -> dict[str, RobotType]:
+    """The robots of a project configuration (`[components.<id>.robots.<robot>]`, the
+    RCL's robots table) and their types (by their `link` kind; ground without one)."""
+    robots: dict[str, RobotType] = {}
+    components = sections.get("components", {})
+    if not isinstance(components, Mapping):
+        return robots
+    for table in components.values():
+        table_robots = table.get("robots") if isinstance(table, Mapping) else None
+        if not isinstance(table_robots, Mapping):
+            continue
+        for robot, options in table_robots.items():
+            link = options.get("link", "") if isinstance(options, Mapping) else ""
+            robots[str(robot)] = LINK_TYPES.get(str(link), RobotType.GROUND)
+    return robots
