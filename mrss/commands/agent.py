@@ -19,16 +19,17 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 import time
 from pathlib import Path
 
-from mrss.agentspeak.agent import Agent
+from mrss.agentspeak.agent import Agent, read_program
 from mrss.agentspeak.errors import AslSyntaxError
-from mrss.agentspeak.host import run_standalone
+from mrss.agentspeak.host import run_standalone, run_until_idle_by
 from mrss.agentspeak.parser import parse_literal
 from mrss.agentspeak.scripted import ScriptedHost
-from mrss.commands.agent_script import AgentScript, ScriptLineError, parse_value
+from mrss.commands.agent_script import AgentScript, ScriptLineError, StillBusy, parse_value
 
 EXIT_BUSY, EXIT_BAD = 1, 2
 
@@ -65,10 +66,17 @@ def _answers(pairs: list[str]) -> dict[str, str]:
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
     path = Path(args.file)
+    if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time >= 0):
+        print(f"mrss agent: --max-time {args.max_time:g}: expected a finite number of "
+              f"seconds >= 0", file=sys.stderr)
+        return EXIT_BAD
     try:
-        source = path.read_text(encoding="utf-8")
+        source = read_program(path)
     except OSError as exc:
         print(f"mrss agent: cannot read {path}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD
+    except AslSyntaxError as exc:  # not UTF-8
+        print(str(exc), file=sys.stderr)
         return EXIT_BAD
     try:
         answers = _answers(args.answer)
@@ -100,23 +108,30 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int:
-    script = AgentScript(agent, host, _line)
-    agent.run_until_idle()
+    script = AgentScript(agent, host, _line, max_time)
     rejected = 0
-    for number, line in enumerate(sys.stdin, start=1):
-        try:
-            script.apply(line)
-        except ScriptLineError as exc:
-            rejected += 1
-            print(f"stdin:{number}: {exc}", file=sys.stderr)
+    try:
+        script.apply("")  # the initial goals
+        for number, line in enumerate(sys.stdin, start=1):
+            try:
+                script.apply(line)
+            except ScriptLineError as exc:
+                rejected += 1
+                print(f"stdin:{number}: {exc}", file=sys.stderr)
+    except StillBusy:
+        assert max_time is not None
+        print(f"mrss agent: still busy after {max_time:g} s of reasoning", file=sys.stderr)
+        return EXIT_BUSY
     start = time.monotonic()
+    deadline = None if max_time is None else start + max_time
     while agent.next_deadline() is not None or agent.has_work():  # timers still to fire
         waited = time.monotonic() - start
         if max_time is not None and waited >= max_time:
             print(f"mrss agent: still busy after {max_time:g} s", file=sys.stderr)
             return EXIT_BUSY
         agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))
-        agent.run_until_idle()
+        if not run_until_idle_by(agent, deadline):
+            continue  # the check above reports it
     if rejected:
         return EXIT_BAD
     if host.open:
