@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
@@ -41,6 +42,7 @@ VERBS: tuple[Verb, ...] = (
 )
 
 NOT_BUILT_EXIT = 2
+INTERNAL = "internal error"  # the fuzz tests assert no input reaches this
 
 
 def _verb_module(name: str) -> str:
@@ -98,3 +100,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return NOT_BUILT_EXIT
     except KeyboardInterrupt:
         return 130
+    except RecursionError:
+        print(f"mrss {verb.name}: {INTERNAL}: input nested too deeply", file=sys.stderr)
+        return NOT_BUILT_EXIT
+    except Exception as exc:  # last resort: a one-line error, never a traceback
+        print(f"mrss {verb.name}: {INTERNAL}: {type(exc).__name__}: {exc} (please report "
+              f"it with the input; MRSS_TRACEBACK=1 shows where)", file=sys.stderr)
+        if os.environ.get("MRSS_TRACEBACK"):
+            raise
+        return NOT_BUILT_EXIT
