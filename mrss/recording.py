@@ -6,7 +6,7 @@ MAGIC   := b"MRSSREC" + version byte 0x01                       (8 bytes)
 header  := block whose body is a msgpack map
            {"created": float, "endpoints": {...}, "prefixes": [str, ...]}
 entry   := block whose body is a msgpack array [t, frames, note]
-           t: float (receive time, Unix seconds), frames: [bin, ...] (the ZeroMQ
+           t: float >= 0 (receive time, Unix seconds), frames: [bin, ...] (the ZeroMQ
            message exactly as received, one or more frames), note: str ("" for a
            well-formed message, else why it did not decode when recorded)
 block   := length u32 (big-endian) | crc32(body) u32 (big-endian) | body

@@ -129,6 +129,8 @@ def _number(text: str, expected: str) -> float:
         value = float(text)
     except ValueError:
         raise ScriptLineError(f"{text!r} is not a number (expected {expected})") from None
-    if not math.isfinite(value) or value < 0:
-        raise ScriptLineError(f"{text!r} is not a finite number >= 0 (expected {expected})")
+    if not math.isfinite(value):
+        raise ScriptLineError(f"{text!r} is not a finite number (expected {expected})")
+    if value < 0:
+        raise ScriptLineError(f"{text!r} is negative (expected {expected})")
     return value
