@@ -252,14 +252,14 @@ class ReasonerComponent(Component):
         agent_file = ctx.project_dir / str(opts.get("agent", "agent.asl"))
         if not agent_file.is_file():
             raise ConfigError("agent file not found", file=str(agent_file), key="agent")
+        beliefs = opts.get("beliefs", [])
+        if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
+            raise ConfigError("must be a list of belief strings", key="beliefs")
+        refuse_unloadable(agent_file, beliefs)  # before anything is started
         endpoints = BusEndpoints.from_dict(ctx.bus)
         publisher: Publisher = ctx.publisher
         self._tx = ReliableSender(endpoints, src=ctx.name, inc=ctx.incarnation,
                                   channel=ACTION_CHANNEL)
-        beliefs = opts.get("beliefs", [])
-        if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
-            raise ConfigError("must be a list of belief strings", key="beliefs")
-        refuse_unloadable(agent_file, beliefs)
         self._port = bus_port(ctx)
         self._data = DataLayerClient(self._port)
         heartbeat = Heartbeat(component=ctx.name, pid=os.getpid())
