@@ -142,3 +142,27 @@ def test_check_reports_load_time_errors_and_bad_beliefs(tmp_path: Path,
 
 def test_the_cli_runs_from_the_source_tree() -> None:
     assert (ROOT / "mrss").is_dir() and sys.executable
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    ("X = 2 ** 99999999; .print(X)", "2 ** 99999999 is too large"),
+    ("X = 10 ** 300 * 10 ** 300 * 1.5; .print(X)", "int too large to convert to float"),
+    ("X = 10 ** 300; Y = X * X * X * X * X * X * X * X * X * X * X * X * X * X * X; "
+     ".print(Y)", "Exceeds the limit (4300 digits)"),
+    ("X = 7 div 0", "division by zero"),
+])
+def test_arithmetic_beyond_a_float_fails_the_intention_not_the_agent(
+        tmp_path: Path, body: str, message: str) -> None:
+    path = write(tmp_path / "big.asl", f"!g.\n+!g <- {body}.\n-!g <- .print(recovered).\n"
+                 .encode())
+    outcome = run_main(["agent", str(path), "--max-time", "5"])
+    assert outcome.code == 0, outcome.err
+    assert outcome.out.strip() == "recovered"
+
+
+def test_a_percept_with_arithmetic_on_an_unbound_variable_is_a_bad_argument(
+        tmp_path: Path) -> None:
+    path = write(tmp_path / "ok.asl", b"ok.\n")
+    outcome = run_main(["agent", str(path), "--percept", "b(X+1)"])
+    assert outcome.code == 2
+    assert "unbound variable X in arithmetic expression" in outcome.err
