@@ -11,7 +11,6 @@ from pathlib import Path
 import msgpack
 import pytest
 
-from mrss.bus.wire import message_frames
 from mrss.messages import Percept, encode
 from mrss.recording import RecordedMessage, RecordingWriter
 from tests.commands.cli_bus import mrss, running_bus
@@ -98,7 +97,7 @@ def test_send_with_extreme_arguments_is_total() -> None:
              "--arg", "ARG"], ["raw", "ARG", "ARG"], ["raw", "percept", "JSON"],
              ["command", "ARG", "--target", "ARG"]]
     jsons = ['{"literal": "a(1e400)"}', '{"literal": 1e400}', "{", "[]", '{"literal": "a"}',
-             '{"x": ' * 200 + "1" + "}" * 200, '"\\ud800"', "NaN", '{"literal": "' + "a(" * 400 +
+             '{"x": ' * 5000 + "1" + "}" * 5000, '"\\ud800"', "NaN", '{"literal": "' + "a(" * 400 +
              '"}']
     with running_bus() as bus:
         for _ in range(ROUNDS * 2):
@@ -138,6 +137,14 @@ def test_bus_commands_without_a_bus_say_so_as_processes(tmp_path: Path) -> None:
         assert "no bus" in done.stderr, done.stderr
 
 
-def test_frames_helper_still_decodes() -> None:  # the recordings above use real frames
-    topic, payload = encode(Percept(literal="a"), src="fz")
-    assert list(message_frames([topic, payload]))
+@pytest.mark.parametrize(("text", "reason"), [
+    ('{"literal": 1e400}', "number 1e400 is too large for a float"),
+    ('{"literal": NaN}', "NaN is not a JSON number"),
+    ('{"x": ' * 5000 + "1" + "}" * 5000, "nested too deeply"),
+    ('{"literal": ' + "9" * 400 + "}", "number 999999999999999999999999... is too large"),
+])
+def test_send_rejects_json_that_python_would_take_or_crash_on(text: str, reason: str) -> None:
+    argv = ["send", "--run-dir", "/nonexistent", "raw", "percept", text]
+    outcome = run_main(argv)
+    assert outcome.code == 2
+    assert f"JSON is not valid: {reason}" in outcome.err
