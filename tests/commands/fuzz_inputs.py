@@ -36,7 +36,8 @@ EXTREME_NUMBERS = ["1e400", "-1e400", "9" * 400, "1" * 5000, "nan", "inf", "-inf
 NASTY_TEXT = ["", " ", "\t", "(", ")", "[", "]", "\"", "'", "\\", "..", "a(", "a(b", "a(,)",
               "a[", "a[b", "~", "!", "?", "+", "-", "{", "}", "X", "_", "é", "\u2028",
               "a(1e400)", "b(X+1)", "a(" * 300 + ")" * 300, "a(\"\\x\")", "a.b.c(",
-              "not a", "a :- b", "+!g <- !g", "\x00", "\x7f", "\ufffd"]
+              "not a", "a :- b", "+!g <- !g", "\x00", "\x7f", "\ufffd",
+              "a\udcff"]  # the last: a non-UTF-8 byte in argv, as Python decodes it
 
 
 def random_bytes(rng: random.Random, n: int | None = None) -> bytes:

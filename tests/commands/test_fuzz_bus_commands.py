@@ -5,6 +5,8 @@ on a real bus, with seeded random recordings and extreme arguments, end with exi
 from __future__ import annotations
 
 import random
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -13,7 +15,7 @@ import pytest
 
 from mrss.messages import Percept, encode
 from mrss.recording import RecordedMessage, RecordingWriter
-from tests.commands.cli_bus import mrss, running_bus
+from tests.commands.cli_bus import ROOT, mrss, running_bus
 from tests.commands.fuzz_inputs import (
     EXTREME_NUMBERS,
     argument,
@@ -148,3 +150,13 @@ def test_send_rejects_json_that_python_would_take_or_crash_on(text: str, reason:
     outcome = run_main(argv)
     assert outcome.code == 2
     assert f"JSON is not valid: {reason}" in outcome.err
+
+
+def test_arguments_that_are_not_utf8_are_refused_by_every_command(tmp_path: Path) -> None:
+    """Bytes that are not UTF-8 in argv (a Latin-1 shell) are one clear error, exit 2."""
+    for verb in (["agent", b"\xff.asl"], ["check", b"\xff"], ["record", "--prefix", b"\xff"],
+                 ["replay", b"r\xe9.mrssrec"], ["send", "percept", b"a\xff"]):
+        done = subprocess.run([sys.executable, "-m", "mrss", *verb], cwd=ROOT,
+                              capture_output=True, timeout=60)
+        assert done.returncode == 2, done.stderr
+        assert b"is not UTF-8 text" in done.stderr and b"Traceback" not in done.stderr
