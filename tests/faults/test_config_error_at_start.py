@@ -11,9 +11,10 @@ import pytest
 
 from mrss.actors.reasoner import ReasonerComponent
 from mrss.errors import ConfigError
+from mrss.supervision.children import ComponentStart
 from mrss.supervision.component import ComponentContext
 from mrss.supervision.reason import Cause, ExitReason
-from mrss.supervision.spec import OnExceeded
+from mrss.supervision.spec import ChildSpec, OnExceeded
 from tests.faults.conftest import MakeTree, worker
 
 
@@ -40,6 +41,23 @@ def test_with_stop_system_a_config_error_at_start_stops_the_system(
     assert outcome is not None and outcome.gave_up and outcome.child == "bad"
     assert outcome.reason.startswith("config_error: ")
     assert tree.log.of("restart", "bad") == []
+
+
+def test_a_reasoner_process_with_an_unloadable_program_is_refused_once(
+        make_tree: MakeTree, tmp_path: Path) -> None:
+    (tmp_path / "agent.asl").write_text("ok.\nb(X+1).\n")
+    reasoner = ChildSpec("reasoner", ComponentStart(
+        "mrss.actors.reasoner:ReasonerComponent", {"agent": "agent.asl"}, 10.0))
+    tree = make_tree(worker("ok"), reasoner, intensity=10, on_exceeded=OnExceeded.QUARANTINE,
+                     probation=0.2, wait=False)
+    (give_up,) = tree.log.wait_for("give_up", "reasoner", timeout=30)
+    assert give_up.reason == (f"config_error: key 'agent': {tmp_path / 'agent.asl'}:2:1: "
+                              "unbound variable X in arithmetic expression (X+1)")
+    assert give_up.detail["retry_in"] is None
+    assert tree.log.of("restart", "reasoner") == []
+    log_lines = [line for line in (tmp_path / "mrss.log").read_text().splitlines()
+                 if "start of reasoner failed" in line]
+    assert len(log_lines) == 1 and f"{tmp_path / 'agent.asl'}:2:1:" in log_lines[0]
 
 
 def test_exit_code_78_is_a_config_error_even_without_the_childs_word() -> None:
