@@ -18,11 +18,16 @@ script line (the rest of the script still runs).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import math
+import signal
 import sys
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from types import FrameType
 
 from mrss.agentspeak.agent import Agent, read_program
 from mrss.agentspeak.errors import AslSyntaxError
@@ -32,6 +37,7 @@ from mrss.agentspeak.scripted import ScriptedHost
 from mrss.commands.agent_script import AgentScript, ScriptLineError, StillBusy, parse_value
 
 EXIT_BUSY, EXIT_BAD = 1, 2
+ALARM_GRACE = 0.05  # seconds: the checks between cycles normally stop it first
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -46,6 +52,39 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--stdin", action="store_true",
                         help="read percepts and action outcomes from stdin, one per line; "
                              "actions stay open until a line ends them")
+
+
+class TimeUp(BaseException):
+    """`--max-time` ran out inside one long reasoning step (e.g. a `.findall` over a
+    huge `.range`); a BaseException, so no `except Exception` in the interpreter takes it."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """Raise TimeUp in this (main) thread once `seconds` pass: the backstop behind the
+    checks between reasoning cycles, for a single step that never ends."""
+    usable = (seconds is not None and threading.current_thread() is threading.main_thread()
+              and hasattr(signal, "setitimer"))
+    delay = 0.0 if seconds is None else max(seconds, 1e-3) + ALARM_GRACE
+    outer, interval = signal.getitimer(signal.ITIMER_REAL) if usable else (0.0, 0.0)
+    if not usable or 0 < outer <= delay:  # someone else's alarm (a test's timeout) is first
+        yield
+        return
+
+    def expire(signum: int, frame: FrameType | None) -> None:
+        raise TimeUp
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    started = time.monotonic()
+    signal.setitimer(signal.ITIMER_REAL, delay)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        if outer > 0:  # give the outer alarm back what is left of it
+            left = outer - (time.monotonic() - started)
+            signal.setitimer(signal.ITIMER_REAL, max(left, 1e-3), interval)
 
 
 def _line(text: str) -> None:
@@ -100,7 +139,12 @@ def run(args: argparse.Namespace) -> int:
     for lit in args.percept:
         agent.add_percept(lit)
     if not args.stdin:
-        if run_standalone(agent, args.max_time):
+        try:
+            with time_limit(args.max_time):
+                idle = run_standalone(agent, args.max_time)
+        except TimeUp:
+            idle = False
+        if idle:
             return 0
         print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
         return EXIT_BUSY
@@ -111,27 +155,22 @@ def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int
     script = AgentScript(agent, host, _line, max_time)
     rejected = 0
     try:
-        script.apply("")  # the initial goals
+        with time_limit(max_time):
+            script.apply("")  # the initial goals
         for number, line in enumerate(sys.stdin, start=1):
             try:
-                script.apply(line)
+                with time_limit(max_time):
+                    script.apply(line)
             except ScriptLineError as exc:
                 rejected += 1
                 print(f"stdin:{number}: {exc}", file=sys.stderr)
-    except StillBusy:
+    except (StillBusy, TimeUp):
         assert max_time is not None
         print(f"mrss agent: still busy after {max_time:g} s of reasoning", file=sys.stderr)
         return EXIT_BUSY
-    start = time.monotonic()
-    deadline = None if max_time is None else start + max_time
-    while agent.next_deadline() is not None or agent.has_work():  # timers still to fire
-        waited = time.monotonic() - start
-        if max_time is not None and waited >= max_time:
-            print(f"mrss agent: still busy after {max_time:g} s", file=sys.stderr)
-            return EXIT_BUSY
-        agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))
-        if not run_until_idle_by(agent, deadline):
-            continue  # the check above reports it
+    if not _run_timers_out(agent, max_time):
+        print(f"mrss agent: still busy after {max_time:g} s", file=sys.stderr)
+        return EXIT_BUSY
     if rejected:
         return EXIT_BAD
     if host.open:
@@ -139,3 +178,20 @@ def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int
             print(f"mrss agent: action {handle} still open: {text}", file=sys.stderr)
         return EXIT_BUSY
     return 0
+
+
+def _run_timers_out(agent: Agent, max_time: float | None) -> bool:
+    """Reason until no timer is left (True), or False once `max_time` seconds pass."""
+    start = time.monotonic()
+    deadline = None if max_time is None else start + max_time
+    try:
+        with time_limit(max_time):
+            while agent.next_deadline() is not None or agent.has_work():
+                waited = time.monotonic() - start
+                if max_time is not None and waited >= max_time:
+                    return False
+                agent.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))
+                run_until_idle_by(agent, deadline)
+    except TimeUp:
+        return False
+    return True

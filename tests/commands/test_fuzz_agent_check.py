@@ -166,3 +166,16 @@ def test_a_percept_with_arithmetic_on_an_unbound_variable_is_a_bad_argument(
     outcome = run_main(["agent", str(path), "--percept", "b(X+1)"])
     assert outcome.code == 2
     assert "unbound variable X in arithmetic expression" in outcome.err
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("stdin", [False, True])
+def test_max_time_stops_one_reasoning_step_that_never_ends(tmp_path: Path, stdin: bool) -> None:
+    """A single step (a .findall over 10^8 numbers) is stopped too, not only a busy loop."""
+    path = write(tmp_path / "long.asl",
+                 b"!g.\n+!g <- .findall(X, .range(X, 1, 100000000), L); .print(done).\n")
+    argv = ["agent", str(path), "--max-time", "0.3", *(["--stdin"] if stdin else [])]
+    outcome = run_main(argv)
+    assert outcome.code == 1
+    assert "still busy after 0.3 s" in outcome.err
+    assert "done" not in outcome.out
