@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
-import math
 import signal
 import sys
 import threading
@@ -37,6 +36,7 @@ from mrss.agentspeak.scripted import ScriptedHost
 from mrss.commands.agent_script import AgentScript, ScriptLineError, StillBusy, parse_value
 
 EXIT_BUSY, EXIT_BAD = 1, 2
+MAX_TIME = 1e6  # seconds (about 11.6 days): longer overflows the OS's timers
 ALARM_GRACE = 0.05  # seconds: the checks between cycles normally stop it first
 
 
@@ -80,11 +80,13 @@ def time_limit(seconds: float | None) -> Iterator[None]:
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-        if outer > 0:  # give the outer alarm back what is left of it
-            left = outer - (time.monotonic() - started)
-            signal.setitimer(signal.ITIMER_REAL, max(left, 1e-3), interval)
+        try:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+        finally:  # even if the alarm fired just now
+            signal.signal(signal.SIGALRM, previous)
+            if outer > 0:  # give the outer alarm back what is left of it
+                left = outer - (time.monotonic() - started)
+                signal.setitimer(signal.ITIMER_REAL, max(left, 1e-3), interval)
 
 
 def _line(text: str) -> None:
@@ -105,9 +107,9 @@ def _answers(pairs: list[str]) -> dict[str, str]:
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
     path = Path(args.file)
-    if args.max_time is not None and not (math.isfinite(args.max_time) and args.max_time >= 0):
-        print(f"mrss agent: --max-time {args.max_time:g}: expected a finite number of "
-              f"seconds >= 0", file=sys.stderr)
+    if args.max_time is not None and not 0 <= args.max_time <= MAX_TIME:
+        print(f"mrss agent: --max-time {args.max_time:g}: expected seconds from 0 to "
+              f"{MAX_TIME:g}", file=sys.stderr)
         return EXIT_BAD
     try:
         source = read_program(path)

@@ -90,6 +90,17 @@ def test_a_busy_agent_as_a_process_stops_at_max_time(tmp_path: Path) -> None:
     assert done.stderr.strip() == "mrss agent: still busy after 0.5 s"
 
 
+def test_extreme_max_times_are_refused_by_a_process(tmp_path: Path) -> None:
+    """As a process (no test timeout's alarm in the way): no overflow of the OS timers."""
+    path = write(tmp_path / "ok.asl", b"ok.\n")
+    for value in ("1e10", "1e308", "-1", "nan", "inf"):
+        done = mrss("agent", str(path), "--max-time", value)
+        assert done.returncode == 2, done.stderr
+        assert "expected seconds from 0 to 1e+06" in done.stderr, done.stderr
+    done = mrss("agent", str(path), "--max-time", "1e6")
+    assert done.returncode == 0, done.stderr
+
+
 @pytest.mark.timeout(300)
 def test_agent_processes_on_hostile_files_print_no_traceback(tmp_path: Path) -> None:
     rng = random.Random(SEED + 2)
