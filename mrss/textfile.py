@@ -2,11 +2,13 @@
 
 `read_text(path)` is `Path.read_text(encoding="utf-8")` whose UnicodeDecodeError becomes a
 `NotUtf8Error` naming the file, the line and the byte offset of the first bad byte, so
-every command reports a stray Latin-1 byte the same way instead of with a traceback.
+every command reports a stray Latin-1 byte the same way instead of with a traceback; a
+file larger than `MAX_BYTES` (16 MiB, or an endless one such as /dev/zero) is an OSError.
 """
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 from mrss.errors import MrssError
@@ -43,6 +45,14 @@ def decode(data: bytes, file: str) -> str:
         raise NotUtf8Error(file, line, col, start, data[start], shown) from None
 
 
+MAX_BYTES = 16 * 1024 * 1024  # a source or configuration file larger than this is refused
+
+
 def read_text(path: Path) -> str:
-    """The file's text (OSError if it cannot be read, NotUtf8Error if it is not UTF-8)."""
-    return decode(path.read_bytes(), str(path))
+    """The file's text (OSError if it cannot be read or is larger than MAX_BYTES, as
+    /dev/zero would be; NotUtf8Error if it is not UTF-8)."""
+    with path.open("rb") as f:
+        data = f.read(MAX_BYTES + 1)
+    if len(data) > MAX_BYTES:
+        raise OSError(errno.EFBIG, f"larger than {MAX_BYTES // (1024 * 1024)} MiB", str(path))
+    return decode(data, str(path))

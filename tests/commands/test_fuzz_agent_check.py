@@ -185,3 +185,10 @@ def test_max_time_stops_one_reasoning_step_that_never_ends(tmp_path: Path, stdin
     assert outcome.code == 1
     assert "still busy after 0.3 s" in outcome.err
     assert "done" not in outcome.out
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "/"])
+def test_an_endless_file_or_a_directory_is_refused(special: str) -> None:
+    outcome = run_main(["agent", special])
+    assert outcome.code == 2
+    assert outcome.err.startswith(f"mrss agent: cannot read {special}: ")
