@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import logging
 import signal
 import sys
@@ -159,8 +160,11 @@ def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int
     try:
         with time_limit(max_time):
             script.apply("")  # the initial goals
+        if isinstance(sys.stdin, io.TextIOWrapper):  # bad bytes become U+DC80..U+DCFF
+            sys.stdin.reconfigure(errors="surrogateescape")
         for number, line in enumerate(sys.stdin, start=1):
             try:
+                _utf8(line)
                 with time_limit(max_time):
                     script.apply(line)
             except ScriptLineError as exc:
@@ -180,6 +184,17 @@ def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int
             print(f"mrss agent: action {handle} still open: {text}", file=sys.stderr)
         return EXIT_BUSY
     return 0
+
+
+def _utf8(line: str) -> None:
+    """ScriptLineError naming the first byte of `line` that was not UTF-8."""
+    try:
+        line.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        char = ord(line[exc.start])
+        byte = char - 0xDC00 if 0xDC80 <= char <= 0xDCFF else char
+        raise ScriptLineError(f"not UTF-8 text: byte 0x{byte:02x} at column {exc.start + 1}"
+                              ) from None
 
 
 def _run_timers_out(agent: Agent, max_time: float | None) -> bool:

@@ -4,12 +4,15 @@ message, never a traceback, and within their own time limits."""
 
 from __future__ import annotations
 
+import os
 import random
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from tests.commands.cli_bus import mrss
+from tests.commands.cli_bus import ROOT, mrss
 from tests.commands.fuzz_inputs import (
     EXTREME_NUMBERS,
     VALID_ASL,
@@ -192,3 +195,14 @@ def test_an_endless_file_or_a_directory_is_refused(special: str) -> None:
     outcome = run_main(["agent", special])
     assert outcome.code == 2
     assert outcome.err.startswith(f"mrss agent: cannot read {special}: ")
+
+
+def test_a_script_line_that_is_not_utf8_is_named_and_skipped(tmp_path: Path) -> None:
+    path = write(tmp_path / "ok.asl", b"ok.\n")
+    env = {**os.environ, "LC_ALL": "C.UTF-8", "LANG": "C.UTF-8"}  # strict stdin decoding
+    done = subprocess.run([sys.executable, "-m", "mrss", "agent", str(path), "--stdin"],
+                          input=b"+a\n+b(\xff)\n? a\n", capture_output=True, env=env,
+                          cwd=ROOT, timeout=60)
+    assert done.returncode == 2
+    assert done.stdout == b"yes\n"
+    assert done.stderr == b"stdin:2: not UTF-8 text: byte 0xff at column 4\n"
