@@ -12,7 +12,10 @@ mrss.commands.agent_script (docs/agentspeak.md, "Running an agent").
 Exit 0 once the agent is idle (with `--stdin`: at the end of the script, with no action
 left open), 1 if it is still busy after `--max-time` seconds or actions are left open,
 2 on syntax errors, an unreadable file, a bad `--percept`/`--answer`, or a rejected
-script line (the rest of the script still runs).
+script line (the rest of the script still runs). `--max-time` bounds reasoning as well
+as waiting: the cycles are checked against it every CYCLE_CHUNK cycles, and an alarm
+(`time_limit`) interrupts a single step that never ends. With `--stdin` it applies to
+the reasoning after each line and to the timers run out at the end.
 """
 
 from __future__ import annotations
