@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
@@ -41,6 +42,7 @@ VERBS: tuple[Verb, ...] = (
 )
 
 NOT_BUILT_EXIT = 2
+INTERNAL = "internal error"  # the fuzz tests assert no input reaches this
 
 
 def _verb_module(name: str) -> str:
@@ -70,6 +72,16 @@ def build_parser(configure: Collection[str] | None = None) -> argparse.ArgumentP
     return parser
 
 
+def _not_utf8(word: str) -> int | None:
+    """The first byte of `word` that is not UTF-8 (a lone surrogate), or None."""
+    try:
+        word.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        char = ord(word[exc.start])
+        return char - 0xDC00 if 0xDC80 <= char <= 0xDCFF else char & 0xFF
+    return None
+
+
 def _module_exists(name: str) -> bool:
     return importlib.util.find_spec(_verb_module(name)) is not None
 
@@ -77,6 +89,12 @@ def _module_exists(name: str) -> bool:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `mrss` console script; returns the exit code."""
     words = list(sys.argv[1:] if argv is None else argv)
+    for word in words:  # bytes that are not UTF-8 arrive as lone surrogates (PEP 383)
+        bad = _not_utf8(word)
+        if bad is not None:
+            print(f"mrss: argument {word.encode('utf-8', 'surrogateescape')!r} is not UTF-8 "
+                  f"text (byte 0x{bad:02x}); arguments must be UTF-8", file=sys.stderr)
+            return NOT_BUILT_EXIT
     chosen = next((w for w in words if not w.startswith("-")), None)  # the verb, if any
     parser = build_parser([chosen] if chosen is not None else [])
     args = parser.parse_args(words)
@@ -98,3 +116,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return NOT_BUILT_EXIT
     except KeyboardInterrupt:
         return 130
+    except RecursionError:
+        print(f"mrss {verb.name}: {INTERNAL}: input nested too deeply", file=sys.stderr)
+        return NOT_BUILT_EXIT
+    except Exception as exc:  # last resort: a one-line error, never a traceback
+        print(f"mrss {verb.name}: {INTERNAL}: {type(exc).__name__}: {exc} (please report "
+              f"it with the input; MRSS_TRACEBACK=1 shows where)", file=sys.stderr)
+        if os.environ.get("MRSS_TRACEBACK"):
+            raise
+        return NOT_BUILT_EXIT

@@ -33,6 +33,7 @@ from mrss.supervision.spec import (
     Strategy,
     SupervisorSpec,
 )
+from mrss.textfile import NotUtf8Error, read_text
 
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
@@ -161,9 +162,11 @@ def load_project(name: str, base: Path | None = None) -> ProjectConfig:
 def load_file(path: Path) -> ProjectConfig:
     """Load and validate one project.toml."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path)
     except OSError as exc:
         raise ConfigError(f"cannot read: {exc.strerror}", file=str(path)) from exc
+    except NotUtf8Error as exc:
+        raise ConfigError(f"line {exc.line}: {exc.reason}", file=str(path)) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -395,7 +398,10 @@ class _Reader:
 
 def key_line_number(path: Path, key: str) -> int | None:
     """The line of a dotted key (or of its table) in a project.toml, for error messages."""
-    return _Reader(path, path.read_text(encoding="utf-8")).line_of(key)
+    try:
+        return _Reader(path, read_text(path)).line_of(key)
+    except (OSError, NotUtf8Error):
+        return None
 
 
 def _close_to(word: str, options: tuple[str, ...]) -> str | None:

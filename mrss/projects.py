@@ -33,6 +33,13 @@ def project_path(name: str, base: Path | None = None) -> Path:
     """The folder of project `name`; UnknownProjectError lists the known ones."""
     root = base or projects_dir()
     path = root / name
-    if name in ("", ".", "..") or "/" in name or not (path / PROJECT_FILE).is_file():
+    if name in ("", ".", "..") or "/" in name or "\0" in name or not _is_file(path / PROJECT_FILE):
         raise UnknownProjectError(name, known_projects(root))
     return path
+
+
+def _is_file(path: Path) -> bool:
+    try:
+        return path.is_file()
+    except OSError:  # e.g. a name too long for the file system
+        return False

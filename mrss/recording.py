@@ -6,7 +6,7 @@ MAGIC   := b"MRSSREC" + version byte 0x01                       (8 bytes)
 header  := block whose body is a msgpack map
            {"created": float, "endpoints": {...}, "prefixes": [str, ...]}
 entry   := block whose body is a msgpack array [t, frames, note]
-           t: float (receive time, Unix seconds), frames: [bin, ...] (the ZeroMQ
+           t: float >= 0 (receive time, Unix seconds), frames: [bin, ...] (the ZeroMQ
            message exactly as received, one or more frames), note: str ("" for a
            well-formed message, else why it did not decode when recorded)
 block   := length u32 (big-endian) | crc32(body) u32 (big-endian) | body
@@ -86,8 +86,8 @@ class RecordingWriter:
         """Append one entry."""
         if not message.frames:
             raise ValueError("a recorded message has at least one frame")
-        if not math.isfinite(message.t):
-            raise ValueError(f"receive time {message.t!r} is not finite")
+        if not math.isfinite(message.t) or message.t < 0:
+            raise ValueError(f"receive time {message.t!r} is not finite and >= 0")
         self._block([float(message.t), [bytes(f) for f in message.frames], message.note])
         self.count += 1
         self.malformed += message.malformed
@@ -188,8 +188,8 @@ def _entry(value: Any, offset: int) -> tuple[RecordedMessage | None, str]:
     if not isinstance(value, list) or len(value) != 3:
         return None, "entry is not [time, frames, note]"
     t, frames, note = value
-    if not isinstance(t, float) or not math.isfinite(t):
-        return None, "entry time is not a finite float"
+    if not isinstance(t, float) or not math.isfinite(t) or t < 0:
+        return None, "entry time is not a finite float >= 0"
     if (not isinstance(frames, list) or not frames
             or not all(isinstance(f, bytes) for f in frames)):
         return None, "entry frames are not a non-empty list of bytes"

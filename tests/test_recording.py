@@ -22,7 +22,7 @@ from mrss.recording import (
 
 messages = st.builds(
     RecordedMessage,
-    t=st.floats(allow_nan=False, allow_infinity=False),
+    t=st.floats(min_value=0.0, allow_nan=False, allow_infinity=False),  # Unix seconds
     frames=st.lists(st.binary(max_size=40), min_size=1, max_size=4).map(tuple),
     note=st.one_of(st.just(""), st.text(max_size=20)),
 )

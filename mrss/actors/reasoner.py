@@ -38,6 +38,8 @@ from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
 from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak import Agent, AslSyntaxError
+from mrss.agentspeak.agent import read_program
+from mrss.agentspeak.loadcheck import load_problems, one_line
 from mrss.bus import (
     BusEndpoints,
     Incarnations,
@@ -266,13 +268,14 @@ class ReasonerComponent(Component):
         agent_file = ctx.project_dir / str(opts.get("agent", "agent.asl"))
         if not agent_file.is_file():
             raise ConfigError("agent file not found", file=str(agent_file), key="agent")
+        beliefs = opts.get("beliefs", [])
+        if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
+            raise ConfigError("must be a list of belief strings", key="beliefs")
+        refuse_unloadable(agent_file, beliefs)  # before anything is started
         endpoints = BusEndpoints.from_dict(ctx.bus)
         publisher: Publisher = ctx.publisher
         self._tx = ReliableSender(endpoints, src=ctx.name, inc=ctx.incarnation,
                                   channel=ACTION_CHANNEL)
-        beliefs = opts.get("beliefs", [])
-        if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
-            raise ConfigError("must be a list of belief strings", key="beliefs")
         self._port = bus_port(ctx)
         self._data = DataLayerClient(self._port)
         heartbeat = Heartbeat(component=ctx.name, pid=os.getpid())
@@ -347,3 +350,20 @@ def _event_text(event: Any) -> str:
     owner = event.get("intention")
     return f"{event.get('trigger', '?')}" + (f"  (intention #{owner})" if owner is not None
                                             else "")
+
+
+def refuse_unloadable(agent_file: Path, beliefs: list[str]) -> None:
+    """ConfigError (one line, `file:line:col: message`) unless the program and the
+    initial beliefs load: the check `mrss check` makes, so a bad program is refused at
+    start and not restarted (docs/supervision.md) instead of crashing in a loop."""
+    try:
+        text = read_program(agent_file)
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror or exc}", file=str(agent_file),
+                          key="agent") from None
+    except AslSyntaxError as exc:  # not UTF-8
+        raise ConfigError(one_line(exc.problems), key="agent") from None
+    problems = load_problems(text, str(agent_file), beliefs)
+    if problems:
+        raise ConfigError(one_line(problems), key="agent" if problems[0].file != "beliefs"
+                          else "beliefs")

@@ -18,7 +18,7 @@ from typing import Any
 
 from mrss.agentspeak.compile import compile_program
 from mrss.agentspeak.depth import ensure_recursion_limit
-from mrss.agentspeak.errors import SyntaxProblem
+from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.intentions import RUNNABLE
 from mrss.agentspeak.parser import parse_literal, parse_program
 from mrss.agentspeak.registry import Registry
@@ -30,6 +30,7 @@ from mrss.agentspeak.terms import (
     SOURCE_PERCEPT,
     Struct,
 )
+from mrss.textfile import NotUtf8Error, read_text
 
 
 def _print_line(text: str) -> None:
@@ -64,7 +65,7 @@ class Agent(Runtime):
         if source is None:
             if file is None:
                 raise ValueError("Agent needs a source text or a file")
-            source = Path(file).read_text(encoding="utf-8")
+            source = read_program(Path(file))
         self.file = str(file) if file is not None else "<string>"
         problems: list[SyntaxProblem] = []
         program = parse_program(source, self.file, collect=problems)
@@ -76,10 +77,20 @@ class Agent(Runtime):
             else:
                 h = clause.head  # type: ignore[union-attr]
                 self.bb.add_rule((h.functor, len(h.args), h.neg), clause)  # type: ignore
-        for extra in beliefs:
+        bad: list[SyntaxProblem] = []
+        for number, extra in enumerate(beliefs, start=1):
             from mrss.agentspeak.compile import with_self_source
 
-            self.bb.add(with_self_source(parse_literal(extra)), front=False)
+            try:
+                belief = with_self_source(parse_literal(extra))
+            except (AslSyntaxError, AslRuntimeError) as exc:  # e.g. b(X+1): X is unbound
+                reason = exc.problems[0].message if isinstance(exc, AslSyntaxError) else exc
+                bad.append(SyntaxProblem("beliefs", number, 1,
+                                         f"initial belief {str(extra)!r}: {reason}", str(extra)))
+                continue
+            self.bb.add(belief, front=False)
+        if bad:
+            raise AslSyntaxError(bad)
         for plan in compiled.plans:
             self.plans.add(plan)
         for goal in compiled.goals:
@@ -243,3 +254,13 @@ class Agent(Runtime):
             self.trail.clear()
             return True
         return False
+
+
+def read_program(path: Path) -> str:
+    """A program file's text (OSError if unreadable; AslSyntaxError if not UTF-8)."""
+    try:
+        return read_text(path)
+    except NotUtf8Error as exc:
+        raise AslSyntaxError([SyntaxProblem(exc.file, exc.line, exc.col, exc.reason,
+                                            exc.source_line)]
+                             ) from None

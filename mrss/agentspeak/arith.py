@@ -34,8 +34,13 @@ def _real_div(a: Number, b: Number) -> Number:
     return a / b
 
 
+MAX_POW_BITS = 1024  # an integer power larger than the largest float is an error
+
+
 def _pow(a: Number, b: Number) -> Number:
     if type(a) is int and type(b) is int and b >= 0:
+        if abs(a) > 1 and b * math.log2(abs(a)) > MAX_POW_BITS:  # before computing it
+            raise AslRuntimeError(f"{a} ** {b} is too large (more than about 1.8e308)")
         return a**b  # type: ignore
     try:
         return float(a) ** b

@@ -21,6 +21,7 @@ from mrss.agentspeak.syntax import (
     PlanSrc,
     RuleSrc,
     Statement,
+    number_value,
 )
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -59,6 +60,10 @@ def _unescape(s: str) -> str:
     return "".join(out)
 
 
+def _short(text: str) -> str:
+    return text if len(text) <= 24 else f"{text[:10]}...{text[-6:]} ({len(text)} characters)"
+
+
 class TreeBuilder(Transformer):  # type: ignore[type-arg]
     """Turns one statement's parse tree into templates; variables become slots."""
 
@@ -90,7 +95,13 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     # terms
     def number(self, c: list[Token]) -> Term:
         text = str(c[0])
-        return float(text) if ("." in text or "e" in text or "E" in text) else int(text)
+        value = number_value(text)
+        if value is None:
+            self.problems.append((c[0].line or 1, c[0].column or 1,
+                                  f"number {_short(text)} is too large (the limit is about "
+                                  f"1.8e308, the largest finite float)"))
+            return 0
+        return value
 
     def string(self, c: list[Token]) -> Term:
         return _unescape(str(c[0])[1:-1])

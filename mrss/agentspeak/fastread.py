@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 
 from mrss.agentspeak.arith import ARITY
+from mrss.agentspeak.syntax import number_value
 from mrss.agentspeak.terms import Struct, Term
 
 _TOKEN = re.compile(
@@ -72,7 +73,10 @@ class _Reader:
     def _term(self) -> Term:
         kind, text = self._next()
         if kind == "num":
-            return float(text) if ("." in text or "e" in text or "E" in text) else int(text)
+            value = number_value(text)
+            if value is None:  # too large: the full parser reports it
+                raise _NotSimple
+            return value
         if kind == "str":
             return text[1:-1]
         if kind == "atom":

@@ -33,12 +33,26 @@ class ConsoleHost:
         self.out(f"cancel: action {handle}")
 
 
+CYCLE_CHUNK = 1000  # reasoning cycles between two looks at the clock
+
+
+def run_until_idle_by(agent: Agent, deadline: float | None) -> bool:
+    """`agent.run_until_idle()`, but give up (False) once `time.monotonic()` passes
+    `deadline`: an agent that is always busy (`+!g <- !g.`) never becomes idle."""
+    while agent.run_until_idle(CYCLE_CHUNK) >= CYCLE_CHUNK:
+        if deadline is not None and time.monotonic() >= deadline:
+            return False
+    return True
+
+
 def run_standalone(agent: Agent, max_time: float | None = None) -> bool:
-    """Run `agent` until it is idle (True) or `max_time` seconds pass (False), sleeping
-    on `wait_for_work` while it waits for timers or actions."""
+    """Run `agent` until it is idle (True) or `max_time` seconds pass (False), reasoning
+    or sleeping on `wait_for_work` while it waits for timers or actions."""
     start = time.monotonic()
+    deadline = None if max_time is None else start + max_time
     while True:
-        agent.run_until_idle()
+        if not run_until_idle_by(agent, deadline):
+            return False
         if agent.is_idle():
             return True
         waited = time.monotonic() - start

@@ -15,7 +15,7 @@ import lark
 
 from mrss.agentspeak.builder import TreeBuilder
 from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
-from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
+from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
 from mrss.agentspeak.syntax import BeliefSrc, Program
 from mrss.agentspeak.terms import Struct, Term
@@ -232,7 +232,12 @@ def parse_term(text: str) -> Term:
     if len(program.statements) != 1 or not isinstance(program.statements[0], BeliefSrc):
         raise AslSyntaxError([SyntaxProblem("<term>", 1, 1, "expected one literal", text)])
     lit = program.statements[0].lit
-    return resolve(lit, [None] * 64) if not lit.ground else lit
+    if lit.ground:
+        return lit
+    try:
+        return resolve(lit, [None] * 64)
+    except AslRuntimeError as exc:  # e.g. b(X+1): arithmetic on an unbound variable
+        raise AslSyntaxError([SyntaxProblem("<term>", 1, 1, exc.message, text)]) from None
 
 
 def parse_literal(text: str | Struct) -> Struct:

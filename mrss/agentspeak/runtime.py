@@ -221,6 +221,9 @@ class Runtime:
                 except RecursionError:
                     self.warn(f"{plan.file}:{plan.line}: "
                               + depth_message(f"the context of {plan.trigger_text()}"))
+                except (ArithmeticError, ValueError) as exc:
+                    self.warn(f"{plan.file}:{plan.line}: error in the context of "
+                              f"{plan.trigger_text()}: {exc}")
                 if chosen is not None:
                     break
                 undo(trail, mark0)
@@ -274,6 +277,11 @@ class Runtime:
                     self.trail.clear()
                     goals.fail(self, it, DEPTH_ERROR, depth_message(ins.text()),
                                im.plan.file, ins.line)
+                    return
+                except (ArithmeticError, ValueError) as exc:  # e.g. an int too large to print
+                    self.trail.clear()
+                    goals.fail(self, it, "ia_failed", f"{ins.text()}: {exc}", im.plan.file,
+                               ins.line)
                     return
                 if self.trail:
                     self.trail.clear()

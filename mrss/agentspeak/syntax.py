@@ -7,9 +7,23 @@ formulas are `Struct`s with the functors `&`, `|`, `not` and the relational oper
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from mrss.agentspeak.terms import Struct, Term
+
+MAX_INT_DIGITS = 308  # an integer literal must fit a float: arithmetic mixes the two
+
+
+def number_value(text: str) -> int | float | None:
+    """The value of an unsigned number literal, or None when it does not fit a finite
+    float (`1e400`, a 400-digit integer): such a literal is a syntax error, not `inf`."""
+    if "." in text or "e" in text or "E" in text:
+        value = float(text)
+        return value if math.isfinite(value) else None
+    if len(text.lstrip("0")) > MAX_INT_DIGITS:
+        return None
+    return int(text)
 
 
 @dataclass

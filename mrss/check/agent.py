@@ -11,12 +11,13 @@ report); a program that does not parse gives no uses, so no later check guesses 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mrss.agentspeak import Agent, AslSyntaxError, ConsoleHost
-from mrss.agentspeak.errors import SyntaxProblem
+from mrss.agentspeak import AslSyntaxError
+from mrss.agentspeak.agent import read_program
+from mrss.agentspeak.loadcheck import load_problems
 from mrss.agentspeak.parser import parse_program
 from mrss.agentspeak.syntax import BodyItem, BodyNode, IfItem, LoopItem, PlanSrc
 from mrss.agentspeak.terms import Struct
@@ -50,21 +51,20 @@ class AgentUses:
     lines: int = 0
 
 
-def read_agent(path: Path, report: Report) -> AgentUses | None:
+def read_agent(path: Path, report: Report, beliefs: Sequence[str] = ()) -> AgentUses | None:
     """Parse agent.asl; syntax errors go to the report and give None."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_program(path)
     except OSError as exc:
         report.error(str(path), f"cannot read the agent: {exc.strerror or exc}", check="agent")
         return None
-    problems: list[SyntaxProblem] = []
+    except AslSyntaxError as exc:  # not UTF-8
+        text, problems = "", list(exc.problems)
+    else:
+        problems = []
     program = parse_program(text, file=str(path), collect=problems)
-    if not problems:
-        try:  # the whole compile: what parses may still not compile
-            Agent(text, file=str(path), host=ConsoleHost(lambda line: None), name=path.stem,
-                  out=lambda line: None)
-        except AslSyntaxError as exc:
-            problems = list(exc.problems)
+    if not problems:  # the whole load: what parses may still not compile
+        problems = load_problems(text, str(path), beliefs)
     for p in problems:
         caret = " " * (max(p.col, 1) - 1) + "^"
         report.error(p.file, p.message, line=p.line, col=p.col, check="agent",

@@ -114,13 +114,23 @@ def _agent(config: ProjectConfig, report: Report) -> AgentUses | None:
         path = config.directory / name
         if not path.is_file():
             continue  # the reasoner's `agent` option says so
-        found = read_agent(path, report)
+        found = read_agent(path, report, _beliefs(config, name))
         if found is not None:
             uses = found
             report.summary.append(f"  agent {name}: {found.lines} lines, {found.beliefs} "
                                   f"initial beliefs, actions "
                                   f"{_names(found.actions)}, queries {_names(found.queries)}")
     return uses
+
+
+def _beliefs(config: ProjectConfig, agent: str) -> list[str]:
+    """The initial beliefs (option `beliefs`) of the reasoners that run `agent`."""
+    found: list[str] = []
+    for c in _running(config, REASONER):
+        beliefs = c.options.get("beliefs", [])
+        if str(c.options.get("agent", "agent.asl")) == agent and isinstance(beliefs, list):
+            found += [b for b in beliefs if isinstance(b, str)]
+    return found
 
 
 def _names(uses: Any) -> str:

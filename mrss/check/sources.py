@@ -25,6 +25,7 @@ from typing import Any
 from mrss.check.findings import Report, did_you_mean
 from mrss.edge.loader import import_project_module, project_file
 from mrss.errors import ConfigError
+from mrss.textfile import NotUtf8Error, read_text
 
 
 @dataclass
@@ -83,7 +84,14 @@ class Sources:
                               "project folder", line=key_line, check=check, key=key)
             source.broken = True
             return source
-        text = path.read_text(encoding="utf-8")
+        try:
+            text = read_text(path)
+        except (OSError, NotUtf8Error) as exc:
+            line = exc.line if isinstance(exc, NotUtf8Error) else 0
+            why = exc.reason if isinstance(exc, NotUtf8Error) else f"cannot read: {exc}"
+            self.report.error(str(path), why, line=line, check=check)
+            source.broken = True
+            return source
         try:
             source.tree = ast.parse(text, filename=str(path))
         except SyntaxError as exc:

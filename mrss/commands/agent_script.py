@@ -17,12 +17,14 @@ as `stdin:LINE: problem (expected ...)` and skipped; the agent goes on.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.errors import AslSyntaxError
+from mrss.agentspeak.host import run_until_idle_by
 from mrss.agentspeak.parser import parse_literal, parse_term
 from mrss.agentspeak.scripted import ScriptedHost
 from mrss.agentspeak.terms import Struct, term_str
@@ -34,6 +36,10 @@ class ScriptLineError(ValueError):
     """A line of the script that cannot be applied (the message says what was expected)."""
 
 
+class StillBusy(Exception):
+    """The agent was still reasoning when the script's time limit for a line ran out."""
+
+
 @dataclass
 class AgentScript:
     """Applies script lines to an agent on a ScriptedHost."""
@@ -41,11 +47,16 @@ class AgentScript:
     agent: Agent
     host: ScriptedHost
     out: Callable[[str], None]
+    max_time: float | None = None  # seconds of reasoning a line may take (StillBusy after)
+    _deadline: float | None = field(default=None, init=False)
 
     def apply(self, line: str) -> None:
-        """Apply one line (ScriptLineError if it is malformed), then reason until idle."""
+        """Apply one line (ScriptLineError if it is malformed), then reason until idle
+        (StillBusy if that takes more than `max_time`)."""
+        self._deadline = None if self.max_time is None else time.monotonic() + self.max_time
         text = line.strip()
         if not text or text.startswith("#"):
+            self.reason()
             return
         word, _, rest = text.partition(" ")
         rest = rest.strip()
@@ -56,7 +67,7 @@ class AgentScript:
                 {"+": self.agent.add_percept, "-": self.agent.remove_percept,
                  "!": self.agent.add_goal}[text[0]](literal)
             elif word == "?":
-                self.agent.run_until_idle()
+                self.reason()
                 self.out("yes" if self.agent.believes(rest) else "no")
                 return
             elif word in ("ok", "fail"):
@@ -68,7 +79,12 @@ class AgentScript:
         except AslSyntaxError as exc:
             raise ScriptLineError(f"{exc.args[0] if exc.args else exc} (expected {USAGE})"
                                   ) from None
-        self.agent.run_until_idle()
+        self.reason()
+
+    def reason(self) -> None:
+        """Reason until idle, within this line's time limit (StillBusy past it)."""
+        if not run_until_idle_by(self.agent, self._deadline):
+            raise StillBusy
 
     def _outcome(self, ok: bool, rest: str) -> None:
         handle_text, _, extra = rest.partition(" ")
@@ -92,10 +108,12 @@ class AgentScript:
 
     def _wait(self, seconds: float) -> None:
         end = time.monotonic() + seconds
-        self.agent.run_until_idle()
+        if self._deadline is not None:  # `wait` lasts at most the line's time limit
+            end = self._deadline = min(end, self._deadline)
+        self.reason()
         while (left := end - time.monotonic()) > 0:
-            self.agent.wait_for_work(left)
-            self.agent.run_until_idle()
+            self.agent.wait_for_work(min(left, 1.0))
+            self.reason()
 
 
 def parse_value(text: str) -> str:
@@ -111,6 +129,8 @@ def _number(text: str, expected: str) -> float:
         value = float(text)
     except ValueError:
         raise ScriptLineError(f"{text!r} is not a number (expected {expected})") from None
+    if not math.isfinite(value):
+        raise ScriptLineError(f"{text!r} is not a finite number (expected {expected})")
     if value < 0:
         raise ScriptLineError(f"{text!r} is negative (expected {expected})")
     return value

@@ -8,7 +8,7 @@ sockets `bus-pub.sock` and `bus-sub.sock` there) or by the proxy's two endpoints
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -89,13 +89,31 @@ def connected_publisher(endpoints: BusEndpoints, src: str, timeout: float,
         context.term()
 
 
+MAX_SECONDS = 1e6  # about 11.6 days: longer waits overflow the OS's and ZeroMQ's timers
+
+
 def positive_float(text: str) -> float:
-    """An argparse type: a finite number greater than 0."""
+    """An argparse type: a number of seconds greater than 0, at most MAX_SECONDS."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number of seconds")
+    if not 0 < value <= MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a number of seconds greater "
+                                         f"than 0 and at most {MAX_SECONDS:g}")
     return value
+
+
+def number_in(low: float, high: float, what: str) -> Callable[[str], float]:
+    """An argparse type: a number within [low, high]."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{text!r} is outside [{low:g}, {high:g}] "
+                                             f"({what})")
+        return value
+    return parse
 

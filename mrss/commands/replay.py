@@ -1,12 +1,16 @@
 """`mrss replay FILE`: publish a recording (see `mrss record`) on a running system's bus.
 
 ```
-mrss replay FILE --run-dir DIR [--speed X | --as-fast-as-possible] [--prefix P ...]
-                 [--include-malformed]
+mrss replay FILE --run-dir DIR [--speed X | --as-fast-as-possible] [--max-gap S]
+                 [--prefix P ...] [--include-malformed]
 ```
 
 Messages go out in file order with their recorded spacing divided by `--speed`
-(or back to back with `--as-fast-as-possible`), frames as recorded: envelopes keep
+(or back to back with `--as-fast-as-possible`), frames as recorded. Recorded times are
+not trusted: `--speed` outside [0.001, 1000] is rejected, a gap longer than `--max-gap`
+seconds (default 60, at most 3600) is replayed as that many, a time going backwards as
+no gap, and an entry whose time is not a finite number >= 0 is skipped as undecodable.
+Envelopes keep
 their original id, time, sender and incarnation. A reliable-channel message is
 published as the plain message it carries (monitors see it; no reliable receiver
 takes it for a live sender's), so a replay never drives robots through the action
@@ -33,21 +37,30 @@ from mrss.commands.busargs import (
     add_bus_arguments,
     connected_publisher,
     endpoints_from_args,
-    positive_float,
+    number_in,
 )
 from mrss.errors import MrssError
 from mrss.recording import RecordedMessage, RecordingError, RecordingReader
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130
+MIN_SPEED, MAX_SPEED = 1e-3, 1e3
+DEFAULT_MAX_GAP = 60.0
+MAX_GAP_LIMIT = 3600.0
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", type=Path, help="a recording made by `mrss record`")
     add_bus_arguments(parser)
     pace = parser.add_mutually_exclusive_group()
-    pace.add_argument("--speed", type=positive_float, default=1.0, metavar="X",
-                      help="play X times as fast as recorded (default 1)")
+    pace.add_argument("--speed", type=number_in(MIN_SPEED, MAX_SPEED, "the replay speed"),
+                      default=1.0, metavar="X",
+                      help=f"play X times as fast as recorded (default 1; {MIN_SPEED:g} to "
+                           f"{MAX_SPEED:g})")
+    parser.add_argument("--max-gap", type=number_in(0.0, MAX_GAP_LIMIT, "seconds"),
+                        default=DEFAULT_MAX_GAP, metavar="S",
+                        help=f"a longer pause between two recorded messages is replayed as "
+                             f"S seconds (default {DEFAULT_MAX_GAP:g})")
     pace.add_argument("--as-fast-as-possible", action="store_true",
                       help="ignore the recorded timing")
     parser.add_argument("--prefix", action="append", default=None, metavar="P",
@@ -66,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
             with connected_publisher(endpoints, "mrss-replay", args.timeout) as publisher:
                 player = Player(publisher,
                                 speed=None if args.as_fast_as_possible else args.speed,
+                                max_gap=args.max_gap,
                                 prefixes=args.prefix, include_malformed=args.include_malformed,
                                 on_malformed=skipped.malformed)
                 code = _play(player, reader, path)
@@ -118,15 +132,24 @@ class _Skips:
 class Player:
     """Publishes recorded messages with their recorded spacing scaled by 1/`speed`.
 
-    `speed=None` sends them back to back. The spacing is measured from the first message
-    replayed, against a monotonic clock, so delays do not add up over a long recording.
+    `speed=None` sends them back to back. Recorded times are not trusted: a gap longer
+    than `max_gap` seconds (a recorder paused, a clock stepped, a forged entry) is
+    replayed as `max_gap`, and one going back in time as none. Each message is due a
+    scaled gap after the one before it, against a monotonic clock, so delays do not add
+    up over a long recording.
     """
 
     def __init__(self, publisher: Publisher, *, speed: float | None,
+                 max_gap: float = DEFAULT_MAX_GAP,
                  prefixes: list[str] | None = None, include_malformed: bool = False,
                  on_malformed: Callable[[RecordedMessage], None] | None = None) -> None:
+        if speed is not None and not MIN_SPEED <= speed <= MAX_SPEED:
+            raise ValueError(f"speed {speed!r} is outside [{MIN_SPEED:g}, {MAX_SPEED:g}]")
+        if not 0 <= max_gap <= MAX_GAP_LIMIT:
+            raise ValueError(f"max_gap {max_gap!r} is outside [0, {MAX_GAP_LIMIT:g}]")
         self._publisher = publisher
         self._speed = speed
+        self._max_gap = max_gap
         self._prefixes = tuple(p.encode() for p in prefixes) if prefixes else (b"",)
         self._include_malformed = include_malformed
         self._on_malformed = on_malformed
@@ -134,7 +157,7 @@ class Player:
 
     def play(self, messages: Iterable[RecordedMessage]) -> None:
         """Publish `messages` in order (a RecordingReader's errors pass through)."""
-        start: tuple[float, float] | None = None  # (recorded time, monotonic time) of the first
+        last: tuple[float, float] | None = None  # (recorded time, due time) of the last sent
         for message in messages:
             if not topic_of(message).startswith(self._prefixes):
                 continue
@@ -143,9 +166,12 @@ class Player:
                     self._on_malformed(message)
                 continue
             if self._speed is not None:
-                if start is None:
-                    start = (message.t, time.monotonic())
-                due = start[1] + (message.t - start[0]) / self._speed
+                if last is None:
+                    due = time.monotonic()
+                else:
+                    gap = min(max(message.t - last[0], 0.0), self._max_gap)
+                    due = last[1] + gap / self._speed
+                last = (message.t, due)
                 delay = due - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)

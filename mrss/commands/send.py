@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import sys
@@ -32,6 +33,7 @@ from typing import Any
 
 from mrss.agentspeak.errors import AslSyntaxError
 from mrss.agentspeak.parser import parse_term
+from mrss.agentspeak.syntax import MAX_INT_DIGITS
 from mrss.agentspeak.terms import Struct, is_ground
 from mrss.commands.busargs import add_bus_arguments, connected_publisher, endpoints_from_args
 from mrss.errors import DecodeError, MrssError
@@ -127,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
 def send_mqtt(args: argparse.Namespace) -> int:
     """Publish the JSON payload on the project's broker; exit 2 naming what is wrong."""
     try:
-        payload = json.loads(args.json)
+        payload = load_json(args.json)
     except ValueError as exc:
         print(f"mrss send: JSON is not valid: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -214,6 +216,30 @@ def _syntax_report(literal: str, exc: AslSyntaxError) -> str:
     return f"bad literal: {where}: {message}\n    {source}\n    {caret}"
 
 
+def load_json(text: str) -> Any:
+    """`json.loads`, but strict: ValueError for NaN, Infinity, numbers too large for a
+    float (`1e400`) and nesting too deep, which Python's decoder would take or crash on."""
+    def no_constant(name: str) -> Any:
+        raise ValueError(f"{name} is not a JSON number")
+
+    def finite(number: str) -> float:
+        value = float(number)
+        if not math.isfinite(value):
+            raise ValueError(f"number {number[:24]} is too large for a float")
+        return value
+
+    def integer(number: str) -> int:
+        if len(number.lstrip("-0")) > MAX_INT_DIGITS:
+            raise ValueError(f"number {number[:24]}... is too large for a float")
+        return int(number)
+
+    try:
+        return json.loads(text, parse_constant=no_constant, parse_float=finite,
+                          parse_int=integer)
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+
+
 def parse_args(items: list[str]) -> dict[str, Any]:
     """`KEY=VALUE` pairs as a map; a VALUE that is JSON is decoded, any other is text."""
     result: dict[str, Any] = {}
@@ -222,7 +248,7 @@ def parse_args(items: list[str]) -> dict[str, Any]:
         if not sep or not _ARG_KEY.match(key):
             raise BadInput(f"--arg {item!r} must be KEY=VALUE with KEY a name")
         try:
-            result[key] = json.loads(value)
+            result[key] = load_json(value)
         except ValueError:
             result[key] = value
     return result
@@ -234,7 +260,7 @@ def raw_message(kind: str, text: str) -> Message:
     if cls is None:
         raise BadInput(f"unknown message kind {kind!r}; kinds: {', '.join(KINDS)}")
     try:
-        fields = json.loads(text)
+        fields = load_json(text)
     except ValueError as exc:
         raise BadInput(f"JSON is not valid: {exc}") from None
     if not isinstance(fields, dict):

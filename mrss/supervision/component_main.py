@@ -32,6 +32,7 @@ from mrss import logs
 from mrss.errors import ConfigError, SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
+from mrss.supervision.reason import EXIT_CONFIG, Cause
 from mrss.supervision.threads import tune_interpreter
 
 EXIT_FAILED = 1
@@ -131,6 +132,9 @@ class _Runtime:
     def _failed(self, phase: str, exc: Exception) -> int:
         if isinstance(exc, ConfigError):  # bad configuration: its message says it all
             self.log.error("%s of %s failed: %s", phase, self.ctx.name, exc)
+            if phase == "start":  # the supervisor does not restart it (docs/supervision.md)
+                self._send(control.FAIL, f"{Cause.CONFIG_ERROR.value}: {exc}")
+                return EXIT_CONFIG
         else:
             self.log.error("%s of %s failed:\n%s", phase, self.ctx.name,
                            "".join(traceback.format_exception(exc)).rstrip())

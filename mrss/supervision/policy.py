@@ -7,6 +7,9 @@ so the rules are tested with a fake clock. Rules, in the order they are applied:
 
 1. A temporary child is never restarted; a transient child is not restarted after a
    normal exit. Neither affects its siblings.
+   A child that refused its configuration at start (`config_error`: a ConfigError in
+   `start`, e.g. an agent program with load-time errors) is given up at once, as in
+   rule 4 or 5, and never retried: a restart would fail the same way.
 2. Budgets are per child: a restart is counted in the child's own intensity window
    unless the cause is a lost link, and more than `intensity` restarts of that child
    within `period` seconds exceed its budget. A sibling's restarts never use up a
@@ -35,6 +38,7 @@ so the rules are tested with a fake clock. Rules, in the order they are applied:
 
 from __future__ import annotations
 
+import math
 import random
 import time
 from collections import deque
@@ -44,7 +48,7 @@ from enum import StrEnum
 from typing import Any
 
 from mrss.errors import SupervisionError
-from mrss.supervision.reason import ExitReason
+from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import (
     ChildSpec,
     Group,
@@ -210,6 +214,10 @@ class RestartPolicy:
             return Decision(Action.LEAVE, child, reason, drop=(child,), note=why)
 
         record.streak = 1 if healthy else record.streak + 1
+        if reason.cause is Cause.CONFIG_ERROR:  # Rule 1b: a restart would fail the same way
+            return self._give_up(record, reason, running, (child,), "",
+                                 "configuration error: not restarted until it is fixed",
+                                 retry=False)
         if reason.counts_toward_intensity:
             # Rule 2: the opt-in shared window, then the child's own budget.
             if self._shared is not None and not self._shared.add(now):
@@ -264,7 +272,7 @@ class RestartPolicy:
 
     def _give_up(
         self, record: _ChildRecord, reason: ExitReason, running: Collection[str],
-        members: tuple[str, ...], group: str, note: str,
+        members: tuple[str, ...], group: str, note: str, *, retry: bool = True,
     ) -> Decision:
         if self.spec.on_exceeded is not OnExceeded.QUARANTINE:
             return self._escalate(record, reason, running, note)
@@ -274,7 +282,8 @@ class RestartPolicy:
         stop = tuple(c for c in reversed(members) if c != record.spec.id and c in running)
         return Decision(
             Action.QUARANTINE, record.spec.id, reason, stop=stop, drop=members,
-            delay=self.spec.probation, count=record.restarts, note=note, group=group,
+            delay=self.spec.probation if retry else math.inf, count=record.restarts,
+            note=note, group=group,
         )
 
     def _escalate(

@@ -12,6 +12,8 @@ import signal
 from dataclasses import dataclass
 from enum import StrEnum
 
+EXIT_CONFIG = 78  # sysexits EX_CONFIG: a component refused its configuration at start
+
 
 class Cause(StrEnum):
     """The kind of a child's exit."""
@@ -25,6 +27,7 @@ class Cause(StrEnum):
     START_TIMEOUT = "start_timeout"  # did not report ready in time
     LINK_DOWN = "link_down"  # the robot link it serves is down
     ESCALATED = "escalated"  # a nested supervisor gave up
+    CONFIG_ERROR = "config_error"  # refused its configuration at start: not restarted
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,8 @@ class ExitReason:
             return cls(Cause.NORMAL, "exit code 0")
         if code < 0:
             return cls(Cause.KILLED, signal_name(-code))
+        if code == EXIT_CONFIG:
+            return cls(Cause.CONFIG_ERROR, f"exit code {code}")
         return cls(Cause.EXITED, f"exit code {code}")
 
     @classmethod

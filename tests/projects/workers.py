@@ -1,8 +1,8 @@
 """Small worker components for the supervision tests and test projects.
 
 Options (from project.toml or the test) shape their behaviour: `start_delay` seconds
-in start, `crash_on_start`, `finish_after` seconds then a normal exit, `stop_delay`
-seconds in stop, `grandchild` to spawn a helper process that it owns.
+in start, `crash_on_start`, `config_error_on_start`, `finish_after` seconds then a normal
+exit, `stop_delay` seconds in stop, `grandchild` to spawn a helper process that it owns.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import threading
 import time
 from typing import Any
 
+from mrss.errors import ConfigError
 from mrss.supervision.component import Component, ComponentContext
 
 
@@ -32,6 +33,8 @@ class Worker(Component):
             time.sleep(float(opts["start_delay"]))
         if opts.get("crash_on_start"):
             raise RuntimeError(f"{ctx.name} refuses to start")
+        if opts.get("config_error_on_start"):
+            raise ConfigError("bad value", file="project.toml", key=f"components.{ctx.name}")
         if opts.get("grandchild"):
             self.helper = subprocess.Popen(
                 [sys.executable, "-c", "import time; time.sleep(600)"])
