@@ -32,6 +32,7 @@ from mrss.agentspeak.terms import (
     DEL_TEST,
     AnnotTail,
     Expr,
+    PlanTerm,
     PList,
     Slot,
     Struct,
@@ -154,8 +155,18 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
             return PList(tuple(items), tail)
         return tuple(items)
 
-    def trigger_term(self, c: list[Any]) -> Term:
-        return Trigger(TRIGGER_OPS[str(c[0])], c[1])
+    @v_args(meta=True)
+    def trigger_term(self, meta: Any, c: list[Any]) -> Term:
+        label, tok, lit, ctx, body = c
+        op = TRIGGER_OPS[str(tok)]
+        if label is None and ctx is None and body is None:
+            return Trigger(op, lit)
+        if type(lit) is not Struct:
+            self.problems.append((meta.line, meta.column, "a triggering event needs a literal"))
+            lit = Struct("invalid")
+        return PlanTerm(PlanSrc(label[1] if label else None, op, lit,
+                                ctx[1] if ctx else None, body[1] if body else [],
+                                self._line(meta), 0, label[2] if label else ()), False)
 
     def and_(self, c: list[Term]) -> Term:
         return Struct("&", (c[0], c[1]))

@@ -67,8 +67,7 @@ JASON_UNSUPPORTED = {
     ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
     ".df_register": _COMMUNICATION, ".df_deregister": _COMMUNICATION,
     ".df_search": _COMMUNICATION, ".df_subscribe": _COMMUNICATION,
-    ".add_plan": _PLANS, ".remove_plan": _PLANS, ".relevant_plans": _PLANS,
-    ".relevant_plan": _PLANS, ".plan_label": _PLANS, ".list_plans": _PLANS,
+    ".relevant_plan": _PLANS, ".list_plans": _PLANS, ".relevant_rules": _PLANS,
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
     ".include": "directives", ".namespace": "namespaces",
@@ -236,8 +235,10 @@ class _Compiler:
         if ctx is not None and not (type(ctx) is Struct and ctx.functor == "true"
                                     and not ctx.args):
             context = self.query(ctx, src.line)
-        return Plan(src.label, src.op, src.trigger, context, code, src.nslots, src.line,
+        plan = Plan(src.label, src.op, src.trigger, context, code, src.nslots, src.line,
                     self.program.file, src.annots, src.varnames)
+        plan.src = src
+        return plan
 
     def run(self) -> Compiled:
         out = Compiled(self.program.file, functions=self.env)
@@ -301,3 +302,14 @@ def plan_text(plan: Plan) -> str:
     """A one-line summary of a plan for snapshots: label and trigger."""
     label = f"@{term_str(plan.label)} " if plan.label is not None else ""
     return f"{label}{OP_TEXT[plan.op]}{term_str(plan.trigger)}"
+
+
+def compile_plan(src: PlanSrc, registry: Registry, file: str) -> Plan:
+    """Compile one plan added at run time (`.add_plan`); `AslRuntimeError` if invalid."""
+    c = _Compiler(Program(file), registry, [])
+    c._check_ias(src.trigger, src.line)
+    c.bind(src.trigger, src.line)
+    plan = c.plan(src)
+    if c.problems:
+        raise AslRuntimeError(c.problems[0].message)
+    return plan

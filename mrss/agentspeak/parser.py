@@ -146,8 +146,6 @@ def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None
         return "fork and join (|&| and |||) are not supported"
     if here.startswith("::"):
         return "namespaces (ns::literal) are not supported"
-    if here.startswith("<-") and chunk.rfind("{", 0, pos) > chunk.rfind("}", 0, pos):
-        return "plan terms ({+!g <- ...}) are not supported"
     return None
 
 

@@ -17,12 +17,14 @@ class Plan:
     """A plan ready to run: trigger template, compiled context and body code."""
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
-                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad", "const_args")
+                 "file", "index", "annots", "varnames", "arg_slots", "test", "pad", "const_args",
+                 "src")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
                  annots: tuple[Term, ...] = (), varnames: list[str] | None = None) -> None:
         self.label = label
+        self.src: Any = None  # the PlanSrc, for plan terms (`.relevant_plans`)
         self.varnames = varnames or []
         self.op = op
         self.trigger = trigger
@@ -75,10 +77,35 @@ class PlanLibrary:
         self.plans: list[Plan] = []
         self.index: dict[PlanKey, list[Plan]] = {}
 
-    def add(self, plan: Plan) -> None:
+    def add(self, plan: Plan, begin: bool = False) -> None:
+        """Add `plan` after all others (or, with `begin`, before all others)."""
+        if begin:
+            self.plans.insert(0, plan)  # new lists: an event may be iterating the old
+            self.index[plan.key] = [plan] + self.index.get(plan.key, [])
+            for i, p in enumerate(self.plans):
+                p.index = i
+            return
         plan.index = len(self.plans)
         self.plans.append(plan)
         self.index.setdefault(plan.key, []).append(plan)
+
+    def remove(self, plan: Plan) -> None:
+        self.plans.remove(plan)
+        same = [p for p in self.index[plan.key] if p is not plan]
+        if same:
+            self.index[plan.key] = same
+        else:
+            del self.index[plan.key]
+        for i, p in enumerate(self.plans):
+            p.index = i
+
+    def labelled(self, label: Struct) -> Plan | None:
+        """The plan whose label is `label` (annotations not compared)."""
+        for p in self.plans:
+            lb = p.label
+            if lb is not None and lb.functor == label.functor and lb.args == label.args:
+                return p
+        return None
 
     def relevant(self, op: int, lit: Struct) -> list[Plan] | None:
         return self.index.get((op, lit.functor, len(lit.args), lit.neg))

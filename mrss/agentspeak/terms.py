@@ -16,7 +16,7 @@ from typing import Any, TypeAlias
 
 Term: TypeAlias = (
     "int | float | str | Struct | Var | Slot | Expr | PList | Trigger | AnnotTail | VarAnnot"
-    " | tuple[Term, ...]")
+    " | PlanTerm | tuple[Term, ...]")
 
 # Trigger operators (the kind of an event).
 ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST = range(6)
@@ -185,6 +185,18 @@ class Trigger:
     def __init__(self, op: int, lit: Term) -> None:
         self.op = op
         self.lit = lit
+
+
+class PlanTerm:
+    """A plan as a term, `{ @l +!g : c <- b }`. `src` is its `syntax.PlanSrc`; while
+    `closed` is false its slots are those of the enclosing statement (a template), once
+    closed they are its own (a runtime value, see `planterms.close`)."""
+
+    __slots__ = ("src", "closed")
+
+    def __init__(self, src: Any, closed: bool) -> None:
+        self.src = src
+        self.closed = closed
 
 
 def _all_ground(items: tuple[Term, ...]) -> bool:
@@ -380,6 +392,9 @@ def term_str(t: Term, top: bool = False) -> str:
         return term_str(t.var) + _annots_str(t.annots)  # type: ignore[union-attr]
     if tt is AnnotTail:
         return "|" + term_str(t.tail)  # type: ignore[union-attr]
+    if tt is PlanTerm:
+        from mrss.agentspeak.planterms import plan_term_text
+        return plan_term_text(t.src)  # type: ignore[union-attr]
     return repr(t)
 
 

@@ -13,9 +13,11 @@ from typing import Any
 
 from mrss.agentspeak.arith import Number, apply_op
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.planterms import close
 from mrss.agentspeak.terms import (
     AnnotTail,
     Expr,
+    PlanTerm,
     PList,
     Slot,
     Struct,
@@ -122,6 +124,9 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
                 and unify(t.lit, frame, r.lit, trail))  # type: ignore[union-attr]
     if tt is VarAnnot:
         return _unify_var_annot(t, frame, r, trail)  # type: ignore[arg-type]
+    if tt is PlanTerm:  # equal when they read the same
+        return rt is PlanTerm and (term_str(close(t, frame))  # type: ignore[arg-type]
+                                   == term_str(r))
     return False
 
 
@@ -283,6 +288,8 @@ def resolve(t: Term, frame: Frame | None) -> Term:
         return AnnotTail(resolve(t.tail, frame))  # type: ignore[union-attr]
     if tt is VarAnnot:
         return _resolve_var_annot(t, frame)  # type: ignore[arg-type]
+    if tt is PlanTerm:
+        return close(t, frame)  # type: ignore[arg-type]
     return t
 
 

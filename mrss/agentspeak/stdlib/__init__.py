@@ -6,6 +6,6 @@ from mrss.agentspeak.registry import Registry
 
 STDLIB = Registry()
 
-from mrss.agentspeak.stdlib import control, lists, misc, typetests  # noqa: E402
+from mrss.agentspeak.stdlib import control, lists, misc, plans, typetests  # noqa: E402
 
-__all__ = ["STDLIB", "control", "lists", "misc", "typetests"]
+__all__ = ["STDLIB", "control", "lists", "misc", "plans", "typetests"]

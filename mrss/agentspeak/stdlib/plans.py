@@ -1,0 +1,117 @@
+"""The plan library as data: `.add_plan`, `.remove_plan`, `.relevant_plans`, `.plan_label`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from mrss.agentspeak.compile import compile_plan
+from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError
+from mrss.agentspeak.parser import parse_program
+from mrss.agentspeak.plans import Plan
+from mrss.agentspeak.registry import IAContext
+from mrss.agentspeak.stdlib import STDLIB
+from mrss.agentspeak.syntax import PlanSrc
+from mrss.agentspeak.terms import PlanTerm, Struct, Term, Trigger, deref, term_str
+from mrss.agentspeak.unify import undo, unify
+
+
+def _items(t: Term) -> list[Term]:
+    t = deref(t)
+    return [deref(x) for x in t] if type(t) is tuple else [t]  # type: ignore[union-attr]
+
+
+def _source_of(ctx: IAContext, t: Term) -> PlanSrc:
+    if type(t) is PlanTerm:
+        return t.src  # type: ignore[no-any-return]
+    if type(t) is str:
+        try:
+            program = parse_program(t.strip().rstrip(".") + ".", "<plan>")
+        except AslSyntaxError as exc:
+            raise ctx.error(f"invalid plan {t!r}: {exc.problems[0].message}") from None
+        if len(program.statements) == 1 and isinstance(program.statements[0], PlanSrc):
+            return program.statements[0]
+    raise ctx.error(f"expected a plan term or a string with a plan, not {term_str(t)}")
+
+
+def _with_source(src: PlanSrc, source: Term) -> PlanSrc:
+    if src.label is None:
+        return src
+    annots = tuple(a for a in src.annots
+                   if not (type(a) is Struct and a.functor == "source" and len(a.args) == 1))
+    return PlanSrc(src.label, src.op, src.trigger, src.context, src.body, src.line,
+                   src.nslots, annots + (Struct("source", (source,)),), src.varnames)
+
+
+@STDLIB.action(".add_plan", min_args=1, max_args=3)
+def add_plan(ctx: IAContext, args: list[Any]) -> bool:
+    """`.add_plan(P)`, `.add_plan(P, Source)`, `.add_plan(P, Source, begin|end)`: P a plan
+    term, a string or a list of them; the label is annotated `source(Source)`."""
+    source = deref(args[1]) if len(args) > 1 else Struct("self")
+    where = deref(args[2]) if len(args) > 2 else Struct("end")
+    if type(where) is not Struct or where.functor not in ("begin", "end") or where.args:
+        raise ctx.error(f"the position must be begin or end, not {term_str(where)}")
+    rt = ctx.runtime
+    plans: list[Plan] = []
+    for item in _items(args[0]):
+        src = _with_source(_source_of(ctx, item), source)
+        if src.label is not None and rt.plans.labelled(src.label) is not None:
+            raise ctx.error(f"a plan labelled {term_str(src.label)} exists already")
+        try:
+            plans.append(compile_plan(src, rt.registry, "<added plan>"))
+        except AslRuntimeError as exc:
+            raise ctx.error(exc.message) from None
+    for plan in reversed(plans) if where.functor == "begin" else plans:
+        rt.plans.add(plan, begin=where.functor == "begin")
+    return True
+
+
+@STDLIB.action(".remove_plan", min_args=1, max_args=2)
+def remove_plan(ctx: IAContext, args: list[Any]) -> bool:
+    """`.remove_plan(Label)` or a list of labels: fails when no plan has the label."""
+    rt = ctx.runtime
+    for label in _items(args[0]):
+        if type(label) is not Struct:
+            raise ctx.error(f"a label is a literal, not {term_str(label)}")
+        plan = rt.plans.labelled(label)
+        if plan is None:
+            return False
+        rt.plans.remove(plan)
+    return True
+
+
+def plan_term(plan: Plan) -> PlanTerm:
+    return PlanTerm(plan.src, True)
+
+
+@STDLIB.action(".relevant_plans", min_args=2, max_args=3)
+def relevant_plans(ctx: IAContext, args: list[Any]) -> bool:
+    """`.relevant_plans({+!g}, Plans)` and `.relevant_plans({+!g}, Plans, Labels)`: the
+    plans whose trigger unifies with the event, in library order."""
+    ev = deref(args[0])
+    if type(ev) is not Trigger or type(deref(ev.lit)) is not Struct:
+        raise ctx.error(f"expected a triggering event such as {{+!g}}, not {term_str(ev)}")
+    lit = deref(ev.lit)
+    rt = ctx.runtime
+    trail = rt.trail
+    found: list[Plan] = []
+    for plan in rt.plans.relevant(ev.op, lit) or []:  # type: ignore[arg-type]
+        mark = len(trail)
+        if unify(plan.trigger, [None] * plan.nslots, lit, trail):
+            found.append(plan)
+        undo(trail, mark)
+    if not ctx.unify(args[1], tuple(plan_term(p) for p in found)):
+        return False
+    if len(args) > 2:
+        labels = tuple(p.label for p in found if p.label is not None)
+        return ctx.unify(args[2], labels)
+    return True
+
+
+@STDLIB.action(".plan_label", min_args=2, max_args=2)
+def plan_label(ctx: IAContext, args: list[Any]) -> bool:
+    """`.plan_label(P, L)`: P is the plan term of the plan labelled L."""
+    label = deref(args[1])
+    if type(label) is not Struct:
+        raise ctx.error(f"the label must be a literal, not {term_str(label)}")
+    plan = ctx.runtime.plans.labelled(label)
+    return plan is not None and ctx.unify(args[0], plan_term(plan))
