@@ -10,6 +10,7 @@ from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
 if TYPE_CHECKING:
     from mrss.agentspeak.formulas import Query
 
+SELF = Struct("self")
 PlanKey = tuple[int, str, int, bool]
 
 
@@ -18,13 +19,16 @@ class Plan:
 
     __slots__ = ("label", "op", "trigger", "context", "code", "nslots", "atomic", "line",
                  "file", "index", "annots", "varnames", "arg_slots", "test", "pad", "const_args",
-                 "src")
+                 "src", "plabel", "sources")
 
     def __init__(self, label: Struct | None, op: int, trigger: Struct, context: Query | None,
                  code: list[Any], nslots: int, line: int, file: str,
                  annots: tuple[Term, ...] = (), varnames: list[str] | None = None) -> None:
         self.label = label
         self.src: Any = None  # the PlanSrc, for plan terms (`.relevant_plans`)
+        # the label in the library (`l__N` when the source gives none) and its sources
+        self.plabel: Struct | None = None
+        self.sources: list[Term] = []
         self.varnames = varnames or []
         self.op = op
         self.trigger = trigger
@@ -76,9 +80,25 @@ class PlanLibrary:
     def __init__(self) -> None:
         self.plans: list[Plan] = []
         self.index: dict[PlanKey, list[Plan]] = {}
+        self.labels: dict[str, Plan] = {}  # by the label's functor, as in Jason
+        self._auto = 0
 
-    def add(self, plan: Plan, begin: bool = False) -> None:
+    def _label(self, plan: Plan, source: Term) -> None:
+        if plan.label is not None:
+            plan.plabel = Struct(plan.label.functor, plan.label.args)
+        else:  # Jason's automatic labels: l__1, l__2, ... skipping those in use
+            while True:
+                self._auto += 1
+                name = f"l__{self._auto}"
+                if name not in self.labels:
+                    break
+            plan.plabel = Struct(name)
+        plan.sources = [source]
+        self.labels.setdefault(plan.plabel.functor, plan)
+
+    def add(self, plan: Plan, begin: bool = False, source: Term = SELF) -> None:
         """Add `plan` after all others (or, with `begin`, before all others)."""
+        self._label(plan, source)
         if begin:
             self.plans.insert(0, plan)  # new lists: an event may be iterating the old
             self.index[plan.key] = [plan] + self.index.get(plan.key, [])
@@ -90,6 +110,8 @@ class PlanLibrary:
         self.index.setdefault(plan.key, []).append(plan)
 
     def remove(self, plan: Plan) -> None:
+        if plan.plabel is not None and self.labels.get(plan.plabel.functor) is plan:
+            del self.labels[plan.plabel.functor]
         self.plans.remove(plan)
         same = [p for p in self.index[plan.key] if p is not plan]
         if same:
@@ -100,12 +122,8 @@ class PlanLibrary:
             p.index = i
 
     def labelled(self, label: Struct) -> Plan | None:
-        """The plan whose label is `label` (annotations not compared)."""
-        for p in self.plans:
-            lb = p.label
-            if lb is not None and lb.functor == label.functor and lb.args == label.args:
-                return p
-        return None
+        """The plan whose label has the functor of `label` (as in Jason)."""
+        return self.labels.get(label.functor)
 
     def relevant(self, op: int, lit: Struct) -> list[Plan] | None:
         return self.index.get((op, lit.functor, len(lit.args), lit.neg))

@@ -171,3 +171,24 @@ def test_an_initial_belief_with_an_annotation_tail_is_a_load_error() -> None:
     with pytest.raises(AslSyntaxError, match=r"b.asl:1:1: an initial belief or goal cannot "
                                              r"have an annotation tail \(b\[a\|T\]\)"):
         Agent("b[a|T].\n", file="b.asl")
+
+
+def test_bad_add_plan_arguments_fail_their_intention_with_a_reason(
+        caplog: pytest.LogCaptureFixture) -> None:
+    out: list[str] = []
+    src = """\
+!a. !b. !c. !d.
+@p1 +!x <- true.
++!a <- .add_plan({ @p1 +!y <- true }); .print("never").
++!b <- .add_plan("+!z <- ."); .print("never").
++!c <- .add_plan({ +!w <- true }, self, middle); .print("never").
++!d <- .add_plan({ @p1 +!x <- true }, bob); .remove_plan(p1); !x; .print(kept).
+"""
+    agent = Agent(src, file="ap.asl", out=out.append)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        agent.run_until_idle()
+    assert out == ["kept"]  # the same plan from bob: one more source, kept after self's goes
+    messages = "\n".join(r.getMessage() for r in caplog.records)
+    assert "ap.asl:3: .add_plan: there already is a plan with label p1" in messages
+    assert "ap.asl:4: .add_plan: invalid plan '+!z <- .': unexpected '.'" in messages
+    assert "ap.asl:5: .add_plan: the position must be begin or end, not middle" in messages

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from mrss.agentspeak.compile import compile_plan
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError
 from mrss.agentspeak.parser import parse_program
-from mrss.agentspeak.plans import Plan
+from mrss.agentspeak.plans import SELF, Plan
+from mrss.agentspeak.planterms import plan_term_text
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
 from mrss.agentspeak.syntax import PlanSrc
@@ -33,54 +35,69 @@ def _source_of(ctx: IAContext, t: Term) -> PlanSrc:
     raise ctx.error(f"expected a plan term or a string with a plan, not {term_str(t)}")
 
 
-def _with_source(src: PlanSrc, source: Term) -> PlanSrc:
-    if src.label is None:
-        return src
-    annots = tuple(a for a in src.annots
-                   if not (type(a) is Struct and a.functor == "source" and len(a.args) == 1))
-    return PlanSrc(src.label, src.op, src.trigger, src.context, src.body, src.line,
-                   src.nslots, annots + (Struct("source", (source,)),), src.varnames)
+def _same(a: Plan, src: PlanSrc) -> bool:
+    """Whether `src` is the plan `a` (read the same, label annotations aside)."""
+    return bool(plan_term_text(replace(a.src, label=None, annots=()))
+                == plan_term_text(replace(src, label=None, annots=())))
 
 
 @STDLIB.action(".add_plan", min_args=1, max_args=3)
 def add_plan(ctx: IAContext, args: list[Any]) -> bool:
     """`.add_plan(P)`, `.add_plan(P, Source)`, `.add_plan(P, Source, begin|end)`: P a plan
     term, a string or a list of them; the label is annotated `source(Source)`."""
-    source = deref(args[1]) if len(args) > 1 else Struct("self")
+    source = deref(args[1]) if len(args) > 1 else SELF
     where = deref(args[2]) if len(args) > 2 else Struct("end")
     if type(where) is not Struct or where.functor not in ("begin", "end") or where.args:
         raise ctx.error(f"the position must be begin or end, not {term_str(where)}")
     rt = ctx.runtime
     plans: list[Plan] = []
     for item in _items(args[0]):
-        src = _with_source(_source_of(ctx, item), source)
-        if src.label is not None and rt.plans.labelled(src.label) is not None:
-            raise ctx.error(f"a plan labelled {term_str(src.label)} exists already")
+        src = _source_of(ctx, item)
+        if src.label is not None and src.label.functor.startswith("l__"):
+            src = replace(src, label=None)  # an automatic label: the library gives a new one
+        old = rt.plans.labelled(src.label) if src.label is not None else None
+        if old is not None:
+            if not _same(old, src):
+                raise ctx.error(f"there already is a plan with label {old.plabel}")
+            if source not in old.sources:  # the same plan again: one more source
+                old.sources.append(source)
+            continue
         try:
             plans.append(compile_plan(src, rt.registry, "<added plan>"))
         except AslRuntimeError as exc:
             raise ctx.error(exc.message) from None
     for plan in reversed(plans) if where.functor == "begin" else plans:
-        rt.plans.add(plan, begin=where.functor == "begin")
+        rt.plans.add(plan, begin=where.functor == "begin", source=source)
     return True
 
 
 @STDLIB.action(".remove_plan", min_args=1, max_args=2)
 def remove_plan(ctx: IAContext, args: list[Any]) -> bool:
-    """`.remove_plan(Label)` or a list of labels: fails when no plan has the label."""
+    """`.remove_plan(Label)`, `.remove_plan(Labels, Source)`: removes the source (default
+    self) from each plan's label, and the plan once it has no source left. Labels of no
+    plan are ignored, as in Jason."""
     rt = ctx.runtime
+    source = deref(args[1]) if len(args) > 1 else SELF
     for label in _items(args[0]):
+        if type(label) is str and label.startswith("@"):  # "@l1", as in the Jason book
+            label = Struct(label[1:])
         if type(label) is not Struct:
             raise ctx.error(f"a label is a literal, not {term_str(label)}")
         plan = rt.plans.labelled(label)
-        if plan is None:
-            return False
-        rt.plans.remove(plan)
+        if plan is not None and source in plan.sources:
+            plan.sources.remove(source)
+            if not plan.sources:
+                rt.plans.remove(plan)
     return True
 
 
-def plan_term(plan: Plan) -> PlanTerm:
-    return PlanTerm(plan.src, True)
+def plan_term(plan: Plan, sources: bool) -> PlanTerm:
+    """The plan as a term, labelled with its library label (annotated with its sources
+    when `sources`)."""
+    annots = tuple(plan.src.annots)
+    if sources:
+        annots += tuple(Struct("source", (s,)) for s in plan.sources)
+    return PlanTerm(replace(plan.src, label=plan.plabel, annots=annots), True)
 
 
 @STDLIB.action(".relevant_plans", min_args=2, max_args=3)
@@ -99,10 +116,10 @@ def relevant_plans(ctx: IAContext, args: list[Any]) -> bool:
         if unify(plan.trigger, [None] * plan.nslots, lit, trail):
             found.append(plan)
         undo(trail, mark)
-    if not ctx.unify(args[1], tuple(plan_term(p) for p in found)):
+    if not ctx.unify(args[1], tuple(plan_term(p, False) for p in found)):
         return False
     if len(args) > 2:
-        labels = tuple(p.label for p in found if p.label is not None)
+        labels = tuple(p.plabel for p in found if p.plabel is not None)
         return ctx.unify(args[2], labels)
     return True
 
@@ -114,4 +131,4 @@ def plan_label(ctx: IAContext, args: list[Any]) -> bool:
     if type(label) is not Struct:
         raise ctx.error(f"the label must be a literal, not {term_str(label)}")
     plan = ctx.runtime.plans.labelled(label)
-    return plan is not None and ctx.unify(args[0], plan_term(plan))
+    return plan is not None and ctx.unify(args[0], plan_term(plan, True))
