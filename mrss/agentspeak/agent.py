@@ -98,6 +98,7 @@ class Agent(Runtime):
         self._cond = threading.Condition()
         self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
         self._woken = False
+        self.society: Any = None  # the `society.Society` this agent talks in, if any
 
     @classmethod
     def from_file(cls, path: str | Path, **kwargs: Any) -> Agent:
@@ -155,6 +156,9 @@ class Agent(Runtime):
                     self.belief_changed(DEL_BEL, lit, None)
             elif kind == "!":
                 self.post_goal(a, None)
+            elif kind == "msg":  # from another agent of the society: (sender, perf, content)
+                from mrss.agentspeak.society import receive
+                receive(self, a, b, c)
 
     def step(self) -> bool:
         """One reasoning cycle (sense, deliberate, act); False if there was nothing to do."""

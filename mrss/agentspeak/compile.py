@@ -60,13 +60,13 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import resolve
 
 # Jason's internal actions that this interpreter leaves out, and why
-_COMMUNICATION = "agent communication"
+_COMMUNICATION = "agent communication needs a society: mrss agent a.asl b.asl ..."
+_DF = "the directory facilitator"
 _PLANS = "changing the plan library"
 _AGENTS = "creating and stopping agents"
 JASON_UNSUPPORTED = {
     ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
-    ".df_register": _COMMUNICATION, ".df_deregister": _COMMUNICATION,
-    ".df_search": _COMMUNICATION, ".df_subscribe": _COMMUNICATION,
+    ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
     ".relevant_plan": _PLANS, ".list_plans": _PLANS, ".relevant_rules": _PLANS,
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,

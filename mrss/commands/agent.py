@@ -45,7 +45,9 @@ ALARM_GRACE = 0.05  # seconds: the checks between cycles normally stop it first
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="the AgentSpeak program (.asl)")
+    parser.add_argument("file", nargs="+",
+                        help="the AgentSpeak program (.asl); several run together as a "
+                             "society of agents named by their file stems")
     parser.add_argument("--max-time", type=float, default=None, metavar="S",
                         help="give up (exit 1) if the agent is not idle after S seconds")
     parser.add_argument("--name", default=None, help="agent name (default: the file's stem)")
@@ -110,11 +112,13 @@ def _answers(pairs: list[str]) -> dict[str, str]:
 
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
-    path = Path(args.file)
     if args.max_time is not None and not 0 <= args.max_time <= MAX_TIME:
         print(f"mrss agent: --max-time {args.max_time:g}: expected seconds from 0 to "
               f"{MAX_TIME:g}", file=sys.stderr)
         return EXIT_BAD
+    if len(args.file) > 1:
+        return _run_society(args)
+    path = Path(args.file[0])
     try:
         source = read_program(path)
     except OSError as exc:
@@ -155,6 +159,41 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
         return EXIT_BUSY
     return _run_script(agent, host, args.max_time)
+
+
+def _run_society(args: argparse.Namespace) -> int:
+    """Several files: one agent each, named by the file stem, in round-robin."""
+    from mrss.agentspeak.society import Society
+
+    for option, given in (("--stdin", args.stdin), ("--name", args.name),
+                          ("--percept", args.percept), ("--answer", args.answer)):
+        if given:
+            print(f"mrss agent: {option} takes one agent file, not {len(args.file)}",
+                  file=sys.stderr)
+            return EXIT_BAD
+    society = Society(out=_line)
+    for file in args.file:
+        path = Path(file)
+        if path.stem in society.agents:
+            print(f"mrss agent: two agents named {path.stem} ({file})", file=sys.stderr)
+            return EXIT_BAD
+        try:
+            society.add(path, read_program(path), path.stem)
+        except OSError as exc:
+            print(f"mrss agent: cannot read {path}: {exc.strerror or exc}", file=sys.stderr)
+            return EXIT_BAD
+        except AslSyntaxError as exc:
+            print(str(exc), file=sys.stderr)
+            return EXIT_BAD
+    try:
+        with time_limit(args.max_time):
+            idle = society.run(args.max_time)
+    except TimeUp:
+        idle = False
+    if idle:
+        return 0
+    print(f"mrss agent: still busy after {args.max_time:g} s", file=sys.stderr)
+    return EXIT_BUSY
 
 
 def _run_script(agent: Agent, host: ScriptedHost, max_time: float | None) -> int:

@@ -163,7 +163,8 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
         (5, 10, "namespaces (ns::literal) are not supported"),
         (6, 8, "internal action .list_plans is not supported (changing the plan library)"),
-        (7, 8, "internal action .send is not supported (agent communication)"),
+        (7, 8, "internal action .send is not supported (agent communication needs a "
+         "society: mrss agent a.asl b.asl ...)"),
     ]
 
 
