@@ -125,6 +125,26 @@ def drop_desire(ctx: IAContext, args: list[Any]) -> bool:
     return True
 
 
+@STDLIB.action(".drop_event", min_args=1, max_args=1)
+def drop_event(ctx: IAContext, args: list[Any]) -> bool:
+    """Remove the events `+!D` from the set of events only (no event is produced)."""
+    _drop_goal_events(ctx, args[0])
+    return True
+
+
+@STDLIB.action(".drop_all_events", max_args=0)
+def drop_all_events(ctx: IAContext, args: list[Any]) -> bool:
+    """Empty the set of events (the desires not yet intended); no event is produced."""
+    rt = ctx.runtime
+    for queue in (rt.events, rt.atomic_events):
+        pending = list(queue)
+        queue.clear()
+        for ev in pending:
+            if ev.intention is not None:  # a sub-goal's intention went with its event
+                rt.drop(ev.intention)
+    return True
+
+
 @STDLIB.action(".drop_all_intentions", max_args=0)
 def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
     rt = ctx.runtime

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime
 import enum
+import functools
 import random as _random
 import time as _time
 from collections.abc import Iterator
@@ -17,11 +18,14 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    compare,
     deref,
     term_str,
     value,
 )
 from mrss.agentspeak.unify import undo, unify
+
+_order = functools.cmp_to_key(compare)
 
 
 def text_of(t: Term) -> str:
@@ -144,6 +148,15 @@ def findall(ctx: IAContext, args: list[Any]) -> bool:
     template, query, out = args
     found = tuple(ctx.resolve(template) for _ in ctx.solve(query))
     return ctx.unify(out, found)
+
+
+@STDLIB.action(".setof", min_args=3, max_args=3, formula_args=(1,), raw_args=(0,))
+def setof(ctx: IAContext, args: list[Any]) -> bool:
+    """`.setof(T, Query, L)`: like `.findall`, sorted in the standard order, each once."""
+    template, query, out = args
+    found = sorted((ctx.resolve(template) for _ in ctx.solve(query)), key=_order)
+    unique = [t for i, t in enumerate(found) if i == 0 or compare(found[i - 1], t) != 0]
+    return ctx.unify(out, tuple(unique))
 
 
 @STDLIB.action(".count", min_args=2, max_args=2, formula_args=(0,))
