@@ -236,7 +236,7 @@ class _Compiler:
                                     and not ctx.args):
             context = self.query(ctx, src.line)
         plan = Plan(src.label, src.op, src.trigger, context, code, src.nslots, src.line,
-                    self.program.file, src.annots, src.varnames)
+                    src.file or self.program.file, src.annots, src.varnames)
         plan.src = src
         return plan
 

@@ -9,6 +9,8 @@ statement does not hide the errors of the others.
 from __future__ import annotations
 
 import functools
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 import lark
@@ -17,7 +19,7 @@ from mrss.agentspeak.builder import TreeBuilder
 from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
-from mrss.agentspeak.syntax import BeliefSrc, Program
+from mrss.agentspeak.syntax import BeliefSrc, PlanSrc, Program
 from mrss.agentspeak.terms import Struct, Term
 from mrss.agentspeak.unify import resolve
 
@@ -72,6 +74,11 @@ def split_statements(text: str) -> list[tuple[int, int]]:
 
 def _has_code(rest: str) -> bool:
     """Whether a trailing piece holds more than comments and white space."""
+    return _code_start(rest) < len(rest)
+
+
+def _code_start(rest: str) -> int:
+    """The offset of the first character that is not white space or in a comment."""
     i = 0
     while i < len(rest):
         if rest.startswith("//", i):
@@ -83,8 +90,8 @@ def _has_code(rest: str) -> bool:
         elif rest[i].isspace():
             i += 1
         else:
-            return True
-    return False
+            return i
+    return i
 
 
 
@@ -167,10 +174,42 @@ def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | N
     return None
 
 
+_INCLUDE = re.compile(r'\{\s*include\s*\(\s*"((?:[^"\\\n]|\\.)*)"\s*\)\s*\}')
+MAX_INCLUDE_DEPTH = 20
+
+
+def _include(name: str, file: str, depth: int, add: Callable[[str], None],
+             problems: list[SyntaxProblem], program: Program) -> None:
+    """Parse the file `{include("name")}` names, relative to the including file, and
+    append its statements."""
+    base = Path(file).parent if not file.startswith("<") else Path.cwd()
+    path = base / name
+    if depth >= MAX_INCLUDE_DEPTH:
+        add(f"include {name!r}: more than {MAX_INCLUDE_DEPTH} nested includes "
+            f"(a file including itself?)")
+        return
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        add(f"cannot include {name!r}: {exc.strerror or exc} ({path})")
+        return
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        add(f"cannot include {name!r}: not UTF-8 text (byte offset {exc.start})")
+        return
+    inner = parse_program(text, str(path), collect=problems, _depth=depth + 1)
+    for st in inner.statements:
+        if isinstance(st, PlanSrc) and st.file is None:
+            st.file = str(path)
+        program.statements.append(st)
+
+
 def parse_program(text: str, file: str = "<string>",
-                  collect: list[SyntaxProblem] | None = None) -> Program:
+                  collect: list[SyntaxProblem] | None = None, _depth: int = 0) -> Program:
     """Parse a whole source; raise `AslSyntaxError` listing every error found (or, with
-    `collect`, append them there and return the statements that parsed)."""
+    `collect`, append them there and return the statements that parsed).
+    `{include("f.asl")}` parses f.asl (relative to `file`) in its place."""
     lines = text.splitlines()
     problems: list[SyntaxProblem] = [] if collect is None else collect
     program = Program(file)
@@ -186,12 +225,18 @@ def parse_program(text: str, file: str = "<string>",
         line0, col0 = _position(text, start)
         local: list[tuple[int, int, str]] = []
         statement = None
-        lead = len(chunk) - len(chunk.lstrip())
-        if chunk[lead:lead + 1] == "{":  # a directive has no `.`: report it, parse the rest
+        lead = _code_start(chunk)
+        if chunk[lead:lead + 1] == "{":  # a directive has no `.`: do it, parse the rest
             close = _closing_brace(chunk, lead)
             line, col = _position(chunk, lead)
-            add(line0 + line - 1, col + (col0 - 1 if line == 1 else 0),
-                "directives ({include(...)}, {begin ...}) are not supported")
+            here = (line0 + line - 1, col + (col0 - 1 if line == 1 else 0))
+            inc = _INCLUDE.match(chunk, lead)
+            if inc is not None and close is not None and inc.end() == close + 1:
+                _include(inc.group(1), file, _depth,
+                         lambda message: add(here[0], here[1], message), problems, program)
+            else:
+                add(here[0], here[1], "directives other than {include(\"file.asl\")} "
+                                      "({begin ...}, ...) are not supported")
             if close is not None and chunk[close + 1:].strip():
                 pending.append((start + close + 1, end))
             continue

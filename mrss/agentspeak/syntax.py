@@ -72,6 +72,7 @@ class PlanSrc:
     nslots: int
     annots: tuple[Term, ...] = ()
     varnames: list[str] = field(default_factory=list)
+    file: str | None = None  # the included file it comes from, if not the agent's own
 
 
 @dataclass

@@ -143,7 +143,7 @@ def test_mrss_agent_reports_endless_recursion_without_a_traceback(tmp_path: Path
 
 
 UNSUPPORTED = """\
-{ include("common.asl") }
+{ begin namespace(x) }
 !start.
 +!start <- !a |&| !b.
 ^!g[state(S)] <- .print(S).
@@ -158,7 +158,8 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         Agent(UNSUPPORTED, file="u.asl")
     found = [(p.line, p.col, p.message) for p in info.value.problems]
     assert found == [
-        (1, 1, "directives ({include(...)}, {begin ...}) are not supported"),
+        (1, 1, 'directives other than {include("file.asl")} ({begin ...}, ...) are not '
+               'supported'),
         (3, 15, "fork and join (|&| and |||) are not supported"),
         (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
         (5, 10, "namespaces (ns::literal) are not supported"),
@@ -193,3 +194,19 @@ def test_bad_add_plan_arguments_fail_their_intention_with_a_reason(
     assert "ap.asl:3: .add_plan: there already is a plan with label p1" in messages
     assert "ap.asl:4: .add_plan: invalid plan '+!z <- .': unexpected '.'" in messages
     assert "ap.asl:5: .add_plan: the position must be begin or end, not middle" in messages
+
+
+def test_include_errors_name_the_file_and_the_directive(tmp_path: Path) -> None:
+    (tmp_path / "loop.asl").write_text('{ include("loop.asl") }\n')
+    (tmp_path / "bad.asl").write_text("+!g <- .print(.\n")
+    main = tmp_path / "main.asl"
+    main.write_text('// three includes\n{ include("nope.asl") }\n{ include("loop.asl") }\n'
+                    '{ include("bad.asl") }\n!g.\n')
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(file=main)
+    found = [(Path(p.file).name, p.line, p.col, p.message.split(" (")[0])
+             for p in info.value.problems]
+    assert ("main.asl", 2, 1, "cannot include 'nope.asl': No such file or directory") \
+        in found, found
+    assert ("loop.asl", 1, 1, "include 'loop.asl': more than 20 nested includes") in found
+    assert any(f[0] == "bad.asl" and f[1] == 1 for f in found), found
