@@ -233,7 +233,7 @@ def parse_program(text: str, file: str = "<string>",
             inc = _INCLUDE.match(chunk, lead)
             if inc is not None and close is not None and inc.end() == close + 1:
                 _include(inc.group(1), file, _depth,
-                         lambda message: add(here[0], here[1], message), problems, program)
+                         lambda message, at=here: add(at[0], at[1], message), problems, program)
             else:
                 add(here[0], here[1], "directives other than {include(\"file.asl\")} "
                                       "({begin ...}, ...) are not supported")
