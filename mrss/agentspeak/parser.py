@@ -232,8 +232,8 @@ def parse_program(text: str, file: str = "<string>",
             here = (line0 + line - 1, col + (col0 - 1 if line == 1 else 0))
             inc = _INCLUDE.match(chunk, lead)
             if inc is not None and close is not None and inc.end() == close + 1:
-                _include(inc.group(1), file, _depth,
-                         lambda message, at=here: add(at[0], at[1], message), problems, program)
+                _include(inc.group(1), file, _depth, functools.partial(add, *here), problems,
+                         program)
             else:
                 add(here[0], here[1], "directives other than {include(\"file.asl\")} "
                                       "({begin ...}, ...) are not supported")
