@@ -8,6 +8,7 @@ argument counts are reported with file and line, all of them at once.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.beliefs import Rule, has_source
@@ -102,11 +103,19 @@ class _Compiler:
         self.lines = lines
         self.problems: list[SyntaxProblem] = []
         self.env = FunctionEnv()
+        self.included: str | None = None  # the file of the statement compiled, if another
 
     def problem(self, line: int, message: str, col: int = 0) -> None:
-        src = self.lines[line - 1] if 0 < line <= len(self.lines) else ""
+        file, lines = self.program.file, self.lines
+        if self.included is not None:  # a statement of an included file
+            file = self.included
+            try:
+                lines = Path(file).read_text(encoding="utf-8").splitlines()
+            except (OSError, UnicodeDecodeError):
+                lines = []
+        src = lines[line - 1] if 0 < line <= len(lines) else ""
         col = col or len(src) - len(src.lstrip()) + 1
-        self.problems.append(SyntaxProblem(self.program.file, line, col, message, src))
+        self.problems.append(SyntaxProblem(file, line, col, message, src))
 
     def bind(self, t: Term, line: int) -> None:
         """Attach the implementations of the functions (`.count(Q)`, ...) inside `t`."""
@@ -243,6 +252,7 @@ class _Compiler:
     def run(self) -> Compiled:
         out = Compiled(self.program.file, functions=self.env)
         for st in self.program.statements:
+            self.included = st.file
             try:
                 self.statement(st, out)
             except RecursionError:

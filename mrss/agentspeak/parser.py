@@ -19,7 +19,7 @@ from mrss.agentspeak.builder import TreeBuilder
 from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
-from mrss.agentspeak.syntax import BeliefSrc, PlanSrc, Program
+from mrss.agentspeak.syntax import BeliefSrc, Program
 from mrss.agentspeak.terms import Struct, Term
 from mrss.agentspeak.unify import resolve
 
@@ -200,7 +200,7 @@ def _include(name: str, file: str, depth: int, add: Callable[[str], None],
         return
     inner = parse_program(text, str(path), collect=problems, _depth=depth + 1)
     for st in inner.statements:
-        if isinstance(st, PlanSrc) and st.file is None:
+        if st.file is None:
             st.file = str(path)
         program.statements.append(st)
 

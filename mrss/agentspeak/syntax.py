@@ -83,6 +83,7 @@ class RuleSrc:
     body: Term
     line: int
     nslots: int
+    file: str | None = None
 
 
 @dataclass
@@ -92,6 +93,7 @@ class BeliefSrc:
     lit: Struct
     line: int
     nslots: int = 0
+    file: str | None = None
 
 
 @dataclass
@@ -101,6 +103,7 @@ class GoalSrc:
     lit: Struct
     line: int
     nslots: int = 0
+    file: str | None = None
 
 
 Statement = PlanSrc | RuleSrc | BeliefSrc | GoalSrc

@@ -210,3 +210,18 @@ def test_include_errors_name_the_file_and_the_directive(tmp_path: Path) -> None:
         in found, found
     assert ("loop.asl", 1, 1, "include 'loop.asl': more than 20 nested includes") in found
     assert any(f[0] == "bad.asl" and f[1] == 1 for f in found), found
+
+
+def test_errors_in_an_included_file_name_that_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "lib.asl").write_text("// a library\n+!h <- .nosuch(1).\n+!f <- X = 1 / 0.\n")
+    main = tmp_path / "main.asl"
+    main.write_text('{ include("lib.asl") }\n!g.\n+!g <- true.\n')
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(file=main)
+    [p] = info.value.problems
+    assert (Path(p.file).name, p.line, p.col) == ("lib.asl", 2, 8)
+    assert p.message == "unknown internal action .nosuch"
+    (tmp_path / "lib.asl").write_text("// a library\n+!f <- X = 1 / 0.\n")
+    main.write_text('{ include("lib.asl") }\n!f.\n')
+    agent = Agent(file=main)
+    assert next(iter(agent.plans.plans)).file == str(tmp_path / "lib.asl")
