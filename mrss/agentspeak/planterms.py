@@ -116,19 +116,24 @@ _PREFIX = {"achieve": "!", "achieve_new": "!!", "test": "?", "add": "+", "add_en
            "del": "-", "replace": "-+"}
 
 
+def _cond(t: Term) -> str:
+    text = term_str(t)
+    return text if text.startswith("(") and text.endswith(")") else f"({text})"
+
+
 def _body_text(nodes: list[BodyNode]) -> str:
     parts: list[str] = []
     for n in nodes:
         if isinstance(n, BodyItem):
             parts.append(_PREFIX.get(n.kind, "") + term_str(n.term))
         elif isinstance(n, IfItem):
-            text = " elif ".join(f"({term_str(c)}) {{ {_body_text(b)} }}"
+            text = " elif ".join(f"{_cond(c)} {{ {_body_text(b)} }}"
                                  for c, b in n.branches)
             if n.else_body is not None:
                 text += f" else {{ {_body_text(n.else_body)} }}"
             parts.append("if " + text)
         else:
-            parts.append(f"{n.kind} ({term_str(n.cond)}) {{ {_body_text(n.body)} }}")
+            parts.append(f"{n.kind} {_cond(n.cond)} {{ {_body_text(n.body)} }}")
     return "; ".join(parts)
 
 
