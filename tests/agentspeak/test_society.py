@@ -81,3 +81,15 @@ def test_options_for_one_agent_are_refused_with_several(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert "mrss agent: --percept takes one agent file, not 2" in proc.stderr
+
+
+def test_an_agent_waiting_on_a_timer_keeps_the_society_running(tmp_path: Path) -> None:
+    (tmp_path / "a.asl").write_text("!g.\n+!g <- .wait(50); .send(b, tell, x).\n")
+    (tmp_path / "b.asl").write_text("+x[source(S)] <- .print(got(S)).\n")
+    lines: list[str] = []
+    society = Society(out=lines.append)
+    for stem in ("a", "b"):
+        path = tmp_path / f"{stem}.asl"
+        society.add(path, read_program(path), stem)
+    assert society.run(max_time=30)
+    assert lines == ["[b] got(a)"]
