@@ -21,7 +21,7 @@ Key = tuple[str, int, bool]
 class Rule:
     """A rule `head :- body`, compiled: the body is a query run in a frame of `nslots`."""
 
-    __slots__ = ("head", "body", "nslots", "line", "text", "seq")
+    __slots__ = ("head", "body", "nslots", "line", "text", "seq", "src_body")
 
     def __init__(self, head: Struct, body: Any, nslots: int, line: int, text: str) -> None:
         self.head = head
@@ -30,6 +30,7 @@ class Rule:
         self.line = line
         self.text = text
         self.seq = 0  # its place among the facts at the end of its predicate (`born`)
+        self.src_body: Any = None  # the body as a template, for `.relevant_rules`
 
 
 NO_KEY = object()  # a first argument the first-argument index does not hold

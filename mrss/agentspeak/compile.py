@@ -68,7 +68,8 @@ _AGENTS = "creating and stopping agents"
 JASON_UNSUPPORTED = {
     ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
     ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
-    ".relevant_plan": _PLANS, ".list_plans": _PLANS, ".relevant_rules": _PLANS,
+    ".relevant_plan": _PLANS, ".list_plans": _PLANS,
+    ".intention": "intention introspection", ".current_intention": "intention introspection",
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
     ".include": "directives", ".namespace": "namespaces",
@@ -270,6 +271,7 @@ class _Compiler:
             text = f"{term_str(st.head)} :- {term_str(st.body)}"
             out.rules.append(Rule(st.head, self.query(st.body, st.line), st.nslots,
                                   st.line, text))
+            out.rules[-1].src_body = st.body
             out.clauses.append(out.rules[-1])
         else:
             lit = self.initial(st)

@@ -359,6 +359,8 @@ def term_str(t: Term, top: bool = False) -> str:
         return format_number(t)  # type: ignore[arg-type]
     if tt is Struct:
         s: Struct = t  # type: ignore[assignment]
+        if s.functor == ":-" and len(s.args) == 2:  # a rule as a term (`.relevant_rules`)
+            return f"{{ {term_str(s.args[0])} :- {term_str(s.args[1])} }}"
         if s.functor in _OPERATORS and len(s.args) == 2:
             text = f"({term_str(s.args[0])} {s.functor} {term_str(s.args[1])})"
         elif s.functor == "not" and len(s.args) == 1:

@@ -1,4 +1,5 @@
-"""The plan library as data: `.add_plan`, `.remove_plan`, `.relevant_plans`, `.plan_label`."""
+"""The plan library as data: `.add_plan`, `.remove_plan`, `.relevant_plans`, `.plan_label`,
+and the rules as data: `.relevant_rules`."""
 
 from __future__ import annotations
 
@@ -13,7 +14,20 @@ from mrss.agentspeak.planterms import plan_term_text
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
 from mrss.agentspeak.syntax import PlanSrc
-from mrss.agentspeak.terms import PlanTerm, Struct, Term, Trigger, deref, term_str
+from mrss.agentspeak.terms import (
+    AnnotTail,
+    Expr,
+    PlanTerm,
+    PList,
+    Slot,
+    Struct,
+    Term,
+    Trigger,
+    VarAnnot,
+    deref,
+    fresh_var,
+    term_str,
+)
 from mrss.agentspeak.unify import undo, unify
 
 
@@ -132,3 +146,56 @@ def plan_label(ctx: IAContext, args: list[Any]) -> bool:
         raise ctx.error(f"the label must be a literal, not {term_str(label)}")
     plan = ctx.runtime.plans.labelled(label)
     return plan is not None and ctx.unify(args[0], plan_term(plan, True))
+
+
+def _fresh(t: Term, frame: list[Any]) -> Term:
+    """Template `t` as a runtime term: slots become fresh variables (one per slot) and
+    expressions stay unevaluated (a rule body is shown, not run)."""
+    tt = type(t)
+    if tt is Slot:
+        slot: Slot = t  # type: ignore[assignment]
+        v = frame[slot.index]
+        if v is None:
+            v = frame[slot.index] = fresh_var(slot.name)
+        return v  # type: ignore[no-any-return]
+    if tt is Struct:
+        s: Struct = t  # type: ignore[assignment]
+        if s.ground:
+            return s
+        return Struct(s.functor, tuple([_fresh(a, frame) for a in s.args]),
+                      tuple([_fresh(a, frame) for a in s.annots]), s.neg)
+    if tt is tuple:
+        return tuple([_fresh(a, frame) for a in t])  # type: ignore[union-attr]
+    if tt is PList:
+        return PList(tuple([_fresh(a, frame) for a in t.items]),  # type: ignore[union-attr]
+                     _fresh(t.tail, frame))  # type: ignore[union-attr]
+    if tt is Expr:
+        return Expr(t.op, tuple([_fresh(a, frame) for a in t.args]))  # type: ignore
+    if tt is VarAnnot:
+        return VarAnnot(_fresh(t.var, frame),  # type: ignore[union-attr]
+                        tuple([_fresh(a, frame) for a in t.annots]))  # type: ignore
+    if tt is AnnotTail:
+        return AnnotTail(_fresh(t.tail, frame))  # type: ignore[union-attr]
+    return t
+
+
+@STDLIB.action(".relevant_rules", min_args=2, max_args=2)
+def relevant_rules(ctx: IAContext, args: list[Any]) -> bool:
+    """`.relevant_rules(p(_), Rules)`: the rules whose head unifies with the literal, as
+    rule terms `{ p(X) :- q(X) }`, in program order."""
+    lit = deref(args[0])
+    if type(lit) is not Struct:
+        raise ctx.error(f"expected a literal, not {term_str(lit)}")
+    rt = ctx.runtime
+    store = rt.bb.store(lit.key)
+    trail = rt.trail
+    found: list[Term] = []
+    for rule in store.rules if store is not None else []:
+        mark = len(trail)
+        ok = unify(rule.head, [None] * rule.nslots, lit.with_annots(()), trail)
+        undo(trail, mark)
+        if ok and rule.src_body is not None:
+            frame: list[Any] = [None] * rule.nslots
+            head = _fresh(rule.head, frame)
+            found.append(Struct(":-", (head, _fresh(rule.src_body, frame))))
+    return ctx.unify(args[1], tuple(found))
