@@ -26,12 +26,15 @@ from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
 from mrss.bus import BusEndpoints
+from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
+    DataReply,
     Envelope,
     Message,
     MindSnapshot,
+    Percept,
     RobotData,
     RobotState,
     SupEvent,
@@ -40,13 +43,19 @@ from mrss.tui import operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.events import READONLY_NOTICE, BusActivity, Note, SendRequested
+from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.models.actions import ActionsModel
+from mrss.tui.models.alerts import AlertsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
+from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.palette import MrssCommands
 from mrss.tui.widgets.actions_table import ActionsTable
+from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
+from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
@@ -59,12 +68,13 @@ class MrssApp(App[None]):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
+    COMMANDS = App.COMMANDS | {MrssCommands}
     CSS = """
     #top, #bottom { height: 1fr; }
     #actions { height: 1fr; }
     .panel { border: round $primary-darken-2; border-title-color: $accent; }
     .panel:focus-within { border: round $accent; }
-    #supervision, #mind { width: 1fr; }
+    #supervision, #mind, #map { width: 1fr; }
     #robots, #log { width: 1fr; }
     #banner { display: none; height: 1; padding: 0 1; background: $error;
               color: $text; text-style: bold; }
@@ -78,6 +88,8 @@ class MrssApp(App[None]):
         Binding("escape", "focus_actions", "Actions", show=False),
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
+        Binding("A", "ack_alerts", "Ack alerts"),
+        Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
         Binding("ctrl+q", "close", "Detach", show=False, priority=True),
@@ -86,7 +98,7 @@ class MrssApp(App[None]):
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
                  min_refresh: float = 0.1, readonly: bool = False,
-                 stale_after: float = 5.0) -> None:
+                 stale_after: float = 5.0, world_every: float = 2.0) -> None:
         super().__init__()
         self.project = project
         self.agent = agent
@@ -96,6 +108,10 @@ class MrssApp(App[None]):
         self.robots = RobotsModel()
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
+        self.map_model = MapModel()
+        self.alerts = AlertsModel()
+        self.world_every = world_every
+        self.world_asked = 0
         self.auto_mind = mind_every > 0
         self.mind_every = mind_every
         self.tree_every = tree_every
@@ -110,9 +126,11 @@ class MrssApp(App[None]):
     def compose(self) -> ComposeResult:
         yield Header(show_clock=True)
         yield Static("", id="banner")
+        yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
             yield RobotsTable(self.robots, id="robots")
+            yield MapPanel(self.map_model, id="map")
         yield ActionsTable(self.actions, id="actions")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
@@ -125,6 +143,7 @@ class MrssApp(App[None]):
                   "robots": "Robots (t teleop)", "actions": "Actions (c cancel, s suspend, "
                   "r resume)", "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
+        titles["map"] = "Map"
         for ident, title in titles.items():
             widget = self.query_one(f"#{ident}")
             widget.add_class("panel")
@@ -140,6 +159,9 @@ class MrssApp(App[None]):
             self.set_interval(self.mind_every, self._poll_mind)
         if self.tree_every > 0:
             self.set_interval(self.tree_every, self._poll_tree)
+        if self.world_every > 0:
+            self.set_interval(self.world_every, self.ask_world)
+        self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
 
     def on_unmount(self) -> None:
@@ -176,6 +198,9 @@ class MrssApp(App[None]):
             body = env.body
             if env.src != self.link.src:
                 self.liveness.heard()
+            for alert in self.alerts.apply(env):
+                dirty.add("alerts")
+                lines.append(alert_line(alert, env.ts))
             if isinstance(body, ActionStatus):
                 self.actions.apply_status(body, env.ts)
                 dirty.add("actions")
@@ -188,6 +213,12 @@ class MrssApp(App[None]):
             elif isinstance(body, RobotData):
                 self.robots.apply_data(body, env.ts)
                 dirty.add("robots")
+                if self.map_model.apply_data(body):
+                    dirty.add("map")
+            elif (isinstance(body, DataReply)
+                  and body.request_id.startswith(operator.WORLD_REQUEST_PREFIX)):
+                self._world_reply(body)
+                dirty.add("map")
             elif isinstance(body, SupEvent):
                 self.supervision.apply_event(body, env.src, env.ts)
                 self._system_end(body, env.src)
@@ -206,8 +237,18 @@ class MrssApp(App[None]):
             self.query_one(SupervisionTable).refresh_rows(now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts)
+        if "map" in dirty:
+            self.query_one(MapPanel).refresh()
+        if "alerts" in dirty:
+            self.query_one(AlertsStrip).show_alerts()
         if lines:
             self.query_one(LogPane).add(lines)
+
+    def _world_reply(self, reply: DataReply) -> None:
+        if not reply.ok:
+            self.map_model.world_error = reply.error
+        elif not self.map_model.apply_world(reply.result):
+            self.map_model.world_error = "wm.list answered something other than a list"
 
     def _system_end(self, event: SupEvent, src: str) -> None:
         """The root giving up on the whole system ends it: the banner keeps the reason.
@@ -261,6 +302,7 @@ class MrssApp(App[None]):
         for request in requests:
             with suppress(Exception):  # not connected yet: the next ask will do
                 self.link.publish(request)
+        self.ask_world()
 
     def banner_text(self) -> str:
         """What the red banner says ("" when the picture is current)."""
@@ -355,6 +397,36 @@ class MrssApp(App[None]):
             with suppress(Exception):
                 self.link.publish(operator.mind_request(self.agent))
 
+    def ask_world(self) -> None:
+        """Ask the world model for its objects (the answer comes as a `DataReply`)."""
+        self.world_asked += 1
+        with suppress(Exception):  # not connected yet: the next ask will do
+            self.link.publish(operator.world_request(self.world_asked), WM_REQUEST_TOPIC)
+
+    # -- map, alerts, help, palette ----------------------------------------------------------
+    def map_follow(self, robot: str | None) -> None:
+        """Centre the map on `robot` and keep it there (None: stop)."""
+        self.query_one(MapPanel).follow(robot)
+
+    def map_fit(self) -> None:
+        self.query_one(MapPanel).action_fit()
+
+    def send_percept(self, percept: Percept) -> None:
+        """Send a percept as the percept line would (the palette's "Send percept")."""
+        verb = "remove" if percept.op == "remove" else "add"
+        self.post_message(SendRequested(percept, f"percept {verb} {percept.literal}"))
+
+    def action_ack_alerts(self) -> None:
+        count = self.alerts.acknowledge()
+        self.query_one(AlertsStrip).show_alerts()
+        self._say(f"acknowledged {count} alert{'s' if count != 1 else ''}" if count
+                  else "no new alerts")
+
+    def action_help(self) -> None:
+        focused = self.focused
+        name = "nothing" if focused is None else (focused.id or type(focused).__name__)
+        self.push_screen(HelpScreen(current_keys(self), name))
+
     def _poll_tree(self) -> None:
         with suppress(Exception):
             self.link.publish(operator.tree_request())
@@ -369,7 +441,7 @@ class MrssApp(App[None]):
 
     def action_refresh_all(self) -> None:
         self.ask_snapshot()
-        self._say("asked for a full snapshot (tree, robots, actions, mind)")
+        self._say("asked for a full snapshot (tree, robots, actions, mind, world model)")
 
     def action_focus_percept(self) -> None:
         if self.readonly:
