@@ -1,16 +1,17 @@
 """MrssApp: the monitoring and debug dashboard of a running MRSS system (`mrss tui PROJECT`).
 
-Panels: the supervision tree, the robots, the actions, the reasoner's mind and a log;
-under them the operator's percept line. The app owns the `BusLink` and the models:
-bus messages are drained from the link's inbox on the app's thread (at most every
-`min_refresh` seconds, so a burst becomes one redraw), applied to the models, and the
-panels that changed are redrawn. Widgets ask for bus messages with `SendRequested`.
+Panels: an alerts strip, the supervision tree, the robots, a map, the actions, the
+reasoner's mind and a log; under them the operator's percept line. The app owns the
+`BusLink` and the models: bus messages are drained from the link's inbox on the app's
+thread (at most every `min_refresh` seconds, so a burst becomes one redraw), applied
+to the models, and the panels that changed are redrawn. Widgets ask for bus messages
+with `SendRequested`; sending (read-only refusals, questions, reports) is `steering.py`.
 
 Safety: `q` only detaches this viewer (the system runs on); stopping the system is `X`
 and asks first, naming what stops; so do cancel and teleop. `readonly` refuses every
 control. A picture that never lies: on connecting (and after a proxy restart, and on
-F5) the app asks for a full snapshot (tree, robots, open actions, mind), and a red
-banner says when the system has gone quiet or ended (`models/liveness.py`).
+F5) the app asks for a full snapshot (tree, robots, open actions, mind, world model),
+and a red banner says when the system has gone quiet or ended (`models/liveness.py`).
 """
 
 from __future__ import annotations
@@ -34,15 +35,13 @@ from mrss.messages import (
     Envelope,
     Message,
     MindSnapshot,
-    Percept,
     RobotData,
     RobotState,
     SupEvent,
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
-from mrss.tui.confirm import ConfirmScreen
-from mrss.tui.events import READONLY_NOTICE, BusActivity, Note, SendRequested
+from mrss.tui.events import READONLY_NOTICE, BusActivity
 from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
@@ -52,6 +51,7 @@ from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
 from mrss.tui.palette import MrssCommands
+from mrss.tui.steering import Steering
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
@@ -64,7 +64,7 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
 
 
-class MrssApp(App[None]):
+class MrssApp(Steering):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -324,70 +324,6 @@ class MrssApp(App[None]):
         project = f"{self.project} · " if self.project else ""
         return f"{project}connected · {self.link.endpoints.backend} · {self.link.received} msgs"
 
-    # -- operator ---------------------------------------------------------------------------
-    def on_send_requested(self, request: SendRequested) -> None:
-        if self.readonly:
-            self._say(f"{request.what} refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
-            return
-        if not request.confirm:
-            self._send(request)
-            return
-
-        def answered(yes: bool | None) -> None:
-            if yes:
-                self._send(request)
-            else:
-                self._say(f"not sent (declined): {request.what}")
-
-        self.push_screen(ConfirmScreen(request.confirm, request.details), answered)
-
-    def _send(self, request: SendRequested) -> None:
-        try:
-            self.link.publish(request.body)
-        except Exception as exc:  # the dashboard stays up whatever the bus does
-            self._say(f"not sent: {request.what}: {exc}", error=True)
-            return
-        self._say(f"sent {request.what}")
-
-    def on_note(self, note: Note) -> None:
-        self._say(note.text, error=note.error)
-
-    def _say(self, text: str, *, error: bool = False) -> None:
-        with suppress(NoMatches):  # the panels are gone: the app is closing
-            self.query_one(OperatorBar).set_status(text, error=error)
-            self.query_one(LogPane).note(text, error=error)
-
-    def open_actions_of(self, robot: str) -> list[str]:
-        """The names of the actions the dashboard knows open on `robot`."""
-        return [view.name or view.uuid[:8] for view in self.actions.newest_first()
-                if view.robot == robot and view.state and not view.terminal]
-
-    def stop_details(self) -> list[str]:
-        """What stopping the system stops, for the confirmation."""
-        root = self.supervision.root or self.project
-        components = [n.name for n in self.supervision.nodes.values()
-                      if n.parent == root and n.state not in ("stopped", "gave up")]
-        running = [v for v in self.actions.newest_first() if v.state and not v.terminal]
-        return [f"components: {', '.join(components) or 'none known'}",
-                f"robots: {', '.join(self.robots.robots) or 'none known'}",
-                f"open actions: {len(running)} (ended as the RCL stops)"]
-
-    def action_stop_system(self) -> None:
-        if self.readonly:
-            self._say(f"stop refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
-            return
-        root = self.supervision.root or self.project
-        try:
-            request = operator.stop_request(root)
-        except operator.OperatorError as exc:
-            self._say(f"stop not sent: {exc}", error=True)
-            return
-        self.post_message(SendRequested(
-            request, f"stop {root}", confirm=f"Stop the whole system {root}?",
-            details=self.stop_details()))
-
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""
         self.exit()
@@ -410,11 +346,6 @@ class MrssApp(App[None]):
 
     def map_fit(self) -> None:
         self.query_one(MapPanel).action_fit()
-
-    def send_percept(self, percept: Percept) -> None:
-        """Send a percept as the percept line would (the palette's "Send percept")."""
-        verb = "remove" if percept.op == "remove" else "add"
-        self.post_message(SendRequested(percept, f"percept {verb} {percept.literal}"))
 
     def action_ack_alerts(self) -> None:
         count = self.alerts.acknowledge()
