@@ -77,9 +77,9 @@ class Viewport:
         return True
 
     def describe(self, width: int) -> str:
-        """The width the view spans, for the panel's title: `1.2 km across`."""
+        """The width the view spans, for the panel's title: `1.2 km wide`."""
         metres = self.scale * width * DOTS_X
-        return f"{metres / 1000:.1f} km across" if metres >= 1000 else f"{metres:.0f} m across"
+        return f"{metres / 1000:.1f} km wide" if metres >= 1000 else f"{metres:.0f} m wide"
 
 
 ARROWS = "↑↗→↘↓↙←↖"

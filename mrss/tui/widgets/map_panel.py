@@ -66,8 +66,7 @@ class MapPanel(Widget, can_focus=True):
         mode = (f"following {self.following}" if self.following
                 else "fit" if self.auto_fit else "free")
         empty = "" if self.model.points() else " · no positions yet"
-        self.border_title = (f"Map ({self.view.describe(width)}, {mode}{empty}; "
-                             "+ - zoom, arrows pan, f follow, 0 fit)")
+        self.border_title = f"Map {self.view.describe(width)} · {mode}{empty} (+ - ← → f 0)"
 
     def marker_cell(self, robot: str) -> tuple[int, int] | None:
         """The (column, row) of a robot's marker in the panel, None if unknown or outside."""
