@@ -140,7 +140,7 @@ class MrssApp(Steering):
 
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
-                  "robots": "Robots (t teleop)", "actions": "Actions (c cancel, s suspend, "
+                  "robots": "Robots (t teleop, g map)", "actions": "Actions (c cancel, s suspend, "
                   "r resume)", "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
         titles["map"] = "Map"
@@ -340,9 +340,13 @@ class MrssApp(Steering):
             self.link.publish(operator.world_request(self.world_asked), WM_REQUEST_TOPIC)
 
     # -- map, alerts, help, palette ----------------------------------------------------------
-    def map_follow(self, robot: str | None) -> None:
-        """Centre the map on `robot` and keep it there (None: stop)."""
+    def map_follow(self, robot: str | None) -> bool:
+        """Centre the map on `robot` and keep it there (None: stop); False if the map
+        has no position for it."""
+        if robot is not None and robot not in self.map_model.robots:
+            return False
         self.query_one(MapPanel).follow(robot)
+        return True
 
     def map_fit(self) -> None:
         self.query_one(MapPanel).action_fit()

@@ -25,6 +25,7 @@ from mrss.tui.help import HelpScreen
 from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.map_panel import MapPanel
+from mrss.tui.widgets.robots_table import RobotsTable
 from tests.tui.tui_helpers import Peer, connected, run, until
 
 SIZE = (180, 50)
@@ -116,6 +117,12 @@ def test_telemetry_moves_the_robot_marker_and_world_objects_show(
             await pilot.press("0")
             assert panel.auto_fit
             assert "fit" in str(panel.border_title)
+            # g on the robots table: the map follows the selected robot
+            robots = app.query_one(RobotsTable)
+            robots.focus()
+            await until(pilot, lambda: robots.selected_key == "ugv1", message="ugv1 row")
+            await pilot.press("g")
+            assert panel.following == "ugv1"
     run(body())
 
 
@@ -206,4 +213,23 @@ def test_palette_follows_a_robot_and_sends_a_percept(endpoints: BusEndpoints,
             await pilot.press("enter")
             await until(pilot, lambda: [p.literal for p in peer.received(Percept)]
                         == ["fire(area9)"], message="the percept on the bus")
+    run(body())
+
+
+def test_a_readonly_palette_refuses_to_send_a_percept(endpoints: BusEndpoints,
+                                                     peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints, world_every=0.0, readonly=True)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            await pilot.press("ctrl+p")
+            await pilot.press(*"percept fire(area9)")
+            await until(pilot, lambda: hits(app), message="palette hits")
+            await pilot.press("enter")
+            log = app.query_one(LogPane)
+            await until(pilot, lambda: any("percept add fire(area9) refused: read-only" in line
+                                           for line in log.lines_text()), message="refused")
+            peer.publish(Percept(literal="marker(1)"), src="tui")  # shows what did arrive
+            await until(pilot, lambda: peer.received(Percept), message="the marker")
+            assert [p.literal for p in peer.received(Percept)] == ["marker(1)"]
     run(body())
