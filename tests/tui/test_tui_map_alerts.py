@@ -13,6 +13,7 @@ from mrss.edge.worldmodel_objects import WorldObject
 from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, WorldModel
 from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.messages import (
+    DataReply,
     DataRequest,
     Envelope,
     Percept,
@@ -232,4 +233,25 @@ def test_a_readonly_palette_refuses_to_send_a_percept(endpoints: BusEndpoints,
             peer.publish(Percept(literal="marker(1)"), src="tui")  # shows what did arrive
             await until(pilot, lambda: peer.received(Percept), message="the marker")
             assert [p.literal for p in peer.received(Percept)] == ["marker(1)"]
+    run(body())
+
+
+def test_a_world_model_error_shows_on_the_map_title(endpoints: BusEndpoints,
+                                                    peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints, world_every=0.0)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            panel = app.query_one(MapPanel)
+            with Publisher(endpoints, src="worldmodel") as pub:
+                assert pub.wait_connected(10)
+                pub.publish(DataReply(request_id="someone-else", ok=False, error="not ours"),
+                            topic=WM_REPLY_TOPIC)
+                pub.publish(DataReply(request_id="tui-wm-1", ok=False,
+                                      error="WorldStoreUnavailable: db down"),
+                            topic=WM_REPLY_TOPIC)
+                pub.flush()
+            await until(pilot, lambda: "world model: WorldStoreUnavailable: db down"
+                        in str(panel.border_title), message="the error on the title")
+            assert "not ours" not in str(panel.border_title)
     run(body())

@@ -66,6 +66,8 @@ class MapPanel(Widget, can_focus=True):
         mode = (f"following {self.following}" if self.following
                 else "fit" if self.auto_fit else "free")
         empty = "" if self.model.points() else " · no positions yet"
+        if self.model.world_error:
+            empty += f" · world model: {self.model.world_error[:40]}"
         self.border_title = f"Map {self.view.describe(width)} · {mode}{empty} (+ - ← → f 0)"
 
     def marker_cell(self, robot: str) -> tuple[int, int] | None:
