@@ -29,6 +29,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="ask for a mind snapshot every S seconds (0: only on m)")
     parser.add_argument("--tree-every", type=float, default=2.0, metavar="S",
                         help="ask the supervisor for its tree every S seconds (0: only on F5)")
+    parser.add_argument("--world-every", type=float, default=2.0, metavar="S",
+                        help="ask the world model for its objects (the map) every S seconds "
+                             "(0: only on connecting and F5)")
     parser.add_argument("--stale-after", type=float, default=5.0, metavar="S",
                         help="turn the header red when nothing came from the system for S "
                              "seconds (default 5)")
@@ -50,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
 
     app = MrssApp(endpoints, project=name, agent=args.agent,
                   mind_every=args.mind_every, tree_every=args.tree_every,
-                  readonly=args.readonly, stale_after=args.stale_after)
+                  readonly=args.readonly, stale_after=args.stale_after,
+                  world_every=args.world_every)
     app.run()
     ended = app.liveness.ended
     print(f"mrss tui: {name}: {ended}" if ended else

@@ -1,16 +1,17 @@
 """MrssApp: the monitoring and debug dashboard of a running MRSS system (`mrss tui PROJECT`).
 
-Panels: the supervision tree, the robots, the actions, the reasoner's mind and a log;
-under them the operator's percept line. The app owns the `BusLink` and the models:
-bus messages are drained from the link's inbox on the app's thread (at most every
-`min_refresh` seconds, so a burst becomes one redraw), applied to the models, and the
-panels that changed are redrawn. Widgets ask for bus messages with `SendRequested`.
+Panels: an alerts strip, the supervision tree, the robots, a map, the actions, the
+reasoner's mind and a log; under them the operator's percept line. The app owns the
+`BusLink` and the models: bus messages are drained from the link's inbox on the app's
+thread (at most every `min_refresh` seconds, so a burst becomes one redraw), applied
+to the models, and the panels that changed are redrawn. Widgets ask for bus messages
+with `SendRequested`; sending (read-only refusals, questions, reports) is `steering.py`.
 
 Safety: `q` only detaches this viewer (the system runs on); stopping the system is `X`
 and asks first, naming what stops; so do cancel and teleop. `readonly` refuses every
 control. A picture that never lies: on connecting (and after a proxy restart, and on
-F5) the app asks for a full snapshot (tree, robots, open actions, mind), and a red
-banner says when the system has gone quiet or ended (`models/liveness.py`).
+F5) the app asks for a full snapshot (tree, robots, open actions, mind, world model),
+and a red banner says when the system has gone quiet or ended (`models/liveness.py`).
 """
 
 from __future__ import annotations
@@ -26,9 +27,11 @@ from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
 from mrss.bus import BusEndpoints
+from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
+    DataReply,
     Envelope,
     Message,
     MindSnapshot,
@@ -38,15 +41,21 @@ from mrss.messages import (
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
-from mrss.tui.confirm import ConfirmScreen
-from mrss.tui.events import READONLY_NOTICE, BusActivity, Note, SendRequested
+from mrss.tui.events import READONLY_NOTICE, BusActivity
+from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.models.actions import ActionsModel
+from mrss.tui.models.alerts import AlertsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
+from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.palette import MrssCommands
+from mrss.tui.steering import Steering
 from mrss.tui.widgets.actions_table import ActionsTable
+from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
+from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
@@ -55,16 +64,17 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
 
 
-class MrssApp(App[None]):
+class MrssApp(Steering):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
+    COMMANDS = App.COMMANDS | {MrssCommands}
     CSS = """
     #top, #bottom { height: 1fr; }
     #actions { height: 1fr; }
     .panel { border: round $primary-darken-2; border-title-color: $accent; }
     .panel:focus-within { border: round $accent; }
-    #supervision, #mind { width: 1fr; }
+    #supervision, #mind, #map { width: 1fr; }
     #robots, #log { width: 1fr; }
     #banner { display: none; height: 1; padding: 0 1; background: $error;
               color: $text; text-style: bold; }
@@ -78,6 +88,8 @@ class MrssApp(App[None]):
         Binding("escape", "focus_actions", "Actions", show=False),
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
+        Binding("A", "ack_alerts", "Ack alerts"),
+        Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
         Binding("ctrl+q", "close", "Detach", show=False, priority=True),
@@ -86,7 +98,7 @@ class MrssApp(App[None]):
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
                  min_refresh: float = 0.1, readonly: bool = False,
-                 stale_after: float = 5.0) -> None:
+                 stale_after: float = 5.0, world_every: float = 2.0) -> None:
         super().__init__()
         self.project = project
         self.agent = agent
@@ -96,6 +108,10 @@ class MrssApp(App[None]):
         self.robots = RobotsModel()
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
+        self.map_model = MapModel()
+        self.alerts = AlertsModel()
+        self.world_every = world_every
+        self.world_asked = 0
         self.auto_mind = mind_every > 0
         self.mind_every = mind_every
         self.tree_every = tree_every
@@ -110,9 +126,11 @@ class MrssApp(App[None]):
     def compose(self) -> ComposeResult:
         yield Header(show_clock=True)
         yield Static("", id="banner")
+        yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
             yield RobotsTable(self.robots, id="robots")
+            yield MapPanel(self.map_model, id="map")
         yield ActionsTable(self.actions, id="actions")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
@@ -122,9 +140,10 @@ class MrssApp(App[None]):
 
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
-                  "robots": "Robots (t teleop)", "actions": "Actions (c cancel, s suspend, "
+                  "robots": "Robots (t teleop, g map)", "actions": "Actions (c cancel, s suspend, "
                   "r resume)", "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
+        titles["map"] = "Map"
         for ident, title in titles.items():
             widget = self.query_one(f"#{ident}")
             widget.add_class("panel")
@@ -140,6 +159,9 @@ class MrssApp(App[None]):
             self.set_interval(self.mind_every, self._poll_mind)
         if self.tree_every > 0:
             self.set_interval(self.tree_every, self._poll_tree)
+        if self.world_every > 0:
+            self.set_interval(self.world_every, self.ask_world)
+        self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
 
     def on_unmount(self) -> None:
@@ -176,6 +198,9 @@ class MrssApp(App[None]):
             body = env.body
             if env.src != self.link.src:
                 self.liveness.heard()
+            for alert in self.alerts.apply(env):
+                dirty.add("alerts")
+                lines.append(alert_line(alert, env.ts))
             if isinstance(body, ActionStatus):
                 self.actions.apply_status(body, env.ts)
                 dirty.add("actions")
@@ -188,6 +213,12 @@ class MrssApp(App[None]):
             elif isinstance(body, RobotData):
                 self.robots.apply_data(body, env.ts)
                 dirty.add("robots")
+                if self.map_model.apply_data(body):
+                    dirty.add("map")
+            elif (isinstance(body, DataReply)
+                  and body.request_id.startswith(operator.WORLD_REQUEST_PREFIX)):
+                self._world_reply(body)
+                dirty.add("map")
             elif isinstance(body, SupEvent):
                 self.supervision.apply_event(body, env.src, env.ts)
                 self._system_end(body, env.src)
@@ -206,8 +237,18 @@ class MrssApp(App[None]):
             self.query_one(SupervisionTable).refresh_rows(now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts)
+        if "map" in dirty:
+            self.query_one(MapPanel).refresh()
+        if "alerts" in dirty:
+            self.query_one(AlertsStrip).show_alerts()
         if lines:
             self.query_one(LogPane).add(lines)
+
+    def _world_reply(self, reply: DataReply) -> None:
+        if not reply.ok:
+            self.map_model.world_error = reply.error
+        elif not self.map_model.apply_world(reply.result):
+            self.map_model.world_error = "wm.list answered something other than a list"
 
     def _system_end(self, event: SupEvent, src: str) -> None:
         """The root giving up on the whole system ends it: the banner keeps the reason.
@@ -261,6 +302,7 @@ class MrssApp(App[None]):
         for request in requests:
             with suppress(Exception):  # not connected yet: the next ask will do
                 self.link.publish(request)
+        self.ask_world()
 
     def banner_text(self) -> str:
         """What the red banner says ("" when the picture is current)."""
@@ -282,70 +324,6 @@ class MrssApp(App[None]):
         project = f"{self.project} · " if self.project else ""
         return f"{project}connected · {self.link.endpoints.backend} · {self.link.received} msgs"
 
-    # -- operator ---------------------------------------------------------------------------
-    def on_send_requested(self, request: SendRequested) -> None:
-        if self.readonly:
-            self._say(f"{request.what} refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
-            return
-        if not request.confirm:
-            self._send(request)
-            return
-
-        def answered(yes: bool | None) -> None:
-            if yes:
-                self._send(request)
-            else:
-                self._say(f"not sent (declined): {request.what}")
-
-        self.push_screen(ConfirmScreen(request.confirm, request.details), answered)
-
-    def _send(self, request: SendRequested) -> None:
-        try:
-            self.link.publish(request.body)
-        except Exception as exc:  # the dashboard stays up whatever the bus does
-            self._say(f"not sent: {request.what}: {exc}", error=True)
-            return
-        self._say(f"sent {request.what}")
-
-    def on_note(self, note: Note) -> None:
-        self._say(note.text, error=note.error)
-
-    def _say(self, text: str, *, error: bool = False) -> None:
-        with suppress(NoMatches):  # the panels are gone: the app is closing
-            self.query_one(OperatorBar).set_status(text, error=error)
-            self.query_one(LogPane).note(text, error=error)
-
-    def open_actions_of(self, robot: str) -> list[str]:
-        """The names of the actions the dashboard knows open on `robot`."""
-        return [view.name or view.uuid[:8] for view in self.actions.newest_first()
-                if view.robot == robot and view.state and not view.terminal]
-
-    def stop_details(self) -> list[str]:
-        """What stopping the system stops, for the confirmation."""
-        root = self.supervision.root or self.project
-        components = [n.name for n in self.supervision.nodes.values()
-                      if n.parent == root and n.state not in ("stopped", "gave up")]
-        running = [v for v in self.actions.newest_first() if v.state and not v.terminal]
-        return [f"components: {', '.join(components) or 'none known'}",
-                f"robots: {', '.join(self.robots.robots) or 'none known'}",
-                f"open actions: {len(running)} (ended as the RCL stops)"]
-
-    def action_stop_system(self) -> None:
-        if self.readonly:
-            self._say(f"stop refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
-            return
-        root = self.supervision.root or self.project
-        try:
-            request = operator.stop_request(root)
-        except operator.OperatorError as exc:
-            self._say(f"stop not sent: {exc}", error=True)
-            return
-        self.post_message(SendRequested(
-            request, f"stop {root}", confirm=f"Stop the whole system {root}?",
-            details=self.stop_details()))
-
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""
         self.exit()
@@ -354,6 +332,35 @@ class MrssApp(App[None]):
         if self.auto_mind:
             with suppress(Exception):
                 self.link.publish(operator.mind_request(self.agent))
+
+    def ask_world(self) -> None:
+        """Ask the world model for its objects (the answer comes as a `DataReply`)."""
+        self.world_asked += 1
+        with suppress(Exception):  # not connected yet: the next ask will do
+            self.link.publish(operator.world_request(self.world_asked), WM_REQUEST_TOPIC)
+
+    # -- map, alerts, help, palette ----------------------------------------------------------
+    def map_follow(self, robot: str | None) -> bool:
+        """Centre the map on `robot` and keep it there (None: stop); False if the map
+        has no position for it."""
+        if robot is not None and robot not in self.map_model.robots:
+            return False
+        self.query_one(MapPanel).follow(robot)
+        return True
+
+    def map_fit(self) -> None:
+        self.query_one(MapPanel).action_fit()
+
+    def action_ack_alerts(self) -> None:
+        count = self.alerts.acknowledge()
+        self.query_one(AlertsStrip).show_alerts()
+        self._say(f"acknowledged {count} alert{'s' if count != 1 else ''}" if count
+                  else "no new alerts")
+
+    def action_help(self) -> None:
+        focused = self.focused
+        name = "nothing" if focused is None else (focused.id or type(focused).__name__)
+        self.push_screen(HelpScreen(current_keys(self), name))
 
     def _poll_tree(self) -> None:
         with suppress(Exception):
@@ -369,7 +376,7 @@ class MrssApp(App[None]):
 
     def action_refresh_all(self) -> None:
         self.ask_snapshot()
-        self._say("asked for a full snapshot (tree, robots, actions, mind)")
+        self._say("asked for a full snapshot (tree, robots, actions, mind, world model)")
 
     def action_focus_percept(self) -> None:
         if self.readonly:

@@ -17,7 +17,9 @@ from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
 from mrss.messages import Envelope, Message
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
-PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.")
+# `percept` (hotspots found, for the alerts) and `dl.reply.wm` (the world model, for the map).
+PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
+            "dl.reply.wm")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 
 
@@ -76,11 +78,11 @@ class BusLink:
         """How many times the proxy greeted the subscriber: it grows after a proxy restart."""
         return self._sub.welcomes if self._sub is not None else 0
 
-    def publish(self, msg: Message) -> str:
-        """Send one operator message; its id."""
+    def publish(self, msg: Message, topic: str | None = None) -> str:
+        """Send one operator message (on `topic`, default its own); its id."""
         if self._pub is None:
             raise RuntimeError("the bus link is not started")
-        return self._pub.publish(msg)
+        return self._pub.publish(msg, topic=topic)
 
     def close(self) -> None:
         if self._sub is not None:

@@ -7,14 +7,15 @@
   `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
 - `ctl.snapshot` (the RCL re-announces every robot and open action), with an
   `action.query` for the actions the dashboard believes open, and `ctl.stop` (the
-  root supervisor stops the whole system in order).
+  root supervisor stops the whole system in order);
+- `wm.list` on `dl.request.wm`: the world model's objects, for the map.
 """
 
 from __future__ import annotations
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct
-from mrss.messages import ActionControl, ActionQuery, Command, Percept
+from mrss.messages import ActionControl, ActionQuery, Command, DataRequest, Percept
 
 FAULTS = ("kill", "hang", "crash", "term")
 ACTION_COMMANDS = ("cancel", "suspend", "resume")
@@ -120,3 +121,12 @@ def stop_request(root: str) -> Command:
     if not root:
         raise OperatorError("the system's name is not known yet")
     return Command(command="stop", target=root)
+
+
+WORLD_REQUEST_PREFIX = "tui-wm-"
+
+
+def world_request(serial: int) -> DataRequest:
+    """Ask the world model for every object (`wm.list`), on `dl.request.wm`."""
+    return DataRequest(request_id=f"{WORLD_REQUEST_PREFIX}{serial}", function="wm.list",
+                       args=[None])

@@ -1,4 +1,5 @@
-"""RobotsTable: one row per robot (availability, link, teleop, latest telemetry); t = teleop."""
+"""RobotsTable: one row per robot (availability, link, teleop, latest telemetry); t = teleop,
+g = follow it on the map."""
 
 from __future__ import annotations
 
@@ -24,7 +25,8 @@ class RobotsTable(KeyedTable):
     COLUMNS = (("robot", "robot"), ("available", "available"), ("link", "link"),
                ("teleop", "teleop"), ("position", "position"), ("battery", "battery"),
                ("tank", "tank"), ("data", "data age"), ("reason", "reason"))
-    BINDINGS: ClassVar[list[BindingType]] = [Binding("t", "teleop", "Teleop on/off")]
+    BINDINGS: ClassVar[list[BindingType]] = [Binding("t", "teleop", "Teleop on/off"),
+                                              Binding("g", "show_on_map", "Follow on map")]
 
     def __init__(self, model: RobotsModel, *, id: str | None = None) -> None:
         super().__init__(id=id)
@@ -62,6 +64,15 @@ class RobotsTable(KeyedTable):
         self.post_message(SendRequested(operator.teleop(robot, on),
                                         f"teleop {'on' if on else 'off'} for {robot}",
                                         confirm=confirm, details=details))
+
+    def action_show_on_map(self) -> None:
+        """`g`: the map follows the selected robot (if it has sent a position)."""
+        robot = self.selected_key
+        follow = getattr(self.app, "map_follow", None)
+        if robot is None or not callable(follow):
+            self.post_message(Note("no robot selected", error=True))
+        elif not follow(robot):
+            self.post_message(Note(f"{robot} has sent no position yet", error=True))
 
     def open_actions(self, robot: str) -> str:
         """`2 actions (patrol, survey)` the dashboard knows open on `robot`."""

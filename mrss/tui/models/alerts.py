@@ -1,0 +1,150 @@
+"""The operator's alerts: rules over incoming bus messages, acknowledgement, history.
+
+Conditions (battery low, link down, robot unavailable) are raised when they begin and
+resolved when they end; one alert per robot and kind, however often the condition is
+repeated. Events (hotspot found, component restarted, hung, quarantined, gave up) raise
+one alert per subject, counted when they recur: a recurrence of an acknowledged alert
+raises it again. Acknowledging clears the highlight; every alert stays in the history.
+Pure Python: no Textual.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+from mrss.messages import Envelope, Percept, RobotData, RobotState, SupEvent
+
+BATTERY_LOW = 20.0  # percent: below it a robot's battery is low
+HISTORY_LIMIT = 500  # alerts kept (oldest dropped)
+
+
+class AlertKind(StrEnum):
+    BATTERY_LOW = "battery low"
+    LINK_DOWN = "link down"
+    UNAVAILABLE = "unavailable"
+    QUARANTINED = "quarantined"
+    HOTSPOT = "hotspot"
+    RESTARTED = "restarted"
+    HUNG = "hung"
+    GAVE_UP = "gave up"
+
+
+CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE)
+SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED)
+
+
+@dataclass
+class Alert:
+    """One alert: what, about whom, the latest detail, when, how often."""
+
+    kind: AlertKind
+    subject: str
+    text: str
+    ts: float
+    count: int = 1
+    acked: bool = False
+    resolved: bool = False
+
+    @property
+    def key(self) -> tuple[AlertKind, str]:
+        return self.kind, self.subject
+
+    def line(self) -> str:
+        times = f" ×{self.count}" if self.count > 1 else ""
+        ended = " (over)" if self.resolved else ""
+        return f"{self.kind.value}: {self.subject}{times} {self.text}{ended}".rstrip()
+
+
+def battery_percent(data: dict[str, Any]) -> float | None:
+    """The battery level in a telemetry record (`battery` link record or flat map)."""
+    kind = data.get("type")
+    value: Any = None
+    if kind == "battery":
+        value = data.get("remaining")
+    elif not kind:
+        value = data.get("battery")
+        if isinstance(value, dict):
+            value = value.get("remaining")
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        return float(value)
+    return None
+
+
+class AlertsModel:
+    """Alerts by key, newest last; `apply` returns the alerts a message raised."""
+
+    def __init__(self, battery_low: float = BATTERY_LOW) -> None:
+        self.battery_low = battery_low
+        self.alerts: dict[tuple[AlertKind, str], Alert] = {}
+
+    def apply(self, env: Envelope) -> list[Alert]:
+        body = env.body
+        if isinstance(body, RobotData):
+            level = battery_percent(body.data)
+            if level is None:
+                return []
+            return self._condition(AlertKind.BATTERY_LOW, body.robot, level < self.battery_low,
+                                   f"{level:.0f}%", env.ts)
+        if isinstance(body, RobotState):
+            raised = self._condition(AlertKind.LINK_DOWN, body.robot, body.link == "down",
+                                     body.reason, env.ts)
+            raised += self._condition(AlertKind.UNAVAILABLE, body.robot,
+                                      not body.available and body.link != "down",
+                                      body.reason, env.ts)
+            return raised
+        if isinstance(body, Percept):
+            literal = body.literal.strip()
+            if body.op == "add" and literal.startswith("hotspot_detected("):
+                return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
+            return []
+        if isinstance(body, SupEvent):
+            kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
+                    "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED
+                    }.get(body.event)
+            if kind is None:
+                return []
+            subject = f"{body.supervisor}/{body.child}" if body.supervisor else body.child
+            return [self._event(kind, subject, body.reason, env.ts)]
+        return []
+
+    def _condition(self, kind: AlertKind, subject: str, on: bool, text: str,
+                   ts: float) -> list[Alert]:
+        alert = self.alerts.get((kind, subject))
+        if not on:
+            if alert is not None and not alert.resolved:
+                alert.resolved = True
+            return []
+        if alert is not None and not alert.resolved:
+            alert.text = text  # still on: the latest detail, no new alert
+            return []
+        return [self._event(kind, subject, text, ts)]
+
+    def _event(self, kind: AlertKind, subject: str, text: str, ts: float) -> Alert:
+        alert = self.alerts.pop((kind, subject), None)
+        if alert is None:
+            alert = Alert(kind, subject, text, ts)
+        else:
+            alert.count += 1
+            alert.text, alert.ts, alert.acked, alert.resolved = text, ts, False, False
+        self.alerts[alert.key] = alert  # newest last
+        while len(self.alerts) > HISTORY_LIMIT:
+            del self.alerts[next(iter(self.alerts))]
+        return alert
+
+    def unacked(self) -> list[Alert]:
+        """Alerts not acknowledged yet, newest first."""
+        return [a for a in reversed(self.alerts.values()) if not a.acked]
+
+    def history(self) -> list[Alert]:
+        """Every alert kept, newest first."""
+        return list(reversed(self.alerts.values()))
+
+    def acknowledge(self) -> int:
+        """Acknowledge every alert; how many were new."""
+        new = self.unacked()
+        for alert in new:
+            alert.acked = True
+        return len(new)

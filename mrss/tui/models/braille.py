@@ -1,0 +1,80 @@
+"""A braille canvas: 2x4 dots per terminal cell, glyphs and labels on top.
+
+Drawn into by the map (tracks, area outlines as dots; robots and objects as glyphs);
+read out as rows of (text, style) runs. Pure Python: no Textual. Whatever falls outside
+the canvas is dropped.
+"""
+
+from __future__ import annotations
+
+import math
+
+BRAILLE_BASE = 0x2800
+# bit of the dot at (x % 2, y % 4) within its cell
+DOT_BITS = ((0x01, 0x02, 0x04, 0x40), (0x08, 0x10, 0x20, 0x80))
+MAX_LINE_DOTS = 4000  # a longer segment is mostly off-canvas: drawn in this many steps
+
+
+class BrailleCanvas:
+    """Cells of braille dots, each cell with the style of what drew it last."""
+
+    def __init__(self, width: int, height: int) -> None:
+        self.width, self.height = max(0, width), max(0, height)
+        self._bits = [[0] * self.width for _ in range(self.height)]
+        self._styles = [[""] * self.width for _ in range(self.height)]
+        self._glyphs: dict[tuple[int, int], tuple[str, str]] = {}
+
+    def dot(self, x: float, y: float, style: str = "") -> None:
+        """Set the dot at (x, y) in dots (x right, y down)."""
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return
+        xi, yi = math.floor(x), math.floor(y)
+        col, row = xi // 2, yi // 4
+        if 0 <= col < self.width and 0 <= row < self.height:
+            self._bits[row][col] |= DOT_BITS[xi % 2][yi % 4]
+            self._styles[row][col] = style
+
+    def line(self, x0: float, y0: float, x1: float, y1: float, style: str = "") -> None:
+        """Dots along the segment from (x0, y0) to (x1, y1)."""
+        steps = min(MAX_LINE_DOTS, max(1, math.ceil(max(abs(x1 - x0), abs(y1 - y0)))))
+        for i in range(steps + 1):
+            t = i / steps
+            self.dot(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, style)
+
+    def glyph(self, col: int, row: int, char: str, style: str = "") -> bool:
+        """Put one character in a cell (over any dots); False if off the canvas."""
+        if 0 <= col < self.width and 0 <= row < self.height:
+            self._glyphs[(col, row)] = (char, style)
+            return True
+        return False
+
+    def label(self, col: int, row: int, text: str, style: str = "") -> None:
+        """Text from a cell rightwards, over empty cells only (never over a glyph)."""
+        for i, char in enumerate(text):
+            if (col + i, row) in self._glyphs:
+                return
+            self.glyph(col + i, row, char, style)
+
+    def rows(self) -> list[list[tuple[str, str]]]:
+        """Each row as runs of (text, style)."""
+        out: list[list[tuple[str, str]]] = []
+        for r in range(self.height):
+            runs: list[tuple[str, str]] = []
+            for c in range(self.width):
+                glyph = self._glyphs.get((c, r))
+                if glyph is not None:
+                    char, style = glyph
+                else:
+                    bits = self._bits[r][c]
+                    char = chr(BRAILLE_BASE + bits) if bits else " "
+                    style = self._styles[r][c] if bits else ""
+                if runs and runs[-1][1] == style:
+                    runs[-1] = (runs[-1][0] + char, style)
+                else:
+                    runs.append((char, style))
+            out.append(runs)
+        return out
+
+    def text(self) -> list[str]:
+        """Each row as plain text (tests, captures)."""
+        return ["".join(run for run, _ in row) for row in self.rows()]

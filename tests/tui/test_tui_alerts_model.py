@@ -1,0 +1,81 @@
+"""The alert rules over bus messages, acknowledgement and history (no Textual)."""
+
+from __future__ import annotations
+
+from mrss.messages import Envelope, Message, Percept, RobotData, RobotState, SupEvent
+from mrss.tui.models.alerts import AlertKind, AlertsModel, battery_percent
+
+
+def env(body: Message, ts: float = 100.0) -> Envelope:
+    return Envelope(topic=body.topic(), id="1", ts=ts, src="rcl", inc=0, body=body)
+
+
+def test_battery_low_is_raised_once_then_resolved_then_raised_again() -> None:
+    model = AlertsModel(battery_low=20)
+    assert model.apply(env(RobotData(robot="ugv1", data={"type": "battery",
+                                                         "remaining": 50}))) == []
+    raised = model.apply(env(RobotData(robot="ugv1", data={"type": "battery",
+                                                           "remaining": 15})))
+    assert [(a.kind, a.subject, a.text) for a in raised] == [
+        (AlertKind.BATTERY_LOW, "ugv1", "15%")]
+    # still low: no new alert, the detail follows
+    assert model.apply(env(RobotData(robot="ugv1", data={"battery": 12}))) == []
+    assert model.unacked()[0].text == "12%"
+    model.apply(env(RobotData(robot="ugv1", data={"battery": {"remaining": 80}})))
+    assert model.unacked()[0].resolved and model.unacked()[0].line().endswith("(over)")
+    again = model.apply(env(RobotData(robot="ugv1", data={"battery": 5})))
+    assert again and again[0].count == 2 and not again[0].resolved
+
+
+def test_link_down_and_unavailable_robots() -> None:
+    model = AlertsModel()
+    raised = model.apply(env(RobotState(robot="uav1", available=False, link="down",
+                                        reason="no heartbeat")))
+    assert [a.kind for a in raised] == [AlertKind.LINK_DOWN]  # not also "unavailable"
+    raised = model.apply(env(RobotState(robot="uav1", available=False, link="up",
+                                        reason="quarantined: 3 failures")))
+    assert [(a.kind, a.text) for a in raised] == [(AlertKind.UNAVAILABLE,
+                                                   "quarantined: 3 failures")]
+    assert model.alerts[(AlertKind.LINK_DOWN, "uav1")].resolved
+    assert model.apply(env(RobotState(robot="uav1", available=True))) == []
+    assert model.alerts[(AlertKind.UNAVAILABLE, "uav1")].resolved
+
+
+def test_events_hotspot_restart_hang_quarantine_give_up() -> None:
+    model = AlertsModel()
+    assert model.apply(env(Percept(literal="hotspot_detected(h1,43.6,1.44)")))[0].kind \
+        == AlertKind.HOTSPOT
+    assert model.apply(env(Percept(literal="hotspot_detected(h1,43.6,1.44)",
+                                   op="remove"))) == []
+    assert model.apply(env(Percept(literal="fire(area1)"))) == []
+    for event, kind in (("restart", AlertKind.RESTARTED), ("hang", AlertKind.HUNG),
+                        ("quarantine", AlertKind.QUARANTINED),
+                        ("give_up", AlertKind.GAVE_UP)):
+        raised = model.apply(env(SupEvent(event=event, child="rcl", supervisor="wf",
+                                          reason="boom")))
+        assert [(a.kind, a.subject, a.text) for a in raised] == [(kind, "wf/rcl", "boom")]
+    assert model.apply(env(SupEvent(event="start", child="rcl"))) == []
+    assert model.apply(env(SupEvent(event="restart", child="rcl", supervisor="wf")))[0] \
+        .count == 2
+
+
+def test_acknowledge_clears_the_highlight_keeps_history_and_a_recurrence_reraises() -> None:
+    model = AlertsModel()
+    model.apply(env(SupEvent(event="restart", child="rcl", supervisor="wf"), ts=1))
+    model.apply(env(Percept(literal="hotspot_detected(h2)"), ts=2))
+    assert [a.kind for a in model.unacked()] == [AlertKind.HOTSPOT, AlertKind.RESTARTED]
+    assert model.acknowledge() == 2
+    assert model.unacked() == [] and len(model.history()) == 2
+    assert model.acknowledge() == 0
+    model.apply(env(SupEvent(event="restart", child="rcl", supervisor="wf"), ts=3))
+    assert [(a.kind, a.count) for a in model.unacked()] == [(AlertKind.RESTARTED, 2)]
+    assert model.history()[0].kind == AlertKind.RESTARTED  # newest first
+
+
+def test_battery_percent_reads_both_shapes_and_ignores_junk() -> None:
+    assert battery_percent({"type": "battery", "remaining": 42}) == 42.0
+    assert battery_percent({"battery": 7.5}) == 7.5
+    assert battery_percent({"battery": {"remaining": 3}}) == 3.0
+    for junk in ({"type": "position", "battery": 5}, {"battery": "low"},
+                 {"battery": True}, {"battery": float("nan")}, {}):
+        assert battery_percent(junk) is None

@@ -1,0 +1,36 @@
+"""A robot for tuimap: it drives east along a line, reporting its position and heading."""
+
+from __future__ import annotations
+
+import threading
+
+from mrss.messages import RobotData
+from mrss.supervision.component import Component, ComponentContext
+
+
+class Drive(Component):
+    """Publishes `robot.<id>.data` position records every `period` s, moving east."""
+
+    def __init__(self) -> None:
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self, ctx: ComponentContext) -> None:
+        robot = str(ctx.options.get("robot", "ugv1"))
+        period = float(ctx.options.get("period", 0.3))
+        self._thread = threading.Thread(target=self._feed, args=(ctx, robot, period),
+                                        name="drive", daemon=True)
+        self._thread.start()
+
+    def _feed(self, ctx: ComponentContext, robot: str, period: float) -> None:
+        step = 0
+        while not self._stop.wait(period):
+            step = (step + 1) % 100
+            ctx.publisher.publish(RobotData(robot=robot, data={
+                "type": "position", "lat": 47.070, "lon": 15.428 + 0.00015 * step,
+                "heading": 90.0}))
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
