@@ -4,16 +4,22 @@ mission support would drive it over MQTT.
 A legal drive moves the rover and a sample is taken where it stops; a drive whose path
 crosses the salt marsh (its destination lies beyond it, outside the zone) is refused by
 the reasoner with the rule named, the verdict is in the world model for the operator,
-and the rover does not move. The simulator runs 20 times faster than real time.
+and the rover does not move. Every verdict also reaches the operator on mrss/ui/verdict.
+The simulator runs 20 times faster than real time.
 """
 
 from __future__ import annotations
 
+import json
+import threading
 from pathlib import Path
+from typing import Any
 
 import pytest
+from paho.mqtt import client as mqtt
+from paho.mqtt.enums import CallbackAPIVersion
 
-from mrss.api import distance_m
+from mrss.api import distance_m, project_broker_url
 from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent
@@ -31,11 +37,43 @@ def verdict(system: RunningProject, goal: str) -> dict[str, object] | None:
     return None if found is None else dict(found["attributes"])
 
 
+class Operator:
+    """The mission support's side: what arrives on the verdict topic."""
+
+    def __init__(self, broker_url: str) -> None:
+        host, _, port = broker_url.rsplit("/", 1)[-1].rpartition(":")
+        self.received: list[tuple[str, bytes | bytearray]] = []
+        self.subscribed = threading.Event()
+        self.client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id="operator")
+        self.client.on_connect = lambda c, *_: c.subscribe("mrss/ui/verdict", qos=1)
+        self.client.on_subscribe = lambda *_: self.subscribed.set()
+        self.client.on_message = lambda _c, _u, m: self.received.append((m.topic, m.payload))
+        self.client.connect(host, int(port))
+        self.client.loop_start()
+
+    def verdicts(self, goal: str) -> list[dict[str, Any]]:
+        found = [json.loads(payload) for topic, payload in list(self.received)
+                 if topic == "mrss/ui/verdict"]
+        return [v for v in found if v["goal"] == goal]
+
+    def verdict(self, goal: str) -> dict[str, Any] | None:
+        return next(iter(self.verdicts(goal)), None)
+
+    def close(self) -> None:
+        self.client.disconnect()
+        self.client.loop_stop()
+
+
 @pytest.mark.slow
 def test_legal_requests_move_the_rover_and_an_illegal_one_is_refused(tmp_path: Path) -> None:
     with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
         system.wait_ready()
         system.wait_for(lambda: position(system), 20, "the rover's telemetry in the world model")
+        url = project_broker_url(PROJECT, tmp_path / "run")
+        assert url is not None
+        operator = Operator(url)
+        system.wait_for(operator.subscribed.is_set, 10,
+                        f"the operator's subscription (got {operator.received})")
 
         system.publish("mrss/ui/drive", {"goal": "g1", "lat": SITE[0], "lon": SITE[1]})
         system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
@@ -64,3 +102,13 @@ def test_legal_requests_move_the_rover_and_an_illegal_one_is_refused(tmp_path: P
         assert not [s for s in system.statuses("rover1") if s.goal == "g3"]
         after = position(system)
         assert after is not None and distance_m(*after, *SITE) < 5.0
+
+        told = system.wait_for(lambda: operator.verdict("g3"), 10, "the verdict on MQTT")
+        assert told is not None and (told["legal"], told["rule"]) == (False, "no_go_path")
+        assert "'salt_marsh'" in told["detail"]
+        assert told["action"] == "drive(rover1,g3,39.7725,44.801)"
+        assert operator.verdict("g1") == {"goal": "g1", "legal": True, "rule": "",
+                                          "detail": "",
+                                          "action": "drive(rover1,g1,39.7705,44.8)"}
+        assert len(operator.verdicts("g1")) == 1, operator.received
+        operator.close()
