@@ -121,3 +121,10 @@ def test_a_bad_action_is_named(world: LocalWorldModel, action: str, message: str
     with pytest.raises((ValueError, LookupError), match=message.replace("(", r"\(")
                        .replace(")", r"\)")):
         legality.request_of(action, world)
+
+
+def test_the_world_answers_the_spatial_question_the_docs_show(world: LocalWorldModel) -> None:
+    place(world, 39.77, 44.8)   # docs/projects.md, "Testing functions over the world model"
+    path = {"type": "LineString", "coordinates": [[44.8, 39.77], [44.801, 39.7725]]}
+    assert world.intersecting(path, "no_go")[0]["id"] == "salt_marsh"
+    assert world.intersecting(path, "protected") == []
