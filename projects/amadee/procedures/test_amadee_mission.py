@@ -72,43 +72,45 @@ def test_legal_requests_move_the_rover_and_an_illegal_one_is_refused(tmp_path: P
         url = project_broker_url(PROJECT, tmp_path / "run")
         assert url is not None
         operator = Operator(url)
-        system.wait_for(operator.subscribed.is_set, 10,
-                        f"the operator's subscription (got {operator.received})")
+        try:
+            system.wait_for(operator.subscribed.is_set, 10,
+                            "the operator's subscription")
 
-        system.publish("mrss/ui/drive", {"goal": "g1", "lat": SITE[0], "lon": SITE[1]})
-        system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
-                                 if s.goal == "g1"], 60, "the legal drive")
-        assert verdict(system, "g1") == {"action": "drive(rover1,g1,39.7705,44.8)",
-                                         "legal": True, "rule": "", "detail": "",
-                                         "geometry": None}
-        here = position(system)
-        assert here is not None and distance_m(*here, *SITE) < 5.0, system.log()
+            system.publish("mrss/ui/drive", {"goal": "g1", "lat": SITE[0], "lon": SITE[1]})
+            system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
+                                     if s.goal == "g1"], 60, "the legal drive")
+            assert verdict(system, "g1") == {"action": "drive(rover1,g1,39.7705,44.8)",
+                                             "legal": True, "rule": "", "detail": "",
+                                             "geometry": None}
+            here = position(system)
+            assert here is not None and distance_m(*here, *SITE) < 5.0, system.log()
 
-        system.wait_for(lambda: (system.world("rover1") or {}).get("attributes", {})
-                        .get("speed") == 0.0, 10, "the world model to see the rover stopped")
-        system.publish("mrss/ui/science", {"goal": "g2", "what": "sample"})
-        sampled = system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
-                                           if s.goal == "g2"], 60, "the sample")[0]
-        assert sampled.progress["taken"] == "sample"
+            system.wait_for(lambda: (system.world("rover1") or {}).get("attributes", {})
+                            .get("speed") == 0.0, 10, "the world model to see the rover stopped")
+            system.publish("mrss/ui/science", {"goal": "g2", "what": "sample"})
+            sampled = system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
+                                               if s.goal == "g2"], 60, "the sample")[0]
+            assert sampled.progress["taken"] == "sample"
 
-        system.publish("mrss/ui/drive", {"goal": "g3", "lat": BEYOND_MARSH[0],
-                                         "lon": BEYOND_MARSH[1]})
-        refused = system.wait_for(lambda: verdict(system, "g3"), 30, "the verdict on g3")
-        assert refused is not None and refused["legal"] is False, refused
-        assert refused["rule"] == "no_go_path"
-        assert "'salt_marsh'" in str(refused["detail"])
-        system.wait_for(lambda: "g3: drive(rover1,g3,39.7725,44.801) refused by rule "
-                        "no_go_path" in system.log(40000), 10, "the refusal in the log")
-        assert not [s for s in system.statuses("rover1") if s.goal == "g3"]
-        after = position(system)
-        assert after is not None and distance_m(*after, *SITE) < 5.0
+            system.publish("mrss/ui/drive", {"goal": "g3", "lat": BEYOND_MARSH[0],
+                                             "lon": BEYOND_MARSH[1]})
+            refused = system.wait_for(lambda: verdict(system, "g3"), 30, "the verdict on g3")
+            assert refused is not None and refused["legal"] is False, refused
+            assert refused["rule"] == "no_go_path"
+            assert "'salt_marsh'" in str(refused["detail"])
+            system.wait_for(lambda: "g3: drive(rover1,g3,39.7725,44.801) refused by rule "
+                            "no_go_path" in system.log(40000), 10, "the refusal in the log")
+            assert not [s for s in system.statuses("rover1") if s.goal == "g3"]
+            after = position(system)
+            assert after is not None and distance_m(*after, *SITE) < 5.0
 
-        told = system.wait_for(lambda: operator.verdict("g3"), 10, "the verdict on MQTT")
-        assert told is not None and (told["legal"], told["rule"]) == (False, "no_go_path")
-        assert "'salt_marsh'" in told["detail"]
-        assert told["action"] == "drive(rover1,g3,39.7725,44.801)"
-        assert operator.verdict("g1") == {"goal": "g1", "legal": True, "rule": "",
-                                          "detail": "",
-                                          "action": "drive(rover1,g1,39.7705,44.8)"}
-        assert len(operator.verdicts("g1")) == 1, operator.received
-        operator.close()
+            told = system.wait_for(lambda: operator.verdict("g3"), 10, "the verdict on MQTT")
+            assert told is not None and (told["legal"], told["rule"]) == (False, "no_go_path")
+            assert "'salt_marsh'" in told["detail"]
+            assert told["action"] == "drive(rover1,g3,39.7725,44.801)"
+            assert operator.verdict("g1") == {"goal": "g1", "legal": True, "rule": "",
+                                              "detail": "",
+                                              "action": "drive(rover1,g1,39.7705,44.8)"}
+            assert len(operator.verdicts("g1")) == 1, operator.received
+        finally:
+            operator.close()
