@@ -5,7 +5,8 @@
 - `legal(Action)` (the reasoner's `query(legal, [Action], Verdict)`) checks an action
   against the operational rules of legality.py, with the rover's state and the zones,
   crew and parameters of the world model. The answer is `["legal"]` or
-  `["illegal", Rule, Detail]`; every verdict is also stored in the world model as the
+  `["illegal", Rule, Detail]` (an action that cannot be checked is refused by the rule
+  `unchecked`); every verdict is also stored in the world model as the
   object `verdict_<goal>` (kind `verdict`: action, legal, rule, detail, geometry), where
   the operator's console reads it.
 """
@@ -27,14 +28,13 @@ class AmadeeData(DataLayer):
     @external("legal")
     def legal(self, action: str) -> list[str]:
         """The verdict on `action` (its AgentSpeak text), stored and answered."""
-        request = legality.request_of(str(action), self.world)
-        found = legality.verdict(request, self.world)
-        _, args = legality.parse_action(str(action))
-        goal = str(args[1])
-        self.world.upsert({"id": f"verdict_{goal}", "kind": "verdict",
-                           "attributes": {"action": str(action), "legal": found.legal,
-                                          "rule": found.rule, "detail": found.detail,
-                                          "geometry": found.geometry}})
+        found = legality.judge(str(action), self.world)
+        goal = legality.goal_of(str(action))
+        if goal is not None:
+            self.world.upsert({"id": f"verdict_{goal}", "kind": "verdict",
+                               "attributes": {"action": str(action), "legal": found.legal,
+                                              "rule": found.rule, "detail": found.detail,
+                                              "geometry": found.geometry}})
         if found.legal:
             self.log.info("legal: %s", action)
         else:

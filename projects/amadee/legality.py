@@ -112,6 +112,17 @@ def parse_action(text: str) -> tuple[str, list[Any]]:
     return match.group(1), args
 
 
+def goal_of(text: str) -> str | None:
+    """The goal (second argument) of an action text, if it is an atom."""
+    try:
+        _, args = parse_action(text)
+    except ValueError:
+        return None
+    goal = args[1] if len(args) > 1 else None
+    return goal if isinstance(goal, str) and re.fullmatch(r"[a-z][a-zA-Z0-9_]*", goal) \
+        else None
+
+
 def request_of(text: str, world: SpatialWorld) -> Request:
     """The Request of an action text, with the rover and the habitat from the world."""
     name, args = parse_action(text)
@@ -240,6 +251,16 @@ def verdict(request: Request, world: SpatialWorld) -> Verdict:
         if found is not None:
             return found
     return LEGAL
+
+
+def judge(action: str, world: SpatialWorld) -> Verdict:
+    """The verdict on an action text; one that cannot be checked (a malformed action, no
+    rover position yet, no habitat) is refused by the rule `unchecked`, with the reason."""
+    try:
+        request = request_of(action, world)
+    except (ValueError, LookupError) as exc:
+        return Verdict(False, "unchecked", f"cannot check {action}: {exc}")
+    return verdict(request, world)
 
 
 def _point(p: tuple[float, float]) -> str:

@@ -128,3 +128,15 @@ def test_the_world_answers_the_spatial_question_the_docs_show(world: LocalWorldM
     path = {"type": "LineString", "coordinates": [[44.8, 39.77], [44.801, 39.7725]]}
     assert world.intersecting(path, "no_go")[0]["id"] == "salt_marsh"
     assert world.intersecting(path, "protected") == []
+
+
+def test_an_action_that_cannot_be_checked_is_refused_with_the_reason(
+        world: LocalWorldModel) -> None:
+    found = legality.judge("drive(rover1,g1,39.7705,44.8)", world)   # no telemetry yet
+    assert (found.legal, found.rule) == (False, "unchecked")
+    assert "no position of robot 'rover1'" in found.detail
+    place(world)
+    assert legality.judge("drive(rover1,g1,39.7705,44.8)", world).legal
+    assert legality.judge("fly(rover1,g1)", world).rule == "unchecked"
+    assert legality.goal_of("drive(rover1,g1,39.7705,44.8)") == "g1"
+    assert legality.goal_of("Drive(") is None and legality.goal_of("image(rover1)") is None
