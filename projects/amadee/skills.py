@@ -81,9 +81,10 @@ class ReturnHome(DriveTo):
 class Observe(MoveSkill):
     """A science task where the rover stands: image, spectrum, radar profile or sample.
 
-    The instruments are not simulated: the task waits until the rover is stopped (the
-    arm of `spectrum` and `sample` only deploys then), holds it still for `dwell_s`
-    and records what was taken, where, as the action's progress.
+    Waits until the rover is stopped (the arm of `spectrum` and `sample` only deploys
+    then; the rover refuses an `observe` command while it moves, too), sends the
+    `observe` command, holds the rover still for `dwell_s` and records the reading the
+    rover answered (what, where, which sample slot) as the action's progress.
     """
 
     def __init__(self, what: str, dwell_s: float) -> None:
@@ -93,8 +94,6 @@ class Observe(MoveSkill):
         if not self.until(lambda: float((self.link.latest("position") or {})
                                         .get("speed", 1.0)) == 0.0, 30.0, "rover stopped"):
             return False
-        if self.wait(self.dwell_s):
-            return False
-        position = self.link.latest("position") or {}
-        self.record_progress(taken=self.what, lat=position.get("lat"), lon=position.get("lon"))
-        return True
+        answer = self.link.command("observe", instrument=self.what, wait=True, timeout=10.0)
+        self.record_progress(taken=self.what, reading=answer.reason)
+        return not self.wait(self.dwell_s)

@@ -91,6 +91,7 @@ def test_legal_requests_move_the_rover_and_an_illegal_one_is_refused(tmp_path: P
             sampled = system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
                                                if s.goal == "g2"], 60, "the sample")[0]
             assert sampled.progress["taken"] == "sample"
+            assert str(sampled.progress["reading"]).endswith("in slot 1"), sampled.progress
 
             system.publish("mrss/ui/drive", {"goal": "g3", "lat": BEYOND_MARSH[0],
                                              "lon": BEYOND_MARSH[1]})
