@@ -12,15 +12,31 @@
 
 - `RunningProject` (mrss.procedures): `mrss supervise` as its own process, watched
   from outside (bus, world model, broker); docs/projects.md, "RunningProject".
+- `memory_world(objects)`: an embedded world model in this process (in-memory SQLite,
+  the same spatial predicates as the running one), seeded with `objects`, as a data
+  layer's `self.world` sees it: for unit tests of functions over the world model.
 - `wait_until(condition, timeout)`: poll a condition instead of sleeping.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.scripted import ScriptedHost
+from mrss.edge.worldmodel_access import LocalWorldModel
+from mrss.edge.worldmodel_service import WorldModel
+from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.procedures import RunningProject
 from mrss.testing import WaitTimeout, free_port, free_udp_port, wait_until
 
-__all__ = ["Agent", "RunningProject", "ScriptedHost", "WaitTimeout", "free_port",
-           "free_udp_port", "wait_until"]
+__all__ = ["Agent", "LocalWorldModel", "RunningProject", "ScriptedHost", "WaitTimeout",
+           "free_port", "free_udp_port", "memory_world", "wait_until"]
+
+
+def memory_world(objects: Sequence[dict[str, Any]] = ()) -> LocalWorldModel:
+    """An in-memory world model seeded with `objects` (a seed file's entries)."""
+    world = WorldModel(SqliteWorldStore(":memory:"))
+    world.seed(list(objects), source="memory_world")
+    return LocalWorldModel(world)

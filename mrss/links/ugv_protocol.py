@@ -25,7 +25,10 @@ from mrss.links.failsafe import MAX_TIMEOUT_S, MIN_TIMEOUT_S, FailsafeAction
 DEFAULT_PREFIX = "mrss/robots"
 ONLINE = "online"
 OFFLINE = "offline"
-COMMANDS = ("goto", "stop", "pump", "return_to_base", "teleop", "drive")
+COMMANDS = ("goto", "stop", "pump", "return_to_base", "teleop", "drive", "observe")
+# what `observe` takes where the robot stands (a rover's instruments; the arm for
+# spectrum and sample)
+INSTRUMENTS = ("image", "spectrum", "radar", "sample")
 ACK_STATUSES = ("accepted", "rejected", "done", "failed", "cancelled")
 TERMINAL_STATUSES = frozenset({"rejected", "done", "failed", "cancelled"})
 MODES = ("idle", "goto", "return", "teleop")
@@ -74,6 +77,7 @@ class UgvCommand:
     litres: float | None = None
     speed: float | None = None
     heading: float | None = None
+    instrument: str | None = None
 
     def to_json(self) -> bytes:
         return json.dumps({k: v for k, v in asdict(self).items() if v is not None}).encode()
@@ -177,6 +181,12 @@ def parse_command(payload: bytes, topic: str | None = None) -> UgvCommand:
     if cmd == "drive":
         return UgvCommand(cmd, ident, speed=_number(data, "speed", topic, 0, MAX_SPEED_MPS),
                           heading=_number(data, "heading", topic, 0, 360))
+    if cmd == "observe":
+        instrument = data.get("instrument")
+        if instrument not in INSTRUMENTS:
+            raise DecodeError(f"unknown instrument {instrument!r}; known: "
+                              f"{', '.join(INSTRUMENTS)}", topic=topic)
+        return UgvCommand(cmd, ident, instrument=str(instrument))
     return UgvCommand(str(cmd), ident)
 
 

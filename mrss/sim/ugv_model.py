@@ -36,6 +36,7 @@ class UgvParams:
     refill_rate_lps: float = 10.0
     endurance_s: float = 3600.0      # driving time on a full battery
     charge_pct_per_s: float = 0.5
+    sample_slots: int = 4            # sample containers a rover's `observe sample` fills
 
 
 @dataclass
@@ -67,6 +68,8 @@ class UgvModel:
     target: tuple[float, float] | None = None
     drive: tuple[float, float] = (0.0, 0.0)  # teleop speed m/s, heading deg
     failsafe: bool = False
+    samples: int = 0                 # sample slots filled
+    observations: int = 0
     _move: _Job | None = None
     _pump: _Job | None = None
     _answers: list[UgvAck] = field(default_factory=list)
@@ -178,6 +181,21 @@ class UgvModel:
         assert c.speed is not None and c.heading is not None
         self.drive = (min(c.speed, self.params.max_speed_mps), c.heading)
         self._answer(c.id, "done")
+        return None
+
+    def _cmd_observe(self, c: UgvCommand) -> str | None:
+        """An instrument reading (or a sample) where the robot stands; refused while it
+        moves. The answer's reason is the reading: what, where, which slot."""
+        if self.speed > 0.0 or self._move is not None:
+            return "moving: instruments deploy only when the robot is stopped"
+        if c.instrument == "sample":
+            if self.samples >= self.params.sample_slots:
+                return f"no free sample slot ({self.samples} of {self.params.sample_slots} used)"
+            self.samples += 1
+        self.observations += 1
+        slot = f" in slot {self.samples}" if c.instrument == "sample" else ""
+        self._answer(c.id, "done", f"{c.instrument} #{self.observations} at "
+                                   f"{self.lat:.6f},{self.lon:.6f}{slot}")
         return None
 
     # -- time ------------------------------------------------------------------------------

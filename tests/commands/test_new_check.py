@@ -133,7 +133,7 @@ def test_check_unknown_project_exits_2_listing_known_ones(fresh: Path) -> None:
 
 def test_bundled_projects_pass_check() -> None:
     root = Path(__file__).resolve().parents[2] / "projects"
-    for name in ("template", "wildfire"):
+    for name in ("template", "template_sims", "wildfire", "amadee"):
         out = mrss(root, "check", name)
         assert out.returncode == 0, out.stderr
         assert f"{name}: OK" in out.stdout

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from mrss.errors import DecodeError
 from mrss.links.geo import distance_m, offset
-from mrss.links.ugv_protocol import UgvAck, UgvCommand
+from mrss.links.ugv_protocol import UgvAck, UgvCommand, parse_command
 from mrss.sim.ugv_model import UgvModel, UgvParams
 
 BASE = (-35.3635, 149.1650)
@@ -91,3 +92,38 @@ def test_empty_battery_stops_the_robot() -> None:
     assert answers[-1] == UgvAck("g", "failed", "battery empty")
     m.apply(UgvCommand("goto", "g2", lat=-35.0, lon=149.0))
     assert m.take_answers() == [UgvAck("g2", "rejected", "battery empty")]
+
+
+def test_observe_reads_where_the_robot_stands_and_fills_sample_slots() -> None:
+    m = UgvModel("rover", *BASE, params=UgvParams(sample_slots=1))
+    m.apply(UgvCommand("observe", "o1", instrument="image"))
+    m.apply(UgvCommand("observe", "o2", instrument="sample"))
+    m.apply(UgvCommand("observe", "o3", instrument="sample"))
+    assert m.take_answers() == [
+        UgvAck("o1", "done", f"image #1 at {BASE[0]:.6f},{BASE[1]:.6f}"),
+        UgvAck("o2", "done", f"sample #2 at {BASE[0]:.6f},{BASE[1]:.6f} in slot 1"),
+        UgvAck("o3", "rejected", "no free sample slot (1 of 1 used)")]
+    assert m.samples == 1
+
+
+def test_observe_is_refused_while_the_robot_moves() -> None:
+    m = UgvModel("rover", *BASE)
+    target = offset(*BASE, 30.0, 0.0)
+    m.apply(UgvCommand("goto", "g1", lat=target[0], lon=target[1]))
+    run(m, 1.0)
+    m.take_answers()
+    m.apply(UgvCommand("observe", "o1", instrument="spectrum"))
+    assert m.take_answers() == [
+        UgvAck("o1", "rejected", "moving: instruments deploy only when the robot is stopped")]
+    run(m, 12.0)                                   # arrived and stopped: allowed again
+    m.apply(UgvCommand("observe", "o2", instrument="spectrum"))
+    assert m.take_answers()[0].status == "done"
+
+
+def test_observe_commands_parse_and_a_bad_instrument_is_named() -> None:
+    command = parse_command(b'{"cmd": "observe", "id": "o1", "instrument": "radar"}')
+    assert command == UgvCommand("observe", "o1", instrument="radar")
+    assert parse_command(command.to_json()) == command
+    with pytest.raises(DecodeError, match="unknown instrument 'laser'; known: image, "
+                                          "spectrum, radar, sample"):
+        parse_command(b'{"cmd": "observe", "instrument": "laser"}')

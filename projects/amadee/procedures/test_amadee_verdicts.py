@@ -1,0 +1,57 @@
+"""The verdict watcher: each expected goal's verdict is published once, an old one never."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from mrss.api import WorldModelUnavailable, import_project_module
+from mrss.api.testing import wait_until
+
+watch_module = import_project_module(Path(__file__).resolve().parent.parent,
+                                     "verdict_watch.py")
+
+
+def test_a_new_verdict_is_published_once_and_an_old_one_is_not() -> None:
+    world: dict[str, dict[str, Any]] = {
+        "verdict_g1": {"attributes": {"legal": True, "action": "image(rover1,g1)"}}}
+    sent: list[dict[str, Any]] = []
+    watch = watch_module.VerdictWatch(world.get, lambda text: sent.append(json.loads(text)),
+                                      interval=0.01)
+    watch.start()
+    try:
+        watch.expect("g1")          # a request reusing goal g1: its old verdict is stale
+        watch.expect("g2")
+        world["verdict_g2"] = {"attributes": {"legal": False, "rule": "crew_safety",
+                                              "detail": "crew 'eva1' ...",
+                                              "action": "image(rover1,g2)"}}
+        wait_until(lambda: sent, 5.0)
+        world["verdict_g1"] = {"attributes": {"legal": False, "rule": "no_go_path",
+                                              "action": "drive(rover1,g1,1.0,2.0)"}}
+        wait_until(lambda: len(sent) == 2, 5.0)
+        assert sent[0] == {"goal": "g2", "legal": False, "rule": "crew_safety",
+                           "detail": "crew 'eva1' ...", "action": "image(rover1,g2)"}
+        assert sent[1]["goal"] == "g1" and sent[1]["rule"] == "no_go_path"
+        wait_until(lambda: not watch._pending, 5.0)   # both done: nothing sent again
+        assert len(sent) == 2
+    finally:
+        watch.stop()
+
+
+def test_a_world_model_that_is_down_is_waited_for_until_patience_runs_out() -> None:
+    calls: list[str] = []
+
+    def down(object_id: str) -> dict[str, Any] | None:
+        calls.append(object_id)
+        raise WorldModelUnavailable("the world model is not up")
+
+    sent: list[str] = []
+    watch = watch_module.VerdictWatch(down, sent.append, interval=0.01, patience=0.2)
+    watch.start()
+    try:
+        watch.expect("g1")
+        wait_until(lambda: not watch._pending, 5.0)
+        assert len(calls) > 2 and not sent and watch._thread.is_alive()
+    finally:
+        watch.stop()
