@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -14,6 +15,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
+
+import psutil
 
 T = TypeVar("T")
 
@@ -134,3 +137,29 @@ def free_udp_port(host: str = "127.0.0.1") -> int:
         s.bind((host, 0))
         port: int = s.getsockname()[1]
         return port
+
+
+def stop_supervised(proc: subprocess.Popen[bytes] | subprocess.Popen[str],
+                    timeout: float = 30.0) -> None:
+    """Stop an `mrss supervise` process as an operator would (SIGTERM, an orderly stop),
+    first waking any SIGSTOPped component of its tree so it can stop; kill the tree if
+    it has not ended within `timeout` seconds."""
+    if proc.poll() is not None:
+        return
+    tree = psutil.Process(proc.pid).children(recursive=True)
+    for child in tree:
+        try:
+            child.send_signal(signal.SIGCONT)
+        except psutil.NoSuchProcess:
+            pass
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        for child in tree:
+            try:
+                child.kill()
+            except psutil.NoSuchProcess:
+                pass
+        proc.kill()
+        proc.wait(timeout=10)

@@ -60,8 +60,8 @@ class Incarnations:
             announced = body.detail.get("inc")
             if isinstance(announced, int) and not isinstance(announced, bool):
                 self.learn(body.child, announced)
-        if env.inc <= 0:
-            return True
+        if env.inc <= 0 or env.inc == self._live.get(env.src):
+            return True  # unsupervised, or the live incarnation: the common case, no lock
         with self._lock:
             live = self._live.get(env.src, 0)
             if env.inc >= live:

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from mrss.errors import MrssError
-from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.links.mqtt_url import BrokerAddress, new_client, parse_broker_url
 
 
 def publish_json(broker_url: str, topic: str, payload: Mapping[str, Any] | list[Any], *,
@@ -21,11 +21,7 @@ def publish_json(broker_url: str, topic: str, payload: Mapping[str, Any] | list[
     """Publish `payload` as JSON on `topic` of `broker_url` and wait for the broker's ack."""
     address = parse_broker_url(broker_url)
     client = new_client(client_id or f"mrss-publish-{os.getpid()}", address)
-    try:
-        client.connect(address.host, address.port, keepalive=10)
-    except OSError as exc:
-        raise MrssError(f"{topic}: cannot reach the broker {broker_url}: {exc}") from None
-    client.loop_start()
+    start_client(client, address, broker_url, topic)
     try:
         info = client.publish(topic, json.dumps(payload), qos=1)
         info.wait_for_publish(timeout)
@@ -35,3 +31,13 @@ def publish_json(broker_url: str, topic: str, payload: Mapping[str, Any] | list[
     finally:
         client.disconnect()
         client.loop_stop()
+
+
+def start_client(client: Any, address: BrokerAddress, broker_url: str, topic: str) -> None:
+    """Connect `client` and start its network loop; MrssError naming `topic` if the
+    broker cannot be reached."""
+    try:
+        client.connect(address.host, address.port, keepalive=10)
+    except OSError as exc:
+        raise MrssError(f"{topic}: cannot reach the broker {broker_url}: {exc}") from None
+    client.loop_start()

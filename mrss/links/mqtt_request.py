@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from mrss.errors import MrssError
+from mrss.links.mqtt_publish import start_client
 from mrss.links.mqtt_url import new_client, parse_broker_url
 
 
@@ -54,11 +55,7 @@ def request_json(broker_url: str, topic: str, payload: Mapping[str, Any], *,
     # (again after a reconnect: a restarted broker forgot the subscription)
     client.on_connect = lambda c, *_args: c.subscribe(answer_topic, qos=1)
     client.on_subscribe = lambda *_args: subscribed.set()
-    try:
-        client.connect(address.host, address.port, keepalive=10)
-    except OSError as exc:
-        raise MrssError(f"{topic}: cannot reach the broker {broker_url}: {exc}") from None
-    client.loop_start()
+    start_client(client, address, broker_url, topic)
     try:
         if not subscribed.wait(within):
             raise MrssError(f"{answer_topic}: the broker {broker_url} did not confirm the "

@@ -10,15 +10,12 @@ stderr) is kept in `<run_dir>/supervise.log`.
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
-
-import psutil
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import (
@@ -32,7 +29,7 @@ from mrss.messages import (
     Percept,
     SupEvent,
 )
-from mrss.testing import wait_until
+from mrss.testing import stop_supervised, wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"
 WATCHED = ["action.", "rel.action", "mind.", "sup.", "robot."]
@@ -181,24 +178,7 @@ class System:
     def close(self) -> None:
         """SIGTERM the root supervisor (orderly stop), then kill whatever is left."""
         try:
-            if self.proc.poll() is None:
-                tree = psutil.Process(self.proc.pid).children(recursive=True)
-                for child in tree:  # a SIGSTOPped component must be able to stop
-                    try:
-                        child.send_signal(signal.SIGCONT)
-                    except psutil.NoSuchProcess:
-                        pass
-                self.proc.send_signal(signal.SIGTERM)
-                try:
-                    self.proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    for child in tree:
-                        try:
-                            child.kill()
-                        except psutil.NoSuchProcess:
-                            pass
-                    self.proc.kill()
-                    self.proc.wait(timeout=10)
+            stop_supervised(self.proc)
         finally:
             self.sub.close()
             self.pub.close()

@@ -17,20 +17,17 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import threading
 from pathlib import Path
 from typing import Any
 
-import psutil
-
 from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, Subscriber
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.edge.worldmodel_access import WorldModelClient
 from mrss.messages import Command, Envelope, EventReport, LogRecord, Percept, SupEvent
-from mrss.testing import wait_until
+from mrss.testing import stop_supervised, wait_until
 
 WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
 PROJECT = "edgefaults"
@@ -259,24 +256,7 @@ class SupervisedEdge:
         try:
             if self.mqtt is not None:
                 self.mqtt.stop()
-            if self.proc.poll() is None:
-                tree = psutil.Process(self.proc.pid).children(recursive=True)
-                for child in tree:
-                    try:
-                        child.send_signal(signal.SIGCONT)
-                    except psutil.NoSuchProcess:
-                        pass
-                self.proc.send_signal(signal.SIGTERM)
-                try:
-                    self.proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    for child in tree:
-                        try:
-                            child.kill()
-                        except psutil.NoSuchProcess:
-                            pass
-                    self.proc.kill()
-                    self.proc.wait(timeout=10)
+            stop_supervised(self.proc)
         finally:
             self.receiver.close()
             self.sub.close()
