@@ -94,6 +94,9 @@ def test_banner_turns_red_when_the_system_goes_quiet_and_keeps_a_give_up(
         app = make_app(endpoints, stale_after=0.5)
         async with app.run_test(size=SIZE) as pilot:
             await connected(pilot, peer)
+            # the bus thread counts a message before the app's loop has handled it
+            await until(pilot, lambda: app.liveness.last_heard is not None,
+                        message="the probe heard by the app")
             header = app.query_one(Header)
             text = await until(pilot, app.banner_text, message="stale banner")
             assert text.startswith("no heartbeat for ")
