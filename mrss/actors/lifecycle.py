@@ -164,6 +164,7 @@ class Accept:
     """A new request was accepted (journaled PENDING) for this robot."""
 
     teleop: bool = False
+    held: SuspendCause | None = None  # its goal is suspended already (held_goals.py)
     kind = EventKind.ACCEPT
 
 
@@ -346,6 +347,8 @@ Step = tuple[Lifecycle, tuple[Effect, ...]]
 def _accept(lc: Lifecycle, ev: Accept) -> Step:
     if ev.teleop:
         return _suspended(SuspendCause.TELEOP, "robot in teleop")
+    if ev.held is not None:
+        return _suspended(ev.held, f"its goal is suspended by the {ev.held.value}")
     return Lifecycle(Phase.RUNNING), (Run(""),)
 
 
@@ -506,7 +509,8 @@ K = EventKind
 
 #: Every (phase, event) with a rule; any other pair raises IllegalEvent.
 RULES: Mapping[tuple[Phase, EventKind], Rule] = {
-    (_PE, K.ACCEPT): _rule({_RU, _SU}, "start skills; SUSPENDED (teleop) if in teleop",
+    (_PE, K.ACCEPT): _rule({_RU, _SU}, "start skills; SUSPENDED if in teleop or its goal "
+                           "is held (held_goals.py)",
                            _accept),
     (_PE, K.RESTORE): _rule({_RU, _SU}, "run from progress; SUSPENDED if in teleop",
                             _restore),

@@ -15,6 +15,8 @@ so the same object runs in-process in tests and behind the bus (`RclService`). R
 - a terminal status is final: nothing is journaled or published for that uuid after it;
 - reconciliation: an `ActionQuery` is answered from the journal, one status per known
   uuid, so a status lost on the bus is asked for again and never wedges a latch;
+- a goal suspended by goal management stays suspended: an action requested for it
+  before it is resumed starts SUSPENDED (mrss/actors/held_goals.py);
 - adoption: when a requester restarts, what its dead incarnation left open keeps
   running for `adopt_grace` seconds (suspended ones `adopt_grace_suspended`); the new
   incarnation adopts an action by requesting its uuid again (it learns them from the
@@ -36,6 +38,7 @@ import pykka
 
 from mrss.actors import controls
 from mrss.actors import lifecycle as lc
+from mrss.actors.held_goals import HeldGoals
 from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.orphans import Orphans
 from mrss.actors.progress_feed import ProgressFeed
@@ -89,6 +92,7 @@ class RclCore(RequesterDuties, RobotAvailability):
         self.robots: pykka.ActorRef[ActorSupervisor] | None = None
         self._lock = threading.RLock()
         self._index: dict[str, Entry] = {}
+        self._held_goals = HeldGoals()
         self._refs: dict[str, pykka.ActorRef[Any]] = {}
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
@@ -271,7 +275,8 @@ class RclCore(RequesterDuties, RobotAvailability):
                 return
             action.state, action.reason = ActionState.PENDING, ""
             self._emit(action.copy(), "", requester)
-            self._tell(action.robot, StartAction(action))  # under the lock: before controls
+            held = self._held_goals.cause_for(action.goal, requester.src)
+            self._tell(action.robot, StartAction(action, held))  # under the lock: before controls
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
@@ -297,13 +302,17 @@ class RclCore(RequesterDuties, RobotAvailability):
         any other (the dashboard, `mrss send`, a test) the operator's."""
         control.validate()
         with self._lock:
+            if control.target_kind == "goal":
+                self._held_goals.control(control.command, control.target, src)
             targets = [u for u, e in self._index.items()
                        if (control.target_kind == "action" and u == control.target)
                        or (control.target_kind == "goal" and e.goal == control.target)
                        or (control.target_kind == "robot" and e.robot == control.target)]
             robots = {u: self._index[u].robot for u in targets}
             agent = {u for u in targets if src and self._index[u].requester.src == src}
-        if not targets:
+        if not targets and control.target_kind == "goal" and control.command == "suspend":
+            log.info("suspend goal %r: no action yet; held for its later ones", control.target)
+        elif not targets:
             log.warning("%s %s %r: no active action", control.command, control.target_kind,
                         control.target)
         for uuid in targets:

@@ -155,7 +155,7 @@ class Reasoner:
                 self._on_tick()
             if self._snapshot_wanted.is_set() and self.snapshot_sink is not None:
                 self._snapshot_wanted.clear()
-                self.snapshot_sink(agent.snapshot())
+                self.snapshot_sink(agent.snapshot(self.host.action_uuid))
 
     # ------------------------------------------------------------ inputs
     def on_message(self, env: Envelope) -> None:

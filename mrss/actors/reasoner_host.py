@@ -192,6 +192,12 @@ class ReasonerHost:
         log.info("action %s %s sent", request.uuid, request.literal)
         return handle
 
+    def action_uuid(self, handle: Hashable) -> Hashable:
+        """The uuid the RCL knows for the action behind an intention's `handle`: after an
+        adoption it is the predecessor's uuid, not the handle."""
+        with self._lock:
+            return self._handles.get(str(handle), handle)
+
     def _adopt(self, request: ActionRequest) -> ActionRequest:
         """Under the lock: take over a predecessor's action with the same literal."""
         left = self._left.get(request.literal)

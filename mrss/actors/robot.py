@@ -69,9 +69,10 @@ class RobotHost(Protocol):
 
 @dataclass(frozen=True)
 class StartAction:
-    """Take on a new action (journaled PENDING)."""
+    """Take on a new action (journaled PENDING); `held`: its goal is suspended already."""
 
     action: Action
+    held: lc.SuspendCause | None = None
 
 
 @dataclass(frozen=True)
@@ -197,7 +198,7 @@ class RobotActor(SupervisedActor):
             return  # restored from the journal already
         t = _Tracked(msg.action.copy(), lc.Lifecycle.of(msg.action.state))
         self.actions[t.action.uuid] = t
-        self._feed(t, lc.Accept(self.teleop))
+        self._feed(t, lc.Accept(self.teleop, msg.held))
 
     def _progress(self, msg: ProgressRecorded) -> None:
         t = self.actions.get(msg.uuid)

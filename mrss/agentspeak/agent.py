@@ -242,9 +242,14 @@ class Agent(Runtime):
         return not self.has_work() and not self.pending_actions and self.next_deadline() is None
 
     # ------------------------------------------------------------------ inspection
-    def snapshot(self) -> dict[str, Any]:
-        """Beliefs, intentions (with stacks) and pending events as plain JSON-able data."""
-        return take_snapshot(self)
+    def snapshot(self, action_id: Callable[[Hashable], Hashable] | None = None
+                 ) -> dict[str, Any]:
+        """Beliefs, intentions (with stacks) and pending events as plain JSON-able data;
+        `action_id` maps an action handle to the id shown (the host's, by default the
+        handle itself)."""
+        if action_id is None:
+            return take_snapshot(self)
+        return take_snapshot(self, action_id)
 
     def beliefs(self) -> list[str]:
         return self.bb.texts()

@@ -6,6 +6,7 @@ msgpack-encoded and published as it is.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.compile import plan_text
@@ -33,11 +34,15 @@ def _next(im: IntendedMeans) -> str | None:
     return code[pc].text() if pc < len(code) else None
 
 
-def intention_data(it: Intention) -> dict[str, Any]:
-    """One intention: id, state, what it waits on, and its stack (top first)."""
+def intention_data(it: Intention,
+                   action_id: Callable[[Hashable], Hashable] = lambda h: h) -> dict[str, Any]:
+    """One intention: id, state, what it waits on, and its stack (top first).
+
+    `action_id` names the action behind the host's handle as the outside world knows it
+    (a restarted reasoner's action may have adopted another uuid than its handle)."""
     waiting: str | None = None
     if it.action is not None:
-        waiting = f"action {it.action!r}"
+        waiting = f"action {action_id(it.action)!r}"
     elif it.wait is not None:
         waiting = f".wait {it.wait.text}"
     return {
@@ -58,7 +63,8 @@ def intention_data(it: Intention) -> dict[str, Any]:
     }
 
 
-def take_snapshot(rt: Runtime) -> dict[str, Any]:
+def take_snapshot(rt: Runtime,
+                  action_id: Callable[[Hashable], Hashable] = lambda h: h) -> dict[str, Any]:
     events = [ev for ev in list(rt.atomic_events) + list(rt.events)
               if ev.intention is None or (not ev.intention.dropped
                                           and ev.intention.gen == ev.gen)]
@@ -66,7 +72,7 @@ def take_snapshot(rt: Runtime) -> dict[str, Any]:
         "agent": rt.name,
         "cycle": rt.cycle,
         "beliefs": rt.bb.texts(),
-        "intentions": [intention_data(it) for it in rt.intentions.values()],
+        "intentions": [intention_data(it, action_id) for it in rt.intentions.values()],
         "events": [
             {"trigger": OP_TEXT[ev.op] + term_str(value(ev.lit)),
              "intention": ev.intention.id if ev.intention is not None else None}

@@ -25,7 +25,7 @@ free(robot1).
 
 // the operator cancels a goal: dropping its intention cancels its action in the RCL
 +goal_cancelled(G)[source(percept)] : busy(R, G)
-   <- .drop_intention(reach(R, G, _, _));
+   <- .drop_intention(drive(R, G, _, _));
       -busy(R, G);
       +free(R);
       .print("goal ", G, " cancelled");
@@ -34,19 +34,25 @@ free(robot1).
    <- .drop_intention(reach(_, G, _, _));
       !forget(G).
 
-// one goal at a time per robot: the others wait until it is free
+// one goal at a time per robot: the others wait until it is free. The claim is
+// [atomic]: no other intention runs between its context (free(R)) and -free(R), so
+// goals perceived together (or again, all at once, by a restarted reasoner) cannot both
+// find the robot free.
+@claim[atomic]
 +!reach(R, G, Lat, Lon) : free(R)
    <- -free(R);
       +busy(R, G);
-      move(R, G, Lat, Lon);
+      !!drive(R, G, Lat, Lon).
++!reach(R, G, Lat, Lon)
+   <- .wait(free(R));
+      !reach(R, G, Lat, Lon).
++!drive(R, G, Lat, Lon)
+   <- move(R, G, Lat, Lon);
       -busy(R, G);
       +free(R);
       .print("goal ", G, " reached");
       !forget(G).
-+!reach(R, G, Lat, Lon)
-   <- .wait(free(R));
-      !reach(R, G, Lat, Lon).
--!reach(R, G, Lat, Lon)[error(E)] : busy(R, G)
+-!drive(R, G, Lat, Lon)[error(E)] : busy(R, G)
    <- -busy(R, G);
       +free(R);
       .print("goal ", G, " failed: ", E);

@@ -125,6 +125,12 @@ tries(G, 0) :- not tried(G, _).
       !schedule(R).
 
 /* ---------------------------------------------------------------- scheduling */
+// The scheduling plans are [atomic]: between a plan's context (`not task(R, _, _)`,
+// `queued(R, G, _, Job)`) and its belief changes no other intention may run. Goals that
+// arrive together (a burst from the operator, or every durable goal perceived again at
+// once by a restarted reasoner) would otherwise each find the robot free and start it
+// two or three times.
+@admit[atomic]
 +!admit(R, G, P, Job) : goals(N)
    <- -+goals(N + 1);
       +arrived(G, N + 1);
@@ -132,32 +138,40 @@ tries(G, 0) :- not tried(G, _).
       !schedule(R).
 
 // Start the best pending goal of R if R is free, or pre-empt a lower-priority task.
+@schedule_paused[atomic]
 +!schedule(R) : paused(R).
+@schedule_free[atomic]
 +!schedule(R) : not task(R, _, _) & .findall(K, pending(R, _, K), L) & L \== []
    <- .max(L, c(P, _, _, G));
       !begin(R, G, P).
+@schedule_preempt[atomic]
 +!schedule(R) : task(R, H, Q) & .findall(K, pending(R, _, K), L) & L \== []
              & .max(L, c(P, _, _, G)) & P > Q
    <- .print("goal ", G, " (priority ", P, ") pre-empts ", H, " (priority ", Q, ")");
       !hold_task(R);
       !begin(R, G, P).
+@schedule_none[atomic]
 +!schedule(R).
 
+@begin_resume[atomic]
 +!begin(R, G, P) : waiting(R, G, _)
    <- .print("resuming ", G, " on ", R);
       -waiting(R, G, _);
       +task(R, G, P);
       rcl_goal_management(resume, G).        // its intention goes on, from its progress
+@begin_queued[atomic]
 +!begin(R, G, P) : queued(R, G, _, Job)
    <- -queued(R, G, _, Job);
       +task(R, G, P);
       !!perform(R, G, P, Job).
 
 // Suspend R's running task (if any): it waits to be resumed by the scheduler.
+@hold_running[atomic]
 +!hold_task(R) : task(R, H, Q)
    <- -task(R, H, Q);
       +waiting(R, H, Q);
       rcl_goal_management(suspend, H).
+@hold_none[atomic]
 +!hold_task(R).
 
 // One intention per goal; it blocks on the action until the RCL reports the end.

@@ -182,3 +182,27 @@ def test_every_robot_state_is_announced_when_the_rcl_starts(rcl_env: RclEnv) -> 
     assert sorted(announced) == ["uav1", "ugv1", "ugv2"]
     assert all(m.available and m.link == "up" and m.attributes == {"teleop": False}
                for m in announced.values())
+
+
+def test_a_goal_suspended_before_its_action_is_requested_starts_it_suspended(
+        rcl_env: RclEnv) -> None:
+    """The agent pre-empts a goal whose action it has not requested yet: that action,
+    when it comes, is held (not run) until the goal is resumed; other goals run."""
+    core = rcl_env.start()
+    robot = rcl_env.robots["ugv1"]
+    assert core.control(ActionControl("suspend", "early", "goal")) == []  # nothing yet
+    core.submit_fields(request_fields("a1", "patrol", "ugv1", "early", ["p1", "p2"]))
+    wait_until(rcl_env.statuses.reached("a1", "suspended"))
+    assert robot.visited == [] and not robot.is_moving_to("p1")
+    last = rcl_env.statuses.last("a1")
+    assert last is not None and "its goal is suspended" in last.reason
+    _patrol(rcl_env, core, "a2", robot="uav1", goal="other")  # another goal runs
+    core.control(ActionControl("resume", "early", "goal"))
+    wait_until(rcl_env.statuses.reached("a1", "running"))
+    wait_until(lambda: robot.is_moving_to("p1"), message="a1 runs once resumed")
+    assert rcl_env.statuses.states("a1") == ["pending", "suspended", "running"]
+    # released: the goal's next action runs at once
+    core.control(ActionControl("cancel", "a1"))
+    wait_until(rcl_env.statuses.reached("a1", "cancelled"))
+    core.submit_fields(request_fields("a3", "patrol", "ugv1", "early", ["p1"]))
+    wait_until(rcl_env.statuses.reached("a3", "running"))

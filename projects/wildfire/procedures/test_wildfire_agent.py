@@ -17,6 +17,17 @@ from mrss.api.testing import Agent, ScriptedHost
 AGENT = Path(__file__).resolve().parent.parent / "agent.asl"
 
 
+def running(rcl: ScriptedHost) -> list[str]:
+    """The open actions the RCL would run: not those of a goal the agent suspended and did
+    not resume (the RCL's rule: a suspended goal's later actions start suspended too)."""
+    held: set[str] = set()
+    for entry in rcl.log:
+        if entry.startswith("rcl_goal_management("):
+            command, goal = entry[len("rcl_goal_management("):-1].split(",")
+            (held.add if command == "suspend" else held.discard)(goal)
+    return [a for a in rcl.open.values() if a[:-1].split(",")[1] not in held]
+
+
 @pytest.fixture()
 def world() -> tuple[Agent, ScriptedHost]:
     host = ScriptedHost()
@@ -42,6 +53,25 @@ def test_area_goals_queue_by_priority_and_preempt(world: tuple[Agent, ScriptedHo
     assert rcl.since(mark) == ["cover(uav1,a2)"]
     rcl.finish("cover(uav1,a2)")
     agent.run_until_idle()
+    assert not rcl.open and not agent.believes("task(_, _, _)")
+
+
+def test_goals_perceived_together_start_one_task_per_robot(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """A restarted reasoner perceives every durable goal at once (so does a burst from the
+    operator): the robot still runs one goal, the best, and the others wait their turn."""
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "area_goal_received(a2, 3)",
+             "area_goal_received(a3, 4)", "area_goal_received(a4, 1)",
+             "area_goal_received(a5, 4)")
+    assert rcl.log.count("cover(uav1,a3)") == 1        # not once per goal perceived
+    assert running(rcl) == ["cover(uav1,a3)"]
+    assert agent.believes("task(uav1, a3, 4)")
+    for goal in ("a3", "a5", "a2", "a1", "a4"):        # priority, then the oldest
+        assert running(rcl) == [f"cover(uav1,{goal})"]
+        rcl.finish(f"cover(uav1,{goal})")
+        agent.run_until_idle()
+    assert all(rcl.log.count(f"cover(uav1,{g})") == 1 for g in ("a1", "a2", "a3", "a4", "a5"))
     assert not rcl.open and not agent.believes("task(_, _, _)")
 
 
@@ -137,7 +167,7 @@ def test_failed_recharge_holds_goals_until_the_battery_is_fixed(
     agent.run_until_idle()
     rcl.feed("area_goal_received(a2, 9)")
     assert agent.believes("paused(uav1, battery)")
-    assert not rcl.open                                  # nothing flies on a low battery
+    assert not running(rcl)                              # nothing flies on a low battery
     mark = len(rcl.log)
     agent.remove_percept("battery_low(uav1)")            # swapped by hand
     agent.run_until_idle()
