@@ -109,7 +109,8 @@ def read_nodes(config: ProjectConfig) -> tuple[NodePlan, list[NodeProblem]]:
                 problems.append(NodeProblem(
                     f"nodes.{node.name}.port", f"node {other!r} has the same address and "
                     f"port ({node.address}:{node.port}); each node needs its own"))
-    names = tuple(nodes)
+    # every declared name counts as known, also one whose table has a problem of its own
+    names = tuple(str(n) for n in raw) if isinstance(raw, Mapping) else ()
     placement: dict[str, str] = {}
     for comp in config.enabled():
         key = f"components.{comp.id}.node"

@@ -225,16 +225,16 @@ class MeshProxy:
         except zmq.ZMQError:  # no ZAP user: not a node
             who = ""
         raw = [f.bytes for f in frames]
-        if not self.membership.admits(who):
-            self.dropped += 1
-            return
         try:
-            if raw and raw[0].startswith(BEAT_TOPIC):
-                env = decode(raw[0], raw[1]) if len(raw) == 2 else None
+            if raw and raw[0].startswith(BEAT_TOPIC):  # beats even from a refused node:
+                env = decode(raw[0], raw[1]) if len(raw) == 2 else None  # it may recover
                 if env is None or not isinstance(env.body, NodeBeat):
                     raise DecodeError("a node beat of the wrong shape", topic="node.beat")
                 b = env.body
                 self._publish(backend, self.membership.beat(who, b.node, b.boot, env.ts))
+                return
+            if not self.membership.admits(who):
+                self.dropped += 1
                 return
             if raw and raw[0].startswith(b"node."):
                 raise DecodeError("node.* topics are the proxies' own", topic="node.")
