@@ -33,10 +33,11 @@ from typing import Any
 from mrss import logs
 from mrss.bus import Publisher
 from mrss.bus.component import endpoints_from_config
+from mrss.bus.curve import load_keys, load_public
 from mrss.commands import check
 from mrss.config import PROXY_MODULE, ProjectConfig, load_project
 from mrss.errors import ConfigError
-from mrss.nodes import node_children, node_plan
+from mrss.nodes import keys_dir, node_children, node_plan
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.events import NODE_ENV, Publish
 from mrss.supervision.launchers import become_subreaper
@@ -118,7 +119,12 @@ def pick_node(config: ProjectConfig, wanted: str | None) -> str:
     if not wanted:
         raise ConfigError(f"the project runs on nodes {', '.join(plan.nodes)}: say which "
                           "one this is with --node NAME", file=str(config.file), key="nodes")
-    return plan.check_node(wanted).name
+    name = plan.check_node(wanted).name
+    folder = keys_dir(config)
+    load_keys(folder, name)  # this node's keys, and every peer's public key: now, not in
+    for peer in plan.nodes:  # the bus proxy's start
+        load_public(folder, peer)
+    return name
 
 
 def run(args: argparse.Namespace) -> int:

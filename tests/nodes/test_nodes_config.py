@@ -83,3 +83,6 @@ def test_keys_and_supervise_node_choice(tmp_path: Path, monkeypatch: pytest.Monk
     assert "runs on nodes base, field: say which one" in capsys.readouterr().err
     assert main(["supervise", "nodesdemo", "--no-tui", "--node", "fild"]) == 2
     assert "did you mean 'field'?" in capsys.readouterr().err
+    (folder / "keys" / "base.secret").unlink()
+    assert main(["supervise", "nodesdemo", "--no-tui", "--node", "base"]) == 2
+    assert "no secret key of node 'base'" in capsys.readouterr().err
