@@ -105,6 +105,7 @@ class MeshProxy:
         self._wall = wall
         self._drops = sockets.DropLog(f"node {settings.node}: from a peer")
         self._src = f"node.{settings.node}"
+        self._refusals: dict[tuple[str, str], int] = {}
 
     def run(self, stop: threading.Event, ready: Callable[[], None] | None = None) -> None:
         ctx: sockets.Context = zmq.Context()  # own context: the ZAP gate covers only it
@@ -270,10 +271,17 @@ class MeshProxy:
         except zmq.ZMQError:
             return
         what = _HANDSHAKE_EVENTS.get(zmq.Event(int(event["event"])))
-        if what:
-            self.dropped += 1
-            log.warning("node %s: refused a connection on its inbox: %s (%s)",
-                        self.settings.node, what, event.get("value"))
+        if not what:
+            return
+        self.dropped += 1
+        key = (what, str(event.get("endpoint", b""), "utf-8", "replace"))
+        seen = self._refusals.get(key, 0) + 1
+        if len(self._refusals) >= 1024:
+            self._refusals.clear()
+        self._refusals[key] = seen
+        if seen == 1 or seen % 100 == 0:  # a peer re-dials every 0.5 s: not every time
+            log.warning("node %s: refused a connection on its inbox: %s (%d time(s))",
+                        self.settings.node, what, seen)
 
 
 def _send(out: sockets.Socket, frames: list[Any]) -> None:
