@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from mrss.bus.mesh import MeshSettings
 from mrss.config import ID_PATTERN, PROXY_MODULE, ProjectConfig
 from mrss.errors import ConfigError
 from mrss.supervision.children import ComponentStart
@@ -54,9 +55,6 @@ class Node:
     @property
     def bind_endpoint(self) -> str:
         return _tcp(self.bind, self.port)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"address": self.address, "port": self.port, "bind": self.bind}
 
 
 @dataclass(frozen=True)
@@ -159,12 +157,12 @@ def node_children(config: ProjectConfig, plan: NodePlan,
     bus = config.sections.get("bus", {})
     bus = bus if isinstance(bus, Mapping) else {}
     components = {n: [c for c, at in plan.placement.items() if at == n] for n in plan.nodes}
-    mesh = {"node": node, "inbox": me.bind_endpoint, "keys_dir": str(keys_dir(config)),
-            "peers": {n.name: n.endpoint for n in plan.nodes.values() if n.name != node},
-            "components": components,
-            "interval": float(bus.get("node_heartbeat", 0.5)),
-            "misses": int(bus.get("node_misses", 4)),
-            "max_skew": float(bus.get("max_clock_skew", 5.0))}
+    mesh = MeshSettings(
+        node=node, inbox=me.bind_endpoint, keys_dir=str(keys_dir(config)),
+        peers={n.name: n.endpoint for n in plan.nodes.values() if n.name != node},
+        components=components, interval=float(bus.get("node_heartbeat", 0.5)),
+        misses=int(bus.get("node_misses", 4)),
+        max_skew=float(bus.get("max_clock_skew", 5.0))).to_dict()
     children = []
     for comp in config.enabled():
         if comp.module == PROXY_MODULE:
