@@ -64,7 +64,7 @@ def _loss(node_b: _Child, watch: Subscriber, seen: list[SupEvent], times: int
 
 
 def run(quick: bool) -> BenchReport:
-    rounds, pings, count, losses = (3, 200, 5_000, 1) if quick else (5, 1000, 20_000, 5)
+    rounds, pings, count, losses = (2, 100, 2_000, 1) if quick else (5, 1000, 20_000, 5)
     report = BenchReport("nodes", ["path", "messages", "delivered %", "msgs/s",
                                    "RTT p50 us", "RTT p99 us", "s median", "s max"],
                          quick=quick)
