@@ -38,7 +38,7 @@ from zmq.utils.monitor import recv_monitor_message
 from mrss.bus import sockets
 from mrss.bus.curve import DOMAIN, NodeKeys, ZapGate, load_keys, load_public
 from mrss.bus.endpoints import BusEndpoints
-from mrss.bus.forwarder import _bind, _clear_stale_socket
+from mrss.bus.forwarder import bind_endpoint, clear_stale_socket
 from mrss.bus.wire import WELCOME, is_ack, message_frames, unpack_ack
 from mrss.errors import BusError, ConfigError, DecodeError
 from mrss.messages import NodeBeat, SupEvent, decode, encode
@@ -121,14 +121,14 @@ class MeshProxy:
         bound: list[str] = []
         try:
             for path in self.endpoints.ipc_paths():
-                _clear_stale_socket(path)
+                clear_stale_socket(path)
             frontend, backend = sock(zmq.XSUB), sock(zmq.XPUB)
             frontend.setsockopt(zmq.RCVHWM, self.hwm)
             backend.setsockopt(zmq.SNDHWM, self.hwm)
             backend.setsockopt(zmq.XPUB_WELCOME_MSG, WELCOME)
             for s, ep in ((frontend, self.endpoints.frontend),
                           (backend, self.endpoints.backend)):
-                _bind(s, ep)
+                bind_endpoint(s, ep)
                 bound.append(ep)
             frontend.send(b"\x01")
             inbox = sock(zmq.SUB)
