@@ -37,7 +37,8 @@ from mrss.textfile import NotUtf8Error, read_text
 
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
-COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff")
+COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff",
+                  "node")
 SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
                    "retry_after", "shared_intensity", "groups", "heartbeat_interval",
                    "heartbeat_misses", "launcher", "run_dir", "backoff")
@@ -59,8 +60,8 @@ class OnGiveUp(StrEnum):
     def on_exceeded(self) -> OnExceeded:
         return OnExceeded.QUARANTINE if self is OnGiveUp.STOP_COMPONENT else OnExceeded.ESCALATE
 # Tables owned by other layers: kept raw here; `mrss check` checks their keys.
-OTHER_SECTIONS = ("bus", "broker", "robots", "links", "reasoner", "rcl", "events", "datalayer",
-                  "worldmodel", "tui", "sim", "skills")
+OTHER_SECTIONS = ("nodes", "bus", "broker", "robots", "links", "reasoner", "rcl", "events",
+                  "datalayer", "worldmodel", "tui", "sim", "skills")
 
 
 class Check(StrEnum):
@@ -117,6 +118,7 @@ class ComponentConfig:
     start_timeout: float = 10.0
     backoff: bool = True
     options: dict[str, Any] = field(default_factory=dict)
+    node: str = ""  # the node it runs on (`[nodes]`, mrss.nodes); "" on a single host
 
     def child_spec(self) -> ChildSpec[ComponentStart]:
         start = ComponentStart(self.module, dict(self.options), self.start_timeout)
@@ -152,6 +154,9 @@ class ProjectConfig:
     def child_specs(self) -> list[ChildSpec[ComponentStart]]:
         """The enabled components in file order: the root supervisor's children."""
         return [c.child_spec() for c in self.components if c.enabled]
+
+    def enabled(self) -> tuple[ComponentConfig, ...]:
+        return tuple(c for c in self.components if c.enabled)
 
 
 def load_project(name: str, base: Path | None = None) -> ProjectConfig:
@@ -352,6 +357,7 @@ class _Reader:
                 enabled=self.typed(table, f"{key}.enabled", bool, True),
                 start_timeout=timeout,
                 backoff=self.typed(table, f"{key}.backoff", bool, module != PROXY_MODULE),
+                node=self.typed(table, f"{key}.node", str, ""),
                 options={k: v for k, v in table.items() if k not in COMPONENT_KEYS}))
         return tuple(result)
 

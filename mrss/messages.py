@@ -74,6 +74,7 @@ class FailureCause(StrEnum):
     REJECTED = "rejected"  # the request was malformed or refused
     ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
     PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
+    NODE_DOWN = "node_down"  # the node the robot is reached through was lost
 
 
 CONTROL_COMMANDS = ("cancel", "suspend", "resume", "succeed", "fail")
@@ -262,9 +263,29 @@ class SupEvent(Message):
     reason: str = ""
     count: int = 0
     detail: dict[str, JsonValue] = field(default_factory=dict)
+    node: str = ""  # the node whose supervisor emitted it ("" on a single host)
 
     def topic(self) -> str:
         return f"sup.{self.event}"
+
+
+@dataclass(frozen=True)
+class NodeBeat(Message):
+    """A node is alive: sent by its bus proxy to every peer node (never to local
+    subscribers). `boot` is random per proxy start, so two processes running as one node
+    are told apart; `components` are the node's component ids."""
+
+    kind: ClassVar[str] = "node.beat"
+    node: str
+    boot: str
+    components: list[str] = field(default_factory=list)
+
+    def topic(self) -> str:
+        return f"node.beat.{self.node}"
+
+    def validate(self) -> None:
+        _nonempty(self.node, "node")
+        _nonempty(self.boot, "boot")
 
 
 @dataclass(frozen=True)
@@ -359,7 +380,7 @@ KINDS: dict[str, type[Message]] = {
     for cls in (
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
-        DataReply, RobotState, RobotData, SupEvent, Heartbeat, LogRecord, MindSnapshot,
+        DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
         Command, EventReport,
     )
 }

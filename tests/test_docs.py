@@ -12,6 +12,7 @@ import pytest
 
 from mrss.config import load_file
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
+from mrss.nodes import read_nodes
 
 REPO = Path(__file__).resolve().parent.parent
 DOCUMENTS = sorted((REPO / "docs").glob("*.md")) + [REPO / "README.md"]
@@ -68,6 +69,7 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
     path = tmp_path / "project.toml"
     path.write_text(completed(block), encoding="utf-8")
     config = load_file(path)
+    assert not read_nodes(config)[1], f"{where}: {read_nodes(config)[1]}"
     for comp in config.components:
         module, _, cls = comp.module.partition(":")
         if module.startswith("mrss."):
@@ -78,7 +80,7 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
             if kind is None:
                 continue
             assert kind in LINK_OPTIONS, f"{where}: robot {robot}: link {kind!r}"
-            unknown = set(options) - set(LINK_OPTIONS[kind]) - {"link"}
+            unknown = set(options) - set(LINK_OPTIONS[kind]) - {"link", "node"}
             assert not unknown, f"{where}: robot {robot}: unknown link options {unknown}"
             assert not option_value_problems(options), f"{where}: robot {robot}"
 

@@ -45,6 +45,8 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("dl.request", "request_id"): nonempty,
     ("dl.request", "function"): nonempty,
     ("edge.report", "status"): st.sampled_from([s.value for s in m.EventStatus]),
+    ("node.beat", "node"): nonempty,
+    ("node.beat", "boot"): nonempty,
 }
 
 

@@ -133,6 +133,7 @@ class EndCause(StrEnum):
     RCL_RESTARTED = "rcl_restarted"  # an RCL restart could not resume it
     REJECTED = "rejected"  # the request was malformed or refused
     PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
+    NODE_DOWN = "node_down"  # the node the robot is reached through was lost
 
 
 #: The FailureCause the agent sees (`error(Cause)`) for each end cause; "" = by state.
@@ -141,7 +142,7 @@ FAILURE_OF: Mapping[EndCause, str] = {
     EndCause.LINK_LOST: FailureCause.LINK_DOWN, EndCause.FAILSAFE: FailureCause.FAILSAFE,
     EndCause.ORPHANED: FailureCause.ORPHANED, EndCause.QUARANTINED: FailureCause.QUARANTINED,
     EndCause.RCL_RESTARTED: FailureCause.TRANSIENT, EndCause.REJECTED: FailureCause.REJECTED,
-    EndCause.PREEMPTED: FailureCause.PREEMPTED,
+    EndCause.PREEMPTED: FailureCause.PREEMPTED, EndCause.NODE_DOWN: FailureCause.NODE_DOWN,
 }
 
 

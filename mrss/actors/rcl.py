@@ -96,6 +96,7 @@ class RclCore(RequesterDuties, RobotAvailability):
         self._refs: dict[str, pykka.ActorRef[Any]] = {}
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
+        self.robot_nodes: dict[str, str] = {}  # robot -> the node it is reached through
         self._incarnations: dict[str, int] = {}
         self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
         self.progress = ProgressFeed(progress_every, clock)

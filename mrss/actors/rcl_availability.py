@@ -6,6 +6,9 @@ Rules:
   (`link_lost`), its failsafe taken (`failsafe`), or its actor quarantined
   (`quarantined`); new requests for it are refused with that cause, so the agent can
   tell a robot to wait for from a broken one;
+- a robot reached through a node (`node` in its table, mrss.nodes) is unavailable with
+  cause `node_down` while that node is lost (`sup.node_down` from the bus proxy), its
+  open actions failing with it; `sup.node_up` makes it available again;
 - a link going down fails the robot's open actions (`link_down`, or `failsafe` when the
   robot overtook the command); a link coming back makes it available again, unless
   something else (a quarantine) holds it; a quarantine fails its open actions, a
@@ -35,6 +38,7 @@ from mrss.supervision import events as ev
 log = logging.getLogger("mrss.rcl")
 
 LINK_DOWN = "link down"  # how an unavailable robot's reason starts when its link is lost
+NODE_DOWN = "node down"  # ... when the node it is reached through is lost
 LINK_CAUSES = (lc.EndCause.LINK_LOST, lc.EndCause.FAILSAFE)
 
 
@@ -49,6 +53,7 @@ class RobotAvailability:
     _index: dict[str, Entry]
     _unavailable: dict[str, str]
     _unavailable_cause: dict[str, lc.EndCause]
+    robot_nodes: dict[str, str]  # robot -> the node it is reached through (mrss.nodes)
 
     if TYPE_CHECKING:  # provided by RclCore (no stub here: it would shadow them)
         def _tell(self, robot: str, message: object) -> None:
@@ -106,6 +111,8 @@ class RobotAvailability:
             if current in LINK_CAUSES:  # not when something else (a quarantine) holds it
                 self.set_available(robot, True)
             return []
+        if current is lc.EndCause.NODE_DOWN:
+            return []  # its node's loss is the deeper cause (and failed its actions)
         self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
                            lc.EndCause.FAILSAFE if link_down_cause(reason)
                            is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
@@ -117,6 +124,34 @@ class RobotAvailability:
         for uuid in targets:
             self._control_one(uuid, lc.End(ActionState.FAILED, cause, why))
         return targets
+
+    def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:
+        """The node some robots are reached through was lost (`sup.node_down`) or is back.
+
+        Lost: its robots are unavailable with cause `node_down` and their open actions
+        fail with it (the agent sees `error(node_down)`). Back: available again, unless
+        something else holds them. Repeats change nothing. Returns the failed uuids.
+        """
+        failed: list[str] = []
+        for robot in [r for r, n in self.robot_nodes.items() if n == node and r in self.links]:
+            with self._lock:
+                current = self._unavailable_cause.get(robot)
+            if up:
+                if current is lc.EndCause.NODE_DOWN:
+                    self.set_available(robot, True)
+                continue
+            if current is lc.EndCause.NODE_DOWN:
+                continue  # a repeat (sup.node_down is level-triggered)
+            why = reason or f"node {node} lost"
+            self.set_available(robot, False, f"{NODE_DOWN}: {why}", lc.EndCause.NODE_DOWN)
+            with self._lock:
+                targets = [u for u, e in self._index.items() if e.robot == robot]
+            for uuid in targets:
+                self._control_one(uuid, lc.End(
+                    ActionState.FAILED, lc.EndCause.NODE_DOWN,
+                    f"robot {robot} is reached through node {node}, which is lost: {why}"))
+            failed += targets
+        return failed
 
     def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
         attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}

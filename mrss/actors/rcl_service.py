@@ -55,8 +55,10 @@ from mrss.messages import (
     Command,
     Envelope,
     Heartbeat,
+    SupEvent,
 )
 from mrss.supervision import Component, ComponentContext
+from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 log = logging.getLogger("mrss.rcl")
 
@@ -153,8 +155,10 @@ class RclService(Component):
         robots = opts.get("robots", {})
         if not isinstance(robots, dict) or not robots:
             raise ConfigError("the RCL needs a table of robots", key="robots")
-        self.links = {str(r): self.layer.connect_robot(str(r), o if isinstance(o, dict) else {})
-                      for r, o in robots.items()}
+        # `node`: the node a robot is reached through (mrss.nodes), the RCL's, not the link's
+        tables = {str(r): dict(o) if isinstance(o, dict) else {} for r, o in robots.items()}
+        robot_nodes = {r: str(t.pop("node")) for r, t in tables.items() if "node" in t}
+        self.links = {r: self.layer.connect_robot(r, t) for r, t in tables.items()}
         journal_path = Path(opts.get("journal") or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
         self.journal = ActionJournal(journal_path, durable=bool(opts.get("durable", False)))
         if not publisher.wait_connected(5.0):  # else the restored statuses could be lost
@@ -171,7 +175,7 @@ class RclService(Component):
                 self.incarnations.learn(src, inc)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
                                                     "ctl.teleop", "ctl.snapshot",
-                                                    "sup.heartbeat."],
+                                                    "sup.heartbeat.", "sup.node_"],
                                incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
@@ -184,6 +188,7 @@ class RclService(Component):
                                                                  120.0)),
                             preempted_timeout=float(opts.get("preempted_timeout", 0.0)),
                             progress_every=float(opts.get("progress_every", 1.0)))
+        self.core.robot_nodes = robot_nodes
         self.layer.bind_runtime(link_state=self.core.link_state)
         self._compaction = (float(opts.get("journal_keep_seconds", 86400.0)),
                             int(opts.get("journal_keep_last", 1000)),
@@ -292,6 +297,8 @@ class RclService(Component):
                 core.snapshot()
             elif isinstance(body, Heartbeat):
                 core.saw_incarnation(env.src, env.inc)
+            elif isinstance(body, SupEvent) and body.event in (NODE_DOWN, NODE_UP):
+                core.node_state(body.child, body.event == NODE_UP, body.reason)
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.mesh import MeshSettings, MeshThread
 from mrss.bus.proxy import ProxyThread
 from mrss.config import Check, Option
 from mrss.errors import ConfigError
@@ -12,18 +13,28 @@ from mrss.supervision.component import Component, ComponentContext
 
 
 class ProxyComponent(Component):
-    """Runs the XSUB/XPUB proxy on the endpoints the supervisor hands every component."""
+    """Runs the XSUB/XPUB proxy on the endpoints the supervisor hands every component; on
+    a node of several (`mrss supervise --node`, which passes `options["mesh"]`), the
+    node's proxy with its CurveZMQ links to the other nodes (mrss.bus.mesh)."""
 
     #: The options this component reads (`mrss check` validates them; docs/config.md).
     OPTIONS: ClassVar[tuple[Option, ...]] = ()
 
     def __init__(self) -> None:
-        self._proxy: ProxyThread | None = None
+        self._proxy: ProxyThread | MeshThread | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         if not ctx.bus:
             raise ConfigError("the bus component needs bus endpoints", key="bus")
-        self._proxy = ProxyThread(BusEndpoints.from_dict(ctx.bus)).start()
+        endpoints = BusEndpoints.from_dict(ctx.bus)
+        mesh = ctx.options.get("mesh")
+        if mesh is None:
+            self._proxy = ProxyThread(endpoints).start()
+        else:
+            self._proxy = MeshThread(endpoints, MeshSettings.from_dict(mesh)).start()
+
+    def healthy(self) -> bool:
+        return not isinstance(self._proxy, MeshThread) or self._proxy.alive()
 
     def stop(self) -> None:
         if self._proxy is not None:
@@ -37,6 +48,14 @@ BUS_OPTIONS: tuple[Option, ...] = (
     Option("host", str, "127.0.0.1", "tcp: the proxy's address"),
     Option("frontend_port", int, None, "tcp: the port publishers connect to", Check.PORT),
     Option("backend_port", int, None, "tcp: the port subscribers connect to", Check.PORT),
+    Option("keys_dir", str, "keys", "[nodes]: the folder of the nodes' CurveZMQ keys "
+           "(`mrss keys`), relative to the project"),
+    Option("node_heartbeat", float, 0.5, "[nodes]: seconds between heartbeats to each peer",
+           Check.POSITIVE),
+    Option("node_misses", int, 4, "[nodes]: a peer silent this many heartbeats is lost",
+           Check.POSITIVE),
+    Option("max_clock_skew", float, 5.0, "[nodes]: a peer whose clock is further off is "
+           "refused (seconds)", Check.POSITIVE),
 )
 
 

@@ -40,7 +40,7 @@ def run_proxy(
     """
     ctx = sockets.context(context)
     for path in endpoints.ipc_paths():
-        _clear_stale_socket(path)
+        clear_stale_socket(path)
     frontend = ctx.socket(zmq.XSUB)
     backend = ctx.socket(zmq.XPUB)
     control = ctx.socket(zmq.PAIR)
@@ -54,7 +54,7 @@ def run_proxy(
         backend.setsockopt(zmq.SNDHWM, hwm)
         backend.setsockopt(zmq.XPUB_WELCOME_MSG, WELCOME)
         for sock, endpoint in ((frontend, endpoints.frontend), (backend, endpoints.backend)):
-            _bind(sock, endpoint)
+            bind_endpoint(sock, endpoint)
             bound.append(endpoint)
         # Take everything from publishers; subscribers' filters apply at the backend.
         frontend.send(b"\x01")
@@ -128,14 +128,14 @@ def _forward(frontend: sockets.Socket, backend: sockets.Socket, control: sockets
             log.error("bus proxy stopped: %s", exc)
 
 
-def _bind(sock: sockets.Socket, endpoint: str) -> None:
+def bind_endpoint(sock: sockets.Socket, endpoint: str) -> None:
     try:
         sock.bind(endpoint)
     except zmq.ZMQError as exc:
         raise BusError(f"cannot bind bus endpoint {endpoint}: {exc}") from exc
 
 
-def _clear_stale_socket(path: Path) -> None:
+def clear_stale_socket(path: Path) -> None:
     """Remove a socket file left by a killed proxy; refuse to steal a live one."""
     path.parent.mkdir(parents=True, exist_ok=True)
     if not path.exists():

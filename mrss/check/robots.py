@@ -23,6 +23,9 @@ from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
 from mrss.links.mavlink_signing import key_problem
 
+# Keys of a robot's table that the RCL reads itself, whatever its link: the link kind, and
+# the node it is reached through (mrss.nodes; validated there).
+ROBOT_KEYS = ("link", "node")
 URL_OPTIONS = {("mavlink", "url"): mavlink_url_problem, ("mqtt", "broker_url"): url_problem,
                ("http", "url"): http_url_problem}
 
@@ -83,7 +86,7 @@ def link_problems(kind: str, options: Mapping[str, Any],
     spec = LINK_OPTIONS[kind]
     problems = []
     for name, value in options.items():
-        if name == "link" or name in own:
+        if name in ROBOT_KEYS or name in own:
             continue
         if name not in spec:
             problems.append((name, f"not a {kind} link option"

@@ -19,6 +19,7 @@ from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
+from mrss.check.nodes import check_nodes
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
 from mrss.check.recipes import (
@@ -47,6 +48,7 @@ def check_project(config: ProjectConfig) -> Report:
     report = Report(config.name)
     sources = Sources(config.directory, report)
     check_tables(config, report)
+    check_nodes(config, report)
     check_broker_login(config, report)
     classes = _component_classes(config, report)
     uses = _agent(config, report)

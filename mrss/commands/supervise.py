@@ -33,11 +33,13 @@ from typing import Any
 from mrss import logs
 from mrss.bus import Publisher
 from mrss.bus.component import endpoints_from_config
+from mrss.bus.curve import load_keys, load_public
 from mrss.commands import check
 from mrss.config import PROXY_MODULE, ProjectConfig, load_project
 from mrss.errors import ConfigError
+from mrss.nodes import keys_dir, node_children, node_plan
 from mrss.supervision.children import ProcessSettings
-from mrss.supervision.events import Publish
+from mrss.supervision.events import NODE_ENV, Publish
 from mrss.supervision.launchers import become_subreaper
 from mrss.supervision.outbox import EventOutbox
 from mrss.supervision.process import ProcessSupervisor
@@ -54,6 +56,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--launcher", choices=("fork", "exec"), default=None,
                         help="override [supervisor] launcher")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    parser.add_argument("--node", default=None,
+                        help="with [nodes]: run this node's share of the project "
+                             "(its components and the bus proxy with its CurveZMQ links)")
     parser.add_argument("--no-tui", action="store_true",
                         help="log lines on stderr instead of the dashboard (the default when "
                              "stdin, stdout or stderr is not a terminal)")
@@ -83,9 +88,9 @@ def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
 
 def build_supervisor(
     config: ProjectConfig, run_dir: Path, *, launcher: str | None = None,
-    publish: Publish | None = None, bus: dict[str, Any] | None = None,
+    publish: Publish | None = None, bus: dict[str, Any] | None = None, node: str = "",
 ) -> ProcessSupervisor:
-    """The root supervisor for a validated project.
+    """The root supervisor for a validated project (of one node's share, with `node`).
 
     `publish` receives every sup.* event (a bus Publisher's `publish`); `bus` is the
     endpoints dict handed to every component as `ctx.bus`.
@@ -96,8 +101,30 @@ def build_supervisor(
         heartbeat_interval=s.heartbeat_interval, heartbeat_misses=s.heartbeat_misses,
         launcher="exec" if (launcher or s.launcher) == "exec" else "fork",
     )
-    return ProcessSupervisor(config.name, s.spec, config.child_specs(), settings,
-                             publish=publish)
+    children = node_children(config, node_plan(config), node) if node else \
+        config.child_specs()
+    return ProcessSupervisor(config.name, s.spec, children, settings, publish=publish,
+                             node=node or None)
+
+
+def pick_node(config: ProjectConfig, wanted: str | None) -> str:
+    """The node to run: "" for a single-host project; ConfigError for a missing, unknown
+    or superfluous --node."""
+    plan = node_plan(config)
+    if not plan.multi:
+        if wanted:
+            raise ConfigError("--node given, but the project declares no [nodes]",
+                              file=str(config.file), key="nodes")
+        return ""
+    if not wanted:
+        raise ConfigError(f"the project runs on nodes {', '.join(plan.nodes)}: say which "
+                          "one this is with --node NAME", file=str(config.file), key="nodes")
+    name = plan.check_node(wanted).name
+    folder = keys_dir(config)
+    load_keys(folder, name)  # this node's keys, and every peer's public key: now, not in
+    for peer in plan.nodes:  # the bus proxy's start
+        load_public(folder, peer)
+    return name
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,6 +139,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss supervise: {config.name}: not started; fix the errors above "
               f"(`mrss check {args.project}`)", file=sys.stderr)
         return EXIT_CONFIG
+    try:
+        node = pick_node(config, args.node)
+    except ConfigError as exc:
+        print(f"mrss supervise: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
     if wants_tui(args):
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 
@@ -119,11 +151,13 @@ def run(args: argparse.Namespace) -> int:
     early: list[int] = []  # a stop asked for before the supervisor runs is kept, not lost
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: early.append(signum))
+    if node:
+        os.environ[NODE_ENV] = node  # every process of this node's tree: SupEvent.node
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
     try:
-        return _supervise(config, run_dir, args.launcher, early)
+        return _supervise(config, run_dir, args.launcher, early, node)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
@@ -133,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
-               early: list[int]) -> int:
+               early: list[int], node: str = "") -> int:
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
@@ -146,7 +180,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
         publish = outbox
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
-                               bus=endpoints.to_dict())
+                               bus=endpoints.to_dict(), node=node)
         remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
         try:
             return _run_root(config, run_dir, sup, early)

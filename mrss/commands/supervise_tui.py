@@ -184,6 +184,8 @@ def _start_system(args: argparse.Namespace, run_dir: Path,
             "--run-dir", str(run_dir)]
     if args.launcher:
         argv += ["--launcher", args.launcher]
+    if getattr(args, "node", None):
+        argv += ["--node", args.node]
     if args.verbose:
         argv.append("-v")
     out = os.open(log_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)

@@ -8,6 +8,7 @@ logged and never takes the supervisor down.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -16,6 +17,7 @@ from typing import Any
 from mrss.messages import Message, SupEvent
 
 Publish = Callable[[Message], object]
+NODE_ENV = "MRSS_NODE"
 
 # The event names a supervisor emits (SupEvent.event).
 START = "start"
@@ -33,22 +35,25 @@ class SupEvents:
 
     def __init__(
         self, supervisor: str, publish: Publish | None = None,
-        logger: logging.Logger | None = None,
+        logger: logging.Logger | None = None, node: str | None = None,
     ) -> None:
         self.supervisor = supervisor
+        # The node this runs on (`mrss supervise --node` sets MRSS_NODE for the whole
+        # tree, components included); "" on a single host.
+        self.node = os.environ.get(NODE_ENV, "") if node is None else node
         self._publish = publish
         self._log = logger or logging.getLogger(f"mrss.supervision.{supervisor}")
 
     def child(self, name: str) -> SupEvents:
         """The emitter of a nested supervisor `name`, sharing this one's publisher."""
-        return SupEvents(f"{self.supervisor}/{name}", self._publish, self._log)
+        return SupEvents(f"{self.supervisor}/{name}", self._publish, self._log, self.node)
 
     def emit(
         self, event: str, child: str, *, pid: int = 0, reason: str = "", count: int = 0,
         **detail: Any,
     ) -> SupEvent:
         msg = SupEvent(event=event, child=child, supervisor=self.supervisor, pid=pid,
-                       reason=reason, count=count, detail=detail)
+                       reason=reason, count=count, detail=detail, node=self.node)
         level = logging.INFO if event in (START, RESTART, RELEASE) else logging.WARNING
         if event == EXIT and reason.startswith("shutdown"):
             level = logging.INFO

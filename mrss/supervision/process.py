@@ -50,11 +50,12 @@ class ProcessSupervisor:
         self, name: str, spec: SupervisorSpec, children: Iterable[ChildSpec[ComponentStart]],
         settings: ProcessSettings, *, publish: Publish | None = None,
         clock: Callable[[], float] = time.monotonic, rand: Callable[[], float] = random.random,
+        node: str | None = None,
     ) -> None:
         self.name = name
         self.spec = spec
         self.settings = settings
-        self.events = SupEvents(name, publish)
+        self.events = SupEvents(name, publish, node=node)
         self._clock = clock
         self._procs: dict[str, Proc] = {}
         for child in children:

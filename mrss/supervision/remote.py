@@ -36,7 +36,7 @@ TREE_EVENT = "tree"
 def tree_event(sup: ProcessSupervisor) -> SupEvent:
     """The live tree of `sup` as a `sup.tree` event."""
     return SupEvent(event=TREE_EVENT, child=sup.name, supervisor=sup.name, pid=os.getpid(),
-                    detail={"tree": sup.tree().to_dict()})
+                    detail={"tree": sup.tree().to_dict()}, node=sup.events.node)
 
 
 class RemoteControl:
@@ -74,6 +74,8 @@ class RemoteControl:
             self.sup.request_stop()
 
     def _fault(self, cmd: Command, sender: str) -> None:
+        if self.sup.events.node and self.sup.tree().find(cmd.target) is None:
+            return  # one node of several: the root of the target's node answers
         fault = cmd.args.get("fault")
         seconds = cmd.args.get("seconds", 5.0)
         try:

@@ -79,3 +79,15 @@ def test_battery_percent_reads_both_shapes_and_ignores_junk() -> None:
     for junk in ({"type": "position", "battery": 5}, {"battery": "low"},
                  {"battery": True}, {"battery": float("nan")}, {}):
         assert battery_percent(junk) is None
+
+
+def test_a_lost_node_is_an_alert_until_it_is_back() -> None:
+    model = AlertsModel()
+    down = SupEvent(event="node_down", child="field", supervisor="node.base",
+                    reason="node field down: no heartbeat for 2.0 s", detail={"repeat": False})
+    raised = model.apply(env(down))
+    assert [(a.kind, a.subject, a.text) for a in raised] == [
+        (AlertKind.NODE_DOWN, "node field", down.reason)]
+    assert model.apply(env(down)) == []  # its level-triggered repeat: no new alert
+    model.apply(env(SupEvent(event="node_up", child="field", supervisor="node.base")))
+    assert model.alerts[(AlertKind.NODE_DOWN, "node field")].resolved

@@ -107,6 +107,35 @@ def test_a_component_given_up_alone_is_marked_and_the_root_runs_on() -> None:
     assert model.nodes["wildfire/reasoner"].last_reason == "killed: SIGKILL"
 
 
+def test_supervision_model_has_a_level_per_node_and_marks_a_lost_nodes_components() -> None:
+    model = SupervisionModel()
+    for node, child in (("base", "rcl"), ("field", "beacon")):
+        model.apply_event(SupEvent(event="start", child=child, supervisor="demo", pid=10,
+                                   node=node), "supervisor", 100.0)
+    model.apply_event(SupEvent(event="start", child="ugv1", supervisor="robots", node="base"),
+                      "rcl", 101.0)
+    model.apply_event(SupEvent(event="tree", child="demo", node="field", detail={"tree": {
+        "id": "demo", "children": [{"id": "bus", "state": "running"}]}}), "supervisor", 102.0)
+    assert [n.path for n in model.rows()] == [
+        "demo", "demo/base", "demo/base/rcl", "demo/base/rcl/robots",
+        "demo/base/rcl/robots/ugv1", "demo/field", "demo/field/beacon", "demo/field/bus"]
+    assert model.nodes["demo/field"].kind == "node"
+    assert model.is_component("demo/field/beacon") and not model.is_component("demo/field")
+    lost = SupEvent(event="node_down", child="field", supervisor="node.base", node="base",
+                    reason="node field down: no heartbeat for 1.0 s",
+                    detail={"state": "down", "components": ["beacon", "relay"]})
+    model.apply_event(lost, "node.base", 103.0)
+    states = {n.path: (n.state, n.last_reason) for n in model.rows()}
+    assert states["demo/field"] == ("down", lost.reason)
+    assert states["demo/field/beacon"] == states["demo/field/relay"] == ("node down",
+                                                                         lost.reason)
+    assert states["demo/base/rcl"][0] == "running"
+    model.apply_event(SupEvent(event="node_up", child="field", supervisor="node.base",
+                               node="base", detail={"state": "up"}), "node.base", 104.0)
+    assert model.nodes["demo/field"].state == "up"
+    assert model.nodes["demo/field/beacon"].state == "running"  # as before the loss
+
+
 def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
     model = SupervisionModel()
     model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {"id": 3}}), "s", 1.0)

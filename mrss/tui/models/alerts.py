@@ -16,6 +16,7 @@ from enum import StrEnum
 from typing import Any
 
 from mrss.messages import Envelope, Percept, RobotData, RobotState, SupEvent
+from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 BATTERY_LOW = 20.0  # percent: below it a robot's battery is low
 HISTORY_LIMIT = 500  # alerts kept (oldest dropped)
@@ -30,10 +31,13 @@ class AlertKind(StrEnum):
     RESTARTED = "restarted"
     HUNG = "hung"
     GAVE_UP = "gave up"
+    NODE_DOWN = "node down"  # a peer node lost (several hosts)
 
 
-CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE)
-SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED)
+CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
+              AlertKind.NODE_DOWN)
+SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED,
+          AlertKind.NODE_DOWN)
 
 
 @dataclass
@@ -100,6 +104,9 @@ class AlertsModel:
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []
+        if isinstance(body, SupEvent) and body.event in (NODE_DOWN, NODE_UP):
+            return self._condition(AlertKind.NODE_DOWN, f"node {body.child}",
+                                   body.event == NODE_DOWN, body.reason, env.ts)
         if isinstance(body, SupEvent):
             kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
                     "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED

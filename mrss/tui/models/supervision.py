@@ -4,6 +4,11 @@ A node's path is its supervisor's path plus its id: `wildfire/rcl` for a compone
 the root supervisor `wildfire`. Actor supervisors inside a component name themselves
 without the component (`robots/uav1`), so their events are placed under the component
 that published them (the envelope's `src`): `wildfire/rcl/robots/uav1`.
+
+On several hosts (`[nodes]`) every event carries its node, and the tree has a level per
+node: `wildfire/base/rcl/robots/uav1`. A node lost (`sup.node_down` from this node's bus
+proxy) marks its level and its components "node down" with the reason; `sup.node_up`
+gives them back the states they had.
 """
 
 from __future__ import annotations
@@ -13,10 +18,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from mrss.messages import SupEvent
+from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 # The `src` of the root supervisor's publisher in `mrss supervise`.
 ROOT_SRC = "supervisor"
 TREE_EVENT = "tree"
+NODE_KIND = "node"  # the kind of a node's level in the tree
+NODE_DOWN_STATE = "node down"
 
 
 @dataclass
@@ -54,21 +62,28 @@ class SupervisionModel:
     def __init__(self, root: str = "") -> None:
         self.root = root  # the root supervisor's name (the project's), once known
         self.nodes: dict[str, SupNode] = {}
+        self._before_down: dict[str, str] = {}  # a component's state before its node was lost
 
     def apply_event(self, event: SupEvent, src: str, ts: float) -> None:
         """Update the tree for one `sup.<event>` sent by `src` at wall-clock `ts`."""
         if event.event == TREE_EVENT:
             tree = event.detail.get("tree")
             if isinstance(tree, dict):
-                self.apply_tree(tree, ts)
+                self.apply_tree(tree, ts, node=event.node)
+            return
+        if event.event in (NODE_DOWN, NODE_UP):
+            self._node_state(event)
             return
         if src == ROOT_SRC and not self.root and "/" not in event.supervisor:
             self.root = event.supervisor
-        base = self._component_path(src)
+        base = self._component_path(src, event.node)
         parent = base
         for part in event.supervisor.split("/") if event.supervisor else ():
             parent = f"{parent}/{part}" if parent else part
             self._ensure(parent).kind = "supervisor"  # every segment is a supervisor
+            if not base and event.node and parent == self.root:  # the root's node level
+                parent = f"{parent}/{event.node}"
+                self._ensure(parent).kind = NODE_KIND
         node = self._ensure(f"{parent}/{event.child}" if parent else event.child)
         kind = event.event
         if kind == "start":
@@ -102,14 +117,26 @@ class SupervisionModel:
             if parent:
                 self._ensure(parent).state = "escalated" if kind == "escalate" else "gave up"
 
-    def apply_tree(self, tree: Mapping[str, Any], ts: float, parent: str = "") -> None:
-        """Replace what is known with a `ChildStatus.to_dict()` snapshot taken at `ts`."""
+    def apply_tree(self, tree: Mapping[str, Any], ts: float, parent: str = "",
+                   node: str = "") -> None:
+        """Replace what is known with a `ChildStatus.to_dict()` snapshot taken at `ts`
+        (of the root of `node`: its children go under that node's level)."""
         ident = tree.get("id")
         if not isinstance(ident, str) or not ident:
             return
         if not parent:
             self.root = ident
-        node = self._ensure(f"{parent}/{ident}" if parent else ident)
+            if node:
+                self._ensure(f"{ident}/{node}").kind = NODE_KIND
+                children = tree.get("children")
+                for child in children if isinstance(children, list) else ():
+                    if isinstance(child, dict):
+                        self.apply_tree(child, ts, f"{ident}/{node}")
+                return
+        node_ = self._ensure(f"{parent}/{ident}" if parent else ident)
+        self._apply_status(node_, tree, ts)
+
+    def _apply_status(self, node: SupNode, tree: Mapping[str, Any], ts: float) -> None:
         node.kind = _text(tree, "kind", node.kind)
         node.state = _text(tree, "state", node.state)
         node.pid = _number(tree, "pid", 0)
@@ -142,9 +169,33 @@ class SupervisionModel:
         return out
 
     def is_component(self, path: str) -> bool:
-        """Whether `path` is a process child of the root supervisor (faults reach those)."""
+        """Whether `path` is a process child of a root supervisor (faults reach those)."""
         node = self.nodes.get(path)
-        return node is not None and bool(self.root) and node.parent == self.root
+        if node is None or not self.root or node.kind == NODE_KIND:
+            return False
+        level = self.nodes.get(node.parent)
+        return node.parent == self.root or (level is not None and level.kind == NODE_KIND
+                                            and level.parent == self.root)
+
+    def _node_state(self, event: SupEvent) -> None:
+        """This node's proxy saw a peer node lost or back: its level and components."""
+        if not self.root:
+            return
+        level = self._ensure(f"{self.root}/{event.child}", NODE_KIND)
+        level.kind = NODE_KIND
+        state = event.detail.get("state")
+        level.state = state if isinstance(state, str) else event.event
+        level.last_reason = event.reason
+        listed = event.detail.get("components")
+        for name in listed if isinstance(listed, list) else ():
+            self._ensure(f"{level.path}/{name}")
+        for child in [n for n in self.nodes.values() if n.parent == level.path]:
+            if event.event == NODE_DOWN:
+                if child.state != NODE_DOWN_STATE:
+                    self._before_down[child.path] = child.state
+                child.state, child.last_reason = NODE_DOWN_STATE, event.reason
+            elif child.state == NODE_DOWN_STATE:
+                child.state = self._before_down.pop(child.path, "?")
 
     def _gone_with(self, node: SupNode) -> None:
         """A process exited: the actors it ran (nodes below it) are gone with it."""
@@ -154,10 +205,13 @@ class SupervisionModel:
                 other.state, other.pid, other.up_since = "stopped", 0, None
                 other.last_reason = f"{node.name} exited"
 
-    def _component_path(self, src: str) -> str:
+    def _component_path(self, src: str, node: str = "") -> str:
         """Where the supervisors of a message from `src` hang: "" for the root's own."""
         if src == ROOT_SRC or not src:
             return ""
+        if node and self.root:
+            self._ensure(f"{self.root}/{node}").kind = NODE_KIND
+            return f"{self.root}/{node}/{src}"
         return f"{self.root}/{src}" if self.root else src
 
     def _ensure(self, path: str, kind: str = "worker") -> SupNode:
