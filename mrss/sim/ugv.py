@@ -21,7 +21,7 @@ import sys
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from types import FrameType
 from typing import Any
 
@@ -29,7 +29,7 @@ from paho.mqtt import client as mqtt
 
 from mrss.errors import ConfigError, DecodeError
 from mrss.links.failsafe import DEFAULT_TIMEOUT_S, FailsafePolicy, parse_policy
-from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url, with_login
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -59,10 +59,13 @@ class SimUgv:
                  prefix: str = DEFAULT_PREFIX, base: tuple[float, float] = DEFAULT_BASE,
                  params: UgvParams | None = None, speedup: float = 1.0,
                  telemetry_hz: float = 2.0, keepalive: int = 5,
-                 failsafe: FailsafePolicy | None = None) -> None:
+                 failsafe: FailsafePolicy | None = None,
+                 login: Mapping[str, str] | None = None) -> None:
+        """`login`: the robot's own MQTT login and TLS files (`username`, `password_file`,
+        `ca_certs`, `certfile`, `keyfile`: mrss.links.mqtt_url.with_login)."""
         if speedup <= 0 or telemetry_hz <= 0:
             raise ValueError("speedup and telemetry rate must be positive")
-        self.address = parse_broker_url(broker_url)
+        self.address = with_login(parse_broker_url(broker_url), **(login or {}))
         self.robot_id = robot_id
         self.topics = UgvTopics.for_robot(robot_id, prefix)
         self.model = UgvModel(robot_id, base[0], base[1], params or UgvParams())

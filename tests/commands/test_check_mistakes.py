@@ -112,6 +112,10 @@ MISTAKES = [
     Mistake("MAVLink signing key that is not 64 hex characters", "project.toml", "",
             ROBOT2 + 'url = "udpin:0.0.0.0:14550"\nsigning_key = "agent.asl"\n',
             'signing_key = "agent.asl"', r"must hold 32 bytes as 64 hexadecimal characters"),
+    Mistake("MQTT robot CA file missing", "project.toml", "",
+            '\n[components.rcl.robots.robot2]\nlink = "mqtt"\nusername = "robot2"\n'
+            'ca_certs = "tls/ca.pem"\n', "tls/ca.pem",
+            r"no file 'tls/ca.pem' in the project folder"),
     Mistake("simulator signing key file missing", "project.toml", "",
             SIM_UAV + 'signing_key = "keys/uav.key"\n', "keys/uav.key",
             r"cannot read signing key file 'keys/uav.key'"),
