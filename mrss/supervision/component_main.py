@@ -10,6 +10,10 @@ and exits 1. Without --control-fd it runs standalone until SIGTERM/SIGINT.
 Logging (`mrss.logs`): one line format on stderr; supervised, also appended to the run's
 `<run_dir>/mrss.log`; with bus endpoints, records at INFO and above also go on the bus
 as `LogRecord`s on `log.<name>` (bounded, never blocking the logging thread).
+
+With bus endpoints the heartbeat thread also publishes the process's refusal counters
+when they move (`mrss.edge.rejection_reports`: `Rejections` on
+`edge.rejections.<name>`), for the dashboard.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from collections.abc import Sequence
 from types import FrameType
 
 from mrss import logs
+from mrss.edge.rejection_reports import RejectionReporter
 from mrss.errors import ConfigError, SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
@@ -92,6 +97,9 @@ class _Runtime:
 
     def _heartbeat(self, component: Component) -> None:
         interval = self.ctx.heartbeat_interval
+        ctx = self.ctx
+        reporter = RejectionReporter(ctx.name, lambda m: ctx.publisher.publish(m)) \
+            if ctx.bus else None
         while not self.ctx._stop.wait(interval):
             try:
                 ok = component.healthy()
@@ -100,6 +108,11 @@ class _Runtime:
                 ok = False
             if ok:
                 self._send(control.HEARTBEAT)
+            if reporter is not None:
+                try:
+                    reporter.tick()
+                except Exception as exc:  # the bus is gone: the next tick tries again
+                    self.log.debug("refusal counters not published: %r", exc)
 
     def run(self, cls: type[Component]) -> int:
         if threading.current_thread() is threading.main_thread():

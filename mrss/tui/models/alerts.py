@@ -2,10 +2,11 @@
 
 Conditions (battery low, link down, robot unavailable) are raised when they begin and
 resolved when they end; one alert per robot and kind, however often the condition is
-repeated. Events (hotspot found, component restarted, hung, quarantined, gave up) raise
-one alert per subject, counted when they recur: a recurrence of an acknowledged alert
-raises it again. Acknowledging clears the highlight; every alert stays in the history.
-Pure Python: no Textual.
+repeated; a component refusing input (its `Rejections` reports) is one such
+condition, its text the latest counts. Events (hotspot found, component restarted, hung,
+quarantined, gave up) raise one alert per subject, counted when they recur: a recurrence
+of an acknowledged alert raises it again. Acknowledging clears the highlight; every
+alert stays in the history. Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from mrss.messages import Envelope, Percept, RobotData, RobotState, SupEvent
+from mrss.messages import Envelope, Percept, Rejections, RobotData, RobotState, SupEvent
 
 BATTERY_LOW = 20.0  # percent: below it a robot's battery is low
 HISTORY_LIMIT = 500  # alerts kept (oldest dropped)
@@ -30,9 +31,11 @@ class AlertKind(StrEnum):
     RESTARTED = "restarted"
     HUNG = "hung"
     GAVE_UP = "gave up"
+    REFUSED = "refused input"
 
 
-CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE)
+CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
+              AlertKind.REFUSED)
 SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED)
 
 
@@ -73,6 +76,15 @@ def battery_percent(data: dict[str, Any]) -> float | None:
     return None
 
 
+def refusal_text(report: Rejections) -> str:
+    """`12 in all; most: percept from tester: percept not ground ×9`."""
+    text = f"{report.total} in all"
+    if report.counts:
+        kind, count = max(report.counts.items(), key=lambda item: item[1])
+        text += f"; most: {kind} ×{count}"
+    return text
+
+
 class AlertsModel:
     """Alerts by key, newest last; `apply` returns the alerts a message raised."""
 
@@ -100,6 +112,9 @@ class AlertsModel:
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []
+        if isinstance(body, Rejections):
+            return self._condition(AlertKind.REFUSED, body.component, body.total > 0,
+                                   refusal_text(body), env.ts)
         if isinstance(body, SupEvent):
             kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
                     "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED

@@ -4,6 +4,9 @@ A node's path is its supervisor's path plus its id: `wildfire/rcl` for a compone
 the root supervisor `wildfire`. Actor supervisors inside a component name themselves
 without the component (`robots/uav1`), so their events are placed under the component
 that published them (the envelope's `src`): `wildfire/rcl/robots/uav1`.
+
+A component's `refused` is the total of its latest `Rejections` report (the input it
+refused since it started; 0 again when it starts anew).
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from mrss.messages import SupEvent
+from mrss.messages import Rejections, SupEvent
 
 # The `src` of the root supervisor's publisher in `mrss supervise`.
 ROOT_SRC = "supervisor"
@@ -32,6 +35,7 @@ class SupNode:
     restarts: int = 0
     up_since: float | None = None  # wall-clock time it last started (running only)
     last_reason: str = ""
+    refused: int = 0  # input refused by this incarnation (its Rejections reports)
 
     @property
     def name(self) -> str:
@@ -73,6 +77,7 @@ class SupervisionModel:
         kind = event.event
         if kind == "start":
             node.state, node.pid, node.up_since = "running", event.pid, ts
+            node.refused = 0
             inc = event.detail.get("inc")
             if isinstance(inc, int) and not isinstance(inc, bool):
                 node.incarnation = inc
@@ -101,6 +106,11 @@ class SupervisionModel:
             node.last_reason = event.reason or node.last_reason
             if parent:
                 self._ensure(parent).state = "escalated" if kind == "escalate" else "gave up"
+
+    def apply_rejections(self, report: Rejections) -> None:
+        """A component's refusal counters (`edge.rejections.<component>`)."""
+        if report.component:
+            self._ensure(self._component_path(report.component)).refused = report.total
 
     def apply_tree(self, tree: Mapping[str, Any], ts: float, parent: str = "") -> None:
         """Replace what is known with a `ChildStatus.to_dict()` snapshot taken at `ts`."""
