@@ -166,6 +166,10 @@ MISTAKES = [
             "def finish(self, outcome: SkillOutcome) -> None:", "def finish(self) -> None:",
             "def finish(", r"MoveTo.finish\(self\).* the RCL calls finish\(outcome\)"),
     # events.py, datalayer.py
+    Mistake("payload schema field of an unknown kind", "events.py",
+            'Field("goal", "atom"), Field("lat", "lat")',
+            'Field("goal", "atm"), Field("lat", "lat")', '"atm"',
+            r"field 'goal': unknown kind 'atm'; did you mean 'atom'\?"),
     Mistake("events.py import error", "events.py", "from mrss.api import",
             "from mrss.nowhere import Thing\nfrom mrss.api import", "mrss.nowhere",
             r"import failed: .*mrss.nowhere"),
