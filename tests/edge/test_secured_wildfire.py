@@ -23,6 +23,7 @@ from mrss.bus import BusEndpoints, Subscriber
 from mrss.edge.broker_auth import add_user
 from mrss.edge.http_token import project_token
 from mrss.edge.worldmodel_access import WorldModelClient, WorldModelRejected
+from mrss.edge.worldmodel_http import REFUSED
 from mrss.links.connect import project_broker_url
 from mrss.messages import (
     ActionRequest,
@@ -110,6 +111,7 @@ def fuzz_every_edge(system: RunningProject, project: Path, tmp_path: Path) -> No
             ("rcl", "telemetry record from ugv1"): to_link,
             ("rcl", "MAVLink message from "): unsigned + wrong,
             ("events", "event from "): to_events,
+            ("worldmodel", "HTTP request from "): sum(s in REFUSED for s in statuses),
         }
         assert all(n > 0 for n in expected.values()), expected
         system.wait_for(lambda: all(watch.refused(c, p) >= n for (c, p), n in
