@@ -6,7 +6,8 @@ Every component process runs a `RejectionReporter` beside its heartbeat
 events, MAVLink messages) have changed, it publishes a `Rejections` message on
 `edge.rejections.<component>` with the total and the `MAX_KINDS` commonest kinds, at
 most once every `REPORT_EVERY` seconds; nothing while nothing is refused. The counts
-are since the process (this incarnation) started.
+are since the process (this incarnation) started. Each tick also ends the log intervals
+that are over (`roll_all`), so held-back refusals are summarised in time.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import time
 from collections import Counter
 from collections.abc import Callable
 
-from mrss.edge.rejections import process_counts
+from mrss.edge.rejections import process_counts, roll_all
 from mrss.messages import Message, Rejections
 
 REPORT_EVERY = 2.0  # seconds between two reports of one component, at least
@@ -40,6 +41,7 @@ class RejectionReporter:
     def tick(self) -> Rejections | None:
         """Publish the counters if they moved and the last report is old enough; the
         report sent, or None."""
+        roll_all()
         now = self.clock()
         if now < self._next:
             return None

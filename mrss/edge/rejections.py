@@ -3,8 +3,9 @@
 A refused record is counted by (source, reason) — source: the robot or sender, reason:
 `mrss.edge.validation.Rejected.reason`. The first refusal of a (source, reason) in an
 interval is logged with its detail; the others in that interval are only counted, and
-once the interval is over the next refusal (or `flush`) logs one summary line of what
-was held back. No traceback is ever logged for bad data.
+once the interval is over the next refusal, `roll` (which the component's reporter calls
+every tick, `roll_all`) or `flush` logs one summary line of what was held back. No
+traceback is ever logged for bad data.
 
 Every `RejectionLog` (and every other refusal counter that calls `register`, like the
 MAVLink signing checks) is known to its process: `process_counts()` adds them up for
@@ -39,6 +40,15 @@ def register(counter: Counted) -> None:
     """Count `counter`'s refusals in `process_counts` while it lives."""
     with _counters_lock:
         _counters.add(counter)
+
+
+def roll_all() -> None:
+    """`roll` every RejectionLog of the process: summaries of intervals that are over."""
+    with _counters_lock:
+        counters = list(_counters)
+    for counter in counters:
+        if isinstance(counter, RejectionLog):
+            counter.roll()
 
 
 def process_counts() -> dict[str, int]:
@@ -96,6 +106,14 @@ class RejectionLog:
         if summary:
             self.log.warning("%s", summary)
         return held
+
+    def roll(self) -> None:
+        """If the interval is over, log the summary of what it held back (if anything)
+        and start the next one; a quiet source's last refusals are summarised in time."""
+        with self._lock:
+            summary = self._roll()
+        if summary:
+            self.log.warning("%s", summary)
 
     def flush(self) -> None:
         """Log the summary of refusals held back so far (e.g. when stopping)."""
