@@ -258,6 +258,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "none, unless the controller's heartbeat asks for one)")
     parser.add_argument("--failsafe-timeout", type=float, default=None,
                         help="seconds without controller heartbeats (default 5)")
+    login = parser.add_argument_group("the robot's own MQTT login and TLS files")
+    login.add_argument("--username", help="MQTT user name (replaces the URL's)")
+    login.add_argument("--password-file", help="a file with the password on its first line")
+    login.add_argument("--ca-certs", help="the CA of the broker's certificate (TLS on)")
+    login.add_argument("--certfile", help="a TLS client certificate (PEM)")
+    login.add_argument("--keyfile", help="its private key (PEM)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -268,9 +274,12 @@ def run(args: argparse.Namespace) -> int:
                            pump_rate_lps=args.pump_rate)
         failsafe = parse_policy(args.failsafe, args.failsafe_timeout,
                                 keys=("--failsafe", "--failsafe-timeout"))
+        login = {name: value for name in ("username", "password_file", "ca_certs",
+                                          "certfile", "keyfile")
+                 if (value := getattr(args, name)) is not None}
         ugv = SimUgv(args.broker, args.id, prefix=args.prefix, base=args.base, params=params,
                      speedup=args.speedup, telemetry_hz=args.rate, keepalive=args.keepalive,
-                     failsafe=failsafe)
+                     failsafe=failsafe, login=login)
     except (ConfigError, ValueError) as exc:
         print(f"mrss sim ugv: {exc}", file=sys.stderr)
         return 2

@@ -16,11 +16,14 @@ from pathlib import Path
 import pytest
 
 from mrss.errors import ConfigError
+from mrss.links.connect import connect_link
 from mrss.links.factory import create_link
 from mrss.links.mqtt import MqttLink
 from mrss.links.mqtt_url import BrokerAddress, new_client
 from mrss.links.ugv_protocol import UgvTelemetry, UgvTopics
-from mrss.sim.ugv import SimUgv
+from mrss.sim.component import SimUgvComponent
+from mrss.sim.ugv import main as ugv_main
+from mrss.supervision.component import ComponentContext
 from mrss.testing import find_mosquitto, free_port, wait_until
 
 from .test_mavlink_link import Recorder
@@ -117,17 +120,21 @@ def _login(broker: TlsBroker, user: str, password: str | None = None) -> dict[st
 
 def test_a_robot_link_over_tls_with_its_own_login_and_the_acl_stops_another_robot(
         tls_broker: TlsBroker) -> None:
-    sim = SimUgv(tls_broker.url, "ugv1", speedup=20, telemetry_hz=10,
-                 login=_login(tls_broker, "ugv1"))
-    sim.start()
+    # as a project names them: files relative to the project folder (here the broker's)
+    login = {"broker_url": tls_broker.url, "username": "ugv1", "password_file": "ugv1.pass",
+             "ca_certs": "ca.pem"}
+    sim = SimUgvComponent()
+    sim.start(ComponentContext(name="sim_ugv", incarnation=1, project_dir=tls_broker.dir,
+                               run_dir=tls_broker.dir, options={
+                                   "id": "ugv1", "speedup": 20, "rate": 10, **login}))
     rec = Recorder()
-    link = create_link("ugv1", "mqtt", {"broker_url": tls_broker.url,
-                                        **_login(tls_broker, "ugv1")},
-                       on_link_state=rec.on_state, on_telemetry=rec.on_telemetry)
+    link = connect_link("ugv1", {"link": "mqtt", **login}, project_dir=tls_broker.dir,
+                        run_dir=tls_broker.dir, on_link_state=rec.on_state,
+                        on_telemetry=rec.on_telemetry)
     assert isinstance(link, MqttLink) and link.address.tls
+    assert link.address.ca_certs == tls_broker.file("ca.pem")
     forger = new_client("forger", BrokerAddress("127.0.0.1", tls_broker.port, "ugv2",
                                                 "pw-ugv2", True, tls_broker.file("ca.pem")))
-    link.start()
     try:
         link.wait_up(timeout=20)
         assert link.goto(-35.3630, 149.1650).status == "done"  # commands go through TLS
@@ -150,6 +157,13 @@ def test_a_robot_link_over_tls_with_its_own_login_and_the_acl_stops_another_robo
         forger.disconnect()
         link.close()
         sim.stop()
+
+
+def test_the_simulator_command_takes_the_login_and_refuses_a_missing_file(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert ugv_main(["--broker", "mqtts://127.0.0.1:8883", "--username", "ugv1",
+                     "--password-file", "/nonexistent/ugv1.pass"]) == 2
+    assert "cannot read the password file '/nonexistent/ugv1.pass'" in capsys.readouterr().err
 
 
 def test_a_wrong_password_or_ca_keeps_the_link_down_with_the_reason(
