@@ -23,8 +23,8 @@ def test_reports_only_moved_counters_and_at_most_every_interval() -> None:
     counts: dict[str, int] = {}
     sent: list[Message] = []
     clock = Clock()
-    reporter = RejectionReporter("rcl", sent.append, every=2.0, counts=lambda: dict(counts),
-                                 clock=clock)
+    reporter = RejectionReporter("rcl", sent.append, every=2.0, repeat=30.0,
+                                 counts=lambda: dict(counts), clock=clock)
     assert reporter.tick() is None and sent == []  # nothing refused: nothing said
     counts["telemetry record from uav1: position.lat out of range"] = 1
     first = reporter.tick()
@@ -36,9 +36,12 @@ def test_reports_only_moved_counters_and_at_most_every_interval() -> None:
     second = reporter.tick()
     assert second is not None and second.total == 5 and len(sent) == 2
     clock.now += 10.0
-    assert reporter.tick() is None and len(sent) == 2  # unchanged: not repeated
+    assert reporter.tick() is None and len(sent) == 2  # unchanged: not repeated ...
+    clock.now += 20.0
+    assert reporter.tick() == second and len(sent) == 3  # ... until `repeat` has passed
     for n in range(MAX_KINDS + 5):
         counts[f"percept from s{n}: percept not ground"] = n + 1
+    clock.now += 2.0
     third = reporter.tick()
     assert third is not None and len(third.counts) == MAX_KINDS
     assert third.total == sum(counts.values())

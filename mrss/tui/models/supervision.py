@@ -108,8 +108,9 @@ class SupervisionModel:
                 self._ensure(parent).state = "escalated" if kind == "escalate" else "gave up"
 
     def apply_rejections(self, report: Rejections) -> None:
-        """A component's refusal counters (`edge.rejections.<component>`)."""
-        if report.component:
+        """A component's refusal counters (`edge.rejections.<component>`); ignored until
+        the root is known (the report is repeated), so it lands under the right node."""
+        if report.component and self.root:
             self._ensure(self._component_path(report.component)).refused = report.total
 
     def apply_tree(self, tree: Mapping[str, Any], ts: float, parent: str = "") -> None:
