@@ -375,13 +375,31 @@ class EventReport(Message):
         return f"edge.{self.status}"
 
 
+@dataclass(frozen=True)
+class Rejections(Message):
+    """What one component refused since it started (docs/edges.md, "Bad input").
+
+    Sent when its counters have moved, at most every few seconds
+    (`mrss.edge.rejection_reports`): `total` refusals, and the counts of the commonest
+    kinds as "<what> from <source>: <reason>" -> count.
+    """
+
+    kind: ClassVar[str] = "edge.rejections"
+    component: str
+    total: int
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def topic(self) -> str:
+        return f"edge.rejections.{self.component}"
+
+
 KINDS: dict[str, type[Message]] = {
     cls.kind: cls
     for cls in (
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
-        Command, EventReport,
+        Command, EventReport, Rejections,
     )
 }
 

@@ -19,6 +19,7 @@ from mrss.check.options import mavlink_url_problem, url_problem, value_problem
 from mrss.check.toml_lines import key_line
 from mrss.config import Option, ProjectConfig
 from mrss.edge.predicates import is_atom_name
+from mrss.links.connect import MQTT_FILES
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
 from mrss.links.mavlink_signing import key_problem
@@ -70,11 +71,30 @@ def check_robots(config: ProjectConfig, report: Report, comp_id: str, robots: An
             if not problem:
                 warn_secret(config, report, f"{rkey}.signing_key", key_file,
                             "signing key file")
+        if kind == "mqtt":
+            problems += mqtt_file_problems(config, report, rkey, options, own)
         for name, problem in problems:
             report.error(str(config.file), problem, line=key_line(config, f"{rkey}.{name}"),
                          check="robots", key=f"{rkey}.{name}")
         described.append(f"{robot} ({kind})")
     return described
+
+
+def mqtt_file_problems(config: ProjectConfig, report: Report, rkey: str,
+                       options: Mapping[str, Any], own: set[str]) -> list[tuple[str, str]]:
+    """(key, problem) for an MQTT robot's login and TLS files (project-relative files
+    that must exist); a warning for a password or key file others can read."""
+    problems = []
+    for name in MQTT_FILES:
+        value = options.get(name)
+        if name in own or not isinstance(value, str):
+            continue
+        if not (config.directory / value).is_file():
+            problems.append((name, f"no file {value!r} in the project folder"))
+        elif name in ("password_file", "keyfile"):
+            warn_secret(config, report, f"{rkey}.{name}", value,
+                        "password file" if name == "password_file" else "TLS key file")
+    return problems
 
 
 def link_problems(kind: str, options: Mapping[str, Any],

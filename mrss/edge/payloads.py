@@ -18,6 +18,7 @@ MAX_ITEMS items nested at most MAX_DEPTH deep.
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from collections.abc import Callable
@@ -158,7 +159,9 @@ class Field:
 
     def __post_init__(self) -> None:
         if isinstance(self.kind, str) and self.kind not in CONVERTERS:
-            raise ValueError(f"field {self.name!r}: unknown kind {self.kind!r}; "
+            close = difflib.get_close_matches(self.kind, list(CONVERTERS), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ValueError(f"field {self.name!r}: unknown kind {self.kind!r}; {hint}"
                              f"known: {', '.join(CONVERTERS)}")
 
     def extract(self, obj: dict[str, Any]) -> Term:

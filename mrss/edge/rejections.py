@@ -3,8 +3,14 @@
 A refused record is counted by (source, reason) — source: the robot or sender, reason:
 `mrss.edge.validation.Rejected.reason`. The first refusal of a (source, reason) in an
 interval is logged with its detail; the others in that interval are only counted, and
-once the interval is over the next refusal (or `flush`) logs one summary line of what
-was held back. No traceback is ever logged for bad data.
+once the interval is over the next refusal, `roll` (which the component's reporter calls
+every tick, `roll_all`) or `flush` logs one summary line of what was held back. No
+traceback is ever logged for bad data.
+
+Every `RejectionLog` (and every other refusal counter that calls `register`, like the
+MAVLink signing checks) is known to its process: `process_counts()` adds them up for
+the component's periodic `Rejections` message on the bus (`mrss.edge.rejection_reports`),
+which the dashboard shows.
 """
 
 from __future__ import annotations
@@ -12,10 +18,47 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import weakref
 from collections import Counter
 from collections.abc import Callable
+from typing import Protocol
 
 DEFAULT_INTERVAL = 60.0
+
+
+class Counted(Protocol):
+    """A refusal counter the process reports: "<what> from <source>: <reason>" -> count."""
+
+    def rejection_counts(self) -> dict[str, int]: ...
+
+
+_counters: weakref.WeakSet[Counted] = weakref.WeakSet()
+_counters_lock = threading.Lock()
+
+
+def register(counter: Counted) -> None:
+    """Count `counter`'s refusals in `process_counts` while it lives."""
+    with _counters_lock:
+        _counters.add(counter)
+
+
+def roll_all() -> None:
+    """`roll` every RejectionLog of the process: summaries of intervals that are over."""
+    with _counters_lock:
+        counters = list(_counters)
+    for counter in counters:
+        if isinstance(counter, RejectionLog):
+            counter.roll()
+
+
+def process_counts() -> dict[str, int]:
+    """The refusals of every registered counter alive in this process, added up."""
+    with _counters_lock:
+        counters = list(_counters)
+    total: Counter[str] = Counter()
+    for counter in counters:
+        total.update(counter.rejection_counts())
+    return dict(total)
 
 
 class RejectionLog:
@@ -33,6 +76,7 @@ class RejectionLog:
         self._logged: set[tuple[str, str]] = set()  # logged in this interval
         self._since = clock()
         self._lock = threading.Lock()
+        register(self)
 
     @property
     def total(self) -> int:
@@ -63,6 +107,14 @@ class RejectionLog:
             self.log.warning("%s", summary)
         return held
 
+    def roll(self) -> None:
+        """If the interval is over, log the summary of what it held back (if anything)
+        and start the next one; a quiet source's last refusals are summarised in time."""
+        with self._lock:
+            summary = self._roll()
+        if summary:
+            self.log.warning("%s", summary)
+
     def flush(self) -> None:
         """Log the summary of refusals held back so far (e.g. when stopping)."""
         with self._lock:
@@ -75,6 +127,12 @@ class RejectionLog:
         """Refusals since start, as "source: reason" -> count (for stats and dashboards)."""
         with self._lock:
             return {f"{source}: {reason}": n for (source, reason), n in self.counts.items()}
+
+    def rejection_counts(self) -> dict[str, int]:
+        """Refusals since start, as "<what> from <source>: <reason>" -> count."""
+        with self._lock:
+            return {f"{self.what} from {source}: {reason}": n
+                    for (source, reason), n in self.counts.items()}
 
     def _roll(self) -> str:
         now = self.clock()

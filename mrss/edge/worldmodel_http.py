@@ -17,6 +17,11 @@ Bearer <token>``. Each connection is served on its own thread with a socket time
 (`timeout`, 10 s): a client that stalls mid-request is answered 408 and dropped, and
 never delays another. The server goes through the same `ObjectService` as the bus, so
 rules fire for HTTP writes too.
+
+Refused requests (`REFUSED`: no valid token, bad input, a malformed request) are counted
+by (client address, status) in a `RejectionLog` ("HTTP request"), logged once per
+interval and reported with the component's other refusals (docs/edges.md); a flood of
+them is a few log lines, not one per request.
 """
 
 from __future__ import annotations
@@ -31,12 +36,15 @@ from typing import Any, Protocol
 from urllib.parse import parse_qs, unquote, urlsplit
 
 from mrss.edge.http_token import authorized
+from mrss.edge.rejections import RejectionLog
 from mrss.edge.worldmodel_store import Change, Position, WorldObject
 
 log = logging.getLogger("mrss.worldmodel.http")
 MAX_BODY = 1 << 20
 MAX_REQUEST_LINE = 65536
 DEFAULT_TIMEOUT = 10.0
+#: The answers that refuse a client's request (counted and logged at a limited rate).
+REFUSED = frozenset({400, 401, 405, 411, 413, 414, 431, 501, 505})
 
 
 class ObjectService(Protocol):
@@ -99,8 +107,20 @@ class _Handler(BaseHTTPRequestHandler):
         text = message or short
         if explain and explain != text:
             text = f"{text}: {explain}"
-        log.debug("world model HTTP %d from %s: %s", code, self.address_string(), text)
+        self._refused(code, text)
         self._reply(code, {"error": text}, close=True)
+
+    def _refused(self, code: int, detail: str) -> None:
+        """Count (and log, at a limited rate) a refused request."""
+        if code in REFUSED:
+            try:
+                short = self.responses[code][0]
+            except KeyError:
+                short = "error"
+            self.server.rejections.reject(str(self.client_address[0]), f"{code} {short}",
+                                          detail)
+        else:
+            log.debug("world model HTTP %d from %s: %s", code, self.address_string(), detail)
 
     def parse_request(self) -> bool:
         if not super().parse_request():
@@ -158,8 +178,8 @@ class _Handler(BaseHTTPRequestHandler):
         return bool(super().handle_expect_100())
 
     def _refuse_unauthorized(self, method: str) -> None:
-        log.info("world model HTTP: %s %s from %s without a valid token", method,
-                 urlsplit(self.path).path[:80], self.address_string())
+        self._refused(HTTPStatus.UNAUTHORIZED,
+                      f"{method} {urlsplit(self.path).path[:80]} without a valid token")
         self._reply(HTTPStatus.UNAUTHORIZED, {
             "error": "missing or wrong token: send 'Authorization: Bearer <token>' "
                      "(the [worldmodel] token of the project)"}, close=True)
@@ -177,6 +197,7 @@ class _Handler(BaseHTTPRequestHandler):
             status, body = self._route(method)
         except _HttpError as exc:
             status, body = exc.status, {"error": exc.message}
+            self._refused(status, f"{method} {urlsplit(self.path).path[:80]}: {exc.message}")
         except TimeoutError:
             raise  # the body did not arrive in time: answered 408 by handle_one_request
         except Exception as exc:  # keep serving whatever the service did
@@ -286,6 +307,7 @@ class _Server(ThreadingHTTPServer):
         self.service = service
         self.token = token
         self.timeout_s = timeout_s
+        self.rejections = RejectionLog(log, "HTTP request")
 
 
 class WorldModelHttp:
@@ -322,9 +344,15 @@ class WorldModelHttp:
         self._thread.start()
         log.info("world model HTTP API on %s", self.url)
 
+    @property
+    def rejections(self) -> RejectionLog:
+        """The refused requests, by (client address, status)."""
+        return self._server.rejections
+
     def stop(self) -> None:
         """Stop serving and close the socket."""
         if self._thread.is_alive():
             self._server.shutdown()
             self._thread.join(timeout=5)
         self._server.server_close()
+        self._server.rejections.flush()

@@ -16,6 +16,9 @@ Rules (the one place they are implemented):
 - MAVLink `signing_key` is a key file relative to the project folder
   (`mrss.links.mavlink_signing`): the link signs what it sends and refuses what is not
   signed with that key.
+- MQTT `username`, `password_file`, `ca_certs`, `certfile`, `keyfile` are the robot's own
+  login and TLS files (`mrss.links.mqtt_url.with_login`), files relative to the project
+  folder; a robot `username` replaces the project's `[broker]` login.
 - HTTP needs its `url` (a robot's own API: nothing to find).
 - The link checks telemetry with its robot type's limits, with the project's
   `[datalayer]` `*_range` overrides over them (mrss.edge.validation).
@@ -41,6 +44,8 @@ from mrss.projects import PROJECT_FILE
 LINK_KEY = "link"
 #: A MAVLink robot's key file (relative to the project folder): signing on.
 SIGNING_KEY = "signing_key"
+#: An MQTT robot's login and TLS files (relative to the project folder).
+MQTT_FILES = ("password_file", "ca_certs", "certfile", "keyfile")
 #: A simulated copter writes the address a ground station uses to `<run_dir>/<id>` + this.
 ADDRESS_SUFFIX = ".mavlink"
 
@@ -94,6 +99,9 @@ def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | 
     key_file = opts.get(SIGNING_KEY)
     if kind == "mavlink" and isinstance(key_file, str) and project_dir is not None:
         opts[SIGNING_KEY] = str(project_dir / key_file)
+    for name in MQTT_FILES if kind == "mqtt" and project_dir is not None else ():
+        if isinstance(opts.get(name), str):
+            opts[name] = str(project_dir / opts[name])
     if kind == "mqtt" and "broker_url" not in opts:
         url = project_broker_url(project_dir, run_dir)
         if not url:

@@ -23,7 +23,9 @@ LINK_OPTIONS: dict[str, dict[str, tuple[type, bool]]] = {
                 "retries": (int, False), "signing_key": (str, False), **_FAILSAFE_OPTIONS},
     "mqtt": {"broker_url": (str, True), "prefix": (str, False),
              "telemetry_timeout": (float, False), "command_timeout": (float, False),
-             "retries": (int, False), "keepalive": (int, False), **_FAILSAFE_OPTIONS},
+             "retries": (int, False), "keepalive": (int, False), "username": (str, False),
+             "password_file": (str, False), "ca_certs": (str, False), "certfile": (str, False),
+             "keyfile": (str, False), **_FAILSAFE_OPTIONS},
     "http": {"url": (str, True), "poll": (float, False), "timeout": (float, False),
              "command_timeout": (float, False), "retries": (int, False), **_FAILSAFE_OPTIONS},
 }
@@ -104,5 +106,8 @@ def create_link(robot_id: str, kind: str, options: Mapping[str, Any], *,
                             failsafe=failsafe, **checked)
         except ConfigError as exc:
             raise ConfigError(exc.reason, file=source, key=exc.key) from None
-    return MqttLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
-                    failsafe=failsafe, **checked)
+    try:
+        return MqttLink(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
+                        failsafe=failsafe, **checked)
+    except ConfigError as exc:
+        raise ConfigError(exc.reason, file=source, key=exc.key) from None

@@ -32,6 +32,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from mrss.edge.rejections import register
 from mrss.errors import ConfigError
 
 KEY_BYTES = 32
@@ -145,6 +146,7 @@ class Signing:
         self._lock = threading.Lock()
         self._unlogged: Counter[Refusal] = Counter()
         self._next_log = 0.0
+        register(self)  # in the component's Rejections reports
 
     def attach(self, mav: Any) -> None:
         """Make `mav` (a pymavlink codec) sign with and check against this state."""
@@ -186,6 +188,12 @@ class Signing:
         self.log.warning("%s: refused MAVLink messages (signing is on): %s; totals %s "
                          "(next report in %.0f s at most)", self.name, summary,
                          self.totals(), LOG_INTERVAL_S)
+
+    def rejection_counts(self) -> dict[str, int]:
+        """Refusals so far, as "MAVLink message from <name>: <reason>" -> count."""
+        with self._lock:
+            return {f"MAVLink message from {self.name}: {r.value}": n
+                    for r, n in self.refused.items() if n}
 
     def totals(self) -> dict[str, int]:
         """Refusals so far by reason, e.g. {"unsigned": 3, "bad signature": 0, ...}."""

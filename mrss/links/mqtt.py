@@ -31,7 +31,7 @@ from mrss.links.failsafe import (
     CONTROLLER_HEARTBEAT_S,
     FailsafePolicy,
 )
-from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url, with_login
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -57,11 +57,15 @@ class MqttLink(RobotLink):
         command_timeout: float = 2.0, retries: int = 3, keepalive: int = 5,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
-        failsafe: FailsafePolicy | None = None,
+        failsafe: FailsafePolicy | None = None, username: str | None = None,
+        password_file: str | None = None, ca_certs: str | None = None,
+        certfile: str | None = None, keyfile: str | None = None,
     ) -> None:
         super().__init__(robot_id, on_link_state=on_link_state, on_telemetry=on_telemetry,
                          failsafe=failsafe)
-        self.address = parse_broker_url(broker_url)
+        self.address = with_login(parse_broker_url(broker_url), username=username,
+                                  password_file=password_file, ca_certs=ca_certs,
+                                  certfile=certfile, keyfile=keyfile)
         self.topics = topics or UgvTopics.for_robot(robot_id, prefix)
         self.telemetry_timeout = telemetry_timeout
         self.command_timeout = command_timeout
@@ -80,6 +84,7 @@ class MqttLink(RobotLink):
         self._client = new_client(f"mrss-link-{robot_id}-{self._token}", self.address)
         self._client.on_connect = self._on_connect
         self._client.on_disconnect = self._on_disconnect
+        self._client.on_connect_fail = self._on_connect_fail
         self._client.on_message = self._on_message
         self._client.reconnect_delay_set(min_delay=1, max_delay=10)
 
@@ -184,10 +189,15 @@ class MqttLink(RobotLink):
         self._heartbeat()  # the robot hears its controller at once
         self.log.info("connected to broker %s:%d", self.address.host, self.address.port)
 
+    def _on_connect_fail(self, client: mqtt.Client, userdata: Any) -> None:
+        tls = " (TLS: is ca_certs the broker's CA?)" if self.address.tls else ""
+        self._set_link_state(False, f"cannot connect to {self.address.host}:"
+                                    f"{self.address.port}{tls}")
+
     def _on_disconnect(self, client: mqtt.Client, userdata: Any, flags: Any,
                        reason_code: Any, properties: Any) -> None:
-        self._connected = False
-        if not self._stop.is_set():
+        was_connected, self._connected = self._connected, False
+        if not self._stop.is_set() and was_connected:  # else: on_connect said why
             self._set_link_state(False, f"broker connection lost: {reason_code}")
 
     def _on_message(self, client: mqtt.Client, userdata: Any, message: Any) -> None:

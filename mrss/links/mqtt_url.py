@@ -1,9 +1,18 @@
-"""Broker URLs (``mqtt://[user[:password]@]host[:port]``, ``mqtts://`` for TLS) for paho."""
+"""Broker URLs (``mqtt://[user[:password]@]host[:port]``, ``mqtts://`` for TLS) for paho,
+and a robot's own login: a user name, a password file, TLS files (`with_login`).
+
+A robot link's login (docs/robots.md, "MQTT over TLS with per-robot credentials"):
+`username` and `password_file` (the password on the file's first line) replace the
+URL's; `ca_certs` (the CA that signed the broker's certificate) turns TLS on, as
+`mqtts://` does; `certfile` and `keyfile` are a client certificate for brokers that
+want one. Without `ca_certs` TLS trusts the system's CAs.
+"""
 
 from __future__ import annotations
 
 import socket
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
 from paho.mqtt import client as mqtt
@@ -21,6 +30,9 @@ class BrokerAddress:
     username: str | None = None
     password: str | None = None
     tls: bool = False
+    ca_certs: str | None = None  # the CA file that verifies the broker (None: the system's)
+    certfile: str | None = None  # a client certificate (PEM), for brokers that want one
+    keyfile: str | None = None  # its private key (PEM)
 
 
 def parse_broker_url(url: str) -> BrokerAddress:
@@ -48,8 +60,55 @@ def new_client(client_id: str, address: BrokerAddress) -> mqtt.Client:
     if address.username is not None:
         client.username_pw_set(address.username, address.password)
     if address.tls:
-        client.tls_set()
+        client.tls_set(ca_certs=address.ca_certs, certfile=address.certfile,
+                       keyfile=address.keyfile)
     return client
+
+
+MAX_PASSWORD = 4096  # bytes of a password file
+
+
+def read_password(path: str) -> str:
+    """The password on the first line of `path`; ConfigError(key="password_file") if the
+    file is missing, unreadable, not UTF-8, too large or empty."""
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_PASSWORD + 1)
+    except OSError as exc:
+        raise ConfigError(f"cannot read the password file {path!r}: {exc.strerror}",
+                          key="password_file") from None
+    if len(data) > MAX_PASSWORD:
+        raise ConfigError(f"password file {path!r} is larger than {MAX_PASSWORD} bytes",
+                          key="password_file")
+    try:
+        lines = data.decode("utf-8").splitlines()
+    except UnicodeDecodeError:
+        raise ConfigError(f"password file {path!r} is not UTF-8 text",
+                          key="password_file") from None
+    password = lines[0].strip() if lines else ""
+    if not password:
+        raise ConfigError(f"password file {path!r} is empty", key="password_file")
+    return password
+
+
+def with_login(address: BrokerAddress, *, username: str | None = None,
+               password_file: str | None = None, ca_certs: str | None = None,
+               certfile: str | None = None, keyfile: str | None = None) -> BrokerAddress:
+    """`address` with a robot's own login and TLS files (module docstring); ConfigError
+    (key = the option) for a file that is not there or a key file without a certificate."""
+    for key, path in (("ca_certs", ca_certs), ("certfile", certfile), ("keyfile", keyfile)):
+        if path is not None and not Path(path).is_file():
+            raise ConfigError(f"no file {path!r}", key=key)
+    if keyfile is not None and certfile is None:
+        raise ConfigError("keyfile needs certfile (the client certificate)", key="keyfile")
+    changes: dict[str, object] = {}
+    if username is not None:
+        changes.update(username=username, password=None)
+    if password_file is not None:
+        changes["password"] = read_password(password_file)
+    if ca_certs is not None or certfile is not None:
+        changes.update(tls=True, ca_certs=ca_certs, certfile=certfile, keyfile=keyfile)
+    return replace(address, **changes)  # type: ignore[arg-type]
 
 
 def disable_nagle(client: mqtt.Client) -> None:

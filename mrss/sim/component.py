@@ -250,7 +250,14 @@ class SimUgvComponent(Component):
         Option("speedup", float, 1.0, "simulated time per real second", Check.POSITIVE),
         Option("failsafe", str, None, "what the vehicle does without a controller"),
         Option("failsafe_timeout", float, None, "seconds without a controller", Check.POSITIVE),
+        Option("username", str, None, "the robot's own MQTT login (docs/robots.md)"),
+        Option("password_file", str, None, "its password (first line)", Check.PROJECT_FILE),
+        Option("ca_certs", str, None, "the CA of the broker's certificate: TLS",
+               Check.PROJECT_FILE),
+        Option("certfile", str, None, "a TLS client certificate", Check.PROJECT_FILE),
+        Option("keyfile", str, None, "its private key", Check.PROJECT_FILE),
     )
+    LOGIN = ("username", "password_file", "ca_certs", "certfile", "keyfile")
 
     def __init__(self) -> None:
         self.ugv: SimUgv | None = None
@@ -270,10 +277,22 @@ class SimUgvComponent(Component):
         self.ugv = SimUgv(url, robot, base=(base[0], base[1]), params=params,
                           speedup=speedup_of(opts), telemetry_hz=number(opts, "rate", 2.0,
                                                                           low=0.1),
-                          failsafe=policy_of(opts), **extra)
+                          failsafe=policy_of(opts), login=self._login(ctx), **extra)
         self.ugv.start()
         ctx.log.info("simulated %s on %s, base %.6f,%.6f, tank %g l, speedup %g", robot, url,
                      base[0], base[1], params.tank_capacity_l, self.ugv.speedup)
+
+    def _login(self, ctx: ComponentContext) -> dict[str, str]:
+        """The robot's own MQTT login and TLS files (files relative to the project)."""
+        login: dict[str, str] = {}
+        for name in self.LOGIN:
+            value = ctx.options.get(name)
+            if value is None:
+                continue
+            if not isinstance(value, str) or not value:
+                raise ConfigError(f"must be a non-empty string, not {value!r}", key=name)
+            login[name] = value if name == "username" else str(ctx.project_dir / value)
+        return login
 
     def healthy(self) -> bool:
         thread = self.ugv._thread if self.ugv is not None else None

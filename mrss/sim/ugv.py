@@ -21,7 +21,7 @@ import sys
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from types import FrameType
 from typing import Any
 
@@ -29,7 +29,7 @@ from paho.mqtt import client as mqtt
 
 from mrss.errors import ConfigError, DecodeError
 from mrss.links.failsafe import DEFAULT_TIMEOUT_S, FailsafePolicy, parse_policy
-from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url
+from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url, with_login
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -59,10 +59,13 @@ class SimUgv:
                  prefix: str = DEFAULT_PREFIX, base: tuple[float, float] = DEFAULT_BASE,
                  params: UgvParams | None = None, speedup: float = 1.0,
                  telemetry_hz: float = 2.0, keepalive: int = 5,
-                 failsafe: FailsafePolicy | None = None) -> None:
+                 failsafe: FailsafePolicy | None = None,
+                 login: Mapping[str, str] | None = None) -> None:
+        """`login`: the robot's own MQTT login and TLS files (`username`, `password_file`,
+        `ca_certs`, `certfile`, `keyfile`: mrss.links.mqtt_url.with_login)."""
         if speedup <= 0 or telemetry_hz <= 0:
             raise ValueError("speedup and telemetry rate must be positive")
-        self.address = parse_broker_url(broker_url)
+        self.address = with_login(parse_broker_url(broker_url), **(login or {}))
         self.robot_id = robot_id
         self.topics = UgvTopics.for_robot(robot_id, prefix)
         self.model = UgvModel(robot_id, base[0], base[1], params or UgvParams())
@@ -255,6 +258,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "none, unless the controller's heartbeat asks for one)")
     parser.add_argument("--failsafe-timeout", type=float, default=None,
                         help="seconds without controller heartbeats (default 5)")
+    login = parser.add_argument_group("the robot's own MQTT login and TLS files")
+    login.add_argument("--username", help="MQTT user name (replaces the URL's)")
+    login.add_argument("--password-file", help="a file with the password on its first line")
+    login.add_argument("--ca-certs", help="the CA of the broker's certificate (TLS on)")
+    login.add_argument("--certfile", help="a TLS client certificate (PEM)")
+    login.add_argument("--keyfile", help="its private key (PEM)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -265,9 +274,12 @@ def run(args: argparse.Namespace) -> int:
                            pump_rate_lps=args.pump_rate)
         failsafe = parse_policy(args.failsafe, args.failsafe_timeout,
                                 keys=("--failsafe", "--failsafe-timeout"))
+        login = {name: value for name in ("username", "password_file", "ca_certs",
+                                          "certfile", "keyfile")
+                 if (value := getattr(args, name)) is not None}
         ugv = SimUgv(args.broker, args.id, prefix=args.prefix, base=args.base, params=params,
                      speedup=args.speedup, telemetry_hz=args.rate, keepalive=args.keepalive,
-                     failsafe=failsafe)
+                     failsafe=failsafe, login=login)
     except (ConfigError, ValueError) as exc:
         print(f"mrss sim ugv: {exc}", file=sys.stderr)
         return 2

@@ -10,6 +10,11 @@ and exits 1. Without --control-fd it runs standalone until SIGTERM/SIGINT.
 Logging (`mrss.logs`): one line format on stderr; supervised, also appended to the run's
 `<run_dir>/mrss.log`; with bus endpoints, records at INFO and above also go on the bus
 as `LogRecord`s on `log.<name>` (bounded, never blocking the logging thread).
+
+With bus endpoints a thread of its own (never the heartbeat's: a first publish may wait
+for the bus) publishes the process's refusal counters when they move
+(`mrss.edge.rejection_reports`: `Rejections` on `edge.rejections.<name>`), for the
+dashboard.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from collections.abc import Sequence
 from types import FrameType
 
 from mrss import logs
+from mrss.edge.rejection_reports import RejectionReporter
 from mrss.errors import ConfigError, SupervisionError
 from mrss.supervision import control
 from mrss.supervision.component import Component, ComponentContext
@@ -38,6 +44,7 @@ from mrss.supervision.threads import tune_interpreter
 EXIT_FAILED = 1
 EXIT_INJECTED = 70
 BUS_LOG_FLUSH = 0.5  # seconds an ending incarnation gives its last log records to go out
+REPORT_TICK = 0.5  # seconds between two looks at the refusal counters
 
 
 def load_class(target: str, project_dir: str | None = None) -> type[Component]:
@@ -101,6 +108,15 @@ class _Runtime:
             if ok:
                 self._send(control.HEARTBEAT)
 
+    def _report_rejections(self) -> None:
+        ctx = self.ctx
+        reporter = RejectionReporter(ctx.name, lambda m: ctx.publisher.publish(m))
+        while not ctx._stop.wait(REPORT_TICK):
+            try:
+                reporter.tick()
+            except Exception as exc:  # the bus is gone: the next tick tries again
+                self.log.debug("refusal counters not published: %r", exc)
+
     def run(self, cls: type[Component]) -> int:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, self._on_signal)
@@ -119,6 +135,9 @@ class _Runtime:
         beat = threading.Thread(target=self._heartbeat, args=(component,), name="heartbeat",
                                 daemon=True)
         beat.start()
+        if self.ctx.bus:
+            threading.Thread(target=self._report_rejections, name="rejections",
+                             daemon=True).start()
         self.ctx._stop.wait()
         try:
             component.stop()

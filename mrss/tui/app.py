@@ -35,6 +35,7 @@ from mrss.messages import (
     Envelope,
     Message,
     MindSnapshot,
+    Rejections,
     RobotData,
     RobotState,
     SupEvent,
@@ -223,6 +224,9 @@ class MrssApp(Steering):
                 self.supervision.apply_event(body, env.src, env.ts)
                 self._system_end(body, env.src)
                 dirty.add("supervision")
+            elif isinstance(body, Rejections):
+                self.supervision.apply_rejections(body)
+                dirty.update(("supervision", "alerts"))  # the counts, the alert's text
             elif isinstance(body, MindSnapshot) and body.agent in ("", self.agent or body.agent):
                 mind = env
             line = log_line(env)

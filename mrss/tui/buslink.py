@@ -17,9 +17,10 @@ from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
 from mrss.messages import Envelope, Message
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
-# `percept` (hotspots found, for the alerts) and `dl.reply.wm` (the world model, for the map).
+# `percept` (hotspots found, for the alerts), `dl.reply.wm` (the world model, for the map)
+# and `edge.rejections` (the input each component refused).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "dl.reply.wm")
+            "dl.reply.wm", "edge.rejections")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 
 

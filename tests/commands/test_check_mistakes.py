@@ -112,6 +112,10 @@ MISTAKES = [
     Mistake("MAVLink signing key that is not 64 hex characters", "project.toml", "",
             ROBOT2 + 'url = "udpin:0.0.0.0:14550"\nsigning_key = "agent.asl"\n',
             'signing_key = "agent.asl"', r"must hold 32 bytes as 64 hexadecimal characters"),
+    Mistake("MQTT robot CA file missing", "project.toml", "",
+            '\n[components.rcl.robots.robot2]\nlink = "mqtt"\nusername = "robot2"\n'
+            'ca_certs = "tls/ca.pem"\n', "tls/ca.pem",
+            r"no file 'tls/ca.pem' in the project folder"),
     Mistake("simulator signing key file missing", "project.toml", "",
             SIM_UAV + 'signing_key = "keys/uav.key"\n', "keys/uav.key",
             r"cannot read signing key file 'keys/uav.key'"),
@@ -162,6 +166,10 @@ MISTAKES = [
             "def finish(self, outcome: SkillOutcome) -> None:", "def finish(self) -> None:",
             "def finish(", r"MoveTo.finish\(self\).* the RCL calls finish\(outcome\)"),
     # events.py, datalayer.py
+    Mistake("payload schema field of an unknown kind", "events.py",
+            'Field("goal", "atom"), Field("lat", "lat")',
+            'Field("goal", "atm"), Field("lat", "lat")', '"atm"',
+            r"field 'goal': unknown kind 'atm'; did you mean 'atom'\?"),
     Mistake("events.py import error", "events.py", "from mrss.api import",
             "from mrss.nowhere import Thing\nfrom mrss.api import", "mrss.nowhere",
             r"import failed: .*mrss.nowhere"),

@@ -32,7 +32,7 @@ from mrss.messages import (
 from mrss.testing import stop_supervised, wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"
-WATCHED = ["action.", "rel.action", "mind.", "sup.", "robot."]
+WATCHED = ["action.", "rel.action", "mind.", "sup.", "robot.", "edge.rejections"]
 M = TypeVar("M", bound=Message)
 
 

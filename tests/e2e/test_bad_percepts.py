@@ -1,12 +1,14 @@
 """Issue 15 item 2, through real processes: the reasoner (under `mrss supervise`) refuses
 malformed percepts from the bus — non-ground, sender-set `source(...)`, non-finite,
 oversized, deeply nested, exponentiation — with a counted, rate-limited log line and no
-traceback; none becomes a belief or an action, and a good percept after them still does."""
+traceback; none becomes a belief or an action, and a good percept after them still does.
+The reasoner's refusal counters reach the bus (`Rejections`, for the dashboard)."""
 
 from __future__ import annotations
 
 import pytest
 
+from mrss.messages import Rejections
 from mrss.testing import wait_until
 from tests.e2e.system import System, beliefs
 
@@ -45,3 +47,9 @@ def test_the_reasoner_refuses_malformed_percepts_and_takes_the_next_good_one(
         assert log.count(f"refused percept from tester: {reason}") == 1, (reason, [
             line for line in log.splitlines() if "refused percept" in line])
     assert "Traceback" not in log and "RecursionError" not in log
+
+    report = wait_until(lambda: [r for r in system.bodies(Rejections)
+                                 if r.component == "reasoner" and r.total == 18],
+                        message="the reasoner's refusal counters on the bus")[-1]
+    assert report.counts["percept from tester: percept sets its source"] == 3
+    assert sum(report.counts.values()) == 18 and len(report.counts) == 6

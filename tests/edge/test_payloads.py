@@ -3,13 +3,22 @@
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mrss.edge.payloads import Field, JsonMapping, PayloadError, decode_json, decode_json_object
+from mrss.edge import validation
+from mrss.edge.payloads import (
+    CONVERTERS,
+    Field,
+    JsonMapping,
+    PayloadError,
+    decode_json,
+    decode_json_object,
+)
 
 from .termcheck import read_literal
 
@@ -89,3 +98,73 @@ def test_term_and_list_kinds_convert_nested_json() -> None:
     assert read_literal(text)[1] == [["a", 1, [2.5, ("atom", "true")]], "E", "Bob"]
     with pytest.raises(PayloadError, match="dict"):
         mapping.literal(b'{"ids": [{"a": 1}], "extra": 1, "who": "x"}')
+
+
+# -- one property per field kind: what it declares is taken, nothing outside it ----------
+FIELD_VALID: dict[str, st.SearchStrategy[Any]] = {
+    "atom": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True),
+    "symbol": st.text(max_size=validation.MAX_TEXT),
+    "string": st.text(max_size=validation.MAX_TEXT),
+    "int": st.integers(-validation.MAX_INT, validation.MAX_INT),
+    "number": st.floats(allow_nan=False, allow_infinity=False)
+    | st.integers(-validation.MAX_INT, validation.MAX_INT),
+    "lat": st.floats(-90.0, 90.0),
+    "lon": st.floats(-180.0, 180.0),
+    "bool": st.booleans(),
+    "list": st.lists(st.integers(-1000, 1000) | st.text(max_size=10), max_size=20),
+    "term": st.integers(-1000, 1000) | st.text(max_size=20) | st.lists(st.booleans()),
+}
+EXTREMES = st.one_of(
+    st.integers(), st.floats(allow_nan=False), st.text(), st.none(), st.booleans(),
+    st.just(2 ** 53 + 1), st.just(-(2 ** 60)), st.just(10 ** 300), st.just(1e308),
+    st.just("x" * (validation.MAX_TEXT + 1)), st.just({"a": 1}),
+    st.just([[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]), st.just(list(range(300))),
+    st.lists(st.integers(), max_size=4))
+
+
+def test_every_field_kind_has_a_property() -> None:
+    assert set(FIELD_VALID) == set(CONVERTERS)
+
+
+def _within(kind: str, value: Any) -> bool:
+    """Whether a converted value keeps its kind's bounds (numbers finite, integers within
+    +-2**53, latitudes and longitudes in range)."""
+    if kind in ("int", "number", "lat", "lon"):
+        bound = {"lat": 90.0, "lon": 180.0}.get(kind, math.inf)
+        if isinstance(value, int):
+            bound = min(bound, validation.MAX_INT)
+        return not isinstance(value, bool) and math.isfinite(value) and abs(value) <= bound
+    if kind in ("string", "symbol", "atom") or isinstance(value, str):
+        return len(str(value)) <= validation.MAX_TEXT
+    if kind in ("list", "term") and isinstance(value, list):
+        return len(value) <= validation.MAX_ITEMS and all(_within("term", v) for v in value)
+    if kind == "term" and isinstance(value, int | float) and not isinstance(value, bool):
+        return _within("number", value)
+    return True
+
+
+@pytest.mark.parametrize("kind", sorted(CONVERTERS))
+def test_a_field_takes_every_value_of_its_kind_and_bounds_the_rest(kind: str) -> None:
+    mapping = JsonMapping("p", Field("v", kind))
+    field = Field("v", kind)
+
+    @settings(max_examples=40, deadline=None)
+    @given(FIELD_VALID[kind])
+    def valid(value: Any) -> None:
+        text = mapping.literal(json.dumps({"v": value}).encode(), topic="t")
+        name, args, _ = read_literal(text)
+        assert name == "p" and len(args) == 1
+
+    @settings(max_examples=60, deadline=None)
+    @given(EXTREMES)
+    def extreme(value: Any) -> None:
+        try:
+            converted = field.extract({"v": value})
+        except ValueError:
+            with pytest.raises(PayloadError):
+                mapping.literal(json.dumps({"v": value}).encode(), topic="t")
+            return
+        assert _within(kind, converted), (kind, value, converted)
+
+    valid()
+    extreme()

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from mrss.edge.rejections import RejectionLog
 from mrss.edge.validation import (
     DEFAULT_LIMITS,
+    LIMIT_NAMES,
     MAX_DEPTH,
     MAX_INT,
     MAX_ITEMS,
@@ -29,6 +30,7 @@ from mrss.edge.validation import (
     Spec,
     check_record,
     configured_robots,
+    limit_overrides,
     plain,
 )
 
@@ -198,6 +200,32 @@ def test_limits_are_overridden_and_robots_come_from_the_rcl_table() -> None:
                                            "ugv1": RobotType.GROUND, "x": RobotType.GROUND}
 
 
+finite = st.floats(allow_nan=False, allow_infinity=False) | st.integers(-10**6, 10**6)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.sampled_from(LIMIT_NAMES), st.one_of(
+    st.lists(finite, min_size=2, max_size=2),
+    st.lists(st.one_of(finite, st.just(math.nan), st.just(math.inf), st.booleans(),
+                       st.text(max_size=3), st.none()), max_size=3),
+    st.text(max_size=5), finite))
+def test_limit_overrides_take_finite_ordered_pairs_and_refuse_the_rest(name: str,
+                                                                        value: Any) -> None:
+    good = (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, int | float) and not isinstance(v, bool)
+                    and math.isfinite(v) for v in value) and value[0] <= value[1])
+    try:
+        overrides = limit_overrides({f"{name}_range": value})
+    except Rejected as exc:
+        assert not good and exc.reason == f"{name}_range"
+        return
+    assert good and overrides == {name: [float(value[0]), float(value[1])]}
+    limits = AERIAL.overridden(overrides)
+    assert getattr(limits, name) == Range(float(value[0]), float(value[1]))
+    assert float(value[0]) in getattr(limits, name) and float(value[1]) in getattr(limits, name)
+    assert math.nextafter(float(value[1]), math.inf) not in getattr(limits, name)
+
+
 def test_refusals_are_logged_once_per_source_and_reason_then_summarised(
         caplog: pytest.LogCaptureFixture) -> None:
     now = [0.0]
@@ -217,3 +245,16 @@ def test_refusals_are_logged_once_per_source_and_reason_then_summarised(
     assert rejections.total == 52
     assert rejections.stats() == {"fz9: unknown robot": 51,
                                   "uav1: position.lat out of range": 1}
+    # a source that goes quiet: its held-back refusals are summarised when the interval
+    # ends (the component's reporter rolls every log), once
+    with caplog.at_level(logging.WARNING, logger="test.rejections"):
+        rejections.reject("fz9", "unknown robot")
+        rejections.reject("fz9", "unknown robot")
+        rejections.roll()
+        assert len(caplog.records) == 4  # the interval is not over
+        now[0] = 130.0
+        rejections.roll()
+        rejections.roll()
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 5 and "refused 2 more record(s) (total 54): fz9: unknown robot x2" \
+        in lines[4], lines

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import http.client
 import json
+import logging
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -297,3 +298,22 @@ def test_any_bytes_get_a_json_answer_or_a_closed_connection(
         assert isinstance(answer, dict) and set(answer) == {"error"}
     status, _, _ = request(shared, "GET", "/objects", headers=bearer(TOKEN))
     assert status == 200
+
+
+def test_refused_requests_are_counted_and_logged_once_per_client_and_status(
+        guarded: WorldModelHttp, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="mrss.worldmodel.http")
+    for _ in range(30):
+        assert request(guarded, "GET", "/objects")[0] == 401
+    for _ in range(5):
+        assert request(guarded, "POST", "/objects", {"id": "h1", "kind": "hotspot",
+                                                     "position": {"lat": 95.0, "lon": 1.0}},
+                       headers=bearer(TOKEN))[0] == 400
+    assert request(guarded, "GET", "/objects/nobody", headers=bearer(TOKEN))[0] == 404
+    assert guarded.rejections.stats() == {"127.0.0.1: 401 Unauthorized": 30,
+                                          "127.0.0.1: 400 Bad Request": 5}
+    lines = [r.getMessage() for r in caplog.records if "refused HTTP request" in r.getMessage()]
+    assert len(lines) == 2, lines
+    assert "refused HTTP request from 127.0.0.1: 401 Unauthorized (GET /objects without a " \
+        "valid token)" in lines[0]
+    assert "95" in lines[1]  # the detail names what was wrong

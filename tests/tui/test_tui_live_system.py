@@ -46,18 +46,18 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             await pilot.press("k", "k")
             cells = await until(pilot, lambda: announcer(2), timeout=30,
                                 message="announcer killed and restarted")
-            assert cells[4] == "1" and "SIGKILL" in cells[6]
+            assert cells[4] == "1" and "SIGKILL" in cells[7]
             log = app.query_one(LogPane)
             await until(pilot, lambda: any("fault kill injected into announcer" in line
                                            for line in log.lines_text()), message="fault logged")
             await pilot.press("h", "h")
             cells = await until(pilot, lambda: announcer(3), timeout=30,
                                 message="hung announcer found and restarted")
-            assert cells[4] == "2" and "hung" in cells[6]
+            assert cells[4] == "2" and "hung" in cells[7]
             await pilot.press("x", "x")
             cells = await until(pilot, lambda: announcer(4), timeout=30,
                                 message="crashed announcer restarted")
-            assert cells[4] == "3" and "InjectedFault" in cells[6]
+            assert cells[4] == "3" and "InjectedFault" in cells[7]
             # a bad fault request from elsewhere on the bus is refused, and said so
             with Publisher(endpoints, src="operator2") as other:
                 assert other.wait_connected(10)

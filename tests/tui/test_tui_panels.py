@@ -8,12 +8,15 @@ from mrss.messages import (
     ActionStatus,
     LogRecord,
     MindSnapshot,
+    Rejections,
     RobotData,
     RobotState,
     SupEvent,
 )
 from mrss.tui.app import MrssApp
+from mrss.tui.models.alerts import AlertKind
 from mrss.tui.widgets.actions_table import ActionsTable
+from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.mind_inspector import MindInspector
 from mrss.tui.widgets.robots_table import RobotsTable
@@ -51,17 +54,19 @@ def test_supervision_table_shows_the_tree_snapshot_then_follows_sup_events(
             table = app.query_one(SupervisionTable)
             peer.publish(tree_snapshot())
             await until(pilot, lambda: has_row(table, "demo/announcer"), message="tree row")
-            name, state, pid, inc, restarts, uptime, reason = row_text(table, "demo/announcer")
+            name, state, pid, inc, restarts, uptime, refused, reason = row_text(
+                table, "demo/announcer")
             assert (name.strip(), state, pid, inc, restarts) == ("announcer", "running",
                                                                  "4242", "1", "0")
             assert uptime.startswith("1m1")  # 75 s and counting
+            assert (refused, reason) == ("", "")
             assert [k.value for k in table.rows] == ["demo", "demo/bus", "demo/announcer"]
             # the component is killed and restarted: exit, restart, start events
             peer.publish(SupEvent(event="exit", child="announcer", supervisor="demo",
                                   pid=4242, reason="killed: SIGKILL", detail={"inc": 1}))
             await until(pilot, lambda: row_text(table, "demo/announcer")[1] == "exited",
                         message="announcer exited")
-            assert row_text(table, "demo/announcer")[6] == "killed: SIGKILL"
+            assert row_text(table, "demo/announcer")[7] == "killed: SIGKILL"
             assert row_text(table, "demo/announcer")[2] == ""
             peer.publish(SupEvent(event="restart", child="announcer", supervisor="demo",
                                   count=1, reason="killed: SIGKILL"))
@@ -204,4 +209,41 @@ def test_log_pane_shows_log_records_and_supervision_events_one_line_each(
                         message="two log lines")
             assert lines() == ["INFO announcer: started incarnation 2",
                                "sup.exit demo/announcer pid=7 reason='killed: SIGKILL'"]
+    run(body())
+
+
+def test_refusal_counters_show_per_component_and_as_one_alert(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            table, strip = app.query_one(SupervisionTable), app.query_one(AlertsStrip)
+            peer.publish(tree_snapshot())
+            await until(pilot, lambda: has_row(table, "demo/announcer"), message="tree")
+            # what the announcer component publishes when it refused input (the source
+            # of a report is the component's bus name, as every component's)
+            peer.publish(Rejections(component="announcer", total=3, counts={
+                "percept from tester: percept not ground": 2,
+                "robot data from fz9: unknown robot": 1}), src="announcer")
+            await until(pilot, lambda: row_text(table, "demo/announcer")[6] == "3",
+                        message="the refused count")
+            assert row_text(table, "demo/bus")[6] == ""
+            await until(pilot, lambda: "refused input: announcer" in strip.plain,
+                        message="the alert")
+            assert "3 in all; most: percept from tester: percept not ground ×2" in strip.plain
+            # more refusals: the count and the alert's text follow, still one alert
+            peer.publish(Rejections(component="announcer", total=40, counts={
+                "robot data from fz9: unknown robot": 38}), src="announcer")
+            await until(pilot, lambda: row_text(table, "demo/announcer")[6] == "40",
+                        message="the new count")
+            await until(pilot, lambda: "40 in all; most: robot data from fz9" in strip.plain,
+                        message="the alert's new text")
+            assert [a.kind for a in app.alerts.history()] == [AlertKind.REFUSED]
+            # a new incarnation starts counting again
+            peer.publish(SupEvent(event="start", child="announcer", supervisor="demo",
+                                  pid=5151, detail={"inc": 2}))
+            await until(pilot, lambda: row_text(table, "demo/announcer")[3] == "2",
+                        message="restarted")
+            assert row_text(table, "demo/announcer")[6] == ""
     run(body())

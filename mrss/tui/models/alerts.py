@@ -2,10 +2,11 @@
 
 Conditions (battery low, link down, robot unavailable) are raised when they begin and
 resolved when they end; one alert per robot and kind, however often the condition is
-repeated. Events (hotspot found, component restarted, hung, quarantined, gave up) raise
-one alert per subject, counted when they recur: a recurrence of an acknowledged alert
-raises it again. Acknowledging clears the highlight; every alert stays in the history.
-Pure Python: no Textual.
+repeated; a component refusing input (its `Rejections` reports) is one such
+condition, its text the latest counts. Events (hotspot found, component restarted, hung,
+quarantined, gave up) raise one alert per subject, counted when they recur: a recurrence
+of an acknowledged alert raises it again. Acknowledging clears the highlight; every
+alert stays in the history. Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from mrss.messages import Envelope, Percept, RobotData, RobotState, SupEvent
+from mrss.messages import Envelope, Percept, Rejections, RobotData, RobotState, SupEvent
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 BATTERY_LOW = 20.0  # percent: below it a robot's battery is low
@@ -32,10 +33,11 @@ class AlertKind(StrEnum):
     HUNG = "hung"
     GAVE_UP = "gave up"
     NODE_DOWN = "node down"  # a peer node lost (several hosts)
+    REFUSED = "refused input"
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
-              AlertKind.NODE_DOWN)
+              AlertKind.NODE_DOWN, AlertKind.REFUSED)
 SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED,
           AlertKind.NODE_DOWN)
 
@@ -77,6 +79,15 @@ def battery_percent(data: dict[str, Any]) -> float | None:
     return None
 
 
+def refusal_text(report: Rejections) -> str:
+    """`12 in all; most: percept from tester: percept not ground ×9`."""
+    text = f"{report.total} in all"
+    if report.counts:
+        kind, count = max(report.counts.items(), key=lambda item: item[1])
+        text += f"; most: {kind} ×{count}"
+    return text
+
+
 class AlertsModel:
     """Alerts by key, newest last; `apply` returns the alerts a message raised."""
 
@@ -107,6 +118,9 @@ class AlertsModel:
         if isinstance(body, SupEvent) and body.event in (NODE_DOWN, NODE_UP):
             return self._condition(AlertKind.NODE_DOWN, f"node {body.child}",
                                    body.event == NODE_DOWN, body.reason, env.ts)
+        if isinstance(body, Rejections):
+            return self._condition(AlertKind.REFUSED, body.component, body.total > 0,
+                                   refusal_text(body), env.ts)
         if isinstance(body, SupEvent):
             kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
                     "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED

@@ -9,6 +9,9 @@ On several hosts (`[nodes]`) every event carries its node, and the tree has a le
 node: `wildfire/base/rcl/robots/uav1`. A node lost (`sup.node_down` from this node's bus
 proxy) marks its level and its components "node down" with the reason; `sup.node_up`
 gives them back the states they had.
+
+A component's `refused` is the total of its latest `Rejections` report (the input it
+refused since it started; 0 again when it starts anew).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from mrss.messages import SupEvent
+from mrss.messages import Rejections, SupEvent
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 # The `src` of the root supervisor's publisher in `mrss supervise`.
@@ -40,6 +43,7 @@ class SupNode:
     restarts: int = 0
     up_since: float | None = None  # wall-clock time it last started (running only)
     last_reason: str = ""
+    refused: int = 0  # input refused by this incarnation (its Rejections reports)
 
     @property
     def name(self) -> str:
@@ -88,6 +92,7 @@ class SupervisionModel:
         kind = event.event
         if kind == "start":
             node.state, node.pid, node.up_since = "running", event.pid, ts
+            node.refused = 0
             inc = event.detail.get("inc")
             if isinstance(inc, int) and not isinstance(inc, bool):
                 node.incarnation = inc
@@ -116,6 +121,18 @@ class SupervisionModel:
             node.last_reason = event.reason or node.last_reason
             if parent:
                 self._ensure(parent).state = "escalated" if kind == "escalate" else "gave up"
+
+    def apply_rejections(self, report: Rejections) -> None:
+        """A component's refusal counters (`edge.rejections.<component>`); ignored until
+        the root is known (the report is repeated), so it lands under the right node."""
+        if not report.component or not self.root:
+            return
+        # on several hosts the component sits under its node's level: where it is known
+        known = [p for p, n in self.nodes.items() if p.startswith(f"{self.root}/")
+                 and p.rsplit("/", 1)[-1] == report.component and n.kind != NODE_KIND
+                 and p.count("/") <= 2]
+        path = min(known, key=len) if known else self._component_path(report.component)
+        self._ensure(path).refused = report.total
 
     def apply_tree(self, tree: Mapping[str, Any], ts: float, parent: str = "",
                    node: str = "") -> None:

@@ -39,10 +39,12 @@ def uptime_text(seconds: float | None) -> str:
 
 
 class SupervisionTable(KeyedTable):
-    """Components and actors with state, pid, incarnation, restarts, uptime, last reason."""
+    """Components and actors with state, pid, incarnation, restarts, uptime, the input
+    they refused (bad robot data, percepts, events, MAVLink messages), last reason."""
 
     COLUMNS = (("name", "component"), ("state", "state"), ("pid", "pid"), ("inc", "inc"),
-               ("restarts", "restarts"), ("uptime", "uptime"), ("reason", "last exit reason"))
+               ("restarts", "restarts"), ("uptime", "uptime"), ("refused", "refused"),
+               ("reason", "last exit reason"))
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("k", "fault('kill')", "Kill"),
         Binding("h", "fault('hang')", "Hang"),
@@ -63,7 +65,9 @@ class SupervisionTable(KeyedTable):
             cell(f"{indent}{node.name}", "bold" if node.kind == "supervisor" else ""),
             cell(node.state, STATE_STYLES.get(node.state, "")),
             cell(node.pid or ""), cell(node.incarnation or ""), cell(node.restarts),
-            cell(uptime_text(node.uptime(now))), cell(node.last_reason, "italic"))
+            cell(uptime_text(node.uptime(now))),
+            cell(node.refused or "", "bold yellow" if node.refused else ""),
+            cell(node.last_reason, "italic"))
 
     def action_fault(self, kind: str) -> None:
         if readonly(self):
