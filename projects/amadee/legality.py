@@ -97,8 +97,9 @@ class Request:
     now: float = field(default_factory=time.time)   # seconds since the epoch (UTC)
 
     def path(self) -> dict[str, Any] | None:
-        """The driven segment as GeoJSON (lon, lat), None when the rover does not move."""
-        if self.target is None:
+        """The driven segment as GeoJSON (lon, lat), None when the rover does not move
+        (a task in place, or a drive to where it stands)."""
+        if self.target is None or self.target == (self.rover.lat, self.rover.lon):
             return None
         return {"type": "LineString", "coordinates": [[self.rover.lon, self.rover.lat],
                                                       [self.target[1], self.target[0]]]}
@@ -179,6 +180,7 @@ def _zones_crossed(kind: str, rule: str, why: str) -> Callable[[Request, Spatial
         zone = crossed[0]
         return Verdict(False, rule, f"the path {_segment(request)} {why} {kind} zone "
                                     f"{zone['id']!r}", zone.get("geometry"))
+    check.__name__ = check.__qualname__ = rule
     return check
 
 
@@ -228,7 +230,7 @@ def crew_safety(request: Request, world: SpatialWorld) -> Verdict | None:
     if not close:
         return None
     crew = close[0]
-    where = "the path " + _segment(request) if request.target else "the rover"
+    where = "the path " + _segment(request) if request.path() else "the rover"
     return Verdict(False, "crew_safety",
                    f"crew {crew['id']!r} is {float(crew.get('distance_m', 0.0)):.0f} m from "
                    f"{where}, closer than {margin:.0f} m", shape)

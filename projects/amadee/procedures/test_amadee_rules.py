@@ -175,6 +175,17 @@ def test_return_home_is_checked_as_a_drive(world: LocalWorldModel) -> None:
     assert judge(world, "return_home(rover1,g1)").rule == "no_go_path"
 
 
+def test_a_drive_to_where_the_rover_stands_is_checked_in_place(
+        world: LocalWorldModel) -> None:
+    place(world, 39.7705, 44.8)
+    assert judge(world, "drive(rover1,g1,39.7705,44.8)").legal     # no path to cross
+    place(world)
+    assert judge(world, "return_home(rover1,g2)").legal             # at home already
+    world.upsert({"id": "eva1", "kind": "crew", "position": {"lat": 39.7701, "lon": 44.8}})
+    found = judge(world, "return_home(rover1,g2)")
+    assert found.rule == "crew_safety" and "from the rover," in found.detail
+
+
 @pytest.mark.parametrize("action, message", [
     ("fly(rover1,g1)", "no rules for action 'fly'"),
     ("drive(rover1,g1,north)", "expected drive(Robot, Goal, Lat, Lon)"),
