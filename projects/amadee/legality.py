@@ -24,6 +24,7 @@ test in procedures/test_amadee_rules.py).
 
 from __future__ import annotations
 
+import json
 import re
 import time
 from collections.abc import Callable
@@ -298,10 +299,38 @@ RULES: tuple[Callable[[Request, SpatialWorld], Verdict | None], ...] = (
     slope_limit, battery_reserve, arm_when_stopped, no_sampling_protected)
 
 
+class SharedQueries:
+    """The world as one check's rules see it: the rules asking which objects of some
+    kind a shape meets share one question to the world model per shape (all kinds,
+    filtered here), so a check costs a few round trips, not one per rule."""
+
+    def __init__(self, world: SpatialWorld) -> None:
+        self.world = world
+        self._met: dict[str, list[dict[str, Any]]] = {}
+
+    def get(self, object_id: str) -> dict[str, Any] | None:
+        return self.world.get(object_id)
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        return self.world.objects(kind)
+
+    def intersecting(self, geometry: dict[str, Any],
+                     kind: str | None = None) -> list[dict[str, Any]]:
+        key = json.dumps(geometry, sort_keys=True)
+        if key not in self._met:
+            self._met[key] = self.world.intersecting(geometry)
+        return [o for o in self._met[key] if kind is None or o.get("kind") == kind]
+
+    def within_distance(self, geometry: dict[str, Any], distance_m: float,
+                        kind: str | None = None) -> list[dict[str, Any]]:
+        return self.world.within_distance(geometry, distance_m, kind)
+
+
 def verdict(request: Request, world: SpatialWorld) -> Verdict:
     """The first rule that forbids `request`, or LEGAL."""
+    shared = SharedQueries(world)
     for rule in RULES:
-        found = rule(request, world)
+        found = rule(request, shared)
         if found is not None:
             return found
     return LEGAL

@@ -257,3 +257,25 @@ def test_a_position_and_a_geometry_together_are_refused() -> None:
     with pytest.raises(ValueError, match="'both1': give position or geometry, not both"):
         WorldObject.from_json({"id": "both1", "kind": "zone", "position": {"lat": 0, "lon": 0},
                                "geometry": {"type": "Polygon", "coordinates": [SQUARE]}})
+
+
+def test_a_long_diagonal_path_among_many_zones_finds_exactly_the_crossed_ones(
+        open_store: StoreFactory) -> None:
+    """The box of a long diagonal covers most zones (the embedded store then tests the
+    candidates' boxes against the line itself): the answers are still exact."""
+    store = open_store()
+    zones = {f"z{n:03d}": square(200 * (n // 10), 200 * (n % 10), 60) for n in range(100)}
+    for oid, shape in zones.items():
+        store.upsert(obj(oid, "no_go", geometry=shape))
+    store.upsert(WorldObject("crew1", "crew", at(1030, 930)))
+    path = line((0, 0), (1900, 1800))
+    crossing = sorted(oid for oid, shape in zones.items()
+                      if Geometry.from_json(shape).shape.intersects(
+                          Geometry.from_json(path).shape))
+    assert len(crossing) >= 5
+    assert ids(store.intersecting(Geometry.from_json(path), "no_go")) == crossing
+    near = store.within_distance(Geometry.from_json(path), 30, "no_go")
+    assert set(crossing) <= set(ids(near)) and len(near) < 40
+    assert all(d <= 30.0 + 1e-6 for _, d in near)
+    assert ids(store.within_distance(Geometry.from_json(path), 60, "crew")) == ["crew1"]
+    assert store.within_distance(Geometry.from_json(path), 10, "crew") == []
