@@ -239,7 +239,12 @@ SQUARE = [[0, 0], [0, 1], [1, 1], [1, 0], [0, 0]]
     ({"type": "Point", "coordinates": ["1", 2]}, "must be a number"),
     ({"type": "MultiPolygon", "coordinates": [[SQUARE]]}, "not one of"),
     ({"type": "Polygon"}, "needs coordinates"),
-    ({"type": "Polygon", "coordinates": [SQUARE], "crs": 4326}, "unknown key"),
+    ({"type": "Polygon", "coordinates": [SQUARE], "crs": 4326}, "not a named coordinate"),
+    ({"type": "Polygon", "coordinates": [SQUARE],
+      "crs": {"type": "name", "properties": {"name": "EPSG:3857"}}},
+     "crs 'EPSG:3857' is the wrong SRID: the world model takes WGS84 lon/lat only"),
+    ({"type": "Point", "coordinates": [500_000.0, 4_400_000.0]}, "projected coordinates"),
+    ({"type": "Polygon", "coordinates": [SQUARE], "bbox": [0, 0, 1, 1]}, "unknown key"),
     ([1, 2], "GeoJSON object"),
 ])
 def test_bad_geometry_is_refused_naming_the_object(geometry: Any, reason: str) -> None:
@@ -251,6 +256,25 @@ def test_bad_geometry_is_refused_naming_the_object(geometry: Any, reason: str) -
         world.seed([{"id": "ok", "kind": "zone", "geometry": {"type": "Polygon",
                                                               "coordinates": [SQUARE]}},
                     {"id": "area7", "kind": "zone", "geometry": geometry}])
+
+
+def test_a_wgs84_crs_is_accepted_and_a_wrong_srid_refused_by_both_backends(
+        open_store: StoreFactory) -> None:
+    world = WorldModel(open_store())
+    named = {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}}
+    reply = world.handle(DataRequest(request_id="r1", function="wm.upsert", args=[
+        {"id": "z1", "kind": "zone", "geometry": {"type": "Polygon",
+                                                  "coordinates": [SQUARE], "crs": named}}]))
+    assert reply.ok, reply.error
+    stored = world.get("z1")
+    assert stored is not None and stored.geometry is not None
+    assert stored.geometry.to_json() == {"type": "Polygon", "coordinates": [SQUARE]}
+    mercator = {"type": "name", "properties": {"name": "EPSG:3857"}}
+    reply = world.handle(DataRequest(request_id="r2", function="wm.upsert", args=[
+        {"id": "z2", "kind": "zone", "geometry": {"type": "Polygon",
+                                                  "coordinates": [SQUARE], "crs": mercator}}]))
+    assert not reply.ok and "object 'z2'" in str(reply.error)
+    assert "wrong SRID" in str(reply.error) and world.get("z2") is None
 
 
 def test_a_position_and_a_geometry_together_are_refused() -> None:
