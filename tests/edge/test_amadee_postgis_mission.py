@@ -84,7 +84,7 @@ def test_the_mission_on_postgis_refuses_illegal_drives_and_outlives_a_server_cra
 
             cluster.kill()
             system.publish("mrss/ui/drive", {"goal": "g3", "lat": BACK[0], "lon": BACK[1]})
-            system.wait_for(lambda: "goal g3 failed" in system.log(40000), 30,
+            system.wait_for(lambda: "goal g3 failed" in system.log(400_000), 30,
                             "the unchecked request dropped")
             assert not [s for s in system.statuses("rover1") if s.goal == "g3"]
 
@@ -106,6 +106,7 @@ def test_the_mission_on_postgis_refuses_illegal_drives_and_outlives_a_server_cra
             log = system.log(400_000)
             assert "telemetry not stored while a dependency is down" in log
             assert "telemetry stored again" in log
-            assert "could not be forwarded" not in log   # no traceback per record
+            assert "could not be forwarded" not in log
+            assert "Traceback" not in log     # a database down is no bug: warnings only
     finally:
         cluster.stop()
