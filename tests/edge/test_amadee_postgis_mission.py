@@ -13,6 +13,7 @@ there, and the mission goes on: the next legal drive moves the rover.
 from __future__ import annotations
 
 import shutil
+import urllib.error
 from pathlib import Path
 from typing import Any
 
@@ -87,6 +88,9 @@ def test_the_mission_on_postgis_refuses_illegal_drives_and_outlives_a_server_cra
             system.wait_for(lambda: "goal g3 failed" in system.log(400_000), 30,
                             "the unchecked request dropped")
             assert not [s for s in system.statuses("rover1") if s.goal == "g3"]
+            with pytest.raises(urllib.error.HTTPError) as down:
+                system.world("habitat")
+            assert down.value.code == 503   # the database, not the world model, is down
 
             cluster.restart_after_crash()
             stored = PostgisWorldStore(url)
