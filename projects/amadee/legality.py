@@ -13,7 +13,8 @@ involved), or a legal verdict. The rules read their data from the world model:
 - the habitat is the object `habitat`; its attributes are the parameters:
   `comm_radius_m` (the communication zone around it), `crew_safety_m`,
   `energy_per_m` (% of battery per metre driven), `battery_reserve` (% left on return),
-  `max_slope_deg` (the steepest slope the rover may drive).
+  `max_slope_deg` (the steepest slope the rover may drive), `stopped_mps` (the speed
+  under which the rover counts as stopped for the arm).
 
 Actions are `drive(R, G, Lat, Lon)`, `image(R, G)`, `spectrum(R, G)`, `radar(R, G)`,
 `sample(R, G)` and `return_home(R, G)`; the arm deploys for `spectrum` and `sample`.
@@ -275,10 +276,13 @@ def time_window(request: Request, world: SpatialWorld) -> Verdict | None:
 
 
 def arm_when_stopped(request: Request, world: SpatialWorld) -> Verdict | None:
-    if request.name not in ARM_ACTIONS or request.rover.speed <= STOPPED_MPS:
+    """The arm deploys only at a speed of at most `stopped_mps` (default STOPPED_MPS)."""
+    stopped = request.params.get("stopped_mps", STOPPED_MPS)
+    if request.name not in ARM_ACTIONS or request.rover.speed <= stopped:
         return None
     return Verdict(False, "arm_when_stopped",
-                   f"the arm deploys only when the rover is stopped; it moves at "
+                   f"the arm deploys only when the rover is stopped (at most "
+                   f"{stopped:g} m/s); it moves at "
                    f"{request.rover.speed:.2f} m/s at {_rover(request)}",
                    request.here())
 

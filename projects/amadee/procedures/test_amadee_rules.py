@@ -107,6 +107,11 @@ def test_the_arm_deploys_only_when_the_rover_is_stopped(world: LocalWorldModel) 
     assert judge(world, "image(rover1,g1)").legal    # the camera needs no arm
     place(world, 39.7705, 44.8, speed=0.0)
     assert judge(world, "sample(rover1,g1)").legal
+    place(world, 39.7705, 44.8, speed=0.04)                 # creeping: under 0.05 m/s
+    assert judge(world, "sample(rover1,g1)").legal
+    world.upsert({"id": "habitat", "kind": "base", "attributes": {"stopped_mps": 0.01}})
+    found = judge(world, "sample(rover1,g1)")
+    assert found.rule == "arm_when_stopped" and "(at most 0.01 m/s)" in found.detail
 
 
 def test_no_sampling_in_a_protected_zone(world: LocalWorldModel) -> None:
