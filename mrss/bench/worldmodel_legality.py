@@ -23,6 +23,7 @@ import random
 import time
 from collections import Counter
 from collections.abc import Callable
+from functools import partial
 from types import ModuleType
 from typing import Any
 
@@ -146,7 +147,7 @@ def measure_legality(report: BenchReport, backend: str, store: WorldStore, legal
     """Load the world (its load rate a row), time `checks` checks; (p99 ms, ids made)."""
     world = LocalWorldModel(WorldModel(store))
     seeded = world_objects(zones, objects)
-    loads = [_time(lambda obj=obj: world.upsert(obj)) for obj in seeded]  # type: ignore[misc]
+    loads = [_time(partial(world.upsert, obj)) for obj in seeded]
     add_timed_row(report, backend, f"load {zones} zones + {objects} objects (upsert)", loads)
     rnd = random.Random(5)
     samples: list[float] = []
@@ -181,7 +182,7 @@ def measure_telemetry(report: BenchReport, backend: str, store: WorldStore,
                   "attributes": {"speed": round(rnd.uniform(0, 1.5), 2),
                                  "heading": round(rnd.uniform(0, 360), 1),
                                  "battery": round(100 - i / writes * 20, 2)}}
-        samples.append(_time(lambda record=record: world.upsert(record)))  # type: ignore[misc]
+        samples.append(_time(partial(world.upsert, record)))
     add_timed_row(report, backend,
                   f"telemetry upsert ({TELEMETRY_ROBOTS} robots in turns)", samples)
     return writes / sum(samples), [f"bench-tele-{r}" for r in range(TELEMETRY_ROBOTS)]
