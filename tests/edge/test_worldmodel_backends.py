@@ -8,6 +8,7 @@ fail instead when MRSS_REQUIRE_POSTGIS=1 (as in CI).
 
 from __future__ import annotations
 
+import json
 import math
 import threading
 from typing import Any
@@ -303,3 +304,21 @@ def test_a_long_diagonal_path_among_many_zones_finds_exactly_the_crossed_ones(
     assert all(d <= 30.0 + 1e-6 for _, d in near)
     assert ids(store.within_distance(Geometry.from_json(path), 60, "crew")) == ["crew1"]
     assert store.within_distance(Geometry.from_json(path), 10, "crew") == []
+
+
+def test_a_long_query_line_is_cut_into_pieces_that_are_the_same_line() -> None:
+    from mrss.edge.worldmodel_postgis import MAX_PIECES, PIECE_DEG, line_pieces
+
+    short = Geometry.from_json(line((0, 0), (500, 500)))
+    assert line_pieces(short) is None
+    assert line_pieces(Geometry.from_json(square(0, 0, 5000))) is None
+    bent = Geometry.from_json({"type": "LineString",
+                               "coordinates": [[1.0, 43.0], [1.045, 43.0], [1.045, 43.002]]})
+    pieces = [json.loads(p)["coordinates"] for p in line_pieces(bent) or []]
+    assert len(pieces) == 6                       # 5 for the 0.045 degree leg, 1 more
+    assert pieces[0][0] == [1.0, 43.0] and pieces[-1][1] == [1.045, 43.002]
+    assert [1.045, 43.0] in [p[1] for p in pieces]  # the bend is kept exactly
+    assert all(a[1] == b[0] for a, b in zip(pieces, pieces[1:], strict=False))
+    assert all(math.dist(*p) <= PIECE_DEG + 1e-12 for p in pieces)
+    huge = Geometry.from_json({"type": "LineString", "coordinates": [[0.0, 0.0], [5.0, 5.0]]})
+    assert len(line_pieces(huge) or []) == MAX_PIECES
