@@ -98,3 +98,26 @@ def test_the_world_model_json_example_is_a_valid_seed() -> None:
     zone = world.get("zone_a")
     assert zone is not None and zone.geometry is not None
     assert [o.id for o, _ in world.near(Position(43.61, 1.45), 0)] == ["zone_a"]
+
+
+def test_the_amadee_rules_data_example_is_what_the_rules_read() -> None:
+    """docs/amadee.md, "The rules' data": a terrain grid and a time window, seeded with
+    the project's world.json, forbid what the document says they forbid."""
+    from mrss.api.testing import memory_world
+    from mrss.edge.loader import import_project_module
+
+    project = REPO / "projects" / "amadee"
+    legality = import_project_module(project, "legality.py")
+    text = (REPO / "docs" / "amadee.md").read_text(encoding="utf-8")
+    block = re.search(r"```json\n(.*?)```", text.split("### The rules' data", 1)[1], re.S)
+    assert block, "the rules' data section shows them in a ```json block"
+    seed = json.loads((project / "world.json").read_text(encoding="utf-8"))
+    world = memory_world(seed + json.loads(block.group(1)))
+    world.upsert({"id": "rover1", "kind": "robot",
+                  "position": {"lat": 39.77, "lon": 44.8}, "attributes": {"speed": 0.0}})
+    during, after = 1_795_615_600.0, 1_795_616_600.0    # 14:06:40Z and 14:23:20Z
+    found = legality.judge("drive(rover1,g1,39.77225,44.7985)", world, during)
+    assert (found.rule, "'relay_pass'" in found.detail) == ("time_window", True)
+    found = legality.judge("drive(rover1,g1,39.77225,44.7985)", world, after)
+    assert (found.rule, "'dune_field'" in found.detail) == ("slope_limit", True)
+    assert legality.judge("image(rover1,g2)", world, during).legal

@@ -46,6 +46,7 @@ from mrss.edge.loader import load_project_class, project_file
 from mrss.edge.percept_channel import PerceptChannel
 from mrss.edge.percepts import PerceptPublisher, PerceptSink
 from mrss.edge.rejections import RejectionLog
+from mrss.edge.retry import DependencyUnavailable
 from mrss.edge.validation import (
     DEFAULT_LIMITS,
     LIMIT_NAMES,
@@ -99,6 +100,7 @@ class DataLayerService:
         self.errors = 0
         self.timeouts = 0
         self.telemetry_errors = 0
+        self.telemetry_down = False   # the last record failed on a dependency
 
     def handle(self, request: DataRequest) -> DataReply:
         """Run one request; the reply carries the result or the error text."""
@@ -130,11 +132,21 @@ class DataLayerService:
             return False
         try:
             self.datalayer.on_telemetry(data.robot, record)
-            return True
+        except DependencyUnavailable as exc:   # the world model (or its database) is down
+            self.telemetry_errors += 1
+            if not self.telemetry_down:
+                log.warning("telemetry not stored while a dependency is down (%s); the "
+                            "next records are tried as they come", exc)
+            self.telemetry_down = True
+            return False
         except Exception:
             self.telemetry_errors += 1
             log.exception("telemetry of robot %s could not be forwarded", data.robot)
             return False
+        if self.telemetry_down:
+            self.telemetry_down = False
+            log.warning("telemetry stored again")
+        return True
 
     def _error(self, request: DataRequest, text: str) -> DataReply:
         self.errors += 1

@@ -1,9 +1,11 @@
 """`mrss bench worldmodel`: world model store operations on each backend.
 
 Always the embedded SQLite store (in memory); PostGIS too when MRSS_BENCH_POSTGIS_URL
-names a scratch database (postgresql://...): the benchmark's objects (ids `bench-*`)
-are deleted afterwards. Objects are points and 550 m squares scattered over a
-40 x 55 km area; queries are around its middle.
+names a scratch database (postgresql://...): the benchmark's objects (ids `bench-*`,
+and `habitat`, `rover1`) are deleted afterwards. Objects are points and 550 m squares
+scattered over a 40 x 55 km area; queries are around its middle. Then, on a fresh
+world, the AMADEE-24 legality check (10,000 zones, 1,000 objects) and telemetry writes
+(5 Hz x 100 robots), with the issue's targets (`worldmodel_legality`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from mrss.bench.report import BenchReport
+from mrss.bench.worldmodel_legality import add_timed_row, legality_and_telemetry
 from mrss.edge.worldmodel_store import (
     Geometry,
     Position,
@@ -45,11 +48,6 @@ def _objects(n: int) -> list[WorldObject]:
     return out
 
 
-def _percentile(samples: list[float], q: float) -> float:
-    ordered = sorted(samples)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] * 1e3
-
-
 def _timed(report: BenchReport, backend: str, what: str, calls: list[Callable[[], object]]
            ) -> None:
     samples = []
@@ -57,8 +55,7 @@ def _timed(report: BenchReport, backend: str, what: str, calls: list[Callable[[]
         start = time.perf_counter()
         call()
         samples.append(time.perf_counter() - start)
-    report.add_row(backend, what, len(samples), round(_percentile(samples, 0.5), 3),
-                   round(_percentile(samples, 0.95), 3))
+    add_timed_row(report, backend, what, samples)
 
 
 def _upsert(store: WorldStore, obj: WorldObject) -> Callable[[], object]:
@@ -83,11 +80,17 @@ def _measure(report: BenchReport, backend: str, store: WorldStore, n: int, queri
 def run(quick: bool) -> BenchReport:
     """Measure each backend; `quick` uses small counts."""
     n, queries = (200, 50) if quick else (5000, 500)
-    report = BenchReport("worldmodel", ["backend", "operation", "n", "p50 ms", "p95 ms"],
-                         quick=quick)
+    report = BenchReport("worldmodel", ["backend", "operation", "n", "p50 ms", "p95 ms",
+                                        "p99 ms", "per s"], quick=quick)
     sqlite = SqliteWorldStore()
     try:
         _measure(report, "sqlite (memory)", sqlite, n, queries)
+    finally:
+        sqlite.close()
+    sqlite = SqliteWorldStore()
+    try:
+        legality_and_telemetry(report, "sqlite (memory)", sqlite, quick=quick,
+                               p99_target_ms=20.0)
     finally:
         sqlite.close()
     url = os.environ.get(URL_ENV)
@@ -98,6 +101,10 @@ def run(quick: bool) -> BenchReport:
             _measure(report, "postgis", store, n, queries)
             for i in range(n):
                 store.delete(f"bench-{i}")
+            made = legality_and_telemetry(report, "postgis", store, quick=quick,
+                                          p99_target_ms=10.0)
+            for object_id in made:
+                store.delete(object_id)
         finally:
             store.close()
         report.notes.append(f"PostGIS at {safe_url(url)}")
@@ -105,4 +112,7 @@ def run(quick: bool) -> BenchReport:
         report.notes.append(f"PostGIS not measured: set {URL_ENV}=postgresql://... "
                             "(a scratch database)")
     report.notes.append(f"{n} objects (half points, half 550 m squares) over 40 x 55 km")
+    report.notes.append("legality check: legality.judge of projects/amadee on the world "
+                        "model in this process (the data layer's bus hop and its stored "
+                        "verdict not included); per s = n / the summed durations")
     return report

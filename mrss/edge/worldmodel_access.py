@@ -17,9 +17,14 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote, urlencode
 
-from mrss.edge.datalayer_client import DataLayerClient
+from mrss.edge.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
 from mrss.edge.retry import DependencyUnavailable
-from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, WorldModel
+from mrss.edge.worldmodel_service import (
+    UNAVAILABLE_PREFIX,
+    WM_REPLY_TOPIC,
+    WM_REQUEST_TOPIC,
+    WorldModel,
+)
 from mrss.edge.worldmodel_store import Position, WorldObject
 from mrss.errors import MrssError
 
@@ -35,7 +40,11 @@ class WorldModelRejected(MrssError, ValueError):
 
 
 class BusWorldModel:
-    """The embedded world model component, reached with requests on `dl.request.wm`."""
+    """The embedded world model component, reached with requests on `dl.request.wm`.
+
+    A call raises DataLayerError with the reason; DataLayerUnavailable (a
+    DependencyUnavailable) when no reply came in time or the world model's database is
+    down, so callers can tell "try later" from "wrong request"."""
 
     def __init__(self, bus: Any, timeout: float = 2.0) -> None:
         self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
@@ -44,33 +53,43 @@ class BusWorldModel:
     def close(self) -> None:
         self.client.close()
 
+    def _call(self, function: str, args: list[Any]) -> Any:
+        try:
+            return self.client.call(function, args)
+        except DataLayerError as exc:
+            if not isinstance(exc, DataLayerUnavailable) and \
+                    exc.reason.startswith(UNAVAILABLE_PREFIX):
+                raise DataLayerUnavailable(function, exc.reason,
+                                           request_id=exc.request_id) from None
+            raise
+
     def get(self, object_id: str) -> dict[str, Any] | None:
-        result = self.client.call("wm.get", [object_id])
+        result = self._call("wm.get", [object_id])
         return None if result is None else dict(result)
 
     def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
-        return list(self.client.call("wm.list", [kind]))
+        return list(self._call("wm.list", [kind]))
 
     def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
-        return dict(self.client.call("wm.upsert", [obj]))
+        return dict(self._call("wm.upsert", [obj]))
 
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
-        return list(self.client.call("wm.near", [lat, lon, radius_m, kind]))
+        return list(self._call("wm.near", [lat, lon, radius_m, kind]))
 
     def intersecting(self, geometry: dict[str, Any],
                      kind: str | None = None) -> list[dict[str, Any]]:
         """Objects sharing a point with a GeoJSON geometry."""
-        return list(self.client.call("wm.intersecting", [geometry, kind]))
+        return list(self._call("wm.intersecting", [geometry, kind]))
 
     def within(self, geometry: dict[str, Any], kind: str | None = None) -> list[dict[str, Any]]:
         """Objects inside a GeoJSON geometry."""
-        return list(self.client.call("wm.within", [geometry, kind]))
+        return list(self._call("wm.within", [geometry, kind]))
 
     def within_distance(self, geometry: dict[str, Any], distance_m: float,
                         kind: str | None = None) -> list[dict[str, Any]]:
         """Objects within `distance_m` of a GeoJSON geometry, nearest first."""
-        return list(self.client.call("wm.within_distance", [geometry, distance_m, kind]))
+        return list(self._call("wm.within_distance", [geometry, distance_m, kind]))
 
 
 class HttpWorldModel:

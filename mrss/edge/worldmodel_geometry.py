@@ -5,7 +5,7 @@ WGS84): `{"type": "LineString", "coordinates": [[1.44, 43.60], [1.45, 43.61]]}`,
 `Polygon` whose first ring is the outline and further rings are holes; every ring is
 closed (last position = first). `Geometry.from_json` refuses anything else with a reason:
 an unclosed or self-intersecting ring, a NaN, a latitude outside [-90, 90] or a
-longitude outside [-180, 180].
+longitude outside [-180, 180], a `crs` other than WGS84 (the wrong SRID).
 
 Topological predicates (intersects, within) are computed on lon/lat as a plane, as
 PostGIS does for `geometry` columns. Distances are in metres on a sphere of the mean
@@ -60,10 +60,11 @@ def _coordinate(value: Any, where: str) -> tuple[float, ...]:
         if not math.isfinite(number):
             raise ValueError(f"{where}: {name} must be finite, not {number}")
         out.append(float(number))
+    hint = " (projected coordinates? they must be WGS84 lon/lat, EPSG:4326)"
     if not -180.0 <= out[0] <= 180.0:
-        raise ValueError(f"{where}: lon {out[0]} is outside [-180, 180]")
+        raise ValueError(f"{where}: lon {out[0]} is outside [-180, 180]{hint}")
     if not -90.0 <= out[1] <= 90.0:
-        raise ValueError(f"{where}: lat {out[1]} is outside [-90, 90]")
+        raise ValueError(f"{where}: lat {out[1]} is outside [-90, 90]{hint}")
     return tuple(out)
 
 
@@ -103,7 +104,9 @@ class Geometry:
         """A GeoJSON Point, LineString or Polygon; ValueError saying what is wrong."""
         if not isinstance(value, dict):
             raise ValueError("geometry must be a GeoJSON object with type and coordinates")
-        extra = set(value) - {"type", "coordinates"}
+        if "crs" in value:
+            _check_crs(value["crs"])
+        extra = set(value) - {"type", "coordinates", "crs"}
         if extra:
             raise ValueError(f"geometry has unknown key(s) {sorted(extra)}")
         try:
@@ -138,6 +141,25 @@ class Geometry:
     def to_text(self) -> str:
         """GeoJSON text, as stored."""
         return json.dumps(self.to_json(), allow_nan=False)
+
+
+#: Names of WGS84 lon/lat, the only coordinate system a geometry may declare (`crs`).
+WGS84_NAMES = frozenset({"EPSG:4326", "URN:OGC:DEF:CRS:EPSG::4326", "OGC:CRS84", "CRS84",
+                         "URN:OGC:DEF:CRS:OGC:1.3:CRS84", "URN:OGC:DEF:CRS:OGC::CRS84"})
+
+
+def _check_crs(value: Any) -> None:
+    """A GeoJSON (2008) `crs` member: WGS84 is accepted (and dropped), anything else is
+    refused naming it: coordinates are WGS84 lon/lat (SRID 4326) in both backends."""
+    props = value.get("properties") if isinstance(value, dict) else None
+    name = props.get("name") if isinstance(props, dict) else None
+    if not isinstance(name, str):
+        raise ValueError(f"geometry crs {value!r} is not a named coordinate system "
+                         '({"type": "name", "properties": {"name": "EPSG:4326"}}); leave '
+                         "crs out: coordinates are WGS84 lon/lat (EPSG:4326)")
+    if name.strip().upper() not in WGS84_NAMES:
+        raise ValueError(f"geometry crs {name!r} is the wrong SRID: the world model takes "
+                         "WGS84 lon/lat only (EPSG:4326); reproject the coordinates")
 
 
 def _ring(value: Any, where: str) -> tuple[tuple[float, ...], ...]:

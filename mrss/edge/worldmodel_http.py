@@ -37,7 +37,7 @@ from urllib.parse import parse_qs, unquote, urlsplit
 
 from mrss.edge.http_token import authorized
 from mrss.edge.rejections import RejectionLog
-from mrss.edge.worldmodel_store import Change, Position, WorldObject
+from mrss.edge.worldmodel_store import Change, Position, WorldObject, WorldStoreUnavailable
 
 log = logging.getLogger("mrss.worldmodel.http")
 MAX_BODY = 1 << 20
@@ -200,6 +200,10 @@ class _Handler(BaseHTTPRequestHandler):
             self._refused(status, f"{method} {urlsplit(self.path).path[:80]}: {exc.message}")
         except TimeoutError:
             raise  # the body did not arrive in time: answered 408 by handle_one_request
+        except WorldStoreUnavailable as exc:  # the database is down: no bug, no traceback
+            log.warning("world model HTTP %s %s: %s", method, urlsplit(self.path).path[:80],
+                        exc)
+            status, body = 503, {"error": f"WorldStoreUnavailable: {exc}"}
         except Exception as exc:  # keep serving whatever the service did
             log.exception("world model HTTP %s %s failed", method, self.path)
             status, body = 500, {"error": f"internal error: {exc.__class__.__name__}"}

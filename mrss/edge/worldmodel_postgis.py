@@ -3,8 +3,9 @@
 Selected by `[worldmodel] url = "postgresql://user@host:5432/db"`. Every object's shape is
 a `geometry(Geometry, 4326)` column with a GiST index on it and one on its `geography`
 cast; predicates run in SQL: ST_Intersects and ST_Within on the geometry (lon/lat as a
-plane, like the embedded store), ST_DWithin and ST_Distance on the geography with
-`use_spheroid = false` (a sphere of the mean Earth radius, so both backends measure alike).
+plane, like the embedded store; a long query line intersects in pieces, each its own
+index scan), ST_DWithin and ST_Distance on the geography with `use_spheroid = false`
+(a sphere of the mean Earth radius, so both backends measure alike).
 The GeoJSON the client sent is kept as text next to it and is what reads return.
 
 The schema is created and migrated on connect, under an advisory lock, recorded in
@@ -21,7 +22,9 @@ transaction committed: an acknowledged write is durable in the server.
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 import os
 import socket
 import threading
@@ -33,7 +36,7 @@ from urllib.parse import urlsplit
 import psycopg
 from psycopg.types.json import Jsonb
 
-from mrss.edge.worldmodel_geometry import Geometry, geometry_from_text
+from mrss.edge.worldmodel_geometry import Geometry, GeometryType, geometry_from_text
 from mrss.edge.worldmodel_objects import Change, Position, WorldObject, merge
 from mrss.edge.worldmodel_store import WorldStoreUnavailable
 
@@ -59,6 +62,10 @@ _MIGRATIONS = {
 _COLUMNS = "id, kind, lat, lon, alt, attributes, version, updated, geojson"
 _KIND = "(%(kind)s::text IS NULL OR kind = %(kind)s::text)"
 _QUERY = "ST_SetSRID(ST_Force2D(ST_GeomFromGeoJSON(%(q)s::text)), 4326)"
+#: A query line longer than this (degrees) is asked about in pieces, one index scan each:
+#: the box of a long diagonal would otherwise hold most of the world.
+PIECE_DEG = 0.01
+MAX_PIECES = 64
 
 
 def safe_url(url: str) -> str:
@@ -193,6 +200,13 @@ class PostgisWorldStore:
 
     def intersecting(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
         """Objects whose shape shares a point with `geometry`, ordered by id."""
+        pieces = line_pieces(geometry)
+        if pieces is not None:
+            return self._select(
+                f"SELECT {_COLUMNS} FROM wm_objects WHERE {_KIND} AND id IN ("
+                "SELECT o.id FROM wm_objects o, unnest(%(pieces)s::text[]) AS piece(t) "
+                "WHERE ST_Intersects(o.geom, ST_SetSRID(ST_GeomFromGeoJSON(piece.t), 4326))"
+                ") ORDER BY id", {"kind": kind, "pieces": pieces})
         return self._select(
             f"SELECT {_COLUMNS} FROM wm_objects WHERE {_KIND} "
             f"AND ST_Intersects(geom, {_QUERY}) ORDER BY id",
@@ -225,6 +239,29 @@ class PostgisWorldStore:
         row = self._run(lambda conn: conn.execute(
             "SELECT max(version) FROM wm_schema_version").fetchone())
         return int(row[0]) if row and row[0] is not None else 0
+
+
+def line_pieces(geometry: Geometry) -> list[str] | None:
+    """A LineString longer than PIECE_DEG as consecutive straight pieces (GeoJSON), the
+    same points of the lon/lat plane (each piece ends where the next begins; the line's
+    own vertices are kept exactly); None for a shorter line or another shape."""
+    if geometry.type is not GeometryType.LINESTRING:
+        return None
+    points = [tuple(c[:2]) for c in geometry.coordinates]
+    segments = list(zip(points, points[1:], strict=False))
+    lengths = [math.dist(a, b) for a, b in segments]
+    total = sum(lengths)
+    if total <= PIECE_DEG:
+        return None
+    step = max(PIECE_DEG, total / MAX_PIECES)
+    pieces = []
+    for (a, b), length in zip(segments, lengths, strict=True):
+        n = max(1, math.ceil(length / step))
+        ends = [a, *[(a[0] + (b[0] - a[0]) * k / n, a[1] + (b[1] - a[1]) * k / n)
+                     for k in range(1, n)], b]
+        pieces += [json.dumps({"type": "LineString", "coordinates": [list(p), list(q)]})
+                   for p, q in zip(ends, ends[1:], strict=False)]
+    return pieces
 
 
 class _Watchdog:

@@ -40,6 +40,8 @@ from mrss.messages import DataReply, DataRequest
 
 WM_REQUEST_TOPIC = "dl.request.wm"
 WM_REPLY_TOPIC = "dl.reply.wm"
+#: How an error reply says the store's database is down (not the request's fault).
+UNAVAILABLE_PREFIX = "WorldStoreUnavailable: "
 log = logging.getLogger("mrss.worldmodel")
 
 
@@ -151,7 +153,7 @@ class WorldModel:
             self.request_errors += 1
             log.warning("world model request %s failed: %s", request.function, exc)
             return DataReply(request_id=request.request_id, ok=False,
-                             error=f"WorldStoreUnavailable: {exc}")
+                             error=f"{UNAVAILABLE_PREFIX}{exc}")
         except Exception as exc:
             self.request_errors += 1
             log.exception("world model request %s failed", request.function)

@@ -2,8 +2,11 @@
 
 Each row keeps the object's shape (position columns for a point, GeoJSON text for a
 line or polygon) and its bounding box in degrees, kept in an R*Tree (`objects_box`, by
-triggers) that prefilters the predicates in SQL before shapely decides them
-(`mrss.edge.worldmodel_geometry` for the distance method).
+triggers) that prefilters the predicates in SQL; when that leaves many candidates (a
+long diagonal path's box covers much of the world), their boxes are tested against the
+query shape itself, all at once in shapely, before the survivors are read as objects
+and shapely decides the predicate (`mrss.edge.worldmodel_geometry` for the distance
+method).
 Safe to share between threads (the bus handler and the HTTP server): one lock serialises
 every statement. The schema version is SQLite's `user_version`; files of older versions
 are migrated when opened.
@@ -17,6 +20,9 @@ import sqlite3
 import threading
 from pathlib import Path
 from typing import Any
+
+import shapely
+from shapely.geometry.base import BaseGeometry
 
 from mrss.edge.worldmodel_geometry import (
     EARTH_RADIUS_M,
@@ -63,6 +69,7 @@ END;
 """,
 }
 _COLUMNS = "id, kind, lat, lon, alt, attributes, version, updated, geometry"
+_BOX_TEST_FROM = 32   # candidates from which their boxes are tested against the shape
 _METRES_PER_DEGREE = EARTH_RADIUS_M * math.pi / 180
 
 
@@ -127,9 +134,12 @@ class SqliteWorldStore:
     def objects(self, kind: str | None = None) -> list[WorldObject]:
         """Every object, or those of one kind, ordered by id."""
         with self._lock:
-            rows = self._db.execute(
-                f"SELECT {_COLUMNS} FROM objects WHERE (? IS NULL OR kind = ?) ORDER BY id",
-                (kind, kind)).fetchall()
+            if kind is None:   # two statements: `? IS NULL OR` would hide the kind index
+                cursor = self._db.execute(f"SELECT {_COLUMNS} FROM objects ORDER BY id")
+            else:
+                cursor = self._db.execute(
+                    f"SELECT {_COLUMNS} FROM objects WHERE kind = ? ORDER BY id", (kind,))
+            rows = cursor.fetchall()
         return [_row_object(r) for r in rows]
 
     def near(self, position: Position, radius_m: float,
@@ -140,35 +150,48 @@ class SqliteWorldStore:
     def intersecting(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
         """Objects whose shape shares a point with `geometry`, ordered by id."""
         query = geometry.shape
-        return [o for o in self._candidates(kind, query.bounds)
+        return [o for o in self._candidates(kind, query.bounds, query)
                 if o.shape is not None and o.shape.intersects(query)]
 
     def within(self, geometry: Geometry, kind: str | None = None) -> list[WorldObject]:
         """Objects whose shape lies inside `geometry`, ordered by id."""
         query = geometry.shape
-        return [o for o in self._candidates(kind, query.bounds)
+        return [o for o in self._candidates(kind, query.bounds, query)
                 if o.shape is not None and o.shape.within(query)]
 
     def within_distance(self, geometry: Geometry, distance_m: float,
                         kind: str | None = None) -> list[tuple[WorldObject, float]]:
         """Objects within `distance_m` metres of `geometry`, nearest first, with distances."""
         query = geometry.shape
-        candidates = self._candidates(kind, _expanded(query.bounds, distance_m))
+        box = _expanded(query.bounds, distance_m)
+        margin = max(query.bounds[0] - box[0], query.bounds[1] - box[1],
+                     box[2] - query.bounds[2], box[3] - query.bounds[3])
+        candidates = self._candidates(kind, box, query, margin)
         distances = metric_distance_m(query, [o.shape for o in candidates if o.shape])
         found = [(o, d) for o, d in zip(candidates, distances, strict=True)
                  if d <= distance_m]
         return sorted(found, key=lambda pair: (pair[1], pair[0].id))
 
-    def _candidates(self, kind: str | None,
-                    box: tuple[float, float, float, float]) -> list[WorldObject]:
+    def _candidates(self, kind: str | None, box: tuple[float, float, float, float],
+                    shape: BaseGeometry | None = None,
+                    margin: float = 0.0) -> list[WorldObject]:
+        """Objects whose box meets `box`; with `shape`, only those whose box comes
+        within `margin` degrees of the shape itself (when there are many)."""
         minlon, minlat, maxlon, maxlat = box
         with self._lock:
             rows = self._db.execute(
-                f"SELECT {_COLUMNS} FROM objects WHERE rowid IN (SELECT rid FROM objects_box "
+                f"SELECT {_COLUMNS}, minlon, minlat, maxlon, maxlat FROM objects "
+                "WHERE rowid IN (SELECT rid FROM objects_box "
                 "WHERE maxlon >= ? AND minlon <= ? AND maxlat >= ? AND minlat <= ?) "
                 "AND (? IS NULL OR kind = ?) ORDER BY id",
                 (minlon, maxlon, minlat, maxlat, kind, kind)).fetchall()
-        return [_row_object(r) for r in rows]
+        if shape is not None and len(rows) >= _BOX_TEST_FROM:
+            boxes = shapely.box([r[9] for r in rows], [r[10] for r in rows],
+                                [r[11] for r in rows], [r[12] for r in rows])
+            near = shapely.dwithin(boxes, shape, margin) if margin > 0 else \
+                shapely.intersects(boxes, shape)
+            rows = [r for r, keep in zip(rows, near, strict=True) if keep]
+        return [_row_object(r[:9]) for r in rows]
 
     def _get(self, object_id: str) -> WorldObject | None:
         row = self._db.execute(f"SELECT {_COLUMNS} FROM objects WHERE id = ?",

@@ -7,6 +7,10 @@ Topics (prefix `[events] topic_prefix`, default "mrss/ui"):
                       (what: image | spectrum | radar | sample, where the rover stands)
     <prefix>/home     {"goal": "g3"}                               -> home_received(g3)
     <prefix>/cancel   {"goal": "g1"}                               -> goal_cancelled(g1)
+    <prefix>/crew     {"id": "eva1", "lat": 39.77, "lon": 44.798, "on_eva": true}
+                      a crew member's position telemetry (from the suit): the world model
+                      object `eva1`, of kind `crew` while on EVA (the crew_safety rule
+                      keeps the rover away from it), `crew_inside` once back
 
 Every message is answered on `<topic>/reply` (accepted, or rejected with the reason).
 Whether the action is legal is decided later by the reasoner: its verdict is the world
@@ -29,6 +33,9 @@ DRIVE = JsonMapping("drive_received", GOAL, Field("lat", "lat"), Field("lon", "l
 HOME = JsonMapping("home_received", GOAL)
 CANCEL = JsonMapping("goal_cancelled", GOAL)
 SCIENCE_KINDS = ("image", "spectrum", "radar", "sample")
+CREW = (Field("id", "atom"), Field("lat", "lat"), Field("lon", "lon"),
+        Field("on_eva", "bool", True))
+CREW_KINDS = ("crew", "crew_inside")
 
 
 class AmadeeEvents(ExternalAdapter):
@@ -46,6 +53,7 @@ class AmadeeEvents(ExternalAdapter):
         self.on_json(f"{prefix}/home", self.on_request(HOME))
         self.map_json(f"{prefix}/cancel", CANCEL)
         self.on_json(f"{prefix}/science", self.on_science)
+        self.on_json(f"{prefix}/crew", self.on_crew)
 
     def stop(self) -> None:
         self.verdicts.stop()
@@ -65,3 +73,15 @@ class AmadeeEvents(ExternalAdapter):
             raise ValueError(f"what must be one of {', '.join(SCIENCE_KINDS)}, not {what!r}")
         self.verdicts.expect(str(goal))
         self.percept("science_received", goal, Atom(str(what)))
+
+    def on_crew(self, topic: str, obj: dict[str, Any]) -> None:
+        """A crew member's position into the world model (no percept: the rules read it)."""
+        crew, lat, lon, on_eva = (f.extract(obj) for f in CREW)
+        world = self.world_model()
+        known = world.get(str(crew))
+        if known is not None and known.get("kind") not in CREW_KINDS:
+            raise ValueError(f"id {str(crew)!r} is a {known.get('kind')} in the world model, "
+                             "not a crew member")
+        world.upsert({"id": str(crew), "kind": CREW_KINDS[0] if on_eva else CREW_KINDS[1],
+                      "position": {"lat": lat, "lon": lon},
+                      "attributes": {"on_eva": bool(on_eva)}})

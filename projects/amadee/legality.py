@@ -7,9 +7,14 @@ involved), or a legal verdict. The rules read their data from the world model:
 - zones are polygons: kind `no_go` (never driven through) and `protected` (never driven
   through, never sampled in);
 - crew on EVA are points of kind `crew`;
+- terrain grids (elevations) are objects of kind `terrain` (terrain.py);
+- time windows (e.g. a declared comms blackout) are objects of kind `time_window`:
+  `start` and `end` (ISO 8601 with a time zone) and `forbids` (action names);
 - the habitat is the object `habitat`; its attributes are the parameters:
   `comm_radius_m` (the communication zone around it), `crew_safety_m`,
-  `energy_per_m` (% of battery per metre driven), `battery_reserve` (% left on return).
+  `energy_per_m` (% of battery per metre driven), `battery_reserve` (% left on return),
+  `max_slope_deg` (the steepest slope the rover may drive), `stopped_mps` (the speed
+  under which the rover counts as stopped for the arm).
 
 Actions are `drive(R, G, Lat, Lon)`, `image(R, G)`, `spectrum(R, G)`, `radar(R, G)`,
 `sample(R, G)` and `return_home(R, G)`; the arm deploys for `spectrum` and `sample`.
@@ -20,12 +25,18 @@ test in procedures/test_amadee_rules.py).
 
 from __future__ import annotations
 
+import json
 import re
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
 from typing import Any, Protocol
 
-from mrss.api import distance_m
+from mrss.api import distance_m, import_project_module
+
+terrain = import_project_module(Path(__file__).resolve().parent, "terrain.py")
 
 HABITAT = "habitat"
 ARM_ACTIONS = frozenset({"spectrum", "sample"})
@@ -39,6 +50,8 @@ class SpatialWorld(Protocol):
     """What the rules ask of the world model (the data layer's `self.world`)."""
 
     def get(self, object_id: str) -> dict[str, Any] | None: ...
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]: ...
 
     def intersecting(self, geometry: dict[str, Any],
                      kind: str | None = None) -> list[dict[str, Any]]: ...
@@ -83,10 +96,12 @@ class Request:
     target: tuple[float, float] | None = None   # drive: the destination
     habitat: tuple[float, float] = (0.0, 0.0)
     params: dict[str, float] = field(default_factory=dict)
+    now: float = field(default_factory=time.time)   # seconds since the epoch (UTC)
 
     def path(self) -> dict[str, Any] | None:
-        """The driven segment as GeoJSON (lon, lat), None when the rover does not move."""
-        if self.target is None:
+        """The driven segment as GeoJSON (lon, lat), None when the rover does not move
+        (a task in place, or a drive to where it stands)."""
+        if self.target is None or self.target == (self.rover.lat, self.rover.lon):
             return None
         return {"type": "LineString", "coordinates": [[self.rover.lon, self.rover.lat],
                                                       [self.target[1], self.target[0]]]}
@@ -123,8 +138,9 @@ def goal_of(text: str) -> str | None:
         else None
 
 
-def request_of(text: str, world: SpatialWorld) -> Request:
-    """The Request of an action text, with the rover and the habitat from the world."""
+def request_of(text: str, world: SpatialWorld, now: float | None = None) -> Request:
+    """The Request of an action text, with the rover and the habitat from the world;
+    `now` (epoch seconds) defaults to the clock."""
     name, args = parse_action(text)
     if name not in SCIENCE_ACTIONS | MOVE_ACTIONS:
         raise ValueError(f"no rules for action {name!r}")
@@ -149,7 +165,8 @@ def request_of(text: str, world: SpatialWorld) -> Request:
         target = (args[2], args[3])
     elif name == "return_home":
         target = home
-    return Request(name, rover, target, home, params)
+    return Request(name, rover, target, home, params,
+                   time.time() if now is None else now)
 
 
 # ------------------------------------------------------------------------------ rules
@@ -165,11 +182,30 @@ def _zones_crossed(kind: str, rule: str, why: str) -> Callable[[Request, Spatial
         zone = crossed[0]
         return Verdict(False, rule, f"the path {_segment(request)} {why} {kind} zone "
                                     f"{zone['id']!r}", zone.get("geometry"))
+    check.__name__ = check.__qualname__ = rule
     return check
 
 
 no_go_path = _zones_crossed("no_go", "no_go_path", "crosses")
 protected_path = _zones_crossed("protected", "protected_path", "crosses")
+
+
+def slope_limit(request: Request, world: SpatialWorld) -> Verdict | None:
+    """No stretch of the path steeper than `max_slope_deg` on any terrain grid it crosses."""
+    limit = request.params.get("max_slope_deg")
+    path = request.path()
+    if limit is None or path is None or request.target is None:
+        return None
+    start = (request.rover.lat, request.rover.lon)
+    for obj in world.intersecting(path, "terrain"):
+        steepest = terrain.TerrainGrid.of(obj).steepest(start, request.target)
+        if steepest is not None and steepest.slope_deg > limit:
+            return Verdict(False, "slope_limit",
+                           f"the path {_segment(request)} climbs {steepest.slope_deg:.1f}° "
+                           f"between {_point(steepest.start)} and {_point(steepest.end)} "
+                           f"on terrain {obj['id']!r}, steeper than {limit:g}°",
+                           steepest.geometry())
+    return None
 
 
 def communication_zone(request: Request, world: SpatialWorld) -> Verdict | None:
@@ -196,7 +232,7 @@ def crew_safety(request: Request, world: SpatialWorld) -> Verdict | None:
     if not close:
         return None
     crew = close[0]
-    where = "the path " + _segment(request) if request.target else "the rover"
+    where = "the path " + _segment(request) if request.path() else "the rover"
     return Verdict(False, "crew_safety",
                    f"crew {crew['id']!r} is {float(crew.get('distance_m', 0.0)):.0f} m from "
                    f"{where}, closer than {margin:.0f} m", shape)
@@ -219,11 +255,34 @@ def battery_reserve(request: Request, world: SpatialWorld) -> Verdict | None:
                    request.path())
 
 
+def time_window(request: Request, world: SpatialWorld) -> Verdict | None:
+    """No action a time window forbids while it is open (a declared comms blackout)."""
+    for obj in world.objects("time_window"):
+        attrs = obj.get("attributes") or {}
+        forbids = attrs.get("forbids", sorted(MOVE_ACTIONS))
+        if not isinstance(forbids, list) or not all(isinstance(f, str) for f in forbids):
+            raise ValueError(f"time window {obj['id']!r}: forbids must be a list of action "
+                             f"names, not {forbids!r}")
+        if request.name not in forbids:
+            continue
+        start, end = _instant(obj, "start"), _instant(obj, "end")
+        if start <= request.now < end:
+            what = f" ({attrs['what']})" if isinstance(attrs.get("what"), str) else ""
+            return Verdict(False, "time_window",
+                           f"{request.name} is forbidden by time window {obj['id']!r}{what} "
+                           f"from {_utc(start)} to {_utc(end)}; it is {_utc(request.now)}",
+                           request.path() or request.here())
+    return None
+
+
 def arm_when_stopped(request: Request, world: SpatialWorld) -> Verdict | None:
-    if request.name not in ARM_ACTIONS or request.rover.speed <= STOPPED_MPS:
+    """The arm deploys only at a speed of at most `stopped_mps` (default STOPPED_MPS)."""
+    stopped = request.params.get("stopped_mps", STOPPED_MPS)
+    if request.name not in ARM_ACTIONS or request.rover.speed <= stopped:
         return None
     return Verdict(False, "arm_when_stopped",
-                   f"the arm deploys only when the rover is stopped; it moves at "
+                   f"the arm deploys only when the rover is stopped (at most "
+                   f"{stopped:g} m/s); it moves at "
                    f"{request.rover.speed:.2f} m/s at {_rover(request)}",
                    request.here())
 
@@ -240,27 +299,72 @@ def no_sampling_protected(request: Request, world: SpatialWorld) -> Verdict | No
 
 
 RULES: tuple[Callable[[Request, SpatialWorld], Verdict | None], ...] = (
-    no_go_path, protected_path, communication_zone, crew_safety, battery_reserve,
-    arm_when_stopped, no_sampling_protected)
+    time_window, no_go_path, protected_path, communication_zone, crew_safety,
+    slope_limit, battery_reserve, arm_when_stopped, no_sampling_protected)
+
+
+class SharedQueries:
+    """The world as one check's rules see it: the rules asking which objects of some
+    kind a shape meets share one question to the world model per shape (all kinds,
+    filtered here), so a check costs a few round trips, not one per rule."""
+
+    def __init__(self, world: SpatialWorld) -> None:
+        self.world = world
+        self._met: dict[str, list[dict[str, Any]]] = {}
+
+    def get(self, object_id: str) -> dict[str, Any] | None:
+        return self.world.get(object_id)
+
+    def objects(self, kind: str | None = None) -> list[dict[str, Any]]:
+        return self.world.objects(kind)
+
+    def intersecting(self, geometry: dict[str, Any],
+                     kind: str | None = None) -> list[dict[str, Any]]:
+        key = json.dumps(geometry, sort_keys=True)
+        if key not in self._met:
+            self._met[key] = self.world.intersecting(geometry)
+        return [o for o in self._met[key] if kind is None or o.get("kind") == kind]
+
+    def within_distance(self, geometry: dict[str, Any], distance_m: float,
+                        kind: str | None = None) -> list[dict[str, Any]]:
+        return self.world.within_distance(geometry, distance_m, kind)
 
 
 def verdict(request: Request, world: SpatialWorld) -> Verdict:
     """The first rule that forbids `request`, or LEGAL."""
+    shared = SharedQueries(world)
     for rule in RULES:
-        found = rule(request, world)
+        found = rule(request, shared)
         if found is not None:
             return found
     return LEGAL
 
 
-def judge(action: str, world: SpatialWorld) -> Verdict:
+def judge(action: str, world: SpatialWorld, now: float | None = None) -> Verdict:
     """The verdict on an action text; one that cannot be checked (a malformed action, no
-    rover position yet, no habitat) is refused by the rule `unchecked`, with the reason."""
+    rover position yet, no habitat, a rule's data malformed) is refused by the rule
+    `unchecked`, with the reason."""
     try:
-        request = request_of(action, world)
+        return verdict(request_of(action, world, now), world)
     except (ValueError, LookupError) as exc:
         return Verdict(False, "unchecked", f"cannot check {action}: {exc}")
-    return verdict(request, world)
+
+
+def _instant(obj: dict[str, Any], key: str) -> float:
+    """A time window's `start` or `end`: ISO 8601 with a zone -> epoch seconds."""
+    value = (obj.get("attributes") or {}).get(key)
+    try:
+        moment = datetime.fromisoformat(str(value))
+    except ValueError:
+        moment = None
+    if not isinstance(value, str) or moment is None or moment.tzinfo is None:
+        raise ValueError(f"time window {obj.get('id')!r}: {key} must be an ISO 8601 time "
+                         f"with a zone (2026-11-25T14:00:00Z), not {value!r}")
+    return moment.timestamp()
+
+
+def _utc(epoch: float) -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(epoch))
 
 
 def _point(p: tuple[float, float]) -> str:

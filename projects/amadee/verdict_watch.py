@@ -37,6 +37,7 @@ class VerdictWatch:
         self.log = log or logging.getLogger("amadee.verdicts")
         self.interval, self.patience = interval, patience
         self._pending: dict[str, tuple[float, str]] = {}   # goal -> (deadline, old action)
+        self.failing = False                                # the last lookup failed
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="verdicts", daemon=True)
@@ -60,8 +61,14 @@ class VerdictWatch:
         try:
             found = self.lookup(f"verdict_{goal}")
         except (WorldModelUnavailable, WorldModelRejected) as exc:
-            self.log.warning("verdict on %s: %s", goal, exc)
+            if not self.failing:     # once per outage, not once per poll
+                self.log.warning("verdict on %s: %s (trying again every %g s)", goal, exc,
+                                 self.interval)
+            self.failing = True
             return None
+        if self.failing:
+            self.failing = False
+            self.log.warning("verdicts readable again")
         return None if found is None else dict(found.get("attributes") or {})
 
     def _run(self) -> None:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -15,6 +17,7 @@ from mrss.actors.datalayer import (
     world_access,
 )
 from mrss.edge.adapters import DataLayer, DataLayerContext
+from mrss.edge.datalayer_client import DataLayerUnavailable
 from mrss.edge.validation import Rejected
 from mrss.edge.worldmodel_access import HttpWorldModel, LocalWorldModel
 from mrss.edge.worldmodel_service import WorldModel
@@ -93,6 +96,34 @@ def test_telemetry_updates_the_robot_in_the_world_model(service: DataLayerServic
     assert not service.telemetry(RobotData(robot="uav1", data={"lat": 95, "lon": 0}))
     assert service.telemetry_errors == 0  # refused by validation, never handed on
     assert service.rejections.stats() == {"uav1: record.lat out of range": 1}
+
+
+def test_telemetry_while_the_world_model_is_down_is_one_warning_not_tracebacks(
+        caplog: pytest.LogCaptureFixture) -> None:
+    class Flaky(DataLayer):
+        down = True
+
+        def on_telemetry(self, robot: str, data: Any) -> None:
+            if self.down:
+                raise DataLayerUnavailable("wm.upsert", "WorldStoreUnavailable: db down")
+            super().on_telemetry(robot, data)
+
+    world = WorldModel(WorldModelStore())
+    datalayer = Flaky(DataLayerContext(world=LocalWorldModel(world)))
+    svc = DataLayerService(datalayer, call_timeout=1)
+    record = RobotData(robot="uav1", data={"lat": 43.61, "lon": 1.45})
+    try:
+        with caplog.at_level(logging.WARNING, logger="mrss.datalayer"):
+            assert not svc.telemetry(record) and not svc.telemetry(record)
+            datalayer.down = False
+            assert svc.telemetry(record)
+    finally:
+        svc.close()
+    assert svc.telemetry_errors == 2 and world.get("uav1") is not None
+    messages = [r.getMessage() for r in caplog.records]
+    assert len(messages) == 2 and "db down" in messages[0], messages
+    assert messages[1] == "telemetry stored again"
+    assert not any(r.exc_info for r in caplog.records)
 
 
 def test_default_datalayer_without_world_model_reports_it() -> None:

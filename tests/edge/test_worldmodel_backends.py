@@ -8,6 +8,7 @@ fail instead when MRSS_REQUIRE_POSTGIS=1 (as in CI).
 
 from __future__ import annotations
 
+import json
 import math
 import threading
 from typing import Any
@@ -239,7 +240,12 @@ SQUARE = [[0, 0], [0, 1], [1, 1], [1, 0], [0, 0]]
     ({"type": "Point", "coordinates": ["1", 2]}, "must be a number"),
     ({"type": "MultiPolygon", "coordinates": [[SQUARE]]}, "not one of"),
     ({"type": "Polygon"}, "needs coordinates"),
-    ({"type": "Polygon", "coordinates": [SQUARE], "crs": 4326}, "unknown key"),
+    ({"type": "Polygon", "coordinates": [SQUARE], "crs": 4326}, "not a named coordinate"),
+    ({"type": "Polygon", "coordinates": [SQUARE],
+      "crs": {"type": "name", "properties": {"name": "EPSG:3857"}}},
+     "crs 'EPSG:3857' is the wrong SRID: the world model takes WGS84 lon/lat only"),
+    ({"type": "Point", "coordinates": [500_000.0, 4_400_000.0]}, "projected coordinates"),
+    ({"type": "Polygon", "coordinates": [SQUARE], "bbox": [0, 0, 1, 1]}, "unknown key"),
     ([1, 2], "GeoJSON object"),
 ])
 def test_bad_geometry_is_refused_naming_the_object(geometry: Any, reason: str) -> None:
@@ -253,7 +259,66 @@ def test_bad_geometry_is_refused_naming_the_object(geometry: Any, reason: str) -
                     {"id": "area7", "kind": "zone", "geometry": geometry}])
 
 
+def test_a_wgs84_crs_is_accepted_and_a_wrong_srid_refused_by_both_backends(
+        open_store: StoreFactory) -> None:
+    world = WorldModel(open_store())
+    named = {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}}
+    reply = world.handle(DataRequest(request_id="r1", function="wm.upsert", args=[
+        {"id": "z1", "kind": "zone", "geometry": {"type": "Polygon",
+                                                  "coordinates": [SQUARE], "crs": named}}]))
+    assert reply.ok, reply.error
+    stored = world.get("z1")
+    assert stored is not None and stored.geometry is not None
+    assert stored.geometry.to_json() == {"type": "Polygon", "coordinates": [SQUARE]}
+    mercator = {"type": "name", "properties": {"name": "EPSG:3857"}}
+    reply = world.handle(DataRequest(request_id="r2", function="wm.upsert", args=[
+        {"id": "z2", "kind": "zone", "geometry": {"type": "Polygon",
+                                                  "coordinates": [SQUARE], "crs": mercator}}]))
+    assert not reply.ok and "object 'z2'" in str(reply.error)
+    assert "wrong SRID" in str(reply.error) and world.get("z2") is None
+
+
 def test_a_position_and_a_geometry_together_are_refused() -> None:
     with pytest.raises(ValueError, match="'both1': give position or geometry, not both"):
         WorldObject.from_json({"id": "both1", "kind": "zone", "position": {"lat": 0, "lon": 0},
                                "geometry": {"type": "Polygon", "coordinates": [SQUARE]}})
+
+
+def test_a_long_diagonal_path_among_many_zones_finds_exactly_the_crossed_ones(
+        open_store: StoreFactory) -> None:
+    """The box of a long diagonal covers most zones (the embedded store then tests the
+    candidates' boxes against the line itself): the answers are still exact."""
+    store = open_store()
+    zones = {f"z{n:03d}": square(200 * (n // 10), 200 * (n % 10), 60) for n in range(100)}
+    for oid, shape in zones.items():
+        store.upsert(obj(oid, "no_go", geometry=shape))
+    store.upsert(WorldObject("crew1", "crew", at(1030, 930)))
+    path = line((0, 0), (1900, 1800))
+    crossing = sorted(oid for oid, shape in zones.items()
+                      if Geometry.from_json(shape).shape.intersects(
+                          Geometry.from_json(path).shape))
+    assert len(crossing) >= 5
+    assert ids(store.intersecting(Geometry.from_json(path), "no_go")) == crossing
+    near = store.within_distance(Geometry.from_json(path), 30, "no_go")
+    assert set(crossing) <= set(ids(near)) and len(near) < 40
+    assert all(d <= 30.0 + 1e-6 for _, d in near)
+    assert ids(store.within_distance(Geometry.from_json(path), 60, "crew")) == ["crew1"]
+    assert store.within_distance(Geometry.from_json(path), 10, "crew") == []
+
+
+def test_a_long_query_line_is_cut_into_pieces_that_are_the_same_line() -> None:
+    from mrss.edge.worldmodel_postgis import MAX_PIECES, PIECE_DEG, line_pieces
+
+    short = Geometry.from_json(line((0, 0), (500, 500)))
+    assert line_pieces(short) is None
+    assert line_pieces(Geometry.from_json(square(0, 0, 5000))) is None
+    bent = Geometry.from_json({"type": "LineString",
+                               "coordinates": [[1.0, 43.0], [1.045, 43.0], [1.045, 43.002]]})
+    pieces = [json.loads(p)["coordinates"] for p in line_pieces(bent) or []]
+    assert len(pieces) == 6                       # 5 for the 0.045 degree leg, 1 more
+    assert pieces[0][0] == [1.0, 43.0] and pieces[-1][1] == [1.045, 43.002]
+    assert [1.045, 43.0] in [p[1] for p in pieces]  # the bend is kept exactly
+    assert all(a[1] == b[0] for a, b in zip(pieces, pieces[1:], strict=False))
+    assert all(math.dist(*p) <= PIECE_DEG + 1e-12 for p in pieces)
+    huge = Geometry.from_json({"type": "LineString", "coordinates": [[0.0, 0.0], [5.0, 5.0]]})
+    assert len(line_pieces(huge) or []) == MAX_PIECES

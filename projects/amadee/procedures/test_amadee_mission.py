@@ -5,6 +5,8 @@ A legal drive moves the rover and a sample is taken where it stops; a drive whos
 crosses the salt marsh (its destination lies beyond it, outside the zone) is refused by
 the reasoner with the rule named, the verdict is in the world model for the operator,
 and the rover does not move. Every verdict also reaches the operator on mrss/ui/verdict.
+A crew member's position, sent as telemetry on mrss/ui/crew, keeps the rover's next
+drive away from her.
 The simulator runs 20 times faster than real time.
 """
 
@@ -113,5 +115,18 @@ def test_legal_requests_move_the_rover_and_an_illegal_one_is_refused(tmp_path: P
                                               "detail": "",
                                               "action": "drive(rover1,g1,39.7705,44.8)"}
             assert len(operator.verdicts("g1")) == 1, operator.received
+
+            # crew telemetry from a suit: she stands on the next drive's path
+            system.publish("mrss/ui/crew", {"id": "eva2", "lat": 39.77125, "lon": 44.79975})
+            system.wait_for(lambda: (system.world("eva2") or {}).get("kind") == "crew", 10,
+                            "the crew member in the world model")
+            system.publish("mrss/ui/crew", {"id": "habitat", "lat": 39.0, "lon": 44.0})
+            system.publish("mrss/ui/drive", {"goal": "g5", "lat": 39.772, "lon": 44.7995})
+            close = system.wait_for(lambda: operator.verdict("g5"), 30, "the verdict on g5")
+            assert close is not None and close["rule"] == "crew_safety", close
+            assert "'eva2'" in close["detail"]
+            assert not [s for s in system.statuses("rover1") if s.goal == "g5"]
+            habitat = system.world("habitat")
+            assert habitat is not None and habitat["kind"] == "base"     # not overwritten
         finally:
             operator.close()

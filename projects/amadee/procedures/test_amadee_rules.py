@@ -2,7 +2,9 @@
 seeded with the project's world.json (the same spatial predicates as `mrss supervise`).
 
 The habitat is at 39.7700, 44.8000; the salt marsh (no-go) 110-220 m north-east of it,
-the biosignature site (protected) 90-170 m south-west, crew member eva1 170 m west.
+the biosignature site (protected) 90-170 m south-west, crew member eva1 170 m west,
+the crater rim (a terrain grid) 170-340 m east: gentle in its western half, then a
+wall of about 19 degrees.
 """
 
 from __future__ import annotations
@@ -32,8 +34,18 @@ def place(world: LocalWorldModel, lat: float = HOME[0], lon: float = HOME[1],
                   "attributes": {"speed": speed, "battery": battery}})
 
 
-def judge(world: LocalWorldModel, action: str) -> Any:
-    return legality.verdict(legality.request_of(action, world), world)
+def judge(world: LocalWorldModel, action: str, now: float | None = None) -> Any:
+    return legality.verdict(legality.request_of(action, world, now), world)
+
+
+NOW = 1_795_000_000.0   # 2026-11-18T11:06:40Z
+
+
+def blackout(start: str = "2026-11-18T11:00:00Z", end: str = "2026-11-18T11:20:00+00:00",
+             **attributes: Any) -> dict[str, Any]:
+    return {"id": "relay_pass", "kind": "time_window",
+            "attributes": {"what": "comms blackout", "start": start, "end": end,
+                           **attributes}}
 
 
 def test_a_short_drive_in_the_open_is_legal(world: LocalWorldModel) -> None:
@@ -95,6 +107,11 @@ def test_the_arm_deploys_only_when_the_rover_is_stopped(world: LocalWorldModel) 
     assert judge(world, "image(rover1,g1)").legal    # the camera needs no arm
     place(world, 39.7705, 44.8, speed=0.0)
     assert judge(world, "sample(rover1,g1)").legal
+    place(world, 39.7705, 44.8, speed=0.04)                 # creeping: under 0.05 m/s
+    assert judge(world, "sample(rover1,g1)").legal
+    world.upsert({"id": "habitat", "kind": "base", "attributes": {"stopped_mps": 0.01}})
+    found = judge(world, "sample(rover1,g1)")
+    assert found.rule == "arm_when_stopped" and "(at most 0.01 m/s)" in found.detail
 
 
 def test_no_sampling_in_a_protected_zone(world: LocalWorldModel) -> None:
@@ -105,9 +122,73 @@ def test_no_sampling_in_a_protected_zone(world: LocalWorldModel) -> None:
     assert judge(world, "image(rover1,g1)").legal    # looking is allowed
 
 
+def test_a_path_up_the_crater_wall_is_too_steep(world: LocalWorldModel) -> None:
+    place(world)
+    found = judge(world, "drive(rover1,g1,39.77,44.8036)")    # across the wall
+    assert not found.legal and found.rule == "slope_limit"
+    assert "on terrain 'crater_rim', steeper than 15°" in found.detail
+    slope = float(found.detail.split(" climbs ")[1].split("°")[0])
+    assert 17.0 < slope < 21.0, found.detail
+    assert found.geometry["type"] == "LineString"             # the steep stretch
+    assert all(44.8025 <= lon <= 44.8035 for lon, _ in found.geometry["coordinates"])
+    assert judge(world, "drive(rover1,g1,39.77,44.8028)").legal   # its gentle foot
+    world.upsert({"id": "habitat", "kind": "base", "attributes": {"max_slope_deg": 25}})
+    assert judge(world, "drive(rover1,g1,39.77,44.8036)").legal   # the operator's limit
+
+
+def test_a_malformed_terrain_grid_is_named_and_nothing_moves(world: LocalWorldModel) -> None:
+    place(world)
+    world.upsert({"id": "crater_rim", "kind": "terrain",
+                  "attributes": {"elevation_m": [[0, 1], [0, "high"]]}})
+    found = legality.judge("drive(rover1,g1,39.77,44.8028)", world)
+    assert (found.legal, found.rule) == (False, "unchecked")
+    assert "terrain 'crater_rim': elevation_m[1][1] must be a finite number" in found.detail
+
+
+def test_no_driving_during_a_comms_blackout(world: LocalWorldModel) -> None:
+    place(world)
+    world.upsert(blackout())
+    found = judge(world, "drive(rover1,g1,39.7705,44.8)", NOW)
+    assert not found.legal and found.rule == "time_window"
+    assert ("drive is forbidden by time window 'relay_pass' (comms blackout) from "
+            "2026-11-18T11:00:00Z to 2026-11-18T11:20:00Z") in found.detail
+    assert found.geometry["type"] == "LineString"
+    assert judge(world, "return_home(rover1,g2)", NOW).rule == "time_window"
+    assert judge(world, "image(rover1,g3)", NOW).legal                # not forbidden
+    assert judge(world, "drive(rover1,g1,39.7705,44.8)", NOW + 800).legal   # ended
+    world.upsert(blackout(forbids=["image"]))
+    assert judge(world, "image(rover1,g3)", NOW).rule == "time_window"
+    assert judge(world, "drive(rover1,g1,39.7705,44.8)", NOW).legal
+
+
+@pytest.mark.parametrize("attributes, message", [
+    ({"start": "2026-11-18T11:00:00"}, "start must be an ISO 8601 time with a zone"),
+    ({"end": "tomorrow"}, "end must be an ISO 8601 time"),
+    ({"forbids": "drive"}, "forbids must be a list of action names"),
+])
+def test_a_malformed_time_window_is_named(world: LocalWorldModel,
+                                          attributes: dict[str, Any], message: str) -> None:
+    place(world)
+    world.upsert(blackout(**attributes))
+    found = legality.judge("drive(rover1,g1,39.7705,44.8)", world, NOW)
+    assert (found.legal, found.rule) == (False, "unchecked")
+    assert f"time window 'relay_pass': {message}" in found.detail
+
+
 def test_return_home_is_checked_as_a_drive(world: LocalWorldModel) -> None:
     place(world, 39.7725, 44.801)                    # home lies beyond the marsh
     assert judge(world, "return_home(rover1,g1)").rule == "no_go_path"
+
+
+def test_a_drive_to_where_the_rover_stands_is_checked_in_place(
+        world: LocalWorldModel) -> None:
+    place(world, 39.7705, 44.8)
+    assert judge(world, "drive(rover1,g1,39.7705,44.8)").legal     # no path to cross
+    place(world)
+    assert judge(world, "return_home(rover1,g2)").legal             # at home already
+    world.upsert({"id": "eva1", "kind": "crew", "position": {"lat": 39.7701, "lon": 44.8}})
+    found = judge(world, "return_home(rover1,g2)")
+    assert found.rule == "crew_safety" and "from the rover," in found.detail
 
 
 @pytest.mark.parametrize("action, message", [

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 from typing import Any
+
+import pytest
 
 from mrss.api import WorldModelUnavailable, import_project_module
 from mrss.api.testing import wait_until
@@ -39,7 +42,8 @@ def test_a_new_verdict_is_published_once_and_an_old_one_is_not() -> None:
         watch.stop()
 
 
-def test_a_world_model_that_is_down_is_waited_for_until_patience_runs_out() -> None:
+def test_a_world_model_that_is_down_is_waited_for_until_patience_runs_out(
+        caplog: pytest.LogCaptureFixture) -> None:
     calls: list[str] = []
 
     def down(object_id: str) -> dict[str, Any] | None:
@@ -47,11 +51,15 @@ def test_a_world_model_that_is_down_is_waited_for_until_patience_runs_out() -> N
         raise WorldModelUnavailable("the world model is not up")
 
     sent: list[str] = []
-    watch = watch_module.VerdictWatch(down, sent.append, interval=0.01, patience=0.2)
+    watch = watch_module.VerdictWatch(down, sent.append, interval=0.01, patience=0.2,
+                                      log=logging.getLogger("test.verdicts"))
     watch.start()
     try:
-        watch.expect("g1")
-        wait_until(lambda: not watch._pending, 5.0)
+        with caplog.at_level(logging.WARNING, logger="test.verdicts"):
+            watch.expect("g1")
+            wait_until(lambda: not watch._pending, 5.0)
         assert len(calls) > 2 and not sent and watch._thread.is_alive()
+        assert len(caplog.records) == 1, caplog.records   # one warning, not one per poll
+        assert "the world model is not up" in caplog.records[0].getMessage()
     finally:
         watch.stop()
