@@ -30,6 +30,7 @@ from mrss.agentspeak.terms import (
     DEL_ACH,
     DEL_BEL,
     DEL_TEST,
+    GOAL_STATE,
     AnnotTail,
     Expr,
     PlanTerm,
@@ -42,7 +43,7 @@ from mrss.agentspeak.terms import (
 )
 
 TRIGGER_OPS = {"+": ADD_BEL, "-": DEL_BEL, "+!": ADD_ACH, "-!": DEL_ACH,
-               "+?": ADD_TEST, "-?": DEL_TEST}
+               "+?": ADD_TEST, "-?": DEL_TEST, "^!": GOAL_STATE}
 
 
 
@@ -167,6 +168,9 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         return PlanTerm(PlanSrc(label[1] if label else None, op, lit,
                                 ctx[1] if ctx else None, body[1] if body else [],
                                 self._line(meta), 0, label[2] if label else ()), False)
+
+    def rule_term(self, c: list[Any]) -> Term:
+        return Struct(":-", (c[0], c[2]))
 
     def and_(self, c: list[Term]) -> Term:
         return Struct("&", (c[0], c[1]))

@@ -36,6 +36,7 @@ from mrss.agentspeak.instructions import (
 )
 from mrss.agentspeak.plans import Plan
 from mrss.agentspeak.registry import Registry
+from mrss.agentspeak.rulechange import AddRule, DelRule, is_rule_term
 from mrss.agentspeak.syntax import (
     BeliefSrc,
     BodyItem,
@@ -69,7 +70,6 @@ JASON_UNSUPPORTED = {
     ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
     ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
     ".relevant_plan": _PLANS, ".list_plans": _PLANS,
-    ".intention": "intention introspection", ".current_intention": "intention introspection",
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
     ".include": "directives", ".namespace": "namespaces",
@@ -209,6 +209,9 @@ class _Compiler:
             code.append(Achieve(with_self_source(t), line))
         elif kind == "achieve_new":
             code.append(AchieveNew(with_self_source(t), line))
+        elif kind in ("add", "add_end", "del") and is_rule_term(t):
+            self._check_ias(t.args[1], line)
+            code.append(AddRule(t, line) if kind != "del" else DelRule(t, line))
         elif kind in ("add", "add_end"):
             code.append(AddBelief(with_self_source(t), kind == "add", line))
         elif kind == "del":

@@ -148,7 +148,7 @@ def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None
         return None
     here = chunk[pos:pos + 3]
     if here.startswith("^"):
-        return "goal-state meta-events (^!g[state(S)]) are not supported"
+        return "goal-state meta-events of test goals (^?g) are not supported; ^!g is"
     if here in ("|&|", "|||"):
         return "fork and join (|&| and |||) are not supported"
     if here.startswith("::"):

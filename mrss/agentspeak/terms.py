@@ -19,8 +19,8 @@ Term: TypeAlias = (
     " | PlanTerm | tuple[Term, ...]")
 
 # Trigger operators (the kind of an event).
-ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST = range(6)
-OP_TEXT = ("+", "-", "+!", "-!", "+?", "-?")
+ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST, GOAL_STATE = range(7)
+OP_TEXT = ("+", "-", "+!", "-!", "+?", "-?", "^!")  # GOAL_STATE: Jason 3's ^!g[state(S)]
 
 _var_ids = itertools.count(1)
 

@@ -146,9 +146,9 @@ UNSUPPORTED = """\
 { begin namespace(x) }
 !start.
 +!start <- !a |&| !b.
-^!g[state(S)] <- .print(S).
+^?g[state(S)] <- .print(S).
 +!n <- ns::b(1).
-+!m <- .list_plans.
++!m <- .create_agent(bob, "bob.asl").
 +!s <- .send(bob, tell, hi).
 """
 
@@ -161,7 +161,7 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         (1, 1, 'directives other than {include("file.asl")} ({begin ...}, ...) are not '
                'supported'),
         (3, 15, "fork and join (|&| and |||) are not supported"),
-        (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
+        (4, 1, "goal-state meta-events of test goals (^?g) are not supported; ^!g is"),
         (5, 10, "namespaces (ns::literal) are not supported"),
         (6, 8, "internal action .list_plans is not supported (changing the plan library)"),
         (7, 8, "internal action .send is not supported (agent communication needs a "

@@ -6,6 +6,15 @@ from mrss.agentspeak.registry import Registry
 
 STDLIB = Registry()
 
-from mrss.agentspeak.stdlib import control, lists, misc, plans, typetests  # noqa: E402
+from mrss.agentspeak.stdlib import (  # noqa: E402
+    control,
+    introspect,
+    lists,
+    misc,
+    plans,
+    schedule,
+    typetests,
+)
 
-__all__ = ["STDLIB", "control", "lists", "misc", "plans", "typetests"]
+__all__ = ["STDLIB", "control", "introspect", "lists", "misc", "plans", "schedule",
+           "typetests"]

@@ -194,3 +194,17 @@ def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         if len(args) < 3 or ctx.unify(args[2], start):
             yield
         start = whole.find(sub, start + 1)
+
+
+@STDLIB.action(".eval", min_args=2, max_args=2, formula_args=(1,))
+def eval_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.eval(R, Formula)`: R is `true` if the formula holds (no bindings are kept),
+    else `false`."""
+    trail = ctx.runtime.trail
+    mark = len(trail)
+    holds = False
+    for _ in ctx.solve(args[1]):
+        holds = True
+        break
+    undo(trail, mark)
+    return ctx.unify(args[0], Struct("true" if holds else "false"))
