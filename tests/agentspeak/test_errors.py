@@ -163,9 +163,10 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         (3, 15, "fork and join (|&| and |||) are not supported"),
         (4, 1, "goal-state meta-events of test goals (^?g) are not supported; ^!g is"),
         (5, 10, "namespaces (ns::literal) are not supported"),
-        (6, 8, "internal action .list_plans is not supported (changing the plan library)"),
-        (7, 8, "internal action .send is not supported (agent communication needs a "
-         "society: mrss agent a.asl b.asl ...)"),
+        (6, 8, "`.create_agent` is not supported: agents are started and stopped by MRSS's "
+               "supervisor and configuration, not by Jason's MAS infrastructure"),
+        (7, 8, "`.send` is not supported: it needs other agents: run several (mrss agent "
+               "a.asl b.asl, or the reasoner component's agents list)"),
     ]
 
 

@@ -7,14 +7,19 @@ from mrss.agentspeak.registry import Registry
 STDLIB = Registry()
 
 from mrss.agentspeak.stdlib import (  # noqa: E402
+    annots,
     control,
     introspect,
     lists,
+    loading,
     misc,
     plans,
     schedule,
+    sets,
+    strings,
     typetests,
 )
 
-__all__ = ["STDLIB", "control", "introspect", "lists", "misc", "plans", "schedule",
-           "typetests"]
+__all__ = ["STDLIB", "annots", "control", "introspect", "lists", "loading", "misc",
+           "plans",
+           "schedule", "sets", "strings", "typetests"]

@@ -26,6 +26,7 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import undo, unify
 
 _order = functools.cmp_to_key(compare)
+RNG = _random.Random()  # `.random`, `.shuffle`: seeded by `.set_random_seed`
 
 
 def text_of(t: Term) -> str:
@@ -100,7 +101,17 @@ def date_(ctx: IAContext, args: list[Any]) -> bool:
 @STDLIB.action(".random", min_args=1, max_args=1)
 def random_(ctx: IAContext, args: list[Any]) -> bool:
     """`.random(X)`: X is a random number in [0, 1)."""
-    return ctx.unify(args[0], _random.random())
+    return ctx.unify(args[0], RNG.random())
+
+
+@STDLIB.action(".set_random_seed", min_args=1, max_args=1)
+def set_random_seed(ctx: IAContext, args: list[Any]) -> bool:
+    """`.set_random_seed(N)`: `.random` and `.shuffle` repeat the same numbers after it."""
+    n = deref(args[0])
+    if type(n) is not int:
+        raise ctx.error(f"the seed must be an integer, not {term_str(n)}")
+    RNG.seed(n)
+    return True
 
 
 @STDLIB.action(".nano_time", min_args=1, max_args=1)
@@ -208,3 +219,43 @@ def eval_(ctx: IAContext, args: list[Any]) -> bool:
         break
     undo(trail, mark)
     return ctx.unify(args[0], Struct("true" if holds else "false"))
+
+
+@STDLIB.action(".belief", min_args=1, max_args=1)
+def belief(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.belief(L)`: L unifies with each belief in turn (facts only, no rules)."""
+    pattern = deref(args[0])
+    if type(pattern) is not Struct:
+        raise ctx.error(f"expected a literal, not {term_str(pattern)}")
+    store = ctx.runtime.bb.store(pattern.key)
+    trail = ctx.runtime.trail
+    for b in list(store.facts()) if store is not None else []:
+        mark = len(trail)
+        if unify(pattern, None, b, trail):
+            yield
+        undo(trail, mark)
+
+
+@STDLIB.action(".list_rules", max_args=0)
+def list_rules(ctx: IAContext, args: list[Any]) -> bool:
+    """Print every rule of the belief base, one per line, in program order."""
+    for store in list(ctx.runtime.bb.preds.values()):
+        for rule in store.rules:
+            ctx.runtime.out(rule.text + ".")
+    return True
+
+
+VERSION = "3.2"  # the version of Jason's language this interpreter follows
+
+
+@STDLIB.action(".version", min_args=1, max_args=1)
+def version(ctx: IAContext, args: list[Any]) -> bool:
+    """`.version(V)`: V is the version of Jason's language followed, as a string."""
+    return ctx.unify(args[0], VERSION)
+
+
+@STDLIB.action(".perceive", max_args=0)
+def perceive(ctx: IAContext, args: list[Any]) -> bool:
+    """Percepts are applied at the start of every cycle, so there is nothing to force:
+    succeeds (Jason's `.perceive` forces a perception now)."""
+    return True
