@@ -42,6 +42,7 @@ from mrss.agentspeak.terms import (
     VarAnnot,
 )
 
+DEFAULT_NS = "default::"  # `default::b` is `b`
 TRIGGER_OPS = {"+": ADD_BEL, "-": DEL_BEL, "+!": ADD_ACH, "-!": DEL_ACH,
                "+?": ADD_TEST, "-?": DEL_TEST, "^!": GOAL_STATE}
 
@@ -126,14 +127,17 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def literal(self, c: list[Any]) -> Term:
         neg = False
         name = ""
+        ns = ""
         args: list[Term] = []
         annots: list[Term] = []
         for x in c:
             if isinstance(x, Token):
                 if x.type == "NEG":
                     neg = True
+                elif x.type == "NS":  # `ns::b`: the namespace is part of the predicate
+                    ns = "" if str(x) == DEFAULT_NS else str(x)
                 else:
-                    name = str(x)
+                    name = ns + str(x)
             elif isinstance(x, tuple) and x[0] == "args":
                 args = x[1]
             elif isinstance(x, tuple):

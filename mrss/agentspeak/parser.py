@@ -32,6 +32,7 @@ _TOKEN_TEXT = {
     "IA_NAME": "an internal action", "TRIGGER_OP": "a triggering event",
     "REL_OP": "a relational operator", "PLUS": "+", "MUL_OP": "*, /, div or mod",
     "ADD_BEL_OP": "+< or +>", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
+    "NS": "a namespace",
 }
 
 
@@ -152,7 +153,7 @@ def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None
     if here in ("|&|", "|||"):
         return "fork and join (|&| and |||) are not supported"
     if here.startswith("::"):
-        return "namespaces (ns::literal) are not supported"
+        return "a namespace must be an atom (ns::b); variable namespaces (X::b) are not supported"
     return None
 
 

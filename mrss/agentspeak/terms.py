@@ -366,7 +366,8 @@ def term_str(t: Term, top: bool = False) -> str:
         elif s.functor == "not" and len(s.args) == 1:
             text = f"not ({term_str(s.args[0])})"
         else:
-            text = ("~" if s.neg else "") + s.functor
+            text = ("~" + s.functor if "::" not in s.functor else  # ns::~b
+                    s.functor.replace("::", "::~", 1)) if s.neg else s.functor
             if s.args:
                 text += "(" + ",".join([term_str(a) for a in s.args]) + ")"
         if s.annots:

@@ -147,7 +147,7 @@ UNSUPPORTED = """\
 !start.
 +!start <- !a |&| !b.
 ^?g[state(S)] <- .print(S).
-+!n <- ns::b(1).
++!n <- X::b(1).
 +!m <- .create_agent(bob, "bob.asl").
 +!s <- .send(bob, tell, hi).
 """
@@ -162,7 +162,8 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
                'supported'),
         (3, 15, "fork and join (|&| and |||) are not supported"),
         (4, 1, "goal-state meta-events of test goals (^?g) are not supported; ^!g is"),
-        (5, 10, "namespaces (ns::literal) are not supported"),
+        (5, 9, "a namespace must be an atom (ns::b); variable namespaces (X::b) are not "
+               "supported"),
         (6, 8, "`.create_agent` is not supported: agents are started and stopped by MRSS's "
                "supervisor and configuration, not by Jason's MAS infrastructure"),
         (7, 8, "`.send` is not supported: it needs other agents: run several (mrss agent "

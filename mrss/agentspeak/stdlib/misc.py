@@ -259,3 +259,27 @@ def perceive(ctx: IAContext, args: list[Any]) -> bool:
     """Percepts are applied at the start of every cycle, so there is nothing to force:
     succeeds (Jason's `.perceive` forces a perception now)."""
     return True
+
+
+def _namespaces(ctx: IAContext) -> list[str]:
+    rt = ctx.runtime
+    found = {"default"}
+    for functor, _, _ in list(rt.bb.preds):
+        if "::" in functor:
+            found.add(functor.split("::", 1)[0])
+    for plan in list(rt.plans.plans):
+        if "::" in plan.trigger.functor:
+            found.add(plan.trigger.functor.split("::", 1)[0])
+    return sorted(found)
+
+
+@STDLIB.action(".namespace", min_args=1, max_args=1)
+def namespace(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.namespace(N)`: N is a namespace the agent's beliefs or plans use (`default`
+    included), each in turn."""
+    trail = ctx.runtime.trail
+    for name in _namespaces(ctx):
+        mark = len(trail)
+        if ctx.unify(args[0], Struct(name)):
+            yield
+        undo(trail, mark)
