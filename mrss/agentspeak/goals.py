@@ -174,7 +174,7 @@ def resume(rt: Runtime, it: Intention, now: float) -> None:
     if w is not None and w.elapsed is not None:
         trail: list[Any] = []
         unify(w.elapsed, None, int(round((now - w.started) * 1000)), trail)
-    if rt.plans.meta:
+    if rt.plans.meta and not it.suspended:  # else `.resume` resumes it
         goalstates.emit_top(rt, it, GoalState.RESUMED)
     rt.pop_finished(it)
 

@@ -8,7 +8,8 @@ Jason's transition rules (Bordini et al., "Programming Multi-Agent Systems in
 AgentSpeak using Jason", formal semantics) and where each one is:
 
 - SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
-  an `[atomic]` intention runs, its own `atomic_events`).
+  an `[atomic]` intention runs, its own `atomic_events`; goal-state meta-events
+  `^!g[state(S)]`, in `meta_events`, go first: see `goalstates`).
 - RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
   functor, arity and negation), then trigger unification in `Runtime.handle_event`.
 - ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
@@ -353,7 +354,7 @@ class Runtime:
         if ok and result is not None and lit is not None and not unify(lit, None, result, []):
             ok, reason = False, f"result {term_str(result)} does not match {term_str(lit)}"
         if ok:
-            if self.plans.meta:
+            if self.plans.meta and not it.suspended:  # else `.resume` resumes it
                 goalstates.emit_top(self, it, goalstates.GoalState.RESUMED)
             self.make_runnable(it)
             self.pop_finished(it)

@@ -28,7 +28,7 @@ def include(ctx: IAContext, args: list[Any]) -> bool:
     if type(name) is not str:
         raise ctx.error(f"the file must be a string, not {term_str(name)}")
     if len(args) == 2:
-        raise ctx.error("a namespace argument is not supported (namespaces are not)")
+        raise ctx.error("a namespace argument is not supported (modules of namespaces are not)")
     rt = ctx.runtime
     own = str(getattr(rt, "file", "<string>"))
     base = Path(own).parent if not own.startswith("<") else Path.cwd()
