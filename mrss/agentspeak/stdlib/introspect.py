@@ -1,5 +1,5 @@
 """Intentions as data: `.intention(Id, State[, Stack[, current]])` and
-`.current_intention(I)`, with Jason's shapes.
+`.current_intention(I)`, with Jason's shapes and order (the current intention first).
 
 An intention's state is `running`, `suspended` (by `.suspend`), `waiting[action(A)]`
 (an environment action at the host) or `waiting[reason(wait(W))]` (a `.wait`). Its
@@ -57,6 +57,20 @@ def stack_term(it: Intention) -> Term:
     return tuple(_im_term(im) for im in reversed(it.stack))
 
 
+def _order(it: Intention, current: Intention | None) -> tuple[int, int]:
+    """Jason's order: the current intention, the running ones, those waiting for an
+    action, those in a `.wait` or suspended; each group by age."""
+    if it is current:
+        group = 0
+    elif it.suspended or it.wait is not None:
+        group = 3
+    elif it.action is not None:
+        group = 2
+    else:
+        group = 1
+    return group, it.id
+
+
 def _current_of(ctx: IAContext) -> Intention:
     it = ctx.intention
     if it is None:
@@ -82,7 +96,7 @@ def intention(ctx: IAContext, args: list[Any]) -> Iterator[None]:
             yield
         undo(trail, mark)
         return
-    for it in sorted(rt.intentions.values(), key=lambda i: i.id):
+    for it in sorted(rt.intentions.values(), key=lambda i: _order(i, ctx.intention)):
         if it.dropped:
             continue
         mark = len(trail)
