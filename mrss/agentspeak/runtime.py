@@ -98,6 +98,8 @@ class Runtime:
         self.atomic_events: deque[Event] = deque()
         self.meta_events: deque[Event] = deque()  # `^!g[state(S)]`, before the others
         self.suspended_events: list[Event] = []  # goal events held by `.suspend(G)`
+        # `.namespace_set_prop`: namespace -> key text -> (key, value), in the order set
+        self.ns_props: dict[str, dict[str, tuple[Term, Term]]] = {}
         self.runq: deque[Intention] = deque()
         self.intentions: dict[int, Intention] = {}
         self.pending_actions: dict[Hashable, Intention] = {}

@@ -13,15 +13,12 @@ _DF = ("the directory facilitator is a service of Jason's MAS infrastructure (JA
        "the centralised one); in MRSS agents address each other by name (.all_names)")
 _JAVA = ("{kind} hold a mutable Java object (an ObjectTerm) that AgentSpeak terms here "
          "cannot; use lists (.member, .union, .sort, ...)")
-_NS = ("namespaces are only prefixes of literals here (ns::b); modules of namespaces "
-       "({ begin namespace(ns) }, properties) are not supported")
 _CONTROL = "it is the implementation of {syntax}; write {syntax} in the plan body"
 
 UNSUPPORTED: dict[str, str] = {
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
     ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
-    ".namespace_get_prop": _NS, ".namespace_set_prop": _NS,
     ".fork": "fork and join (|&| and |||) are not supported",
     ".join": "fork and join (|&| and |||) are not supported",
     ".if_then_else": _CONTROL.format(syntax="if (...) { ... }"),

@@ -267,6 +267,7 @@ def _namespaces(ctx: IAContext) -> list[str]:
     for functor, _, _ in list(rt.bb.preds):
         if "::" in functor:
             found.add(functor.split("::", 1)[0])
+    found.update(rt.ns_props)
     for plan in list(rt.plans.plans):
         if "::" in plan.trigger.functor:
             found.add(plan.trigger.functor.split("::", 1)[0])
@@ -281,5 +282,40 @@ def namespace(ctx: IAContext, args: list[Any]) -> Iterator[None]:
     for name in _namespaces(ctx):
         mark = len(trail)
         if ctx.unify(args[0], Struct(name)):
+            yield
+        undo(trail, mark)
+
+
+def _ns_props(ctx: IAContext, ns: Term) -> dict[str, tuple[Term, Term]]:
+    ns = deref(ns)
+    if type(ns) is not Struct or ns.args:
+        raise ctx.error(f"the namespace must be an atom, not {term_str(ns)}")
+    return ctx.runtime.ns_props.setdefault(ns.functor, {})
+
+
+@STDLIB.action(".namespace_set_prop", min_args=3, max_args=3)
+def namespace_set_prop(ctx: IAContext, args: list[Any]) -> bool:
+    """`.namespace_set_prop(NS, Key, Value)`: a property of namespace NS."""
+    key = value(args[1])
+    if type(key) is Var:
+        raise ctx.error("the key is an unbound variable")
+    _ns_props(ctx, args[0])[term_str(key)] = (key, value(args[2]))
+    return True
+
+
+@STDLIB.action(".namespace_get_prop", min_args=2, max_args=4)
+def namespace_get_prop(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.namespace_get_prop(NS, Key, Value[, Default])`: the property (Default when
+    it has none); `.namespace_get_prop(NS, Key)` enumerates the keys, in the order set."""
+    props = _ns_props(ctx, args[0])
+    trail = ctx.runtime.trail
+    if len(args) == 4 and type(value(args[1])) is not Var \
+            and term_str(value(args[1])) not in props:
+        if ctx.unify(args[2], value(args[3])):
+            yield
+        return
+    for key, val in list(props.values()):
+        mark = len(trail)
+        if ctx.unify(args[1], key) and (len(args) == 2 or ctx.unify(args[2], val)):
             yield
         undo(trail, mark)
