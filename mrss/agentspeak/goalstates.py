@@ -30,7 +30,7 @@ from mrss.agentspeak.intentions import Event
 from mrss.agentspeak.terms import ADD_ACH, GOAL_STATE, Struct, Term, value
 
 if TYPE_CHECKING:
-    from mrss.agentspeak.intentions import Intention
+    from mrss.agentspeak.intentions import IntendedMeans, Intention
     from mrss.agentspeak.runtime import Runtime
 
 
@@ -92,3 +92,13 @@ def emit_stack(rt: Runtime, it: Intention, states: tuple[GoalState, ...],
 
 ENDED = (GoalState.DROPPED, GoalState.FINISHED)
 DONE = (GoalState.ACHIEVED, GoalState.FINISHED)
+
+
+def popped(rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+    """Goal states when finished plan `im` leaves the top of `it`: its goal is achieved;
+    a `-!g` plan done ends the goal that failed (and those above it)."""
+    if im.op == ADD_ACH:
+        emit(rt, im.lit, GoalState.ACHIEVED)
+        emit(rt, im.lit, GoalState.FINISHED)
+    elif im.fail_target is not None:
+        emit_stack(rt, it, (GoalState.FINISHED,), im.fail_target)

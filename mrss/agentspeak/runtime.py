@@ -305,17 +305,13 @@ class Runtime:
     def pop_finished(self, it: Intention) -> None:
         stack = it.stack
         atomic_gone = False
+        meta = self.plans.meta
         while stack:
             im = stack[-1]
             if im.pc < len(im.code):
                 break
-            if self.plans.meta:
-                if im.op == ADD_ACH:
-                    goalstates.emit(self, im.lit, goalstates.GoalState.ACHIEVED)
-                    goalstates.emit(self, im.lit, goalstates.GoalState.FINISHED)
-                elif im.fail_target is not None:  # a -!g plan done: the failed goal ends
-                    goalstates.emit_stack(self, it, (goalstates.GoalState.FINISHED,),
-                                          im.fail_target)
+            if meta:
+                goalstates.popped(self, it, im)
             stack.pop()
             if im.plan.atomic:
                 atomic_gone = True
