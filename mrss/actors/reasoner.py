@@ -37,7 +37,7 @@ from typing import Any, ClassVar
 
 from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
-from mrss.actors.reasoner_agents import ActionRouter, AgentHost, AgentSpec, parse_agents
+from mrss.actors.reasoner_agents import ActionRouter, AgentHost, AgentSpec, agent_specs
 from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak import Agent, AslSyntaxError
 from mrss.agentspeak.agent import read_program
@@ -175,40 +175,23 @@ class Reasoner:
         self.agent.wake()
 
     def _loop(self) -> None:
-        if self.society is not None:
-            self._loop_society(self.society)
-            return
-        agent = self.agent
-        while not self._stop.is_set():
-            timeout = self._tick
-            deadline = agent.next_deadline()
-            if deadline is not None:
-                timeout = max(0.0, min(timeout, deadline - agent.clock()))
-            agent.wait_for_work(timeout)
-            try:
-                agent.run_until_idle(max_cycles=10_000)
-            except Exception:  # the agent must keep serving whatever one cycle did
-                log.exception("%s: reasoning cycle failed", self.name)
-            self.host.reconcile()
-            self.host.check_lease()
-            if self._on_tick is not None:
-                self._on_tick()
-            if self._snapshot_wanted.is_set() and self.snapshot_sink is not None:
-                self._snapshot_wanted.clear()
-                self.snapshot_sink(agent.snapshot())
-
-    def _loop_society(self, society: Society) -> None:
         agents = self.agents
+        society = self.society
+        wait: Callable[[float], object] = agents[0].wait_for_work if society is None \
+            else society.wait_for_work
         while not self._stop.is_set():
             timeout = self._tick
             for agent in agents:
                 deadline = agent.next_deadline()
                 if deadline is not None:
                     timeout = max(0.0, min(timeout, deadline - agent.clock()))
-            society.wait_for_work(timeout)
+            wait(timeout)
             try:
-                society.run_cycles(max_rounds=10_000)
-            except Exception:  # the agents must keep serving whatever one cycle did
+                if society is None:
+                    agents[0].run_until_idle(max_cycles=10_000)
+                else:  # one cycle of each agent in turn
+                    society.run_cycles(max_rounds=10_000)
+            except Exception:  # the agent must keep serving whatever one cycle did
                 log.exception("%s: reasoning cycle failed", self.name)
             self.host.reconcile()
             self.host.check_lease()
@@ -428,22 +411,6 @@ def _event_text(event: Any) -> str:
     owner = event.get("intention")
     return f"{event.get('trigger', '?')}" + (f"  (intention #{owner})" if owner is not None
                                             else "")
-
-
-def agent_specs(opts: dict[str, Any], project_dir: Path) -> list[AgentSpec] | None:
-    """The `agents` option's agents (None without it); ConfigError naming the first
-    problem (`mrss check` lists them all, with line and column)."""
-    if opts.get("agents") is None:
-        return None
-    if "agent" in opts or "beliefs" in opts:
-        raise ConfigError("give the agents either with agent (and beliefs) or with agents, "
-                          "not both", key="agents")
-    specs, problems = parse_agents(opts["agents"], project_dir)
-    if problems:
-        p = problems[0]
-        where = "" if p.index < 0 else f"agent {p.index + 1}" + (f", {p.key}" if p.key else "")
-        raise ConfigError(f"{where}: {p.message}" if where else p.message, key="agents")
-    return specs
 
 
 def refuse_unloadable(agent_file: Path, beliefs: list[str], *, society: bool = False,

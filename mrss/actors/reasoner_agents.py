@@ -28,6 +28,7 @@ from typing import Any
 from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
+from mrss.errors import ConfigError
 
 AGENT_KEYS = ("name", "file", "beliefs")
 _ATOM = re.compile(r"^[a-z][A-Za-z0-9_]*$")
@@ -151,3 +152,19 @@ class AgentHost:
     def cancel(self, handle: Hashable) -> None:
         self.router.forget(handle)
         self.shared.cancel(handle)
+
+
+def agent_specs(opts: dict[str, Any], project_dir: Path) -> list[AgentSpec] | None:
+    """The `agents` option's agents (None without it); ConfigError naming the first
+    problem (`mrss check` lists them all, with line and column)."""
+    if opts.get("agents") is None:
+        return None
+    if "agent" in opts or "beliefs" in opts:
+        raise ConfigError("give the agents either with agent (and beliefs) or with agents, "
+                          "not both", key="agents")
+    specs, problems = parse_agents(opts["agents"], project_dir)
+    if problems:
+        p = problems[0]
+        where = "" if p.index < 0 else f"agent {p.index + 1}" + (f", {p.key}" if p.key else "")
+        raise ConfigError(f"{where}: {p.message}" if where else p.message, key="agents")
+    return specs
