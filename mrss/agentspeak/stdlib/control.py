@@ -68,7 +68,7 @@ def intend(ctx: IAContext, args: list[Any]) -> Iterator[None]:
 
 def _goal_events(ctx: IAContext) -> list[Event]:
     rt = ctx.runtime
-    return [ev for ev in list(rt.atomic_events) + list(rt.events) + rt.suspended_events
+    return [ev for ev in list(rt.atomic_events) + list(rt.events) + rt.extras.suspended_events
             if ev.op == ADD_ACH and (ev.intention is None or not ev.intention.dropped)]
 
 
@@ -102,7 +102,7 @@ def drop_intention(ctx: IAContext, args: list[Any]) -> bool:
 def _drop_goal_events(ctx: IAContext, g: Term | None) -> None:
     rt = ctx.runtime
     trail = rt.trail
-    held: deque[Event] = deque(rt.suspended_events)
+    held: deque[Event] = deque(rt.extras.suspended_events)
     for queue in (rt.events, rt.atomic_events, held):
         kept: deque[Event] = deque()
         for ev in queue:
@@ -121,7 +121,7 @@ def _drop_goal_events(ctx: IAContext, g: Term | None) -> None:
                 kept.append(ev)
         queue.clear()
         queue.extend(kept)
-    rt.suspended_events[:] = held
+    rt.extras.suspended_events[:] = held
 
 
 @STDLIB.action(".drop_desire", min_args=1, max_args=1)
@@ -206,7 +206,7 @@ def _suspend_events(ctx: IAContext, g: Term) -> None:
             if not hit and ev.intention is not None:
                 hit = goals.goal_index(rt, ev.intention, g) >= 0
             if hit:
-                rt.suspended_events.append(ev)
+                rt.extras.suspended_events.append(ev)
                 if ev.intention is not None:
                     ev.intention.suspended = True
             else:
@@ -253,7 +253,7 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
                 rt.make_runnable(it)
     trail = rt.trail
     back: list[Event] = []
-    for ev in list(rt.suspended_events):
+    for ev in list(rt.extras.suspended_events):
         hit = False
         if ev.op == ADD_ACH:
             mark = len(trail)
@@ -262,7 +262,7 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
         if not hit and ev.intention is not None:
             hit = goals.goal_index(rt, ev.intention, args[0]) >= 0
         if hit:
-            rt.suspended_events.remove(ev)
+            rt.extras.suspended_events.remove(ev)
             back.append(ev)
             if ev.intention is not None:
                 ev.intention.suspended = False
@@ -300,7 +300,7 @@ def suspended(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         if unify(args[1], None, reason, trail):
             yield
         undo(trail, mark)
-    for ev in list(ctx.runtime.suspended_events):
+    for ev in list(ctx.runtime.extras.suspended_events):
         mark = len(trail)
         if ev.op == ADD_ACH and unify(args[0], None, ev.lit, trail) and (
                 len(args) == 1 or unify(args[1], None, SUSPEND_REASON, trail)):

@@ -267,7 +267,7 @@ def _namespaces(ctx: IAContext) -> list[str]:
     for functor, _, _ in list(rt.bb.preds):
         if "::" in functor:
             found.add(functor.split("::", 1)[0])
-    found.update(rt.ns_props)
+    found.update(rt.extras.ns_props)
     for plan in list(rt.plans.plans):
         if "::" in plan.trigger.functor:
             found.add(plan.trigger.functor.split("::", 1)[0])
@@ -290,7 +290,7 @@ def _ns_props(ctx: IAContext, ns: Term) -> dict[str, tuple[Term, Term]]:
     ns = deref(ns)
     if type(ns) is not Struct or ns.args:
         raise ctx.error(f"the namespace must be an atom, not {term_str(ns)}")
-    return ctx.runtime.ns_props.setdefault(ns.functor, {})
+    return ctx.runtime.extras.ns_props.setdefault(ns.functor, {})
 
 
 @STDLIB.action(".namespace_set_prop", min_args=3, max_args=3)
