@@ -173,9 +173,6 @@ class Agent(Runtime):
         if self.atomic_events:
             self.handle_event(self.atomic_events.popleft())
             busy = True
-        elif self.meta_events and self.atomic is None:  # goal-state events go first
-            self.handle_event(self.meta_events.popleft())
-            busy = True
         elif self.events and self.atomic is None:
             self.handle_event(self.events.popleft())
             busy = True
@@ -211,8 +208,7 @@ class Agent(Runtime):
 
     def has_work(self) -> bool:
         """Whether a cycle now would do something."""
-        if self._inbox or self.events or self.atomic_events or self.completed \
-                or self.meta_events:
+        if self._inbox or self.events or self.atomic_events or self.completed:
             return True
         if any(it.state is RUNNABLE and not it.dropped and not it.suspended for it in self.runq):
             return True

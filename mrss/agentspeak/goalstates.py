@@ -4,7 +4,8 @@ Each change in the state of an achievement goal `g` posts the event `^!g` with t
 annotation `state(S)[reason(R)]`, but only when some plan's trigger is `^!` of that
 predicate (so a program without `^!` plans pays nothing but one test). As in Jason,
 meta-events go before the other events (first come, first served among themselves)
-and a plan for one runs as a new intention.
+and a plan for one runs as a new intention. They are kept at the front of the event
+queue (no queue of their own: the cycle pays nothing for them).
 
 The states and when each is posted (the reason is `""` unless said):
 
@@ -60,7 +61,11 @@ def emit(rt: Runtime, goal: Struct, state: GoalState, reason: Term = "") -> None
         return
     annot = Struct("state", (_STATES[state],), (Struct("reason", (value(reason),)),))
     lit = Struct(g.functor, g.args, tuple(g.annots) + (annot,), g.neg)
-    rt.meta_events.append(Event(GOAL_STATE, lit, None))
+    events = rt.events  # before the other events, after the meta-events already there
+    i = 0
+    while i < len(events) and events[i].op == GOAL_STATE:
+        i += 1
+    events.insert(i, Event(GOAL_STATE, lit, None))
 
 
 def top_goal(it: Intention) -> Struct | None:

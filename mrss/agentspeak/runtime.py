@@ -9,7 +9,7 @@ AgentSpeak using Jason", formal semantics) and where each one is:
 
 - SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
   an `[atomic]` intention runs, its own `atomic_events`; goal-state meta-events
-  `^!g[state(S)]`, in `meta_events`, go first: see `goalstates`).
+  `^!g[state(S)]` are put at the front of `events`: see `goalstates`).
 - RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
   functor, arity and negation), then trigger unification in `Runtime.handle_event`.
 - ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
@@ -109,7 +109,6 @@ class Runtime:
         self.trail: list[Any] = []
         self.events: deque[Event] = deque()
         self.atomic_events: deque[Event] = deque()
-        self.meta_events: deque[Event] = deque()  # `^!g[state(S)]`, before the others
         self.extras = Extras()
         self.runq: deque[Intention] = deque()
         self.intentions: dict[int, Intention] = {}

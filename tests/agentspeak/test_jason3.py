@@ -9,7 +9,7 @@ import pytest
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.errors import AslSyntaxError
-from mrss.agentspeak.terms import Struct, term_str
+from mrss.agentspeak.terms import ADD_ACH, GOAL_STATE, Struct, term_str
 
 
 class HoldingHost:
@@ -67,10 +67,10 @@ def test_goal_state_events_are_posted_only_for_predicates_with_a_meta_plan() -> 
     agent.run_until_idle()
     assert sorted(agent.beliefs()) == sorted(f"seen({s})[source(self)]" for s in
                                              ("pending", "executing", "achieved", "finished"))
-    plain = Agent("!b.\n+!b <- true.\n", file="p.asl", out=lambda line: None)
-    assert plain.plans.meta == 0
-    plain.step()
-    assert not plain.meta_events
+    meta_a = "+!a <- true.\n+!b <- true.\n^!a[state(S)] <- true.\n"
+    for goal, ops in (("a", [GOAL_STATE, ADD_ACH]), ("b", [ADD_ACH])):
+        queued = Agent(f"!{goal}.\n" + meta_a, file="q.asl", out=lambda line: None)
+        assert [ev.op for ev in queued.events] == ops  # `pending`, first, only for a
 
 
 def test_at_fires_on_the_agents_clock() -> None:
