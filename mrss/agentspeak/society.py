@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.agent import Agent, default_registry
+from mrss.agentspeak.directory import DF_NAME, Directory
 from mrss.agentspeak.formulas import compile_query
 from mrss.agentspeak.host import ConsoleHost
 from mrss.agentspeak.registry import IAContext, Registry
@@ -194,6 +195,9 @@ class Society:
         reg.register(".send", self._send, min_args=3, max_args=4)
         reg.register(".broadcast", self._broadcast, min_args=2, max_args=2)
         reg.register(".all_names", self._all_names, min_args=1, max_args=1)
+        self.directory = Directory(
+            lambda receiver, lit: self.deliver(DF_NAME, receiver, Performative.TELL, lit))
+        self.directory.register(reg)
         return reg
 
     def _perf(self, ctx: IAContext, t: Term) -> Performative:

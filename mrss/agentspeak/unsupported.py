@@ -9,8 +9,6 @@ from __future__ import annotations
 
 _AGENTS = ("agents are started and stopped by MRSS's supervisor and configuration, "
            "not by Jason's MAS infrastructure")
-_DF = ("the directory facilitator is a service of Jason's MAS infrastructure (JADE or "
-       "the centralised one); in MRSS agents address each other by name (.all_names)")
 _JAVA = ("{kind} hold a mutable Java object (an ObjectTerm) that AgentSpeak terms here "
          "cannot; use lists (.member, .union, .sort, ...)")
 _CONTROL = "it is the implementation of {syntax}; write {syntax} in the plan body"
@@ -18,7 +16,6 @@ _CONTROL = "it is the implementation of {syntax}; write {syntax} in the plan bod
 UNSUPPORTED: dict[str, str] = {
     ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
     ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
-    ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
     ".fork": "fork and join (|&| and |||) are not supported",
     ".join": "fork and join (|&| and |||) are not supported",
     ".if_then_else": _CONTROL.format(syntax="if (...) { ... }"),
@@ -33,7 +30,8 @@ _PREFIXES = {".set.": _JAVA.format(kind="Java sets"),
              ".queue.": _JAVA.format(kind="Java queues"),
              ".map.": _JAVA.format(kind="Java maps")}
 # only in a society of agents (`mrss agent a.asl b.asl`, or the reasoner's `agents`)
-SOCIETY_ONLY = (".send", ".broadcast", ".all_names")
+SOCIETY_ONLY = (".send", ".broadcast", ".all_names", ".df_register", ".df_deregister",
+                ".df_search", ".df_subscribe")
 _SOCIETY = ("it needs other agents: run several (mrss agent a.asl b.asl, or the "
             "reasoner component's agents list)")
 

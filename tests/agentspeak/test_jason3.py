@@ -92,7 +92,7 @@ def test_at_fires_on_the_agents_clock() -> None:
 @pytest.mark.parametrize(("call", "reason"), [
     (".set.create(S)", "Java sets hold a mutable Java object"),
     (".map.put(M, a, 1)", "Java maps hold a mutable Java object"),
-    (".df_register(fire)", "the directory facilitator is a service of Jason's"),
+    (".df_register(fire)", "it needs other agents: run several"),
     (".stopMAS", "agents are started and stopped by MRSS's supervisor"),
     (".signal(a, b)", "signals come from a Java environment"),
     (".foreach(b(X), true)", "it is the implementation of for (...)"),
