@@ -315,12 +315,11 @@ class Runtime:
     def pop_finished(self, it: Intention) -> None:
         stack = it.stack
         atomic_gone = False
-        meta = self.plans.meta
         while stack:
             im = stack[-1]
             if im.pc < len(im.code):
-                break
-            if meta:
+                break  # most calls: nothing to pop, no goal-state test
+            if self.plans.meta:
                 goalstates.popped(self, it, im)
             stack.pop()
             if im.plan.atomic:
