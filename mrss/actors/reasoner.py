@@ -25,6 +25,7 @@ wait, default 10), `heartbeat` (seconds, default 0.5), `query_timeout` (seconds)
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import sqlite3
@@ -36,10 +37,12 @@ from typing import Any, ClassVar
 
 from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
+from mrss.actors.reasoner_agents import ActionRouter, AgentHost, AgentSpec, agent_specs
 from mrss.actors.reasoner_host import ReasonerHost
 from mrss.agentspeak import Agent, AslSyntaxError
 from mrss.agentspeak.agent import read_program
 from mrss.agentspeak.loadcheck import load_problems, one_line
+from mrss.agentspeak.society import Society
 from mrss.bus import (
     BusEndpoints,
     Incarnations,
@@ -86,7 +89,7 @@ def unavailable_percept(robot: str) -> str:
 class Reasoner:
     """The agent, its host and its loop thread; bus-agnostic (tests drive it directly)."""
 
-    def __init__(self, agent_file: Path, *, name: str,
+    def __init__(self, agent_file: Path | None, *, name: str,
                  send_request: Callable[[ActionRequest], object],
                  send_control: Callable[[ActionControl], object],
                  data_call: Any = None, beliefs: list[str] | None = None,
@@ -94,22 +97,46 @@ class Reasoner:
                  on_tick: Callable[[], None] | None = None, tick: float = 0.5,
                  send_query: Callable[[ActionQuery], object] | None = None,
                  reconcile: float = 1.0, adopt_wait: float = 3.0,
-                 ledger: PerceptLedger | None = None) -> None:
+                 ledger: PerceptLedger | None = None,
+                 agents: list[AgentSpec] | None = None, base: Path | None = None) -> None:
+        """One agent from `agent_file` named `name`, or, with `agents`, several (their
+        files relative to `base`) in a society (see `reasoner_agents`)."""
         self.host = ReasonerHost(send_request, send_control, data_call, lease=lease,
                                  query_timeout=query_timeout, send_query=send_query,
                                  reconcile=reconcile, adopt_wait=adopt_wait)
-        self.agent = Agent.from_file(agent_file, host=self.host, name=name,
-                                     beliefs=beliefs or [], out=self._print)
-        self.host.agent = self.agent
+        self.society: Society | None = None
+        if agents:
+            self.society = Society(out=lambda line: log.info("%s: %s", name, line))
+            router = ActionRouter()
+            self.host.agent = router
+            for spec in agents:
+                view = AgentHost(self.host, router)
+                agent = Agent.from_file((base or Path.cwd()) / spec.file, host=view,
+                                        name=spec.name, beliefs=spec.beliefs,
+                                        actions=self.society.registry,
+                                        out=functools.partial(self._print_of, spec.name))
+                view.agent = agent
+                self.society.join(agent)
+            self.agents = list(self.society.agents.values())
+            self.agent = self.agents[0]
+        else:
+            if agent_file is None:
+                raise ValueError("Reasoner needs an agent file or agents")
+            self.agent = Agent.from_file(agent_file, host=self.host, name=name,
+                                         beliefs=beliefs or [], out=self._print)
+            self.host.agent = self.agent
+            self.agents = [self.agent]
         self.ledger = ledger
         self.rejections = RejectionLog(log, "percept")
         self._seen: OrderedDict[str, None] = OrderedDict()
         self._seen_lock = threading.Lock()
         if ledger is not None:
-            self.agent.on_percept_gone = ledger.remove
+            if self.society is None:  # with several agents the bus's word alone counts
+                self.agent.on_percept_gone = ledger.remove
             standing = ledger.standing()
             for literal in standing:  # what the previous incarnation perceived
-                self.agent.add_percept(literal)
+                for agent in self.agents:
+                    agent.add_percept(literal)
             if standing:
                 log.info("%s: %d standing percept(s) asserted again", name, len(standing))
         self.name = name
@@ -122,6 +149,16 @@ class Reasoner:
 
     def _print(self, line: str) -> None:
         log.info("%s: %s", self.name, line)
+
+    def _print_of(self, agent: str, line: str) -> None:
+        log.info("%s: [%s] %s", self.name, agent, line)
+
+    def mind_name(self, snapshot: dict[str, Any]) -> str:
+        """The name a snapshot is published under: the component's, or with several
+        agents `component.agent`."""
+        if self.society is None:
+            return self.name
+        return f"{self.name}.{snapshot.get('agent', '?')}"
 
     def start(self) -> None:
         self._thread.start()
@@ -138,15 +175,22 @@ class Reasoner:
         self.agent.wake()
 
     def _loop(self) -> None:
-        agent = self.agent
+        agents = self.agents
+        society = self.society
+        wait: Callable[[float], object] = agents[0].wait_for_work if society is None \
+            else society.wait_for_work
         while not self._stop.is_set():
             timeout = self._tick
-            deadline = agent.next_deadline()
-            if deadline is not None:
-                timeout = max(0.0, min(timeout, deadline - agent.clock()))
-            agent.wait_for_work(timeout)
+            for agent in agents:
+                deadline = agent.next_deadline()
+                if deadline is not None:
+                    timeout = max(0.0, min(timeout, deadline - agent.clock()))
+            wait(timeout)
             try:
-                agent.run_until_idle(max_cycles=10_000)
+                if society is None:
+                    agents[0].run_until_idle(max_cycles=10_000)
+                else:  # one cycle of each agent in turn
+                    society.run_cycles(max_rounds=10_000)
             except Exception:  # the agent must keep serving whatever one cycle did
                 log.exception("%s: reasoning cycle failed", self.name)
             self.host.reconcile()
@@ -155,7 +199,8 @@ class Reasoner:
                 self._on_tick()
             if self._snapshot_wanted.is_set() and self.snapshot_sink is not None:
                 self._snapshot_wanted.clear()
-                self.snapshot_sink(agent.snapshot(self.host.action_uuid))
+                for agent in agents:
+                    self.snapshot_sink(agent.snapshot(self.host.action_uuid))
 
     # ------------------------------------------------------------ inputs
     def on_message(self, env: Envelope) -> None:
@@ -210,10 +255,11 @@ class Reasoner:
             self._seen[msg_id] = None
             if len(self._seen) > SEEN_IDS:
                 self._seen.popitem(last=False)
-        if percept.op == "add":
-            self.agent.add_percept(literal)
-        else:
-            self.agent.remove_percept(literal)
+        for agent in self.agents:  # each agent perceives every percept
+            if percept.op == "add":
+                agent.add_percept(literal)
+            else:
+                agent.remove_percept(literal)
 
     def _on_sup(self, event: SupEvent) -> None:
         robot = event.detail.get("robot")
@@ -230,10 +276,11 @@ class Reasoner:
         except Rejected as exc:
             self.rejections.reject(robot, exc.reason, exc.detail)
             return
-        if unavailable:
-            self.agent.add_percept(literal)
-        else:
-            self.agent.remove_percept(literal)
+        for agent in self.agents:
+            if unavailable:
+                agent.add_percept(literal)
+            else:
+                agent.remove_percept(literal)
 
 
 class ReasonerComponent(Component):
@@ -243,6 +290,8 @@ class ReasonerComponent(Component):
     OPTIONS: ClassVar[tuple[Option, ...]] = (
         Option("agent", str, "agent.asl", "the AgentSpeak program", Check.PROJECT_FILE),
         Option("beliefs", list, [], "extra initial beliefs, as literal strings"),
+        Option("agents", list, None, "several agents instead of `agent`, as .mas2j lists "
+               "them: [{ name = \"a\", file = \"a.asl\", beliefs = [...] }, ...]"),
         Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
         Option("ledger", str, None, "percept ledger path (default in the run folder)"),
         Option("lease", float, 10.0, "seconds a waiting action survives a silent RCL",
@@ -265,13 +314,19 @@ class ReasonerComponent(Component):
 
     def start(self, ctx: ComponentContext) -> None:
         opts = ctx.options
+        specs = agent_specs(opts, ctx.project_dir)
         agent_file = ctx.project_dir / str(opts.get("agent", "agent.asl"))
-        if not agent_file.is_file():
-            raise ConfigError("agent file not found", file=str(agent_file), key="agent")
         beliefs = opts.get("beliefs", [])
-        if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
-            raise ConfigError("must be a list of belief strings", key="beliefs")
-        refuse_unloadable(agent_file, beliefs)  # before anything is started
+        if specs is None:
+            if not agent_file.is_file():
+                raise ConfigError("agent file not found", file=str(agent_file), key="agent")
+            if not isinstance(beliefs, list) or not all(isinstance(b, str) for b in beliefs):
+                raise ConfigError("must be a list of belief strings", key="beliefs")
+            refuse_unloadable(agent_file, beliefs)  # before anything is started
+        else:
+            for spec in specs:
+                refuse_unloadable(ctx.project_dir / spec.file, spec.beliefs, society=True,
+                                  key="agents")
         endpoints = BusEndpoints.from_dict(ctx.bus)
         publisher: Publisher = ctx.publisher
         self._tx = ReliableSender(endpoints, src=ctx.name, inc=ctx.incarnation,
@@ -295,7 +350,8 @@ class ReasonerComponent(Component):
             fresh=not restarted)
         try:
             reasoner = Reasoner(
-                agent_file, name=ctx.name, send_request=lambda r: tx.send(r),
+                agent_file if specs is None else None, name=ctx.name, agents=specs,
+                base=ctx.project_dir, send_request=lambda r: tx.send(r),
                 send_control=lambda c: tx.send(c),  # in order with its requests, resent
                 data_call=self._data.call,
                 beliefs=list(beliefs), lease=float(opts.get("lease", 10.0)),
@@ -304,8 +360,10 @@ class ReasonerComponent(Component):
                 reconcile=float(opts.get("reconcile", 1.0)),
                 adopt_wait=float(opts.get("adopt_wait", 3.0)), ledger=self._ledger)
         except AslSyntaxError as exc:
-            raise ConfigError(str(exc), file=str(agent_file), key="agent") from exc
-        reasoner.snapshot_sink = lambda snap: publisher.publish(_mind(ctx.name, snap))
+            raise ConfigError(str(exc), file=str(agent_file),
+                              key="agent" if specs is None else "agents") from exc
+        reasoner.snapshot_sink = lambda snap: publisher.publish(
+            _mind(reasoner.mind_name(snap), snap))
         self.reasoner = reasoner
         publisher.publish(heartbeat)  # announce this incarnation before anything else
         if restarted:
@@ -319,7 +377,10 @@ class ReasonerComponent(Component):
                                     channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
                                     incarnations=live)
         reasoner.start()
-        log.info("%s: reasoning on %s (incarnation %d)", ctx.name, agent_file, ctx.incarnation)
+        log.info("%s: reasoning on %s (incarnation %d)", ctx.name,
+                 agent_file if specs is None else ", ".join(f"{s.name} ({s.file})"
+                                                             for s in specs),
+                 ctx.incarnation)
 
     def stop(self) -> None:
         for closable in (self._rx, self._sub):
@@ -352,18 +413,20 @@ def _event_text(event: Any) -> str:
                                             else "")
 
 
-def refuse_unloadable(agent_file: Path, beliefs: list[str]) -> None:
+def refuse_unloadable(agent_file: Path, beliefs: list[str], *, society: bool = False,
+                      key: str = "agent") -> None:
     """ConfigError (one line, `file:line:col: message`) unless the program and the
     initial beliefs load: the check `mrss check` makes, so a bad program is refused at
-    start and not restarted (docs/supervision.md) instead of crashing in a loop."""
+    start and not restarted (docs/supervision.md) instead of crashing in a loop.
+    `society`: the program runs among others (`.send` and the like are known)."""
     try:
         text = read_program(agent_file)
     except OSError as exc:
         raise ConfigError(f"cannot read: {exc.strerror or exc}", file=str(agent_file),
-                          key="agent") from None
+                          key=key) from None
     except AslSyntaxError as exc:  # not UTF-8
-        raise ConfigError(one_line(exc.problems), key="agent") from None
-    problems = load_problems(text, str(agent_file), beliefs)
+        raise ConfigError(one_line(exc.problems), key=key) from None
+    problems = load_problems(text, str(agent_file), beliefs, society=society)
     if problems:
-        raise ConfigError(one_line(problems), key="agent" if problems[0].file != "beliefs"
-                          else "beliefs")
+        raise ConfigError(one_line(problems), key=key if problems[0].file != "beliefs"
+                          or society else "beliefs")

@@ -284,6 +284,12 @@ class BeliefBase:
         rule.seq = s.seq
         s.rules.append(rule)
 
+    def remove_rule(self, head: Struct, rule: Rule) -> None:
+        """Remove `rule` (of the predicate of `head`)."""
+        s = self.preds.get((head.functor, len(head.args), head.neg))
+        if s is not None and rule in s.rules:
+            s.rules.remove(rule)
+
     def __iter__(self) -> Iterator[Struct]:
         for s in self.preds.values():
             yield from s.facts()

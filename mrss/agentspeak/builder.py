@@ -30,6 +30,7 @@ from mrss.agentspeak.terms import (
     DEL_ACH,
     DEL_BEL,
     DEL_TEST,
+    GOAL_STATE,
     AnnotTail,
     Expr,
     PlanTerm,
@@ -41,8 +42,9 @@ from mrss.agentspeak.terms import (
     VarAnnot,
 )
 
+DEFAULT_NS = "default::"  # `default::b` is `b`
 TRIGGER_OPS = {"+": ADD_BEL, "-": DEL_BEL, "+!": ADD_ACH, "-!": DEL_ACH,
-               "+?": ADD_TEST, "-?": DEL_TEST}
+               "+?": ADD_TEST, "-?": DEL_TEST, "^!": GOAL_STATE}
 
 
 
@@ -125,14 +127,17 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def literal(self, c: list[Any]) -> Term:
         neg = False
         name = ""
+        ns = ""
         args: list[Term] = []
         annots: list[Term] = []
         for x in c:
             if isinstance(x, Token):
                 if x.type == "NEG":
                     neg = True
+                elif x.type == "NS":  # `ns::b`: the namespace is part of the predicate
+                    ns = "" if str(x) == DEFAULT_NS else str(x)
                 else:
-                    name = str(x)
+                    name = ns + str(x)
             elif isinstance(x, tuple) and x[0] == "args":
                 args = x[1]
             elif isinstance(x, tuple):
@@ -167,6 +172,9 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         return PlanTerm(PlanSrc(label[1] if label else None, op, lit,
                                 ctx[1] if ctx else None, body[1] if body else [],
                                 self._line(meta), 0, label[2] if label else ()), False)
+
+    def rule_term(self, c: list[Any]) -> Term:
+        return Struct(":-", (c[0], c[2]))
 
     def and_(self, c: list[Term]) -> Term:
         return Struct("&", (c[0], c[1]))

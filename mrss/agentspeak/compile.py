@@ -36,6 +36,7 @@ from mrss.agentspeak.instructions import (
 )
 from mrss.agentspeak.plans import Plan
 from mrss.agentspeak.registry import Registry
+from mrss.agentspeak.rulechange import AddRule, DelRule, is_rule_term
 from mrss.agentspeak.syntax import (
     BeliefSrc,
     BodyItem,
@@ -59,22 +60,7 @@ from mrss.agentspeak.terms import (
     term_str,
 )
 from mrss.agentspeak.unify import resolve
-
-# Jason's internal actions that this interpreter leaves out, and why
-_COMMUNICATION = "agent communication needs a society: mrss agent a.asl b.asl ..."
-_DF = "the directory facilitator"
-_PLANS = "changing the plan library"
-_AGENTS = "creating and stopping agents"
-JASON_UNSUPPORTED = {
-    ".send": _COMMUNICATION, ".broadcast": _COMMUNICATION, ".all_names": _COMMUNICATION,
-    ".df_register": _DF, ".df_deregister": _DF, ".df_search": _DF, ".df_subscribe": _DF,
-    ".relevant_plan": _PLANS, ".list_plans": _PLANS,
-    ".intention": "intention introspection", ".current_intention": "intention introspection",
-    ".create_agent": _AGENTS, ".kill_agent": _AGENTS, ".clone": _AGENTS,
-    ".save_agent": _AGENTS, ".stopMAS": _AGENTS,
-    ".include": "directives", ".namespace": "namespaces",
-    ".fork": "fork and join", ".join": "fork and join",
-}
+from mrss.agentspeak.unsupported import unknown_action_message
 
 
 @dataclass
@@ -144,9 +130,7 @@ class _Compiler:
     def _ia(self, lit: Struct, line: int, col: int = 0) -> Any:
         ia = self.registry.get(lit.functor)
         if ia is None:
-            why = JASON_UNSUPPORTED.get(lit.functor)
-            self.problem(line, f"internal action {lit.functor} is not supported ({why})"
-                         if why else f"unknown internal action {lit.functor}", col)
+            self.problem(line, unknown_action_message(lit.functor), col)
             return None
         n = len(lit.args)
         if n < ia.min_args or (ia.max_args is not None and n > ia.max_args):
@@ -209,6 +193,9 @@ class _Compiler:
             code.append(Achieve(with_self_source(t), line))
         elif kind == "achieve_new":
             code.append(AchieveNew(with_self_source(t), line))
+        elif kind in ("add", "add_end", "del") and is_rule_term(t):
+            self._check_ias(t.args[1], line)
+            code.append(AddRule(t, line) if kind != "del" else DelRule(t, line))
         elif kind in ("add", "add_end"):
             code.append(AddBelief(with_self_source(t), kind == "add", line))
         elif kind == "del":

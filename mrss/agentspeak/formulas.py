@@ -339,7 +339,9 @@ def compile_query(t: Term, registry: Registry) -> Query:
         if s.functor.startswith("."):
             ia = registry.get(s.functor)
             if ia is None:
-                raise AslRuntimeError(f"unknown internal action {s.functor}")
+                from mrss.agentspeak.unsupported import unknown_action_message
+
+                raise AslRuntimeError(unknown_action_message(s.functor))
             return IAQuery(ia, s.args, registry)
         return LiteralQuery(s)
     if tt is Slot or tt is Var or tt is VarAnnot:

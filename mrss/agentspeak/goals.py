@@ -11,8 +11,10 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak import goalstates
 from mrss.agentspeak.depth import depth_message
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.goalstates import GoalState
 from mrss.agentspeak.intentions import (
     PENDING_EVENT,
     RUNNABLE,
@@ -79,11 +81,14 @@ def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str,
                 break
             i -= 1
     where = f"{file}:{line}"
+    if rt.plans.meta:
+        _failed_states(rt, it, error, virtual, target if goal is not None else 0,
+                       start, goal is None)
     if goal is None:
         failed = virtual if virtual is not None else (stack[-1].lit if stack else None)
         what = f" (+!{term_str(failed)})" if failed is not None else ""
         rt.warn(f"{where}: {message}; no -! plan handles it, intention {it.id} dropped{what}")
-        rt.drop(it)
+        rt.drop(it, meta=False)
         return
     extra: tuple[Term, ...] = ()
     if error is not None:
@@ -97,6 +102,32 @@ def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str,
     ev.error = (error, message, file, line, annots)
     it.state = PENDING_EVENT
     rt.post(ev)
+
+
+def _failed_states(rt: Runtime, it: Intention, error: str | None, virtual: Struct | None,
+                   down_to: int, start: int | None, dropped: bool) -> None:
+    """Goal states of a failure: `failed` for each goal that fails (the one that found
+    no plan, then the stack from the top, or from `start`, down to the handled goal);
+    when no `-!g` plan handles it, `finished` for each as its intention goes."""
+    reason: Term = "" if error is None else Struct(
+        error + "_plan" if error in ("no_relevant", "no_applicable") else error)
+    top = len(it.stack) - 1 if start is None else start
+    failing = ([virtual] if virtual is not None else []) + [
+        it.stack[i].lit for i in range(top, down_to - 1, -1) if it.stack[i].op == ADD_ACH]
+    for g in failing:
+        goalstates.emit(rt, g, GoalState.FAILED, reason)
+    if dropped:
+        for i in range(len(it.stack) - 1, top, -1):  # above `start`: an active -!g plan
+            if it.stack[i].op == ADD_ACH:
+                goalstates.emit(rt, it.stack[i].lit, GoalState.FINISHED)
+        for g in failing:
+            goalstates.emit(rt, g, GoalState.FINISHED)
+        for i in range(down_to - 1, -1, -1):
+            if it.stack[i].op == ADD_ACH:
+                goalstates.emit(rt, it.stack[i].lit, GoalState.FAILED, reason)
+                goalstates.emit(rt, it.stack[i].lit, GoalState.FINISHED)
+    elif virtual is not None and down_to == len(it.stack):
+        goalstates.emit(rt, virtual, GoalState.FINISHED)
 
 
 def no_applicable_plan(rt: Runtime, ev: Event, relevant: bool) -> None:
@@ -131,6 +162,8 @@ def park(rt: Runtime, it: Intention, w: Any) -> None:
         rt.event_waiters.append(it)
     if w.deadline is not None:
         rt.add_timer(w.deadline, it, w.token)
+    if rt.plans.meta:
+        goalstates.emit_top(rt, it, GoalState.WAITING, Struct("wait", (w.what,)))
 
 
 def resume(rt: Runtime, it: Intention, now: float) -> None:
@@ -141,6 +174,8 @@ def resume(rt: Runtime, it: Intention, now: float) -> None:
     if w is not None and w.elapsed is not None:
         trail: list[Any] = []
         unify(w.elapsed, None, int(round((now - w.started) * 1000)), trail)
+    if rt.plans.meta and not it.suspended:  # else `.resume` resumes it
+        goalstates.emit_top(rt, it, GoalState.RESUMED)
     rt.pop_finished(it)
 
 
@@ -224,6 +259,8 @@ def _detach(rt: Runtime, it: Intention) -> None:
 def succeed_goal(rt: Runtime, it: Intention, index: int) -> None:
     """Pop down to and including the goal at `index`; its caller continues."""
     _detach(rt, it)
+    if rt.plans.meta:
+        goalstates.emit_stack(rt, it, goalstates.DONE, index)
     del it.stack[index:]
     if not it.stack:
         rt.finish(it)

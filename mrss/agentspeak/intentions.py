@@ -39,7 +39,7 @@ class WaitInfo:
     """What a `.wait` waits for: a deadline, an event trigger, or a condition."""
 
     __slots__ = ("token", "trigger", "query", "frame", "deadline", "elapsed", "started",
-                 "fail_on_timeout", "text")
+                 "fail_on_timeout", "text", "what")
 
     def __init__(self, token: int, text: str) -> None:
         self.token = token
@@ -51,6 +51,7 @@ class WaitInfo:
         self.started = 0.0
         self.fail_on_timeout = False
         self.text = text
+        self.what: Term = text  # what it waits for, for the goal state `waiting`
 
 
 class Intention:

@@ -15,11 +15,19 @@ from mrss.agentspeak.errors import AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.host import ConsoleHost
 
 
-def load_problems(text: str, file: str, beliefs: Sequence[str] = ()) -> list[SyntaxProblem]:
-    """The problems that stop `text` (from `file`) loading as an agent; [] if it loads."""
+def load_problems(text: str, file: str, beliefs: Sequence[str] = (),
+                  society: bool = False) -> list[SyntaxProblem]:
+    """The problems that stop `text` (from `file`) loading as an agent; [] if it loads.
+    `society`: it runs among other agents, so `.send`, `.broadcast` and `.all_names`
+    are known."""
+    registry = None
+    if society:
+        from mrss.agentspeak.society import Society
+
+        registry = Society(out=lambda line: None).registry
     try:
         Agent(text, file=file, host=ConsoleHost(lambda line: None), beliefs=beliefs,
-              out=lambda line: None)
+              out=lambda line: None, actions=registry)
     except AslSyntaxError as exc:
         return list(exc.problems)
     return []

@@ -9,7 +9,9 @@ statement does not hide the errors of the others.
 from __future__ import annotations
 
 import functools
+import os
 import re
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -32,13 +34,33 @@ _TOKEN_TEXT = {
     "IA_NAME": "an internal action", "TRIGGER_OP": "a triggering event",
     "REL_OP": "a relational operator", "PLUS": "+", "MUL_OP": "*, /, div or mod",
     "ADD_BEL_OP": "+< or +>", "REPLACE_OP": "-+", "POW": "**", "$END": "end of statement",
+    "NS": "a namespace",
 }
+
+
+def _cache_file() -> str | bool:
+    """Where lark keeps the parser tables it builds from the grammar (building them is
+    most of the start-up of `mrss agent`): a folder of this user only, never a shared
+    temporary folder (the cache is a pickle). False (no cache) when it cannot be made."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    folder = Path(base) / "mrss"
+    try:
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        if folder.stat().st_uid != os.getuid() or folder.stat().st_mode & 0o022:
+            return False
+    except (OSError, RuntimeError):  # RuntimeError: no home folder
+        return False
+    return str(folder / f"agentspeak-grammar-lark{lark.__version__}-py"
+                        f"{sys.version_info[0]}{sys.version_info[1]}.cache")
 
 
 @functools.lru_cache(maxsize=1)
 def _lark() -> lark.Lark:
     grammar = (Path(__file__).parent / "grammar.lark").read_text(encoding="utf-8")
-    return lark.Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True)
+    # the cache holds a digest of the grammar and options: a changed grammar rebuilds it;
+    # an unreadable or half-written one is rebuilt too (lark logs nothing at its level)
+    return lark.Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True,
+                     cache=_cache_file())
 
 
 # ------------------------------------------------------------------------------ splitting
@@ -148,11 +170,11 @@ def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None
         return None
     here = chunk[pos:pos + 3]
     if here.startswith("^"):
-        return "goal-state meta-events (^!g[state(S)]) are not supported"
+        return "goal-state meta-events of test goals (^?g) are not supported; ^!g is"
     if here in ("|&|", "|||"):
         return "fork and join (|&| and |||) are not supported"
     if here.startswith("::"):
-        return "namespaces (ns::literal) are not supported"
+        return "a namespace must be an atom (ns::b); variable namespaces (X::b) are not supported"
     return None
 
 

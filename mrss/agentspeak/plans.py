@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.closures import tester
-from mrss.agentspeak.terms import OP_TEXT, Slot, Struct, Term, term_str
+from mrss.agentspeak.terms import GOAL_STATE, OP_TEXT, Slot, Struct, Term, term_str
 
 if TYPE_CHECKING:
     from mrss.agentspeak.formulas import Query
@@ -82,6 +82,7 @@ class PlanLibrary:
         self.index: dict[PlanKey, list[Plan]] = {}
         self.labels: dict[str, Plan] = {}  # by the label's functor, as in Jason
         self._auto = 0
+        self.meta = 0  # how many plans handle goal-state meta-events (`^!g`)
 
     def _label(self, plan: Plan, source: Term) -> None:
         if plan.label is not None:
@@ -99,6 +100,8 @@ class PlanLibrary:
     def add(self, plan: Plan, begin: bool = False, source: Term = SELF) -> None:
         """Add `plan` after all others (or, with `begin`, before all others)."""
         self._label(plan, source)
+        if plan.op == GOAL_STATE:
+            self.meta += 1
         if begin:
             self.plans.insert(0, plan)  # new lists: an event may be iterating the old
             self.index[plan.key] = [plan] + self.index.get(plan.key, [])
@@ -113,6 +116,8 @@ class PlanLibrary:
         if plan.plabel is not None and self.labels.get(plan.plabel.functor) is plan:
             del self.labels[plan.plabel.functor]
         self.plans.remove(plan)
+        if plan.op == GOAL_STATE:
+            self.meta -= 1
         same = [p for p in self.index[plan.key] if p is not plan]
         if same:
             self.index[plan.key] = same

@@ -8,7 +8,8 @@ Jason's transition rules (Bordini et al., "Programming Multi-Agent Systems in
 AgentSpeak using Jason", formal semantics) and where each one is:
 
 - SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
-  an `[atomic]` intention runs, its own `atomic_events`).
+  an `[atomic]` intention runs, its own `atomic_events`; goal-state meta-events
+  `^!g[state(S)]` are put at the front of `events`: see `goalstates`).
 - RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
   functor, arity and negation), then trigger unification in `Runtime.handle_event`.
 - ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
@@ -34,7 +35,7 @@ from collections import deque
 from collections.abc import Callable, Hashable
 from typing import Any, Protocol
 
-from mrss.agentspeak import goals
+from mrss.agentspeak import goals, goalstates
 from mrss.agentspeak.beliefs import BeliefBase
 from mrss.agentspeak.depth import DEPTH_ERROR, depth_message
 from mrss.agentspeak.errors import AslRuntimeError
@@ -80,6 +81,19 @@ class Host(Protocol):
     def cancel(self, handle: Hashable) -> None: ...
 
 
+class Extras:
+    """The rarely used parts of the circumstance, kept off the agent object: CPython
+    gives an object of more than about 30 attributes slower attribute access, which
+    costs every reasoning cycle some 10% (measured with `mrss bench reasoner`)."""
+
+    __slots__ = ("suspended_events", "ns_props")
+
+    def __init__(self) -> None:
+        self.suspended_events: list[Event] = []  # goal events held by `.suspend(G)`
+        # `.namespace_set_prop`: namespace -> key text -> (key, value), in the order set
+        self.ns_props: dict[str, dict[str, tuple[Term, Term]]] = {}
+
+
 class Runtime:
     """State and transitions of one agent; not thread-safe (see `Agent`)."""
 
@@ -95,13 +109,15 @@ class Runtime:
         self.trail: list[Any] = []
         self.events: deque[Event] = deque()
         self.atomic_events: deque[Event] = deque()
+        self.extras = Extras()
         self.runq: deque[Intention] = deque()
         self.intentions: dict[int, Intention] = {}
         self.pending_actions: dict[Hashable, Intention] = {}
         self.completed: deque[tuple[Hashable, bool, str | None, Term | None, str | None]] = \
             deque()
         self.open_actions: frozenset[str] = frozenset(getattr(host, "open_actions", ()))
-        self.timers: list[tuple[float, int, Intention, int]] = []
+        # `.wait` deadlines (intention, token) and `.at` events (None, the event)
+        self.timers: list[tuple[float, int, Any, Any]] = []
         self.event_waiters: list[Intention] = []
         self.atomic: Intention | None = None
         self.cycle = 0
@@ -152,9 +168,13 @@ class Runtime:
         it.state = PENDING_EVENT
         it.line = line
         self.post(Event(op, lit, it, tail))
+        if self.plans.meta and op == ADD_ACH:
+            goalstates.emit(self, lit, goalstates.GoalState.PENDING)
 
     def post_goal(self, lit: Struct, it: Intention | None) -> None:
         self.post(Event(ADD_ACH, lit, it))
+        if self.plans.meta:
+            goalstates.emit(self, lit, goalstates.GoalState.PENDING)
 
     def belief_changed(self, op: int, lit: Struct, it: Intention | None) -> None:
         """Post `+b`/`-b` if some plan or `.wait` could react; a body's own belief event
@@ -232,6 +252,8 @@ class Runtime:
             goals.no_applicable_plan(self, ev, relevant)
             return
         im = IntendedMeans(chosen, frame, lit, ev.op)
+        if self.plans.meta and ev.op == ADD_ACH:
+            goalstates.emit(self, lit, goalstates.GoalState.EXECUTING)
         if it is None:
             it = self.new_intention()
         else:
@@ -244,6 +266,8 @@ class Runtime:
                 if (top.op == ADD_ACH and top.fail_target is None and top.pc >= len(top.code)
                         and tl.functor == lit.functor and len(tl.args) == len(lit.args)
                         and (DEL_ACH, tl.functor, len(tl.args), tl.neg) not in self.plans.index):
+                    if self.plans.meta:
+                        goalstates.emit_stack(self, it, goalstates.DONE, len(stack) - 1)
                     stack.pop()  # tail-recursion optimisation: replace, don't stack
         it.stack.append(im)
         if chosen.atomic and self.atomic is None:
@@ -294,7 +318,9 @@ class Runtime:
         while stack:
             im = stack[-1]
             if im.pc < len(im.code):
-                break
+                break  # most calls: nothing to pop, no goal-state test
+            if self.plans.meta:
+                goalstates.popped(self, it, im)
             stack.pop()
             if im.plan.atomic:
                 atomic_gone = True
@@ -321,6 +347,9 @@ class Runtime:
         it.action_lit = lit
         it.line = line
         self.pending_actions[handle] = it
+        if self.plans.meta:
+            goalstates.emit_top(self, it, goalstates.GoalState.WAITING,
+                                Struct("action", (lit,)))
 
     def process_completion(self, handle: Hashable, ok: bool, reason: str | None,
                            result: Term | None = None, error: str | None = None) -> None:
@@ -332,6 +361,8 @@ class Runtime:
         if ok and result is not None and lit is not None and not unify(lit, None, result, []):
             ok, reason = False, f"result {term_str(result)} does not match {term_str(lit)}"
         if ok:
+            if self.plans.meta and not it.suspended:  # else `.resume` resumes it
+                goalstates.emit_top(self, it, goalstates.GoalState.RESUMED)
             self.make_runnable(it)
             self.pop_finished(it)
         else:
@@ -356,12 +387,17 @@ class Runtime:
     def add_timer(self, deadline: float, it: Intention, token: int) -> None:
         heapq.heappush(self.timers, (deadline, next(self._seq), it, token))
 
+    def add_event_at(self, deadline: float, ev: Event) -> None:
+        """Post `ev` when the clock reaches `deadline` (`.at`)."""
+        heapq.heappush(self.timers, (deadline, next(self._seq), None, ev))
+
     def next_deadline(self) -> float | None:
         """The earliest `.wait` deadline (clock seconds), skipping stale timers."""
         timers = self.timers
         while timers:
             _, _, it, token = timers[0]
-            if it.wait is not None and it.wait.token == token and not it.dropped:
+            if it is None or (it.wait is not None and it.wait.token == token
+                              and not it.dropped):
                 return timers[0][0]
             heapq.heappop(timers)
         return None
@@ -371,7 +407,13 @@ class Runtime:
         timers = self.timers
         while timers and timers[0][0] <= now:
             _, _, it, token = heapq.heappop(timers)
-            if it.wait is not None and it.wait.token == token and not it.dropped:
+            if it is None:  # `.at`: its event is due
+                if token.op == ADD_ACH:
+                    self.post_goal(token.lit, None)
+                else:
+                    self.post(token)
+                fired = True
+            elif it.wait is not None and it.wait.token == token and not it.dropped:
                 goals.wait_timeout(self, it, now)
                 fired = True
         return fired
@@ -398,10 +440,13 @@ class Runtime:
                 out.append(resolve(a, frame))
         return out
 
-    def drop(self, it: Intention, state: str = DROPPED) -> None:
-        """Remove intention `it` wherever it is; its running action is cancelled."""
+    def drop(self, it: Intention, state: str = DROPPED, meta: bool = True) -> None:
+        """Remove intention `it` wherever it is; its running action is cancelled. Its
+        goals get the goal states dropped and finished (unless `meta` is False)."""
         if it.dropped:
             return
+        if meta and self.plans.meta:
+            goalstates.emit_stack(self, it, goalstates.ENDED)
         it.dropped = True
         self.cancel_action(it)
         if it.wait is not None:

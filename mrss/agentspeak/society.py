@@ -12,12 +12,14 @@ from the receiver's beliefs at once and unified with it; no answer is `false`).
 from __future__ import annotations
 
 import enum
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.agent import Agent, default_registry
+from mrss.agentspeak.directory import DF_NAME, Directory
 from mrss.agentspeak.formulas import compile_query
 from mrss.agentspeak.host import ConsoleHost
 from mrss.agentspeak.registry import IAContext, Registry
@@ -101,6 +103,7 @@ class Society:
         self.agents: dict[str, Agent] = {}
         self.out = out
         self.registry = self._registry()
+        self._cond = threading.Condition()  # shared by the agents: input to any wakes
 
     def add(self, path: Path, source: str, name: str) -> Agent:
         prefix = f"[{name}] "
@@ -108,9 +111,54 @@ class Society:
         agent = Agent(source, file=str(path), host=host, name=name, actions=self.registry,
                       out=lambda s: self.out(prefix + s))
         host.agent = agent
+        return self.join(agent)
+
+    def join(self, agent: Agent) -> Agent:
+        """Make `agent` (built with `actions=self.registry`, before any thread feeds it)
+        one of the society."""
+        if agent.name in self.agents:
+            raise ValueError(f"two agents named {agent.name!r}")
         agent.society = self
-        self.agents[name] = agent
+        agent._cond = self._cond
+        self.agents[agent.name] = agent
         return agent
+
+    def wait_for_work(self, timeout: float) -> bool:
+        """Block until some agent has work (input, a due `.wait`), one is woken, or
+        `timeout` seconds pass; True if there is work."""
+        agents = list(self.agents.values())
+        end = time.monotonic() + timeout
+        with self._cond:
+            while not any(a.has_work() for a in agents):
+                woken = [a for a in agents if a._woken]
+                if woken:
+                    for a in woken:
+                        a._woken = False
+                    return False
+                remaining = end - time.monotonic()
+                for a in agents:
+                    deadline = a.next_deadline()
+                    if deadline is not None:
+                        remaining = min(remaining, max(deadline - a.clock(), 0.0))
+                if remaining <= 0:
+                    return any(a.has_work() for a in agents)
+                self._cond.wait(remaining)
+            return True
+
+    def run_cycles(self, max_rounds: int | None = None) -> int:
+        """Round-robin cycles (one of each agent, in order) until none is busy; returns
+        the number of rounds in which one was."""
+        agents = list(self.agents.values())
+        rounds = 0
+        while True:
+            busy = False
+            for agent in agents:
+                busy = agent.step() or busy
+            if not busy:
+                return rounds
+            rounds += 1
+            if max_rounds is not None and rounds >= max_rounds:
+                return rounds
 
     def deliver(self, sender: str, receiver: str, perf: Performative, content: Term) -> bool:
         agent = self.agents.get(receiver)
@@ -147,6 +195,9 @@ class Society:
         reg.register(".send", self._send, min_args=3, max_args=4)
         reg.register(".broadcast", self._broadcast, min_args=2, max_args=2)
         reg.register(".all_names", self._all_names, min_args=1, max_args=1)
+        self.directory = Directory(
+            lambda receiver, lit: self.deliver(DF_NAME, receiver, Performative.TELL, lit))
+        self.directory.register(reg)
         return reg
 
     def _perf(self, ctx: IAContext, t: Term) -> Performative:

@@ -19,8 +19,8 @@ Term: TypeAlias = (
     " | PlanTerm | tuple[Term, ...]")
 
 # Trigger operators (the kind of an event).
-ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST = range(6)
-OP_TEXT = ("+", "-", "+!", "-!", "+?", "-?")
+ADD_BEL, DEL_BEL, ADD_ACH, DEL_ACH, ADD_TEST, DEL_TEST, GOAL_STATE = range(7)
+OP_TEXT = ("+", "-", "+!", "-!", "+?", "-?", "^!")  # GOAL_STATE: Jason 3's ^!g[state(S)]
 
 _var_ids = itertools.count(1)
 
@@ -366,7 +366,8 @@ def term_str(t: Term, top: bool = False) -> str:
         elif s.functor == "not" and len(s.args) == 1:
             text = f"not ({term_str(s.args[0])})"
         else:
-            text = ("~" if s.neg else "") + s.functor
+            text = ("~" + s.functor if "::" not in s.functor else  # ns::~b
+                    s.functor.replace("::", "::~", 1)) if s.neg else s.functor
             if s.args:
                 text += "(" + ",".join([term_str(a) for a in s.args]) + ")"
         if s.annots:

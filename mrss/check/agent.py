@@ -50,9 +50,17 @@ class AgentUses:
     beliefs: int = 0
     lines: int = 0
 
+    def merged(self, other: AgentUses) -> AgentUses:
+        """What two agents of the project use together (this one's file named)."""
+        return AgentUses(self.file, self.actions + other.actions,
+                         self.queries + other.queries, self.triggers + other.triggers,
+                         self.beliefs + other.beliefs, self.lines + other.lines)
 
-def read_agent(path: Path, report: Report, beliefs: Sequence[str] = ()) -> AgentUses | None:
-    """Parse agent.asl; syntax errors go to the report and give None."""
+
+def read_agent(path: Path, report: Report, beliefs: Sequence[str] = (),
+               society: bool = False) -> AgentUses | None:
+    """Parse agent.asl; syntax errors go to the report and give None. `society`: the
+    program runs among other agents (the reasoner's `agents`)."""
     try:
         text = read_program(path)
     except OSError as exc:
@@ -64,7 +72,7 @@ def read_agent(path: Path, report: Report, beliefs: Sequence[str] = ()) -> Agent
         problems = []
     program = parse_program(text, file=str(path), collect=problems)
     if not problems:  # the whole load: what parses may still not compile
-        problems = load_problems(text, str(path), beliefs)
+        problems = load_problems(text, str(path), beliefs, society=society)
     for p in problems:
         caret = " " * (max(p.col, 1) - 1) + "^"
         report.error(p.file, p.message, line=p.line, col=p.col, check="agent",

@@ -22,6 +22,7 @@ from mrss.check.findings import Report, did_you_mean
 from mrss.check.nodes import check_nodes
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
+from mrss.check.reasoner_agents import check_agents
 from mrss.check.recipes import (
     check_actions,
     check_recipe_skills,
@@ -106,19 +107,25 @@ def _missing_class(target: str) -> str | None:
 
 
 def _agent(config: ProjectConfig, report: Report) -> AgentUses | None:
-    files = {str(c.options.get("agent", "agent.asl")) for c in _running(config, REASONER)}
-    if not files and (config.directory / "agent.asl").is_file():
+    files = {str(c.options.get("agent", "agent.asl")) for c in _running(config, REASONER)
+             if c.options.get("agents") is None}
+    society: dict[str, list[str]] = {}  # file -> initial beliefs, of agents in a society
+    for comp in _running(config, REASONER):
+        for spec in check_agents(config, comp, report) or []:
+            society.setdefault(spec.file, []).extend(spec.beliefs)
+    if not files and not society and (config.directory / "agent.asl").is_file():
         files = {"agent.asl"}
         report.warning(str(config.directory / "agent.asl"), "no reasoner component runs it",
                        check="agent")
     uses = None
-    for name in sorted(files):
+    for name in sorted(files | set(society)):
         path = config.directory / name
         if not path.is_file():
             continue  # the reasoner's `agent` option says so
-        found = read_agent(path, report, _beliefs(config, name))
+        found = read_agent(path, report, _beliefs(config, name) + society.get(name, []),
+                           society=name in society)
         if found is not None:
-            uses = found
+            uses = found if uses is None else uses.merged(found)
             report.summary.append(f"  agent {name}: {found.lines} lines, {found.beliefs} "
                                   f"initial beliefs, actions "
                                   f"{_names(found.actions)}, queries {_names(found.queries)}")

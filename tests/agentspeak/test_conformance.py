@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,7 @@ import pytest
 
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.host import ConsoleHost, run_standalone
+from mrss.agentspeak.stdlib import STDLIB
 
 HERE = Path(__file__).parent / "conformance"
 PROGRAMS = sorted(p.stem for p in HERE.glob("*.asl"))
@@ -44,6 +46,14 @@ def test_conformance_suite_covers_every_internal_action_of_the_issue() -> None:
     text = "\n".join(p.read_text(encoding="utf-8") for p in HERE.glob("*.asl"))
     missing = [r for r in required if r + "(" not in text and r + ";" not in text
                and r + "." not in text and r + "\n" not in text]
+    assert missing == [], missing
+
+
+def test_every_internal_action_of_the_library_is_in_a_conformance_program() -> None:
+    text = "\n".join(p.read_text(encoding="utf-8")
+                     for p in [*HERE.glob("*.asl"), *HERE.glob("societies/**/*.asl")])
+    missing = [name for name in STDLIB.names()
+               if not re.search(re.escape(name) + r"(?![A-Za-z0-9_])", text)]
     assert missing == [], missing
 
 

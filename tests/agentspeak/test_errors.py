@@ -146,9 +146,9 @@ UNSUPPORTED = """\
 { begin namespace(x) }
 !start.
 +!start <- !a |&| !b.
-^!g[state(S)] <- .print(S).
-+!n <- ns::b(1).
-+!m <- .list_plans.
+^?g[state(S)] <- .print(S).
++!n <- X::b(1).
++!m <- .create_agent(bob, "bob.asl").
 +!s <- .send(bob, tell, hi).
 """
 
@@ -161,11 +161,13 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
         (1, 1, 'directives other than {include("file.asl")} ({begin ...}, ...) are not '
                'supported'),
         (3, 15, "fork and join (|&| and |||) are not supported"),
-        (4, 1, "goal-state meta-events (^!g[state(S)]) are not supported"),
-        (5, 10, "namespaces (ns::literal) are not supported"),
-        (6, 8, "internal action .list_plans is not supported (changing the plan library)"),
-        (7, 8, "internal action .send is not supported (agent communication needs a "
-         "society: mrss agent a.asl b.asl ...)"),
+        (4, 1, "goal-state meta-events of test goals (^?g) are not supported; ^!g is"),
+        (5, 9, "a namespace must be an atom (ns::b); variable namespaces (X::b) are not "
+               "supported"),
+        (6, 8, "`.create_agent` is not supported: agents are started and stopped by MRSS's "
+               "supervisor and configuration, not by Jason's MAS infrastructure"),
+        (7, 8, "`.send` is not supported: it needs other agents: run several (mrss agent "
+               "a.asl b.asl, or the reasoner component's agents list)"),
     ]
 
 
@@ -225,3 +227,22 @@ def test_errors_in_an_included_file_name_that_file_and_line(tmp_path: Path) -> N
     main.write_text('{ include("lib.asl") }\n!f.\n')
     agent = Agent(file=main)
     assert next(iter(agent.plans.plans)).file == str(tmp_path / "lib.asl")
+
+
+def test_a_broken_parser_cache_is_rebuilt_without_a_word(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    from mrss.agentspeak import parser
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    try:
+        parser._lark.cache_clear()
+        parser._lark()  # builds the tables and writes the cache
+        (cache,) = (tmp_path / "mrss").iterdir()
+        assert (tmp_path / "mrss").stat().st_mode & 0o777 == 0o700
+        cache.write_bytes(b"garbage\n\x80\x04not a pickle")
+        parser._lark.cache_clear()
+        assert parser.parse_literal("p(X, 1)[a]").functor == "p"  # rebuilt, and works
+    finally:
+        parser._lark.cache_clear()
+    assert capfd.readouterr() == ("", "")

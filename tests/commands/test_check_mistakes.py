@@ -87,6 +87,14 @@ MISTAKES = [
     Mistake("agent file missing", "project.toml", "[components.reasoner]",
             '[components.reasoner]\nagent = "flood.asl"', "flood.asl",
             r"no file 'flood.asl' in the project folder"),
+    Mistake("agents entry key misspelt", "project.toml", "[components.reasoner]",
+            '[components.reasoner]\nagents = [\n  { name = "main", file = "agent.asl" },\n'
+            '  { name = "helper", fil = "agent.asl" },\n]', "fil =",
+            r"agent 2 of agents: unknown key 'fil' of an agent; did you mean 'file'\?"),
+    Mistake("agents entry named twice", "project.toml", "[components.reasoner]",
+            '[components.reasoner]\nagents = [{ name = "main", file = "agent.asl" },\n'
+            '  { name = "main", file = "agent.asl" }]', '{ name = "main", file = "agent.asl" }]',
+            r"agent 2 of agents: two agents are named 'main'"),
     Mistake("bus option misspelt", "project.toml", "", '\n[bus]\ntransprt = "tcp"\n',
             "transprt", r"unknown option of \[bus\].*did you mean 'transport'\?"),
     Mistake("bus transport not one of its choices", "project.toml", "",

@@ -6,6 +6,20 @@ from mrss.agentspeak.registry import Registry
 
 STDLIB = Registry()
 
-from mrss.agentspeak.stdlib import control, lists, misc, plans, typetests  # noqa: E402
+from mrss.agentspeak.stdlib import (  # noqa: E402
+    annots,
+    control,
+    introspect,
+    lists,
+    loading,
+    misc,
+    plans,
+    schedule,
+    sets,
+    strings,
+    typetests,
+)
 
-__all__ = ["STDLIB", "control", "lists", "misc", "plans", "typetests"]
+__all__ = ["STDLIB", "annots", "control", "introspect", "lists", "loading", "misc",
+           "plans",
+           "schedule", "sets", "strings", "typetests"]

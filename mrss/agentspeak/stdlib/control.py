@@ -7,12 +7,13 @@ from collections import deque
 from collections.abc import Iterator
 from typing import Any
 
-from mrss.agentspeak import goals
+from mrss.agentspeak import goals, goalstates
 from mrss.agentspeak.formulas import Query
+from mrss.agentspeak.goalstates import GoalState
 from mrss.agentspeak.intentions import RUNNABLE, Event, Intention, WaitInfo
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
-from mrss.agentspeak.terms import ADD_ACH, Term, Trigger, deref, is_number, term_str
+from mrss.agentspeak.terms import ADD_ACH, Struct, Term, Trigger, deref, is_number, term_str
 from mrss.agentspeak.unify import undo, unify
 
 
@@ -33,6 +34,7 @@ def wait(ctx: IAContext, args: list[Any]) -> bool:
     now = rt.clock()
     w = WaitInfo(next(rt._seq), term_str(what) if not isinstance(what, Query) else "condition")
     w.started = now
+    w.what = deref(what) if not isinstance(what, Query) else Struct("condition")
     if is_number(deref(what)):
         w.deadline = now + float(deref(what)) / 1000.0  # type: ignore[arg-type]
     else:
@@ -66,7 +68,7 @@ def intend(ctx: IAContext, args: list[Any]) -> Iterator[None]:
 
 def _goal_events(ctx: IAContext) -> list[Event]:
     rt = ctx.runtime
-    return [ev for ev in list(rt.atomic_events) + list(rt.events)
+    return [ev for ev in list(rt.atomic_events) + list(rt.events) + rt.extras.suspended_events
             if ev.op == ADD_ACH and (ev.intention is None or not ev.intention.dropped)]
 
 
@@ -100,7 +102,8 @@ def drop_intention(ctx: IAContext, args: list[Any]) -> bool:
 def _drop_goal_events(ctx: IAContext, g: Term | None) -> None:
     rt = ctx.runtime
     trail = rt.trail
-    for queue in (rt.events, rt.atomic_events):
+    held: deque[Event] = deque(rt.extras.suspended_events)
+    for queue in (rt.events, rt.atomic_events, held):
         kept: deque[Event] = deque()
         for ev in queue:
             drop = False
@@ -108,12 +111,17 @@ def _drop_goal_events(ctx: IAContext, g: Term | None) -> None:
                 mark = len(trail)
                 drop = g is None or unify(g, None, ev.lit, trail)
                 undo(trail, mark)
-            if drop and ev.intention is not None:
-                rt.drop(ev.intention)
-            elif not drop:
+            if drop:
+                if rt.plans.meta:
+                    for state in goalstates.ENDED:
+                        goalstates.emit(rt, ev.lit, state)
+                if ev.intention is not None:
+                    rt.drop(ev.intention)
+            else:
                 kept.append(ev)
         queue.clear()
         queue.extend(kept)
+    rt.extras.suspended_events[:] = held
 
 
 @STDLIB.action(".drop_desire", min_args=1, max_args=1)
@@ -182,32 +190,119 @@ def fail_goal(ctx: IAContext, args: list[Any]) -> bool:
     return _surgery(ctx, args[0], goals.fail_goal)
 
 
+def _suspend_events(ctx: IAContext, g: Term) -> None:
+    """Move the goal events `+!G` (and those of intentions pursuing G) out of the event
+    queue until `.resume(G)`."""
+    rt = ctx.runtime
+    trail = rt.trail
+    for queue in (rt.events, rt.atomic_events):
+        kept: deque[Event] = deque()
+        for ev in queue:
+            hit = False
+            if ev.op == ADD_ACH:
+                mark = len(trail)
+                hit = unify(g, None, ev.lit, trail)
+                undo(trail, mark)
+            if not hit and ev.intention is not None:
+                hit = goals.goal_index(rt, ev.intention, g) >= 0
+            if hit:
+                rt.extras.suspended_events.append(ev)
+                if ev.intention is not None:
+                    ev.intention.suspended = True
+            else:
+                kept.append(ev)
+        queue.clear()
+        queue.extend(kept)
+
+
+SUSPEND_REASON = Struct("suspend")
+
+
+def _suspend(ctx: IAContext, it: Intention) -> None:
+    if not it.suspended:
+        it.suspended = True
+        if ctx.runtime.plans.meta:
+            goalstates.emit_top(ctx.runtime, it, GoalState.SUSPENDED, SUSPEND_REASON)
+
+
 @STDLIB.action(".suspend", min_args=0, max_args=1)
 def suspend(ctx: IAContext, args: list[Any]) -> bool:
-    """Suspend the intentions with goal G (or the current one) until `.resume(G)`."""
-    for it in [_current(ctx)] if not args else _matching(ctx, args[0]):
-        it.suspended = True
+    """Suspend the intentions with goal G (or the current one), wherever they are
+    (running, waiting for an action or a `.wait`, or their goal still an event), until
+    `.resume(G)`; the goal state `suspended` is posted."""
+    if not args:
+        _suspend(ctx, _current(ctx))
+        return True
+    for it in _matching(ctx, args[0]):
+        _suspend(ctx, it)
+    _suspend_events(ctx, args[0])
     return True
 
 
 @STDLIB.action(".resume", min_args=1, max_args=1)
 def resume(ctx: IAContext, args: list[Any]) -> bool:
-    """Resume the suspended intentions with goal G."""
+    """Resume the suspended intentions with goal G (an intention still waiting for its
+    action or `.wait` goes on when that ends); the goal state `resumed` is posted."""
     rt = ctx.runtime
     for it in _matching(ctx, args[0]):
         if it.suspended:
             it.suspended = False
+            if rt.plans.meta:
+                goalstates.emit_top(rt, it, GoalState.RESUMED)
             if it.state is RUNNABLE:
                 rt.make_runnable(it)
+    trail = rt.trail
+    back: list[Event] = []
+    for ev in list(rt.extras.suspended_events):
+        hit = False
+        if ev.op == ADD_ACH:
+            mark = len(trail)
+            hit = unify(args[0], None, ev.lit, trail)
+            undo(trail, mark)
+        if not hit and ev.intention is not None:
+            hit = goals.goal_index(rt, ev.intention, args[0]) >= 0
+        if hit:
+            rt.extras.suspended_events.remove(ev)
+            back.append(ev)
+            if ev.intention is not None:
+                ev.intention.suspended = False
+    for ev in back:
+        rt.post(ev)
     return True
 
 
-@STDLIB.action(".suspended", min_args=1, max_args=1)
+def suspended_reason(it: Intention) -> Term | None:
+    """Why `it` is not running (Jason's PA and PI): `act` for an environment action,
+    `wait(W)` for a `.wait`, `suspend` for `.suspend`; None if it is running."""
+    if it.suspended:
+        return SUSPEND_REASON
+    if it.action is not None:
+        return Struct("act")
+    if it.wait is not None:
+        return Struct("wait", (it.wait.what,))
+    return None
+
+
+@STDLIB.action(".suspended", min_args=1, max_args=2)
 def suspended(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """Holds for each goal of a suspended intention."""
+    """`.suspended(G)`, `.suspended(G, R)`: G is a goal of an intention that is not
+    running -- suspended, waiting for an action or in a `.wait` -- and R the reason
+    (`suspend`, `act`, `wait(W)`)."""
+    trail = ctx.runtime.trail
     for it, _ in goals.intended(ctx.runtime, args[0]):
-        if it.suspended:
+        reason = suspended_reason(it)
+        if reason is None:
+            continue
+        if len(args) == 1:
             yield
-
-
-
+            continue
+        mark = len(trail)
+        if unify(args[1], None, reason, trail):
+            yield
+        undo(trail, mark)
+    for ev in list(ctx.runtime.extras.suspended_events):
+        mark = len(trail)
+        if ev.op == ADD_ACH and unify(args[0], None, ev.lit, trail) and (
+                len(args) == 1 or unify(args[1], None, SUSPEND_REASON, trail)):
+            yield
+        undo(trail, mark)

@@ -26,6 +26,7 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import undo, unify
 
 _order = functools.cmp_to_key(compare)
+RNG = _random.Random()  # `.random`, `.shuffle`: seeded by `.set_random_seed`
 
 
 def text_of(t: Term) -> str:
@@ -100,7 +101,17 @@ def date_(ctx: IAContext, args: list[Any]) -> bool:
 @STDLIB.action(".random", min_args=1, max_args=1)
 def random_(ctx: IAContext, args: list[Any]) -> bool:
     """`.random(X)`: X is a random number in [0, 1)."""
-    return ctx.unify(args[0], _random.random())
+    return ctx.unify(args[0], RNG.random())
+
+
+@STDLIB.action(".set_random_seed", min_args=1, max_args=1)
+def set_random_seed(ctx: IAContext, args: list[Any]) -> bool:
+    """`.set_random_seed(N)`: `.random` and `.shuffle` repeat the same numbers after it."""
+    n = deref(args[0])
+    if type(n) is not int:
+        raise ctx.error(f"the seed must be an integer, not {term_str(n)}")
+    RNG.seed(n)
+    return True
 
 
 @STDLIB.action(".nano_time", min_args=1, max_args=1)
@@ -194,3 +205,117 @@ def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         if len(args) < 3 or ctx.unify(args[2], start):
             yield
         start = whole.find(sub, start + 1)
+
+
+@STDLIB.action(".eval", min_args=2, max_args=2, formula_args=(1,))
+def eval_(ctx: IAContext, args: list[Any]) -> bool:
+    """`.eval(R, Formula)`: R is `true` if the formula holds (no bindings are kept),
+    else `false`."""
+    trail = ctx.runtime.trail
+    mark = len(trail)
+    holds = False
+    for _ in ctx.solve(args[1]):
+        holds = True
+        break
+    undo(trail, mark)
+    return ctx.unify(args[0], Struct("true" if holds else "false"))
+
+
+@STDLIB.action(".belief", min_args=1, max_args=1)
+def belief(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.belief(L)`: L unifies with each belief in turn (facts only, no rules)."""
+    pattern = deref(args[0])
+    if type(pattern) is not Struct:
+        raise ctx.error(f"expected a literal, not {term_str(pattern)}")
+    store = ctx.runtime.bb.store(pattern.key)
+    trail = ctx.runtime.trail
+    for b in list(store.facts()) if store is not None else []:
+        mark = len(trail)
+        if unify(pattern, None, b, trail):
+            yield
+        undo(trail, mark)
+
+
+@STDLIB.action(".list_rules", max_args=0)
+def list_rules(ctx: IAContext, args: list[Any]) -> bool:
+    """Print every rule of the belief base, one per line, in program order."""
+    for store in list(ctx.runtime.bb.preds.values()):
+        for rule in store.rules:
+            ctx.runtime.out(rule.text + ".")
+    return True
+
+
+VERSION = "3.2"  # the version of Jason's language this interpreter follows
+
+
+@STDLIB.action(".version", min_args=1, max_args=1)
+def version(ctx: IAContext, args: list[Any]) -> bool:
+    """`.version(V)`: V is the version of Jason's language followed, as a string."""
+    return ctx.unify(args[0], VERSION)
+
+
+@STDLIB.action(".perceive", max_args=0)
+def perceive(ctx: IAContext, args: list[Any]) -> bool:
+    """Percepts are applied at the start of every cycle, so there is nothing to force:
+    succeeds (Jason's `.perceive` forces a perception now)."""
+    return True
+
+
+def _namespaces(ctx: IAContext) -> list[str]:
+    rt = ctx.runtime
+    found = {"default"}
+    for functor, _, _ in list(rt.bb.preds):
+        if "::" in functor:
+            found.add(functor.split("::", 1)[0])
+    found.update(rt.extras.ns_props)
+    for plan in list(rt.plans.plans):
+        if "::" in plan.trigger.functor:
+            found.add(plan.trigger.functor.split("::", 1)[0])
+    return sorted(found)
+
+
+@STDLIB.action(".namespace", min_args=1, max_args=1)
+def namespace(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.namespace(N)`: N is a namespace the agent's beliefs or plans use (`default`
+    included), each in turn."""
+    trail = ctx.runtime.trail
+    for name in _namespaces(ctx):
+        mark = len(trail)
+        if ctx.unify(args[0], Struct(name)):
+            yield
+        undo(trail, mark)
+
+
+def _ns_props(ctx: IAContext, ns: Term) -> dict[str, tuple[Term, Term]]:
+    ns = deref(ns)
+    if type(ns) is not Struct or ns.args:
+        raise ctx.error(f"the namespace must be an atom, not {term_str(ns)}")
+    return ctx.runtime.extras.ns_props.setdefault(ns.functor, {})
+
+
+@STDLIB.action(".namespace_set_prop", min_args=3, max_args=3)
+def namespace_set_prop(ctx: IAContext, args: list[Any]) -> bool:
+    """`.namespace_set_prop(NS, Key, Value)`: a property of namespace NS."""
+    key = value(args[1])
+    if type(key) is Var:
+        raise ctx.error("the key is an unbound variable")
+    _ns_props(ctx, args[0])[term_str(key)] = (key, value(args[2]))
+    return True
+
+
+@STDLIB.action(".namespace_get_prop", min_args=2, max_args=4)
+def namespace_get_prop(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.namespace_get_prop(NS, Key, Value[, Default])`: the property (Default when
+    it has none); `.namespace_get_prop(NS, Key)` enumerates the keys, in the order set."""
+    props = _ns_props(ctx, args[0])
+    trail = ctx.runtime.trail
+    if len(args) == 4 and type(value(args[1])) is not Var \
+            and term_str(value(args[1])) not in props:
+        if ctx.unify(args[2], value(args[3])):
+            yield
+        return
+    for key, val in list(props.values()):
+        mark = len(trail)
+        if ctx.unify(args[1], key) and (len(args) == 2 or ctx.unify(args[2], val)):
+            yield
+        undo(trail, mark)

@@ -3,6 +3,7 @@ and the rules as data: `.relevant_rules`."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -135,6 +136,48 @@ def relevant_plans(ctx: IAContext, args: list[Any]) -> bool:
     if len(args) > 2:
         labels = tuple(p.plabel for p in found if p.plabel is not None)
         return ctx.unify(args[2], labels)
+    return True
+
+
+@STDLIB.action(".relevant_plan", min_args=2, max_args=3)
+def relevant_plan(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.relevant_plan({+!g}, Plan)`, `.relevant_plan({+!g}, Plan, Label)`: like
+    `.relevant_plans`, one plan per solution."""
+    ev = deref(args[0])
+    if type(ev) is not Trigger or type(deref(ev.lit)) is not Struct:
+        raise ctx.error(f"expected a triggering event such as {{+!g}}, not {term_str(ev)}")
+    lit = deref(ev.lit)
+    rt = ctx.runtime
+    trail = rt.trail
+    for plan in list(rt.plans.relevant(ev.op, lit) or []):  # type: ignore[arg-type]
+        mark = len(trail)
+        ok = unify(plan.trigger, [None] * plan.nslots, lit, trail)
+        undo(trail, mark)
+        if ok and ctx.unify(args[1], plan_term(plan, False)) and (
+                len(args) < 3 or (plan.plabel is not None and ctx.unify(args[2], plan.plabel))):
+            yield
+        undo(trail, mark)
+
+
+@STDLIB.action(".list_plans", max_args=1)
+def list_plans(ctx: IAContext, args: list[Any]) -> bool:
+    """Print the plans of the library as source text, one per line (`.list_plans({+!g})`:
+    those whose trigger unifies with the event), labelled with their sources."""
+    rt = ctx.runtime
+    ev = deref(args[0]) if args else None
+    if ev is not None and type(ev) is not Trigger:
+        raise ctx.error(f"expected a triggering event such as {{+!g}}, not {term_str(ev)}")
+    trail = rt.trail
+    for plan in list(rt.plans.plans):
+        if ev is not None:
+            if plan.op != ev.op:
+                continue
+            mark = len(trail)
+            ok = unify(plan.trigger, [None] * plan.nslots, deref(ev.lit), trail)
+            undo(trail, mark)
+            if not ok:
+                continue
+        rt.out(plan_term_text(plan_term(plan, True).src)[2:-2] + ".")
     return True
 
 
