@@ -49,9 +49,18 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
+    from mrss.config import load_project
     from mrss.tui.app import MrssApp
+    from mrss.tui.mission import project_mission, run_dir_of
 
-    app = MrssApp(endpoints, project=name, agent=args.agent,
+    try:
+        config = load_project(args.project)
+        mission = project_mission(config.directory, config.file, config.sections,
+                                  args.run_dir or run_dir_of(endpoints.backend))
+    except (ConfigError, UnknownProjectError) as exc:
+        print(f"mrss tui: {exc}", file=sys.stderr)
+        return EXIT_NO_BUS
+    app = MrssApp(endpoints, project=name, agent=args.agent, mission=mission,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
                   world_every=args.world_every)

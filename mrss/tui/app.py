@@ -39,12 +39,15 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
+from mrss.operator_commands import OperatorConfig
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.events import READONLY_NOTICE, BusActivity
 from mrss.tui.help import HelpScreen, current_keys
+from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
+from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
@@ -57,6 +60,7 @@ from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
+from mrss.tui.widgets.mission_panel import MissionPanel
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
@@ -70,8 +74,9 @@ class MrssApp(Steering):
     TITLE = "MRSS"
     COMMANDS = App.COMMANDS | {MrssCommands}
     CSS = """
-    #top, #bottom { height: 1fr; }
-    #actions { height: 1fr; }
+    #top, #middle, #bottom { height: 1fr; }
+    #actions { width: 3fr; }
+    #mission { width: 2fr; }
     .panel { border: round $primary-darken-2; border-title-color: $accent; }
     .panel:focus-within { border: round $accent; }
     #supervision, #mind, #map { width: 1fr; }
@@ -89,6 +94,7 @@ class MrssApp(Steering):
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
         Binding("A", "ack_alerts", "Ack alerts"),
+        Binding("H", "hold_all", "All hold"),
         Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
@@ -98,8 +104,15 @@ class MrssApp(Steering):
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
                  min_refresh: float = 0.1, readonly: bool = False,
-                 stale_after: float = 5.0, world_every: float = 2.0) -> None:
+                 stale_after: float = 5.0, world_every: float = 2.0,
+                 operator_config: OperatorConfig | None = None,
+                 mission: MissionChannel | None = None) -> None:
         super().__init__()
+        self.operator_config = operator_config or (mission.config if mission else
+                                                   OperatorConfig())
+        self.mission = mission
+        self.goals = GoalsModel(self.operator_config.goals)
+        self.holding = False
         self.project = project
         self.agent = agent
         self.readonly = readonly
@@ -129,9 +142,11 @@ class MrssApp(Steering):
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
-            yield RobotsTable(self.robots, id="robots")
+            yield RobotsTable(self.robots, self.goals, id="robots")
             yield MapPanel(self.map_model, id="map")
-        yield ActionsTable(self.actions, id="actions")
+        with Horizontal(id="middle"):
+            yield ActionsTable(self.actions, id="actions")
+            yield MissionPanel(self.goals, self.actions, id="mission")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
             yield LogPane(id="log")
@@ -140,8 +155,10 @@ class MrssApp(Steering):
 
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
-                  "robots": "Robots (t teleop, g map)", "actions": "Actions (c cancel, s suspend, "
-                  "r resume)", "mind": "Mind (m refresh, a auto)",
+                  "robots": "Robots (t teleop, g map)",
+                  "actions": "Actions (debug, around the agent: c cancel, s suspend, r resume)",
+                  "mission": "Mission (n area, c cancel, +/- priority, H all hold)",
+                  "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
         titles["map"] = "Map"
         for ident, title in titles.items():
@@ -202,10 +219,10 @@ class MrssApp(Steering):
                 dirty.add("alerts")
                 lines.append(alert_line(alert, env.ts))
             if isinstance(body, ActionStatus):
-                self.actions.apply_status(body, env.ts)
+                self.actions.apply_status(body, env.ts, env.src)
                 dirty.add("actions")
             elif isinstance(body, ActionRequest):
-                self.actions.apply_request(body, env.ts)
+                self.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")
             elif isinstance(body, RobotState):
                 self.robots.apply_state(body)
@@ -229,6 +246,9 @@ class MrssApp(Steering):
             if line is not None:
                 lines.append(line)
         now = time.time()
+        if mind is not None and isinstance(mind.body, MindSnapshot) and self.goals.declared \
+                and self.goals.apply_beliefs(mind.body.beliefs, mind.ts, self.actions):
+            dirty |= {"mission", "robots"}
         if "actions" in dirty:
             self.query_one(ActionsTable).refresh_rows(now)
         if "robots" in dirty:
@@ -237,6 +257,8 @@ class MrssApp(Steering):
             self.query_one(SupervisionTable).refresh_rows(now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts)
+        if "mission" in dirty or "actions" in dirty:
+            self.query_one(MissionPanel).refresh_rows(now)
         if "map" in dirty:
             self.query_one(MapPanel).refresh()
         if "alerts" in dirty:
@@ -279,6 +301,7 @@ class MrssApp(Steering):
             self.query_one(SupervisionTable).refresh_rows(now)
             self.query_one(RobotsTable).refresh_rows(now)
             self.query_one(ActionsTable).refresh_rows(now)
+            self.query_one(MissionPanel).refresh_rows(now)
             self._show_liveness()
 
     def _watch_link(self) -> None:

@@ -95,7 +95,7 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         timeout=10, message="the agent's beliefs")
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "ugv1")
-                        and row_text(robots, "ugv1")[5].endswith("%"), message="telemetry")
+                        and row_text(robots, "ugv1")[6].endswith("%"), message="telemetry")
             await pilot.press("p")
             app.query_one("#percept", Input).value = "fire(area1)"
             await pilot.press("enter")

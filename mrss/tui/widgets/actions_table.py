@@ -1,4 +1,9 @@
-"""ActionsTable: the live actions, newest first; c / s / r cancel, suspend, resume the selected."""
+"""ActionsTable: the live actions, newest first; c / s / r cancel, suspend, resume the selected.
+
+Those three keys are debug keys: they go to the RCL directly (`action.control`), around
+the agent, which learns of it only as its action's end. The operator's way is the
+mission panel (goals, through the agent); a debug key says so in its question and in
+the action's history."""
 
 from __future__ import annotations
 
@@ -25,9 +30,9 @@ class ActionsTable(KeyedTable):
                ("state", "state"), ("reason", "reason"), ("progress", "progress"),
                ("age", "age"))
     BINDINGS: ClassVar[list[BindingType]] = [
-        Binding("c", "control('cancel')", "Cancel"),
-        Binding("s", "control('suspend')", "Suspend"),
-        Binding("r", "control('resume')", "Resume"),
+        Binding("c", "control('cancel')", "Debug cancel"),
+        Binding("s", "control('suspend')", "Debug suspend"),
+        Binding("r", "control('resume')", "Debug resume"),
     ]
 
     def __init__(self, model: ActionsModel, *, id: str | None = None) -> None:
@@ -63,13 +68,16 @@ class ActionsTable(KeyedTable):
             self.post_message(Note(f"action {uuid[:8]} is already {view.state}", error=True))
             return
         name = view.name if view is not None and view.name else "?"
-        what = f"{command} action {uuid[:8]} ({name})"
+        what = f"debug {command} action {uuid[:8]} ({name})"
         confirm, details = "", []
         if command == "cancel":
             robot = view.robot if view is not None and view.robot else "?"
             goal = view.goal if view is not None and view.goal else "?"
             confirm = f"Cancel action {uuid[:8]} ({name} on {robot}, goal {goal})?"
             details = [f"{robot} stops this action; it ends cancelled and cannot be resumed.",
-                       "The agent is told it was cancelled by the operator."]
+                       "Debug key: this goes to the RCL around the agent, which sees its "
+                       "action cancelled; to end a goal, cancel it on the mission panel."]
+        note = f"debug key {command}: sent to the RCL around the agent"
         self.post_message(SendRequested(operator.action_control(command, uuid), what,
-                                        confirm=confirm, details=details))
+                                        confirm=confirm, details=details,
+                                        history=(uuid, note)))
