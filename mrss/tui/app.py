@@ -17,6 +17,7 @@ and a red banner says when the system has gone quiet or ended (`models/liveness.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import suppress
 from typing import ClassVar
 
@@ -77,6 +78,7 @@ class MrssApp(Steering):
     #top, #middle, #bottom { height: 1fr; }
     #actions { width: 3fr; }
     #mission { width: 2fr; }
+    #actions, #mission { height: 1fr; }
     .panel { border: round $primary-darken-2; border-title-color: $accent; }
     .panel:focus-within { border: round $accent; }
     #supervision, #mind, #map { width: 1fr; }
@@ -84,6 +86,7 @@ class MrssApp(Steering):
     #banner { display: none; height: 1; padding: 0 1; background: $error;
               color: $text; text-style: bold; }
     #banner.-shown { display: block; }
+    #tabs { height: 1; display: none; }
     Header.-stale { background: $error; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
@@ -106,8 +109,11 @@ class MrssApp(Steering):
                  min_refresh: float = 0.1, readonly: bool = False,
                  stale_after: float = 5.0, world_every: float = 2.0,
                  operator_config: OperatorConfig | None = None,
-                 mission: MissionChannel | None = None) -> None:
+                 mission: MissionChannel | None = None,
+                 clock: Callable[[], float] = time.time, header_clock: bool = True) -> None:
         super().__init__()
+        self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
+        self.header_clock = header_clock
         self.operator_config = operator_config or (mission.config if mission else
                                                    OperatorConfig())
         self.mission = mission
@@ -137,8 +143,9 @@ class MrssApp(Steering):
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
-        yield Header(show_clock=True)
+        yield Header(show_clock=self.header_clock)
         yield Static("", id="banner")
+        yield Static("", id="tabs")
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
@@ -245,7 +252,7 @@ class MrssApp(Steering):
             line = log_line(env)
             if line is not None:
                 lines.append(line)
-        now = time.time()
+        now = self.clock()
         if mind is not None and isinstance(mind.body, MindSnapshot) and self.goals.declared \
                 and self.goals.apply_beliefs(mind.body.beliefs, mind.ts, self.actions):
             dirty |= {"mission", "robots"}
@@ -296,7 +303,7 @@ class MrssApp(Steering):
 
     def _tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
-        now = time.time()
+        now = self.clock()
         with suppress(NoMatches):  # the panels are gone: the app is closing
             self.query_one(SupervisionTable).refresh_rows(now)
             self.query_one(RobotsTable).refresh_rows(now)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import time
 from contextlib import suppress
 
-from textual.app import App
 from textual.css.query import NoMatches
 
 from mrss.messages import Percept
@@ -21,6 +20,7 @@ from mrss.tui.area_form import AreaForm
 from mrss.tui.buslink import BusLink
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.events import READONLY_NOTICE, MissionRequested, Note, SendRequested
+from mrss.tui.layout import PanelLayout
 from mrss.tui.mission import Answer, MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
@@ -30,7 +30,7 @@ from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.operator_bar import OperatorBar
 
 
-class Steering(App[None]):
+class Steering(PanelLayout):
     """The operator's side of the app: sending, refusing, asking, reporting."""
 
     readonly: bool
