@@ -156,7 +156,9 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
-    app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission)
+    app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
+                        restart_budget=(config.supervisor.spec.intensity,
+                                        config.supervisor.spec.period))
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

@@ -60,7 +60,9 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
+    budget = (config.supervisor.spec.intensity, config.supervisor.spec.period)
     app = MrssApp(endpoints, project=name, agent=args.agent, mission=mission,
+                  restart_budget=budget,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
                   world_every=args.world_every)

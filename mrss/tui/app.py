@@ -43,6 +43,7 @@ from mrss.messages import (
 from mrss.operator_commands import OperatorConfig
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
+from mrss.tui.detail_keys import DetailKeys
 from mrss.tui.events import READONLY_NOTICE, BusActivity
 from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.mission import MissionChannel
@@ -69,7 +70,7 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
 
 
-class MrssApp(Steering):
+class MrssApp(Steering, DetailKeys):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -110,8 +111,10 @@ class MrssApp(Steering):
                  stale_after: float = 5.0, world_every: float = 2.0,
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
-                 clock: Callable[[], float] = time.time, header_clock: bool = True) -> None:
+                 clock: Callable[[], float] = time.time, header_clock: bool = True,
+                 restart_budget: tuple[int, float] | None = None) -> None:
         super().__init__()
+        self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
         self.header_clock = header_clock
         self.operator_config = operator_config or (mission.config if mission else

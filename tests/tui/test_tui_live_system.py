@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from textual.widgets import Input
+from textual.widgets import Input, Sparkline
 
 from mrss.bus import BusEndpoints, Publisher
+from mrss.config import load_project
 from mrss.messages import Command
 from mrss.tui.app import MrssApp
+from mrss.tui.details import ComponentDetail, RobotDetail
 from mrss.tui.discovery import find_endpoints
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
@@ -26,8 +28,11 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
     endpoints, name = find_endpoints("busdemo", run_dir=busdemo)
     assert name == "busdemo"
 
+    spec = load_project("busdemo").supervisor.spec
+
     async def body() -> None:
-        app = MrssApp(endpoints, project=name, mind_every=0, tree_every=0.3)
+        app = MrssApp(endpoints, project=name, mind_every=0, tree_every=0.3,
+                      restart_budget=(spec.intensity, spec.period))
         async with app.run_test(size=(180, 50)) as pilot:
             table = app.query_one(SupervisionTable)
             row = "busdemo/announcer"
@@ -50,6 +55,18 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             log = app.query_one(LogPane)
             await until(pilot, lambda: any("fault kill injected into announcer" in line
                                            for line in log.lines_text()), message="fault logged")
+            # Enter: the component's detail, with its budget, process and log
+            await pilot.press("enter")
+            detail = await until(pilot, lambda: isinstance(app.screen, ComponentDetail)
+                                 and app.screen, message="the component's detail")
+            pid = row_text(table, row)[2]
+            text = await until(pilot, lambda: "CPU measuring" not in detail.body_text
+                               and detail.body_text, message="CPU measured")
+            assert f"pid             {pid}" in text
+            assert f"restart budget  1 of {spec.intensity} in {spec.period:g} s" in text
+            assert "CPU " in text and " MiB" in text and "SIGKILL" in text
+            assert "fault kill injected into announcer" in text.split("last log lines")[1]
+            await pilot.press("escape")
             await pilot.press("h", "h")
             cells = await until(pilot, lambda: announcer(3), timeout=30,
                                 message="hung announcer found and restarted")
@@ -96,6 +113,20 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "ugv1")
                         and row_text(robots, "ugv1")[6].endswith("%"), message="telemetry")
+            # Enter on a robot: every telemetry field and the sparklines, filling up
+            robots.focus()
+            await pilot.press("enter")
+            detail = await until(pilot, lambda: isinstance(app.screen, RobotDetail)
+                                 and app.screen, message="the robot's detail")
+            for field in ("position.lat", "battery.remaining", "tank.level", "tank.capacity"):
+                assert field in detail.body_text, detail.body_text
+            view = app.robots.robots["ugv1"]
+            await until(pilot, lambda: len(view.series.get("battery", ())) >= 3,
+                        message="battery samples")
+            spark = detail.query_one("#spark-battery", Sparkline)
+            await until(pilot, lambda: len(spark.data or []) >= 3, message="battery sparkline")
+            assert set(view.series) == {"battery", "tank"}  # the demo sends no altitude
+            await pilot.press("escape")
             await pilot.press("p")
             app.query_one("#percept", Input).value = "fire(area1)"
             await pilot.press("enter")

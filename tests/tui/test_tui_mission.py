@@ -13,6 +13,7 @@ from mrss.config import load_project
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.confirm import ConfirmScreen
+from mrss.tui.details import ActionDetail
 from mrss.tui.mission import project_mission
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
@@ -66,6 +67,21 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "uav1")
                         and row_text(robots, "uav1")[4] == "a1", message="uav1's goal a1")
+            # Enter on the running action: its detail, progress moving while it is open
+            actions = app.query_one(ActionsTable)
+            actions.focus()
+            actions.move_cursor(row=0)
+            await pilot.press("enter")
+            detail = await until(pilot, lambda: isinstance(app.screen, ActionDetail)
+                                 and app.screen, message="the action's detail")
+            uuid = actions.selected_key or ""
+            assert len(uuid) == 32 and f"uuid       {uuid}" in detail.body_text
+            assert "requester  reasoner" in detail.body_text
+            assert "args       ['uav1', 'a1']" in detail.body_text
+            first = detail.body_text.split("leg=")[0]
+            await until(pilot, lambda: detail.body_text.split("leg=")[0] != first,
+                        message="progress moving on the open detail")
+            await pilot.press("escape")
             await add_area("a2", "1")
             await until(pilot, lambda: goal("a2")[1:4] == ["queued", "uav1", "1"],
                         message="a2 queued behind a1")
@@ -88,10 +104,13 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
             await until(pilot, lambda: any("cancelling running goal a1" in line
                                            for line in log.lines_text()),
                         message="the agent's cancel plan ran")
-            actions = app.query_one(ActionsTable)
             covers = [row_text(actions, k.value) for k in actions.rows]
             a1 = [r for r in covers if r[1:4] == ["cover", "uav1", "a1"]]
             assert a1 and a1[0][4] == "cancelled", covers
+            timeline = ActionDetail(app.actions, uuid).body_text.split("timeline")[1]
+            assert [line.split()[1] for line in timeline.splitlines()[1:]] == [
+                "requested", "pending", "running", "cancelled"], repr(timeline)
+            assert "cancelled by the agent" in timeline  # the agent's plan, not the RCL alone
             # all robots hold: the agent suspends a2; lifting the hold resumes it
             await pilot.press("H", "y")
             await until(pilot, lambda: goal("a2")[1] == "suspended", message="held")

@@ -1,5 +1,5 @@
 """The tuimission RCL: the wildfire agent's actions on stand-in robots. `cover` drives
-30 legs of `leg` seconds each (long enough to be cancelled); the others end at once."""
+100 legs of `leg` seconds each (long enough to be cancelled); the others end at once."""
 
 from __future__ import annotations
 
@@ -34,14 +34,14 @@ class Legs(Skill):
 
 
 class MissionRcl(RobotCommLayer):
-    """cover(R, G): 30 legs; supply_water: 10; recharge, refill, teleop_mode: at once."""
+    """cover(R, G): 100 legs; supply_water: 10; recharge, refill, teleop_mode: at once."""
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
         return StandIn(robot, float(options.get("leg", 0.3)))
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "cover":
-            return [Legs(30)]
+            return [Legs(100)]
         if action.name == "supply_water":
             return [Legs(10)]
         if action.name in ("recharge", "refill", "teleop_mode"):
