@@ -266,7 +266,7 @@ class MrssApp(Steering, DetailKeys):
         if "supervision" in dirty:
             self.query_one(SupervisionTable).refresh_rows(now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
-            self.query_one(MindInspector).show_snapshot(mind.body, mind.ts)
+            self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
         if "mission" in dirty or "actions" in dirty:
             self.query_one(MissionPanel).refresh_rows(now)
         if "map" in dirty:

@@ -9,7 +9,7 @@ from textual.widgets import Input, Sparkline
 
 from mrss.bus import BusEndpoints, Publisher
 from mrss.config import load_project
-from mrss.messages import Command
+from mrss.messages import Command, Percept
 from mrss.tui.app import MrssApp
 from mrss.tui.details import ComponentDetail, RobotDetail
 from mrss.tui.discovery import find_endpoints
@@ -160,4 +160,24 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         message="cancelled from the dashboard")
             await until(pilot, lambda: mind.snapshot is not None
                         and not mind.snapshot.intentions, message="intention gone from mind")
+            # the mind's history: the percept's arrival is a diff; freeze, step, live
+            history = mind.history
+            assert {e.incarnation for e in history.entries} == {1}
+            assert any("fire(area1)[source(percept)]" in history.diff(e)[0]
+                       for e in history.entries)
+            mind.focus()
+            await pilot.press("f")
+            frozen = mind.shown
+            assert frozen is not None and "frozen" in str(mind.border_subtitle)
+            app.link.publish(Percept(literal="fire(area3)"))
+            await until(pilot, lambda: "fire(area3)[source(percept)]" in
+                        history.entries[-1].snapshot.beliefs, message="a newer snapshot kept")
+            assert mind.shown is frozen and mind.snapshot is frozen.snapshot
+            await pilot.press("left_square_bracket")
+            assert mind.shown is not None and mind.shown.serial < frozen.serial
+            assert "history" in str(mind.border_subtitle)
+            await pilot.press("end")
+            assert mind.snapshot is not None
+            assert "fire(area3)[source(percept)]" in mind.snapshot.beliefs
+            assert str(mind.border_subtitle).startswith("live")
     run(body())
