@@ -11,4 +11,5 @@ BENCHES: dict[str, str] = {
     "journal": "action journal actions/s with and without fsync; size over a 24 h soak",
     "security": "cost of MAVLink signing per message and of the world model's bearer token",
     "worldmodel": "world model store operations, embedded SQLite and PostGIS",
+    "tui": "the dashboard's CPU at 20 and 1,000 msgs/s, and its panel refresh times",
 }

@@ -68,6 +68,7 @@ from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
+TICK_SKIP = 0.6  # the second's tick leaves a table a drain redrew this recently
 
 
 class MrssApp(Steering, DetailKeys):
@@ -107,7 +108,7 @@ class MrssApp(Steering, DetailKeys):
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
-                 min_refresh: float = 0.1, readonly: bool = False,
+                 min_refresh: float = 0.5, readonly: bool = False,
                  stale_after: float = 5.0, world_every: float = 2.0,
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
@@ -143,6 +144,8 @@ class MrssApp(Steering, DetailKeys):
         self._welcomes = 0
         self._last_drain = 0.0
         self._drain_pending = False
+        self._banner_shown: str | None = None
+        self._drawn: dict[str, float] = {}  # panel -> when a drain last redrew it
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -265,6 +268,9 @@ class MrssApp(Steering, DetailKeys):
             self.query_one(RobotsTable).refresh_rows(now)
         if "supervision" in dirty:
             self.query_one(SupervisionTable).refresh_rows(now)
+        drawn = time.monotonic()
+        for panel in dirty & {"actions", "robots", "supervision", "mission"}:
+            self._drawn[panel] = drawn
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
         if "mission" in dirty or "actions" in dirty:
@@ -307,11 +313,15 @@ class MrssApp(Steering, DetailKeys):
     def _tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
         now = self.clock()
+        recent = time.monotonic() - TICK_SKIP
         with suppress(NoMatches):  # the panels are gone: the app is closing
-            self.query_one(SupervisionTable).refresh_rows(now)
-            self.query_one(RobotsTable).refresh_rows(now)
-            self.query_one(ActionsTable).refresh_rows(now)
-            self.query_one(MissionPanel).refresh_rows(now)
+            tables = (("supervision", self.query_one(SupervisionTable).refresh_rows),
+                      ("robots", self.query_one(RobotsTable).refresh_rows),
+                      ("actions", self.query_one(ActionsTable).refresh_rows),
+                      ("mission", self.query_one(MissionPanel).refresh_rows))
+            for name, refresh_rows in tables:
+                if self._drawn.get(name, 0.0) < recent:  # a drain just drew it: skip
+                    refresh_rows(now)
             self._show_liveness()
 
     def _watch_link(self) -> None:
@@ -346,6 +356,12 @@ class MrssApp(Steering, DetailKeys):
 
     def _show_liveness(self) -> None:
         text = self.banner_text()
+        if text == self._banner_shown and self.sub_title:
+            subtitle = text or self._connection_text()
+            if subtitle != self.sub_title:
+                self.sub_title = subtitle
+            return
+        self._banner_shown = text  # a Static's update lays the screen out again: only on change
         with suppress(NoMatches):
             banner = self.query_one("#banner", Static)
             banner.update(text)
@@ -355,7 +371,9 @@ class MrssApp(Steering, DetailKeys):
 
     def _connection_text(self) -> str:
         project = f"{self.project} · " if self.project else ""
-        return f"{project}connected · {self.link.endpoints.backend} · {self.link.received} msgs"
+        # no message count here: a header title that changes every second lays the whole
+        # screen out again every second (`mrss bench tui`)
+        return f"{project}connected · {self.link.endpoints.backend}"
 
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""

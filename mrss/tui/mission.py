@@ -17,8 +17,6 @@ from pathlib import Path
 from typing import Any
 
 from mrss.errors import MrssError
-from mrss.links.connect import project_broker_url
-from mrss.links.mqtt_request import request_json
 from mrss.operator_commands import SECTION, OperatorCommand, OperatorConfig, read_operator
 
 ACCEPTED = ("accepted", "duplicate")
@@ -47,6 +45,8 @@ class MissionChannel:
     def for_project(cls, config: OperatorConfig, project_dir: Path | None,
                     run_dir: Path | None, **kwargs: Any) -> MissionChannel:
         """The broker is looked up at each send: the embedded one writes its address late."""
+        from mrss.links.connect import project_broker_url  # the robot links: only if needed
+
         return cls(config, lambda: project_broker_url(project_dir, run_dir), **kwargs)
 
     def topic(self, command: OperatorCommand) -> str | None:
@@ -63,6 +63,8 @@ class MissionChannel:
             return Answer(False, "no MQTT broker known ([broker] url, or the embedded "
                                  "broker's broker.url in the run dir)")
         self.sent += 1
+        from mrss.links.mqtt_request import request_json
+
         try:
             answer = request_json(broker, topic, payload, client_id=f"{self.client_id}-"
                                   f"{self.sent}", within=min(5.0, self.patience),

@@ -43,11 +43,18 @@ class KeyedTable(DataTable[Text]):
         keys = [key for key, _ in rows]
         if keys == [key.value for key in self.rows]:
             columns = [key for key, _ in self.COLUMNS]
+            widths = {key.value: column.content_width for key, column in self.columns.items()}
             for key, cells in rows:
                 old = self.get_row(key)
                 for column, before, after in zip(columns, old, cells, strict=False):
                     if before != after:
-                        self.update_cell(key, column, after, update_width=True)
+                        # Only a wider cell resizes its column: a narrower one would make
+                        # the table measure the whole column again (columns shrink at the
+                        # next rebuild).
+                        wider = after.cell_len > widths.get(column, 0)
+                        self.update_cell(key, column, after, update_width=wider)
+                        if wider:
+                            widths[column] = after.cell_len
             return
         selected = self.selected_key if self.cursor_row > 0 else None  # the top row follows
         self.rebuilds += 1

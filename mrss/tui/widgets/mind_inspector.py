@@ -108,7 +108,7 @@ class MindInspector(Tree[str]):
         beliefs = self._branch(root, label, "beliefs")
         for belief in snap.beliefs:
             beliefs.add_leaf(Text.assemble(("+ ", "bold green"), (belief, "green"))
-                             if belief in fresh else Text("  " + belief))
+                             if belief in fresh else Text(belief))
         if removed:
             gone = self._branch(root, Text(f"removed since the one before ({len(removed)})",
                                            style="red"), "removed")
