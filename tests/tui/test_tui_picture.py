@@ -96,8 +96,8 @@ def test_banner_turns_red_when_the_system_goes_quiet_and_keeps_a_give_up(
             await connected(pilot, peer)
             header = app.query_one(Header)
             # (until the probe is drained the banner says nothing was heard yet)
-            text = await until(pilot, lambda: app.banner_text().startswith("no heartbeat for ")
-                               and app.banner_text(), message="stale banner")
+            await until(pilot, lambda: app.banner_text().startswith("no heartbeat for "),
+                        message="stale banner")
             await until(pilot, lambda: str(app.sub_title).startswith("no heartbeat for ")
                         and header.has_class("-stale"), message="header red, saying so")
 
