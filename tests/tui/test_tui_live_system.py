@@ -44,7 +44,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
                 return cells if cells[1] == "running" and cells[3] == str(inc) else None
 
             await until(pilot, lambda: announcer(1), timeout=30, message="announcer running")
-            assert [k.value for k in table.rows] == ["busdemo", "busdemo/bus", row]
+            assert table.shown_keys() == ["busdemo", "busdemo/bus", row]
             table.focus()
             await pilot.press("down", "down")
             assert table.selected_key == row
@@ -133,7 +133,7 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
             actions = app.query_one(ActionsTable)
 
             def action_state() -> str:
-                keys = [k.value for k in actions.rows]
+                keys = actions.shown_keys()
                 if not keys:
                     return ""
                 row = row_text(actions, keys[0])

@@ -86,11 +86,11 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
             await until(pilot, lambda: goal("a2")[1:4] == ["queued", "uav1", "1"],
                         message="a2 queued behind a1")
             # + raises a2's priority, through the agent's prioritychange
-            panel.move_cursor(row=[k.value for k in panel.rows].index("a2"))
+            panel.move_cursor(row=panel.shown_keys().index("a2"))
             await pilot.press("plus")
             await until(pilot, lambda: goal("a2")[3] == "2", message="a2 priority 2")
             # cancel a1: the agent's own plan cancels it (not a failure), a2 starts
-            panel.move_cursor(row=[k.value for k in panel.rows].index("a1"))
+            panel.move_cursor(row=panel.shown_keys().index("a1"))
             await pilot.press("c")
             screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
                                  and app.screen, message="cancel question")
@@ -104,7 +104,7 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
             await until(pilot, lambda: any("cancelling running goal a1" in line
                                            for line in log.lines_text()),
                         message="the agent's cancel plan ran")
-            covers = [row_text(actions, k.value) for k in actions.rows]
+            covers = [row_text(actions, k) for k in actions.shown_keys()]
             a1 = [r for r in covers if r[1:4] == ["cover", "uav1", "a1"]]
             assert a1 and a1[0][4] == "cancelled", covers
             timeline = ActionDetail(app.actions, uuid).body_text.split("timeline")[1]
