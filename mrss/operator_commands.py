@@ -26,6 +26,7 @@ commands it has and on which topic, and how its agent's beliefs name its goals:
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -154,8 +155,6 @@ def _goals(value: Any, file: str) -> dict[GoalState, GoalPattern]:
 
 
 def _hint(word: str, known: list[str]) -> str:
-    import difflib
-
     close = difflib.get_close_matches(word, known, n=1)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return f" {word!r}{hint} (known: {', '.join(known)})"

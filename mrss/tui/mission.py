@@ -11,6 +11,7 @@ under it). `send` blocks: the app calls it on a worker thread.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,11 +35,12 @@ class MissionChannel:
     """Sends the project's operator commands to its events manager."""
 
     def __init__(self, config: OperatorConfig, broker: Callable[[], str | None], *,
-                 patience: float = 10.0, client_id: str = "mrss-tui") -> None:
+                 patience: float = 10.0, client_id: str = "") -> None:
         self.config = config
         self._broker = broker
         self.patience = patience
-        self.client_id = client_id
+        # unique per dashboard: two MQTT clients with one id throw each other off
+        self.client_id = client_id or f"mrss-tui-{os.getpid()}"
         self.sent = 0
 
     @classmethod

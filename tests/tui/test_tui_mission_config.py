@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from mrss.bus import BusEndpoints
 from mrss.check import check_project
 from mrss.config import load_file
 from mrss.errors import ConfigError
@@ -17,8 +18,13 @@ from mrss.operator_commands import (
     area_payload,
     read_operator,
 )
+from mrss.tui.app import MrssApp
+from mrss.tui.confirm import ConfirmScreen
+from mrss.tui.mission import MissionChannel
 from mrss.tui.models.goals import GoalsModel
+from mrss.tui.widgets.operator_bar import OperatorBar
 from tests.tui.conftest import HERE
+from tests.tui.tui_helpers import run, until
 
 GOALS = {"queued": "queued(Robot, Goal, Priority, _)", "running": "task(Robot, Goal, Priority)",
          "suspended": "waiting(Robot, Goal, Priority)", "failed": "failed_goal(Goal)"}
@@ -75,3 +81,22 @@ def test_goals_follow_the_agents_beliefs_and_end_as_cancelled_failed_or_done() -
     model.apply_beliefs(["failed_goal(a3)"], when=13.0)
     states = {v.goal: v.state for v in model.newest_first()}
     assert states == {"a1": GoalState.CANCELLED, "a2": GoalState.DONE, "a3": GoalState.FAILED}
+
+
+def test_goal_commands_are_refused_with_the_reason(endpoints: BusEndpoints) -> None:
+    """Read-only, undeclared, or no broker: nothing is sent, the status line says why."""
+    async def body() -> None:
+        channel = MissionChannel(read_operator({"hold": "ops/hold"}), lambda: None)
+        for kw, expected in (({"readonly": True, "mission": channel}, "read-only"),
+                             ({}, "the project declares no hold command"),
+                             ({"mission": channel}, "no MQTT broker known")):
+            app = MrssApp(endpoints, project="demo", mind_every=0, tree_every=0,
+                          world_every=0, **kw)  # type: ignore[arg-type]
+            async with app.run_test(size=(120, 35)) as pilot:
+                bar = app.query_one(OperatorBar)
+                await pilot.press("H")
+                if isinstance(app.screen, ConfirmScreen):
+                    await pilot.press("y")
+                await until(pilot, lambda: expected in bar.status_text, message=expected)
+                assert bar.status_error
+    run(body())
