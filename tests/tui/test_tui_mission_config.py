@@ -97,6 +97,7 @@ def test_goal_commands_are_refused_with_the_reason(endpoints: BusEndpoints) -> N
                 await pilot.press("H")
                 if isinstance(app.screen, ConfirmScreen):
                     await pilot.press("y")
-                await until(pilot, lambda: expected in bar.status_text, message=expected)
+                await until(pilot, lambda b=bar, e=expected: e in b.status_text,  # type: ignore[misc]
+                            message=expected)
                 assert bar.status_error
     run(body())
