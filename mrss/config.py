@@ -60,8 +60,8 @@ class OnGiveUp(StrEnum):
     def on_exceeded(self) -> OnExceeded:
         return OnExceeded.QUARANTINE if self is OnGiveUp.STOP_COMPONENT else OnExceeded.ESCALATE
 # Tables owned by other layers: kept raw here; `mrss check` checks their keys.
-OTHER_SECTIONS = ("nodes", "bus", "broker", "robots", "links", "reasoner", "rcl", "events",
-                  "datalayer", "worldmodel", "tui", "sim", "skills")
+OTHER_SECTIONS = ("nodes", "bus", "broker", "operator", "robots", "links", "reasoner", "rcl",
+                  "events", "datalayer", "worldmodel", "tui", "sim", "skills")
 
 
 class Check(StrEnum):

@@ -12,4 +12,5 @@ BENCHES: dict[str, str] = {
     "security": "cost of MAVLink signing per message and of the world model's bearer token",
     "worldmodel": "world model store operations, embedded SQLite and PostGIS",
     "nodes": "crossing to another node (tcp, CurveZMQ) and how fast a lost node is seen",
+    "tui": "the dashboard's CPU at 20 and 1,000 msgs/s, and its panel refresh times",
 }

@@ -20,6 +20,7 @@ from mrss.check.agent import AgentUses, read_agent
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.nodes import check_nodes
+from mrss.check.operator import check_operator
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
 from mrss.check.reasoner_agents import check_agents
@@ -61,6 +62,10 @@ def check_project(config: ProjectConfig) -> Report:
     datalayer = _edge(config, sources, report, classes, "datalayer", DATALAYER, DataLayer,
                       "datalayer.py")
     _worldmodel(config, report, classes)
+    agents = sorted({config.directory / str(c.options.get("agent", "agent.asl"))
+                     for c in _running(config, REASONER)})
+    check_operator(config, report, events_running=bool(_running(config, EVENTS)),
+                   agent_files=[a for a in agents if a.is_file()])
     if uses is not None:
         _queries(uses, datalayer, report)
         if events is not None:

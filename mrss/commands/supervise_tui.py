@@ -46,6 +46,7 @@ from mrss.config import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
+from mrss.tui.mission import project_mission
 
 EXIT_CONFIG = 2
 WATCH_EVERY = 0.2  # seconds between two looks whether the system is still running
@@ -154,7 +155,10 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     system = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
-    app = SupervisedApp(endpoints, system, log_path, project=config.name)
+    mission = project_mission(config.directory, config.file, config.sections, run_dir)
+    app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
+                        restart_budget=(config.supervisor.spec.intensity,
+                                        config.supervisor.spec.period))
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

@@ -17,6 +17,7 @@ and a red banner says when the system has gone quiet or ended (`models/liveness.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import suppress
 from typing import ClassVar
 
@@ -40,12 +41,16 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
+from mrss.operator_commands import OperatorConfig
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
+from mrss.tui.detail_keys import DetailKeys
 from mrss.tui.events import READONLY_NOTICE, BusActivity
 from mrss.tui.help import HelpScreen, current_keys
+from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
+from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
@@ -58,21 +63,25 @@ from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
+from mrss.tui.widgets.mission_panel import MissionPanel
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
+TICK_SKIP = 0.6  # the second's tick leaves a table a drain redrew this recently
 
 
-class MrssApp(Steering):
+class MrssApp(Steering, DetailKeys):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
     COMMANDS = App.COMMANDS | {MrssCommands}
     CSS = """
-    #top, #bottom { height: 1fr; }
-    #actions { height: 1fr; }
+    #top, #middle, #bottom { height: 1fr; }
+    #actions { width: 3fr; }
+    #mission { width: 2fr; }
+    #actions, #mission { height: 1fr; }
     .panel { border: round $primary-darken-2; border-title-color: $accent; }
     .panel:focus-within { border: round $accent; }
     #supervision, #mind, #map { width: 1fr; }
@@ -80,6 +89,7 @@ class MrssApp(Steering):
     #banner { display: none; height: 1; padding: 0 1; background: $error;
               color: $text; text-style: bold; }
     #banner.-shown { display: block; }
+    #tabs { height: 1; display: none; }
     Header.-stale { background: $error; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
@@ -90,6 +100,7 @@ class MrssApp(Steering):
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
         Binding("A", "ack_alerts", "Ack alerts"),
+        Binding("H", "hold_all", "All hold"),
         Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
@@ -98,9 +109,21 @@ class MrssApp(Steering):
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = 1.0, tree_every: float = 2.0,
-                 min_refresh: float = 0.1, readonly: bool = False,
-                 stale_after: float = 5.0, world_every: float = 2.0) -> None:
+                 min_refresh: float = 0.5, readonly: bool = False,
+                 stale_after: float = 5.0, world_every: float = 2.0,
+                 operator_config: OperatorConfig | None = None,
+                 mission: MissionChannel | None = None,
+                 clock: Callable[[], float] = time.time, header_clock: bool = True,
+                 restart_budget: tuple[int, float] | None = None) -> None:
         super().__init__()
+        self.restart_budget = restart_budget  # the root's (intensity, period), if known
+        self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
+        self.header_clock = header_clock
+        self.operator_config = operator_config or (mission.config if mission else
+                                                   OperatorConfig())
+        self.mission = mission
+        self.goals = GoalsModel(self.operator_config.goals)
+        self.holding = False
         self.project = project
         self.agent = agent
         self.readonly = readonly
@@ -122,17 +145,22 @@ class MrssApp(Steering):
         self._welcomes = 0
         self._last_drain = 0.0
         self._drain_pending = False
+        self._banner_shown: str | None = None
+        self._drawn: dict[str, float] = {}  # panel -> when a drain last redrew it
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
-        yield Header(show_clock=True)
+        yield Header(show_clock=self.header_clock)
         yield Static("", id="banner")
+        yield Static("", id="tabs")
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
-            yield RobotsTable(self.robots, id="robots")
+            yield RobotsTable(self.robots, self.goals, id="robots")
             yield MapPanel(self.map_model, id="map")
-        yield ActionsTable(self.actions, id="actions")
+        with Horizontal(id="middle"):
+            yield ActionsTable(self.actions, id="actions")
+            yield MissionPanel(self.goals, self.actions, id="mission")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
             yield LogPane(id="log")
@@ -141,8 +169,10 @@ class MrssApp(Steering):
 
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
-                  "robots": "Robots (t teleop, g map)", "actions": "Actions (c cancel, s suspend, "
-                  "r resume)", "mind": "Mind (m refresh, a auto)",
+                  "robots": "Robots (t teleop, g map)",
+                  "actions": "Actions (debug, around the agent: c cancel, s suspend, r resume)",
+                  "mission": "Mission (n area, c cancel, +/- priority, H all hold)",
+                  "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
         titles["map"] = "Map"
         for ident, title in titles.items():
@@ -203,10 +233,10 @@ class MrssApp(Steering):
                 dirty.add("alerts")
                 lines.append(alert_line(alert, env.ts))
             if isinstance(body, ActionStatus):
-                self.actions.apply_status(body, env.ts)
+                self.actions.apply_status(body, env.ts, env.src)
                 dirty.add("actions")
             elif isinstance(body, ActionRequest):
-                self.actions.apply_request(body, env.ts)
+                self.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")
             elif isinstance(body, RobotState):
                 self.robots.apply_state(body)
@@ -232,15 +262,23 @@ class MrssApp(Steering):
             line = log_line(env)
             if line is not None:
                 lines.append(line)
-        now = time.time()
+        now = self.clock()
+        if mind is not None and isinstance(mind.body, MindSnapshot) and self.goals.declared \
+                and self.goals.apply_beliefs(mind.body.beliefs, mind.ts, self.actions):
+            dirty |= {"mission", "robots"}
         if "actions" in dirty:
             self.query_one(ActionsTable).refresh_rows(now)
         if "robots" in dirty:
             self.query_one(RobotsTable).refresh_rows(now)
         if "supervision" in dirty:
             self.query_one(SupervisionTable).refresh_rows(now)
+        drawn = time.monotonic()
+        for panel in dirty & {"actions", "robots", "supervision", "mission"}:
+            self._drawn[panel] = drawn
         if mind is not None and isinstance(mind.body, MindSnapshot):
-            self.query_one(MindInspector).show_snapshot(mind.body, mind.ts)
+            self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
+        if "mission" in dirty or "actions" in dirty:
+            self.query_one(MissionPanel).refresh_rows(now)
         if "map" in dirty:
             self.query_one(MapPanel).refresh()
         if "alerts" in dirty:
@@ -278,11 +316,16 @@ class MrssApp(Steering):
 
     def _tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
-        now = time.time()
+        now = self.clock()
+        recent = time.monotonic() - TICK_SKIP
         with suppress(NoMatches):  # the panels are gone: the app is closing
-            self.query_one(SupervisionTable).refresh_rows(now)
-            self.query_one(RobotsTable).refresh_rows(now)
-            self.query_one(ActionsTable).refresh_rows(now)
+            tables = (("supervision", self.query_one(SupervisionTable).refresh_rows),
+                      ("robots", self.query_one(RobotsTable).refresh_rows),
+                      ("actions", self.query_one(ActionsTable).refresh_rows),
+                      ("mission", self.query_one(MissionPanel).refresh_rows))
+            for name, refresh_rows in tables:
+                if self._drawn.get(name, 0.0) < recent:  # a drain just drew it: skip
+                    refresh_rows(now)
             self._show_liveness()
 
     def _watch_link(self) -> None:
@@ -317,6 +360,12 @@ class MrssApp(Steering):
 
     def _show_liveness(self) -> None:
         text = self.banner_text()
+        if text == self._banner_shown and self.sub_title:
+            subtitle = text or self._connection_text()
+            if subtitle != self.sub_title:
+                self.sub_title = subtitle
+            return
+        self._banner_shown = text  # a Static's update lays the screen out again: only on change
         with suppress(NoMatches):
             banner = self.query_one("#banner", Static)
             banner.update(text)
@@ -326,7 +375,9 @@ class MrssApp(Steering):
 
     def _connection_text(self) -> str:
         project = f"{self.project} · " if self.project else ""
-        return f"{project}connected · {self.link.endpoints.backend} · {self.link.received} msgs"
+        # no message count here: a header title that changes every second lays the whole
+        # screen out again every second (`mrss bench tui`)
+        return f"{project}connected · {self.link.endpoints.backend}"
 
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""

@@ -9,10 +9,12 @@ sent only once the operator said yes to it (`mrss.tui.confirm`).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from textual.message import Message
 
 from mrss.messages import Message as BusMessage
+from mrss.operator_commands import OperatorCommand
 
 
 class BusActivity(Message):
@@ -32,8 +34,9 @@ class SendRequested(Message):
     """A widget wants `body` published on the bus; `what` describes it for the operator."""
 
     def __init__(self, body: BusMessage, what: str, *, confirm: str = "",
-                 details: Sequence[str] = ()) -> None:
+                 details: Sequence[str] = (), history: tuple[str, str] | None = None) -> None:
         super().__init__()
+        self.history = history  # (action uuid, note) for that action's history once sent
         self.body = body
         self.what = what
         self.confirm = confirm  # the question to ask first ("" : send at once)
@@ -46,3 +49,17 @@ READONLY_NOTICE = "read-only dashboard (--readonly): no controls"
 def readonly(widget: object) -> bool:
     """Whether the widget's app is read-only (then every control is refused)."""
     return bool(getattr(getattr(widget, "app", None), "readonly", False))
+
+
+class MissionRequested(Message):
+    """A widget wants a project operator command sent to the agent (`mrss.tui.mission`):
+    `command` with its JSON `payload`; `what` describes it for the operator."""
+
+    def __init__(self, command: OperatorCommand, payload: dict[str, Any], what: str, *,
+                 confirm: str = "", details: Sequence[str] = ()) -> None:
+        super().__init__()
+        self.command = command
+        self.payload = payload
+        self.what = what
+        self.confirm = confirm
+        self.details = tuple(details)

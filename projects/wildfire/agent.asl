@@ -118,6 +118,21 @@ tries(G, 0) :- not tried(G, _).
       .wait(2000);
       !switch_mode(R, Mode).
 
+// All robots hold (the operator's "all robots hold"): every robot's running goal is
+// suspended, new goals queue; when the hold is lifted each robot resumes its best goal.
++hold_all[source(percept)]
+   <- .print("operator: all robots hold");
+      .findall(R, robot(R), Rs);
+      !hold_each(Rs).
+-hold_all[source(percept)]
+   <- .print("operator: hold lifted");
+      .findall(R, robot(R), Rs);
+      !release_each(Rs).
++!hold_each([]).
++!hold_each([R|Rs]) <- +paused(R, hold); !hold_task(R); !hold_each(Rs).
++!release_each([]).
++!release_each([R|Rs]) <- -paused(R, hold); !schedule(R); !release_each(Rs).
+
 +robot_unavailable(R)[source(percept)]
    <- .print(R, " is unavailable: its goals wait").
 -robot_unavailable(R)[source(percept)]

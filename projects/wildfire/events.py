@@ -12,6 +12,8 @@ not a second event):
     <prefix>/priority  {"goal": "a1", "priority": 5}   -> prioritychange(a1, 5)
     <prefix>/teleop    {"robot": "ugv1", "on": true}   -> teleop(ugv1, on), and teleop(ugv1, off)
                                                           is removed (or the reverse)
+    <prefix>/hold      {"on": true}                    -> hold_all (all robots hold); false
+                                                          removes it (they go on)
 
 Goal ids and robot ids are lowercase identifiers; a payload that does not fit is
 counted as bad and reported back at once on `<topic>/reply`, never a percept. An area
@@ -30,6 +32,7 @@ from mrss.api import (
     Field,
     JsonMapping,
     Option,
+    PayloadError,
     WorldModelClient,
 )
 
@@ -39,6 +42,7 @@ CANCEL = JsonMapping("goal_cancelled", GOAL)
 PRIORITY_CHANGE = JsonMapping("prioritychange", GOAL, Field("priority", "int"))
 TELEOP = JsonMapping("teleop", Field("robot", "atom"), Field("on", "bool"))
 AREA = JsonMapping("area_goal_received", GOAL, PRIORITY)
+HOLD_ON = Field("on", "bool")  # ops/hold: hold_all added (true) or removed (false)
 MAX_VERTICES = 200
 MAX_RADIUS_M = 5000.0
 
@@ -94,6 +98,7 @@ class WildfireEvents(ExternalAdapter):
         self.map_json(f"{prefix}/cancel", CANCEL)
         self.map_json(f"{prefix}/priority", PRIORITY_CHANGE)
         self.on_json(f"{prefix}/teleop", self.on_teleop)
+        self.on_json(f"{prefix}/hold", self.on_hold)
 
     def on_area(self, topic: str, obj: dict[str, Any]) -> None:
         """Store the area's shape (the RCL grounds it from there), then the goal percept.
@@ -105,6 +110,14 @@ class WildfireEvents(ExternalAdapter):
         args = AREA.args(obj, topic=topic)  # a bad payload is refused before it is stored
         self.world.upsert(area)
         self.percept(AREA.functor, *args)
+
+    def on_hold(self, topic: str, obj: dict[str, Any]) -> None:
+        """All robots hold (the percept hold_all), or go on (it is removed)."""
+        try:
+            on = HOLD_ON.extract(obj)
+        except ValueError as exc:
+            raise PayloadError(str(exc), topic=topic) from None
+        self.percept("hold_all", op="add" if on else "remove")
 
     def on_teleop(self, topic: str, obj: dict[str, Any]) -> None:
         """Teleop on/off: the new state is perceived, the old one is not any more."""

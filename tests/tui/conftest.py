@@ -79,3 +79,13 @@ def tuidemo() -> Iterator[Path]:
         yield from supervise("tuidemo", HERE, run_dir)
     finally:
         shutil.rmtree(run_dir, ignore_errors=True)
+
+
+@pytest.fixture()
+def tuimission() -> Iterator[Path]:
+    """tests/tui/tuimission (bus, broker, events, RCL, the wildfire agent) running."""
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuimission-"))
+    try:
+        yield from supervise("tuimission", HERE, run_dir)
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)

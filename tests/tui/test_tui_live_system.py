@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from textual.widgets import Input
+from textual.widgets import Input, Sparkline
 
 from mrss.bus import BusEndpoints, Publisher
-from mrss.messages import Command
+from mrss.config import load_project
+from mrss.messages import Command, Percept
 from mrss.tui.app import MrssApp
+from mrss.tui.details import ComponentDetail, RobotDetail
 from mrss.tui.discovery import find_endpoints
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
@@ -26,8 +28,11 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
     endpoints, name = find_endpoints("busdemo", run_dir=busdemo)
     assert name == "busdemo"
 
+    spec = load_project("busdemo").supervisor.spec
+
     async def body() -> None:
-        app = MrssApp(endpoints, project=name, mind_every=0, tree_every=0.3)
+        app = MrssApp(endpoints, project=name, mind_every=0, tree_every=0.3,
+                      restart_budget=(spec.intensity, spec.period))
         async with app.run_test(size=(180, 50)) as pilot:
             table = app.query_one(SupervisionTable)
             row = "busdemo/announcer"
@@ -39,7 +44,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
                 return cells if cells[1] == "running" and cells[3] == str(inc) else None
 
             await until(pilot, lambda: announcer(1), timeout=30, message="announcer running")
-            assert [k.value for k in table.rows] == ["busdemo", "busdemo/bus", row]
+            assert table.shown_keys() == ["busdemo", "busdemo/bus", row]
             table.focus()
             await pilot.press("down", "down")
             assert table.selected_key == row
@@ -50,6 +55,18 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             log = app.query_one(LogPane)
             await until(pilot, lambda: any("fault kill injected into announcer" in line
                                            for line in log.lines_text()), message="fault logged")
+            # Enter: the component's detail, with its budget, process and log
+            await pilot.press("enter")
+            detail = await until(pilot, lambda: isinstance(app.screen, ComponentDetail)
+                                 and app.screen, message="the component's detail")
+            pid = row_text(table, row)[2]
+            text = await until(pilot, lambda: "CPU measuring" not in detail.body_text
+                               and detail.body_text, message="CPU measured")
+            assert f"pid             {pid}" in text
+            assert f"restart budget  1 of {spec.intensity} in {spec.period:g} s" in text
+            assert "CPU " in text and " MiB" in text and "SIGKILL" in text
+            assert "fault kill injected into announcer" in text.split("last log lines")[1]
+            await pilot.press("escape")
             await pilot.press("h", "h")
             cells = await until(pilot, lambda: announcer(3), timeout=30,
                                 message="hung announcer found and restarted")
@@ -95,14 +112,28 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         timeout=10, message="the agent's beliefs")
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "ugv1")
-                        and row_text(robots, "ugv1")[5].endswith("%"), message="telemetry")
+                        and row_text(robots, "ugv1")[6].endswith("%"), message="telemetry")
+            # Enter on a robot: every telemetry field and the sparklines, filling up
+            robots.focus()
+            await pilot.press("enter")
+            detail = await until(pilot, lambda: isinstance(app.screen, RobotDetail)
+                                 and app.screen, message="the robot's detail")
+            for field in ("position.lat", "battery.remaining", "tank.level", "tank.capacity"):
+                assert field in detail.body_text, detail.body_text
+            view = app.robots.robots["ugv1"]
+            await until(pilot, lambda: len(view.series.get("battery", ())) >= 3,
+                        message="battery samples")
+            spark = detail.query_one("#spark-battery", Sparkline)
+            await until(pilot, lambda: len(spark.data or []) >= 3, message="battery sparkline")
+            assert set(view.series) == {"battery", "tank"}  # the demo sends no altitude
+            await pilot.press("escape")
             await pilot.press("p")
             app.query_one("#percept", Input).value = "fire(area1)"
             await pilot.press("enter")
             actions = app.query_one(ActionsTable)
 
             def action_state() -> str:
-                keys = [k.value for k in actions.rows]
+                keys = actions.shown_keys()
                 if not keys:
                     return ""
                 row = row_text(actions, keys[0])
@@ -129,4 +160,24 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         message="cancelled from the dashboard")
             await until(pilot, lambda: mind.snapshot is not None
                         and not mind.snapshot.intentions, message="intention gone from mind")
+            # the mind's history: the percept's arrival is a diff; freeze, step, live
+            history = mind.history
+            assert {e.incarnation for e in history.entries} == {1}
+            assert any("fire(area1)[source(percept)]" in history.diff(e)[0]
+                       for e in history.entries)
+            mind.focus()
+            await pilot.press("f")
+            frozen = mind.shown
+            assert frozen is not None and "frozen" in str(mind.border_subtitle)
+            app.link.publish(Percept(literal="fire(area3)"))
+            await until(pilot, lambda: "fire(area3)[source(percept)]" in
+                        history.entries[-1].snapshot.beliefs, message="a newer snapshot kept")
+            assert mind.shown is frozen and mind.snapshot is frozen.snapshot
+            await pilot.press("left_square_bracket")
+            assert mind.shown is not None and mind.shown.serial < frozen.serial
+            assert "history" in str(mind.border_subtitle)
+            await pilot.press("end")
+            assert mind.snapshot is not None
+            assert "fire(area3)[source(percept)]" in mind.snapshot.beliefs
+            assert str(mind.border_subtitle).startswith("live")
     run(body())

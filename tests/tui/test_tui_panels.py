@@ -60,7 +60,7 @@ def test_supervision_table_shows_the_tree_snapshot_then_follows_sup_events(
                                                                  "4242", "1", "0")
             assert uptime.startswith("1m1")  # 75 s and counting
             assert (refused, reason) == ("", "")
-            assert [k.value for k in table.rows] == ["demo", "demo/bus", "demo/announcer"]
+            assert table.shown_keys() == ["demo", "demo/bus", "demo/announcer"]
             # the component is killed and restarted: exit, restart, start events
             peer.publish(SupEvent(event="exit", child="announcer", supervisor="demo",
                                   pid=4242, reason="killed: SIGKILL", detail={"inc": 1}))
@@ -104,16 +104,17 @@ def test_robots_table_shows_availability_link_and_latest_telemetry(
 
             def shown() -> bool:
                 return (has_row(table, "uav1") and has_row(table, "ugv1")
-                        and row_text(table, "ugv1")[6] != "" and row_text(table, "uav1")[5] != "")
+                        and row_text(table, "ugv1")[7] != "" and row_text(table, "uav1")[6] != "")
 
             await until(pilot, shown, message="both robots with telemetry")
-            robot, available, link, teleop, position, battery, tank, _, reason = \
+            robot, available, link, teleop, goal, position, battery, tank, _, reason = \
                 row_text(table, "ugv1")
             assert (available, link, teleop) == ("yes", "up", "off")
             assert (position, battery, tank) == ("47.07000, 15.43000", "81%", "12.5/20.0 L")
             assert row_text(table, "uav1")[1:3] == ["no", "down"]
-            assert row_text(table, "uav1")[4:6] == ["47.10000, 15.40000 alt 30.0", "55%"]
-            assert row_text(table, "uav1")[8] == "no heartbeat for 3.0 s"
+            assert row_text(table, "uav1")[5:7] == ["47.10000, 15.40000 alt 30.0", "55%"]
+            assert goal == ""  # no goal patterns declared: no goals known
+            assert row_text(table, "uav1")[9] == "no heartbeat for 3.0 s"
     run(body())
 
 
@@ -133,7 +134,7 @@ def test_actions_table_lists_actions_newest_first_with_state_reason_and_progress
             peer.publish(ActionStatus(uuid=second, state="failed", reason="link down",
                                       robot="uav1"))
             await until(pilot, lambda: has_row(table, second), message="second action")
-            assert [k.value for k in table.rows] == [second, first]
+            assert table.shown_keys() == [second, first]
             row = row_text(table, first)
             assert row[:7] == ["aaaaaaaa", "go_to", "ugv1", "extinguish(area1)", "running", "",
                                "2/5 ████░░░░░░ eta=3.5"]
@@ -142,7 +143,7 @@ def test_actions_table_lists_actions_newest_first_with_state_reason_and_progress
             peer.publish(ActionStatus(uuid=first, state="succeeded", robot="ugv1"))
             await until(pilot, lambda: row_text(table, first)[4] == "succeeded",
                         message="first action succeeded")
-            assert [k.value for k in table.rows] == [second, first]
+            assert table.shown_keys() == [second, first]
     run(body())
 
 

@@ -14,6 +14,19 @@ from typing import Any
 from mrss.messages import ActionRequest, ActionState, ActionStatus
 
 
+@dataclass(frozen=True)
+class Transition:
+    """One line of an action's history: when, what it became, who said so, and why."""
+
+    ts: float
+    state: str
+    who: str
+    why: str = ""
+
+
+HISTORY_LIMIT = 50  # transitions kept per action
+
+
 @dataclass
 class ActionView:
     """One action: what was asked and where it stands."""
@@ -28,6 +41,14 @@ class ActionView:
     reason: str = ""
     progress: dict[str, Any] = field(default_factory=dict)
     updated: float = 0.0
+    requester: str = ""
+    priority: int | None = None
+    literal: str = ""
+    history: list[Transition] = field(default_factory=list)
+
+    def add_history(self, entry: Transition) -> None:
+        self.history.append(entry)
+        del self.history[:-HISTORY_LIMIT]
 
     @property
     def terminal(self) -> bool:
@@ -81,25 +102,38 @@ class ActionsModel:
                 self._forget_oldest()
         return view
 
-    def apply_request(self, request: ActionRequest, ts: float) -> None:
+    def apply_request(self, request: ActionRequest, ts: float, src: str = "") -> None:
         view = self._action(request.uuid)
         view.name, view.args, view.goal = request.name, list(request.args), request.goal
         view.robot = request.robot or view.robot
+        view.priority, view.literal = request.priority, request.literal
+        if src and not view.requester:
+            view.requester = src
+            view.add_history(Transition(ts, "requested", src, request.literal))
         if not view.state:
             view.state = "requested"
         view.updated = max(view.updated, ts)
 
-    def apply_status(self, status: ActionStatus, ts: float) -> None:
+    def apply_status(self, status: ActionStatus, ts: float, src: str = "") -> None:
         """A transition, or a repeat (progress, snapshot, reconciliation): both say where
         the action stands now; a repeat also names an action whose request went by
         before the dashboard attached."""
         view = self._action(status.uuid)
+        if not status.repeat or status.state != view.state:
+            why = status.reason + (f" (cause {status.cause})" if status.cause else "")
+            view.add_history(Transition(ts, status.state, src, why))
         view.state, view.reason = status.state, status.reason
         view.progress = dict(status.progress)
         view.robot = status.robot or view.robot
         view.name = view.name or status.name
         view.goal = view.goal or status.goal
         view.updated = ts
+
+    def note(self, uuid: str, ts: float, who: str, why: str) -> None:
+        """Something the dashboard did to an action (a debug key), in its history."""
+        view = self.actions.get(uuid)
+        if view is not None:
+            view.add_history(Transition(ts, "note", who, why))
 
     def newest_first(self) -> list[ActionView]:
         return sorted(self.actions.values(), key=lambda a: a.seq, reverse=True)

@@ -9,10 +9,14 @@ Telemetry comes in two shapes and both are understood: a link record with a `typ
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.messages import RobotData, RobotState
+
+HISTORY_SECONDS = 300.0  # the sparklines' span: the last five minutes
+SERIES_POINTS = 600
 
 
 @dataclass
@@ -26,6 +30,48 @@ class RobotView:
     teleop: bool | None = None
     records: dict[str, dict[str, Any]] = field(default_factory=dict)  # "" = flat records
     data_ts: float | None = None
+    # battery %, altitude m, tank litres over the last HISTORY_SECONDS: (ts, value)
+    series: dict[str, deque[tuple[float, float]]] = field(default_factory=dict)
+
+    def values(self) -> dict[str, float | None]:
+        """The numbers the sparklines follow (None when the telemetry has none)."""
+        tank = self._field("tank", "level")
+        flat_tank = self.records.get("", {}).get("tank")
+        if tank is None and isinstance(flat_tank, dict):
+            tank = flat_tank.get("level")
+        elif tank is None:
+            tank = flat_tank
+        alt = self._field("position", "relative_alt")
+        if not _is_number(alt):
+            alt = self._field("position", "alt")
+        battery = self.records.get("battery", {}).get("remaining")
+        if battery is None:
+            flat = self.records.get("", {}).get("battery")
+            battery = flat.get("remaining") if isinstance(flat, dict) else flat
+        return {name: float(v) if v is not None and _is_number(v) else None
+                for name, v in (("battery", battery), ("altitude", alt), ("tank", tank))}
+
+    def record_series(self, ts: float) -> None:
+        for name, value in self.values().items():
+            if value is None:
+                continue
+            points = self.series.setdefault(name, deque(maxlen=SERIES_POINTS))
+            if points and points[-1][0] == ts:
+                points[-1] = (ts, value)
+            else:
+                points.append((ts, value))
+            while points and ts - points[0][0] > HISTORY_SECONDS:
+                points.popleft()
+
+    def fields(self) -> list[tuple[str, Any]]:
+        """Every telemetry field, `record.key` (flat ones by their key), sorted."""
+        out: list[tuple[str, Any]] = []
+        for record, data in sorted(self.records.items()):
+            for key, value in sorted(data.items()):
+                if key != "type":
+                    out.append((f"{record}.{key}" if record else key, value))
+        return out
+
 
     def _field(self, record: str, key: str) -> Any:
         value = self.records.get(record, {}).get(key)
@@ -87,6 +133,7 @@ class RobotsModel:
         else:
             view.records.setdefault("", {}).update(data.data)  # flat: merge what is new
         view.data_ts = ts
+        view.record_series(ts)
 
 
 def _is_number(value: Any) -> bool:

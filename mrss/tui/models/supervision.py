@@ -17,7 +17,7 @@ refused since it started; 0 again when it starts anew).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.messages import Rejections, SupEvent
@@ -44,6 +44,12 @@ class SupNode:
     up_since: float | None = None  # wall-clock time it last started (running only)
     last_reason: str = ""
     refused: int = 0  # input refused by this incarnation (its Rejections reports)
+    restart_times: list[float] = field(default_factory=list)  # seen while attached
+
+    def budget_text(self, now: float, intensity: int, period: float) -> str:
+        """`4 of 5 in 30 s`: restarts seen within the last `period` against the budget."""
+        recent = sum(1 for t in self.restart_times if now - t <= period)
+        return f"{recent} of {intensity} in {period:g} s"
 
     @property
     def name(self) -> str:
@@ -102,6 +108,8 @@ class SupervisionModel:
             self._gone_with(node)
         elif kind == "restart":
             node.state, node.restarts = "waiting", event.count
+            node.restart_times.append(ts)
+            del node.restart_times[:-100]
             node.last_reason = event.reason or node.last_reason
         elif kind == "hang":
             node.state, node.last_reason = "hung", event.reason

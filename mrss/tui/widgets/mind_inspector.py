@@ -3,45 +3,117 @@
 Fed with `mind.<agent>` snapshots (`MindSnapshot`), requested by the app every second or
 on a key. The tree is rebuilt only when a snapshot differs from the one shown, and
 nodes the operator opened or closed stay that way across rebuilds.
+
+History (`models/mind_history.py`): every snapshot that differs is kept with its time
+and the reasoner's incarnation. `[` and `]` step back and forward through them, `f`
+freezes the one shown (new ones are kept, not shown) or goes live again, `End` goes
+live. The beliefs are marked against the snapshot before: `+` added, and a "removed"
+branch lists those gone. The panel's subtitle says which snapshot shows.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import time
+from typing import Any, ClassVar
 
 from rich.text import Text
+from textual.binding import Binding, BindingType
 from textual.widgets import Tree
 from textual.widgets.tree import TreeNode
 
 from mrss.messages import MindSnapshot
+from mrss.tui.models.mind_history import MindEntry, MindHistory
 
-OPEN_BY_DEFAULT = ("beliefs", "intentions", "events")
+OPEN_BY_DEFAULT = ("beliefs", "intentions", "events", "removed")
 
 
 class MindInspector(Tree[str]):
     """A tree: agent > beliefs / intentions > stack frames / events."""
 
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("left_square_bracket", "older", "Older snapshot"),
+        Binding("right_square_bracket", "newer", "Newer snapshot"),
+        Binding("f", "freeze", "Freeze / live"),
+        Binding("end", "live", "Live", show=False),
+    ]
+
     def __init__(self, *, id: str | None = None) -> None:
         super().__init__("mind: no snapshot yet (m asks for one)", data="", id=id)
         self.snapshot: MindSnapshot | None = None
         self.received_at: float | None = None
+        self.history = MindHistory()
+        self.shown: MindEntry | None = None
         self._expanded_keys: set[str] = set(OPEN_BY_DEFAULT)
         self._collapsed_keys: set[str] = set()
         self._seen: set[str] = set()
 
-    def show_snapshot(self, snap: MindSnapshot, when: float) -> None:
+    def show_snapshot(self, snap: MindSnapshot, when: float, incarnation: int = 0) -> None:
+        """A snapshot arrived: kept in the history, shown if the inspector is live."""
         self.received_at = when
-        if snap == self.snapshot:
+        self.history.add(snap, when, incarnation)
+        if self.history.live:
+            self._show_entry()
+        else:
+            self._subtitle()
+
+    def _subtitle(self) -> None:
+        entry = self.history.current()
+        if entry is None:
             return
+        at, total = self.history.position() + 1, len(self.history.entries)
+        mode = "live" if self.history.live else "frozen" if at == total else "history"
+        stamp = time.strftime("%H:%M:%S", time.localtime(entry.ts))
+        self.border_subtitle = (f"{mode} · {at}/{total} · {stamp} · incarnation "
+                                f"{entry.incarnation} · [ ] step, f freeze")
+
+    def _show_entry(self) -> None:
+        entry = self.history.current()
+        self._subtitle()
+        if entry is None or entry is self.shown:
+            return
+        self.shown = entry
+        self._draw(entry.snapshot)
+
+    def action_older(self) -> None:
+        self.history.back()
+        self._show_entry()
+
+    def action_newer(self) -> None:
+        self.history.forward()
+        self._show_entry()
+
+    def action_freeze(self) -> None:
+        if self.history.live:
+            self.history.freeze()
+        else:
+            self.history.follow()
+        self._show_entry()
+
+    def action_live(self) -> None:
+        self.history.follow()
+        self._show_entry()
+
+    def _draw(self, snap: MindSnapshot) -> None:
+        added, removed = self.history.diff()
+        fresh = set(added)
         self._remember_expansion(self.root)
         self.snapshot = snap
         self._seen = set()
         self.clear()
         root = self.root
         root.set_label(Text.assemble(("agent ", "dim"), (snap.agent, "bold")))
-        beliefs = self._branch(root, Text(f"beliefs ({len(snap.beliefs)})"), "beliefs")
+        label = Text(f"beliefs ({len(snap.beliefs)})")
+        if added or removed:
+            label.append(f"  +{len(added)} -{len(removed)} since the one before", "dim")
+        beliefs = self._branch(root, label, "beliefs")
         for belief in snap.beliefs:
-            beliefs.add_leaf(Text(belief))
+            beliefs.add_leaf(Text.assemble(("+ ", "bold green"), (belief, "green"))
+                             if belief in fresh else Text(belief))
+        if removed:
+            gone = self._branch(root, Text(f"removed since the one before ({len(removed)})",
+                                           style="red"), "removed")
+            for belief in removed:
+                gone.add_leaf(Text.assemble(("- ", "bold red"), (belief, "red")))
         intentions = self._branch(root, f"intentions ({len(snap.intentions)})", "intentions")
         for intention in snap.intentions:
             self._intention(intentions, intention)

@@ -7,8 +7,10 @@ from typing import ClassVar
 
 from textual.binding import Binding, BindingType
 
+from mrss.operator_commands import OperatorCommand, teleop_payload
 from mrss.tui import operator
-from mrss.tui.events import Note, SendRequested
+from mrss.tui.events import MissionRequested, Note, SendRequested
+from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel, RobotView
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
 
@@ -23,14 +25,16 @@ class RobotsTable(KeyedTable):
     """Robots with availability, link state and reason, teleop, position, battery, tank."""
 
     COLUMNS = (("robot", "robot"), ("available", "available"), ("link", "link"),
-               ("teleop", "teleop"), ("position", "position"), ("battery", "battery"),
-               ("tank", "tank"), ("data", "data age"), ("reason", "reason"))
+               ("teleop", "teleop"), ("goal", "goal"), ("position", "position"),
+               ("battery", "battery"), ("tank", "tank"), ("data", "data age"), ("reason", "reason"))
     BINDINGS: ClassVar[list[BindingType]] = [Binding("t", "teleop", "Teleop on/off"),
                                               Binding("g", "show_on_map", "Follow on map")]
 
-    def __init__(self, model: RobotsModel, *, id: str | None = None) -> None:
+    def __init__(self, model: RobotsModel, goals: GoalsModel | None = None, *,
+                 id: str | None = None) -> None:
         super().__init__(id=id)
         self.model = model
+        self.goals = goals or GoalsModel()
 
     def refresh_rows(self, now: float) -> None:
         self.show([self._row(view, now) for view in self.model.robots.values()])
@@ -41,9 +45,14 @@ class RobotsTable(KeyedTable):
         teleop = ("on", "bold yellow") if view.teleop else ("off" if view.teleop is False
                                                              else "", "")
         age = "" if view.data_ts is None else f"{max(0.0, now - view.data_ts):.0f}s"
+        goal = self.goals.current_goal(view.robot)
+        goal_text = ("", "") if goal is None else (
+            goal.goal if goal.state.value == "running" else f"{goal.goal} ({goal.state.value})",
+            "bold" if goal.state.value == "running" else "magenta")
         return view.robot, (
             cell(view.robot, "bold"), cell(*available), cell(view.link, link_style),
-            cell(*teleop), cell(view.position()), cell(view.battery()), cell(view.tank()),
+            cell(*teleop), cell(*goal_text), cell(view.position()), cell(view.battery()),
+            cell(view.tank()),
             cell(age), cell(view.reason, "italic"))
 
     def action_teleop(self) -> None:
@@ -52,6 +61,15 @@ class RobotsTable(KeyedTable):
             self.post_message(Note("no robot selected", error=True))
             return
         on = not self.model.robots[robot].teleop
+        mission = getattr(self.app, "mission", None)
+        if mission is not None and mission.config.has(OperatorCommand.TELEOP):
+            self.post_message(MissionRequested(
+                OperatorCommand.TELEOP, teleop_payload(robot, on),
+                f"teleop {'on' if on else 'off'} for {robot}",
+                confirm=f"Teleop {'ON' if on else 'OFF'} for {robot}?",
+                details=[f"The agent is told: it {'suspends' if on else 'resumes'} "
+                         f"{robot}'s goals and switches its mode."]))
+            return
         actions = self.open_actions(robot)
         if on:
             confirm = f"Teleop ON for {robot}: take {robot} over by hand?"
@@ -61,8 +79,10 @@ class RobotsTable(KeyedTable):
             confirm = f"Teleop OFF for {robot}: hand {robot} back to the system?"
             details = [f"Its suspended actions ({actions}) resume from their progress; "
                        f"{robot} may start moving at once."]
+        details.append("Debug: this project declares no teleop command, so this goes to "
+                       "the RCL directly, around the agent.")
         self.post_message(SendRequested(operator.teleop(robot, on),
-                                        f"teleop {'on' if on else 'off'} for {robot}",
+                                        f"debug teleop {'on' if on else 'off'} for {robot}",
                                         confirm=confirm, details=details))
 
     def action_show_on_map(self) -> None:

@@ -1,0 +1,200 @@
+"""`mrss bench tui`: what the dashboard costs at a steady message rate.
+
+A feeder process runs the bus proxy and publishes a synthetic system's traffic at a
+fixed rate: telemetry of 6 robots (position, battery), progress of the running actions,
+actions starting and ending, log records, heartbeats. The dashboard (`MrssApp`,
+headless through Textual's `run_test`, 200 x 50, every panel visible) runs in this
+process, so this process's CPU time over the window is the dashboard's: its subscriber
+thread, its drains and its redraws. Each drain (models updated, changed tables given
+their new rows), each once-a-second tick (ages) and each of Textual's screen updates
+(layout and painting what changed: a "frame") is timed.
+
+Targets (issue 13): CPU at most 3 % of a core at 20 msgs/s, 25 % at 1,000 msgs/s;
+the refresh of every visible panel at most 50 ms at p99.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import multiprocessing
+import resource
+import shutil
+import statistics
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from mrss.bench.report import BenchReport
+from mrss.bus import BusEndpoints, ProxyThread, Publisher
+from mrss.messages import ActionStatus, Heartbeat, LogRecord, Message, RobotData
+
+ROBOTS = 6
+RUNNING = 20  # actions in progress at any time
+TARGETS = {20: 3.0, 1000: 25.0}  # msgs/s -> % of a core
+REFRESH_P99_MS = 50.0
+
+
+def stream() -> Iterator[Message]:
+    """A plausible mix: per round, each robot's position and battery, each running
+    action's progress, one action ending and a new one starting, a log line, a heartbeat."""
+    serial = itertools.count()
+    running = [f"{next(serial):032x}" for _ in range(RUNNING)]
+    for step in itertools.count():
+        for r in range(ROBOTS):
+            robot = f"r{r}"
+            yield RobotData(robot=robot, data={"type": "position", "lat": 47.0 + 1e-5 * step,
+                                               "lon": 15.4 + 1e-4 * r, "heading": 90.0})
+            yield RobotData(robot=robot, data={"type": "battery",
+                                               "remaining": 100.0 - step % 100})
+        for i, uuid in enumerate(running):
+            yield ActionStatus(uuid=uuid, state="running", robot=f"r{i % ROBOTS}", repeat=True,
+                               progress={"waypoint": step % 12, "waypoints": 12},
+                               name="cover", goal=f"g{i}")
+        done = running.pop(0)
+        yield ActionStatus(uuid=done, state="succeeded", robot="r0")
+        new = f"{next(serial):032x}"
+        running.append(new)
+        yield ActionStatus(uuid=new, state="running", robot="r1", name="cover", goal="gx")
+        yield LogRecord(component="rcl", level="INFO", message=f"step {step}")
+        yield Heartbeat(component="rcl", pid=1)
+
+
+def _feed(run_dir: str, rate: float, seconds: float, ready: Any, go: Any, done: Any,
+          stop: Any) -> None:
+    """The feeder process: the proxy, then `rate` messages a second for `seconds`."""
+    endpoints = BusEndpoints.ipc(Path(run_dir))
+    proxy = ProxyThread(endpoints).start()
+    try:
+        with Publisher(endpoints, src="rcl") as pub:
+            pub.wait_connected(10)
+            ready.set()
+            go.wait(60)
+            messages = stream()
+            start, sent = time.monotonic(), 0
+            while (elapsed := time.monotonic() - start) < seconds:
+                due = int(elapsed * rate) + 1
+                while sent < due:
+                    pub.publish(next(messages))
+                    sent += 1
+                time.sleep(min(0.005, 1.0 / rate))
+            pub.flush()
+            done.set()
+            stop.wait(60)
+    finally:
+        proxy.stop()
+
+
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _timed(samples: list[float], fn: Callable[..., Any]) -> Callable[..., Any]:
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            samples.append((time.perf_counter() - start) * 1000.0)
+    return wrapper
+
+
+def _p(values: list[float], q: float) -> float:
+    if not values:
+        return 0.0
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+
+async def _measure(endpoints: BusEndpoints, seconds: float, go: Any, done: Any
+                   ) -> dict[str, Any]:
+    from textual.screen import Screen
+
+    from mrss.tui.app import MrssApp
+
+    app = MrssApp(endpoints, project="bench", mind_every=0, tree_every=0, world_every=0)
+    drains: list[float] = []
+    ticks: list[float] = []
+    frames: list[float] = []  # Textual's screen updates: layout and painting the panels
+    app.apply = _timed(drains, app.apply)  # type: ignore[method-assign]
+    app._tick = _timed(ticks, app._tick)  # type: ignore[method-assign]
+    paint = Screen._on_timer_update
+    Screen._on_timer_update = _timed(frames, paint)  # type: ignore[method-assign]
+    try:
+        return await _run(app, seconds, go, done, drains, ticks, frames)
+    finally:
+        Screen._on_timer_update = paint  # type: ignore[method-assign]
+
+
+async def _run(app: Any, seconds: float, go: Any, done: Any, drains: list[float],
+               ticks: list[float], frames: list[float]) -> dict[str, Any]:
+    async with app.run_test(size=(200, 50)) as pilot:
+        deadline = time.monotonic() + 20
+        while not app.link.connected and time.monotonic() < deadline:
+            await pilot.pause(0.05)
+        await pilot.pause(0.5)  # the subscriptions reach the proxy
+        drains.clear()
+        ticks.clear()
+        frames.clear()
+        cpu0, wall0 = _cpu(), time.monotonic()
+        go.set()
+        # plain sleeps: `pilot.pause` would walk every widget and force a screen refresh
+        # each time, which is the pilot's cost, not the dashboard's
+        while not done.is_set() and time.monotonic() - wall0 < seconds + 30:
+            await asyncio.sleep(0.1)
+        await asyncio.sleep(0.3)  # the last drain
+        cpu, wall = _cpu() - cpu0, time.monotonic() - wall0
+        return {"cpu": 100.0 * cpu / wall, "received": app.link.received, "wall": wall,
+                "dropped": app.link.dropped, "drains": list(drains), "ticks": list(ticks),
+                "frames": list(frames)}
+
+
+def _one(rate: float, seconds: float) -> dict[str, Any]:
+    run_dir = tempfile.mkdtemp(prefix="mrss-bench-tui-")
+    ctx = multiprocessing.get_context("spawn")
+    ready, go, done, stop = ctx.Event(), ctx.Event(), ctx.Event(), ctx.Event()
+    feeder = ctx.Process(target=_feed, args=(run_dir, rate, seconds, ready, go, done, stop),
+                         daemon=True)
+    feeder.start()
+    try:
+        if not ready.wait(30):
+            raise RuntimeError("the feeder's proxy did not start")
+        return asyncio.run(_measure(BusEndpoints.ipc(Path(run_dir)), seconds, go, done))
+    finally:
+        stop.set()
+        feeder.join(10)
+        if feeder.is_alive():
+            feeder.kill()
+        shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def run(quick: bool = False) -> BenchReport:
+    seconds = 3.0 if quick else 15.0
+    report = BenchReport("tui", ["msgs/s", "seconds", "received", "CPU % of a core",
+                                 "target %", "drains", "drain p50 ms", "drain p99 ms",
+                                 "tick p99 ms", "frames", "frame p50 ms", "frame p99 ms"],
+                         quick=quick)
+    worst = 0.0
+    for rate, target in TARGETS.items():
+        result = _one(rate, seconds)
+        drains, ticks, frames = result["drains"], result["ticks"], result["frames"]
+        p99 = max(_p(drains, 0.99), _p(ticks, 0.99), _p(frames, 0.99))
+        worst = max(worst, p99)
+        report.add_row(rate, round(result["wall"], 1), result["received"],
+                       round(result["cpu"], 1), target, len(drains),
+                       round(statistics.median(drains), 2) if drains else None,
+                       round(_p(drains, 0.99), 2), round(_p(ticks, 0.99), 2), len(frames),
+                       round(statistics.median(frames), 2) if frames else None,
+                       round(_p(frames, 0.99), 2))
+        report.check(f"CPU at {rate} msgs/s <= {target:g} % of a core", result["cpu"] <= target)
+        if result["dropped"]:
+            report.notes.append(f"{result['dropped']} messages dropped at {rate} msgs/s")
+    report.check(f"every visible panel refreshed in <= {REFRESH_P99_MS:g} ms at p99 "
+                 f"(drains, ticks and frames)", worst <= REFRESH_P99_MS)
+    report.notes.append("headless Textual run_test at 200 x 50; the feeder (proxy and "
+                        "publisher) runs in another process; CPU is this process's "
+                        "user + system time over the window")
+    return report

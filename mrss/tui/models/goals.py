@@ -1,0 +1,139 @@
+"""The mission's goals as the dashboard knows them: read from the agent's beliefs.
+
+The project names its goal beliefs in `[operator.goals]` (`task(Robot, Goal, Priority)`
+is running, ...; `mrss.operator_commands`). Each mind snapshot is matched against those
+patterns: a goal found is queued, running, suspended or failed, with its robot and
+priority. A goal that was seen and is no longer in any of them has ended: cancelled if
+the operator cancelled it from here, failed if its last action failed, else done.
+Nothing here knows Textual.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from mrss.agentspeak import AslSyntaxError, parse_literal
+from mrss.agentspeak.terms import Struct, term_str
+from mrss.operator_commands import GoalPattern, GoalState
+from mrss.tui.models.actions import ActionsModel, ActionView
+
+# a goal seen in several patterns at once is in the first of these
+PRECEDENCE = (GoalState.RUNNING, GoalState.SUSPENDED, GoalState.QUEUED, GoalState.FAILED)
+ENDED_KEEP = 100  # ended goals remembered
+
+
+@dataclass
+class GoalView:
+    """One goal: where it stands, for which robot, at which priority."""
+
+    goal: str
+    seq: int
+    state: GoalState = GoalState.QUEUED
+    robot: str = ""
+    priority: int | None = None
+    since: float = 0.0  # when it entered its state (a snapshot's time)
+
+
+class GoalsModel:
+    """Goals by name, newest first; `apply_beliefs` per mind snapshot."""
+
+    def __init__(self, patterns: dict[GoalState, GoalPattern] | None = None) -> None:
+        self.patterns = dict(patterns or {})
+        self.goals: dict[str, GoalView] = {}
+        self.cancelled_here: set[str] = set()  # the operator cancelled these from here
+        self._seq = itertools.count()
+        self._prefixes = tuple(f"{p.functor}(" for p in self.patterns.values())
+
+    @property
+    def declared(self) -> bool:
+        return bool(self.patterns)
+
+    def apply_beliefs(self, beliefs: Iterable[str], when: float,
+                      actions: ActionsModel | None = None) -> bool:
+        """Update from a snapshot's beliefs; whether anything changed."""
+        found: dict[str, tuple[GoalState, dict[str, object]]] = {}
+        for text in beliefs:
+            if not text.startswith(self._prefixes):
+                continue
+            literal = _literal(text)
+            if literal is None:
+                continue
+            for state, pattern in self.patterns.items():
+                named = pattern.match(literal)
+                if named is None:
+                    continue
+                goal = _text(named["Goal"])
+                old = found.get(goal)
+                if old is None or PRECEDENCE.index(state) < PRECEDENCE.index(old[0]):
+                    found[goal] = (state, named)
+        changed = False
+        for goal, (state, named) in found.items():
+            view = self.goals.get(goal)
+            if view is None:
+                view = self.goals[goal] = GoalView(goal, next(self._seq), state, since=when)
+                changed = True
+            robot = _text(named["Robot"]) if "Robot" in named else view.robot
+            priority = named.get("Priority")
+            prio = priority if isinstance(priority, int) else view.priority
+            if (view.state, view.robot, view.priority) != (state, robot, prio):
+                if view.state != state:
+                    view.since = when
+                view.state, view.robot, view.priority = state, robot, prio
+                changed = True
+        for view in self.goals.values():
+            if view.goal in found or view.state.ended:
+                continue
+            view.state = self._ending(view.goal, actions)
+            view.since = when
+            changed = True
+        self._forget_ended()
+        return changed
+
+    def _ending(self, goal: str, actions: ActionsModel | None) -> GoalState:
+        if goal in self.cancelled_here:
+            return GoalState.CANCELLED
+        last = self.last_action(goal, actions)
+        if last is not None and last.state == "failed":
+            return GoalState.FAILED
+        if last is not None and last.state == "cancelled":
+            return GoalState.CANCELLED
+        return GoalState.DONE
+
+    @staticmethod
+    def last_action(goal: str, actions: ActionsModel | None) -> ActionView | None:
+        if actions is None:
+            return None
+        mine = [v for v in actions.actions.values() if v.goal == goal]
+        return max(mine, key=lambda v: v.seq) if mine else None
+
+    def _forget_ended(self) -> None:
+        ended = [v for v in self.goals.values() if v.state.ended]
+        for view in sorted(ended, key=lambda v: v.seq)[: max(0, len(ended) - ENDED_KEEP)]:
+            del self.goals[view.goal]
+
+    def newest_first(self) -> list[GoalView]:
+        """Open goals first (newest first), then ended ones (newest first)."""
+        return sorted(self.goals.values(), key=lambda v: (v.state.ended, -v.seq))
+
+    def current_goal(self, robot: str) -> GoalView | None:
+        """The goal `robot` works on now (running), else its suspended one."""
+        for state in (GoalState.RUNNING, GoalState.SUSPENDED):
+            for view in self.goals.values():
+                if view.robot == robot and view.state is state:
+                    return view
+        return None
+
+
+def _literal(text: str) -> Struct | None:
+    try:
+        return parse_literal(text)
+    except (AslSyntaxError, AssertionError, ValueError, RecursionError):
+        return None
+
+
+def _text(term: object) -> str:
+    if isinstance(term, Struct) and not term.args:
+        return term.functor
+    return term_str(term)  # type: ignore[arg-type]
