@@ -134,8 +134,9 @@ class FleetRun:
         proc = self.system.proc
         while time.monotonic() < deadline:
             if proc.poll() is not None:
-                raise RuntimeError(f"mrss supervise exited {proc.returncode}; log in "
-                                   f"{self.system.log_path}")
+                tail = self.system.log_path.read_text(errors="replace").splitlines()[-15:]
+                raise RuntimeError(f"mrss supervise exited {proc.returncode}; the end of its "
+                                   "log:\n" + "\n".join(tail))
             self.system.pub.publish(Command(command="mind"))
             with self._cond:
                 if self._cond.wait_for(lambda: self.minds > 0 and

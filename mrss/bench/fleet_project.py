@@ -67,6 +67,7 @@ module = "mrss.actors.datalayer:DataLayerComponent"
 
 [components.fleet]
 module = "mrss.sim.fleet_component:SimFleetComponent"
+start_timeout = 120.0
 uav = {uavs}
 ugv = {ugvs}
 rate = {rate}
@@ -74,6 +75,7 @@ speedup = 1.0
 
 [components.rcl]
 module = "mrss.actors.rcl_service:RclService"
+start_timeout = 120.0
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]

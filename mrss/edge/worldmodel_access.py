@@ -54,6 +54,11 @@ class BusWorldModel:
     def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
         return dict(self.client.call("wm.upsert", [obj]))
 
+    def upsert_nowait(self, obj: dict[str, Any]) -> None:
+        """Write without waiting for the answer (in order with this client's requests);
+        the data layer's telemetry path, which needs no answer, uses it."""
+        self.client.send("wm.upsert", [obj])
+
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
         return list(self.client.call("wm.near", [lat, lon, radius_m, kind]))
