@@ -18,10 +18,13 @@ from mrss.messages import Envelope
 class SupervisedProject:
     """Writes `files` into a temporary `projects/<name>/`, runs `mrss supervise` on it as
     a real process (log in `supervise.log`), and connects a subscriber and a publisher to
-    its bus. `close()` stops the system and removes everything."""
+    its bus. `close()` stops the system and removes everything. With `nice` the root
+    supervisor runs at that nice value (as `nice -n N mrss supervise` would; its fork
+    server and components inherit it unless their table sets `nice`)."""
 
     def __init__(self, name: str, files: Mapping[str, str], *, prefixes: Sequence[str],
-                 on_message: Callable[[Envelope], None], tmp_prefix: str) -> None:
+                 on_message: Callable[[Envelope], None], tmp_prefix: str,
+                 nice: int | None = None) -> None:
         self.tmp = Path(tempfile.mkdtemp(prefix=tmp_prefix))
         project = self.tmp / "projects" / name
         project.mkdir(parents=True)
@@ -38,7 +41,9 @@ class SupervisedProject:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "mrss", "supervise", name, "--run-dir", str(self.run_dir)],
             env={**os.environ, "MRSS_PROJECTS": str(self.tmp / "projects")},
-            stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+            stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True,
+            preexec_fn=None if nice is None else (lambda: os.setpriority(os.PRIO_PROCESS, 0,
+                                                                         nice)))
 
     def close(self) -> None:
         try:
