@@ -38,7 +38,7 @@ from mrss.textfile import NotUtf8Error, read_text
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff",
-                  "nice", "cpus")
+                  "nice", "cpus", "realtime")
 SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
                    "retry_after", "shared_intensity", "groups", "heartbeat_interval",
                    "heartbeat_misses", "launcher", "run_dir", "backoff")
@@ -121,10 +121,11 @@ class ComponentConfig:
     options: dict[str, Any] = field(default_factory=dict)
     nice: int | None = None  # the process's nice value (-20..19); None: inherited
     cpus: tuple[int, ...] | None = None  # the CPUs it may run on; None: all
+    realtime: int | None = None  # SCHED_RR priority 1..99; None: the normal scheduler
 
     def child_spec(self) -> ChildSpec[ComponentStart]:
         start = ComponentStart(self.module, dict(self.options), self.start_timeout,
-                               Scheduling(self.nice, self.cpus))
+                               Scheduling(self.nice, self.cpus, self.realtime))
         return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
                          kind=self.kind, backoff=self.backoff)
 
@@ -358,7 +359,8 @@ class _Reader:
                 start_timeout=timeout,
                 backoff=self.typed(table, f"{key}.backoff", bool, module != PROXY_MODULE),
                 options={k: v for k, v in table.items() if k not in COMPONENT_KEYS},
-                nice=self.nice(table, f"{key}.nice"), cpus=self.cpus(table, f"{key}.cpus")))
+                nice=self.nice(table, f"{key}.nice"), cpus=self.cpus(table, f"{key}.cpus"),
+                realtime=self.realtime(table, f"{key}.realtime")))
         return tuple(result)
 
     # -- typed getters ----------------------------------------------------------------------
@@ -388,6 +390,14 @@ class _Reader:
                 or not NICE_MIN <= value <= NICE_MAX:
             raise self.error(key, f"must be a whole number from {NICE_MIN} (most favoured) to "
                                   f"{NICE_MAX}, not {value!r}")
+        return value
+
+    def realtime(self, data: dict[str, Any], key: str) -> int | None:
+        value = data.get("realtime")
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 99:
+            raise self.error(key, f"must be a real-time priority from 1 to 99, not {value!r}")
         return value
 
     def cpus(self, data: dict[str, Any], key: str) -> tuple[int, ...] | None:

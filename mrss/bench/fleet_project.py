@@ -42,6 +42,9 @@ class Data(FleetDataLayer):
 MOVING_MPS = 0.5
 
 
+FAVOURED_NICE = -10  # bus, rcl, reasoner: the action path (docs/config.md, CPU scheduling)
+
+
 def toml(uavs: int, ugvs: int, broker_url: str, rate: float) -> str:
     """project.toml of a fleet of `uavs` + `ugvs` robots on the broker at `broker_url`."""
     robots = [f"uav{k} = {{ link = \"mavlink\" }}" for k in range(1, uavs + 1)]
@@ -58,6 +61,7 @@ url = "{broker_url}"
 
 [components.bus]
 module = "mrss.bus.component:ProxyComponent"
+nice = {FAVOURED_NICE}
 
 [components.worldmodel]
 module = "mrss.actors.worldmodel:WorldModelComponent"
@@ -76,10 +80,12 @@ speedup = 1.0
 [components.rcl]
 module = "mrss.actors.rcl_service:RclService"
 start_timeout = 120.0
+nice = {FAVOURED_NICE}
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]
 module = "mrss.actors.reasoner:ReasonerComponent"
+nice = {FAVOURED_NICE}
 """
 
 

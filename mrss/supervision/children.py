@@ -24,9 +24,11 @@ class Scheduling:
 
     nice: int | None = None
     cpus: tuple[int, ...] | None = None
+    realtime: int | None = None  # SCHED_RR priority 1..99
 
     def to_dict(self) -> dict[str, Any]:
-        return {"nice": self.nice, "cpus": None if self.cpus is None else list(self.cpus)}
+        return {"nice": self.nice, "cpus": None if self.cpus is None else list(self.cpus),
+                "realtime": self.realtime}
 
 
 @dataclass(frozen=True)

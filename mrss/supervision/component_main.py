@@ -173,7 +173,8 @@ def run_component(
 
 
 def apply_scheduling(scheduling: dict[str, Any], log: logging.Logger) -> None:
-    """This process's nice value and CPUs from its `[components.<id>]` table (opt-in).
+    """This process's nice value, real-time priority and CPUs from its `[components.<id>]`
+    table (opt-in).
 
     A setting the OS refuses (a negative nice without CAP_SYS_NICE, CPUs this machine
     lacks) is logged and skipped: the component runs, only less favoured.
@@ -189,6 +190,14 @@ def apply_scheduling(scheduling: dict[str, Any], log: logging.Logger) -> None:
         except OSError as exc:
             log.warning("nice %d not applied: %s (a negative nice needs CAP_SYS_NICE, or "
                         "a RLIMIT_NICE that allows it)", nice, exc.strerror)
+    realtime = scheduling.get("realtime")
+    if isinstance(realtime, int):
+        try:
+            for tid in threads:
+                os.sched_setscheduler(tid, os.SCHED_RR, os.sched_param(realtime))
+        except OSError as exc:
+            log.warning("realtime %d (SCHED_RR) not applied: %s (it needs CAP_SYS_NICE, or "
+                        "a RLIMIT_RTPRIO that allows it)", realtime, exc.strerror)
     if isinstance(cpus, list) and cpus:
         try:
             for tid in threads:
