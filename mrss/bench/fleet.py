@@ -258,8 +258,10 @@ def run(quick: bool) -> BenchReport:
         "e2e: bench percept -> proxy -> reasoner -> reliable channel -> RCL -> skill start(); "
         "lag: telemetry record received by the RCL's link -> data layer -> world model "
         "write answered. Robots: half UAVs (MAVLink/UDP), half UGVs (MQTT, Mosquitto), one "
-        f"`mrss sim fleet` process; each robot gets a goal every {ASSIGN_EVERY_S:g} s. The "
-        f"machine ({os.cpu_count()} CPUs) is shared: the numbers are noisy.")
+        f"`mrss sim fleet` process; each robot gets a goal every {ASSIGN_EVERY_S:g} s. "
+        f"Scheduling: bus, rcl, reasoner `{fleet_project.FAVOURED}`, data layer and world "
+        f"model `{fleet_project.TELEMETRY}`, the fleet and the bench ordinary. The machine "
+        f"({os.cpu_count()} CPUs) is shared: the numbers are noisy.")
     return report
 
 

@@ -42,7 +42,10 @@ class Data(FleetDataLayer):
 MOVING_MPS = 0.5
 
 
-FAVOURED_NICE = -10  # bus, rcl, reasoner: the action path (docs/config.md, CPU scheduling)
+# The action path (bus, rcl, reasoner) and the telemetry path (data layer, world model)
+# as docs/config.md, "CPU scheduling", advises; the simulated fleet stays ordinary.
+FAVOURED = "realtime = 10"
+TELEMETRY = "nice = -10"
 
 
 def toml(uavs: int, ugvs: int, broker_url: str, rate: float) -> str:
@@ -61,13 +64,15 @@ url = "{broker_url}"
 
 [components.bus]
 module = "mrss.bus.component:ProxyComponent"
-nice = {FAVOURED_NICE}
+{FAVOURED}
 
 [components.worldmodel]
 module = "mrss.actors.worldmodel:WorldModelComponent"
+{TELEMETRY}
 
 [components.datalayer]
 module = "mrss.actors.datalayer:DataLayerComponent"
+{TELEMETRY}
 
 [components.fleet]
 module = "mrss.sim.fleet_component:SimFleetComponent"
@@ -80,12 +85,12 @@ speedup = 1.0
 [components.rcl]
 module = "mrss.actors.rcl_service:RclService"
 start_timeout = 120.0
-nice = {FAVOURED_NICE}
+{FAVOURED}
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]
 module = "mrss.actors.reasoner:ReasonerComponent"
-nice = {FAVOURED_NICE}
+{FAVOURED}
 """
 
 
