@@ -48,8 +48,9 @@ FAVOURED = "realtime = 10"
 TELEMETRY = "nice = -10"
 
 
-def toml(uavs: int, ugvs: int, broker_url: str, rate: float) -> str:
-    """project.toml of a fleet of `uavs` + `ugvs` robots on the broker at `broker_url`."""
+def toml(uavs: int, ugvs: int, broker_url: str | None, rate: float) -> str:
+    """project.toml of a fleet of `uavs` + `ugvs` robots on the broker at `broker_url`
+    (None: the embedded broker, a component of the project)."""
     robots = [f"uav{k} = {{ link = \"mavlink\" }}" for k in range(1, uavs + 1)]
     robots += [f"ugv{k} = {{ link = \"mqtt\" }}" for k in range(1, ugvs + 1)]
     return f"""\
@@ -59,12 +60,12 @@ name = "{PROJECT}"
 [supervisor]
 heartbeat_interval = 0.5
 
-[broker]
-url = "{broker_url}"
+{f'[broker]{chr(10)}url = "{broker_url}"' if broker_url else ""}
 
 [components.bus]
 module = "mrss.bus.component:ProxyComponent"
 {FAVOURED}
+{"" if broker_url else '[components.broker]' + chr(10) + 'module = "mrss.broker:EmbeddedBroker"'}
 
 [components.worldmodel]
 module = "mrss.actors.worldmodel:WorldModelComponent"
