@@ -33,11 +33,12 @@ from mrss.bench import fleet_project
 from mrss.bench.harness import SupervisedProject
 from mrss.bench.report import BenchReport
 from mrss.bench.restart import percentile
-from mrss.edge.worldmodel_service import WM_REPLY_TOPIC
+from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC
 from mrss.messages import (
     ActionStatus,
     Command,
     DataReply,
+    DataRequest,
     Envelope,
     MindSnapshot,
     Percept,
@@ -91,6 +92,7 @@ class FleetRun:
         self.starts: dict[int, int] = {}
         self.records: dict[tuple[str, float], float] = {}  # (robot, ts) -> seen on the bus
         self.written: dict[tuple[str, float], float] = {}  # (robot, ts) -> written, time.time
+        self.requests: dict[str, tuple[str, float]] = {}  # world model write -> (robot, ts)
         self.topics: Counter[str] = Counter()
         files = {"project.toml": fleet_project.toml(uavs, robots - uavs, broker_url, RATE_HZ),
                  "agent.asl": fleet_project.AGENT, "rcl.py": fleet_project.RCL,
@@ -111,13 +113,18 @@ class FleetRun:
             if self.measuring and isinstance(ts, float):
                 with self._data:
                     self.records[(body.robot, ts)] = now
-        elif isinstance(body, DataReply) and env.topic == WM_REPLY_TOPIC:
-            obj = body.result.get("object") if isinstance(body.result, dict) else None
+        elif isinstance(body, DataRequest) and env.topic == WM_REQUEST_TOPIC:
+            obj = body.args[0] if body.function == "wm.upsert" and body.args else None
             if isinstance(obj, dict) and obj.get("kind") == "robot":
                 ts = (obj.get("attributes") or {}).get("ts")
                 if isinstance(ts, float):
                     with self._data:
-                        self.written[(str(obj.get("id")), ts)] = now
+                        self.requests[body.request_id] = (str(obj.get("id")), ts)
+        elif isinstance(body, DataReply) and env.topic == WM_REPLY_TOPIC and body.ok:
+            with self._data:
+                key = self.requests.pop(body.request_id, None)
+                if key is not None:
+                    self.written[key] = now
         elif isinstance(body, ActionStatus):
             seq, t = body.progress.get("seq"), body.progress.get("t")
             if isinstance(seq, int) and isinstance(t, int):
