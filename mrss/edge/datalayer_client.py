@@ -87,12 +87,14 @@ class DataLayerClient:
             raise kind(function, reply.error or "error reply", request_id=reply.request_id)
         return reply.result
 
-    def send(self, function: str, args: Sequence[Any] = ()) -> None:
+    def send(self, function: str, args: Sequence[Any] = ()) -> str:
         """Send a request without waiting for its reply (requests of one client are
-        handled in the order sent); an error reply is counted in `failed_sends` and
-        logged, at most once a minute."""
-        self._bus.publish(DataRequest(request_id=NO_WAIT + new_id(), function=function,
+        handled in the order sent); its request id. An error reply is counted in
+        `failed_sends` and logged, at most once a minute."""
+        request_id = NO_WAIT + new_id()
+        self._bus.publish(DataRequest(request_id=request_id, function=function,
                                       args=list(args)), topic=self.request_topic)
+        return request_id
 
     def _exchange(self, function: str, args: Sequence[Any],
                   timeout: float | None) -> tuple[DataReply, bool]:

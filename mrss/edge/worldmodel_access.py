@@ -54,10 +54,10 @@ class BusWorldModel:
     def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
         return dict(self.client.call("wm.upsert", [obj]))
 
-    def upsert_nowait(self, obj: dict[str, Any]) -> None:
+    def upsert_nowait(self, obj: dict[str, Any]) -> str:
         """Write without waiting for the answer (in order with this client's requests);
-        the data layer's telemetry path, which needs no answer, uses it."""
-        self.client.send("wm.upsert", [obj])
+        the data layer's telemetry path, which needs no answer, uses it. The request id."""
+        return self.client.send("wm.upsert", [obj])
 
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
