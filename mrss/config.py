@@ -21,7 +21,7 @@ from typing import Any, Literal, cast
 
 from mrss.errors import ConfigError, SupervisionError
 from mrss.projects import PROJECT_FILE, project_path
-from mrss.supervision.children import ComponentStart
+from mrss.supervision.children import ComponentStart, Scheduling
 from mrss.supervision.spec import (
     KILL,
     Backoff,
@@ -38,7 +38,7 @@ from mrss.textfile import NotUtf8Error, read_text
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff",
-                  "node")
+                  "node", "nice", "cpus", "realtime")
 SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
                    "retry_after", "shared_intensity", "groups", "heartbeat_interval",
                    "heartbeat_misses", "launcher", "run_dir", "backoff")
@@ -47,6 +47,7 @@ REPLACED_KEYS = {"on_exceeded": "on_give_up", "probation": "retry_after"}
 # The bus proxy restarts without backoff unless its table says otherwise: all need it.
 PROXY_MODULE = "mrss.bus.component:ProxyComponent"
 NEVER = "never"
+NICE_MIN, NICE_MAX = -20, 19
 DEFAULT_RETRY_AFTER = 60.0
 
 
@@ -119,9 +120,13 @@ class ComponentConfig:
     backoff: bool = True
     options: dict[str, Any] = field(default_factory=dict)
     node: str = ""  # the node it runs on (`[nodes]`, mrss.nodes); "" on a single host
+    nice: int | None = None  # the process's nice value (-20..19); None: inherited
+    cpus: tuple[int, ...] | None = None  # the CPUs it may run on; None: all
+    realtime: int | None = None  # SCHED_RR priority 1..99; None: the normal scheduler
 
     def child_spec(self) -> ChildSpec[ComponentStart]:
-        start = ComponentStart(self.module, dict(self.options), self.start_timeout)
+        start = ComponentStart(self.module, dict(self.options), self.start_timeout,
+                               Scheduling(self.nice, self.cpus, self.realtime))
         return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
                          kind=self.kind, backoff=self.backoff)
 
@@ -358,7 +363,9 @@ class _Reader:
                 start_timeout=timeout,
                 backoff=self.typed(table, f"{key}.backoff", bool, module != PROXY_MODULE),
                 node=self.typed(table, f"{key}.node", str, ""),
-                options={k: v for k, v in table.items() if k not in COMPONENT_KEYS}))
+                options={k: v for k, v in table.items() if k not in COMPONENT_KEYS},
+                nice=self.nice(table, f"{key}.nice"), cpus=self.cpus(table, f"{key}.cpus"),
+                realtime=self.realtime(table, f"{key}.realtime")))
         return tuple(result)
 
     # -- typed getters ----------------------------------------------------------------------
@@ -379,6 +386,34 @@ class _Reader:
         if kind is not bool and isinstance(value, bool) or not isinstance(value, kind):
             raise self.error(key, f"must be {kind.__name__}, not {value!r}")
         return value
+
+    def nice(self, data: dict[str, Any], key: str) -> int | None:
+        value = data.get("nice")
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int) \
+                or not NICE_MIN <= value <= NICE_MAX:
+            raise self.error(key, f"must be a whole number from {NICE_MIN} (most favoured) to "
+                                  f"{NICE_MAX}, not {value!r}")
+        return value
+
+    def realtime(self, data: dict[str, Any], key: str) -> int | None:
+        value = data.get("realtime")
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 99:
+            raise self.error(key, f"must be a real-time priority from 1 to 99, not {value!r}")
+        return value
+
+    def cpus(self, data: dict[str, Any], key: str) -> tuple[int, ...] | None:
+        value = data.get("cpus")
+        if value is None:
+            return None
+        if not isinstance(value, list) or not value or not all(
+                isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in value):
+            raise self.error(key, f"must be a non-empty list of CPU numbers (0, 1, ...), "
+                                  f"not {value!r}")
+        return tuple(sorted(set(value)))
 
     def number(self, data: dict[str, Any], key: str, default: float) -> float:
         value = data.get(key.rsplit(".", 1)[-1], default)

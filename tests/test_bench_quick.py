@@ -27,3 +27,22 @@ def test_benchmark_runs_in_quick_mode(name: str) -> None:
     assert report["quick"] is True
     assert report["rows"], "a benchmark must report at least one row"
     assert all(len(row) == len(report["columns"]) for row in report["rows"])
+
+
+@pytest.mark.slow
+def test_e2e_under_load_reports_quiet_and_loaded_rows_of_one_run() -> None:
+    out = subprocess.run([sys.executable, "-m", "mrss", "bench", "e2e", "--under-load",
+                          "--quick", "--json"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    assert report["quick"] is True
+    loads = [row[1] for row in report["rows"]]
+    assert loads == ["quiet", "2 CPU hogs", "quiet", "2 CPU hogs"]  # e2e, then restarts
+    assert all(row[6] == 0 for row in report["rows"])  # nothing lost
+    assert {t["target"] for t in report["targets"]} >= {
+        "under load: e2e p99 within 2x the quiet p99",
+        "under load: restart p99 within 2x the quiet p99"}
+    # --under-load is refused for the other benchmarks, with the reason
+    out = subprocess.run([sys.executable, "-m", "mrss", "bench", "bus", "--under-load"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "for e2e only" in out.stderr

@@ -3,7 +3,9 @@
 A restarted RCL reads it back (`open_actions`) so that no non-terminal action is
 forgotten, and checks it (`get`) to stay idempotent for requests it has already seen.
 WAL mode; by default `synchronous=NORMAL`, which survives a killed process (the
-failure we guard against) but not a power cut; `durable=True` syncs every commit.
+failure we guard against) but not a power cut; `durable=True` syncs every commit. WAL
+checkpoints (which sync the file) run on a thread of their own (`mrss.sqlite_checkpoint`),
+not in whichever transition crosses SQLite's mark.
 
 It also holds the controls not yet applied by a robot actor (mrss.actors.controls).
 It stays bounded: `compact` drops the terminal actions (and their transitions) last
@@ -26,6 +28,7 @@ from typing import Any, NamedTuple
 
 from mrss.api import Action
 from mrss.messages import ActionState
+from mrss.sqlite_checkpoint import manual_checkpoints
 
 log = logging.getLogger("mrss.rcl.journal")
 
@@ -88,11 +91,14 @@ class ActionJournal:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
         self._db.executescript(_SCHEMA)
+        # Checkpoints sync the file: on a thread of their own, never in a transition.
+        self._checkpointer = manual_checkpoints(self._db, self.path)
         columns = {row[1] for row in self._db.execute("PRAGMA table_info(actions)")}
         if "cause" not in columns:  # a journal kept from before failure causes existed
             self._db.execute("ALTER TABLE actions ADD COLUMN cause TEXT NOT NULL DEFAULT ''")
 
     def close(self) -> None:
+        self._checkpointer.close()
         with self._lock:
             self._db.close()
 

@@ -23,6 +23,7 @@ import threading
 from pathlib import Path
 
 from mrss.agentspeak import Struct, parse_literal, term_str
+from mrss.sqlite_checkpoint import manual_checkpoints
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS percepts (
@@ -49,6 +50,8 @@ class PerceptLedger:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")  # survives a killed process
         self._db.executescript(_SCHEMA)
+        # Checkpoints sync the file: on a thread of their own, not as a percept arrives.
+        self._checkpointer = manual_checkpoints(self._db, self.path)
         if fresh:
             self._db.execute("DELETE FROM percepts")
         row = self._db.execute("SELECT COALESCE(MAX(seq), 0) FROM percepts").fetchone()
@@ -79,5 +82,6 @@ class PerceptLedger:
             return int(self._db.execute("SELECT COUNT(*) FROM percepts").fetchone()[0])
 
     def close(self) -> None:
+        self._checkpointer.close()
         with self._lock:
             self._db.close()

@@ -124,7 +124,10 @@ def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
     """The store the configuration names: PostGIS at `url`, else SQLite at `path`."""
     url = section.get("url")
     if url is None:
-        return SqliteWorldStore(store_path(run_dir, section))
+        durable = section.get("durable", False)
+        if not isinstance(durable, bool):
+            raise ConfigError(f"must be true or false, not {durable!r}", key="worldmodel.durable")
+        return SqliteWorldStore(store_path(run_dir, section), durable=durable)
     text = url if isinstance(url, str) else repr(url)
     problem = postgres_url_problem(text)
     if problem:
@@ -153,6 +156,8 @@ class WorldModelComponent(Component):
                "database file in the run folder, or \":memory:\" (without url)"),
         Option("url", str, None, "postgresql://user@host:port/db: keep the objects in "
                "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
+        Option("durable", bool, False, "SQLite: sync every write to disk (survives a power "
+               "cut; several times fewer writes per second)"),
         Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
         Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
         Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),

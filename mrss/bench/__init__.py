@@ -7,6 +7,7 @@ BENCHES: dict[str, str] = {
     "restart": "time from SIGKILL to a restarted component answering",
     "reasoner": "AgentSpeak interpreter throughput vs python-agentspeak",
     "e2e": "latency from percept to the first skill start",
+    "fleet": "the whole system with 10..200 simulated robots at 5 Hz: latency, lag, CPU, loss",
     "edges": "data layer calls and MQTT -> percept latency through the edge components",
     "journal": "action journal actions/s with and without fsync; size over a 24 h soak",
     "security": "cost of MAVLink signing per message and of the world model's bearer token",

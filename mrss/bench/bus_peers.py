@@ -3,8 +3,9 @@
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
     python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
-LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} or
-{"kind": "mqtt", "host", "port", "qos"}.
+LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]},
+{"kind": "mqtt", "host", "port", "qos"} or {"kind": "raw", "driver": EP, "responder": EP}
+(plain pyzmq PUB/SUB between the two processes, each binding its own EP: the limit).
 Both sides do the same application work on every transport: each message is a
 RobotData encoded into an MRSS envelope by the sender and decoded and validated by the
 receiver. Each process prints "ready", then one JSON result line.
@@ -27,12 +28,22 @@ import time
 from collections import deque
 from typing import Any, Protocol
 
+import msgpack
 import paho.mqtt.client as mqtt
+import zmq
 from paho.mqtt.enums import CallbackAPIVersion
 
 from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, ReliableSender, Subscriber
 from mrss.errors import DecodeError
-from mrss.messages import Envelope, IdGenerator, Message, RobotData, decode, encode
+from mrss.messages import (
+    SCHEMA_VERSION,
+    Envelope,
+    IdGenerator,
+    Message,
+    RobotData,
+    decode,
+    encode,
+)
 
 WARMUP_PINGS = 50
 PAYLOAD = {"lat": 38.736946, "lon": -9.142685, "alt": 120.5, "battery": 0.87, "mode": "auto"}
@@ -126,7 +137,56 @@ class MqttLink:
         self.client.disconnect()
 
 
-def make_link(spec: dict[str, Any], topics: list[str], src: str) -> BusLink | MqttLink:
+class RawLink:
+    """The physical limit: a pyzmq PUB bound here, a SUB connected to the peer's PUB, no
+    proxy. The same envelope bytes go out (MRSS `encode`); the receiver only unpacks the
+    msgpack and fills the message objects, without the bus's validation."""
+
+    def __init__(self, bind: str, peer: str, topics: list[str], src: str) -> None:
+        self.src = src
+        self._ids = IdGenerator()
+        ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
+        self.pub = ctx.socket(zmq.PUB)
+        self.pub.setsockopt(zmq.LINGER, 0)
+        self.pub.setsockopt(zmq.SNDHWM, 100_000)
+        self.pub.bind(bind)
+        self.sub = ctx.socket(zmq.SUB)
+        self.sub.setsockopt(zmq.LINGER, 0)
+        self.sub.setsockopt(zmq.RCVHWM, 100_000)
+        for topic in topics:
+            self.sub.setsockopt(zmq.SUBSCRIBE, topic.encode())
+        self.sub.connect(peer)
+
+    def publish(self, msg: Message) -> None:
+        topic, payload = encode(msg, src=self.src, msg_id=self._ids())
+        self.pub.send(topic, zmq.SNDMORE)
+        self.pub.send(payload)
+
+    def recv(self, timeout: float) -> Envelope | None:
+        sub = self.sub
+        if not sub.poll(int(timeout * 1000)):
+            return None
+        topic = sub.recv()
+        env = msgpack.unpackb(sub.recv(), raw=False)
+        body: RobotData = object.__new__(RobotData)
+        body.__dict__.update(env["body"])
+        result: Envelope = object.__new__(Envelope)
+        result.__dict__.update(topic=topic.decode(), id=env["id"], ts=env["ts"],
+                               src=env["src"], inc=env["inc"], body=body, v=SCHEMA_VERSION)
+        return result
+
+    def close(self) -> None:
+        self.sub.close(0)
+        self.pub.close(0)
+
+
+AnyLink = BusLink | MqttLink | RawLink
+
+
+def make_link(spec: dict[str, Any], topics: list[str], src: str, role: str) -> AnyLink:
+    if spec["kind"] == "raw":
+        other = "responder" if role == "driver" else "driver"
+        return RawLink(spec[role], spec[other], topics, src)
     if spec["kind"] == "bus":
         return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
                        batching=spec.get("batching", True))
@@ -148,7 +208,7 @@ def _expect(link: Link, robot: str, key: str, value: object, timeout: float) -> 
     return False
 
 
-def join(link: BusLink | MqttLink) -> None:
+def join(link: AnyLink) -> None:
     """Say hello until the responder answers: both sides are then subscribed."""
     hello = 0
     while not _expect(link, "reply", "hello", hello, 0.05):
@@ -158,7 +218,7 @@ def join(link: BusLink | MqttLink) -> None:
             raise SystemExit("responder never answered")
 
 
-def round_trips(link: BusLink | MqttLink, pings: int) -> dict[str, Any]:
+def round_trips(link: AnyLink, pings: int) -> dict[str, Any]:
     """`pings` sequential ping/pong round trips (after a few unmeasured ones), in us."""
     rtts = []
     for i in range(-WARMUP_PINGS, pings):
@@ -171,7 +231,7 @@ def round_trips(link: BusLink | MqttLink, pings: int) -> dict[str, Any]:
     return {"rtt_us": rtts}
 
 
-def stream(link: BusLink | MqttLink, count: int, stream_id: int) -> dict[str, Any]:
+def stream(link: AnyLink, count: int, stream_id: int) -> dict[str, Any]:
     """Send `count` messages as fast as possible, then an end marker until confirmed."""
     started = time.perf_counter()
     for i in range(count):
@@ -188,7 +248,7 @@ def stream(link: BusLink | MqttLink, count: int, stream_id: int) -> dict[str, An
     return {"sent": count, "send_s": sent_s}
 
 
-def drive(link: BusLink | MqttLink) -> None:
+def drive(link: AnyLink) -> None:
     """Run the commands read from stdin: `pings N`, `stream N ID`; print each result."""
     for line in sys.stdin:
         command, *args = line.split()
@@ -201,7 +261,7 @@ def drive(link: BusLink | MqttLink) -> None:
         print(json.dumps(result), flush=True)
 
 
-def respond(link: BusLink | MqttLink, stop: threading.Event) -> None:
+def respond(link: AnyLink, stop: threading.Event) -> None:
     """Answer hellos and pings; count each stream and print its count when it ends."""
     streams: dict[int, list[float]] = {}  # id -> [received, first, last]
     reported: set[int] = set()
@@ -273,13 +333,14 @@ def main(argv: list[str]) -> int:
         reliable_receive(BusEndpoints.from_dict(spec["endpoints"]), stop)
         return 0
     if role == "driver":
-        link = make_link(spec, ["robot.reply.data", "robot.pong.data"], "bench-driver")
+        link = make_link(spec, ["robot.reply.data", "robot.pong.data"], "bench-driver",
+                         role)
         join(link)
         print("ready", flush=True)
         drive(link)
     else:
         link = make_link(spec, ["robot.ctl.data", "robot.ping.data", "robot.bench.data"],
-                         "bench-responder")
+                         "bench-responder", role)
         print("ready", flush=True)
         respond(link, stop)
     link.close()

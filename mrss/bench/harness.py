@@ -18,10 +18,14 @@ from mrss.messages import Envelope
 class SupervisedProject:
     """Writes `files` into a temporary `projects/<name>/`, runs `mrss supervise` on it as
     a real process (log in `supervise.log`), and connects a subscriber and a publisher to
-    its bus. `close()` stops the system and removes everything."""
+    its bus. `close()` stops the system and removes everything. With `nice` the root
+    supervisor runs at that nice value (as `nice -n N mrss supervise` would; its fork
+    server and components inherit it unless their table sets `nice`), with `realtime` at
+    that SCHED_RR priority (as `chrt -r N mrss supervise`)."""
 
     def __init__(self, name: str, files: Mapping[str, str], *, prefixes: Sequence[str],
-                 on_message: Callable[[Envelope], None], tmp_prefix: str) -> None:
+                 on_message: Callable[[Envelope], None], tmp_prefix: str,
+                 nice: int | None = None, realtime: int | None = None) -> None:
         self.tmp = Path(tempfile.mkdtemp(prefix=tmp_prefix))
         project = self.tmp / "projects" / name
         project.mkdir(parents=True)
@@ -38,7 +42,8 @@ class SupervisedProject:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "mrss", "supervise", name, "--run-dir", str(self.run_dir)],
             env={**os.environ, "MRSS_PROJECTS": str(self.tmp / "projects")},
-            stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+            stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True,
+            preexec_fn=lambda: favour(nice, realtime))
 
     def close(self) -> None:
         try:
@@ -54,3 +59,11 @@ class SupervisedProject:
             self.pub.close()
             self.log.close()
             shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+def favour(nice: int | None, realtime: int | None, pid: int = 0) -> None:
+    """Set this process's (or thread `pid`'s) nice value and SCHED_RR priority, if given."""
+    if nice is not None:
+        os.setpriority(os.PRIO_PROCESS, pid, nice)
+    if realtime is not None:
+        os.sched_setscheduler(pid, os.SCHED_RR, os.sched_param(realtime))

@@ -39,8 +39,10 @@ PHASES = (("start", "kill -> start() called"),
           ("pong", "-> pong at the bench"))
 
 
-def project_toml(launcher: str) -> str:
+def project_toml(launcher: str, nice: int | None = None, realtime: int | None = None) -> str:
     """The bench project: the proxy first, then the echo; restarts without backoff."""
+    favoured = ("" if nice is None else f"nice = {nice}\n") + \
+        ("" if realtime is None else f"realtime = {realtime}\n")
     return f"""\
 [project]
 name = "{PROJECT}"
@@ -55,11 +57,11 @@ launcher = "{launcher}"
 
 [components.bus]
 module = "mrss.bus.component:ProxyComponent"
-
+{favoured}
 [components.{ECHO}]
 module = "mrss.bench.restart_peers:BusEcho"
 shutdown = 2.0
-"""
+{favoured}"""
 
 
 class BusEcho(Component):
@@ -132,16 +134,17 @@ def _running_pids(tree: object) -> list[int]:
 class BusRestarts:
     """`mrss supervise` of the bench project, with the bench's own bus client."""
 
-    def __init__(self, launcher: str) -> None:
+    def __init__(self, launcher: str, nice: int | None = None,
+                 realtime: int | None = None) -> None:
         self._cond = threading.Condition()
         self._answers: dict[int, Answer] = {}
         self._running: set[int] = set()
         self._seq = 0
         self._sent: dict[int, int] = {}  # ping seq -> published, ns (current wait only)
         self.system = SupervisedProject(
-            PROJECT, {"project.toml": project_toml(launcher)},
+            PROJECT, {"project.toml": project_toml(launcher, nice, realtime)},
             prefixes=[f"log.{ECHO}.pong", "sup.start", "sup.tree"], on_message=self._on,
-            tmp_prefix="mrss-bench-restart-")
+            tmp_prefix="mrss-bench-restart-", nice=nice, realtime=realtime)
         self.tmp, self.proc = self.system.tmp, self.system.proc
         self.sub, self.pub = self.system.sub, self.system.pub
 
@@ -214,9 +217,10 @@ class BusRestarts:
         self.system.close()
 
 
-def bus_restarts(kills: int, launcher: str) -> list[tuple[int, Answer]]:
+def bus_restarts(kills: int, launcher: str, nice: int | None = None,
+                 realtime: int | None = None) -> list[tuple[int, Answer]]:
     """(kill time, first answer of the replacement) for `kills` kills, the first dropped."""
-    harness = BusRestarts(launcher)
+    harness = BusRestarts(launcher, nice, realtime)
     try:
         results = harness.restarts(kills + 1)  # the first one warms caches and is dropped
     finally:

@@ -64,6 +64,7 @@ class Subscriber:
         self._batch: deque[tuple[bytes, bytes]] = deque()  # rest of a received batch
         self._drops = sockets.DropLog(name)
         self._lock = threading.Lock()
+        self._close_lock = threading.Lock()
         self._closed = False
         self._connected = threading.Event()
         self.welcomes = 0  # proxy greetings: one more after each proxy restart
@@ -235,7 +236,10 @@ class Subscriber:
 
     def close(self) -> None:
         """Stop the callback thread or iteration, and close the socket."""
-        with self._lock:
+        # Not under `_lock`: the receiving thread holds it while it polls and takes it
+        # again at once, so a closer waiting for it could starve (it did, under SCHED_RR);
+        # the receiver sees the flag within one poll slice.
+        with self._close_lock:
             if self._closed:
                 return
             self._closed = True

@@ -15,6 +15,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", help=f"benchmark to run: {names}; or all of them: all")
     parser.add_argument("--quick", action="store_true", help="small sizes, for CI smoke runs")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.add_argument("--under-load", action="store_true",
+                        help="e2e only: the same rows with two CPU hogs running, beside the "
+                             "quiet ones")
 
 
 ALL = "all"
@@ -42,6 +45,12 @@ def run_one(args: argparse.Namespace) -> int:
             raise
         print(f"mrss bench {args.name}: not yet available in this version", file=sys.stderr)
         return 2
-    report = module.run(quick=args.quick)
+    if getattr(args, "under_load", False):
+        if args.name != "e2e":
+            print(f"mrss bench {args.name}: --under-load is for e2e only", file=sys.stderr)
+            return 2
+        report = module.run(quick=args.quick, under_load=True)
+    else:
+        report = module.run(quick=args.quick)
     print(report.to_json() if args.json else report.to_text())
     return 0

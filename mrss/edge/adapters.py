@@ -252,6 +252,7 @@ class DataLayer:
         """Robot telemetry: by default the robot's world model object is updated with it.
 
         `lat`/`lon`/`alt` become its position; everything else merges into attributes.
+        With the embedded world model the write is not waited for (writes stay in order).
         """
         if self.context.world is None:
             return
@@ -260,4 +261,7 @@ class DataLayer:
                                               if k not in POSITION_KEYS}}
         if "lat" in data and "lon" in data:
             obj["position"] = {k: data[k] for k in POSITION_KEYS if k in data}
-        self.world.upsert(obj)
+        # Over the bus the write is sent without waiting for its answer: telemetry needs
+        # none, and a round trip per record would cap a fleet's telemetry rate.
+        write = getattr(self.world, "upsert_nowait", None) or self.world.upsert
+        write(obj)

@@ -3,6 +3,7 @@
     client = DataLayerClient(bus)
     reply = client.request("ground", ["h1"], timeout=2.0)   # a DataReply, never raises
     value = client.call("ground", ["h1"], timeout=2.0)      # the result, or DataLayerError
+    client.send("wm.upsert", [obj])                         # no waiting (telemetry writes)
 
 The reasoner's `query(...)` and the RCL's grounding use `call`. A reply that never comes
 becomes an error reply (`ok=False`) after the timeout (`call` raises
@@ -12,7 +13,9 @@ needed it is retried); replies to unknown or expired requests are ignored.
 
 from __future__ import annotations
 
+import logging
 import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -22,6 +25,8 @@ from mrss.errors import MrssError
 from mrss.messages import DataReply, DataRequest, Envelope, Topic, new_id
 
 DEFAULT_TIMEOUT = 5.0
+NO_WAIT = "nowait-"  # request ids of `send`: nobody waits for their replies
+log = logging.getLogger("mrss.datalayer")
 
 
 class DataLayerError(MrssError):
@@ -59,6 +64,8 @@ class DataLayerClient:
         self._pending: dict[str, _Pending] = {}
         self._lock = threading.Lock()
         self.unmatched_replies = 0
+        self.failed_sends = 0
+        self._send_logged = -60.0
         self._sub = bus.subscribe([reply_topic], self._on_reply)
 
     def close(self) -> None:
@@ -79,6 +86,15 @@ class DataLayerClient:
             kind = DataLayerError if answered else DataLayerUnavailable
             raise kind(function, reply.error or "error reply", request_id=reply.request_id)
         return reply.result
+
+    def send(self, function: str, args: Sequence[Any] = ()) -> str:
+        """Send a request without waiting for its reply (requests of one client are
+        handled in the order sent); its request id. An error reply is counted in
+        `failed_sends` and logged, at most once a minute."""
+        request_id = NO_WAIT + new_id()
+        self._bus.publish(DataRequest(request_id=request_id, function=function,
+                                      args=list(args)), topic=self.request_topic)
+        return request_id
 
     def _exchange(self, function: str, args: Sequence[Any],
                   timeout: float | None) -> tuple[DataReply, bool]:
@@ -102,6 +118,15 @@ class DataLayerClient:
     def _on_reply(self, env: Envelope) -> None:
         body = env.body
         if env.topic != self.reply_topic or not isinstance(body, DataReply):
+            return
+        if body.request_id.startswith(NO_WAIT):
+            if not body.ok:
+                self.failed_sends += 1
+                now = time.monotonic()
+                if now - self._send_logged >= 60.0:
+                    self._send_logged = now
+                    log.warning("a request sent without waiting failed (%d so far): %s",
+                                self.failed_sends, body.error)
             return
         with self._lock:
             waiter = self._pending.get(body.request_id)

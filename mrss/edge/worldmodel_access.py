@@ -73,6 +73,11 @@ class BusWorldModel:
     def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
         return dict(self._call("wm.upsert", [obj]))
 
+    def upsert_nowait(self, obj: dict[str, Any]) -> str:
+        """Write without waiting for the answer (in order with this client's requests);
+        the data layer's telemetry path, which needs no answer, uses it. The request id."""
+        return self.client.send("wm.upsert", [obj])
+
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
         return list(self._call("wm.near", [lat, lon, radius_m, kind]))

@@ -25,6 +25,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from mrss.edge.datalayer_client import NO_WAIT
 from mrss.edge.loader import import_project_module, project_file
 from mrss.edge.worldmodel_rules import NoObjectWithin, Rule, RuleEngine
 from mrss.edge.worldmodel_store import (
@@ -106,8 +107,10 @@ class WorldModel:
 
     # --- bus functions -------------------------------------------------------------
 
-    def call(self, function: str, args: list[Any]) -> Any:
-        """Run one bus function; ValueError/LookupError/TypeError for bad requests."""
+    def call(self, function: str, args: list[Any], *, answer: bool = True) -> Any:
+        """Run one bus function; ValueError/LookupError/TypeError for bad requests.
+
+        Without `answer` (a request nobody waits for) a write returns only its `op`."""
         if function == "wm.get":
             (object_id,) = _arity(function, args, 1)
             obj = self.get(_string(object_id, "id"))
@@ -118,6 +121,8 @@ class WorldModel:
         if function == "wm.upsert":
             (entry,) = _arity(function, args, 1)
             change = self.upsert(WorldObject.from_json(entry))
+            if not answer:
+                return {"op": change.op}
             return {"op": change.op, "object": change.obj.to_json()}
         if function == "wm.near":
             lat, lon, radius, *rest = _arity(function, args, 3, 4)
@@ -144,7 +149,8 @@ class WorldModel:
         """The reply to one bus request; errors become error replies."""
         self.requests += 1
         try:
-            result = self.call(request.function, list(request.args))
+            result = self.call(request.function, list(request.args),
+                               answer=not request.request_id.startswith(NO_WAIT))
             return DataReply(request_id=request.request_id, ok=True, result=result)
         except (ValueError, LookupError, TypeError) as exc:
             self.request_errors += 1

@@ -93,6 +93,10 @@ class SimUav:
         self._started = time.monotonic()
         self._sim_time = 0.0
         self._due: dict[int, float] = {}
+        self._mission: MissionServer | None = None
+        self._handlers: UavHandlers | None = None
+        self._last = 0.0
+        self.rates: dict[int, float] = dict(DEFAULT_RATES)  # message id -> seconds between sends
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> None:
@@ -122,37 +126,71 @@ class SimUav:
 
     def run(self) -> None:
         """Serve until `stop()`: answer messages, fly, send telemetry."""
+        self.open()
+        conn = self._conn
+        assert conn is not None
+        try:
+            while not self._stop.is_set():
+                conn.wait_readable(0.02)
+                self.service(time.monotonic(), drain=False)
+        finally:
+            self.close()
+
+    def open(self) -> None:
+        """Open the vehicle's socket; then `service` it (what `run` does on its thread, or
+        a fleet's event loop for many vehicles, `mrss.sim.fleet`)."""
         conn = MavConnection(self.url, source_system=self.sysid,
                              source_component=MAV.MAV_COMP_ID_AUTOPILOT1,
                              signing_key=self.signing_key, name=f"sim uav {self.sysid}",
                              log=log)
         self._conn = conn
-        mission = MissionServer(conn.conn.mav, conn.send, self.model)
+        self._mission = MissionServer(conn.conn.mav, conn.send, self.model)
         params = UavParams(self.model, self.camera, self.sysid, self.failsafe)
-        handlers = UavHandlers(conn.conn.mav, conn.send, self.model, mission, params,
-                               self.sysid, self._send_message, self.failsafe)
+        self._handlers = UavHandlers(conn.conn.mav, conn.send, self.model, self._mission,
+                                     params, self.sysid, self._send_message, self.failsafe)
+        self._last = time.monotonic()
         log.info("sim uav %d on %s (speedup %.1f, %d hotspots, signing %s)", self.sysid,
                  self.url, self.speedup, len(self.camera.hotspots),
                  "on" if self.signing_key else "off")
-        last = time.monotonic()
-        try:
-            while not self._stop.is_set():
-                conn.wait_readable(0.02)
-                with self._lock:
-                    try:
-                        msg = conn.recv(timeout=0.0)
-                        if msg is not None:
-                            handlers.handle(msg)
-                    except Exception:  # no input may stop the vehicle
-                        log.exception("error handling a MAVLink message; continuing")
-                    now = time.monotonic()
-                    self.failsafe.check(now)
-                    self._advance((now - last) * self.speedup)
-                    last = now
-                    mission.tick(now)
-                    self._send_due(now, handlers.intervals)
-        finally:
-            conn.close()
+
+    def fileno(self) -> int:
+        """The socket to wait on (an open vehicle's)."""
+        assert self._conn is not None
+        return int(self._conn.conn.port.fileno())
+
+    def service(self, now: float, *, drain: bool = True) -> None:
+        """Handle what arrived (one message, or all with `drain`), then `tick`."""
+        self.receive(drain=drain)
+        self.tick(now)
+
+    def receive(self, *, drain: bool = True) -> None:
+        """Handle the next message that arrived, or all of them with `drain`."""
+        conn, handlers = self._conn, self._handlers
+        assert conn is not None and handlers is not None
+        with self._lock:
+            try:
+                while (msg := conn.recv(timeout=0.0)) is not None:
+                    handlers.handle(msg)
+                    if not drain:
+                        break
+            except Exception:  # no input may stop the vehicle
+                log.exception("error handling a MAVLink message; continuing")
+
+    def tick(self, now: float) -> None:
+        """Fly on to `now` and send the telemetry that is due."""
+        handlers, mission = self._handlers, self._mission
+        assert handlers is not None and mission is not None
+        with self._lock:
+            self.failsafe.check(now)
+            self._advance((now - self._last) * self.speedup)
+            self._last = now
+            mission.tick(now)
+            self._send_due(now, handlers.intervals)
+
+    def close(self) -> None:
+        """Close the vehicle's socket."""
+        if self._conn is not None:
+            self._conn.close()
 
     # -- simulation ------------------------------------------------------------------------
     def _advance(self, dt: float) -> None:
@@ -173,10 +211,11 @@ class SimUav:
         m.reached.clear()
 
     def _send_due(self, now: float, intervals: dict[int, float]) -> None:
-        for msg_id, default in DEFAULT_RATES.items():
+        for msg_id, default in self.rates.items():
             period = intervals.get(msg_id, default)
-            if now >= self._due.get(msg_id, 0.0):
-                self._due[msg_id] = now + period
+            due = self._due.get(msg_id, 0.0)
+            if now >= due:  # keep the rate on a coarse loop, unless far behind
+                self._due[msg_id] = due + period if now - due < period else now + period
                 self._send_message(msg_id, periodic=True)
 
     def _send_message(self, msg_id: int, periodic: bool = False) -> bool:

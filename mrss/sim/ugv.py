@@ -79,6 +79,8 @@ class SimUgv:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._answered: OrderedDict[str, UgvAck] = OrderedDict()
+        self._last = self._next_telemetry = 0.0
+        self._threaded = False  # paho's network thread runs (else the caller's loop)
         self._client = new_client(f"mrss-sim-{robot_id}-{os.getpid()}-{id(self):x}",
                                   self.address)
         self._client.will_set(self.topics.status, OFFLINE, qos=1, retain=True)
@@ -109,31 +111,60 @@ class SimUgv:
         client = self._client
         client.connect_async(self.address.host, self.address.port, keepalive=self.keepalive)
         client.loop_start()
-        log.info("sim ugv %s on %s:%d, topics %s/*", self.robot_id, self.address.host,
-                 self.address.port, self.topics.cmd.rsplit("/", 1)[0])
-        last = time.monotonic()
-        next_telemetry = last
+        self._threaded = True
+        self._log_start()
+        self._last = self._next_telemetry = time.monotonic()
         try:
             while not self._stop.wait(STEP_S):
-                now = time.monotonic()
-                with self._lock:
-                    self._check_controller(now)
-                    self.model.step((now - last) * self.speedup)
-                    answers = self.model.take_answers()
-                    due = now >= next_telemetry or bool(answers)
-                    sample = self.model.telemetry(self.watch.present(now)) if due else None
-                last = now
-                if sample is not None:
-                    # Before the answers: a "done" is never newer than the last telemetry.
-                    next_telemetry = now + self.telemetry_period
-                    client.publish(self.topics.telemetry, sample.to_json(), qos=0)
-                self._publish_answers(answers)
+                self.tick(time.monotonic())
         finally:
-            info = client.publish(self.topics.status, OFFLINE, qos=1, retain=True)
-            if client.is_connected():
-                info.wait_for_publish(timeout=2)
-            client.disconnect()
+            self.close()
             client.loop_stop()
+
+    def _log_start(self) -> None:
+        log.info("sim ugv %s on %s:%d, topics %s/*", self.robot_id, self.address.host,
+                 self.address.port, self.topics.cmd.rsplit("/", 1)[0])
+
+    @property
+    def client(self) -> mqtt.Client:
+        """The robot's MQTT client."""
+        return self._client
+
+    def connect(self) -> mqtt.Client:
+        """Connect without a network thread: the caller's event loop (`mrss.sim.fleet`)
+        then drives the returned client (`loop_read` when its socket is readable,
+        `loop_write` while it `want_write`s, `loop_misc` every second) and calls `tick`."""
+        client = self._client
+        client.connect(self.address.host, self.address.port, keepalive=self.keepalive)
+        self._log_start()
+        self._last = self._next_telemetry = time.monotonic()
+        return client
+
+    def tick(self, now: float) -> None:
+        """Drive and pump on to `now`; publish telemetry when due, and answers."""
+        with self._lock:
+            self._check_controller(now)
+            self.model.step((now - self._last) * self.speedup)
+            answers = self.model.take_answers()
+            due = now >= self._next_telemetry or bool(answers)
+            sample = self.model.telemetry(self.watch.present(now)) if due else None
+        self._last = now
+        if sample is not None:
+            # Before the answers: a "done" is never newer than the last telemetry.
+            if now >= self._next_telemetry:  # keep the rate, unless far behind
+                self._next_telemetry += self.telemetry_period
+                if self._next_telemetry <= now:
+                    self._next_telemetry = now + self.telemetry_period
+            self._client.publish(self.topics.telemetry, sample.to_json(), qos=0)
+        self._publish_answers(answers)
+
+    def close(self) -> None:
+        """Publish "offline" (retained) and disconnect."""
+        client = self._client
+        info = client.publish(self.topics.status, OFFLINE, qos=1, retain=True)
+        if client.is_connected() and self._threaded:
+            info.wait_for_publish(timeout=2)
+        client.disconnect()
 
     # -- MQTT callbacks (paho's network thread) --------------------------------------------
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any,

@@ -15,12 +15,30 @@ from mrss.supervision.status import ChildState
 
 
 @dataclass(frozen=True)
+class Scheduling:
+    """A component process's CPU scheduling (project.toml `nice`, `cpus`; None: inherited).
+
+    Applied by the component process itself before it starts (`mrss.supervision.
+    scheduling`), so every thread it makes inherits it.
+    """
+
+    nice: int | None = None
+    cpus: tuple[int, ...] | None = None
+    realtime: int | None = None  # SCHED_RR priority 1..99
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"nice": self.nice, "cpus": None if self.cpus is None else list(self.cpus),
+                "realtime": self.realtime}
+
+
+@dataclass(frozen=True)
 class ComponentStart:
-    """How to start a component process: its class, options, and start time limit."""
+    """How to start a component process: its class, options, start time limit, scheduling."""
 
     target: str  # "dotted.module:Class"
     options: dict[str, Any] = field(default_factory=dict)
     start_timeout: float = 10.0
+    scheduling: Scheduling = field(default_factory=Scheduling)
 
     @property
     def module(self) -> str:

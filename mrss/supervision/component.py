@@ -38,6 +38,7 @@ class ComponentContext:
     options: dict[str, Any] = field(default_factory=dict)
     heartbeat_interval: float = 0.5
     faults: dict[str, Any] = field(default_factory=dict)
+    scheduling: dict[str, Any] = field(default_factory=dict)  # {"nice": n, "cpus": [...]}
     _failure: list[str] = field(default_factory=list, repr=False)
     _stop: threading.Event = field(default_factory=threading.Event, repr=False)
     _publisher: Any = field(default=None, repr=False)
@@ -94,6 +95,7 @@ class ComponentContext:
             "project_dir": str(self.project_dir), "run_dir": str(self.run_dir),
             "bus": self.bus, "options": self.options,
             "heartbeat_interval": self.heartbeat_interval, "faults": self.faults,
+            "scheduling": self.scheduling,
         })
 
     @classmethod
@@ -106,6 +108,7 @@ class ComponentContext:
                 options=dict(data.get("options") or {}),
                 heartbeat_interval=float(data.get("heartbeat_interval", 0.5)),
                 faults=dict(data.get("faults") or {}),
+                scheduling=dict(data.get("scheduling") or {}),
             )
         except (ValueError, KeyError, TypeError) as exc:
             raise SupervisionError(f"component {name}: bad --context: {exc}") from exc

@@ -32,6 +32,7 @@ import time
 import traceback
 from collections.abc import Sequence
 from types import FrameType
+from typing import Any
 
 from mrss import logs
 from mrss.edge.rejection_reports import RejectionReporter
@@ -175,6 +176,7 @@ def run_component(
             control.send(channel, control.FAIL, f"crashed: {exc}")
         return EXIT_FAILED
     to_bus = install_logging(ctx, supervised=channel is not None)
+    apply_scheduling(ctx.scheduling, ctx.log)  # before any thread of the component exists
     try:
         try:
             cls = load_class(target, str(ctx.project_dir))
@@ -187,6 +189,41 @@ def run_component(
     finally:
         if to_bus is not None:
             logs.remove_bus_handler(to_bus, timeout=BUS_LOG_FLUSH)
+
+
+def apply_scheduling(scheduling: dict[str, Any], log: logging.Logger) -> None:
+    """This process's nice value, real-time priority and CPUs from its `[components.<id>]`
+    table (opt-in).
+
+    A setting the OS refuses (a negative nice without CAP_SYS_NICE, CPUs this machine
+    lacks) is logged and skipped: the component runs, only less favoured.
+    """
+    nice, cpus = scheduling.get("nice"), scheduling.get("cpus")
+    # Linux keeps both per thread: set them on every thread there is; later ones inherit.
+    threads = [int(t) for t in os.listdir("/proc/self/task")] if os.path.isdir(
+        "/proc/self/task") else [0]
+    if isinstance(nice, int):
+        try:
+            for tid in threads:
+                os.setpriority(os.PRIO_PROCESS, tid, nice)
+        except OSError as exc:
+            log.warning("nice %d not applied: %s (a negative nice needs CAP_SYS_NICE, or "
+                        "a RLIMIT_NICE that allows it)", nice, exc.strerror)
+    realtime = scheduling.get("realtime")
+    if isinstance(realtime, int):
+        try:
+            for tid in threads:
+                os.sched_setscheduler(tid, os.SCHED_RR, os.sched_param(realtime))
+        except OSError as exc:
+            log.warning("realtime %d (SCHED_RR) not applied: %s (it needs CAP_SYS_NICE, or "
+                        "a RLIMIT_RTPRIO that allows it)", realtime, exc.strerror)
+    if isinstance(cpus, list) and cpus:
+        try:
+            for tid in threads:
+                os.sched_setaffinity(tid, cpus)
+        except OSError as exc:
+            log.warning("cpus %s not applied: %s (this machine has CPUs %s)", cpus,
+                        exc.strerror, sorted(os.sched_getaffinity(0)))
 
 
 def install_logging(ctx: ComponentContext, *, supervised: bool) -> logs.BusLogHandler | None:

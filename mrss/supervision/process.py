@@ -292,7 +292,7 @@ class ProcessSupervisor:
             name=p.id, incarnation=p.incarnation, project_dir=self.settings.project_dir,
             run_dir=self.settings.run_dir, bus=self.settings.bus,
             options=p.spec.start.options, heartbeat_interval=self.settings.heartbeat_interval,
-            faults=p.faults)
+            faults=p.faults, scheduling=p.spec.start.scheduling.to_dict())
         p.faults = {}
         ours, theirs = control.socket_pair()
         try:

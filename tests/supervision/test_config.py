@@ -191,3 +191,41 @@ def test_check_unknown_project_lists_known_ones() -> None:
     result = run_check("nope")
     assert result.returncode == 2
     assert "unknown project 'nope'" in result.stderr and "demo" in result.stderr
+
+
+def test_component_scheduling_is_read_checked_and_applied_to_every_thread(
+        tmp_path: Path) -> None:
+    cfg = load_file(write(tmp_path, '[components.a]\nmodule = "x.y:Z"\nnice = 5\n'
+                                    'cpus = [0, 0]\nrealtime = 10\n'
+                                    '[components.b]\nmodule = "x.y:Z"\n'))
+    a, b = cfg.child_specs()
+    assert (a.start.scheduling.nice, a.start.scheduling.cpus) == (5, (0,))
+    assert a.start.scheduling.realtime == 10
+    assert (b.start.scheduling.nice, b.start.scheduling.cpus) == (None, None)
+    assert "nice" not in cfg.components[0].options  # not a component option
+    for bad, key in (("nice = -21", "nice"), ("nice = 1.5", "nice"), ("cpus = []", "cpus"),
+                     ("cpus = [-1]", "cpus"), ('cpus = "0"', "cpus"),
+                     ("realtime = 0", "realtime"), ("realtime = 100", "realtime")):
+        with pytest.raises(ConfigError, match=f"components.a.{key}"):
+            load_file(write(tmp_path, f'[components.a]\nmodule = "x.y:Z"\n{bad}\n'))
+    # In a real process: the thread that existed before and one started after both run
+    # at the nice value, on the given CPU.
+    script = """
+import logging, os, threading
+from mrss.supervision.component_main import apply_scheduling
+before = threading.Event(); done = threading.Event(); seen = {}
+def look(name):
+    seen[name] = (os.getpriority(os.PRIO_PROCESS, threading.get_native_id()),
+                  sorted(os.sched_getaffinity(threading.get_native_id())))
+def early():
+    before.wait(); look("early"); done.set()
+threading.Thread(target=early).start()
+apply_scheduling({"nice": 7, "cpus": [0]}, logging.getLogger("t"))
+before.set(); done.wait()
+later = threading.Thread(target=look, args=("later",)); later.start(); later.join()
+look("main")
+print(seen)
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=30, check=True).stdout
+    assert out.strip() == str({"early": (7, [0]), "later": (7, [0]), "main": (7, [0])})

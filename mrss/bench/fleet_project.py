@@ -1,0 +1,149 @@
+"""The project `mrss bench fleet` runs: its files, its RCL layer, its data layer.
+
+Components: bus proxy, world model (SQLite), data layer, the simulated fleet (`mrss sim
+fleet` as a component), the RCL with one real link per robot (MAVLink over UDP per UAV,
+MQTT per UGV, on a private Mosquitto) and the reasoner. The agent turns each
+`assign(R, Seq)` percept into an action `goto(R, Seq)`; the RCL's skill reads the clock
+first thing in `start()` (kept as progress) and then commands the robot over its link
+(a UGV drives 20 m, a UAV is switched to GUIDED). The data layer writes every telemetry
+record to the world model (the default `on_telemetry`) and tells the agent when a robot
+starts or stops moving (`moving(R)`), which the agent tracks as a belief.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from typing import Any
+
+from mrss.api import Action, DataLayer, RobotCommLayer, Skill
+from mrss.links.geo import offset
+
+PROJECT = "fleetbench"
+AGENT = """\
++assign(R, N)[source(percept)] <- -assign(R, N)[source(percept)]; goto(R, N).
++moving(R)[source(percept)] <- +busy(R).
+-moving(R)[source(percept)] <- -busy(R).
+"""
+RCL = """\
+from mrss.bench.fleet_project import FleetLayer
+
+
+class Rcl(FleetLayer):
+    actions = {"goto": 2}  # its recipe is FleetLayer's
+"""
+DATALAYER = """\
+from mrss.bench.fleet_project import FleetDataLayer
+
+
+class Data(FleetDataLayer):
+    pass
+"""
+MOVING_MPS = 0.5
+
+
+# The action path (bus, rcl, reasoner) and the telemetry path (data layer, world model)
+# as docs/config.md, "CPU scheduling", advises; the simulated fleet stays ordinary.
+FAVOURED = "realtime = 10"
+TELEMETRY = "nice = -10"
+
+
+def toml(uavs: int, ugvs: int, broker_url: str | None, rate: float) -> str:
+    """project.toml of a fleet of `uavs` + `ugvs` robots on the broker at `broker_url`
+    (None: the embedded broker, a component of the project)."""
+    robots = [f"uav{k} = {{ link = \"mavlink\" }}" for k in range(1, uavs + 1)]
+    robots += [f"ugv{k} = {{ link = \"mqtt\" }}" for k in range(1, ugvs + 1)]
+    return f"""\
+[project]
+name = "{PROJECT}"
+
+[supervisor]
+heartbeat_interval = 0.5
+
+{f'[broker]{chr(10)}url = "{broker_url}"' if broker_url else ""}
+
+[components.bus]
+module = "mrss.bus.component:ProxyComponent"
+{FAVOURED}
+{"" if broker_url else '[components.broker]' + chr(10) + 'module = "mrss.broker:EmbeddedBroker"'}
+
+[components.worldmodel]
+module = "mrss.actors.worldmodel:WorldModelComponent"
+{TELEMETRY}
+
+[components.datalayer]
+module = "mrss.actors.datalayer:DataLayerComponent"
+{TELEMETRY}
+
+[components.fleet]
+module = "mrss.sim.fleet_component:SimFleetComponent"
+start_timeout = 120.0
+uav = {uavs}
+ugv = {ugvs}
+rate = {rate}
+speedup = 1.0
+
+[components.rcl]
+module = "mrss.actors.rcl_service:RclService"
+start_timeout = 120.0
+{FAVOURED}
+robots = {{ {", ".join(robots)} }}
+
+[components.reasoner]
+module = "mrss.actors.reasoner:ReasonerComponent"
+{FAVOURED}
+"""
+
+
+class Assignment(Skill):
+    """Reads the clock first in `start`, keeps it as progress, then commands the robot."""
+
+    def __init__(self, seq: int) -> None:
+        self.seq = seq
+
+    def start(self) -> None:
+        self.record_progress(seq=self.seq, t=time.monotonic_ns())
+
+    def run(self) -> bool:
+        link: Any = self.link
+        if link is None:
+            return False
+        if self.robot.startswith("ugv"):
+            position = link.latest("position") or {}
+            if "lat" in position:
+                lat, lon = offset(position["lat"], position["lon"], 20.0 * (self.seq % 2 or -1),
+                                  0.0)
+                link.goto(lat, lon, wait=False)
+        else:
+            link.set_mode("GUIDED")
+        return True
+
+
+class FleetLayer(RobotCommLayer):
+    """`goto(R, Seq)` -> one Assignment skill on robot R (real links by default)."""
+
+    def refine_action(self, action: Action) -> list[Skill]:
+        if action.name == "goto":
+            return [Assignment(int(action.args[1]))]  # type: ignore[arg-type]
+        return super().refine_action(action)
+
+
+class FleetDataLayer(DataLayer):
+    """Every record to the world model; `moving(R)` while a robot's speed is above 0.5 m/s."""
+
+    def start(self) -> None:
+        self._moving: dict[str, bool] = {}
+
+    def on_telemetry(self, robot: str, data: Mapping[str, Any]) -> None:
+        super().on_telemetry(robot, data)
+        if data.get("type") != "position":
+            return
+        speed = data.get("speed")
+        if speed is None:
+            speed = (float(data.get("vx") or 0.0) ** 2 + float(data.get("vy") or 0.0) ** 2) ** 0.5
+        moving = float(speed) > MOVING_MPS
+        if moving != self._moving.get(robot, False):
+            self._moving[robot] = moving
+            percept = self.context.percept
+            if percept is not None:
+                percept("moving", robot, op="add" if moving else "remove")

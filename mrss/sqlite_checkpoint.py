@@ -1,0 +1,61 @@
+"""WAL checkpoints of an SQLite file on a thread of their own, off the writers' path.
+
+SQLite in WAL mode copies the log back into the database file every 1,000 pages by
+default, in whichever commit crosses that mark, and syncs the file while doing so: that
+commit takes milliseconds (tens on a busy disk) instead of tens of microseconds. The
+action journal and the world model write on latency-critical paths, so they turn the
+automatic checkpoint off (`PRAGMA wal_autocheckpoint=0` on their connection) and let a
+`Checkpointer` run a PASSIVE checkpoint every `interval` seconds on its own connection:
+it never waits for, nor blocks, the writer, and the log stays bounded.
+"""
+
+from __future__ import annotations
+
+import logging
+import sqlite3
+import threading
+from pathlib import Path
+
+log = logging.getLogger("mrss.sqlite")
+
+DEFAULT_INTERVAL = 1.0
+
+
+class Checkpointer:
+    """Checkpoints the WAL of the database at `path` every `interval` s until `close()`."""
+
+    def __init__(self, path: str | Path, interval: float = DEFAULT_INTERVAL) -> None:
+        self.path = str(path)
+        self.interval = interval
+        self.checkpoints = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="sqlite-checkpoint",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        db: sqlite3.Connection | None = None
+        try:
+            while not self._stop.wait(self.interval):
+                try:
+                    if db is None:
+                        db = sqlite3.connect(self.path, check_same_thread=False,
+                                             isolation_level=None, timeout=0.0)
+                    db.execute("PRAGMA wal_checkpoint(PASSIVE)").fetchone()
+                    self.checkpoints += 1
+                except sqlite3.Error as exc:  # busy or gone: the next round tries again
+                    log.debug("checkpoint of %s skipped: %s", self.path, exc)
+        finally:
+            if db is not None:
+                db.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+
+
+def manual_checkpoints(db: sqlite3.Connection, path: str | Path,
+                       interval: float = DEFAULT_INTERVAL) -> Checkpointer:
+    """Turn `db`'s automatic checkpoints off and start a `Checkpointer` for `path`."""
+    db.execute("PRAGMA wal_autocheckpoint=0")
+    return Checkpointer(path, interval)
