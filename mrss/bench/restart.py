@@ -180,13 +180,13 @@ def run(quick: bool) -> BenchReport:
     report = BenchReport("restart", ["what", "n", "p50 ms", "p99 ms", "max ms", "mean ms"],
                          quick=quick)
     load = os.getloadavg()
-    bus_fork = bus_restarts(15 if quick else 100, "fork")
-    bus_exec = bus_restarts(5 if quick else 30, "exec")
-    chaos = chaos_restarts(15 if quick else 60)
+    bus_fork = bus_restarts(6 if quick else 100, "fork")
+    bus_exec = bus_restarts(3 if quick else 30, "exec")
+    chaos = chaos_restarts(6 if quick else 60)
     tune_interpreter()  # as component_main does: actors run inside a component
     with _logs_to_devnull():
-        fork = process_restarts(15 if quick else 100, "fork")
-        exec_ = process_restarts(5 if quick else 30, "exec")
+        fork = process_restarts(6 if quick else 100, "fork")
+        exec_ = process_restarts(3 if quick else 30, "exec")
         actor = actor_restarts(200 if quick else 2000)
     bus_fork_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_fork]
     bus_exec_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_exec]
