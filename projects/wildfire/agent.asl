@@ -98,25 +98,41 @@ tries(G, 0) :- not tried(G, _).
    <- .print(R, " water low: refilling at base");
       !service(R, water, refill).
 
-// Teleoperation (paper VI): suspend every goal of the robot, switch it to direct
-// control with a skill; back to autonomy: switch back, resume.
-// A switch that fails (the link is down, the RCL restarted) is tried again every 2 s
-// for as long as the operator still asks for that mode: never left half-switched.
+// Teleoperation (paper VI): the operator's wish is the percept teleop(R, on|off). On:
+// suspend every goal of the robot and switch it to direct control with a skill; off:
+// switch it back, then resume. Every change of the wish starts its own switch. One that
+// fails (the link is down, the RCL restarted) is tried again every 2 s for as long as
+// the operator still wants that mode, and not once the wish has changed: "on" retried
+// after the operator said "off" would leave the robot teleoperated while the agent
+// believes it drives it (chaos seed 6).
 +teleop(R, on)[source(percept)] : not paused(R, teleop)
    <- .print(R, " switched to teleoperation: its goals are suspended");
       +paused(R, teleop);
       !hold_task(R);
       !switch_mode(R, on).
++teleop(R, on)[source(percept)]              // still paused: switching back was under way
+   <- !switch_mode(R, on).
 +teleop(R, off)[source(percept)] : paused(R, teleop)
-   <- !switch_mode(R, off);
-      -paused(R, teleop);
-      .print(R, " back to autonomous control");
-      !schedule(R).
-+!switch_mode(R, Mode) <- teleop_mode(R, Mode)[priority(1000)].
+   <- !switch_mode(R, off).
++!switch_mode(R, Mode)
+   <- teleop_mode(R, Mode)[priority(1000)];
+      !switched(R, Mode).
 -!switch_mode(R, Mode)[error(E)] : teleop(R, Mode)
    <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): again in 2 s");
       .wait(2000);
-      !switch_mode(R, Mode).
+      !retry_switch(R, Mode).
+-!switch_mode(R, Mode)[error(E)]             // the wish changed: its own switch follows it
+   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): no longer wanted").
++!retry_switch(R, Mode) : teleop(R, Mode)
+   <- !switch_mode(R, Mode).
++!retry_switch(R, Mode).
+// Switched back to autonomy, and still wanted so: resume the robot's goals.
+@switched_off[atomic]
++!switched(R, off) : teleop(R, off) & paused(R, teleop)
+   <- -paused(R, teleop);
+      .print(R, " back to autonomous control");
+      !schedule(R).
++!switched(R, _).
 
 +robot_unavailable(R)[source(percept)]
    <- .print(R, " is unavailable: its goals wait").

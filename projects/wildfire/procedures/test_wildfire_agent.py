@@ -217,3 +217,29 @@ def test_a_failed_switch_back_from_teleop_is_tried_again_until_it_succeeds(
     rcl.finish("teleop_mode(ugv1,off)")
     agent.run_until_idle()
     assert not agent.believes("paused(ugv1, teleop)")
+
+
+def test_a_switch_retried_after_the_operator_changed_mind_sends_the_mode_wanted_now(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos seed 6: the switch to teleop failed (link down) and was to be tried again in
+    2 s; meanwhile the operator handed the robot back. The retry must not switch it to
+    teleop again behind the agent's back (it believes it drives the robot)."""
+    agent, rcl = world
+    rcl.feed("teleop(ugv1, on)")
+    rcl.finish("teleop_mode(ugv1,on)", ok=False, error="link_down")  # tried again in 2 s
+    agent.run_until_idle()
+    agent.remove_percept("teleop(ugv1, on)")
+    rcl.feed("teleop(ugv1, off)")                       # the operator changed their mind
+    rcl.finish("teleop_mode(ugv1,off)")
+    agent.run_until_idle()
+    assert not agent.believes("paused(ugv1, teleop)")
+    mark = len(rcl.log)
+    rcl.run_until(lambda: not agent.snapshot()["intentions"])  # the retry's turn, 2 s on
+    assert rcl.since(mark) == [] and not rcl.open        # "on" is no longer wanted
+    assert not agent.believes("paused(ugv1, teleop)")
+    agent.remove_percept("teleop(ugv1, off)")           # and on again: followed at once
+    rcl.feed("teleop(ugv1, on)")
+    assert rcl.since(mark) == ["teleop_mode(ugv1,on)"]
+    rcl.finish("teleop_mode(ugv1,on)")
+    agent.run_until_idle()
+    assert agent.believes("paused(ugv1, teleop)") and not rcl.open
