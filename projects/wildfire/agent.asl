@@ -32,6 +32,7 @@ pending(R, G, c(P, 0, S, G)) :- queued(R, G, P, _) & arrived(G, N) & S = 0 - N.
 known_goal(G) :- queued(_, G, _, _).
 known_goal(G) :- waiting(_, G, _).
 known_goal(G) :- task(_, G, _).
+known_goal(G) :- retrying(_, G, _, _).
 // failure causes worth another try (the RCL's FailureCause values)
 retryable(transient).
 retryable(link_down).
@@ -61,6 +62,10 @@ tries(G, 0) :- not tried(G, _).
    <- .print("cancelling queued goal ", G);
       -queued(R, G, _, _);
       !forget(G).
++goal_cancelled(G)[source(percept)] : retrying(R, G, _, _)
+   <- .print("cancelling goal ", G, " before its retry");
+      -retrying(R, G, _, _);
+      !forget(G).
 +goal_cancelled(G)[source(percept)]
    <- .print("cancel of unknown goal ", G, " ignored");
       !forget(G).
@@ -73,6 +78,9 @@ tries(G, 0) :- not tried(G, _).
    <- -waiting(R, G, Q); +waiting(R, G, P);
       -prioritychange(G, P)[source(percept)];
       !schedule(R).
++prioritychange(G, P)[source(percept)] : retrying(R, G, Q, Job)
+   <- -retrying(R, G, Q, Job); +retrying(R, G, P, Job);
+      -prioritychange(G, P)[source(percept)].
 +prioritychange(G, P)[source(percept)] : task(R, G, Q)
    <- -task(R, G, Q); +task(R, G, P);
       -prioritychange(G, P)[source(percept)];
@@ -205,18 +213,27 @@ tries(G, 0) :- not tried(G, _).
       !finished(R, G).
 // A failure whose cause is transient (a restarted component, a lost link, the robot's
 // failsafe) puts the goal back in the queue a few times: the scheduler starts it again
-// once the robot is available. Any other failure, or too many, ends the goal.
+// once the robot is available. Any other failure, or too many, ends the goal. For the
+// second before it is queued again the goal is `retrying`: a cancel or a priority
+// change meanwhile applies to it (a cancel is not one of an unknown goal).
 -!perform(R, G, P, Job)[error(E)] : retryable(E) & tries(G, N) & max_tries(M) & N < M
    <- .print("goal ", G, " of ", R, " failed (", E, "): retry ", N + 1, " of ", M);
       -task(R, G, _); -waiting(R, G, _);
       -+tried(G, N + 1);
+      +retrying(R, G, P, Job);
       .wait(1000);
-      +queued(R, G, P, Job);
-      !schedule(R).
+      !requeue(R, G).
 -!perform(R, G, P, Job)[error(E)]
    <- .print("goal ", G, " of ", R, " failed (", E, ")");
       +failed_goal(G);
       !finished(R, G).
+
+@requeue[atomic]
++!requeue(R, G) : retrying(R, G, P, Job)
+   <- -retrying(R, G, P, Job);
+      +queued(R, G, P, Job);
+      !schedule(R).
++!requeue(R, G).                            // cancelled meanwhile
 
 +!finished(R, G) <- -task(R, G, _); -waiting(R, G, _); !forget(G); !schedule(R).
 

@@ -243,3 +243,26 @@ def test_a_switch_retried_after_the_operator_changed_mind_sends_the_mode_wanted_
     rcl.finish("teleop_mode(ugv1,on)")
     agent.run_until_idle()
     assert agent.believes("paused(ugv1, teleop)") and not rcl.open
+
+
+def test_a_goal_cancelled_while_its_retry_waits_is_not_started_again(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """A transient failure puts the goal back in the queue a second later; an operator's
+    cancel in that second must end it, not be ignored as a cancel of an unknown goal (the
+    robot would then work for a goal nobody wants). A priority change is kept."""
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "area_goal_received(a2, 3)")
+    rcl.finish("cover(uav1,a2)", ok=False, error="link_down")   # a2: again in 1 s
+    agent.run_until_idle()
+    assert list(rcl.open.values()) == ["cover(uav1,a1)"]
+    rcl.feed("goal_cancelled(a2)")                               # meanwhile: cancelled
+    rcl.finish("cover(uav1,a1)", ok=False, error="transient")   # a1: again in 1 s
+    agent.run_until_idle()
+    rcl.feed("prioritychange(a1, 7)")                            # meanwhile: more urgent
+    mark = len(rcl.log)
+    rcl.run_until(lambda: bool(rcl.open))
+    assert rcl.since(mark) == ["cover(uav1,a1)"] and agent.believes("task(uav1, a1, 7)")
+    rcl.finish("cover(uav1,a1)")
+    agent.run_until_idle()
+    assert "cover(uav1,a2)" not in rcl.since(mark) and not rcl.open
+    assert not agent.believes("queued(_, a2, _, _)") and not agent.believes("tried(a2, _)")
