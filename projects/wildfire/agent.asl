@@ -219,7 +219,7 @@ tries(G, 0) :- not tried(G, _).
 -!perform(R, G, P, Job)[error(E)] : retryable(E) & tries(G, N) & max_tries(M) & N < M
    <- .print("goal ", G, " of ", R, " failed (", E, "): retry ", N + 1, " of ", M);
       -task(R, G, _); -waiting(R, G, _);
-      -+tried(G, N + 1);
+      -tried(G, _); +tried(G, N + 1);         // not -+tried: it replaces any goal's count
       +retrying(R, G, P, Job);
       .wait(1000);
       !requeue(R, G).

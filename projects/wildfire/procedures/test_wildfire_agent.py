@@ -266,3 +266,20 @@ def test_a_goal_cancelled_while_its_retry_waits_is_not_started_again(
     agent.run_until_idle()
     assert "cover(uav1,a2)" not in rcl.since(mark) and not rcl.open
     assert not agent.believes("queued(_, a2, _, _)") and not agent.believes("tried(a2, _)")
+
+
+def test_each_goal_counts_its_own_retries(world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos (15 faults, seed 1): hs4 was retried four times, "retry 1 of 3" each time.
+    `-+tried(G, N)` replaces the first tried/2 of any goal (Jason's -+), so the UAV's
+    retries erased the UGV's count, and max_tries bounded nothing."""
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "hotspot_detected(hs1, -35.36, 149.16)")
+    rcl.finish("cover(uav1,a1)", ok=False, error="link_down")
+    rcl.finish("supply_water(ugv1,hs1", ok=False, error="link_down")
+    agent.run_until_idle()
+    assert agent.believes("tried(a1, 1)") and agent.believes("tried(hs1, 1)")
+    rcl.run_until(lambda: len(rcl.open) == 2)                 # both begun again
+    rcl.finish("cover(uav1,a1)", ok=False, error="transient")
+    agent.run_until_idle()
+    assert agent.believes("tried(a1, 2)") and agent.believes("tried(hs1, 1)")
+    assert not agent.believes("tried(a1, 1)")
