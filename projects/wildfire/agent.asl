@@ -249,17 +249,26 @@ tries(G, 0) :- not tried(G, _).
       -arrived(G, _).
 
 // Battery / water service: hold the goal, run the service action above every goal's
-// priority, then let the scheduler resume the best goal.
+// priority, then let the scheduler resume the best goal. A service that fails for a
+// cause worth a retry (the link was lost, the RCL restarted meanwhile) is tried again
+// every second: given up, it would leave the robot paused for good, its goals waiting
+// on a battery or a tank nobody fills (chaos, 10 kills of the reasoner and the RCL).
 +!service(R, Why, Action)
    <- +paused(R, Why);
       !hold_task(R);
-      !run_service(R, Action);
+      !serviced(R, Why, Action).
++!serviced(R, Why, Action)
+   <- !run_service(R, Action);
       -paused(R, Why);
       .print(R, " ", Action, " done");
       !schedule(R).
 +!run_service(R, recharge) <- recharge(R, recharge)[priority(1000)].
 +!run_service(R, refill) <- refill(R, refill)[priority(1000)].
--!service(R, Why, Action)[error(E)]
+-!serviced(R, Why, Action)[error(E)] : retryable(E)
+   <- .print(R, " ", Action, " failed (", E, "): again in 1 s");
+      .wait(1000);
+      !serviced(R, Why, Action).
+-!serviced(R, Why, Action)[error(E)]
    <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
 
 // a failed service leaves the robot paused: fixed by hand (the percept goes away), it

@@ -283,3 +283,21 @@ def test_each_goal_counts_its_own_retries(world: tuple[Agent, ScriptedHost]) -> 
     agent.run_until_idle()
     assert agent.believes("tried(a1, 2)") and agent.believes("tried(hs1, 1)")
     assert not agent.believes("tried(a1, 1)")
+
+
+def test_a_service_that_fails_for_a_transient_cause_is_tried_again(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos (10 kills of the reasoner and the RCL, seed 1): the UGV's refill failed with
+    link_down after an RCL restart and was given up: the UGV stayed paused for good, its
+    hotspots waiting on a tank nobody filled. A plain failure still waits for a fix."""
+    agent, rcl = world
+    rcl.feed("hotspot_detected(hs1, -35.36, 149.16)", "water_low(ugv1)")
+    rcl.finish("refill(ugv1,refill)", ok=False, error="link_down")
+    agent.run_until_idle()
+    assert agent.believes("paused(ugv1, water)")
+    rcl.run_until(lambda: "refill(ugv1,refill)" in rcl.open.values())   # again, 1 s on
+    mark = len(rcl.log)
+    rcl.finish("refill(ugv1,refill)")
+    agent.run_until_idle()
+    assert rcl.since(mark) == ["rcl_goal_management(resume,hs1)"]
+    assert not agent.believes("paused(ugv1, water)")
