@@ -215,13 +215,15 @@ class DataRequest(Message):
 
 @dataclass(frozen=True)
 class DataReply(Message):
-    """The data layer's answer to a request: a result, or an error text."""
+    """The data layer's answer to a request: a result, or an error text; `transient`
+    when the error is a dependency that was away (worth another try)."""
 
     kind: ClassVar[str] = "dl.reply"
     request_id: str
     ok: bool
     result: JsonValue = None
     error: str = ""
+    transient: bool = False
 
 
 @dataclass(frozen=True)

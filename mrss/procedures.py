@@ -65,15 +65,17 @@ class RunningProject:
         self._token: tuple[str | None] | None = None  # the world model token, once read
 
     # -- life cycle ------------------------------------------------------------------------
-    def start(self) -> RunningProject:
-        """Start the system and listen to its bus (returns at once after the proxy is up)."""
+    def start(self, timeout: float = 20.0) -> RunningProject:
+        """Start the system and listen to its bus (returns once the proxy is up, which may
+        take `timeout` seconds: its fork server imports every component's module first)."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
         with self.output.open("wb") as sink:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "mrss", "supervise", self.project_dir.name,
                  "--run-dir", str(self.run_dir)], stdout=sink, stderr=subprocess.STDOUT,
                 env=self.env)
-        self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), 20, "the bus proxy")
+        self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), timeout,
+                      "the bus proxy")
         self._sub = Subscriber(endpoints_from_config({}, self.run_dir),
                                prefixes=["percept", "action.status", "sup.heartbeat."])
         self._sub.start(self._on_message)

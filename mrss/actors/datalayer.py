@@ -57,7 +57,7 @@ from mrss.edge.validation import (
     limit_overrides,
 )
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
-from mrss.errors import ConfigError
+from mrss.errors import ConfigError, TransientError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
 from mrss.projects import PROJECT_FILE
 from mrss.supervision.component import Component, ComponentContext
@@ -115,11 +115,12 @@ class DataLayerService:
         except FutureTimeout:
             self.timeouts += 1
             return self._error(request, f"{request.function} timed out after "
-                               f"{self.call_timeout:g}s")
+                               f"{self.call_timeout:g}s", transient=True)
         except Exception as exc:
             if not isinstance(exc, (LookupError, TypeError, ValueError, DataLayerError)):
                 log.warning("data layer function %s failed: %r", request.function, exc)
-            return self._error(request, f"{request.function}: {exc.__class__.__name__}: {exc}")
+            return self._error(request, f"{request.function}: {exc.__class__.__name__}: {exc}",
+                               transient=isinstance(exc, TransientError))
         return DataReply(request_id=request.request_id, ok=True, result=result)
 
     def telemetry(self, data: RobotData) -> bool:
@@ -148,9 +149,12 @@ class DataLayerService:
             log.warning("telemetry stored again")
         return True
 
-    def _error(self, request: DataRequest, text: str) -> DataReply:
+    def _error(self, request: DataRequest, text: str, transient: bool = False) -> DataReply:
+        """An error reply; `transient`: the function's own dependency was away (the
+        world model did not answer) or it ran out of time, so the caller may retry."""
         self.errors += 1
-        return DataReply(request_id=request.request_id, ok=False, error=text)
+        return DataReply(request_id=request.request_id, ok=False, error=text,
+                         transient=transient)
 
     def close(self) -> None:
         """Stop the workers (calls still running are abandoned)."""

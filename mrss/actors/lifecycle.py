@@ -184,7 +184,7 @@ class RefineFailed:
     """The project's `refine_action` raised (or returned non-skills)."""
 
     reason: str
-    cause: str = ""  # FailureCause.TRANSIENT for a TransientError
+    cause: str = ""  # the FailureCause of what it raised (failure_causes.py)
     kind = EventKind.REFINE_FAILED
 
 

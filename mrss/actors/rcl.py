@@ -99,6 +99,7 @@ class RclCore(RequesterDuties, RobotAvailability):
         self.robot_nodes: dict[str, str] = {}  # robot -> the node it is reached through
         self._incarnations: dict[str, int] = {}
         self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
+        self.stopping = False  # set by stop(): links closing then are no news of robots
         self.progress = ProgressFeed(progress_every, clock)
 
     # -- lifecycle of the core ----------------------------------------------------------
@@ -109,6 +110,7 @@ class RclCore(RequesterDuties, RobotAvailability):
         `new_run`: the whole system (re)started, not just this RCL, so nobody waits for
         the actions left open: they are failed, and old incarnation numbers forgotten.
         """
+        self.stopping = False
         with self._lock:
             self._incarnations = {} if new_run else self.journal.incarnations()
         if new_run:
@@ -144,7 +146,10 @@ class RclCore(RequesterDuties, RobotAvailability):
         return ref is not None and ref.is_alive()
 
     def stop(self) -> None:
-        """Stop every robot actor (and its skills); open actions stay in the journal."""
+        """Stop every robot actor (and its skills); open actions stay in the journal, for
+        the next start to resume: the links that close after this (RclService
+        disconnects them) report "link closed", which fails nothing."""
+        self.stopping = True
         robots, self.robots = self.robots, None
         if robots is None:
             return

@@ -54,6 +54,7 @@ class RobotAvailability:
     _unavailable: dict[str, str]
     _unavailable_cause: dict[str, lc.EndCause]
     robot_nodes: dict[str, str]  # robot -> the node it is reached through (mrss.nodes)
+    stopping: bool  # RclCore.stop() was called
 
     if TYPE_CHECKING:  # provided by RclCore (no stub here: it would shadow them)
         def _tell(self, robot: str, message: object) -> None:
@@ -104,6 +105,10 @@ class RobotAvailability:
         unless something else (a quarantine) still holds it. Returns the failed uuids.
         """
         if robot not in self.links:
+            return []
+        if self.stopping:  # our own links closing: the next start resumes the actions
+            log.info("link of %s %s while the RCL stops: nothing failed", robot,
+                     "up" if up else f"down ({reason})")
             return []
         with self._lock:
             current = self._unavailable_cause.get(robot)

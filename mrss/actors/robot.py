@@ -21,6 +21,7 @@ from typing import Any, Protocol
 import pykka
 
 from mrss.actors import lifecycle as lc
+from mrss.actors.failure_causes import failure_cause
 from mrss.actors.journal import JournalEntry
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.skill import (
@@ -31,8 +32,7 @@ from mrss.actors.skill import (
     SkillRunner,
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
-from mrss.errors import TransientError
-from mrss.messages import ActionState, FailureCause, Message
+from mrss.messages import ActionState, Message
 from mrss.supervision import ActorContext, Escalation, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
@@ -331,8 +331,7 @@ class RobotActor(SupervisedActor):
         except Exception as exc:
             why = f"cannot refine {t.action.name}: {exc}"
             log.warning("robot %s: action %s failed: %s", self.robot, t.action.uuid, why)
-            self._feed(t, lc.RefineFailed(
-                why, FailureCause.TRANSIENT if isinstance(exc, TransientError) else ""))
+            self._feed(t, lc.RefineFailed(why, failure_cause(exc)))
             return False
         # The skills start first (the robot moves sooner), RUNNING is journaled and
         # published right after: whatever they report is handled after this method, so

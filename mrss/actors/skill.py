@@ -27,10 +27,10 @@ from typing import Any
 
 import pykka
 
+from mrss.actors.failure_causes import failure_cause
 from mrss.actors.resources import Holder, ResourceBroker
 from mrss.api import Action, Skill, SkillInterrupted, SkillOutcome, SkillState
-from mrss.errors import TransientError
-from mrss.messages import FailureCause, JsonValue
+from mrss.messages import JsonValue
 from mrss.supervision.events import ESCALATE, RESTART, SupEvents
 from mrss.supervision.policy import Action as Verdict
 from mrss.supervision.policy import RestartPolicy
@@ -53,7 +53,7 @@ class SkillEnded:
     index: int
     outcome: SkillOutcome
     reason: str
-    cause: str = ""  # FailureCause.TRANSIENT when it failed on a TransientError
+    cause: str = ""  # the FailureCause of what it raised (failure_causes.py)
     escalated: bool = False  # crashed past its restart budget: the robot actor fails too
 
 
@@ -95,7 +95,7 @@ class SkillRunner:
         self.interrupt_event = threading.Event()
         self.lock = threading.Lock()
         self.token = f"{action.uuid}/{run}/{index}"
-        self.cause = ""  # of the last attempt: "transient" after a TransientError
+        self.cause = ""  # of the last attempt: the FailureCause of what it raised
         self._broker = broker
         self._report = report
 
@@ -250,8 +250,7 @@ def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool
     except Exception as exc:
         outcome, crashed = SkillOutcome.FAILED, True
         reason = f"{skill.name} raised {type(exc).__name__}: {exc}"
-        if isinstance(exc, TransientError):
-            runner.cause = FailureCause.TRANSIENT
+        runner.cause = failure_cause(exc)
     with runner.lock:
         if skill.state is SkillState.INTERRUPT:
             outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False

@@ -296,9 +296,9 @@ def mode_views(h: History, robot: str, mode: str) -> dict[str, bool | None]:
     mind = last_mind(h)
     reasoner = None if mind is None or not pattern else any(
         str(x).startswith(pattern) for x in mind.get("beliefs", []))
-    rcl = None
-    if h.journal is not None and not h.journal.error and mode == "teleop":
-        rcl = h.journal.teleop.get(robot, False)
+    rcl = None  # a robot the RCL was never switched for has no flag: not counted (the
+    if h.journal is not None and not h.journal.error and mode == "teleop":  # wildfire
+        rcl = h.journal.teleop.get(robot)  # agent switches with a skill, not ctl.teleop)
     robot_view = None
     for e in h.of_kind("robot.data"):
         data = e.body.get("data") or {}

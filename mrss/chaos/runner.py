@@ -43,6 +43,7 @@ from mrss.procedures import RunningProject
 
 Say = Callable[[str], None]
 SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise`, in the run folder
+STARTUP = 60.0  # seconds the system may take to start: a loaded machine is no fault
 
 
 @dataclass(frozen=True)
@@ -79,7 +80,7 @@ def run(options: Options, say: Say = print) -> Path:
     recorder: Recorder | None = None
     heals: list[tuple[float, Fault, int, Heal]] = []
     try:
-        system.start()
+        system.start(timeout=STARTUP)
         recorder = Recorder(options.run_dir, writer,
                             options.run_dir / f"{rcls[0] if rcls else 'rcl'}-journal.sqlite3",
                             traffic.reply_topics)
@@ -89,7 +90,7 @@ def run(options: Options, say: Say = print) -> Path:
                      pending_beliefs=list(traffic.pending_beliefs),
                      mode_beliefs=traffic.mode_beliefs,
                      planned=[dataclasses.asdict(f) for f in faults])
-        system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=60)
+        system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=STARTUP)
         say(f"chaos: {options.project} up in {options.run_dir}; "
             f"{len(faults)} faults, seed {options.seed}")
         stop_traffic = threading.Event()

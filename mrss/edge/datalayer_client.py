@@ -40,7 +40,8 @@ class DataLayerError(MrssError):
 
 
 class DataLayerUnavailable(DataLayerError, DependencyUnavailable):
-    """No reply came within the timeout: the data layer (or the bus) is down or busy."""
+    """No reply came within the timeout (the data layer or the bus is down or busy), or
+    the reply says the function's own dependency was (`DataReply.transient`)."""
 
 
 class _Pending:
@@ -80,10 +81,12 @@ class DataLayerClient:
     def call(self, function: str, args: Sequence[Any] = (),
              timeout: float | None = None) -> Any:
         """The result of `function(*args)`, or DataLayerError with the reason
-        (DataLayerUnavailable when no reply came in time)."""
+        (DataLayerUnavailable when no reply came in time, or the reply says the error is
+        transient: the function's own dependency, the world model, was away)."""
         reply, answered = self._exchange(function, args, timeout)
         if not reply.ok:
-            kind = DataLayerError if answered else DataLayerUnavailable
+            kind = DataLayerError if answered and not reply.transient \
+                else DataLayerUnavailable
             raise kind(function, reply.error or "error reply", request_id=reply.request_id)
         return reply.result
 

@@ -32,6 +32,7 @@ pending(R, G, c(P, 0, S, G)) :- queued(R, G, P, _) & arrived(G, N) & S = 0 - N.
 known_goal(G) :- queued(_, G, _, _).
 known_goal(G) :- waiting(_, G, _).
 known_goal(G) :- task(_, G, _).
+known_goal(G) :- retrying(_, G, _, _).
 // failure causes worth another try (the RCL's FailureCause values)
 retryable(transient).
 retryable(link_down).
@@ -61,6 +62,10 @@ tries(G, 0) :- not tried(G, _).
    <- .print("cancelling queued goal ", G);
       -queued(R, G, _, _);
       !forget(G).
++goal_cancelled(G)[source(percept)] : retrying(R, G, _, _)
+   <- .print("cancelling goal ", G, " before its retry");
+      -retrying(R, G, _, _);
+      !forget(G).
 +goal_cancelled(G)[source(percept)]
    <- .print("cancel of unknown goal ", G, " ignored");
       !forget(G).
@@ -73,6 +78,9 @@ tries(G, 0) :- not tried(G, _).
    <- -waiting(R, G, Q); +waiting(R, G, P);
       -prioritychange(G, P)[source(percept)];
       !schedule(R).
++prioritychange(G, P)[source(percept)] : retrying(R, G, Q, Job)
+   <- -retrying(R, G, Q, Job); +retrying(R, G, P, Job);
+      -prioritychange(G, P)[source(percept)].
 +prioritychange(G, P)[source(percept)] : task(R, G, Q)
    <- -task(R, G, Q); +task(R, G, P);
       -prioritychange(G, P)[source(percept)];
@@ -98,25 +106,41 @@ tries(G, 0) :- not tried(G, _).
    <- .print(R, " water low: refilling at base");
       !service(R, water, refill).
 
-// Teleoperation (paper VI): suspend every goal of the robot, switch it to direct
-// control with a skill; back to autonomy: switch back, resume.
-// A switch that fails (the link is down, the RCL restarted) is tried again every 2 s
-// for as long as the operator still asks for that mode: never left half-switched.
+// Teleoperation (paper VI): the operator's wish is the percept teleop(R, on|off). On:
+// suspend every goal of the robot and switch it to direct control with a skill; off:
+// switch it back, then resume. Every change of the wish starts its own switch. One that
+// fails (the link is down, the RCL restarted) is tried again every 2 s for as long as
+// the operator still wants that mode, and not once the wish has changed: "on" retried
+// after the operator said "off" would leave the robot teleoperated while the agent
+// believes it drives it (chaos seed 6).
 +teleop(R, on)[source(percept)] : not paused(R, teleop)
    <- .print(R, " switched to teleoperation: its goals are suspended");
       +paused(R, teleop);
       !hold_task(R);
       !switch_mode(R, on).
++teleop(R, on)[source(percept)]              // still paused: switching back was under way
+   <- !switch_mode(R, on).
 +teleop(R, off)[source(percept)] : paused(R, teleop)
-   <- !switch_mode(R, off);
-      -paused(R, teleop);
-      .print(R, " back to autonomous control");
-      !schedule(R).
-+!switch_mode(R, Mode) <- teleop_mode(R, Mode)[priority(1000)].
+   <- !switch_mode(R, off).
++!switch_mode(R, Mode)
+   <- teleop_mode(R, Mode)[priority(1000)];
+      !switched(R, Mode).
 -!switch_mode(R, Mode)[error(E)] : teleop(R, Mode)
    <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): again in 2 s");
       .wait(2000);
-      !switch_mode(R, Mode).
+      !retry_switch(R, Mode).
+-!switch_mode(R, Mode)[error(E)]             // the wish changed: its own switch follows it
+   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): no longer wanted").
++!retry_switch(R, Mode) : teleop(R, Mode)
+   <- !switch_mode(R, Mode).
++!retry_switch(R, Mode).
+// Switched back to autonomy, and still wanted so: resume the robot's goals.
+@switched_off[atomic]
++!switched(R, off) : teleop(R, off) & paused(R, teleop)
+   <- -paused(R, teleop);
+      .print(R, " back to autonomous control");
+      !schedule(R).
++!switched(R, _).
 
 // All robots hold (the operator's "all robots hold"): every robot's running goal is
 // suspended, new goals queue; when the hold is lifted each robot resumes its best goal.
@@ -204,18 +228,27 @@ tries(G, 0) :- not tried(G, _).
       !finished(R, G).
 // A failure whose cause is transient (a restarted component, a lost link, the robot's
 // failsafe) puts the goal back in the queue a few times: the scheduler starts it again
-// once the robot is available. Any other failure, or too many, ends the goal.
+// once the robot is available. Any other failure, or too many, ends the goal. For the
+// second before it is queued again the goal is `retrying`: a cancel or a priority
+// change meanwhile applies to it (a cancel is not one of an unknown goal).
 -!perform(R, G, P, Job)[error(E)] : retryable(E) & tries(G, N) & max_tries(M) & N < M
    <- .print("goal ", G, " of ", R, " failed (", E, "): retry ", N + 1, " of ", M);
       -task(R, G, _); -waiting(R, G, _);
-      -+tried(G, N + 1);
+      -tried(G, _); +tried(G, N + 1);         // not -+tried: it replaces any goal's count
+      +retrying(R, G, P, Job);
       .wait(1000);
-      +queued(R, G, P, Job);
-      !schedule(R).
+      !requeue(R, G).
 -!perform(R, G, P, Job)[error(E)]
    <- .print("goal ", G, " of ", R, " failed (", E, ")");
       +failed_goal(G);
       !finished(R, G).
+
+@requeue[atomic]
++!requeue(R, G) : retrying(R, G, P, Job)
+   <- -retrying(R, G, P, Job);
+      +queued(R, G, P, Job);
+      !schedule(R).
++!requeue(R, G).                            // cancelled meanwhile
 
 +!finished(R, G) <- -task(R, G, _); -waiting(R, G, _); !forget(G); !schedule(R).
 
@@ -231,17 +264,26 @@ tries(G, 0) :- not tried(G, _).
       -arrived(G, _).
 
 // Battery / water service: hold the goal, run the service action above every goal's
-// priority, then let the scheduler resume the best goal.
+// priority, then let the scheduler resume the best goal. A service that fails for a
+// cause worth a retry (the link was lost, the RCL restarted meanwhile) is tried again
+// every second: given up, it would leave the robot paused for good, its goals waiting
+// on a battery or a tank nobody fills (chaos, 10 kills of the reasoner and the RCL).
 +!service(R, Why, Action)
    <- +paused(R, Why);
       !hold_task(R);
-      !run_service(R, Action);
+      !serviced(R, Why, Action).
++!serviced(R, Why, Action)
+   <- !run_service(R, Action);
       -paused(R, Why);
       .print(R, " ", Action, " done");
       !schedule(R).
 +!run_service(R, recharge) <- recharge(R, recharge)[priority(1000)].
 +!run_service(R, refill) <- refill(R, refill)[priority(1000)].
--!service(R, Why, Action)[error(E)]
+-!serviced(R, Why, Action)[error(E)] : retryable(E)
+   <- .print(R, " ", Action, " failed (", E, "): again in 1 s");
+      .wait(1000);
+      !serviced(R, Why, Action).
+-!serviced(R, Why, Action)[error(E)]
    <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
 
 // a failed service leaves the robot paused: fixed by hand (the percept goes away), it

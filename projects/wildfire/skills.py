@@ -142,9 +142,16 @@ class Land(UavSkill):
 
 # -------------------------------------------------------------------------------- UGV
 class UgvSkill(RobotSkill):
-    """A UGV skill: the robot stops (pump too) when the skill is interrupted."""
+    """A UGV skill: the robot stops (pump too) when the skill is interrupted.
+
+    Like the UAV's, it waits for the link before its first command (`connected`): an
+    action restored by a restarted RCL starts while the new link still connects to the
+    broker, and would otherwise fail at once ("connecting to ...")."""
 
     resources = (MOTION,)
+
+    def connected(self) -> None:
+        self.link.wait_up(10.0)
 
     def finish(self, outcome: SkillOutcome) -> None:
         if outcome is SkillOutcome.INTERRUPTED:
@@ -154,6 +161,7 @@ class UgvSkill(RobotSkill):
                 self.reason = f"could not stop the robot: {exc}"
 
     def drive_to(self, lat: float, lon: float) -> bool:
+        self.connected()
         if self.near(lat, lon):
             return True
         log.info("%s: driving to %.6f,%.6f", self.robot, lat, lon)
@@ -166,6 +174,7 @@ class UgvSkill(RobotSkill):
         wanted = litres - pumped
         if wanted <= 0.5:
             return True
+        self.connected()
         start = float(self.latest("tank", "level", 0.0))
         log.info("%s: pumping %.0f l (%.0f l in the tank)", self.robot, wanted, start)
         self.link.pump(True, litres=wanted)
@@ -225,6 +234,7 @@ class ReturnToBase(UgvSkill):
         self.refill = refill
 
     def run(self) -> bool:
+        self.connected()
         log.info("%s: returning to base%s", self.robot, " to refill" if self.refill else "")
         self.link.return_to_base(wait=False)
         if not self.until(lambda: bool(self.latest("status", "at_base", False))

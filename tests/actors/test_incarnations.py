@@ -4,7 +4,7 @@ grace, the RCL cancels those orphans; reconciliation answers from the journal.""
 from __future__ import annotations
 
 from mrss.actors.journal import Requester
-from mrss.api import Action, Skill, TransientError
+from mrss.api import Action, CommandRejected, CommandTimeout, LinkDown, Skill, TransientError
 from mrss.messages import ActionInventory, ActionQuery, ActionRequest, FailureCause
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv
@@ -133,6 +133,42 @@ def test_a_transient_failure_reaches_the_status_as_its_cause(rcl_env: RclEnv) ->
     assert rcl_env.journal is not None
     entry = rcl_env.journal.get("s1")
     assert entry is not None and entry.action.cause == FailureCause.TRANSIENT  # journaled
+
+
+class _Raises(Skill):
+    """A skill that fails the way a robot link makes it fail: it raises `error`."""
+
+    max_restarts = 0
+
+    def __init__(self, error: Exception) -> None:
+        self.error = error
+
+    def run(self) -> bool:
+        raise self.error
+
+
+def test_a_skill_that_loses_its_robot_fails_with_a_cause_worth_a_retry(
+        rcl_env: RclEnv) -> None:
+    """A link that finds the robot gone (LinkDown) before the RCL hears of it, or a robot
+    that answers no command (CommandTimeout: out of range, restarting), fails the action
+    with a cause a plan retries (chaos seeds 7 and 8: `action_failed` ended the goal for
+    good after a 2 s radio loss); a refusal stays `action_failed`."""
+    errors = {"down": LinkDown("ugv1", "last will: offline (while waiting: teleop)"),
+              "silent": CommandTimeout("ugv2", "goto", 1.0, 3),
+              "refused": CommandRejected("ugv1", "arm", "denied")}
+    for name, error in errors.items():
+        rcl_env.layer.recipes[name] = lambda a, e=error: [_Raises(e)]
+    core = rcl_env.start()
+    core.submit(ActionRequest(uuid="d1", name="down", args=["ugv1", "g1"]))
+    core.submit(ActionRequest(uuid="t1", name="silent", args=["ugv2", "g2"]))
+    expected = {"d1": FailureCause.LINK_DOWN, "t1": FailureCause.TRANSIENT, "x1": ""}
+    for uuid in ("d1", "t1"):
+        wait_until(rcl_env.statuses.reached(uuid, "failed"))
+    core.submit(ActionRequest(uuid="x1", name="refused", args=["ugv1", "g3"]))
+    wait_until(rcl_env.statuses.reached("x1", "failed"))
+    for uuid, cause in expected.items():
+        last = rcl_env.statuses.last(uuid)
+        assert last is not None and last.cause == cause, last
 
 
 def test_a_request_for_an_unavailable_robot_is_refused_with_the_cause_of_it(

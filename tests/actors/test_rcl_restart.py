@@ -159,3 +159,22 @@ def test_robot_crashing_too_often_is_quarantined_and_released(rcl_env: RclEnv) -
     finally:
         core.stop()
         journal.close()
+
+
+def test_links_closing_while_the_rcl_stops_fail_nothing(rcl_env: RclEnv) -> None:
+    """Chaos campaigns (every clean stop): RclService closes the links after the core has
+    stopped, and a closing link reports "link closed". That is no news of the robot: it
+    must not fail the open actions the next start resumes (nor try to journal it)."""
+    core = rcl_env.start()
+    ugv = rcl_env.robots["ugv1"]
+    core.submit_fields(request_fields("run", "patrol", "ugv1", "g1", ["p1", "p2"]))
+    wait_until(lambda: ugv.is_moving_to("p1"))
+    core.stop()
+    assert core.link_state("ugv1", False, "link closed") == []
+    rcl_env.stop()
+    core = rcl_env.start(robots={"ugv1": ugv, "uav1": rcl_env.robots["uav1"]})
+    wait_until(lambda: ugv.is_moving_to("p1"), message="'run' resumed")
+    assert rcl_env.statuses.states("run")[-1] == "running"
+    assert {u: s.value for u, s in core.active().items()} == {"run": "running"}
+    assert core.link_state("ugv1", False, "no heartbeat") == ["run"]  # a live one does
+    wait_until(rcl_env.statuses.reached("run", "failed"))

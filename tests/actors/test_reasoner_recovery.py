@@ -124,6 +124,37 @@ def test_a_new_incarnation_re_derives_its_goal_and_adopts_the_running_action(
     wait_until(lambda: second.ledger is not None and second.ledger.standing() == [])
 
 
+def test_a_new_incarnation_adopts_the_try_still_open_not_an_older_one_that_ended(
+    incarnations: Incarnations,
+) -> None:
+    """Chaos (15 faults, seed 1): the inventory listed a supply the dead incarnation had
+    seen fail (and tried again) before the try still running. The re-derived intention
+    adopted the failed one: a spurious failure, a retry used up, and the running try an
+    orphan until the next request. Only the open one is adoptable; with none open, the
+    last that ended."""
+    wire1 = Wire()
+    first = incarnations.start(1, wire1)
+    first.on_message(env(Percept(literal="area(g1, 3)"), src="events"))
+    first.on_message(env(Percept(literal="area(g2, 1)"), src="events"))
+    wait_until(lambda: len(wire1.requests) == 2)
+    running = next(r for r in wire1.requests if r.goal == "g1")
+    incarnations.kill(first)
+
+    wire2 = Wire()
+    second = incarnations.start(2, wire2)
+    wait_until(lambda: [q for q in wire2.queries if q.requester], message="inventory")
+    g2 = "cover(uav1,g2)"
+    second.on_message(env(ActionInventory(requester="reasoner", inc=2, actions=[
+        {"uuid": "f" * 32, "literal": running.literal, "state": "failed"},
+        {"uuid": running.uuid, "literal": running.literal, "state": "running"},
+        {"uuid": "e" * 32, "literal": g2, "state": "failed"},
+        {"uuid": "d" * 32, "literal": g2, "state": "succeeded"}])))
+    wait_until(lambda: len(wire2.requests) == 2)
+    adopted = {r.literal: r.uuid for r in wire2.requests}
+    assert adopted == {running.literal: running.uuid, g2: "d" * 32}
+    assert second.host.adopted == 2
+
+
 def test_without_an_inventory_a_new_incarnation_goes_on_after_adopt_wait(
     incarnations: Incarnations,
 ) -> None:

@@ -281,6 +281,19 @@ def test_teleop_left_on_by_the_operator_is_consistent_when_everyone_sees_it_on()
     assert broken(records) == set()
 
 
+def test_an_rcl_never_switched_for_the_robot_is_no_view_of_its_mode() -> None:
+    """Chaos seed 7: the wildfire agent switches teleop with a skill, never with the RCL's
+    own flag (ctl.teleop), so the journal has no flag for the robot; the operator's last
+    switch was on and the robot and the reasoner saw it on."""
+    records = healthy() + [operator(4.2, "mode", robot="ugv1", mode="teleop", on=True),
+                           bus(4.6, "robot.data", {"robot": "ugv1", "data": {"teleop": True}}),
+                           probe(35.0, beliefs=["paused(ugv1,teleop)[source(self)]"])]
+    assert edit(records, "journal")["teleop"] == {}
+    assert broken(records) == set()
+    edit(records, "journal")["teleop"] = {"ugv1": False}  # switched, and off: it counts
+    assert "rcl sees it off" in verdict(records).of(Invariant.MODE_CONSISTENT)[0].evidence
+
+
 # -- convergence -----------------------------------------------------------------------------------
 def test_an_intention_waiting_on_a_finished_action_is_not_converged() -> None:
     records = [r for r in healthy() if r["type"] != "probe"] + [probe(30.0, waiting=[U1])]

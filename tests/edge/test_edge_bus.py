@@ -24,7 +24,7 @@ from mrss.actors.events import ExternalEventsManager
 from mrss.actors.worldmodel import URL_FILE, WorldModelComponent
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
 from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
+from mrss.edge.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import DataReply, Envelope, Percept, RobotData
 from mrss.supervision.component import ComponentContext
@@ -124,11 +124,18 @@ def test_grounding_goes_through_data_layer_to_world_model(edge: Edge) -> None:
 
 
 def test_error_and_timeout_replies_raise_clear_errors_in_the_caller(edge: Edge) -> None:
-    with pytest.raises(DataLayerError, match="no object 'atlantis'"):
-        edge.client.call("ground", ["atlantis"], timeout=5)
-    with pytest.raises(DataLayerError, match="the external service is down"):
-        edge.client.call("explode", timeout=5)
-    with pytest.raises(DataLayerError, match="hang timed out after 0.5s"):
+    """A function that failed because its own dependency was away (or ran out of time)
+    is DataLayerUnavailable in the caller, as no reply at all is: worth another try
+    (chaos, 15 faults seed 5: the RCL's refinement of a cover failed for good when the
+    world model behind area_polygon did not answer). Other failures are not."""
+    for function, args, reason in (("ground", ["atlantis"], "no object 'atlantis'"),
+                                   ("explode", [], "the external service is down")):
+        with pytest.raises(DataLayerError, match=reason) as plain:
+            edge.client.call(function, args, timeout=5)
+        assert not isinstance(plain.value, DataLayerUnavailable)
+    with pytest.raises(DataLayerUnavailable, match="world model restarting"):
+        edge.client.call("world_away", timeout=5)
+    with pytest.raises(DataLayerUnavailable, match="hang timed out after 0.5s"):
         edge.client.call("hang", timeout=5)
     reply = edge.client.request("add", [1, 2], timeout=5)
     assert reply.ok and reply.result == 3

@@ -217,3 +217,87 @@ def test_a_failed_switch_back_from_teleop_is_tried_again_until_it_succeeds(
     rcl.finish("teleop_mode(ugv1,off)")
     agent.run_until_idle()
     assert not agent.believes("paused(ugv1, teleop)")
+
+
+def test_a_switch_retried_after_the_operator_changed_mind_sends_the_mode_wanted_now(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos seed 6: the switch to teleop failed (link down) and was to be tried again in
+    2 s; meanwhile the operator handed the robot back. The retry must not switch it to
+    teleop again behind the agent's back (it believes it drives the robot)."""
+    agent, rcl = world
+    rcl.feed("teleop(ugv1, on)")
+    rcl.finish("teleop_mode(ugv1,on)", ok=False, error="link_down")  # tried again in 2 s
+    agent.run_until_idle()
+    agent.remove_percept("teleop(ugv1, on)")
+    rcl.feed("teleop(ugv1, off)")                       # the operator changed their mind
+    rcl.finish("teleop_mode(ugv1,off)")
+    agent.run_until_idle()
+    assert not agent.believes("paused(ugv1, teleop)")
+    mark = len(rcl.log)
+    rcl.run_until(lambda: not agent.snapshot()["intentions"])  # the retry's turn, 2 s on
+    assert rcl.since(mark) == [] and not rcl.open        # "on" is no longer wanted
+    assert not agent.believes("paused(ugv1, teleop)")
+    agent.remove_percept("teleop(ugv1, off)")           # and on again: followed at once
+    rcl.feed("teleop(ugv1, on)")
+    assert rcl.since(mark) == ["teleop_mode(ugv1,on)"]
+    rcl.finish("teleop_mode(ugv1,on)")
+    agent.run_until_idle()
+    assert agent.believes("paused(ugv1, teleop)") and not rcl.open
+
+
+def test_a_goal_cancelled_while_its_retry_waits_is_not_started_again(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """A transient failure puts the goal back in the queue a second later; an operator's
+    cancel in that second must end it, not be ignored as a cancel of an unknown goal (the
+    robot would then work for a goal nobody wants). A priority change is kept."""
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "area_goal_received(a2, 3)")
+    rcl.finish("cover(uav1,a2)", ok=False, error="link_down")   # a2: again in 1 s
+    agent.run_until_idle()
+    assert list(rcl.open.values()) == ["cover(uav1,a1)"]
+    rcl.feed("goal_cancelled(a2)")                               # meanwhile: cancelled
+    rcl.finish("cover(uav1,a1)", ok=False, error="transient")   # a1: again in 1 s
+    agent.run_until_idle()
+    rcl.feed("prioritychange(a1, 7)")                            # meanwhile: more urgent
+    mark = len(rcl.log)
+    rcl.run_until(lambda: bool(rcl.open))
+    assert rcl.since(mark) == ["cover(uav1,a1)"] and agent.believes("task(uav1, a1, 7)")
+    rcl.finish("cover(uav1,a1)")
+    agent.run_until_idle()
+    assert "cover(uav1,a2)" not in rcl.since(mark) and not rcl.open
+    assert not agent.believes("queued(_, a2, _, _)") and not agent.believes("tried(a2, _)")
+
+
+def test_each_goal_counts_its_own_retries(world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos (15 faults, seed 1): hs4 was retried four times, "retry 1 of 3" each time.
+    `-+tried(G, N)` replaces the first tried/2 of any goal (Jason's -+), so the UAV's
+    retries erased the UGV's count, and max_tries bounded nothing."""
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "hotspot_detected(hs1, -35.36, 149.16)")
+    rcl.finish("cover(uav1,a1)", ok=False, error="link_down")
+    rcl.finish("supply_water(ugv1,hs1", ok=False, error="link_down")
+    agent.run_until_idle()
+    assert agent.believes("tried(a1, 1)") and agent.believes("tried(hs1, 1)")
+    rcl.run_until(lambda: len(rcl.open) == 2)                 # both begun again
+    rcl.finish("cover(uav1,a1)", ok=False, error="transient")
+    agent.run_until_idle()
+    assert agent.believes("tried(a1, 2)") and agent.believes("tried(hs1, 1)")
+    assert not agent.believes("tried(a1, 1)")
+
+
+def test_a_service_that_fails_for_a_transient_cause_is_tried_again(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    """Chaos (10 kills of the reasoner and the RCL, seed 1): the UGV's refill failed with
+    link_down after an RCL restart and was given up: the UGV stayed paused for good, its
+    hotspots waiting on a tank nobody filled. A plain failure still waits for a fix."""
+    agent, rcl = world
+    rcl.feed("hotspot_detected(hs1, -35.36, 149.16)", "water_low(ugv1)")
+    rcl.finish("refill(ugv1,refill)", ok=False, error="link_down")
+    agent.run_until_idle()
+    assert agent.believes("paused(ugv1, water)")
+    rcl.run_until(lambda: "refill(ugv1,refill)" in rcl.open.values())   # again, 1 s on
+    mark = len(rcl.log)
+    rcl.finish("refill(ugv1,refill)")
+    agent.run_until_idle()
+    assert rcl.since(mark) == ["rcl_goal_management(resume,hs1)"]
+    assert not agent.believes("paused(ugv1, water)")

@@ -1,11 +1,15 @@
-"""Fault procedure: the wildfire mission survives a reasoner killed in the middle of a cover.
+"""Fault procedure: the wildfire mission survives a reasoner killed in the middle of a
+cover, and an RCL killed in the middle of the water supply that follows.
 
 `mrss supervise wildfire` as a real process. An operator area goal goes in over MQTT;
 while the UAV covers the area, the reasoner process is SIGKILLed. Its supervisor starts
 a new incarnation, which perceives the standing goal again (its percept ledger), asks
 the RCL what its predecessor left and adopts the running cover: the same action (same
 uuid) goes on from its progress to the end, no second cover is requested, and the
-mission goes on from there (the hotspot found is sent water).
+mission goes on from there: the hotspot found is sent water. While the UGV drives there,
+the RCL process is SIGKILLed: its new incarnation restores the supply from its journal
+and it goes on to the end (chaos campaigns: the restored skill's first command used to
+fail at once, "connecting to ...", because the new link had not reached the broker yet).
 """
 
 from __future__ import annotations
@@ -48,8 +52,14 @@ def test_a_reasoner_killed_mid_cover_is_replaced_and_the_cover_is_adopted(
         covers = {s.uuid for s in system.statuses("uav1")}
         assert covers == {cover.uuid}, "a second cover was started instead of adopting"
 
-        # the mission goes on under the new incarnation: the hotspot gets water
-        supplied = system.wait_for(lambda: system.statuses("ugv1", "succeeded"), 60,
-                                   "water on the hotspot")
+        # the mission goes on under the new incarnation: the hotspot gets water, although
+        # the RCL is killed on the way
+        supply = system.wait_for(lambda: system.statuses("ugv1", "running"), 60,
+                                 "the water supply to run")[0]
+        system.signal("rcl", signal.SIGKILL)
+        system.wait_for(lambda: system.incarnation("rcl") >= 2, 20, "a new RCL incarnation")
+        supplied = system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
+                                            if s.uuid == supply.uuid], 60,
+                                   "the restored supply to succeed")
         assert supplied and not system.statuses(state="failed"), system.log()
         assert system.interrupt() == 0, system.log()

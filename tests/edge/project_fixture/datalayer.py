@@ -6,6 +6,7 @@ import threading
 from typing import Any
 
 from mrss.edge.adapters import DataLayer, external
+from mrss.errors import TransientError
 
 
 class FixtureData(DataLayer):
@@ -26,6 +27,10 @@ class FixtureData(DataLayer):
     @external()
     def explode(self) -> None:
         raise RuntimeError("the external service is down")
+
+    @external()
+    def world_away(self) -> None:
+        raise TransientError("world model restarting")  # as a DataLayerUnavailable would
 
     @external()
     def hang(self) -> None:
