@@ -152,13 +152,13 @@ def _percentile(sorted_values: list[float], p: float) -> float:
 
 def run(quick: bool) -> BenchReport:
     """Measure every transport in this run and compare against MQTT QoS 0."""
-    rounds = 5 if quick else 7
-    pings = 200 if quick else 1000
+    rounds = 2 if quick else 7
+    pings = 100 if quick else 1000
     # Per round. With batching, 50,000 stays within our queue limits (DEFAULT_HWM ZeroMQ
     # messages per hop) even when the receiver falls behind; unbatched plain pub/sub and
     # Mosquitto's default queues may drop some, which 'delivered %' shows.
-    count = 20_000 if quick else 50_000
-    reliable = 10_000 if quick else 100_000
+    count = 5_000 if quick else 50_000
+    reliable = 2_000 if quick else 100_000
     report = BenchReport(
         name="bus", quick=quick,
         columns=["transport", "messages", "delivered %", "msgs/s", "/ raw", "/ QoS 0",
