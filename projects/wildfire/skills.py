@@ -184,6 +184,12 @@ class UgvSkill(RobotSkill):
         if wanted <= 0.5:
             return True
         self.connected()
+        # the link is up on a robot's first telemetry, a moment before its tank record
+        if not self.until(lambda: self.link.latest("tank") is not None, stale_s,
+                          "tank telemetry"):
+            if self.interrupted:
+                return False
+            raise TransientError(f"{self.robot}: no tank telemetry for {stale_s:.0f} s")
         start = float(self.latest("tank", "level", 0.0))
         log.info("%s: pumping %.0f l (%.0f l in the tank)", self.robot, wanted, start)
         sent = time.time()  # the clock of telemetry `ts` (stamped by the link on arrival)
