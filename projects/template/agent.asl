@@ -18,6 +18,17 @@
 robot(robot1).
 free(robot1).
 
+// Failure causes worth another try (the RCL's FailureCause values): the robot or a
+// component was away for a moment (a lost link, the robot's failsafe, a restarted RCL).
+// ADAPT: which causes your goals retry, and how often.
+retryable(transient).
+retryable(link_down).
+retryable(failsafe).
+retryable(quarantined).        // its actor kept crashing: retried after its probation
+max_tries(3).
+tries(G, N) :- tried(G, N).
+tries(G, 0) :- not tried(G, _).
+
 // an operator sent a point to reach (events.py: goto_received(Goal, Lat, Lon))
 +goto_received(G, Lat, Lon)[source(percept)] : robot(R)
    <- .print("goal ", G, ": ", R, " drives to ", Lat, ",", Lon);
@@ -52,6 +63,16 @@ free(robot1).
       +free(R);
       .print("goal ", G, " reached");
       !forget(G).
+// A failure for a retryable cause tries again a second later (the robot stays busy
+// with the goal), a few times; any other failure (or one too many) ends the goal.
+// Count with -tried(G, _); +tried(G, N + 1), not -+tried(G, N + 1): Jason's -+
+// removes the first tried/2 of ANY goal.
+-!drive(R, G, Lat, Lon)[error(E)]
+      : busy(R, G) & retryable(E) & tries(G, N) & max_tries(M) & N < M
+   <- .print("goal ", G, " failed (", E, "): retry ", N + 1, " of ", M);
+      -tried(G, _); +tried(G, N + 1);
+      .wait(1000);
+      !drive(R, G, Lat, Lon).
 -!drive(R, G, Lat, Lon)[error(E)] : busy(R, G)
    <- -busy(R, G);
       +free(R);
@@ -61,6 +82,7 @@ free(robot1).
 // percepts stay beliefs until removed: forget a goal's, so it may be sent again
 +!forget(G)
    <- -goto_received(G, _, _)[source(percept)];
-      -goal_cancelled(G)[source(percept)].
+      -goal_cancelled(G)[source(percept)];
+      -tried(G, _).
 
 +robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").

@@ -25,6 +25,9 @@ class MoveTo(Skill):
         self.lat, self.lon = lat, lon
 
     def start(self) -> None:
+        # ADAPT: with a real link (docs/robots.md), wait for it before the first command,
+        # `self.link.wait_up(10.0)`: an action a restarted RCL resumes starts while the
+        # new link still connects, and its command would fail at once (link_down).
         self.link.goto(self.lat, self.lon)
 
     def run(self) -> bool:

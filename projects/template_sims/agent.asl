@@ -7,6 +7,17 @@
 uav(uav1).
 ugv(ugv1).
 
+// Failure causes worth another try (the RCL's FailureCause values): the robot or a
+// component was away for a moment (a lost link, the robot's failsafe, a restarted RCL).
+// ADAPT: which causes your goals retry, and how often.
+retryable(transient).
+retryable(link_down).
+retryable(failsafe).
+retryable(quarantined).        // its actor kept crashing: retried after its probation
+max_tries(3).
+tries(G, N) :- tried(G, N).
+tries(G, 0) :- not tried(G, _).
+
 +goto_received(G, R, Lat, Lon)[source(percept)]
    <- .print("goal ", G, ": ", R, " goes to ", Lat, ",", Lon);
       !reach(R, G, Lat, Lon).
@@ -29,12 +40,21 @@ ugv(ugv1).
 +!reach(R, G, _, _)
    <- .print("goal ", G, ": no robot ", R);
       !forget(G).
+// A failure for a retryable cause tries the goal again a second later, a few times;
+// any other failure (or one too many) ends it. Count with -tried(G, _); +tried(G, N + 1),
+// not -+tried(G, N + 1): Jason's -+ removes the first tried/2 of ANY goal.
+-!reach(R, G, Lat, Lon)[error(E)] : retryable(E) & tries(G, N) & max_tries(M) & N < M
+   <- .print("goal ", G, " failed (", E, "): retry ", N + 1, " of ", M);
+      -tried(G, _); +tried(G, N + 1);
+      .wait(1000);
+      !reach(R, G, Lat, Lon).
 -!reach(R, G, _, _)[error(E)]
    <- .print("goal ", G, " failed: ", E);
       !forget(G).
 
 +!forget(G)
    <- -goto_received(G, _, _, _)[source(percept)];
-      -goal_cancelled(G)[source(percept)].
+      -goal_cancelled(G)[source(percept)];
+      -tried(G, _).
 
 +robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").

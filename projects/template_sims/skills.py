@@ -49,7 +49,7 @@ class FlyTo(MoveSkill):
         self.lat, self.lon, self.altitude = lat, lon, altitude
 
     def run(self) -> bool:
-        self.link.wait_up(10.0)
+        self.link.wait_up(10.0)              # the link first (see DriveTo)
         if self.link.landed or not self.link.armed:
             self.link.set_mode("GUIDED")
             self.link.arm()
@@ -78,6 +78,10 @@ class DriveTo(MoveSkill):
         self.lat, self.lon = lat, lon
 
     def run(self) -> bool:
+        # Wait for the link before the first command (as FlyTo does): an action that a
+        # restarted RCL resumes starts while the new link still connects to the broker,
+        # and its command would fail at once ("connecting to ...").
+        self.link.wait_up(10.0)
         if self.near(self.lat, self.lon):
             return True
         self.link.goto(self.lat, self.lon, wait=False)

@@ -21,12 +21,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from mrss.api import LinkError, Resource, Skill, SkillOutcome, distance_m
+from mrss.api import LinkError, Resource, Skill, SkillOutcome, TransientError, distance_m
 
 log = logging.getLogger("mrss.rcl.skills")
 MOTION = Resource("motion", per_robot=True)
 POLL_S = 0.05
 ARRIVED_M = 3.0
+STALE_S = 5.0  # no new tank record while pumping for this long: TransientError
 
 
 class RobotSkill(Skill):
@@ -168,26 +169,52 @@ class UgvSkill(RobotSkill):
         self.link.goto(lat, lon, wait=False)
         return self.until(lambda: self.near(lat, lon), 900.0, f"drive to {lat:.6f},{lon:.6f}")
 
-    def pump(self, litres: float) -> bool:
-        """Pump until `litres` in total were delivered (progress `pumped` counts them)."""
+    def pump(self, litres: float, stale_s: float = STALE_S) -> bool:
+        """Pump until `litres` in total were delivered (progress `pumped` counts them).
+
+        The pump is judged stopped only on tank telemetry received after the pump
+        command: a record from before it says "not pumping" and would fail a pump that
+        just started. A robot that sends no new tank record for `stale_s` (frozen,
+        out of range while its link still counts as up) fails the skill with
+        TransientError (cause `transient`: the agent tries again) rather than as a
+        pump that stopped (chaos: a UGV frozen right after pumping began failed
+        "pump stopped after 0 of 60 l", and its hotspot never got water)."""
         pumped = float(self.progress.get("pumped", 0.0) or 0.0)  # type: ignore[arg-type]
         wanted = litres - pumped
         if wanted <= 0.5:
             return True
         self.connected()
+        # the link is up on a robot's first telemetry, a moment before its tank record
+        if not self.until(lambda: self.link.latest("tank") is not None, stale_s,
+                          "tank telemetry"):
+            if self.interrupted:
+                return False
+            raise TransientError(f"{self.robot}: no tank telemetry for {stale_s:.0f} s")
         start = float(self.latest("tank", "level", 0.0))
         log.info("%s: pumping %.0f l (%.0f l in the tank)", self.robot, wanted, start)
+        sent = time.time()  # the clock of telemetry `ts` (stamped by the link on arrival)
         self.link.pump(True, litres=wanted)
 
         def delivered() -> float:
             return max(0.0, start - float(self.latest("tank", "level", start)))
 
-        saved = idle_since = time.monotonic()
+        saved = idle_since = heard = time.monotonic()
+        last_ts = sent
         while delivered() < wanted - 0.5 and not self.interrupted:
             now = time.monotonic()
-            if self.latest("tank", "pumping", False):
-                idle_since = now
-            elif now - idle_since > 1.5:  # telemetry lags the pump by up to a period
+            tank = self.link.latest("tank")
+            ts = float(tank.get("ts", 0.0)) if tank is not None else 0.0
+            if ts > last_ts:  # a record newer than the command (and than the last one)
+                last_ts, heard = ts, now
+                if tank is not None and tank.get("pumping", False):
+                    idle_since = now
+            elif now - heard > stale_s:
+                self.record_progress(pumped=round(pumped + delivered(), 1))
+                raise TransientError(f"{self.robot}: no tank telemetry for {stale_s:.0f} s "
+                                     f"while pumping ({pumped + delivered():.0f} of "
+                                     f"{litres:.0f} l)")
+            if heard > idle_since and now - idle_since > 1.5:
+                # fresh records say idle: telemetry lags the pump by up to a period
                 self.reason = f"pump stopped after {pumped + delivered():.0f} of {litres:.0f} l"
                 break
             self.link.require_up()
@@ -208,11 +235,11 @@ class GotoPoint(UgvSkill):
 
 
 class Pump(UgvSkill):
-    def __init__(self, litres: float) -> None:
-        self.litres = litres
+    def __init__(self, litres: float, stale_s: float = STALE_S) -> None:
+        self.litres, self.stale_s = litres, stale_s
 
     def run(self) -> bool:
-        return self.pump(self.litres)
+        return self.pump(self.litres, self.stale_s)
 
 
 class SupplyWater(UgvSkill):
