@@ -213,6 +213,8 @@ class MrssApp(Steering, DetailKeys):
         envelopes = self.link.drain()
         if envelopes:
             self.flushes += 1
+            if any(env.src != self.link.src for env in envelopes):
+                self.liveness.heard()  # whatever applying them does: the system spoke
             with suppress(NoMatches):  # the panels are gone: the app is closing
                 self.apply(envelopes)
 
@@ -227,8 +229,6 @@ class MrssApp(Steering, DetailKeys):
         mind: Envelope | None = None
         for env in envelopes:
             body = env.body
-            if env.src != self.link.src:
-                self.liveness.heard()
             for alert in self.alerts.apply(env):
                 dirty.add("alerts")
                 lines.append(alert_line(alert, env.ts))

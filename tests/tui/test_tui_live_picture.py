@@ -10,7 +10,7 @@ import pytest
 from textual.widgets import Input
 
 from mrss.bus import BusEndpoints
-from mrss.testing import wait_until
+from mrss.testing import WaitTimeout, wait_until
 from mrss.tui.app import MrssApp
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.mind_inspector import MindInspector

@@ -95,7 +95,7 @@ def test_banner_turns_red_when_the_system_goes_quiet_and_keeps_a_give_up(
         async with app.run_test(size=SIZE) as pilot:
             await connected(pilot, peer)
             # the bus thread counts a message before the app's loop has handled it
-            await until(pilot, lambda: app.liveness.last_heard is not None,
+            await until(pilot, lambda: app.liveness.last_heard is not None, timeout=30,
                         message="the probe heard by the app")
             header = app.query_one(Header)
             # (until the probe is drained the banner says nothing was heard yet)
