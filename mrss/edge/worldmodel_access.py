@@ -11,6 +11,7 @@ process.
 from __future__ import annotations
 
 import json
+import logging
 import threading
 import urllib.error
 import urllib.request
@@ -30,6 +31,7 @@ from mrss.edge.worldmodel_store import Position, WorldObject
 from mrss.errors import MrssError
 
 WORLD_MODEL_URL_FILE = "worldmodel.url"
+log = logging.getLogger("mrss.datalayer")
 MAX_BATCH = 200   # writes per `wm.upsert_many` request of the telemetry path
 
 
@@ -56,6 +58,7 @@ class BusWorldModel:
         self._sending = threading.Lock()   # one batch (or call) at a time, in order
         self._writer: threading.Thread | None = None
         self._closed = False
+        self._unsent = False   # the last batch could not be sent (logged once)
         self.batches = 0   # requests that carried queued writes
 
     def close(self) -> None:
@@ -112,7 +115,13 @@ class BusWorldModel:
                 self._wake.wait_for(lambda: self._queued or self._closed)
                 if self._closed:
                     return
-            self._flush()
+            try:
+                self._flush()
+                self._unsent = False
+            except Exception:  # the writer outlives a bad moment of the bus; logged once
+                if not self._unsent:
+                    log.exception("queued world model writes could not be sent")
+                self._unsent = True
 
     def _flush(self) -> None:
         """Send every queued write, in batches, in order."""
