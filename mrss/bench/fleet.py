@@ -10,7 +10,9 @@ assigns each robot a goal every 10 s (a percept `assign(R, Seq)`, spread evenly 
 * percept -> skill start p50/p99: CLOCK_MONOTONIC at the skill's `start()` minus the
   same clock just before the bench published the percept;
 * telemetry -> world model lag p50/p99: from the link's reception of a telemetry record
-  in the RCL (the record's `ts`) to the world model's reply to its write (seen on the bus);
+  in the RCL (the record's `ts`) to the world model's reply to its write (seen on the bus;
+  the data layer sends telemetry writes in batches, `wm.upsert_many`, answered together
+  after their commit);
 * CPU (% of one core over the window) and RSS per component process;
 * messages per second per topic (robot ids folded), as a bus observer sees them;
 * lost: assignments without a skill start, telemetry records on the bus that never
@@ -64,6 +66,7 @@ class Sample:
     telemetry: int = 0
     written: int = 0
     bus_dropped: int = 0
+    batches: list[int] = field(default_factory=list)
     topics: Counter[str] = field(default_factory=Counter)
     cpu: dict[str, float] = field(default_factory=dict)
     rss_mb: dict[str, float] = field(default_factory=dict)
@@ -92,7 +95,8 @@ class FleetRun:
         self.starts: dict[int, int] = {}
         self.records: dict[tuple[str, float], float] = {}  # (robot, ts) -> seen on the bus
         self.written: dict[tuple[str, float], float] = {}  # (robot, ts) -> written, time.time
-        self.requests: dict[str, tuple[str, float]] = {}  # world model write -> (robot, ts)
+        self.requests: dict[str, list[tuple[str, float]]] = {}  # write -> [(robot, ts)]
+        self.batches: list[int] = []  # objects per world model write request
         self.topics: Counter[str] = Counter()
         files = {"project.toml": fleet_project.toml(uavs, robots - uavs, broker_url, RATE_HZ),
                  "agent.asl": fleet_project.AGENT, "rcl.py": fleet_project.RCL,
@@ -113,18 +117,20 @@ class FleetRun:
             if self.measuring and isinstance(ts, float):
                 with self._data:
                     self.records[(body.robot, ts)] = now
-        elif isinstance(body, DataRequest) and env.topic == WM_REQUEST_TOPIC:
-            obj = body.args[0] if body.function == "wm.upsert" and body.args else None
-            if isinstance(obj, dict) and obj.get("kind") == "robot":
-                ts = (obj.get("attributes") or {}).get("ts")
-                if isinstance(ts, float):
-                    with self._data:
-                        self.requests[body.request_id] = (str(obj.get("id")), ts)
+        elif isinstance(body, DataRequest) and env.topic == WM_REQUEST_TOPIC and body.args:
+            objs = [body.args[0]] if body.function == "wm.upsert" else \
+                body.args[0] if body.function == "wm.upsert_many" else []
+            keys = [(str(obj.get("id")), ts) for obj in objs
+                    if isinstance(obj, dict) and obj.get("kind") == "robot"
+                    and isinstance(ts := (obj.get("attributes") or {}).get("ts"), float)]
+            if keys:
+                with self._data:
+                    self.requests[body.request_id] = keys
+                    self.batches.append(len(objs))
         elif isinstance(body, DataReply) and env.topic == WM_REPLY_TOPIC and body.ok:
             with self._data:
-                key = self.requests.pop(body.request_id, None)
-                if key is not None:
-                    self.written[key] = now
+                for key in self.requests.pop(body.request_id, []):
+                    self.written[key] = now  # a batch is answered after its commit
         elif isinstance(body, ActionStatus):
             seq, t = body.progress.get("seq"), body.progress.get("t")
             if isinstance(seq, int) and isinstance(t, int):
@@ -197,6 +203,8 @@ class FleetRun:
         sample.lag_ms = [(written[key] - key[1]) * 1e3 for key in records if key in written]
         sample.topics = Counter({t: n for t, n in self.topics.items()})
         sample.bus_dropped = self.system.sub.dropped
+        with self._data:
+            sample.batches = list(self.batches)
         return sample
 
     def close(self) -> None:
@@ -221,8 +229,9 @@ def _cpu(p: psutil.Process) -> float:
     return float(times.user + times.system)
 
 
-def run(quick: bool) -> BenchReport:
-    sizes = [10] if quick else [10, 50, 100, 200]
+def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
+    """The fleet bench at `sizes` robots (default: 10 with `quick`, else 10 to 200)."""
+    sizes = sizes or ([10] if quick else [10, 50, 100, 200])
     window = 4.0 if quick else 25.0
     report = BenchReport(
         "fleet", ["robots", "assignments", "e2e p50 ms", "e2e p99 ms", "telemetry",
@@ -248,6 +257,11 @@ def run(quick: bool) -> BenchReport:
         report.notes.append(f"N={sample.robots} CPU % of one core / RSS MB: " + ", ".join(
             f"{name} {sample.cpu[name]:.0f}/{sample.rss_mb[name]:.0f}"
             for name in sorted(sample.cpu, key=lambda n: -sample.cpu[n])))
+        if sample.batches:
+            report.notes.append(
+                f"N={sample.robots} world model writes per request: mean "
+                f"{sum(sample.batches) / len(sample.batches):.1f}, p99 "
+                f"{percentile([float(b) for b in sample.batches], 99):.0f}")
         report.notes.append(f"N={sample.robots} msgs/s by topic: " + ", ".join(
             f"{topic} {count / sample.window_s:.0f}"
             for topic, count in sample.topics.most_common(8)))

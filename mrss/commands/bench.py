@@ -18,6 +18,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--under-load", action="store_true",
                         help="e2e only: the same rows with two CPU hogs running, beside the "
                              "quiet ones")
+    parser.add_argument("--robots", type=int, action="append", metavar="N",
+                        help="fleet only: measure this fleet size (repeatable) instead of "
+                             "the default sizes")
 
 
 ALL = "all"
@@ -50,6 +53,14 @@ def run_one(args: argparse.Namespace) -> int:
             print(f"mrss bench {args.name}: --under-load is for e2e only", file=sys.stderr)
             return 2
         report = module.run(quick=args.quick, under_load=True)
+    elif getattr(args, "robots", None):
+        if args.name != "fleet":
+            print(f"mrss bench {args.name}: --robots is for fleet only", file=sys.stderr)
+            return 2
+        if min(args.robots) < 2:
+            print("mrss bench fleet: --robots must be at least 2", file=sys.stderr)
+            return 2
+        report = module.run(quick=args.quick, sizes=args.robots)
     else:
         report = module.run(quick=args.quick)
     print(report.to_json() if args.json else report.to_text())

@@ -123,13 +123,14 @@ class DataLayerClient:
         if env.topic != self.reply_topic or not isinstance(body, DataReply):
             return
         if body.request_id.startswith(NO_WAIT):
-            if not body.ok:
-                self.failed_sends += 1
+            failed = [body.error] if not body.ok else _entry_errors(body.result)
+            if failed:
+                self.failed_sends += len(failed)
                 now = time.monotonic()
                 if now - self._send_logged >= 60.0:
                     self._send_logged = now
                     log.warning("a request sent without waiting failed (%d so far): %s",
-                                self.failed_sends, body.error)
+                                self.failed_sends, failed[0])
             return
         with self._lock:
             waiter = self._pending.get(body.request_id)
@@ -138,3 +139,10 @@ class DataLayerClient:
             return
         waiter.reply = body
         waiter.done.set()
+
+
+def _entry_errors(result: Any) -> list[str]:
+    """The errors of a batch's reply (a list with {"error": text} for refused entries)."""
+    if not isinstance(result, list):
+        return []
+    return [str(r["error"]) for r in result if isinstance(r, dict) and "error" in r]

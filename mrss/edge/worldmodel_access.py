@@ -11,6 +11,8 @@ process.
 from __future__ import annotations
 
 import json
+import logging
+import threading
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -29,6 +31,8 @@ from mrss.edge.worldmodel_store import Position, WorldObject
 from mrss.errors import MrssError
 
 WORLD_MODEL_URL_FILE = "worldmodel.url"
+log = logging.getLogger("mrss.datalayer")
+MAX_BATCH = 200   # writes per `wm.upsert_many` request of the telemetry path
 
 
 class WorldModelUnavailable(DependencyUnavailable):
@@ -49,11 +53,26 @@ class BusWorldModel:
     def __init__(self, bus: Any, timeout: float = 2.0) -> None:
         self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
                                       reply_topic=WM_REPLY_TOPIC, default_timeout=timeout)
+        self._queued: list[dict[str, Any]] = []   # writes not waited for, not yet sent
+        self._wake = threading.Condition()
+        self._sending = threading.Lock()   # one batch (or call) at a time, in order
+        self._writer: threading.Thread | None = None
+        self._closed = False
+        self._unsent = False   # the last batch could not be sent (logged once)
+        self.batches = 0   # requests that carried queued writes
 
     def close(self) -> None:
+        """Send the queued writes, then stop."""
+        with self._wake:
+            self._closed = True
+            self._wake.notify_all()
+        if self._writer is not None:
+            self._writer.join(timeout=2.0)
+        self._flush()
         self.client.close()
 
     def _call(self, function: str, args: list[Any]) -> Any:
+        self._flush()   # the writes queued before this call go first
         try:
             return self.client.call(function, args)
         except DataLayerError as exc:
@@ -73,10 +92,48 @@ class BusWorldModel:
     def upsert(self, obj: dict[str, Any]) -> dict[str, Any]:
         return dict(self._call("wm.upsert", [obj]))
 
-    def upsert_nowait(self, obj: dict[str, Any]) -> str:
+    def upsert_nowait(self, obj: dict[str, Any]) -> None:
         """Write without waiting for the answer (in order with this client's requests);
-        the data layer's telemetry path, which needs no answer, uses it. The request id."""
-        return self.client.send("wm.upsert", [obj])
+        the data layer's telemetry path, which needs no answer, uses it.
+
+        The write is queued; a writer thread sends what is queued as one
+        `wm.upsert_many` request (at most MAX_BATCH objects), so while one batch is on
+        its way the next records gather: one request and one reply per batch instead
+        of per record, and one transaction in the world model. An invalid object is
+        counted in `client.failed_sends`."""
+        with self._wake:
+            self._queued.append(obj)
+            if self._writer is None and not self._closed:
+                self._writer = threading.Thread(target=self._write_queued, daemon=True,
+                                                name="wm-writes")
+                self._writer.start()
+            self._wake.notify()
+
+    def _write_queued(self) -> None:
+        while True:
+            with self._wake:
+                self._wake.wait_for(lambda: self._queued or self._closed)
+                if self._closed:
+                    return
+            try:
+                self._flush()
+                self._unsent = False
+            except Exception:  # the writer outlives a bad moment of the bus; logged once
+                if not self._unsent:
+                    log.exception("queued world model writes could not be sent")
+                self._unsent = True
+
+    def _flush(self) -> None:
+        """Send every queued write, in batches, in order."""
+        with self._sending:
+            while True:
+                with self._wake:
+                    batch = self._queued[:MAX_BATCH]
+                    del self._queued[:MAX_BATCH]
+                if not batch:
+                    return
+                self.batches += 1
+                self.client.send("wm.upsert_many", [batch])
 
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:

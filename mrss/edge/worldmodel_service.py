@@ -1,9 +1,12 @@
 """The embedded world model as a service: store + rules + percepts, and its bus functions.
 
-Every write goes through `WorldModel.upsert`, whichever way it came (bus, HTTP, seed),
-so project rules fire for all of them and their literals are emitted as percepts.
+Every write goes through `WorldModel.upsert` (or `upsert_many`, a batch in one
+transaction), whichever way it came (bus, HTTP, seed), so project rules fire for all of
+them and their literals are emitted as percepts.
 On the bus the world model answers `DataRequest`s on `dl.request.wm` with `DataReply`s
 on `dl.reply.wm`; functions: `wm.get(id)`, `wm.list(kind)`, `wm.upsert(object)`,
+`wm.upsert_many(objects)` (one reply, after the commit, with a result per object in
+order: what `wm.upsert` gives, or {"error": text} for an invalid object),
 `wm.near(lat, lon, radius_m, kind)`, `wm.delete(id)`, and the spatial predicates over a
 GeoJSON geometry: `wm.intersecting(geometry, kind)`, `wm.within(geometry, kind)`,
 `wm.within_distance(geometry, distance_m, kind)` (nearest first, with distance_m).
@@ -94,6 +97,21 @@ class WorldModel:
                     self._emit(text)
         return change
 
+    def upsert_many(self, objs: list[WorldObject]) -> list[Change]:
+        """Store `objs` in order, in one transaction when the store can (SQLite), then
+        run the rules on each change and emit what they produce. Returns once every
+        write is committed; a failure raises (with SQLite nothing of the batch is kept)."""
+        with self._write:
+            batch = getattr(self.store, "upsert_many", None)
+            changes: list[Change] = batch(objs) if callable(batch) else \
+                [self.store.upsert(obj) for obj in objs]
+            for change in changes:
+                for text in self.rules.apply(change, self.store):
+                    log.info("rule percept %s (on %s %r)", text, change.op, change.obj.id)
+                    if self._emit is not None:
+                        self._emit(text)
+        return changes
+
     def seed(self, objects: Any, *, source: str = "seed") -> int:
         """Upsert a JSON list of objects; ConfigError naming the bad entry."""
         if not isinstance(objects, list):
@@ -124,6 +142,11 @@ class WorldModel:
             if not answer:
                 return {"op": change.op}
             return {"op": change.op, "object": change.obj.to_json()}
+        if function == "wm.upsert_many":
+            (entries,) = _arity(function, args, 1)
+            if not isinstance(entries, list):
+                raise TypeError("wm.upsert_many takes a list of objects")
+            return self._upsert_many(entries, answer)
         if function == "wm.near":
             lat, lon, radius, *rest = _arity(function, args, 3, 4)
             found = self.near(Position(lat, lon), _number(radius, "radius_m"),
@@ -144,6 +167,25 @@ class WorldModel:
             (object_id,) = _arity(function, args, 1)
             return self.store.delete(_string(object_id, "id"))
         raise LookupError(f"unknown world model function {function!r}")
+
+    def _upsert_many(self, entries: list[Any], answer: bool) -> list[dict[str, Any]]:
+        """Per entry, in order: its result as `wm.upsert` gives it, or {"error": text}
+        when the entry is not a valid object (the others are still written)."""
+        results: list[dict[str, Any] | None] = []
+        objs: list[WorldObject] = []
+        for entry in entries:
+            try:
+                objs.append(WorldObject.from_json(entry))
+                results.append(None)
+            except (ValueError, LookupError, TypeError) as exc:
+                results.append({"error": str(exc)})
+        changes = iter(self.upsert_many(objs))
+        for index, result in enumerate(results):
+            if result is None:
+                change = next(changes)
+                results[index] = {"op": change.op, "object": change.obj.to_json()} \
+                    if answer else {"op": change.op}
+        return [r for r in results if r is not None]
 
     def handle(self, request: DataRequest) -> DataReply:
         """The reply to one bus request; errors become error replies."""

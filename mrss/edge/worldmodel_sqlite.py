@@ -110,25 +110,42 @@ class SqliteWorldStore:
     def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
         """Insert `obj`, or update the object with its id (`worldmodel_objects.merge`)."""
         with self._lock:
-            change = merge(obj, self._get(obj.id), replace_attributes=replace_attributes)
-            if change.op == "unchanged":
-                return change
-            new = change.obj
-            pos, shape = new.position, new.shape
-            box = shape.bounds if shape is not None else (None, None, None, None)
-            self._db.execute(
-                f"INSERT INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
-                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (id) DO UPDATE SET "
-                "kind = excluded.kind, lat = excluded.lat, lon = excluded.lon, "
-                "alt = excluded.alt, attributes = excluded.attributes, "
-                "version = excluded.version, updated = excluded.updated, "
-                "geometry = excluded.geometry, minlon = excluded.minlon, "
-                "minlat = excluded.minlat, maxlon = excluded.maxlon, maxlat = excluded.maxlat",
-                (new.id, new.kind, pos.lat if pos else None, pos.lon if pos else None,
-                 pos.alt if pos else None, json.dumps(new.attributes, allow_nan=False),
-                 new.version, new.updated,
-                 None if new.geometry is None else new.geometry.to_text(), *box))
+            return self._upsert(obj, replace_attributes)
+
+    def upsert_many(self, objs: list[WorldObject]) -> list[Change]:
+        """Upsert `objs` in order in one transaction: all are committed or none (the
+        error is raised after the rollback); returns once committed."""
+        with self._lock:
+            self._db.execute("BEGIN")
+            try:
+                changes = [self._upsert(obj, False) for obj in objs]
+                self._db.execute("COMMIT")
+            except BaseException:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise
+            return changes
+
+    def _upsert(self, obj: WorldObject, replace_attributes: bool) -> Change:
+        change = merge(obj, self._get(obj.id), replace_attributes=replace_attributes)
+        if change.op == "unchanged":
             return change
+        new = change.obj
+        pos, shape = new.position, new.shape
+        box = shape.bounds if shape is not None else (None, None, None, None)
+        self._db.execute(
+            f"INSERT INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
+            " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (id) DO UPDATE SET "
+            "kind = excluded.kind, lat = excluded.lat, lon = excluded.lon, "
+            "alt = excluded.alt, attributes = excluded.attributes, "
+            "version = excluded.version, updated = excluded.updated, "
+            "geometry = excluded.geometry, minlon = excluded.minlon, "
+            "minlat = excluded.minlat, maxlon = excluded.maxlon, maxlat = excluded.maxlat",
+            (new.id, new.kind, pos.lat if pos else None, pos.lon if pos else None,
+             pos.alt if pos else None, json.dumps(new.attributes, allow_nan=False),
+             new.version, new.updated,
+             None if new.geometry is None else new.geometry.to_text(), *box))
+        return change
 
     def get(self, object_id: str) -> WorldObject | None:
         """The object with this id, or None."""

@@ -26,7 +26,7 @@ from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
 from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
 from mrss.edge.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
-from mrss.messages import DataReply, Envelope, Percept, RobotData
+from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData
 from mrss.supervision.component import ComponentContext
 from mrss.testing import BrokerInfo, wait_until
 
@@ -221,23 +221,32 @@ def test_mqtt_event_becomes_a_percept_on_the_bus(edge: Edge) -> None:
 def test_writes_sent_without_waiting_are_applied_in_order_and_failures_counted(
         edge: Edge) -> None:
     world = edge.data._world  # the data layer's BusWorldModel, as its telemetry path uses
+    sent: list[DataRequest] = []
     replies: dict[str, DataReply] = {}
-    sub = Subscriber(edge.endpoints, prefixes=["dl.reply.wm"])
-    sub.start(lambda env: isinstance(env.body, DataReply)
-              and replies.setdefault(env.body.request_id, env.body))
+
+    def seen(env: Envelope) -> None:
+        if isinstance(env.body, DataRequest) and env.body.function == "wm.upsert_many":
+            sent.append(env.body)
+        elif isinstance(env.body, DataReply):
+            replies[env.body.request_id] = env.body
+
+    sub = Subscriber(edge.endpoints, prefixes=["dl.request.wm", "dl.reply.wm"])
+    sub.start(seen)
     try:
         assert sub.wait_connected(10)
-        bad = world.upsert_nowait({"id": "", "kind": "robot"})  # refused by the world model
-        ids = [world.upsert_nowait({"id": "ugv9", "kind": "robot",
-                                    "attributes": {"n": n}}) for n in range(20)]
-        wait_until(lambda: all(i in replies for i in [bad, *ids]), timeout=15,
-                   message="every write answered")
-        assert not replies[bad].ok
+        world.upsert_nowait({"id": "", "kind": "robot"})  # refused by the world model
+        for n in range(20):
+            world.upsert_nowait({"id": "ugv9", "kind": "robot", "attributes": {"n": n}})
+        wait_until(lambda: sum(len(r.args[0]) for r in sent) == 21
+                   and all(r.request_id in replies for r in sent), timeout=15,
+                   message="every batch of writes answered")
+        assert world.batches == len(sent)
+        results = [each for r in sent for each in replies[r.request_id].result]
+        assert "error" in results[0] and all(replies[r.request_id].ok for r in sent)
+        assert results[1] == {"op": "insert"}  # the op only: nobody waits
+        assert results[2:] == [{"op": "update"}] * 19
         wait_until(lambda: world.client.failed_sends == 1, timeout=5,
-                   message="the failed write counted")
-        assert replies[ids[0]].result == {"op": "insert"}  # the op only: nobody waits
-        assert replies[ids[1]].result == {"op": "update"}
-        assert all(replies[i].ok for i in ids)
+                   message="the refused write counted")
         assert edge.client.call("ground", ["ugv9"], timeout=5)["attributes"]["n"] == 19
         assert world.client.unmatched_replies == 0
     finally:

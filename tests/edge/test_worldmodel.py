@@ -195,3 +195,27 @@ def test_seed_outside_the_project_or_malformed_is_refused(tmp_path: Path) -> Non
     (tmp_path / "bad.json").write_text('[{"id": "x"}]')
     with pytest.raises(ConfigError, match="object #0"):
         load_seed(world, tmp_path, {"seed": "bad.json"})
+
+
+def test_a_batch_of_writes_is_one_transaction_answered_per_object() -> None:
+    world, emitted = hotspot_world()
+    h1 = {"id": "h1", "kind": "hotspot", "position": {"lat": BASE.lat, "lon": BASE.lon}}
+    robot = {"id": "r1", "kind": "robot", "position": {"lat": BASE.lat, "lon": BASE.lon},
+             "attributes": {"n": 1}}
+    moved = {**robot, "attributes": {"n": 2}}
+    results = world.call("wm.upsert_many", [[h1, {"id": "x"}, robot, moved]], answer=False)
+    assert [r.get("op") for r in results] == ["insert", None, "insert", "update"]
+    assert "kind" in results[1]["error"]
+    assert emitted and emitted[0].startswith("hotspot_detected(h1,")  # rules ran
+    assert world.call("wm.get", ["r1"])["attributes"] == {"n": 2}
+    answered = world.call("wm.upsert_many", [[{**robot, "attributes": {"n": 3}}]])
+    assert answered[0]["object"]["attributes"] == {"n": 3}
+    # A write failing in the store rolls the whole batch back: nothing of it is kept.
+    unstorable = WorldObject("r3", "robot", BASE)
+    unstorable.attributes["v"] = float("nan")  # past the object's check: SQL refuses it
+    with pytest.raises(ValueError):
+        world.upsert_many([WorldObject("r2", "robot", BASE), unstorable])
+    assert world.get("r2") is None and world.get("r3") is None
+    reply = world.handle(DataRequest(request_id="r9", function="wm.upsert_many",
+                                     args=[{"id": "h1"}]))
+    assert not reply.ok and "list of objects" in reply.error
