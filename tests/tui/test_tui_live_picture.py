@@ -74,9 +74,14 @@ def test_a_late_dashboard_gets_the_whole_picture_then_progress_and_x_stops_the_s
                         getattr(app.screen, "question", ""), message="the question")
             assert app.screen.details[0].startswith("components: bus, rcl")  # type: ignore[attr-defined]
             await pilot.press("y")
-            await until(pilot, lambda: app.banner_text() ==
-                        "system stopped: every component of tuidemo stopped",
-                        timeout=30, message="the system stopped and went quiet")
+            try:
+                await until(pilot, lambda: app.banner_text() ==
+                            "system stopped: every component of tuidemo stopped",
+                            timeout=30, message="the system stopped and went quiet")
+            except WaitTimeout as exc:
+                states = {p: n.state for p, n in app.supervision.nodes.items()}
+                raise WaitTimeout(f"{exc}: banner {app.banner_text()!r}, tree {states}, "
+                                  f"connected {app.link.connected}") from None
             assert app.is_running  # the last picture stays
 
     run(start_patrol())
