@@ -103,6 +103,7 @@ class RawBus:
         self.sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.PUB)
         self.sock.setsockopt(zmq.LINGER, 1000)
         self.sock.connect(endpoints.frontend)
+        self._pids = iter(range(1, 10**9))  # across syncs: a probe is never taken for another's
 
     def send(self, frames: list[bytes]) -> None:
         self.sock.send_multipart(frames)
@@ -112,12 +113,14 @@ class RawBus:
         proxy: everything sent before it has passed the proxy."""
         from mrss.testing import wait_until
 
-        count = iter(range(1, 10**9))
+        sent: list[int] = []
 
         def probe() -> bool:
-            pid = next(count)
-            self.send(list(encode(Heartbeat(component="fuzz", pid=pid), src=SRC)))
-            return bool(seen(pid))
+            # any probe of this sync that came back will do: the one just sent has had no
+            # time to cross the proxy yet
+            sent.append(next(self._pids))
+            self.send(list(encode(Heartbeat(component="fuzz", pid=sent[-1]), src=SRC)))
+            return any(seen(pid) for pid in sent)
         wait_until(probe, timeout, interval=0.05, message="the raw bus socket heard")
 
     def close(self) -> None:
