@@ -52,6 +52,3 @@ class HeldGoals:
             return None
         src = self._by[goal]
         return SuspendCause.AGENT if src and src == requester else SuspendCause.OPERATOR
-
-    def __contains__(self, goal: object) -> bool:
-        return goal in self._by

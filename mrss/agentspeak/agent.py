@@ -247,9 +247,7 @@ class Agent(Runtime):
         """Beliefs, intentions (with stacks) and pending events as plain JSON-able data;
         `action_id` maps an action handle to the id shown (the host's, by default the
         handle itself)."""
-        if action_id is None:
-            return take_snapshot(self)
-        return take_snapshot(self, action_id)
+        return take_snapshot(self, action_id or (lambda handle: handle))
 
     def beliefs(self) -> list[str]:
         return self.bb.texts()
