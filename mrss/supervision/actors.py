@@ -137,7 +137,8 @@ class ActorSupervisor(SupervisedActor):
                     and c.state is ChildState.RUNNING:
                 try:
                     node: ChildStatus = c.ref.proxy().tree().get(timeout=1.0)
-                    nodes.append(_with(node, c, now, self._policy.restarts(c.spec.id)))
+                    nodes.append(_with(node, c, now, self._policy.restarts(c.spec.id),
+                                       self._policy.budget(c.spec.id, now)))
                     continue
                 except (pykka.ActorDeadError, pykka.Timeout):
                     pass
@@ -145,6 +146,7 @@ class ActorSupervisor(SupervisedActor):
                 id=c.spec.id, kind=c.spec.kind.value, state=c.state.value,
                 pid=os.getpid() if c.ref else 0, incarnation=c.incarnation,
                 restarts=self._policy.restarts(c.spec.id),
+                budget=self._policy.budget(c.spec.id, now),
                 uptime=now - c.up_since if c.state is ChildState.RUNNING else 0.0,
                 last_reason=c.last_reason,
             ))
@@ -385,11 +387,12 @@ class ActorSupervisor(SupervisedActor):
         except pykka.ActorDeadError:
             self._watchdog_stop.set()
 
-def _with(node: ChildStatus, c: _Child, now: float, restarts: int) -> ChildStatus:
+def _with(node: ChildStatus, c: _Child, now: float, restarts: int,
+          budget: tuple[int, int, float]) -> ChildStatus:
     """A nested supervisor's own status, with what its parent knows of it."""
     return ChildStatus(
         id=c.spec.id, kind=node.kind, state=c.state.value, pid=node.pid,
-        incarnation=c.incarnation, restarts=restarts,
+        incarnation=c.incarnation, restarts=restarts, budget=budget,
         uptime=now - c.up_since, last_reason=c.last_reason, strategy=node.strategy,
         children=node.children,
     )

@@ -104,6 +104,10 @@ class RestartIntensity:
     def clear(self) -> None:
         self._times.clear()
 
+    def used(self, now: float) -> int:
+        """Restarts counted within the last `period` seconds at `now`."""
+        return sum(1 for t in self._times if t > now - self.period)
+
     def __len__(self) -> int:
         return len(self._times)
 
@@ -163,6 +167,11 @@ class RestartPolicy:
 
     def restarts(self, child: str) -> int:
         return self._record(child).restarts
+
+    def budget(self, child: str, now: float) -> tuple[int, int, float]:
+        """The child's own budget at `now` (rule 2): restarts counted, limit, period."""
+        window = self._child_windows[child]
+        return window.used(now), window.limit, window.period
 
     def streak(self, child: str) -> int:
         return self._record(child).streak

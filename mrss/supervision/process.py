@@ -133,7 +133,7 @@ class ProcessSupervisor:
             kids = tuple(ChildStatus(
                 id=p.id, kind=p.spec.kind.value, state=p.state.value,
                 pid=p.pid if p.alive else 0, incarnation=p.incarnation,
-                restarts=self._policy.restarts(p.id),
+                restarts=self._policy.restarts(p.id), budget=self._policy.budget(p.id, now),
                 uptime=now - p.up_since if p.state is ChildState.RUNNING else 0.0,
                 last_reason=p.last_reason) for p in self._procs.values())
             state = "stopped" if self._outcome else \

@@ -32,6 +32,9 @@ class ChildStatus:
     last_reason: str = ""
     strategy: str = ""
     children: tuple[ChildStatus, ...] = field(default_factory=tuple)
+    # its restart budget as its supervisor counts it: (restarts within the window, the
+    # limit, the window in seconds); None for the root, which has no parent to count
+    budget: tuple[int, int, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dicts and lists only (JSON and msgpack safe)."""
@@ -40,6 +43,7 @@ class ChildStatus:
             "incarnation": self.incarnation, "restarts": self.restarts,
             "uptime": round(self.uptime, 3), "last_reason": self.last_reason,
             "strategy": self.strategy, "children": [c.to_dict() for c in self.children],
+            "budget": None if self.budget is None else list(self.budget),
         }
 
     def find(self, child_id: str) -> ChildStatus | None:

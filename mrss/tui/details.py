@@ -4,7 +4,8 @@
   state, reason, every progress value, and the transition timeline with who (the
   sender) and why (reason, failure cause, the debug keys' notes);
 - a component: state, pid, incarnation, its full last exit reason, the restart budget
-  ("4 of 5 in 30 s", restarts seen since the dashboard attached), CPU and memory of
+  ("4 of 5 in 30 s", as its supervisor counts it in the tree it reports; restarts seen
+  since the dashboard attached when the tree did not say), CPU and memory of
   its process (psutil, when it runs on this machine), and its last log lines;
 - a robot: every telemetry field, and sparklines of battery, altitude and tank over
   the last five minutes.
@@ -159,8 +160,8 @@ class ComponentDetail(DetailScreen):
             return Text("not in the tree any more")
         now = self.clock()
         budget = ("unknown (the project's [supervisor] intensity and period)"
-                  if self.budget is None else
-                  node.budget_text(now, self.budget[0], self.budget[1]))
+                  if self.budget is None and node.budget is None else
+                  node.budget_text(now, *(self.budget or (0, 0.0))))
         uptime = node.uptime(now)
         text = Text()
         _pairs(text, [("path", node.path), ("kind", node.kind), ("state", node.state),

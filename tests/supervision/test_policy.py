@@ -134,6 +134,19 @@ def test_six_kills_of_five_components_in_26s_with_the_shipped_budget_restart_the
         assert p.child_exited(child, KILL).action is Action.RESTART
 
 
+def test_a_childs_budget_counts_its_restarts_within_the_window_only() -> None:
+    clock = FakeClock()
+    p = policy(intensity=3, period=30.0, clock=clock)
+    assert p.budget("a", clock.now) == (0, 3, 30.0)
+    for at in (0.0, 10.0, 20.0):
+        clock.now = 1000.0 + at
+        p.child_exited("a", CRASH)
+    p.child_exited("b", CRASH)
+    assert p.budget("a", clock.now) == (3, 3, 30.0)
+    assert p.budget("b", clock.now) == (1, 3, 30.0)  # a sibling's are not its own
+    assert p.budget("a", 1000.0 + 45.0) == (1, 3, 30.0)  # two left the window
+
+
 def test_the_opt_in_shared_window_escalates_whatever_on_exceeded_says() -> None:
     p = policy(intensity=5, shared_intensity=2, on_exceeded=OnExceeded.QUARANTINE)
     assert p.child_exited("a", CRASH).action is Action.RESTART

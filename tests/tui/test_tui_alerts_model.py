@@ -91,3 +91,24 @@ def test_a_lost_node_is_an_alert_until_it_is_back() -> None:
     assert model.apply(env(down)) == []  # its level-triggered repeat: no new alert
     model.apply(env(SupEvent(event="node_up", child="field", supervisor="node.base")))
     assert model.alerts[(AlertKind.NODE_DOWN, "node field")].resolved
+
+
+def test_a_restart_budget_nearly_used_is_raised_from_the_tree_and_resolved_as_it_drops() -> None:
+    model = AlertsModel()
+
+    def tree(rcl: object, reasoner: object) -> Envelope:
+        return env(SupEvent(event="tree", child="wf", detail={"tree": {
+            "id": "wf", "budget": None, "children": [
+                {"id": "rcl", "budget": rcl},
+                {"id": "group", "children": [{"id": "reasoner", "budget": reasoner}]},
+                "junk", {"id": 3}]}}))
+
+    assert model.apply(tree([3, 5, 30.0], [0, 5, 30.0])) == []  # two restarts left
+    raised = model.apply(tree([4, 5, 30.0], [1, 1, 10.0]))  # one left; none left
+    assert [(a.kind, a.subject, a.text) for a in raised] == [
+        (AlertKind.BUDGET, "wf/rcl", "4 of 5 in 30 s"),
+        (AlertKind.BUDGET, "wf/group/reasoner", "1 of 1 in 10 s")]
+    assert model.apply(tree([4, 5, 30.0], [1, 1, 10.0])) == []  # still on: one alert
+    model.apply(tree([2, 5, 30.0], ["x", 1]))  # the window moved on; a bad report
+    assert model.alerts[(AlertKind.BUDGET, "wf/rcl")].resolved
+    assert not model.alerts[(AlertKind.BUDGET, "wf/group/reasoner")].resolved

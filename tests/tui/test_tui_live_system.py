@@ -60,10 +60,11 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             detail = await until(pilot, lambda: isinstance(app.screen, ComponentDetail)
                                  and app.screen, message="the component's detail")
             pid = row_text(table, row)[2]
+            budget = f"restart budget  1 of {spec.intensity} in {spec.period:g} s\n"
             text = await until(pilot, lambda: "CPU measuring" not in detail.body_text
-                               and detail.body_text, message="CPU measured")
+                               and budget in detail.body_text and detail.body_text,
+                               message="CPU measured, the supervisor's budget count shown")
             assert f"pid             {pid}" in text
-            assert f"restart budget  1 of {spec.intensity} in {spec.period:g} s" in text
             assert "CPU " in text and " MiB" in text and "SIGKILL" in text
             assert "fault kill injected into announcer" in text.split("last log lines")[1]
             await pilot.press("escape")

@@ -146,6 +146,32 @@ def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
     assert model.nodes["demo"].pid == 0 and model.nodes["demo/a"].state == "?"
 
 
+def test_the_restart_budget_is_the_supervisors_own_count_when_its_tree_reports_one() -> None:
+    """Restarts from before the dashboard attached count: the supervisor says them."""
+    model = SupervisionModel()
+
+    def tree(budget: object) -> SupEvent:
+        return SupEvent(event="tree", child="demo", detail={"tree": {
+            "id": "demo", "state": "running", "children": [
+                {"id": "rcl", "state": "running", "restarts": 3, "budget": budget}]}})
+
+    model.apply_event(tree(None), "demo", 1.0)
+    rcl = model.nodes["demo/rcl"]
+    assert rcl.budget_text(1.0, 5, 10.0) == "0 of 5 in 10 s (seen since attached)"
+    model.apply_event(tree([3, 5, 30.0]), "demo", 2.0)
+    assert rcl.budget_text(2.0, 5, 10.0) == "3 of 5 in 30 s"
+    for junk in ([1, 2], ["3", 5, 30], [3, 5, 0], [-1, 5, 30], [True, 5, 30]):
+        model.apply_event(tree(junk), "demo", 3.0)
+        assert rcl.budget == (3, 5, 30.0)  # a bad report keeps what was known
+    # a restart heard before the next tree counts at once
+    model.apply_event(SupEvent(event="restart", child="rcl", supervisor="demo", count=4),
+                      "supervisor", 4.0)
+    assert rcl.budget_text(4.0, 5, 10.0) == "4 of 5 in 30 s"
+    model.apply_event(SupEvent(event="restart", child="rcl", supervisor="demo", count=4),
+                      "supervisor", 4.5)
+    assert rcl.budget == (4, 5, 30.0)  # the same restart heard twice counts once
+
+
 def test_robots_model_merges_flat_telemetry_and_keeps_the_latest_record_per_type() -> None:
     model = RobotsModel()
     model.apply_data(RobotData(robot="r", data={"lat": 1.0, "lon": 2.0, "battery": 50}), 1.0)

@@ -3,10 +3,12 @@
 Conditions (battery low, link down, robot unavailable) are raised when they begin and
 resolved when they end; one alert per robot and kind, however often the condition is
 repeated; a component refusing input (its `Rejections` reports) is one such
-condition, its text the latest counts. Events (hotspot found, component restarted, hung,
-quarantined, gave up) raise one alert per subject, counted when they recur: a recurrence
-of an acknowledged alert raises it again. Acknowledging clears the highlight; every
-alert stays in the history. Pure Python: no Textual.
+condition, its text the latest counts, and so is a component whose restart budget
+(as its supervisor reports it in the tree) leaves at most one more restart. Events
+(hotspot found, component restarted, hung, quarantined, gave up) raise one alert per
+subject, counted when they recur: a recurrence of an acknowledged alert raises it
+again. Acknowledging clears the highlight; every alert stays in the history.
+Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -34,10 +36,11 @@ class AlertKind(StrEnum):
     GAVE_UP = "gave up"
     NODE_DOWN = "node down"  # a peer node lost (several hosts)
     REFUSED = "refused input"
+    BUDGET = "restart budget nearly used"
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
-              AlertKind.NODE_DOWN, AlertKind.REFUSED)
+              AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET)
 SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED,
           AlertKind.NODE_DOWN)
 
@@ -77,6 +80,18 @@ def battery_percent(data: dict[str, Any]) -> float | None:
     if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
         return float(value)
     return None
+
+
+def nearly_used(budget: Any) -> str | None:
+    """`4 of 5 in 30 s` when a reported `[used, limit, period]` leaves at most one restart,
+    "" when it leaves more, None when it is no budget."""
+    if not isinstance(budget, list) or len(budget) != 3 or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in budget):
+        return None
+    used, limit, period = budget
+    if used >= max(1, limit - 1):
+        return f"{used:g} of {limit:g} in {period:g} s"
+    return ""
 
 
 def refusal_text(report: Rejections) -> str:
@@ -121,6 +136,9 @@ class AlertsModel:
         if isinstance(body, Rejections):
             return self._condition(AlertKind.REFUSED, body.component, body.total > 0,
                                    refusal_text(body), env.ts)
+        if isinstance(body, SupEvent) and body.event == "tree":
+            tree = body.detail.get("tree")
+            return self._budgets(tree, "", env.ts) if isinstance(tree, dict) else []
         if isinstance(body, SupEvent):
             kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
                     "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED
@@ -130,6 +148,23 @@ class AlertsModel:
             subject = f"{body.supervisor}/{body.child}" if body.supervisor else body.child
             return [self._event(kind, subject, body.reason, env.ts)]
         return []
+
+    def _budgets(self, tree: dict[str, Any], parent: str, ts: float) -> list[Alert]:
+        """Each child whose next restart or the one after would exceed its budget (the
+        count its supervisor reports in the tree) is a condition until it drops."""
+        raised: list[Alert] = []
+        ident = tree.get("id")
+        if not isinstance(ident, str):
+            return raised
+        path = f"{parent}/{ident}" if parent else ident
+        used = nearly_used(tree.get("budget"))
+        if used is not None:
+            raised += self._condition(AlertKind.BUDGET, path, bool(used), used, ts)
+        children = tree.get("children")
+        for child in children if isinstance(children, list) else ():
+            if isinstance(child, dict):
+                raised += self._budgets(child, path, ts)
+        return raised
 
     def _condition(self, kind: AlertKind, subject: str, on: bool, text: str,
                    ts: float) -> list[Alert]:

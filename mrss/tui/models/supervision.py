@@ -45,11 +45,18 @@ class SupNode:
     last_reason: str = ""
     refused: int = 0  # input refused by this incarnation (its Rejections reports)
     restart_times: list[float] = field(default_factory=list)  # seen while attached
+    # (restarts in the window, limit, window s) as its supervisor last reported it
+    budget: tuple[int, int, float] | None = None
+    restarts_at_tree: int = 0  # `restarts` when that budget was reported
 
     def budget_text(self, now: float, intensity: int, period: float) -> str:
-        """`4 of 5 in 30 s`: restarts seen within the last `period` against the budget."""
+        """`4 of 5 in 30 s`: the supervisor's own count when its tree reported one, else
+        the restarts seen within the last `period` against the configured budget."""
+        if self.budget is not None:
+            used, limit, window = self.budget
+            return f"{used} of {limit} in {window:g} s"
         recent = sum(1 for t in self.restart_times if now - t <= period)
-        return f"{recent} of {intensity} in {period:g} s"
+        return f"{recent} of {intensity} in {period:g} s (seen since attached)"
 
     @property
     def name(self) -> str:
@@ -110,6 +117,12 @@ class SupervisionModel:
             node.state, node.restarts = "waiting", event.count
             node.restart_times.append(ts)
             del node.restart_times[:-100]
+            if node.budget is not None and event.count > node.restarts_at_tree:
+                # counted by its supervisor since its last tree (the next tree corrects
+                # the few causes it does not count, e.g. a lost link)
+                used, limit, window = node.budget
+                node.budget = used + event.count - node.restarts_at_tree, limit, window
+                node.restarts_at_tree = event.count
             node.last_reason = event.reason or node.last_reason
         elif kind == "hang":
             node.state, node.last_reason = "hung", event.reason
@@ -168,6 +181,8 @@ class SupervisionModel:
         node.incarnation = _number(tree, "incarnation", node.incarnation)
         node.restarts = _number(tree, "restarts", node.restarts)
         node.last_reason = _text(tree, "last_reason", node.last_reason)
+        node.budget = _budget(tree.get("budget"), node.budget)
+        node.restarts_at_tree = node.restarts
         uptime = tree.get("uptime")
         # the root reports no uptime of its own (0.0): show none rather than "0s"
         running = node.state == "running" and isinstance(uptime, (int, float)) and uptime > 0
@@ -257,3 +272,14 @@ def _text(data: Mapping[str, Any], key: str, default: str) -> str:
 def _number(data: Mapping[str, Any], key: str, default: int) -> int:
     value = data.get(key)
     return value if isinstance(value, int) and not isinstance(value, bool) else default
+
+
+def _budget(value: Any, old: tuple[int, int, float] | None) -> tuple[int, int, float] | None:
+    """A reported `[used, limit, period]`, or what was known when it is missing or bad."""
+    if not isinstance(value, list) or len(value) != 3:
+        return old
+    used, limit, period = value
+    numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    if not numbers or used < 0 or limit < 0 or not period > 0:
+        return old
+    return int(used), int(limit), float(period)
