@@ -20,6 +20,8 @@ commands it has and on which topic, and how its agent's beliefs name its goals:
     running = "task(Robot, Goal, Priority)"
     suspended = "waiting(Robot, Goal, Priority)"
     failed = "failed_goal(Goal)"
+    done = "done_goal(Goal)"         # optional: said by the agent rather than inferred
+    cancelled = "cancelled_goal(Goal)"
 
 `mrss check` validates the table (`mrss.check.operator`). Nothing here knows Textual.
 """
@@ -65,8 +67,11 @@ class GoalState(StrEnum):
 
 
 #: The states a project reads from its agent's beliefs (the keys of `[operator.goals]`).
-#: A goal that leaves them is done, or cancelled when the operator cancelled it.
-BELIEF_STATES = (GoalState.QUEUED, GoalState.RUNNING, GoalState.SUSPENDED, GoalState.FAILED)
+#: A goal that leaves every declared one has ended: the dashboard then infers how
+#: (`mrss.tui.models.goals`), so a project that wants "done" and "cancelled" said, not
+#: guessed, declares those two patterns as well.
+BELIEF_STATES = (GoalState.QUEUED, GoalState.RUNNING, GoalState.SUSPENDED, GoalState.FAILED,
+                 GoalState.DONE, GoalState.CANCELLED)
 GOAL_VARS = ("Goal", "Robot", "Priority")
 
 

@@ -49,21 +49,25 @@ tries(G, 0) :- not tried(G, _).
 
 +goal_cancelled(G)[source(percept)] : task(R, G, _)
    <- .print("cancelling running goal ", G);
+      +cancelled_goal(G);
       -task(R, G, _);
       .drop_intention(perform(R, G, _, _));     // the RCL cancels its action
       !forget(G);
       !schedule(R).
 +goal_cancelled(G)[source(percept)] : waiting(R, G, _)
    <- .print("cancelling suspended goal ", G);
+      +cancelled_goal(G);
       -waiting(R, G, _);
       .drop_intention(perform(R, G, _, _));
       !forget(G).
 +goal_cancelled(G)[source(percept)] : queued(R, G, _, _)
    <- .print("cancelling queued goal ", G);
+      +cancelled_goal(G);
       -queued(R, G, _, _);
       !forget(G).
 +goal_cancelled(G)[source(percept)] : retrying(R, G, _, _)
    <- .print("cancelling goal ", G, " before its retry");
+      +cancelled_goal(G);
       -retrying(R, G, _, _);
       !forget(G).
 +goal_cancelled(G)[source(percept)]
@@ -171,7 +175,8 @@ tries(G, 0) :- not tried(G, _).
 // two or three times.
 @admit[atomic]
 +!admit(R, G, P, Job) : goals(N)
-   <- -+goals(N + 1);
+   <- -done_goal(G); -cancelled_goal(G); -failed_goal(G);   // sent again: open again
+      -+goals(N + 1);
       +arrived(G, N + 1);
       +queued(R, G, P, Job);
       !schedule(R).
@@ -218,12 +223,14 @@ tries(G, 0) :- not tried(G, _).
    <- .print(R, " covers ", G);
       cover(R, G)[priority(P)];
       .print(R, " covered ", G);
+      +done_goal(G);                            // the dashboard shows how goals end
       !finished(R, G).
 +!perform(R, G, P, supply(Lat, Lon)) : water_per_hotspot(L)
    <- .print(R, " brings water to ", G);
       supply_water(R, G, Lat, Lon, L)[priority(P)];
       .print(R, " pumped ", L, " l on ", G);
       +supplied(G);
+      +done_goal(G);
       -hotspot_detected(G, _, _)[source(percept)];   // dealt with: not re-derived
       !finished(R, G).
 // A failure whose cause is transient (a restarted component, a lost link, the robot's

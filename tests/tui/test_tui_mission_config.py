@@ -101,3 +101,17 @@ def test_goal_commands_are_refused_with_the_reason(endpoints: BusEndpoints) -> N
                             message=expected)
                 assert bar.status_error
     run(body())
+
+
+def test_declared_done_and_cancelled_patterns_say_how_a_goal_ended() -> None:
+    """The agent says it: nothing is inferred from the actions or the operator's keys."""
+    goals = dict(GOALS, done="done_goal(Goal)", cancelled="cancelled_goal(Goal)")
+    model = GoalsModel(read_operator({"goals": goals}).goals)
+    model.apply_beliefs(["task(uav1,a1,2)", "queued(uav1,a2,1,cover)"], when=1.0)
+    model.cancelled_here.add("a2")  # the operator pressed cancel; the agent finished it
+    model.apply_beliefs(["done_goal(a1)", "done_goal(a2)", "cancelled_goal(a3)"], when=2.0)
+    states = {v.goal: v.state for v in model.newest_first()}
+    assert states == {"a1": GoalState.DONE, "a2": GoalState.DONE, "a3": GoalState.CANCELLED}
+    # sent again: open again, whatever ending is still believed
+    model.apply_beliefs(["done_goal(a1)", "task(uav1,a1,3)"], when=3.0)
+    assert model.goals["a1"].state is GoalState.RUNNING and model.goals["a1"].priority == 3

@@ -3,8 +3,10 @@
 The project names its goal beliefs in `[operator.goals]` (`task(Robot, Goal, Priority)`
 is running, ...; `mrss.operator_commands`). Each mind snapshot is matched against those
 patterns: a goal found is queued, running, suspended or failed, with its robot and
-priority. A goal that was seen and is no longer in any of them has ended: cancelled if
-the operator cancelled it from here, failed if its last action failed, else done.
+priority. Projects that declare `done` and `cancelled` patterns say how a goal ended;
+otherwise a goal that was seen and is no longer in any pattern has ended, and how is
+inferred: cancelled if the operator cancelled it from here, failed if its last action
+failed, else done.
 Nothing here knows Textual.
 """
 
@@ -19,8 +21,10 @@ from mrss.agentspeak.terms import Struct, term_str
 from mrss.operator_commands import GoalPattern, GoalState
 from mrss.tui.models.actions import ActionsModel, ActionView
 
-# a goal seen in several patterns at once is in the first of these
-PRECEDENCE = (GoalState.RUNNING, GoalState.SUSPENDED, GoalState.QUEUED, GoalState.FAILED)
+# a goal seen in several patterns at once is in the first of these (an open state
+# first: a goal sent again after it ended is open again)
+PRECEDENCE = (GoalState.RUNNING, GoalState.SUSPENDED, GoalState.QUEUED, GoalState.FAILED,
+              GoalState.CANCELLED, GoalState.DONE)
 ENDED_KEEP = 100  # ended goals remembered
 
 
@@ -84,7 +88,7 @@ class GoalsModel:
                 changed = True
         for view in self.goals.values():
             if view.goal in found or view.state.ended:
-                continue
+                continue  # said by the agent, or already ended
             view.state = self._ending(view.goal, actions)
             view.since = when
             changed = True

@@ -54,6 +54,8 @@ def test_area_goals_queue_by_priority_and_preempt(world: tuple[Agent, ScriptedHo
     rcl.finish("cover(uav1,a2)")
     agent.run_until_idle()
     assert not rcl.open and not agent.believes("task(_, _, _)")
+    # how each goal ended is said, for the dashboard's mission panel
+    assert all(agent.believes(f"done_goal({g})") for g in ("a1", "a2", "a3"))
 
 
 def test_goals_perceived_together_start_one_task_per_robot(
@@ -87,11 +89,14 @@ def test_cancel_and_priority_change(world: tuple[Agent, ScriptedHost]) -> None:
     assert rcl.since(mark) == ["rcl_goal_management(suspend,a2)", "cover(uav1,a3)"]
     rcl.feed("goal_cancelled(a2)")                   # suspended: cancelled too
     assert rcl.cancelled == ["cover(uav1,a1)", "cover(uav1,a2)"]
-    # the same goal may be sent again once it is over
+    assert agent.believes("cancelled_goal(a1)") and agent.believes("cancelled_goal(a2)")
+    assert not agent.believes("done_goal(a1)")
+    # the same goal may be sent again once it is over: open again, no ending believed
     rcl.finish("cover(uav1,a3)")
     agent.run_until_idle()
     rcl.feed("area_goal_received(a1, 2)")
     assert list(rcl.open.values()) == ["cover(uav1,a1)"]
+    assert not agent.believes("cancelled_goal(a1)") and agent.believes("task(uav1, a1, 2)")
 
 
 def test_battery_low_suspends_recharges_and_resumes(world: tuple[Agent, ScriptedHost]) -> None:
