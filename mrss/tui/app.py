@@ -41,7 +41,7 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
-from mrss.operator_commands import OperatorConfig
+from mrss.operator_commands import GoalState, OperatorConfig
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import DetailKeys
@@ -63,7 +63,7 @@ from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
-from mrss.tui.widgets.mission_panel import MissionPanel
+from mrss.tui.widgets.mission_panel import MissionPanel, goal_line
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
@@ -266,6 +266,12 @@ class MrssApp(Steering, DetailKeys):
         if mind is not None and isinstance(mind.body, MindSnapshot) and self.goals.declared \
                 and self.goals.apply_beliefs(mind.body.beliefs, mind.ts, self.actions):
             dirty |= {"mission", "robots"}
+            for view in self.goals.take_ended():
+                lines.append(goal_line(view))
+                if view.state is GoalState.FAILED:
+                    lines.append(alert_line(self.alerts.goal_failed(view.goal, view.robot,
+                                                                    view.since), view.since))
+                    dirty.add("alerts")
         if "actions" in dirty:
             self.query_one(ActionsTable).refresh_rows(now)
         if "robots" in dirty:

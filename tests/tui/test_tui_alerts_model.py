@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from mrss.messages import Envelope, Message, Percept, RobotData, RobotState, SupEvent
-from mrss.tui.models.alerts import AlertKind, AlertsModel, battery_percent
+from mrss.tui.models.alerts import SEVERE, AlertKind, AlertsModel, battery_percent
 
 
 def env(body: Message, ts: float = 100.0) -> Envelope:
@@ -112,3 +112,10 @@ def test_a_restart_budget_nearly_used_is_raised_from_the_tree_and_resolved_as_it
     model.apply(tree([2, 5, 30.0], ["x", 1]))  # the window moved on; a bad report
     assert model.alerts[(AlertKind.BUDGET, "wf/rcl")].resolved
     assert not model.alerts[(AlertKind.BUDGET, "wf/group/reasoner")].resolved
+
+
+def test_a_goal_that_fails_for_good_is_a_severe_alert_each_time() -> None:
+    model = AlertsModel()
+    alert = model.goal_failed("a1", "uav1", 5.0)
+    assert alert.line() == "goal failed: a1 (uav1)" and alert.kind in SEVERE
+    assert model.goal_failed("a1", "uav1", 9.0).count == 2  # sent again, failed again

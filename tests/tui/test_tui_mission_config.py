@@ -112,6 +112,10 @@ def test_declared_done_and_cancelled_patterns_say_how_a_goal_ended() -> None:
     model.apply_beliefs(["done_goal(a1)", "done_goal(a2)", "cancelled_goal(a3)"], when=2.0)
     states = {v.goal: v.state for v in model.newest_first()}
     assert states == {"a1": GoalState.DONE, "a2": GoalState.DONE, "a3": GoalState.CANCELLED}
+    # ended while watched (a3 was first seen over: no news, e.g. a dashboard attaching)
+    assert [(v.goal, v.state) for v in model.take_ended()] == [
+        ("a1", GoalState.DONE), ("a2", GoalState.DONE)]
+    assert model.take_ended() == []
     # sent again: open again, whatever ending is still believed
     model.apply_beliefs(["done_goal(a1)", "task(uav1,a1,3)"], when=3.0)
     assert model.goals["a1"].state is GoalState.RUNNING and model.goals["a1"].priority == 3

@@ -5,7 +5,8 @@ resolved when they end; one alert per robot and kind, however often the conditio
 repeated; a component refusing input (its `Rejections` reports) is one such
 condition, its text the latest counts, and so is a component whose restart budget
 (as its supervisor reports it in the tree) leaves at most one more restart. Events
-(hotspot found, component restarted, hung, quarantined, gave up) raise one alert per
+(hotspot found, component restarted, hung, quarantined, gave up; a mission goal
+failed for good, as the goals model reads it from the agent) raise one alert per
 subject, counted when they recur: a recurrence of an acknowledged alert raises it
 again. Acknowledging clears the highlight; every alert stays in the history.
 Pure Python: no Textual.
@@ -37,12 +38,13 @@ class AlertKind(StrEnum):
     NODE_DOWN = "node down"  # a peer node lost (several hosts)
     REFUSED = "refused input"
     BUDGET = "restart budget nearly used"
+    GOAL_FAILED = "goal failed"  # for good: the agent gave it up (its retries included)
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
               AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET)
-SEVERE = (AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED,
-          AlertKind.NODE_DOWN)
+SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG,
+          AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
 
 
 @dataclass
@@ -148,6 +150,10 @@ class AlertsModel:
             subject = f"{body.supervisor}/{body.child}" if body.supervisor else body.child
             return [self._event(kind, subject, body.reason, env.ts)]
         return []
+
+    def goal_failed(self, goal: str, robot: str, ts: float) -> Alert:
+        """A mission goal ended failed (from the agent's beliefs, `mrss.tui.models.goals`)."""
+        return self._event(AlertKind.GOAL_FAILED, goal, f"({robot})" if robot else "", ts)
 
     def _budgets(self, tree: dict[str, Any], parent: str, ts: float) -> list[Alert]:
         """Each child whose next restart or the one after would exceed its budget (the

@@ -49,6 +49,7 @@ class GoalsModel:
         self.cancelled_here: set[str] = set()  # the operator cancelled these from here
         self._seq = itertools.count()
         self._prefixes = tuple(f"{p.functor}(" for p in self.patterns.values())
+        self._ended: list[GoalView] = []  # goals that ended since `take_ended`
 
     @property
     def declared(self) -> bool:
@@ -84,6 +85,8 @@ class GoalsModel:
             if (view.state, view.robot, view.priority) != (state, robot, prio):
                 if view.state != state:
                     view.since = when
+                    if state.ended:
+                        self._ended.append(view)
                 view.state, view.robot, view.priority = state, robot, prio
                 changed = True
         for view in self.goals.values():
@@ -91,6 +94,7 @@ class GoalsModel:
                 continue  # said by the agent, or already ended
             view.state = self._ending(view.goal, actions)
             view.since = when
+            self._ended.append(view)
             changed = True
         self._forget_ended()
         return changed
@@ -111,6 +115,11 @@ class GoalsModel:
             return None
         mine = [v for v in actions.actions.values() if v.goal == goal]
         return max(mine, key=lambda v: v.seq) if mine else None
+
+    def take_ended(self) -> list[GoalView]:
+        """The goals that ended since the last call, in the order they ended."""
+        ended, self._ended = self._ended, []
+        return ended
 
     def _forget_ended(self) -> None:
         ended = [v for v in self.goals.values() if v.state.ended]

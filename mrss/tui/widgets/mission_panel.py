@@ -8,9 +8,11 @@ lower its priority by one. Each key becomes a `MissionRequested` (the app sends 
 
 from __future__ import annotations
 
+import logging
 import time
 from typing import ClassVar
 
+from rich.text import Text
 from textual.binding import Binding, BindingType
 
 from mrss.operator_commands import (
@@ -23,6 +25,7 @@ from mrss.operator_commands import (
 from mrss.tui.events import MissionRequested, Note
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel, GoalView
+from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 
 STATE_STYLES = {
@@ -108,3 +111,13 @@ class MissionPanel(KeyedTable):
         self.post_message(MissionRequested(
             OperatorCommand.PRIORITY, payload,
             f"priority of {view.goal} {view.priority} -> {new}"))
+
+
+def goal_line(view: GoalView) -> LogEntry:
+    """The log pane's line for a goal that ended: `goal a1 done (uav1)`."""
+    stamp = time.strftime("%H:%M:%S", time.localtime(view.since))
+    robot = f" ({view.robot})" if view.robot else ""
+    level = logging.WARNING if view.state is GoalState.FAILED else logging.INFO
+    return LogEntry(Text.assemble((f"{stamp} ", "dim"), ("goal ", "bold"), view.goal, " ",
+                                  (view.state.value, STATE_STYLES[view.state]), robot),
+                    level, "mission")
