@@ -47,6 +47,7 @@ from mrss.errors import ConfigError
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.mission import project_mission
+from mrss.tui.vocabulary import Vocabulary, project_agent_files
 
 EXIT_CONFIG = 2
 WATCH_EVERY = 0.2  # seconds between two looks whether the system is still running
@@ -156,9 +157,11 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
+    vocabulary = Vocabulary.of_files(project_agent_files(config.components, config.directory))
     app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
                         restart_budget=(config.supervisor.spec.intensity,
-                                        config.supervisor.spec.period))
+                                        config.supervisor.spec.period),
+                        vocabulary=vocabulary)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

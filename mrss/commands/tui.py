@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from mrss.config import load_project
     from mrss.tui.app import MrssApp
     from mrss.tui.mission import project_mission, run_dir_of
+    from mrss.tui.vocabulary import Vocabulary, project_agent_files
 
     try:
         config = load_project(args.project)
@@ -61,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
     budget = (config.supervisor.spec.intensity, config.supervisor.spec.period)
+    vocabulary = Vocabulary.of_files(project_agent_files(config.components, config.directory))
     app = MrssApp(endpoints, project=name, agent=args.agent, mission=mission,
-                  restart_budget=budget,
+                  restart_budget=budget, vocabulary=vocabulary,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
                   world_every=args.world_every)

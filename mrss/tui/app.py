@@ -58,6 +58,7 @@ from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
 from mrss.tui.palette import MrssCommands
 from mrss.tui.steering import Steering
+from mrss.tui.vocabulary import Vocabulary
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
 from mrss.tui.widgets.log_pane import LogPane, log_line
@@ -114,8 +115,10 @@ class MrssApp(Steering, DetailKeys):
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
-                 restart_budget: tuple[int, float] | None = None) -> None:
+                 restart_budget: tuple[int, float] | None = None,
+                 vocabulary: Vocabulary | None = None) -> None:
         super().__init__()
+        self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
         self.header_clock = header_clock
@@ -164,7 +167,9 @@ class MrssApp(Steering, DetailKeys):
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
             yield LogPane(id="log")
-        yield OperatorBar(id="operator")
+        bar = OperatorBar(id="operator")
+        bar.vocabulary = self.vocabulary
+        yield bar
         yield Footer()
 
     def on_mount(self) -> None:

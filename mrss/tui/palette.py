@@ -37,8 +37,10 @@ class MrssCommands(Provider):
             pass
         else:
             sign = "-" if percept.op == "remove" else ""
+            warning = app.vocabulary.warning(percept.literal, remove=percept.op == "remove")
             commands.append((f"Send percept {sign}{percept.literal}",
                              partial(app.send_percept, percept),
+                             f"careful: {warning}" if warning else
                              "to the reasoner, as typed on the percept line"))
         return commands
 
