@@ -39,6 +39,7 @@ from typing import Any, ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss import logs
+from mrss.alert_rules import project_alert_rules
 from mrss.bus import BusEndpoints
 from mrss.bus.component import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
@@ -156,9 +157,10 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
+    rules = project_alert_rules(config.sections, str(config.file))  # `mrss check` passed
     app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
                         restart_budget=(config.supervisor.spec.intensity,
-                                        config.supervisor.spec.period))
+                                        config.supervisor.spec.period), alert_rules=rules)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
+    from mrss.alert_rules import project_alert_rules
     from mrss.config import load_project
     from mrss.tui.app import MrssApp
     from mrss.tui.mission import project_mission, run_dir_of
@@ -57,12 +58,13 @@ def run(args: argparse.Namespace) -> int:
         config = load_project(args.project)
         mission = project_mission(config.directory, config.file, config.sections,
                                   args.run_dir or run_dir_of(endpoints.backend))
+        rules = project_alert_rules(config.sections, str(config.file))
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
     budget = (config.supervisor.spec.intensity, config.supervisor.spec.period)
     app = MrssApp(endpoints, project=name, agent=args.agent, mission=mission,
-                  restart_budget=budget,
+                  restart_budget=budget, alert_rules=rules,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
                   world_every=args.world_every)

@@ -27,6 +27,7 @@ from textual.containers import Horizontal
 from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
+from mrss.alert_rules import AlertRule
 from mrss.bus import BusEndpoints
 from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
 from mrss.messages import (
@@ -56,6 +57,8 @@ from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.models.topics import TopicsModel
+from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
 from mrss.tui.steering import Steering
 from mrss.tui.widgets.actions_table import ActionsTable
@@ -72,7 +75,7 @@ SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request 
 TICK_SKIP = 0.6  # the second's tick leaves a table a drain redrew this recently
 
 
-class MrssApp(Steering, DetailKeys):
+class MrssApp(Steering, DetailKeys, OperatorTools):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -100,6 +103,9 @@ class MrssApp(Steering, DetailKeys):
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
         Binding("A", "ack_alerts", "Ack alerts"),
+        Binding("exclamation_mark", "alerts_list", "Alerts list"),
+        Binding("M", "messages", "Messages"),
+        Binding("L", "log_lines", "Log lines"),
         Binding("H", "hold_all", "All hold"),
         Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
@@ -114,7 +120,8 @@ class MrssApp(Steering, DetailKeys):
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
-                 restart_budget: tuple[int, float] | None = None) -> None:
+                 restart_budget: tuple[int, float] | None = None,
+                 alert_rules: tuple[AlertRule, ...] = ()) -> None:
         super().__init__()
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -133,7 +140,8 @@ class MrssApp(Steering, DetailKeys):
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
         self.map_model = MapModel()
-        self.alerts = AlertsModel()
+        self.alerts = AlertsModel(rules=alert_rules)
+        self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
         self.world_every = world_every
         self.world_asked = 0
         self.auto_mind = mind_every > 0
@@ -196,7 +204,11 @@ class MrssApp(Steering, DetailKeys):
         self.query_one("#actions").focus()
 
     def on_unmount(self) -> None:
+        self.stop_recording()
         self.link.close()
+
+    def _bus_endpoints(self) -> BusEndpoints:
+        return self.link.endpoints
 
     # -- bus traffic ------------------------------------------------------------------------
     def on_bus_activity(self, _: BusActivity) -> None:
@@ -213,6 +225,7 @@ class MrssApp(Steering, DetailKeys):
         envelopes = self.link.drain()
         if envelopes:
             self.flushes += 1
+            self.topics.count(envelopes)
             if any(env.src != self.link.src for env in envelopes):
                 self.liveness.heard()  # whatever applying them does: the system spoke
             with suppress(NoMatches):  # the panels are gone: the app is closing
