@@ -74,10 +74,12 @@ class AlertRule:
                 or (self.above is not None and value > self.above))
 
     def text(self, value: float) -> str:
-        """`tank.level 31 < 50`."""
+        """`tank.level 31 < 50` (`tank.level 120` when the condition does not hold)."""
         if self.below is not None and value < self.below:
             return f"{self.field} {value:g} < {self.below:g}"
-        return f"{self.field} {value:g} > {self.above:g}"
+        if self.above is not None and value > self.above:
+            return f"{self.field} {value:g} > {self.above:g}"
+        return f"{self.field} {value:g}"
 
 
 def read_alert_rules(value: Any, *, file: str = "") -> tuple[AlertRule, ...]:
@@ -137,7 +139,7 @@ def _rule(table: Any, where: str, file: str) -> AlertRule:
 def _text(table: Mapping[str, Any], key: str, where: str, file: str, what: str) -> str:
     value = table.get(key)
     if not isinstance(value, str) or not value.strip():
-        problem = "is missing" if value is None else f"must be a text, not {value!r}"
+        problem = f"{key} is missing" if value is None else f"must be a text, not {value!r}"
         raise ConfigError(f"{problem}: {what}", file=file,
                           key=f"{where}.{key}" if key in table else where)
     return value.strip()
