@@ -103,14 +103,14 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
         Binding("f5", "refresh_all", "Refresh all"),
         Binding("slash", "log_filter", "Filter log"),
         Binding("A", "ack_alerts", "Ack alerts"),
-        Binding("exclamation_mark", "alerts_list", "Alerts list"),
-        Binding("M", "messages", "Messages"),
-        Binding("L", "log_lines", "Log lines"),
         Binding("H", "hold_all", "All hold"),
         Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
         Binding("ctrl+q", "close", "Detach", show=False, priority=True),
+        Binding("M", "messages", "Messages"),  # ops.py; last: the footer keeps X and q
+        Binding("L", "log_lines", "Log lines"),
+        Binding("exclamation_mark", "alerts_list", "Alerts list"),
     ]
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
