@@ -3,9 +3,9 @@
 Left, the topics as a tree of levels (robot > uav1 > data), each node with its message
 count and rate; right, the highlighted topic's latest message as pretty JSON (the
 decoded envelope: topic, kind, src, inc, ts, id, body) and its last messages, newest
-first. The screen redraws once a second while it is open (the dashboard only counts
-while it is closed); new topics appear in the tree, expanded state is kept. Esc, q or
-M closes it.
+first. The screen redraws once a second while it is open (while it is closed the
+dashboard's drains only count into the model); new topics appear in the tree, the
+expanded state is kept. Esc, q or M closes it.
 """
 
 from __future__ import annotations
@@ -17,17 +17,18 @@ from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal, Vertical, VerticalScroll
-from textual.screen import Screen
+from textual.screen import ModalScreen
 from textual.widgets import Footer, Static, Tree
 from textual.widgets.tree import TreeNode
 
 from mrss.tui.models.topics import HISTORY, TopicNode, TopicsModel, pretty_json, summary
 
 
-class MessagesScreen(Screen[None]):
+class MessagesScreen(ModalScreen[None]):
     """The topic tree and the chosen topic's latest message and history."""
 
     DEFAULT_CSS = """
+    MessagesScreen { background: $background; }
     MessagesScreen #topics { width: 2fr; border: round $accent; }
     MessagesScreen #topic-side { width: 3fr; }
     MessagesScreen #topic-latest-box { height: 2fr; border: round $primary-darken-2; }
@@ -134,7 +135,8 @@ class MessagesScreen(Screen[None]):
         self.latest_text = pretty_json(env)
         latest.update(Syntax(self.latest_text, "json", theme="ansi_dark", word_wrap=True,
                              background_color="default"))
-        self.history_text = [summary(e, 160) for e in self.model.history(self.topic)]
+        width = history.content_size.width or 160  # one line each, cut to the box
+        self.history_text = [summary(e, width) for e in self.model.history(self.topic)]
         history.update(Text("\n".join(self.history_text), no_wrap=True, overflow="ellipsis"))
 
     def action_close(self) -> None:
