@@ -148,3 +148,20 @@ def test_mrss_check_warns_of_a_rule_for_an_unknown_robot(tmp_path: Path) -> None
         in warnings[0].message
     assert warnings[0].line == text.splitlines().index('robot = "ugv2"') + 1
     assert any("alerts: 2 rules (ok, water low)" in line for line in report.summary)
+
+
+def test_the_documented_rules_read() -> None:
+    """Every ```toml block of the docs that declares [[alerts]] reads as rules."""
+    import re
+    import tomllib
+
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    blocks = [block for doc in ("config.md", "tui.md")
+              for block in re.findall(r"```toml\n(.*?)```", (docs / doc).read_text(), re.S)
+              if "[[alerts]]" in block]
+    assert len(blocks) == 2
+    rules = [read_alert_rules(tomllib.loads(block)["alerts"]) for block in blocks]
+    assert [r.name for r in rules[0]] == ["water low", "motor hot"]
+    assert rules[0][1] == AlertRule("motor hot", "motor.temperature", above=80.0,
+                                    severity=Severity.SEVERE)
+    assert rules[1] == (AlertRule("water low", "tank.level", below=50.0, robot="ugv1"),)
