@@ -207,9 +207,6 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
         self.stop_recording()
         self.link.close()
 
-    def _bus_endpoints(self) -> BusEndpoints:
-        return self.link.endpoints
-
     # -- bus traffic ------------------------------------------------------------------------
     def on_bus_activity(self, _: BusActivity) -> None:
         self._drain_bus()

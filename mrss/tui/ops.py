@@ -14,13 +14,13 @@ from contextlib import suppress
 
 from textual.app import App
 
-from mrss.bus import BusEndpoints
 from mrss.operator_commands import OperatorCommand
+from mrss.tui.buslink import BusLink
 from mrss.tui.events import READONLY_NOTICE
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.alerts import AlertsModel
 from mrss.tui.models.topics import TopicsModel
-from mrss.tui.recorder import DashboardRecording, recording_path
+from mrss.tui.recorder import CONNECT_TIMEOUT, DashboardRecording, recording_path
 from mrss.tui.widgets.alerts_list import AlertsScreen
 from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.log_lines import LogLinesScreen
@@ -32,6 +32,7 @@ class OperatorTools(App[None]):
     """Opens the Messages, log-line and alerts screens; adds goals; records the bus."""
 
     readonly: bool
+    link: BusLink
     topics: TopicsModel
     alerts: AlertsModel
     mission: MissionChannel | None
@@ -41,9 +42,6 @@ class OperatorTools(App[None]):
         raise NotImplementedError
 
     def open_area_form(self) -> None:
-        raise NotImplementedError
-
-    def _bus_endpoints(self) -> BusEndpoints:
         raise NotImplementedError
 
     # -- screens ---------------------------------------------------------------------------
@@ -69,6 +67,9 @@ class OperatorTools(App[None]):
     # -- the palette's tools --------------------------------------------------------------
     def add_goal(self) -> None:
         """The palette's "Add a goal": the mission panel's area form (`n`)."""
+        if self.readonly:
+            self.open_area_form()  # which refuses, as `n` does
+            return
         if self.mission is None or not self.mission.config.has(OperatorCommand.AREA):
             self._say("add a goal: the project declares no area command ([operator] area "
                       "in project.toml)", error=True)
@@ -84,10 +85,17 @@ class OperatorTools(App[None]):
             self._say(f"recording refused: {READONLY_NOTICE}", error=True)
             self.notify(READONLY_NOTICE, severity="warning")
             return
-        endpoints = self._bus_endpoints()
-        self.recording = DashboardRecording(endpoints, recording_path(endpoints))
-        self.recording.start()
-        self._say(f"recording the bus to {self.recording.path} (palette: Stop recording)")
+        endpoints = self.link.endpoints
+        recording = self.recording = DashboardRecording(endpoints, recording_path(endpoints))
+        recording.start()
+        self._say(f"recording the bus to {recording.path} (palette: Stop recording)")
+        for delay in (1.0, CONNECT_TIMEOUT + 1.0):  # a recording that could not start: say so
+            self.set_timer(delay, lambda r=recording: self._recording_failed(r))
+
+    def _recording_failed(self, recording: DashboardRecording) -> None:
+        if recording is self.recording and recording.error and not recording.running:
+            self.recording = None
+            self._say(f"recording failed: {recording.error}", error=True)
 
     def stop_recording(self) -> str:
         """End the recording (if one runs); what happened."""

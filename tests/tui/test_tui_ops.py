@@ -8,13 +8,14 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
 from textual.widgets import Input, Tree
 
 from mrss.bus import BusEndpoints
 from mrss.bus.wire import message_frames
 from mrss.messages import LogRecord, RobotData, decode
 from mrss.operator_commands import read_operator
-from mrss.recording import RecordingReader
+from mrss.recording import RecordingError, RecordingReader
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.mission import MissionChannel, run_dir_of
@@ -77,6 +78,12 @@ def test_messages_screen_shows_topics_as_a_tree_with_the_latest_json_and_history
             assert len(screen.history_text) == 3
             assert ['"level":130.0' in screen.history_text[0],
                     '"level":150.0' in screen.history_text[2]] == [True, True]
+            # a new topic above it in the tree: the cursor stays on the chosen topic
+            peer.publish(LogRecord(component="aaa", level="INFO", message="new"), src="aaa")
+            await until(pilot, lambda: "log.aaa" in screen._topic_nodes, message="log.aaa")
+            await pilot.pause()
+            assert screen.topic == "robot.ugv1.data"
+            assert tree.cursor_node is not None and tree.cursor_node.data == "robot.ugv1.data"
             await pilot.press("up")  # to robot > ugv1: a level, no message
             await until(pilot, lambda: screen.topic == "robot.ugv1", message="the level")
             assert screen.latest_text == "" and screen.history_text == []
@@ -186,6 +193,18 @@ def test_palette_adds_a_goal_through_the_area_form_refused_readonly_or_undeclare
     run(body())
 
 
+def recorded_topics(path: Path) -> list[str]:
+    """The topics in a recording so far (a last entry being written is left out)."""
+    topics: list[str] = []
+    with path.open("rb") as handle:
+        try:
+            for message in RecordingReader(handle):
+                topics += [decode(t, p).topic for t, p in message_frames(list(message.frames))]
+        except RecordingError:
+            pass
+    return topics
+
+
 def test_palette_records_the_bus_into_the_run_dir_and_stops(endpoints: BusEndpoints,
                                                            peer: Peer) -> None:
     async def body() -> None:
@@ -199,18 +218,44 @@ def test_palette_records_the_bus_into_the_run_dir_and_stops(endpoints: BusEndpoi
                         and app.recording.started.is_set(), message="recording")
             recording = app.recording
             assert recording is not None and not recording.error
+            assert recording.path.parent == run_dir
+
+            def probed() -> bool:  # the recorder's subscription has reached the proxy
+                peer.publish(tank("probe", 1.0), src="rcl")
+                return "robot.probe.data" in recorded_topics(recording.path)
+
+            await until(pilot, probed, message="a probe recorded")
             for level in (10.0, 20.0):
                 peer.publish(tank("ugv9", level), src="rcl")
-            await until(pilot, lambda: recording.count >= 2, message="two written")
+            await until(pilot, lambda: recorded_topics(recording.path)
+                        .count("robot.ugv9.data") == 2, message="both recorded")
             app.toggle_recording()  # the palette's "Stop recording" (it says so now)
             bar = app.query_one(OperatorBar)
             await until(pilot, lambda: "recorded" in bar.status_text, message="stopped")
             assert str(recording.path) in bar.status_text and app.recording is None
-        assert recording.path.parent == run_dir
-        with recording.path.open("rb") as handle:
-            topics = [decode(t, p).topic for m in RecordingReader(handle)
-                      for t, p in message_frames(list(m.frames))]
+            assert f"recorded {recording.count} messages" in bar.status_text
+        topics = recorded_topics(recording.path)
         assert topics.count("robot.ugv9.data") == 2
+        assert len(topics) >= recording.count  # an entry may be a publisher's batch
+    run(body())
+
+
+def test_a_recording_that_cannot_start_says_why(tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    from mrss.tui import ops, recorder
+
+    monkeypatch.setattr(recorder, "CONNECT_TIMEOUT", 0.2)
+    monkeypatch.setattr(ops, "CONNECT_TIMEOUT", 0.2)
+
+    async def body() -> None:
+        app = make_app(BusEndpoints.ipc(tmp_path))  # no proxy there
+        async with app.run_test(size=SIZE) as pilot:
+            app.toggle_recording()
+            bar = app.query_one(OperatorBar)
+            await until(pilot, lambda: "recording failed: no bus proxy answered" in
+                        bar.status_text, message="the failure")
+            assert bar.status_error and app.recording is None
+        assert not list(tmp_path.glob("*.mrssrec"))
     run(body())
 
 

@@ -74,7 +74,13 @@ class MessagesScreen(ModalScreen[None]):
         tree: Tree[str] = self.query_one(Tree)
         root = self.model.tree()
         tree.root.set_label(root.label())
+        known = len(self._topic_nodes)
         self._grow(tree.root, root)
+        chosen = self._topic_nodes.get(self.topic)
+        if len(self._topic_nodes) != known and chosen is not None \
+                and tree.cursor_node is not chosen:
+            _ = tree.last_line  # lays the lines out again: the node's line is current
+            tree.move_cursor(chosen)  # new nodes above it moved the cursor's line
         self._show_topic()
 
     def _grow(self, parent: TreeNode[str], node: TopicNode) -> None:
@@ -111,6 +117,7 @@ class MessagesScreen(ModalScreen[None]):
             parent.expand()
             parent = parent.parent
         tree: Tree[str] = self.query_one(Tree)
+        _ = tree.last_line  # lays the lines out again: the node's line is current
         tree.move_cursor(node)
         self.topic = topic
         self._show_topic()
