@@ -36,8 +36,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="turn the header red when nothing came from the system for S "
                              "seconds (default 5)")
     parser.add_argument("--readonly", action="store_true",
-                        help="watch only: every control (percepts, cancel, teleop, faults, "
-                             "stop) is refused")
+                        help="watch only: every control (percepts, goals, cancel, teleop, "
+                             "faults, stop, recordings) is refused")
 
 
 def run(args: argparse.Namespace) -> int:
