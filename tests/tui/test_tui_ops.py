@@ -19,6 +19,7 @@ from mrss.recording import RecordingError, RecordingReader
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.mission import MissionChannel, run_dir_of
+from mrss.tui.palette import MrssCommands
 from mrss.tui.widgets.alerts_list import AlertsScreen
 from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.log_lines import LogLinesScreen
@@ -229,7 +230,9 @@ def test_palette_records_the_bus_into_the_run_dir_and_stops(endpoints: BusEndpoi
                 peer.publish(tank("ugv9", level), src="rcl")
             await until(pilot, lambda: recorded_topics(recording.path)
                         .count("robot.ugv9.data") == 2, message="both recorded")
-            app.toggle_recording()  # the palette's "Stop recording" (it says so now)
+            names = [name for name, _, _ in MrssCommands(app.screen)._commands("")]
+            assert "Stop recording" in names and "Start recording" not in names
+            app.toggle_recording()  # the palette's "Stop recording"
             bar = app.query_one(OperatorBar)
             await until(pilot, lambda: "recorded" in bar.status_text, message="stopped")
             assert str(recording.path) in bar.status_text and app.recording is None
