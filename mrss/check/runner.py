@@ -17,6 +17,7 @@ from typing import Any
 
 from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
+from mrss.check.alerts import check_alerts
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.nodes import check_nodes
@@ -66,6 +67,7 @@ def check_project(config: ProjectConfig) -> Report:
                      for c in _running(config, REASONER)})
     check_operator(config, report, events_running=bool(_running(config, EVENTS)),
                    agent_files=[a for a in agents if a.is_file()])
+    check_alerts(config, report)
     if uses is not None:
         _queries(uses, datalayer, report)
         if events is not None:

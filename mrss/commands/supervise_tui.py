@@ -39,6 +39,7 @@ from typing import Any, ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss import logs
+from mrss.alert_rules import project_alert_rules
 from mrss.bus import BusEndpoints
 from mrss.bus.component import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
@@ -158,10 +159,11 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
     vocabulary = Vocabulary.of_files(project_agent_files(config.components, config.directory))
+    rules = project_alert_rules(config.sections, str(config.file))  # `mrss check` passed
     app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
                         restart_budget=(config.supervisor.spec.intensity,
                                         config.supervisor.spec.period),
-                        vocabulary=vocabulary)
+                        vocabulary=vocabulary, alert_rules=rules)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

@@ -36,8 +36,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="turn the header red when nothing came from the system for S "
                              "seconds (default 5)")
     parser.add_argument("--readonly", action="store_true",
-                        help="watch only: every control (percepts, cancel, teleop, faults, "
-                             "stop) is refused")
+                        help="watch only: every control (percepts, goals, cancel, teleop, "
+                             "faults, stop, recordings) is refused")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
+    from mrss.alert_rules import project_alert_rules
     from mrss.config import load_project
     from mrss.tui.app import MrssApp
     from mrss.tui.mission import project_mission, run_dir_of
@@ -58,13 +59,14 @@ def run(args: argparse.Namespace) -> int:
         config = load_project(args.project)
         mission = project_mission(config.directory, config.file, config.sections,
                                   args.run_dir or run_dir_of(endpoints.backend))
+        rules = project_alert_rules(config.sections, str(config.file))
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
     budget = (config.supervisor.spec.intensity, config.supervisor.spec.period)
     vocabulary = Vocabulary.of_files(project_agent_files(config.components, config.directory))
     app = MrssApp(endpoints, project=name, agent=args.agent, mission=mission,
-                  restart_budget=budget, vocabulary=vocabulary,
+                  restart_budget=budget, vocabulary=vocabulary, alert_rules=rules,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
                   world_every=args.world_every)

@@ -27,6 +27,7 @@ from textual.containers import Horizontal
 from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
+from mrss.alert_rules import AlertRule
 from mrss.bus import BusEndpoints
 from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
 from mrss.messages import (
@@ -56,6 +57,8 @@ from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.models.topics import TopicsModel
+from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
 from mrss.tui.steering import Steering
 from mrss.tui.vocabulary import Vocabulary
@@ -73,7 +76,7 @@ SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request 
 TICK_SKIP = 0.6  # the second's tick leaves a table a drain redrew this recently
 
 
-class MrssApp(Steering, DetailKeys):
+class MrssApp(Steering, DetailKeys, OperatorTools):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -106,6 +109,9 @@ class MrssApp(Steering, DetailKeys):
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
         Binding("ctrl+q", "close", "Detach", show=False, priority=True),
+        Binding("M", "messages", "Messages"),  # ops.py; last: the footer keeps X and q
+        Binding("L", "log_lines", "Log lines"),
+        Binding("exclamation_mark", "alerts_list", "Alerts list"),
     ]
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
@@ -116,7 +122,8 @@ class MrssApp(Steering, DetailKeys):
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
                  restart_budget: tuple[int, float] | None = None,
-                 vocabulary: Vocabulary | None = None) -> None:
+                 vocabulary: Vocabulary | None = None,
+                 alert_rules: tuple[AlertRule, ...] = ()) -> None:
         super().__init__()
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
@@ -136,7 +143,8 @@ class MrssApp(Steering, DetailKeys):
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
         self.map_model = MapModel()
-        self.alerts = AlertsModel()
+        self.alerts = AlertsModel(rules=alert_rules)
+        self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
         self.world_every = world_every
         self.world_asked = 0
         self.auto_mind = mind_every > 0
@@ -201,6 +209,7 @@ class MrssApp(Steering, DetailKeys):
         self.query_one("#actions").focus()
 
     def on_unmount(self) -> None:
+        self.stop_recording()
         self.link.close()
 
     # -- bus traffic ------------------------------------------------------------------------
@@ -218,6 +227,7 @@ class MrssApp(Steering, DetailKeys):
         envelopes = self.link.drain()
         if envelopes:
             self.flushes += 1
+            self.topics.count(envelopes)
             if any(env.src != self.link.src for env in envelopes):
                 self.liveness.heard()  # whatever applying them does: the system spoke
             with suppress(NoMatches):  # the panels are gone: the app is closing

@@ -1,5 +1,7 @@
 """The command palette's MRSS commands (Ctrl+P): follow a robot on the map, send a
-percept typed into the palette, refresh the whole picture, acknowledge the alerts.
+percept typed into the palette, add a goal (the area form), refresh the whole picture,
+acknowledge the alerts (all, or one in the alerts list), open the Messages view or the
+log's lines, start or stop a recording of the bus into the run dir.
 
 Each command calls a public method of `MrssApp`, the same the keys use, so the palette
 goes through the same checks (read-only, questions) as the keys.
@@ -24,8 +26,22 @@ class MrssCommands(Provider):
             ("Refresh snapshot", app.action_refresh_all,
              "ask for tree, robots, open actions and mind now (F5)"),
             ("Acknowledge alerts", app.action_ack_alerts, "clear the alerts' highlight (A)"),
+            ("Alerts: list, acknowledge one", app.action_alerts_list,
+             "every alert; Enter acknowledges the one under the cursor (!)"),
             ("Map: fit everything", app.map_fit, "zoom the map to show everything (0)"),
+            ("Messages: bus topics", app.action_messages,
+             "topics as a tree, latest message as JSON, history, rates (M)"),
+            ("Log: read one line in full", app.action_log_lines,
+             "the log's lines with a cursor; the chosen one whole (L)"),
+            ("Add a goal (area)", app.add_goal,
+             "the mission panel's area form: the agent gets a new area (n)"),
         ]
+        running = app.recording is not None and app.recording.running
+        commands.append(("Stop recording" if running else "Start recording",
+                         app.toggle_recording,
+                         "stop writing the bus to the file" if running else
+                         "write every bus message to <run dir>/recording-*.mrssrec "
+                         "(mrss replay plays it)"))
         for robot in app.map_model.robots:
             commands.append((f"Map: follow {robot}", partial(app.map_follow, robot),
                              f"centre the map on {robot} and keep it there"))

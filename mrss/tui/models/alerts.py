@@ -8,8 +8,10 @@ condition, its text the latest counts, and so is a component whose restart budge
 (hotspot found, component restarted, hung, quarantined, gave up; a mission goal
 failed for good, as the goals model reads it from the agent) raise one alert per
 subject, counted when they recur: a recurrence of an acknowledged alert raises it
-again. Acknowledging clears the highlight; every alert stays in the history.
-Pure Python: no Textual.
+again. Acknowledging clears the highlight; every alert stays in the history; one alert
+can be acknowledged by its key (`acknowledge_one`). A project's own rules (`[[alerts]]`,
+`mrss.alert_rules`) are conditions on a telemetry field, named by the rule. Pure
+Python: no Textual.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
+from mrss.alert_rules import AlertRule, Severity
 from mrss.messages import Envelope, Percept, Rejections, RobotData, RobotState, SupEvent
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
@@ -39,6 +42,7 @@ class AlertKind(StrEnum):
     REFUSED = "refused input"
     BUDGET = "restart budget nearly used"
     GOAL_FAILED = "goal failed"  # for good: the agent gave it up (its retries included)
+    RULE = "rule"  # a project's own rule (`[[alerts]]`): the alert carries the rule's name
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
@@ -58,15 +62,25 @@ class Alert:
     count: int = 1
     acked: bool = False
     resolved: bool = False
+    name: str = ""  # a project rule's name ("" for the built-in kinds)
+    severe_rule: bool = False  # a project rule of severity "severe"
 
     @property
-    def key(self) -> tuple[AlertKind, str]:
-        return self.kind, self.subject
+    def label(self) -> str:
+        return self.name or self.kind.value
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return self.label, self.subject
+
+    @property
+    def severe(self) -> bool:
+        return self.kind in SEVERE or self.severe_rule
 
     def line(self) -> str:
         times = f" ×{self.count}" if self.count > 1 else ""
         ended = " (over)" if self.resolved else ""
-        return f"{self.kind.value}: {self.subject}{times} {self.text}{ended}".rstrip()
+        return f"{self.label}: {self.subject}{times} {self.text}{ended}".rstrip()
 
 
 def battery_percent(data: dict[str, Any]) -> float | None:
@@ -108,18 +122,21 @@ def refusal_text(report: Rejections) -> str:
 class AlertsModel:
     """Alerts by key, newest last; `apply` returns the alerts a message raised."""
 
-    def __init__(self, battery_low: float = BATTERY_LOW) -> None:
+    def __init__(self, battery_low: float = BATTERY_LOW,
+                 rules: tuple[AlertRule, ...] = ()) -> None:
         self.battery_low = battery_low
-        self.alerts: dict[tuple[AlertKind, str], Alert] = {}
+        self.rules = rules
+        self.alerts: dict[tuple[str, str], Alert] = {}
 
     def apply(self, env: Envelope) -> list[Alert]:
         body = env.body
         if isinstance(body, RobotData):
+            raised = self._rules(body, env.ts) if self.rules else []
             level = battery_percent(body.data)
             if level is None:
-                return []
-            return self._condition(AlertKind.BATTERY_LOW, body.robot, level < self.battery_low,
-                                   f"{level:.0f}%", env.ts)
+                return raised
+            return raised + self._condition(AlertKind.BATTERY_LOW, body.robot,
+                                            level < self.battery_low, f"{level:.0f}%", env.ts)
         if isinstance(body, RobotState):
             raised = self._condition(AlertKind.LINK_DOWN, body.robot, body.link == "down",
                                      body.reason, env.ts)
@@ -172,9 +189,20 @@ class AlertsModel:
                 raised += self._budgets(child, path, ts)
         return raised
 
+    def _rules(self, body: RobotData, ts: float) -> list[Alert]:
+        raised: list[Alert] = []
+        for rule in self.rules:
+            if rule.robot and rule.robot != body.robot:
+                continue
+            value = rule.value(body.data)
+            if value is not None:
+                raised += self._condition(AlertKind.RULE, body.robot, rule.on(value),
+                                          rule.text(value), ts, rule)
+        return raised
+
     def _condition(self, kind: AlertKind, subject: str, on: bool, text: str,
-                   ts: float) -> list[Alert]:
-        alert = self.alerts.get((kind, subject))
+                   ts: float, rule: AlertRule | None = None) -> list[Alert]:
+        alert = self.alerts.get((rule.name if rule else kind.value, subject))
         if not on:
             if alert is not None and not alert.resolved:
                 alert.resolved = True
@@ -182,12 +210,14 @@ class AlertsModel:
         if alert is not None and not alert.resolved:
             alert.text = text  # still on: the latest detail, no new alert
             return []
-        return [self._event(kind, subject, text, ts)]
+        return [self._event(kind, subject, text, ts, rule)]
 
-    def _event(self, kind: AlertKind, subject: str, text: str, ts: float) -> Alert:
-        alert = self.alerts.pop((kind, subject), None)
+    def _event(self, kind: AlertKind, subject: str, text: str, ts: float,
+               rule: AlertRule | None = None) -> Alert:
+        alert = self.alerts.pop((rule.name if rule else kind.value, subject), None)
         if alert is None:
-            alert = Alert(kind, subject, text, ts)
+            alert = Alert(kind, subject, text, ts, name=rule.name if rule else "",
+                          severe_rule=rule is not None and rule.severity is Severity.SEVERE)
         else:
             alert.count += 1
             alert.text, alert.ts, alert.acked, alert.resolved = text, ts, False, False
@@ -210,3 +240,11 @@ class AlertsModel:
         for alert in new:
             alert.acked = True
         return len(new)
+
+    def acknowledge_one(self, key: tuple[str, str]) -> bool:
+        """Acknowledge the alert `key` (`Alert.key`); False if it is unknown or was acked."""
+        alert = self.alerts.get(key)
+        if alert is None or alert.acked:
+            return False
+        alert.acked = True
+        return True

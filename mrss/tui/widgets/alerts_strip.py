@@ -12,7 +12,7 @@ import time
 from rich.text import Text
 from textual.widgets import Static
 
-from mrss.tui.models.alerts import SEVERE, Alert, AlertsModel
+from mrss.tui.models.alerts import Alert, AlertsModel
 from mrss.tui.models.logfilter import LogEntry
 
 SHOWN = 4  # unacknowledged alerts named on the strip
@@ -39,7 +39,7 @@ class AlertsStrip(Static):
             for i, alert in enumerate(new[:SHOWN]):
                 if i:
                     text.append(" · ")
-                text.append(alert.line(), "bold red" if alert.kind in SEVERE else "bold yellow")
+                text.append(alert.line(), "bold red" if alert.severe else "bold yellow")
             if len(new) > SHOWN:
                 text.append(f" · +{len(new) - SHOWN} more")
         else:
@@ -55,6 +55,6 @@ class AlertsStrip(Static):
 def alert_line(alert: Alert, ts: float) -> LogEntry:
     """The log pane's line for a raised alert (the history, next to what caused it)."""
     stamp = time.strftime("%H:%M:%S", time.localtime(ts))
-    style = "bold red" if alert.kind in SEVERE else "bold yellow"
+    style = "bold red" if alert.severe else "bold yellow"
     return LogEntry(Text.assemble((f"{stamp} ", "dim"), ("alert ", style), alert.line()),
                     logging.WARNING, alert.subject)

@@ -152,6 +152,10 @@ class LogPane(Vertical):
         """The lines the filter lets through (what the pane shows)."""
         return [entry.plain for entry in self._entries if self.filter.matches(entry)]
 
+    def shown_entries(self) -> list[LogEntry]:
+        """The entries the filter lets through, oldest first (`L` lists them)."""
+        return [entry for entry in self._entries if self.filter.matches(entry)]
+
     def set_following(self, on: bool) -> None:
         if on == self.following:
             return
