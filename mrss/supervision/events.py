@@ -28,6 +28,7 @@ GIVE_UP = "give_up"
 QUARANTINE = "quarantine"
 RELEASE = "release"
 HANG = "hang"
+STOPPING = "stopping"  # the supervisor begins to stop every child (child: itself)
 
 
 class SupEvents:

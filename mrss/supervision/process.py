@@ -440,6 +440,8 @@ class ProcessSupervisor:
     def _begin_shutdown(self) -> None:
         if self._finishing is None:
             log.info("%s: stopping every child in reverse order", self.name)
+            # said while the bus still runs: a dashboard knows the silence that follows
+            self.events.emit(ev.STOPPING, self.name, reason="asked to stop")
             self._finish(Outcome(False))
 
     def _kill_all(self) -> None:

@@ -134,6 +134,7 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
         self.mission = mission
         self.goals = GoalsModel(self.operator_config.goals)
         self.holding = False
+        self._system_stopping = False  # the root said it stops everything
         self.project = project
         self.agent = agent
         self.readonly = readonly
@@ -322,14 +323,21 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
             root = event.supervisor or self.supervision.root or self.project
             self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
             self._show_liveness()
+        elif event.event == "stopping" and event.child == (self.supervision.root
+                                                            or event.child):
+            self._system_stopping = True  # its silence, once it falls, is the end
         elif event.event == "start" and self.liveness.ended:
             self.liveness.ended = ""
+            self._system_stopping = False
 
     def _stopped_quietly(self) -> bool:
-        """Silent, and every component of the root stopped (but perhaps the bus proxy,
-        which cannot tell its own end over the bus): the system was stopped."""
+        """Silent, after the root said it was stopping, or with every component of the
+        root stopped (but perhaps the bus proxy, which cannot tell its own end over the
+        bus): the system was stopped."""
         if self.liveness.silence() < self.liveness.stale_after:
             return False
+        if self._system_stopping:
+            return True  # the root said so (the last exits may not have come through)
         root = self.supervision.root or self.project
         states = [n.state for n in self.supervision.nodes.values() if n.parent == root]
         down = sum(state in ("stopped", "exited", "gave up") for state in states)

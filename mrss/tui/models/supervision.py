@@ -26,6 +26,7 @@ from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 # The `src` of the root supervisor's publisher in `mrss supervise`.
 ROOT_SRC = "supervisor"
 TREE_EVENT = "tree"
+STOPPING = "stopping"  # mrss.supervision.events.STOPPING
 NODE_KIND = "node"  # the kind of a node's level in the tree
 NODE_DOWN_STATE = "node down"
 
@@ -91,6 +92,8 @@ class SupervisionModel:
         if event.event in (NODE_DOWN, NODE_UP):
             self._node_state(event)
             return
+        if event.event == STOPPING:
+            return  # about the supervisor itself; its children's exits follow
         if src == ROOT_SRC and not self.root and "/" not in event.supervisor:
             self.root = event.supervisor
         base = self._component_path(src, event.node)
