@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -32,7 +33,8 @@ from mrss.actors.skill import (
     SkillRunner,
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
-from mrss.messages import ActionState, Message
+from mrss.messages import ActionState, JsonValue, Message
+from mrss.plans import PLAN_RECORD, clear_record
 from mrss.supervision import ActorContext, Escalation, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
@@ -128,6 +130,16 @@ class RobotActor(SupervisedActor):
         self.teleop = False
         self.actions: dict[str, _Tracked] = {}
         self._replayed: set[int] = set()  # pending controls applied by `setup`
+        self._planned: set[str] = set()  # actions whose skills published a plan
+
+    def _skill_data_fn(self, uuid: str) -> Callable[[Mapping[str, JsonValue]], bool]:
+        """A skill's robot data goes out as the robot's (on the skill's thread); a plan
+        is remembered, to be cleared when its action ends."""
+        def publish(record: Mapping[str, JsonValue]) -> bool:
+            if record.get("type") == PLAN_RECORD:
+                self._planned.add(uuid)
+            return self.layer.publish_data(self.robot, record)
+        return publish
 
     def setup(self) -> None:
         """Start hook: register, then take this robot's open actions back from the journal.
@@ -340,7 +352,8 @@ class RobotActor(SupervisedActor):
         t.reasons, t.causes = [""] * len(skills), [""] * len(skills)
         for index, skill in enumerate(skills):
             runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
-                                 self.actor_ref.tell, self.host.publish_sup)
+                                 self.actor_ref.tell, self.host.publish_sup,
+                                 self._skill_data_fn(snapshot.uuid))
             t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
         if t.action.state is not ActionState.RUNNING:
             t.action.transition(ActionState.RUNNING, reason)
@@ -414,5 +427,8 @@ class RobotActor(SupervisedActor):
                           t.action.uuid, exc)
         self.emit(t.action.copy(), effect.suspended_by or "")
         if effect.state.terminal:
+            if t.action.uuid in self._planned:
+                self._planned.discard(t.action.uuid)
+                self.layer.publish_data(self.robot, clear_record(t.action.uuid))
             self.broker.forget_action(t.action.uuid)
             del self.actions[t.action.uuid]

@@ -98,6 +98,7 @@ class CoverArea(UavSkill):
 
     def run(self) -> bool:
         done = max(self.first, int(self.progress.get("waypoint", 0) or 0))  # type: ignore[arg-type]
+        self.publish_plan(self.waypoints, done)  # the dashboard's map: lanes done and left
         if not self.airborne(self.altitude):
             return False
         for index in range(done, len(self.waypoints)):
@@ -105,6 +106,7 @@ class CoverArea(UavSkill):
             if not self.fly_to(lat, lon, self.altitude):
                 return False
             self.record_progress(waypoint=index + 1, waypoints=len(self.waypoints))
+            self.publish_plan(self.waypoints, index + 1)
             log.info("%s: %s waypoint %d/%d", self.robot, self.action.goal, index + 1,
                      len(self.waypoints))
         return True
