@@ -44,9 +44,10 @@ from mrss.bus.component import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
 from mrss.config import ProjectConfig
 from mrss.errors import ConfigError
+from mrss.map_config import MapConfig
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
-from mrss.tui.mission import project_mission
+from mrss.tui.mission import project_map, project_mission
 
 EXIT_CONFIG = 2
 WATCH_EVERY = 0.2  # seconds between two looks whether the system is still running
@@ -131,6 +132,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     try:
         endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                           file=str(config.file))
+        map_config = project_map(config.file, config.sections)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         if temporary:
@@ -139,7 +141,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     logs.configure("tui", level=logging.DEBUG if args.verbose else logging.INFO,
                    console=False, file=log_path)
     try:
-        code = _run(args, config, run_dir, endpoints, log_path)
+        code = _run(args, config, run_dir, endpoints, log_path, map_config)
     finally:
         if temporary:
             _keep_only(run_dir, log_path)
@@ -151,14 +153,15 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
 
 
 def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
-         endpoints: BusEndpoints, log_path: Path) -> int:
+         endpoints: BusEndpoints, log_path: Path, map_config: MapConfig) -> int:
     system = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
     app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
                         restart_budget=(config.supervisor.spec.intensity,
-                                        config.supervisor.spec.period))
+                                        config.supervisor.spec.period),
+                        map_config=map_config)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

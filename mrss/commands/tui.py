@@ -51,12 +51,13 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_NO_BUS
     from mrss.config import load_project
     from mrss.tui.app import MrssApp
-    from mrss.tui.mission import project_mission, run_dir_of
+    from mrss.tui.mission import project_map, project_mission, run_dir_of
 
     try:
         config = load_project(args.project)
         mission = project_mission(config.directory, config.file, config.sections,
                                   args.run_dir or run_dir_of(endpoints.backend))
+        map_config = project_map(config.file, config.sections)
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
                   restart_budget=budget,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
-                  world_every=args.world_every)
+                  world_every=args.world_every, map_config=map_config)
     app.run()
     ended = app.liveness.ended
     print(f"mrss tui: {name}: {ended}" if ended else

@@ -29,6 +29,7 @@ from textual.widgets import Footer, Header, Input, Static
 
 from mrss.bus import BusEndpoints
 from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
+from mrss.map_config import MapConfig
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
@@ -114,7 +115,8 @@ class MrssApp(Steering, DetailKeys):
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
-                 restart_budget: tuple[int, float] | None = None) -> None:
+                 restart_budget: tuple[int, float] | None = None,
+                 map_config: MapConfig | None = None) -> None:
         super().__init__()
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -132,7 +134,7 @@ class MrssApp(Steering, DetailKeys):
         self.robots = RobotsModel()
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
-        self.map_model = MapModel()
+        self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel()
         self.world_every = world_every
         self.world_asked = 0

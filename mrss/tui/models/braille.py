@@ -41,6 +41,29 @@ class BrailleCanvas:
             t = i / steps
             self.dot(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, style)
 
+    def polyline(self, points: list[tuple[float, float]], style: str = "") -> None:
+        """Lines through `points` (in dots), in order."""
+        for (x0, y0), (x1, y1) in zip(points, points[1:], strict=False):
+            self.line(x0, y0, x1, y1, style)
+
+    def fill_polygon(self, points: list[tuple[float, float]], style: str = "") -> None:
+        """Every other dot inside the polygon (even-odd rule), so lines over it still show."""
+        finite = [(x, y) for x, y in points if math.isfinite(x) and math.isfinite(y)]
+        if len(finite) < 3:
+            return
+        edges = list(zip(finite, finite[1:] + finite[:1], strict=True))
+        top = max(0, math.floor(min(y for _, y in finite)))
+        bottom = min(self.height * 4 - 1, math.ceil(max(y for _, y in finite)))
+        for y in range(top, bottom + 1, 2):
+            yc = y + 0.5
+            xs = sorted(x0 + (yc - y0) * (x1 - x0) / (y1 - y0)
+                        for (x0, y0), (x1, y1) in edges if (y0 <= yc) != (y1 <= yc))
+            for left, right in zip(xs[::2], xs[1::2], strict=False):
+                start = max(0, math.ceil(left - 0.5))
+                start += (start + y // 2) % 2  # a checkerboard of dots
+                for x in range(start, min(self.width * 2, math.floor(right + 0.5)), 2):
+                    self.dot(x, y, style)
+
     def glyph(self, col: int, row: int, char: str, style: str = "") -> bool:
         """Put one character in a cell (over any dots); False if off the canvas."""
         if 0 <= col < self.width and 0 <= row < self.height:
