@@ -5,8 +5,8 @@ robot (an MqttLink); both hold the robot's "motion" resource and wait on the lin
 telemetry with `self.wait`, so an interrupt ends them at once, and stop the robot in
 `finish` when interrupted. Each shows where it goes on the dashboard's map
 (`publish_plan`: a skill that follows waypoints sends them all, again as each is
-reached; the RCL clears the plan when the action ends). ADAPT: your robots' capabilities (docs/robots.md lists what
-each link can do).
+reached; the RCL clears the plan when the action ends). ADAPT: your robots'
+capabilities (docs/robots.md lists what each link can do).
 """
 
 from __future__ import annotations
