@@ -218,6 +218,8 @@ def test_the_running_map_shows_a_plan_and_a_styled_object(
             assert (canvas.text()[row][col], grid[row][col]) == ("✹", "green")
             styles_drawn = {s for line in grid for s in line}
             assert {"dim cyan", "bold cyan"} <= styles_drawn  # lanes flown and left
+            # the robot's detail shows the plan's size, not every waypoint
+            assert ("plan.waypoints", "[6 items]") in app.robots.robots["uav1"].fields()
             peer.publish(data("uav1", **clear_record("a1")), src="rcl")
             await until(pilot, lambda: "uav1" not in app.map_model.plans,
                         message="the plan cleared")
