@@ -237,6 +237,8 @@ class MrssApp(Steering, DetailKeys):
             if isinstance(body, ActionStatus):
                 self.actions.apply_status(body, env.ts, env.src)
                 dirty.add("actions")
+                if self.map_model.apply_status(body):
+                    dirty.add("map")
             elif isinstance(body, ActionRequest):
                 self.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")

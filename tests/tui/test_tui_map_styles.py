@@ -16,7 +16,7 @@ from mrss.config import load_file
 from mrss.edge.worldmodel_objects import WorldObject
 from mrss.errors import ConfigError
 from mrss.map_config import MapConfig, PolygonDraw, read_map
-from mrss.messages import RobotData
+from mrss.messages import ActionStatus, RobotData
 from mrss.plans import PLAN_MAX_WAYPOINTS, clear_record, plan_record
 from mrss.tui.app import MrssApp
 from mrss.tui.models.braille import BrailleCanvas
@@ -80,6 +80,16 @@ def test_a_plan_draws_the_lanes_flown_dim_and_those_left_bright() -> None:
     assert "uav1" not in model.plans
     canvas = model.draw(view, W, H)
     assert segment_style(canvas, view, LANES[0], LANES[1]) == ""  # nothing drawn there
+
+
+def test_the_end_of_its_action_takes_a_plan_off_the_map() -> None:
+    model = MapModel()
+    model.apply_data(data("uav1", **plan_record("a1", LANES, 0)))
+    model.apply_data(data("ugv1", **plan_record("a2", LANES[:2], 0)))
+    assert not model.apply_status(ActionStatus(uuid="a1", state="running", robot="uav1"))
+    assert not model.apply_status(ActionStatus(uuid="a9", state="failed", robot="uav1"))
+    assert model.apply_status(ActionStatus(uuid="a1", state="cancelled", robot="uav1"))
+    assert list(model.plans) == ["ugv1"]
 
 
 def test_bad_plan_records_are_ignored_without_an_exception() -> None:

@@ -14,12 +14,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.map_config import MapConfig, PolygonDraw
-from mrss.messages import RobotData
+from mrss.messages import ActionState, ActionStatus, RobotData
 from mrss.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
 from mrss.tui.models.braille import BrailleCanvas
 from mrss.tui.models.geo import DOTS_X, DOTS_Y, Viewport, heading_arrow
 
 TRACK_LENGTH = 30  # recent positions kept per robot
+ENDED = frozenset(s.value for s in ActionState if s.terminal)
 ROBOT_STYLES = ("bold cyan", "bold magenta", "bold green", "bold yellow", "bold blue")
 
 
@@ -156,6 +157,16 @@ class MapModel:
             return False  # the end of a plan that another one replaced already
         del self.plans[robot]
         return True
+
+    def apply_status(self, status: ActionStatus) -> bool:
+        """An action that ended takes its plan off the map (the RCL also says so with an
+        empty plan; this covers an RCL restarted meanwhile); True if one went."""
+        if status.state not in ENDED:
+            return False
+        ended = [robot for robot, plan in self.plans.items() if plan.action == status.uuid]
+        for robot in ended:
+            del self.plans[robot]
+        return bool(ended)
 
     def apply_world(self, objects: Any) -> bool:
         """The answer to `wm.list`: replaces every object; False if it is not a list."""
