@@ -21,6 +21,10 @@ kind's initial, shapes as yellow outlines.
     style = "bold red"
     polygon = "fill"                 # "outline" (default) or "fill" (dotted all over)
 
+    [map.kinds.base]
+    radius_field = "comm_radius_m"   # an attribute in metres: a ring around the point
+    radius_style = "dim cyan"        # (the default)
+
 `mrss check` validates the table (`mrss.check.map`). Nothing here knows Textual.
 """
 
@@ -41,6 +45,7 @@ from mrss.errors import ConfigError
 SECTION = "map"
 DEFAULT_STYLE = "bold"  # a point of a kind without a default glyph
 AREA_STYLE = "yellow"  # lines of a kind without a style
+RING_STYLE = "dim cyan"  # a ring of `radius_field` without a `radius_style`
 # glyph and style of the kinds drawn without any [map] table
 DEFAULT_KINDS: dict[str, tuple[str, str]] = {
     "hotspot": ("✹", "bold red"), "water_source": ("≈", "bold blue"),
@@ -63,6 +68,8 @@ class KindKey(StrEnum):
     STATES = "states"
     POLYGON = "polygon"
     LABEL = "label"
+    RADIUS_FIELD = "radius_field"
+    RADIUS_STYLE = "radius_style"
 
 
 @dataclass(frozen=True)
@@ -75,6 +82,8 @@ class KindStyle:
     states: dict[str, str] = field(default_factory=dict)
     polygon: PolygonDraw = PolygonDraw.OUTLINE
     label: bool = True
+    radius_field: str = ""  # an attribute in metres: a ring that far around the point
+    radius_style: str = RING_STYLE
 
 
 @dataclass(frozen=True)
@@ -93,6 +102,15 @@ class MapConfig:
                                                                 DEFAULT_STYLE))
         look = self.kind(kind)
         return look.glyph or default_glyph, self._styled(look, attributes, default_style)
+
+    def ring(self, kind: str, attributes: Mapping[str, Any]) -> tuple[float, str] | None:
+        """(radius in metres, style) of the ring around a point of `kind`, if any."""
+        look = self.kind(kind)
+        radius = attributes.get(look.radius_field) if look.radius_field else None
+        if isinstance(radius, (int, float)) and not isinstance(radius, bool) \
+                and 0 < radius < 1e7:
+            return float(radius), look.radius_style
+        return None
 
     def line_style(self, kind: str, attributes: Mapping[str, Any]) -> str:
         """The style of the lines (or fill) of a shape of `kind`."""
@@ -138,8 +156,8 @@ def read_map(section: Any, *, file: str = "") -> MapConfig:
 
 def _kind(table: Any, file: str, where: str) -> KindStyle:
     if not isinstance(table, Mapping):
-        raise ConfigError("must be a table (glyph, style, state_field, states, polygon, "
-                          "label)", file=file, key=where)
+        raise ConfigError(f"must be a table ({', '.join(k.value for k in KindKey)})",
+                          file=file, key=where)
     known = [k.value for k in KindKey]
     values: dict[str, Any] = {}
     for key, value in table.items():
@@ -152,12 +170,12 @@ def _kind(table: Any, file: str, where: str) -> KindStyle:
                 raise ConfigError(f"must be one printable character one cell wide, not "
                                   f"{value!r}",
                                   file=file, key=at)
-        elif key == KindKey.STYLE:
-            _style(value, file, at)
-        elif key == KindKey.STATE_FIELD:
+        elif key in (KindKey.STYLE, KindKey.RADIUS_STYLE):
+            value = _style(value, file, at)
+        elif key in (KindKey.STATE_FIELD, KindKey.RADIUS_FIELD):
             if not isinstance(value, str) or not value:
-                raise ConfigError("must be the name of an attribute, e.g. \"state\"",
-                                  file=file, key=at)
+                raise ConfigError("must be the name of an attribute, e.g. \"state\" or "
+                                  "\"comm_radius_m\"", file=file, key=at)
         elif key == KindKey.STATES:
             if not isinstance(value, Mapping):
                 raise ConfigError("must be a table of state = \"style\"", file=file, key=at)

@@ -178,7 +178,10 @@ def test_the_map_table_is_read_and_its_mistakes_named() -> None:
             ({"kinds": {"zone": {"polygon": "filled"}}}, "'outline', 'fill'"),
             ({"kinds": {"zone": {"label": "no"}}}, "true or false"),
             ({"hide": "robot"}, "list of world-model kinds"),
-            ({"kinds": {"zone": "red"}}, "must be a table")):
+            ({"kinds": {"zone": "red"}}, "must be a table"),
+            ({"kinds": {"base": {"radius_field": ""}}}, "name of an attribute"),
+            ({"kinds": {"base": {"radius_style": "cyann"}}}, "not a style"),
+            ({"kinds": {"base": {"radius_feild": "r"}}}, "did you mean 'radius_field'")):
         with pytest.raises(ConfigError, match=problem):
             read_map(table, file="project.toml")
 

@@ -17,9 +17,10 @@ from mrss.map_config import MapConfig, PolygonDraw
 from mrss.messages import ActionState, ActionStatus, RobotData
 from mrss.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
 from mrss.tui.models.braille import BrailleCanvas
-from mrss.tui.models.geo import DOTS_X, DOTS_Y, Viewport, heading_arrow
+from mrss.tui.models.geo import DOTS_X, DOTS_Y, METRES_PER_DEGREE, Viewport, heading_arrow
 
 TRACK_LENGTH = 30  # recent positions kept per robot
+RING_VERTICES = 48  # of a `radius_field` ring
 ENDED = frozenset(s.value for s in ActionState if s.terminal)
 ROBOT_STYLES = ("bold cyan", "bold magenta", "bold green", "bold yellow", "bold blue")
 
@@ -90,6 +91,16 @@ def plan_of(data: dict[str, Any]) -> Plan | None:
             or not 0 <= reached <= len(points):
         return None
     return Plan(action, points, reached)
+
+
+def ring_points(lat: float, lon: float, radius_m: float) -> list[tuple[float, float]]:
+    """A closed ring of RING_VERTICES (lat, lon) `radius_m` around a point."""
+    north = radius_m / METRES_PER_DEGREE
+    east = north / max(1e-6, math.cos(math.radians(lat)))
+    ring = [(lat + north * math.cos(2 * math.pi * i / RING_VERTICES),
+             lon + east * math.sin(2 * math.pi * i / RING_VERTICES))
+            for i in range(RING_VERTICES)]
+    return [*ring, ring[0]]
 
 
 def _geometry_lines(geometry: Any) -> list[list[tuple[float, float]]]:
@@ -202,11 +213,15 @@ class MapModel:
         for shape in self.objects.values():
             if shape.point is not None:
                 pts.append(shape.point)
+                ring = self.styles.ring(shape.kind, shape.attributes)
+                if ring is not None:
+                    pts.extend(ring_points(*shape.point, ring[0])[::RING_VERTICES // 4])
             pts.extend(p for line in shape.lines for p in line)
         return pts
 
     def draw(self, view: Viewport, width: int, height: int) -> BrailleCanvas:
-        """Areas, then plans and tracks, then objects, then robots (on top) with names."""
+        """Areas and rings, then tracks and plans, then objects, then robots (on top)
+        with their names."""
         canvas = BrailleCanvas(width, height)
 
         def dots(line: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -222,6 +237,10 @@ class MapModel:
             if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
                 col, row = view.to_cell(*shape.lines[0][0], width, height)
                 canvas.label(col, row, shape.id, style)
+        for shape in self.objects.values():
+            ring = self.styles.ring(shape.kind, shape.attributes) if shape.point else None
+            if shape.point is not None and ring is not None:
+                canvas.polyline(dots(ring_points(*shape.point, ring[0])), ring[1])
         for i, mark in enumerate(self.robots.values()):
             style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
             canvas.polyline(dots(list(mark.track)), style.replace("bold ", "dim "))

@@ -15,7 +15,6 @@ from mrss.map_config import read_map
 from mrss.plans import PLAN_MAX_WAYPOINTS, plan_record
 
 PROJECT = Path(__file__).resolve().parent.parent
-ROOT = PROJECT.parent.parent
 
 
 def test_supply_records_set_the_hotspot_state_that_the_map_colours() -> None:
@@ -56,11 +55,3 @@ def test_a_cover_plan_record_passes_the_data_layers_checks() -> None:
     record = plan_record("a1", waypoints, 3, "north")
     assert check_record(record, DEFAULT_LIMITS[RobotType.AERIAL]) == record
     assert record["waypoints"][-1] == list(map(float, waypoints[-1]))  # type: ignore[index]
-
-
-def test_the_amadee_zones_have_their_own_outline_styles() -> None:
-    toml = ROOT / "projects" / "amadee" / "project.toml"
-    styles = read_map(load_file(toml).sections["map"], file=str(toml))
-    zones = {kind: styles.line_style(kind, {}) for kind in ("no_go", "protected", "terrain")}
-    assert len(set(zones.values())) == 3 and zones["no_go"] == "bold red"
-    assert styles.point_look("crew", {}) == ("☺", "bold yellow")
