@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +22,7 @@ from mrss.tui.models.geo import DOTS_X, DOTS_Y, METRES_PER_DEGREE, Viewport, hea
 
 TRACK_LENGTH = 30  # recent positions kept per robot
 RING_VERTICES = 48  # of a `radius_field` ring
+ToDots = Callable[[list[tuple[float, float]]], list[tuple[float, float]]]
 ENDED = frozenset(s.value for s in ActionState if s.terminal)
 ROBOT_STYLES = ("bold cyan", "bold magenta", "bold green", "bold yellow", "bold blue")
 
@@ -266,7 +268,7 @@ class MapModel:
         index = robots.index(robot) if robot in robots else len(robots)
         return ROBOT_STYLES[index % len(ROBOT_STYLES)]
 
-    def _draw_plan(self, canvas: BrailleCanvas, dots: Any, robot: str, plan: Plan) -> None:
+    def _draw_plan(self, canvas: BrailleCanvas, dots: ToDots, robot: str, plan: Plan) -> None:
         """Done: the waypoints reached, dim; left: from the robot (or the last waypoint
         reached) on through the rest, in the robot's colour."""
         colour = self.robot_style(robot).replace("bold ", "")
