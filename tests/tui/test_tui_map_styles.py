@@ -237,3 +237,14 @@ def test_the_running_map_shows_a_plan_and_a_styled_object(
             await until(pilot, lambda: "uav1" not in app.map_model.plans,
                         message="the plan cleared")
     run(body())
+
+
+def test_a_line_is_walked_only_where_it_crosses_the_canvas() -> None:
+    canvas = BrailleCanvas(W, H)
+    canvas.line(-1e9, 5.0, 1e9, 5.0, "x")  # a lane far longer than the view, zoomed in
+    canvas.line(-1e9, -50.0, 1e9, -40.0, "y")  # above the canvas: nothing
+    canvas.line(float("nan"), 1.0, 3.0, 1.0, "z")
+    rows = canvas.text()
+    assert all(ch != " " for ch in rows[1]) and len(rows[1]) == W
+    assert all(ch == " " for i, row in enumerate(rows) if i != 1 for ch in row)
+    assert {style for run in canvas.rows()[1] for _, style in [run]} == {"x"}
