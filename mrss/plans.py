@@ -1,5 +1,6 @@
 """A robot's planned path as robot data: the record a skill's `publish_plan` sends and
-the dashboard's map draws (segments flown dim, those left bright). docs/tui.md "Plans".
+the dashboard's map draws (segments flown dim, those left bright); docs/tui.md, "Map,
+alerts, help".
 
     {"type": "plan", "action": "<uuid>", "goal": "<goal>",
      "waypoints": [[lat, lon], ...], "next": <how many were reached>}
