@@ -233,6 +233,10 @@ def test_the_running_map_shows_a_plan_and_a_styled_object(
             assert {"dim cyan", "bold cyan"} <= styles_drawn  # lanes flown and left
             # the robot's detail shows the plan's size, not every waypoint
             assert ("plan.waypoints", "[6 items]") in app.robots.robots["uav1"].fields()
+            panel.focus()
+            await pilot.press("f")  # follow uav1: the title says how far along its plan
+            await until(pilot, lambda: "plan 3/6" in str(panel.border_title),
+                        message="the plan in the title")
             peer.publish(data("uav1", **clear_record("a1")), src="rcl")
             await until(pilot, lambda: "uav1" not in app.map_model.plans,
                         message="the plan cleared")
