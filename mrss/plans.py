@@ -6,12 +6,14 @@ alerts, help".
      "waypoints": [[lat, lon], ...], "next": <how many were reached>}
 
 An empty `waypoints` list clears the robot's plan (the RCL sends one when the action
-that published a plan ends).
+that published a plan ends). The RCL keeps each open action's latest plan (`PlanBoard`)
+and sends it again with its snapshot, so a dashboard that attaches late sees it at once.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import threading
+from collections.abc import Mapping, Sequence
 
 from mrss.messages import JsonValue
 
@@ -45,3 +47,27 @@ def plan_record(action: str, waypoints: Sequence[Sequence[float]], next_index: i
 def clear_record(action: str) -> dict[str, JsonValue]:
     """The record that takes the plan of `action` off the map."""
     return {"type": PLAN_RECORD, "action": action, "waypoints": [], "next": 0}
+
+
+class PlanBoard:
+    """The latest plan record of each open action (by uuid), with its robot; thread-safe
+    (skills send plans from their threads, the RCL's snapshot reads them)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._plans: dict[str, tuple[str, dict[str, JsonValue]]] = {}
+
+    def sent(self, robot: str, uuid: str, record: Mapping[str, JsonValue]) -> None:
+        """A skill of action `uuid` sent `record` (a plan; an empty one is kept too)."""
+        with self._lock:
+            self._plans[uuid] = (robot, dict(record))
+
+    def ended(self, uuid: str) -> bool:
+        """Action `uuid` ended: forget its plan; True if it had sent one (to clear)."""
+        with self._lock:
+            return self._plans.pop(uuid, None) is not None
+
+    def current(self) -> list[tuple[str, dict[str, JsonValue]]]:
+        """(robot, record) of every open action's latest plan."""
+        with self._lock:
+            return list(self._plans.values())

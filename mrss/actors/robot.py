@@ -34,7 +34,7 @@ from mrss.actors.skill import (
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
 from mrss.messages import ActionState, JsonValue, Message
-from mrss.plans import PLAN_RECORD, clear_record
+from mrss.plans import PLAN_RECORD, PlanBoard, clear_record
 from mrss.supervision import ActorContext, Escalation, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
@@ -67,6 +67,10 @@ class RobotHost(Protocol):
 
     def publish_sup(self, event: Message) -> object:
         """Publish a supervision event (a skill's restart or escalation)."""
+
+    @property
+    def plans(self) -> PlanBoard:
+        """The latest plan of each open action (sent again with the RCL's snapshot)."""
 
 
 @dataclass(frozen=True)
@@ -130,14 +134,13 @@ class RobotActor(SupervisedActor):
         self.teleop = False
         self.actions: dict[str, _Tracked] = {}
         self._replayed: set[int] = set()  # pending controls applied by `setup`
-        self._planned: set[str] = set()  # actions whose skills published a plan
 
     def _skill_data_fn(self, uuid: str) -> Callable[[Mapping[str, JsonValue]], bool]:
         """A skill's robot data goes out as the robot's (on the skill's thread); a plan
         is remembered, to be cleared when its action ends."""
         def publish(record: Mapping[str, JsonValue]) -> bool:
             if record.get("type") == PLAN_RECORD:
-                self._planned.add(uuid)
+                self.host.plans.sent(self.robot, uuid, record)
             return self.layer.publish_data(self.robot, record)
         return publish
 
@@ -427,8 +430,7 @@ class RobotActor(SupervisedActor):
                           t.action.uuid, exc)
         self.emit(t.action.copy(), effect.suspended_by or "")
         if effect.state.terminal:
-            if t.action.uuid in self._planned:
-                self._planned.discard(t.action.uuid)
+            if self.host.plans.ended(t.action.uuid):
                 self.layer.publish_data(self.robot, clear_record(t.action.uuid))
             self.broker.forget_action(t.action.uuid)
             del self.actions[t.action.uuid]

@@ -1,5 +1,6 @@
 """A skill's robot data and planned path (`Skill.publish_data`, `Skill.publish_plan`):
-they go out as the robot's data, and the RCL clears a plan when its action ends."""
+they go out as the robot's data, the RCL's snapshot sends each open action's latest
+plan again, and the RCL clears a plan when its action ends."""
 
 from __future__ import annotations
 
@@ -54,11 +55,18 @@ def test_a_plan_goes_out_as_waypoints_are_reached_and_is_cleared_when_the_action
     first = [d for d in robot_data(rcl_env, "ugv1") if d["type"] == "plan"][0]
     assert first["waypoints"] == POINTS and first["goal"] == "g1"
     assert {"type": "note", "text": "surveying"} in robot_data(rcl_env, "ugv1")
-    rcl_env.robots["ugv1"].arrive(3)
+    rcl_env.robots["ugv1"].arrive(1)
+    wait_until(lambda: plans(rcl_env, "ugv1")[-1] == ("a1", 3, 1), message="one reached")
+    # a dashboard that attaches late asks for a snapshot: the latest plan comes again
+    core.snapshot()
+    assert plans(rcl_env, "ugv1") == [("a1", 3, 0), ("a1", 3, 1), ("a1", 3, 1)]
+    rcl_env.robots["ugv1"].arrive(2)
     wait_until(rcl_env.statuses.reached("a1", "succeeded"), message="a1 succeeded")
-    wait_until(lambda: len(plans(rcl_env, "ugv1")) == 5, message="the plan cleared")
-    assert plans(rcl_env, "ugv1") == [("a1", 3, 0), ("a1", 3, 1), ("a1", 3, 2),
+    wait_until(lambda: len(plans(rcl_env, "ugv1")) == 6, message="the plan cleared")
+    assert plans(rcl_env, "ugv1") == [("a1", 3, 0), ("a1", 3, 1), ("a1", 3, 1), ("a1", 3, 2),
                                       ("a1", 3, 3), ("a1", 0, 0)]
+    core.snapshot()  # ended: its plan is not sent again
+    assert len(plans(rcl_env, "ugv1")) == 6
     # an action whose skills publish no plan sends no clearing record
     rcl_env.robots["ugv2"].auto = True
     core.submit_fields(request_fields("a2", "patrol", "ugv2", "g2", ["p1"]))
