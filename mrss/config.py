@@ -62,7 +62,8 @@ class OnGiveUp(StrEnum):
         return OnExceeded.QUARANTINE if self is OnGiveUp.STOP_COMPONENT else OnExceeded.ESCALATE
 # Tables owned by other layers: kept raw here; `mrss check` checks their keys.
 OTHER_SECTIONS = ("nodes", "bus", "broker", "operator", "robots", "links", "reasoner", "rcl",
-                  "events", "datalayer", "worldmodel", "tui", "sim", "skills", "alerts")
+                  "events", "datalayer", "worldmodel", "tui", "sim", "skills", "alerts",
+                  "map")
 
 
 class Check(StrEnum):

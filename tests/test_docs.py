@@ -85,6 +85,20 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
             assert not option_value_problems(options), f"{where}: robot {robot}"
 
 
+@pytest.mark.parametrize(("where", "block"), [e for e in examples() if "[map" in e[1]],
+                         ids=[w for w, b in examples() if "[map" in b])
+def test_every_map_example_reads_as_the_dashboard_reads_it(where: str, block: str) -> None:
+    from mrss.map_config import read_map
+
+    config = read_map(tomllib.loads(block)["map"], file=where)
+    assert config.kinds or config.hide, where
+
+
+def test_the_map_examples_are_found() -> None:
+    names = {w.split("#")[0] for w, b in examples() if "[map" in b}
+    assert {"config.md", "tui.md"} <= names
+
+
 def test_the_world_model_json_example_is_a_valid_seed() -> None:
     from mrss.edge.worldmodel_service import WorldModel
     from mrss.edge.worldmodel_store import Position, SqliteWorldStore

@@ -57,6 +57,7 @@ from mrss.messages import (
     Message,
     build,
 )
+from mrss.plans import PlanBoard
 from mrss.supervision import (
     ActorContext,
     ActorSupervisor,
@@ -101,6 +102,7 @@ class RclCore(RequesterDuties, RobotAvailability):
         self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
         self.stopping = False  # set by stop(): links closing then are no news of robots
         self.progress = ProgressFeed(progress_every, clock)
+        self._plans = PlanBoard()  # skills' latest plans, for the snapshot
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -225,6 +227,10 @@ class RclCore(RequesterDuties, RobotAvailability):
         """A skill's sup.* event (mrss.actors.skill) goes out as it is."""
         return self.publish(event)
 
+    @property
+    def plans(self) -> PlanBoard:
+        return self._plans
+
     def compact_journal(self, keep_seconds: float, keep_last: int) -> int:
         """Drop old terminal actions from the journal (ActionJournal.compact); how many."""
         dropped = self.journal.compact(keep_seconds, keep_last)
@@ -344,10 +350,13 @@ class RclCore(RequesterDuties, RobotAvailability):
         return sent
 
     def snapshot(self) -> int:
-        """Answer an observer's `Command("snapshot")`: every robot's state and every open
-        action's current status (`repeat`, with name and goal), so a dashboard that
-        attaches late misses nothing. Returns how many statuses went out."""
+        """Answer an observer's `Command("snapshot")`: every robot's state, every open
+        action's current status (`repeat`, with name and goal) and the latest plan its
+        skills sent, so a dashboard that attaches late misses nothing. Returns how many
+        statuses went out."""
         self.announce_robots()
+        for robot, record in self._plans.current():
+            self.layer.publish_data(robot, record)
         with self._lock:
             entries = [e for e in self.journal.open_actions() if e.action.uuid in self._index]
             for entry in entries:

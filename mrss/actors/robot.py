@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -32,7 +33,8 @@ from mrss.actors.skill import (
     SkillRunner,
 )
 from mrss.api import Action, RobotCommLayer, Skill, SkillOutcome
-from mrss.messages import ActionState, Message
+from mrss.messages import ActionState, JsonValue, Message
+from mrss.plans import PLAN_RECORD, PlanBoard, clear_record
 from mrss.supervision import ActorContext, Escalation, SupervisedActor
 
 log = logging.getLogger("mrss.rcl.robot")
@@ -65,6 +67,10 @@ class RobotHost(Protocol):
 
     def publish_sup(self, event: Message) -> object:
         """Publish a supervision event (a skill's restart or escalation)."""
+
+    @property
+    def plans(self) -> PlanBoard:
+        """The latest plan of each open action (sent again with the RCL's snapshot)."""
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,15 @@ class RobotActor(SupervisedActor):
         self.teleop = False
         self.actions: dict[str, _Tracked] = {}
         self._replayed: set[int] = set()  # pending controls applied by `setup`
+
+    def _skill_data_fn(self, uuid: str) -> Callable[[Mapping[str, JsonValue]], bool]:
+        """A skill's robot data goes out as the robot's (on the skill's thread); a plan
+        is remembered, to be cleared when its action ends."""
+        def publish(record: Mapping[str, JsonValue]) -> bool:
+            if record.get("type") == PLAN_RECORD:
+                self.host.plans.sent(self.robot, uuid, record)
+            return self.layer.publish_data(self.robot, record)
+        return publish
 
     def setup(self) -> None:
         """Start hook: register, then take this robot's open actions back from the journal.
@@ -340,7 +355,8 @@ class RobotActor(SupervisedActor):
         t.reasons, t.causes = [""] * len(skills), [""] * len(skills)
         for index, skill in enumerate(skills):
             runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
-                                 self.actor_ref.tell, self.host.publish_sup)
+                                 self.actor_ref.tell, self.host.publish_sup,
+                                 self._skill_data_fn(snapshot.uuid))
             t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
         if t.action.state is not ActionState.RUNNING:
             t.action.transition(ActionState.RUNNING, reason)
@@ -414,5 +430,7 @@ class RobotActor(SupervisedActor):
                           t.action.uuid, exc)
         self.emit(t.action.copy(), effect.suspended_by or "")
         if effect.state.terminal:
+            if self.host.plans.ended(t.action.uuid):
+                self.layer.publish_data(self.robot, clear_record(t.action.uuid))
             self.broker.forget_action(t.action.uuid)
             del self.actions[t.action.uuid]

@@ -86,8 +86,10 @@ class SkillRunner:
 
     def __init__(self, action: Action, run: int, index: int, link: Any,
                  broker: ResourceBroker, report: Report,
-                 publish: Callable[[Any], object] | None = None) -> None:
+                 publish: Callable[[Any], object] | None = None,
+                 data: Callable[[Mapping[str, JsonValue]], bool] | None = None) -> None:
         self.action = action
+        self._data = data  # where the skill's robot data goes (the layer's publish_data)
         self.publish = publish  # where the skill's sup.* events go
         self.link = link
         self.run = run
@@ -104,6 +106,12 @@ class SkillRunner:
             self._report(ProgressRecorded(self.action.uuid, self.run, dict(values)))
         except pykka.ActorDeadError:
             log.warning("skill %s: progress %r lost, robot actor stopped", self.token, values)
+
+    def publish_data(self, data: Mapping[str, JsonValue]) -> bool:
+        if self._data is None:
+            log.warning("skill %s: robot data %r not sent, no bus", self.token, data)
+            return False
+        return self._data(data)
 
     def acquire(self, resource: str, timeout: float | None) -> None:
         holder = Holder(self.token, self.action.uuid, self.action.priority)

@@ -8,7 +8,8 @@ projects/ imports one (docs/projects.md, "What a project may import").
 
 By idea:
 - actions and skills: Action, ActionState, FailureCause, Resource, Skill, SkillInterrupted,
-  SkillOutcome, SkillState, RobotCommLayer;
+  SkillOutcome, SkillState, RobotCommLayer; plan_record (the dashboard map's `plan`
+  robot data record, which `Skill.publish_plan` sends);
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
@@ -67,6 +68,7 @@ from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step
 from mrss.links.mqtt_publish import publish_json
 from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
+from mrss.plans import plan_record
 from mrss.projects import PROJECT_FILE
 
 #: The robot link kinds a robot's `link` key may name.
@@ -75,7 +77,7 @@ LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)
 __all__ = [
     # actions and skills
     "Action", "ActionState", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
-    "Skill", "SkillInterrupted", "SkillOutcome", "SkillState",
+    "Skill", "SkillInterrupted", "SkillOutcome", "SkillState", "plan_record",
     # the edge
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
     "NoObjectWithin", "PayloadError", "PredicateError", "Struct", "WorldModelClient",

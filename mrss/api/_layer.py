@@ -28,6 +28,7 @@ from mrss.messages import (
     Message,
     RobotData,
 )
+from mrss.plans import plan_record
 
 
 def check_json(value: Any, what: str) -> None:
@@ -127,6 +128,8 @@ class SkillRuntime(Protocol):
 
     def release(self, resource: str) -> None: ...
 
+    def publish_data(self, data: Mapping[str, JsonValue]) -> bool: ...
+
 
 class Skill:
     """Base of project skills: implement `run`, and `start`, `finish`, `terminate` as needed.
@@ -204,6 +207,21 @@ class Skill:
         check_json(values, f"{self.name} progress")
         self._progress.update(values)
         self._rt().record_progress(values)
+
+    def publish_data(self, **record: JsonValue) -> bool:
+        """Send a robot data record of this skill's robot (`robot.<id>.data`), as the
+        robot's link does with telemetry. False if it could not be sent (logged)."""
+        check_json(record, f"{self.name} data")
+        return self._rt().publish_data(record)
+
+    def publish_plan(self, waypoints: Sequence[Sequence[float]], reached: int) -> bool:
+        """Show the path this skill follows on the dashboard's map: `waypoints` as
+        [lat, lon], the first `reached` of them done. Send it when the plan starts and
+        when a waypoint is reached (not at telemetry rate); the RCL clears it when the
+        action ends (`publish_plan([], 0)` clears it sooner)."""
+        action = self.action
+        return self._rt().publish_data(plan_record(action.uuid, waypoints, reached,
+                                                   action.goal))
 
     def wait(self, seconds: float) -> bool:
         """Sleep up to `seconds`, waking early on interrupt; True when interrupted."""

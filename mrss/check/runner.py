@@ -20,6 +20,7 @@ from mrss.check.agent import AgentUses, read_agent
 from mrss.check.alerts import check_alerts
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
+from mrss.check.map import check_map
 from mrss.check.nodes import check_nodes
 from mrss.check.operator import check_operator
 from mrss.check.options import check_component, check_tables, check_values, declared_options
@@ -68,6 +69,7 @@ def check_project(config: ProjectConfig) -> Report:
     check_operator(config, report, events_running=bool(_running(config, EVENTS)),
                    agent_files=[a for a in agents if a.is_file()])
     check_alerts(config, report)
+    check_map(config, report)
     if uses is not None:
         _queries(uses, datalayer, report)
         if events is not None:

@@ -45,9 +45,10 @@ from mrss.bus.component import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
 from mrss.config import ProjectConfig
 from mrss.errors import ConfigError
+from mrss.map_config import MapConfig
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
-from mrss.tui.mission import project_mission
+from mrss.tui.mission import project_map, project_mission
 from mrss.tui.vocabulary import Vocabulary, project_agent_files
 
 EXIT_CONFIG = 2
@@ -133,6 +134,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     try:
         endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                           file=str(config.file))
+        map_config = project_map(config.file, config.sections)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         if temporary:
@@ -141,7 +143,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     logs.configure("tui", level=logging.DEBUG if args.verbose else logging.INFO,
                    console=False, file=log_path)
     try:
-        code = _run(args, config, run_dir, endpoints, log_path)
+        code = _run(args, config, run_dir, endpoints, log_path, map_config)
     finally:
         if temporary:
             _keep_only(run_dir, log_path)
@@ -153,7 +155,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
 
 
 def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
-         endpoints: BusEndpoints, log_path: Path) -> int:
+         endpoints: BusEndpoints, log_path: Path, map_config: MapConfig) -> int:
     system = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
@@ -163,7 +165,7 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     app = SupervisedApp(endpoints, system, log_path, project=config.name, mission=mission,
                         restart_budget=(config.supervisor.spec.intensity,
                                         config.supervisor.spec.period),
-                        vocabulary=vocabulary, alert_rules=rules)
+                        vocabulary=vocabulary, alert_rules=rules, map_config=map_config)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from mrss.alert_rules import project_alert_rules
     from mrss.config import load_project
     from mrss.tui.app import MrssApp
-    from mrss.tui.mission import project_mission, run_dir_of
+    from mrss.tui.mission import project_map, project_mission, run_dir_of
     from mrss.tui.vocabulary import Vocabulary, project_agent_files
 
     try:
@@ -60,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
         mission = project_mission(config.directory, config.file, config.sections,
                                   args.run_dir or run_dir_of(endpoints.backend))
         rules = project_alert_rules(config.sections, str(config.file))
+        map_config = project_map(config.file, config.sections)
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
                   restart_budget=budget, vocabulary=vocabulary, alert_rules=rules,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
-                  world_every=args.world_every)
+                  world_every=args.world_every, map_config=map_config)
     app.run()
     ended = app.liveness.ended
     print(f"mrss tui: {name}: {ended}" if ended else

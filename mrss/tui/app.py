@@ -30,6 +30,7 @@ from textual.widgets import Footer, Header, Input, Static
 from mrss.alert_rules import AlertRule
 from mrss.bus import BusEndpoints
 from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
+from mrss.map_config import MapConfig
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
@@ -123,7 +124,8 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
                  restart_budget: tuple[int, float] | None = None,
                  vocabulary: Vocabulary | None = None,
-                 alert_rules: tuple[AlertRule, ...] = ()) -> None:
+                 alert_rules: tuple[AlertRule, ...] = (),
+                 map_config: MapConfig | None = None) -> None:
         super().__init__()
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
@@ -143,7 +145,7 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
         self.robots = RobotsModel()
         self.actions = ActionsModel()
         self.liveness = Liveness(stale_after)
-        self.map_model = MapModel()
+        self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel(rules=alert_rules)
         self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
         self.world_every = world_every
@@ -251,6 +253,8 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
             if isinstance(body, ActionStatus):
                 self.actions.apply_status(body, env.ts, env.src)
                 dirty.add("actions")
+                if self.map_model.apply_status(body):
+                    dirty.add("map")
             elif isinstance(body, ActionRequest):
                 self.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")

@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from mrss.errors import MrssError
+from mrss.map_config import SECTION as MAP_SECTION
+from mrss.map_config import MapConfig, read_map
 from mrss.operator_commands import SECTION, OperatorCommand, OperatorConfig, read_operator
 
 ACCEPTED = ("accepted", "duplicate")
@@ -86,6 +88,12 @@ def project_mission(project_dir: Path, file: Path, sections: dict[str, Any],
         return None
     config = read_operator(sections[SECTION], file=str(file))
     return MissionChannel.for_project(config, project_dir, run_dir)
+
+
+def project_map(file: Path, sections: dict[str, Any]) -> MapConfig:
+    """The project's `[map]` styles (defaults without the table); ConfigError if the
+    table is wrong (`mrss check` says the same, with the line)."""
+    return read_map(sections.get(MAP_SECTION), file=str(file))
 
 
 def run_dir_of(backend: str) -> Path | None:

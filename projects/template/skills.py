@@ -7,6 +7,8 @@ on the skill's own thread (it may block on the robot's link, `self.link`), then
 `self.interrupted` and calls `terminate()` from another thread: make `run` return
 soon. `self.record_progress(k=v)` is kept across suspension and restarts and comes back
 in `self.progress`, so a resumed action continues where it left off.
+`self.publish_plan(waypoints, reached)` shows the path on the dashboard's map (send it
+again as each waypoint is reached; the RCL clears it when the action ends).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ class MoveTo(Skill):
         # `self.link.wait_up(10.0)`: an action a restarted RCL resumes starts while the
         # new link still connects, and its command would fail at once (link_down).
         self.link.goto(self.lat, self.lon)
+        self.publish_plan([[self.lat, self.lon]], 0)  # the dashboard's map: where it goes
 
     def run(self) -> bool:
         while not self.link.arrived():

@@ -3,8 +3,10 @@
 FlyTo drives a MAVLink copter (`self.link` is a MavlinkLink), DriveTo an MQTT ground
 robot (an MqttLink); both hold the robot's "motion" resource and wait on the link's
 telemetry with `self.wait`, so an interrupt ends them at once, and stop the robot in
-`finish` when interrupted. ADAPT: your robots' capabilities (docs/robots.md lists what
-each link can do).
+`finish` when interrupted. Each shows where it goes on the dashboard's map
+(`publish_plan`: a skill that follows waypoints sends them all, again as each is
+reached; the RCL clears the plan when the action ends). ADAPT: your robots'
+capabilities (docs/robots.md lists what each link can do).
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ class FlyTo(MoveSkill):
                 return False
         elif self.link.mode != "GUIDED":
             self.link.set_mode("GUIDED")
+        self.publish_plan([[self.lat, self.lon]], 0)  # the dashboard's map: where it goes
         self.link.goto(self.lat, self.lon, self.altitude)
         return self.until(lambda: self.near(self.lat, self.lon), 300.0, "flight")
 
@@ -84,6 +87,7 @@ class DriveTo(MoveSkill):
         self.link.wait_up(10.0)
         if self.near(self.lat, self.lon):
             return True
+        self.publish_plan([[self.lat, self.lon]], 0)
         self.link.goto(self.lat, self.lon, wait=False)
         return self.until(lambda: self.near(self.lat, self.lon), 900.0, "drive")
 

@@ -8,7 +8,10 @@ docs/robots.md) is grounded into the world model and into symbols:
   once the battery is back above `battery_ok` % (hysteresis: one event per low spell);
 - `tank` below `water_low` % of capacity perceives `water_low(R)`, removed above `water_ok`;
 - `hotspot` (the UAV's thermal camera) becomes a world model object `hs<N>` of kind
-  `hotspot`; the world model's rule decides whether it is `hotspot_detected`.
+  `hotspot` (no `state` attribute yet: new); the world model's rule decides whether it
+  is `hotspot_detected`;
+- `supply` (the UGV's SupplyWater skill: `target`, `state` supplying / supplied / new)
+  sets that hotspot's `state` (the dashboard's map colours hotspots by it).
 
 External function for the RCL: `area_polygon(goal)` -> the area's [[lat, lon], ...]
 (a circle area comes back as a 24-gon).
@@ -24,6 +27,7 @@ from typing import Any
 from mrss.api import Atom, Check, DataLayer, Option, external, offset
 
 CIRCLE_VERTICES = 24
+HOTSPOT_STATES = ("new", "supplying", "supplied")  # project.toml [map] colours them
 
 
 def circle(lat: float, lon: float, radius_m: float) -> list[list[float]]:
@@ -92,6 +96,8 @@ class WildfireData(DataLayer):
                                 self.water_ok)
         elif kind == "hotspot":
             self._hotspot(robot, data)
+        elif kind == "supply":
+            self._supply(data)
 
     def _update(self, robot: str, data: Mapping[str, Any], keys: tuple[str, ...]) -> None:
         obj: dict[str, Any] = {"id": robot, "kind": "robot",
@@ -129,3 +135,12 @@ class WildfireData(DataLayer):
         self.log.info("hotspot hs%d at %.6f,%.6f reported by %s (%s)", ident, data["lat"],
                       data["lon"], robot, result.get("op", "?") if isinstance(result, dict)
                       else "?")
+
+    def _supply(self, data: Mapping[str, Any]) -> None:
+        target, state = data.get("target"), data.get("state")
+        if state not in HOTSPOT_STATES or not isinstance(target, str):
+            return
+        found = self.world.get(target)
+        if found is None or found.get("kind") != "hotspot":
+            return
+        self.world.upsert({"id": target, "kind": "hotspot", "attributes": {"state": state}})

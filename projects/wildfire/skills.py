@@ -11,7 +11,11 @@ Conventions:
   the robot is stopped in `finish` (on the skill's own thread, before the resource is
   released), never behind the back of the action that takes over;
 - progress (`waypoint`, `pumped`) is recorded as it is made: a suspended or restarted
-  action continues where it left off.
+  action continues where it left off;
+- CoverArea publishes its lawnmower plan (`publish_plan`), SupplyWater the line to its
+  hotspot: the dashboard's map draws the lanes done and left; SupplyWater also says the
+  hotspot's state (`supply` records: supplying, supplied, new again if it ends undone),
+  which datalayer.py writes to the world model and the map colours (project.toml [map]).
 """
 
 from __future__ import annotations
@@ -98,6 +102,7 @@ class CoverArea(UavSkill):
 
     def run(self) -> bool:
         done = max(self.first, int(self.progress.get("waypoint", 0) or 0))  # type: ignore[arg-type]
+        self.publish_plan(self.waypoints, done)  # the dashboard's map: lanes done and left
         if not self.airborne(self.altitude):
             return False
         for index in range(done, len(self.waypoints)):
@@ -105,6 +110,7 @@ class CoverArea(UavSkill):
             if not self.fly_to(lat, lon, self.altitude):
                 return False
             self.record_progress(waypoint=index + 1, waypoints=len(self.waypoints))
+            self.publish_plan(self.waypoints, index + 1)
             log.info("%s: %s waypoint %d/%d", self.robot, self.action.goal, index + 1,
                      len(self.waypoints))
         return True
@@ -249,9 +255,23 @@ class SupplyWater(UgvSkill):
         self.lat, self.lon, self.litres = lat, lon, litres
 
     def run(self) -> bool:
+        self.tell_state("supplying")
+        self.publish_plan([[self.lat, self.lon]], 0)  # the map: a line to the hotspot
         if not self.drive_to(self.lat, self.lon):
             return False
-        return self.pump(self.litres)
+        if not self.pump(self.litres):
+            return False
+        self.tell_state("supplied")
+        return True
+
+    def finish(self, outcome: SkillOutcome) -> None:
+        super().finish(outcome)
+        if outcome is not SkillOutcome.SUCCEEDED:
+            self.tell_state("new")  # not supplied (yet): the next try says "supplying"
+
+    def tell_state(self, state: str) -> None:
+        """The hotspot's state in the world model (datalayer.py: `supply` records)."""
+        self.publish_data(type="supply", target=self.action.goal, state=state)
 
 
 class ReturnToBase(UgvSkill):

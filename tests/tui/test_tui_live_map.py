@@ -51,6 +51,9 @@ def test_the_live_map_shows_the_world_model_and_a_moving_robot_and_a_hotspot_ale
             await until(pilot, lambda: app.map_model.robots["ugv1"].lon != first,
                         message="ugv1 moved")
             assert app.map_model.robots["ugv1"].heading == 90.0
+            await until(pilot, lambda: "ugv1" in app.map_model.plans, timeout=15,
+                        message="ugv1's plan on the map")
+            assert len(app.map_model.plans["ugv1"].waypoints) == 4
             assert len(app.map_model.robots["ugv1"].track) >= 2
             # an operator adds a hotspot far from water: on the map, and an alert
             with Publisher(endpoints, src="operator") as pub:

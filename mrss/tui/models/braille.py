@@ -35,11 +35,66 @@ class BrailleCanvas:
             self._styles[row][col] = style
 
     def line(self, x0: float, y0: float, x1: float, y1: float, style: str = "") -> None:
-        """Dots along the segment from (x0, y0) to (x1, y1)."""
+        """Dots along the segment from (x0, y0) to (x1, y1): only its part on the canvas
+        is walked, so a zoomed-in view costs no more than a fitted one."""
+        clipped = self._clip(x0, y0, x1, y1)
+        if clipped is None:
+            return
+        x0, y0, x1, y1 = clipped
         steps = min(MAX_LINE_DOTS, max(1, math.ceil(max(abs(x1 - x0), abs(y1 - y0)))))
+        dx, dy = (x1 - x0) / steps, (y1 - y0) / steps
+        bits, styles, width, height = self._bits, self._styles, self.width, self.height
         for i in range(steps + 1):
-            t = i / steps
-            self.dot(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, style)
+            xi, yi = math.floor(x0 + dx * i), math.floor(y0 + dy * i)
+            col, row = xi >> 1, yi >> 2
+            if 0 <= col < width and 0 <= row < height:
+                bits[row][col] |= DOT_BITS[xi & 1][yi & 3]
+                styles[row][col] = style
+
+    def _clip(self, x0: float, y0: float, x1: float,
+              y1: float) -> tuple[float, float, float, float] | None:
+        """The segment cut to the canvas (Liang-Barsky), None if it misses it."""
+        if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
+            return None
+        t0, t1 = 0.0, 1.0
+        dx, dy = x1 - x0, y1 - y0
+        for p, q in ((-dx, x0 + 1), (dx, self.width * 2 + 1 - x0),
+                     (-dy, y0 + 1), (dy, self.height * 4 + 1 - y0)):
+            if p == 0:
+                if q < 0:
+                    return None
+                continue
+            t = q / p
+            if p < 0:
+                t0 = max(t0, t)
+            else:
+                t1 = min(t1, t)
+            if t0 > t1:
+                return None
+        return x0 + t0 * dx, y0 + t0 * dy, x0 + t1 * dx, y0 + t1 * dy
+
+    def polyline(self, points: list[tuple[float, float]], style: str = "") -> None:
+        """Lines through `points` (in dots), in order."""
+        for (x0, y0), (x1, y1) in zip(points, points[1:], strict=False):
+            self.line(x0, y0, x1, y1, style)
+
+    def fill_polygon(self, points: list[tuple[float, float]], style: str = "") -> None:
+        """Every other dot inside the polygon (even-odd rule), so lines over it still show."""
+        finite = [(x, y) for x, y in points if math.isfinite(x) and math.isfinite(y)]
+        if len(finite) < 3:
+            return
+        edges = list(zip(finite, finite[1:] + finite[:1], strict=True))
+        top = max(0, math.floor(min(y for _, y in finite)))
+        bottom = min(self.height * 4 - 1, math.ceil(max(y for _, y in finite)))
+        for y in range(top, bottom + 1, 2):
+            yc = y + 0.5
+            xs = sorted(x0 + (yc - y0) * (x1 - x0) / (y1 - y0)
+                        for (x0, y0), (x1, y1) in edges if (y0 <= yc) != (y1 <= yc))
+            for left, right in zip(xs[::2], xs[1::2], strict=False):
+                start = max(0, math.ceil(left - 0.5))
+                start += (start + y // 2) % 2  # a checkerboard of dots
+                for x in range(start, min(self.width * 2, math.floor(right + 0.5)), 2):
+                    self.dot(x, y, style)
 
     def glyph(self, col: int, row: int, char: str, style: str = "") -> bool:
         """Put one character in a cell (over any dots); False if off the canvas."""

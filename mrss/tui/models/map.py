@@ -1,26 +1,30 @@
-"""What the map panel shows: robots (position, heading, a short track) from telemetry,
-and the world model's objects (hotspots, water sources, bases as points; operator areas
-and other shapes as outlines) from its `wm.list` answers. Drawn onto a braille canvas
-through a `Viewport`. Pure Python: no Textual.
+"""What the map panel shows: robots (position, heading, a short track) and their plans
+(`plan` robot data, mrss.plans: the path flown dim, the path left bright) from robot
+data, and the world model's objects (hotspots, water sources, bases as points; operator
+areas and other shapes as outlines) from its `wm.list` answers, styled by the project's
+`[map]` table (mrss.map_config). Drawn onto a braille canvas through a `Viewport`.
+Pure Python: no Textual.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mrss.messages import RobotData
+from mrss.map_config import MapConfig, PolygonDraw
+from mrss.messages import ActionState, ActionStatus, RobotData
+from mrss.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
 from mrss.tui.models.braille import BrailleCanvas
-from mrss.tui.models.geo import DOTS_X, DOTS_Y, Viewport, heading_arrow
+from mrss.tui.models.geo import DOTS_X, DOTS_Y, METRES_PER_DEGREE, Viewport, heading_arrow
 
 TRACK_LENGTH = 30  # recent positions kept per robot
+RING_VERTICES = 48  # of a `radius_field` ring
+ToDots = Callable[[list[tuple[float, float]]], list[tuple[float, float]]]
+ENDED = frozenset(s.value for s in ActionState if s.terminal)
 ROBOT_STYLES = ("bold cyan", "bold magenta", "bold green", "bold yellow", "bold blue")
-# glyph and style per world-model kind; any other kind shows its initial
-KIND_GLYPHS = {"hotspot": ("✹", "bold red"), "water_source": ("≈", "bold blue"),
-               "base": ("⌂", "bold green"), "robot": ("○", "dim")}
-AREA_STYLE = "yellow"
 
 
 @dataclass
@@ -42,6 +46,16 @@ class WorldShape:
     kind: str
     point: tuple[float, float] | None = None
     lines: list[list[tuple[float, float]]] = field(default_factory=list)
+    attributes: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A robot's planned path: `next` waypoints of it reached (mrss.plans)."""
+
+    action: str
+    waypoints: list[tuple[float, float]]
+    next: int
 
 
 def _number(value: Any) -> float | None:
@@ -59,6 +73,36 @@ def telemetry_position(data: dict[str, Any]) -> tuple[float, float, float | None
     if lat is None or lon is None or abs(lat) > 90 or abs(lon) > 180:
         return None
     return lat, lon, _number(data.get("heading"))
+
+
+def plan_of(data: dict[str, Any]) -> Plan | None:
+    """The Plan of a well-formed `plan` record (no waypoints: an empty plan), else None."""
+    action, waypoints, reached = data.get("action"), data.get("waypoints"), data.get("next")
+    if not isinstance(action, str) or not isinstance(waypoints, list) \
+            or len(waypoints) > PLAN_MAX_WAYPOINTS:
+        return None
+    points: list[tuple[float, float]] = []
+    for item in waypoints:
+        if not isinstance(item, list) or len(item) != 2:
+            return None
+        lat, lon = _number(item[0]), _number(item[1])
+        if lat is None or lon is None or abs(lat) > 90 or abs(lon) > 180:
+            return None
+        points.append((lat, lon))
+    if isinstance(reached, bool) or not isinstance(reached, int) \
+            or not 0 <= reached <= len(points):
+        return None
+    return Plan(action, points, reached)
+
+
+def ring_points(lat: float, lon: float, radius_m: float) -> list[tuple[float, float]]:
+    """A closed ring of RING_VERTICES (lat, lon) `radius_m` around a point."""
+    north = radius_m / METRES_PER_DEGREE
+    east = north / max(1e-6, math.cos(math.radians(lat)))
+    ring = [(lat + north * math.cos(2 * math.pi * i / RING_VERTICES),
+             lon + east * math.sin(2 * math.pi * i / RING_VERTICES))
+            for i in range(RING_VERTICES)]
+    return [*ring, ring[0]]
 
 
 def _geometry_lines(geometry: Any) -> list[list[tuple[float, float]]]:
@@ -88,13 +132,18 @@ def _geometry_lines(geometry: Any) -> list[list[tuple[float, float]]]:
 class MapModel:
     """Robots by id (first heard first) and the world model's objects by id."""
 
-    def __init__(self) -> None:
+    def __init__(self, styles: MapConfig | None = None) -> None:
         self.robots: dict[str, RobotMark] = {}
         self.objects: dict[str, WorldShape] = {}
+        self.plans: dict[str, Plan] = {}  # robot -> its plan
         self.world_error = ""
+        self.styles = styles or MapConfig()
 
     def apply_data(self, data: RobotData) -> bool:
-        """A telemetry message; True if it moved (or placed) a robot."""
+        """A robot data message; True if it moved (or placed) a robot or changed its plan.
+        A malformed plan is ignored; an empty one clears the robot's plan of its action."""
+        if data.data.get("type") == PLAN_RECORD:
+            return self._apply_plan(data.robot, data.data)
         found = telemetry_position(data.data)
         if found is None:
             return False
@@ -109,6 +158,29 @@ class MapModel:
             mark.track.append((lat, lon))
         return True
 
+    def _apply_plan(self, robot: str, data: dict[str, Any]) -> bool:
+        plan = plan_of(data)
+        if plan is None:
+            return False
+        if plan.waypoints:
+            self.plans[robot] = plan
+            return True
+        current = self.plans.get(robot)
+        if current is None or current.action != plan.action:
+            return False  # the end of a plan that another one replaced already
+        del self.plans[robot]
+        return True
+
+    def apply_status(self, status: ActionStatus) -> bool:
+        """An action that ended takes its plan off the map (the RCL also says so with an
+        empty plan; this covers an RCL restarted meanwhile); True if one went."""
+        if status.state not in ENDED:
+            return False
+        ended = [robot for robot, plan in self.plans.items() if plan.action == status.uuid]
+        for robot in ended:
+            del self.plans[robot]
+        return bool(ended)
+
     def apply_world(self, objects: Any) -> bool:
         """The answer to `wm.list`: replaces every object; False if it is not a list."""
         if not isinstance(objects, list):
@@ -118,6 +190,11 @@ class MapModel:
             if not isinstance(obj, dict) or not isinstance(obj.get("id"), str):
                 continue
             shape = WorldShape(obj["id"], str(obj.get("kind", "")))
+            if shape.kind in self.styles.hide:
+                continue
+            attributes = obj.get("attributes")
+            if isinstance(attributes, dict):
+                shape.attributes = attributes
             pos = obj.get("position")
             if isinstance(pos, dict):
                 lat, lon = _number(pos.get("lat")), _number(pos.get("lon"))
@@ -133,35 +210,50 @@ class MapModel:
     def points(self) -> list[tuple[float, float]]:
         """Every position on the map (to fit the view to)."""
         pts = [(m.lat, m.lon) for m in self.robots.values()]
+        for plan in self.plans.values():
+            pts.extend(plan.waypoints)
         for shape in self.objects.values():
             if shape.point is not None:
                 pts.append(shape.point)
+                ring = self.styles.ring(shape.kind, shape.attributes)
+                if ring is not None:
+                    pts.extend(ring_points(*shape.point, ring[0])[::RING_VERTICES // 4])
             pts.extend(p for line in shape.lines for p in line)
         return pts
 
     def draw(self, view: Viewport, width: int, height: int) -> BrailleCanvas:
-        """Areas, then tracks, then objects, then robots (on top) with their names."""
+        """Areas and rings, then tracks and plans, then objects, then robots (on top)
+        with their names."""
         canvas = BrailleCanvas(width, height)
+
+        def dots(line: list[tuple[float, float]]) -> list[tuple[float, float]]:
+            return [view.to_dots(lat, lon, width, height) for lat, lon in line]
+
         for shape in self.objects.values():
+            style = self.styles.line_style(shape.kind, shape.attributes)
+            fill = self.styles.kind(shape.kind).polygon is PolygonDraw.FILL
             for line in shape.lines:
-                dots = [view.to_dots(lat, lon, width, height) for lat, lon in line]
-                for (x0, y0), (x1, y1) in zip(dots, dots[1:], strict=False):
-                    canvas.line(x0, y0, x1, y1, AREA_STYLE)
-            if shape.lines and shape.point is None:
-                lat, lon = shape.lines[0][0]
-                col, row = view.to_cell(lat, lon, width, height)
-                canvas.label(col, row, shape.id, AREA_STYLE)
+                if fill and len(line) >= 3:
+                    canvas.fill_polygon(dots(line), style)
+                canvas.polyline(dots(line), style)
+            if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
+                col, row = view.to_cell(*shape.lines[0][0], width, height)
+                canvas.label(col, row, shape.id, style)
+        for shape in self.objects.values():
+            ring = self.styles.ring(shape.kind, shape.attributes) if shape.point else None
+            if shape.point is not None and ring is not None:
+                canvas.polyline(dots(ring_points(*shape.point, ring[0])), ring[1])
         for i, mark in enumerate(self.robots.values()):
             style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
-            dots = [view.to_dots(lat, lon, width, height) for lat, lon in mark.track]
-            for (x0, y0), (x1, y1) in zip(dots, dots[1:], strict=False):
-                canvas.line(x0, y0, x1, y1, style.replace("bold ", "dim "))
+            canvas.polyline(dots(list(mark.track)), style.replace("bold ", "dim "))
+        for robot, plan in self.plans.items():
+            self._draw_plan(canvas, dots, robot, plan)
         for shape in self.objects.values():
             if shape.point is None:
                 continue
-            char, style = KIND_GLYPHS.get(shape.kind, ((shape.kind or "?")[0], "bold"))
+            char, style = self.styles.point_look(shape.kind, shape.attributes)
             col, row = view.to_cell(*shape.point, width, height)
-            if canvas.glyph(col, row, char, style):
+            if canvas.glyph(col, row, char, style) and self.styles.kind(shape.kind).label:
                 canvas.label(col + 1, row, shape.id, "dim")
         for i, mark in enumerate(self.robots.values()):
             style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
@@ -169,6 +261,22 @@ class MapModel:
             if canvas.glyph(col, row, heading_arrow(mark.heading), style):
                 canvas.label(col + 1, row, mark.robot, style)
         return canvas
+
+    def robot_style(self, robot: str) -> str:
+        """The style of a robot's marker (by the order robots were first heard of)."""
+        robots = list(self.robots)
+        index = robots.index(robot) if robot in robots else len(robots)
+        return ROBOT_STYLES[index % len(ROBOT_STYLES)]
+
+    def _draw_plan(self, canvas: BrailleCanvas, dots: ToDots, robot: str, plan: Plan) -> None:
+        """Done: the waypoints reached, dim; left: from the robot (or the last waypoint
+        reached) on through the rest, in the robot's colour."""
+        colour = self.robot_style(robot).replace("bold ", "")
+        done, left = plan.waypoints[:plan.next], plan.waypoints[plan.next:]
+        canvas.polyline(dots(done), f"dim {colour}")
+        mark = self.robots.get(robot)
+        lead = [(mark.lat, mark.lon)] if mark is not None else done[-1:]
+        canvas.polyline(dots(lead + left), f"bold {colour}")
 
 
 def cell_of(view: Viewport, lat: float, lon: float, width: int,

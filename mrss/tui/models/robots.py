@@ -17,6 +17,7 @@ from mrss.messages import RobotData, RobotState
 
 HISTORY_SECONDS = 300.0  # the sparklines' span: the last five minutes
 SERIES_POINTS = 600
+LONG_LIST = 4  # a longer list in the robot detail is shown as its length
 
 
 @dataclass
@@ -69,6 +70,8 @@ class RobotView:
         for record, data in sorted(self.records.items()):
             for key, value in sorted(data.items()):
                 if key != "type":
+                    if isinstance(value, list) and len(value) > LONG_LIST:
+                        value = f"[{len(value)} items]"  # a plan's waypoints, a grid
                     out.append((f"{record}.{key}" if record else key, value))
         return out
 

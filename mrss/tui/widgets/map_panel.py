@@ -1,7 +1,8 @@
 """MapPanel: the robots, their tracks and the world model's objects on a braille map.
 
 Until the operator zooms or pans, the view fits everything known; `0` goes back to that.
-`f` cycles "follow": the view stays centred on one robot, then the next, then none.
+`f` cycles "follow": the view stays centred on one robot, then the next, then none;
+the title then says how far along its plan it is (`plan 5/12` waypoints reached).
 """
 
 from __future__ import annotations
@@ -65,6 +66,9 @@ class MapPanel(Widget, can_focus=True):
     def _retitle(self, width: int) -> None:
         mode = (f"following {self.following}" if self.following
                 else "fit" if self.auto_fit else "free")
+        plan = self.model.plans.get(self.following or "")
+        if plan is not None:  # how far the followed robot is along its plan
+            mode += f" · plan {plan.next}/{len(plan.waypoints)}"
         empty = "" if self.model.points() else " · no positions yet"
         if self.model.world_error:
             empty += f" · world model: {self.model.world_error[:40]}"

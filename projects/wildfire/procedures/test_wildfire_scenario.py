@@ -87,6 +87,10 @@ def test_area_goal_to_water_on_the_hotspot(tmp_path: Path) -> None:
         system.wait_for(lambda: (system.world("ugv1") or {}).get("attributes", {})
                         .get("water", 200) <= 141, 10, "the tank to show the 60 l pumped")
         assert not system.statuses(state="failed"), system.log()
+        # the dashboard's map colours hotspots by the state the supply skill gave them
+        system.wait_for(lambda: (system.world("hs1") or {}).get("attributes", {})
+                        .get("state") == "supplied", 10, "hs1 supplied in the world model")
+        assert "state" not in (system.world("hs2") or {}).get("attributes", {})
 
         # Ctrl-C: everything stops, exit code 0, no process left behind
         assert system.interrupt() == 0, system.log()
