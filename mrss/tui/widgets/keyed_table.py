@@ -14,10 +14,12 @@ from collections.abc import Sequence
 from rich.text import Text
 from textual.widgets import DataTable
 
+from mrss.tui.widgets.steady_scroll import SteadyScroll
+
 Row = tuple[str, Sequence[Text]]
 
 
-class KeyedTable(DataTable[Text]):
+class KeyedTable(SteadyScroll, DataTable[Text]):
     """A row-cursor DataTable whose rows are replaced as a whole by `show`."""
 
     COLUMNS: tuple[tuple[str, str], ...] = ()  # (key, label)
