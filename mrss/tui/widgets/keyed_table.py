@@ -28,6 +28,7 @@ class KeyedTable(SteadyScroll, DataTable[Text]):
         super().__init__(id=id, cursor_type="row", zebra_stripes=True)
         self.rebuilds = 0  # how many times `show` had to rebuild (tests watch batching)
         self.reorders = 0  # how many times it added / removed rows and sorted instead
+        self.draws = 0  # how many times `show` was called (tests watch the redraw rate)
 
     def on_mount(self) -> None:
         for key, label in self.COLUMNS:
@@ -47,6 +48,7 @@ class KeyedTable(SteadyScroll, DataTable[Text]):
 
     def show(self, rows: Sequence[Row]) -> None:
         """Make the table show exactly `rows`, in order."""
+        self.draws += 1
         keys = [key for key, _ in rows]
         shown = self.shown_keys()
         if keys == shown:
