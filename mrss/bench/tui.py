@@ -125,7 +125,9 @@ async def _measure(endpoints: BusEndpoints, seconds: float, go: Any, done: Any
 
     from mrss.tui.app import MrssApp
 
-    app = MrssApp(endpoints, project="bench", mind_every=0, tree_every=0, world_every=0)
+    # quiet_gc as `mrss tui` runs it (its process is the dashboard)
+    app = MrssApp(endpoints, project="bench", mind_every=0, tree_every=0, world_every=0,
+                  quiet_gc=True)
     drains: list[tuple[float, float]] = []
     ticks: list[tuple[float, float]] = []
     frames: list[tuple[float, float]] = []  # Textual's screen updates: layout, painting

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
                   restart_budget=budget,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
-                  world_every=args.world_every)
+                  world_every=args.world_every, quiet_gc=True)
     app.run()
     ended = app.liveness.ended
     print(f"mrss tui: {name}: {ended}" if ended else

@@ -42,7 +42,7 @@ from mrss.messages import (
     SupEvent,
 )
 from mrss.operator_commands import OperatorConfig
-from mrss.tui import operator
+from mrss.tui import gc_tuning, operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import DetailKeys
 from mrss.tui.events import READONLY_NOTICE, BusActivity
@@ -115,8 +115,10 @@ class MrssApp(Steering, DetailKeys):
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
-                 restart_budget: tuple[int, float] | None = None) -> None:
+                 restart_budget: tuple[int, float] | None = None,
+                 quiet_gc: bool = False) -> None:
         super().__init__()
+        self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
         self.header_clock = header_clock
@@ -197,6 +199,8 @@ class MrssApp(Steering, DetailKeys):
             self.set_interval(self.world_every, self.ask_world)
         self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
+        if self.quiet_gc:
+            self.call_after_refresh(gc_tuning.quiet_gc)  # once the screen is up
 
     def on_unmount(self) -> None:
         self.link.close()

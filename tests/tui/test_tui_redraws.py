@@ -1,10 +1,13 @@
 """What the dashboard repaints: a growing log or table does not lay the whole screen out
-again, and a table changed by every drain is redrawn at most once a `table_every`
-(`mrss bench tui` measures what this saves)."""
+again, a table changed by every drain is redrawn at most once a `table_every`, and the
+dashboard's process quiets its garbage collector (`mrss bench tui` measures all three)."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 from rich.text import Text
 from textual.app import App, ComposeResult
@@ -70,3 +73,32 @@ def test_a_table_changed_by_every_drain_is_redrawn_at_most_once_a_table_every(
             assert app.flushes - flushes > redraws  # drains changed it more often than that
             assert redraws <= elapsed / app.table_every + 2  # ticks included
     run(body())
+
+
+QUIET_GC_SCRIPT = """
+import asyncio, gc, sys
+from mrss.bus import BusEndpoints
+from mrss.tui.app import MrssApp
+from mrss.tui.gc_tuning import THRESHOLDS
+
+async def main():
+    app = MrssApp(BusEndpoints.ipc(sys.argv[1]), project="demo", mind_every=0,
+                  tree_every=0, world_every=0, quiet_gc=True)
+    async with app.run_test(size=(120, 40)) as pilot:
+        for _ in range(200):
+            if gc.get_freeze_count():
+                break
+            await pilot.pause(0.02)
+        print(gc.get_threshold() == THRESHOLDS, gc.get_freeze_count() > 1000)
+
+asyncio.run(main())
+"""
+
+
+def test_the_dashboard_process_quiets_its_garbage_collector_once_the_screen_is_up(
+        tmp_path: Path) -> None:
+    # in a process of its own: freezing the collector is process-wide
+    done = subprocess.run([sys.executable, "-c", QUIET_GC_SCRIPT, str(tmp_path)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "True"]  # thresholds set, the widget tree frozen
