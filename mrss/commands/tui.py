@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
                   restart_budget=budget, vocabulary=vocabulary, alert_rules=rules,
                   mind_every=args.mind_every, tree_every=args.tree_every,
                   readonly=args.readonly, stale_after=args.stale_after,
-                  world_every=args.world_every, map_config=map_config)
+                  world_every=args.world_every, map_config=map_config, quiet_gc=True)
     app.run()
     ended = app.liveness.ended
     print(f"mrss tui: {name}: {ended}" if ended else

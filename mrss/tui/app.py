@@ -44,7 +44,7 @@ from mrss.messages import (
     SupEvent,
 )
 from mrss.operator_commands import GoalState, OperatorConfig
-from mrss.tui import operator
+from mrss.tui import gc_tuning, operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import DetailKeys
 from mrss.tui.events import READONLY_NOTICE, BusActivity
@@ -74,7 +74,8 @@ from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
-TICK_SKIP = 0.6  # the second's tick leaves a table a drain redrew this recently
+TABLES = ("supervision", "robots", "actions", "mission")  # redrawn at most every table_every
+TICK_SKIP = 0.9  # the second's tick leaves a table redrawn this recently (x table_every)
 
 
 class MrssApp(Steering, DetailKeys, OperatorTools):
@@ -125,8 +126,10 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
                  restart_budget: tuple[int, float] | None = None,
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
-                 map_config: MapConfig | None = None) -> None:
+                 map_config: MapConfig | None = None,
+                 quiet_gc: bool = False) -> None:
         super().__init__()
+        self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -160,7 +163,9 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
         self._last_drain = 0.0
         self._drain_pending = False
         self._banner_shown: str | None = None
-        self._drawn: dict[str, float] = {}  # panel -> when a drain last redrew it
+        self.table_every = 2 * min_refresh  # seconds: a table is redrawn at most this often
+        self._drawn: dict[str, float] = {}  # table -> when it was last redrawn (monotonic)
+        self._table_due: set[str] = set()  # tables with a redraw scheduled
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -210,6 +215,8 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
             self.set_interval(self.world_every, self.ask_world)
         self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
+        if self.quiet_gc:
+            self.call_after_refresh(gc_tuning.quiet_gc)  # once the screen is up
 
     def on_unmount(self) -> None:
         self.stop_recording()
@@ -293,18 +300,12 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
                                                                     view.since), view.since))
                     dirty.add("alerts")
         if "actions" in dirty:
-            self.query_one(ActionsTable).refresh_rows(now)
-        if "robots" in dirty:
-            self.query_one(RobotsTable).refresh_rows(now)
-        if "supervision" in dirty:
-            self.query_one(SupervisionTable).refresh_rows(now)
-        drawn = time.monotonic()
-        for panel in dirty & {"actions", "robots", "supervision", "mission"}:
-            self._drawn[panel] = drawn
+            dirty.add("mission")  # its goals' actions
+        for table in TABLES:
+            if table in dirty:
+                self._table_changed(table, now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
-        if "mission" in dirty or "actions" in dirty:
-            self.query_one(MissionPanel).refresh_rows(now)
         if "map" in dirty:
             self.query_one(MapPanel).refresh()
         if "alerts" in dirty:
@@ -350,16 +351,37 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
     def _tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
         now = self.clock()
-        recent = time.monotonic() - TICK_SKIP
+        recent = time.monotonic() - TICK_SKIP * self.table_every
         with suppress(NoMatches):  # the panels are gone: the app is closing
-            tables = (("supervision", self.query_one(SupervisionTable).refresh_rows),
-                      ("robots", self.query_one(RobotsTable).refresh_rows),
-                      ("actions", self.query_one(ActionsTable).refresh_rows),
-                      ("mission", self.query_one(MissionPanel).refresh_rows))
-            for name, refresh_rows in tables:
-                if self._drawn.get(name, 0.0) < recent:  # a drain just drew it: skip
-                    refresh_rows(now)
+            for table in TABLES:
+                # drawn just now, or a redraw is due soon anyway: skip
+                if self._drawn.get(table, 0.0) < recent and table not in self._table_due:
+                    self._draw_table(table, now)
             self._show_liveness()
+
+    def _table_changed(self, table: str, now: float) -> None:
+        """A drain changed what `table` shows: redraw it now, or (drawn less than
+        `table_every` ago) once that much time has passed, whatever else changes meanwhile.
+        Each redraw repaints every visible cell of the table (a `DataTable`), so a table
+        is redrawn at most about once a `table_every` (`mrss bench tui`)."""
+        wait = self._drawn.get(table, -self.table_every) + self.table_every - time.monotonic()
+        if wait <= 0:
+            self._draw_table(table, now)
+        elif table not in self._table_due:
+            self._table_due.add(table)
+            self.set_timer(wait, lambda: self._due_table(table))
+
+    def _due_table(self, table: str) -> None:
+        self._table_due.discard(table)
+        with suppress(NoMatches):  # the panels are gone: the app is closing
+            self._draw_table(table, self.clock())
+
+    def _draw_table(self, table: str, now: float) -> None:
+        self._drawn[table] = time.monotonic()
+        widgets: dict[str, type[ActionsTable | RobotsTable | SupervisionTable | MissionPanel]]
+        widgets = {"actions": ActionsTable, "robots": RobotsTable,
+                   "supervision": SupervisionTable, "mission": MissionPanel}
+        self.query_one(widgets[table]).refresh_rows(now)
 
     def _watch_link(self) -> None:
         """A (new) greeting from the proxy: we (re)connected, so ask for the whole picture."""

@@ -9,15 +9,19 @@ there: it follows the newest row).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
+from rich.console import Console, ConsoleOptions
+from rich.segment import Segment
 from rich.text import Text
 from textual.widgets import DataTable
+
+from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 Row = tuple[str, Sequence[Text]]
 
 
-class KeyedTable(DataTable[Text]):
+class KeyedTable(SteadyScroll, DataTable[Text]):
     """A row-cursor DataTable whose rows are replaced as a whole by `show`."""
 
     COLUMNS: tuple[tuple[str, str], ...] = ()  # (key, label)
@@ -26,6 +30,7 @@ class KeyedTable(DataTable[Text]):
         super().__init__(id=id, cursor_type="row", zebra_stripes=True)
         self.rebuilds = 0  # how many times `show` had to rebuild (tests watch batching)
         self.reorders = 0  # how many times it added / removed rows and sorted instead
+        self.draws = 0  # how many times `show` was called (tests watch the redraw rate)
 
     def on_mount(self) -> None:
         for key, label in self.COLUMNS:
@@ -45,6 +50,7 @@ class KeyedTable(DataTable[Text]):
 
     def show(self, rows: Sequence[Row]) -> None:
         """Make the table show exactly `rows`, in order."""
+        self.draws += 1
         keys = [key for key, _ in rows]
         shown = self.shown_keys()
         if keys == shown:
@@ -88,9 +94,29 @@ class KeyedTable(DataTable[Text]):
                         widths[column] = after.cell_len
 
 
+class Cell(Text):
+    """A table cell's text, drawn without Rich's line wrapping when it fits on its line:
+    a `DataTable` draws every visible cell again on any change, and skipping the
+    wrapping makes that about a sixth cheaper. What is drawn is the same."""
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions
+                         ) -> Iterator[Segment]:
+        plain = self.plain
+        if not plain and not self.spans:
+            yield Segment(self.end)  # nothing to draw: the line ends
+        elif (self.justify or options.justify or "default") == "default" \
+                and "\n" not in plain and "\t" not in plain \
+                and self.cell_len <= options.max_width:
+            # `render` leaves the base style to the caller (wrapping makes it a span)
+            yield from Segment.apply_style(self.render(console, end=self.end),
+                                           console.get_style(self.style))
+        else:
+            yield from super().__rich_console__(console, options)
+
+
 def cell(text: object, style: str = "") -> Text:
     """A table cell: plain text (never markup), optionally styled."""
-    return Text(str(text), style=style, no_wrap=True, overflow="ellipsis")
+    return Cell(str(text), style=style, no_wrap=True, overflow="ellipsis")
 
 
 def age_text(seconds: float) -> str:

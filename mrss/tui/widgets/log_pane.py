@@ -27,6 +27,7 @@ from textual.widgets import Input, RichLog
 
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
 from mrss.tui.models.logfilter import LogEntry, LogFilter, LogFilterError, level_of
+from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 MAX_LINES = 2000
 QUIET_COMMANDS = ("mind", "tree", "snapshot")  # the dashboard's own polling
@@ -67,7 +68,7 @@ def log_line(env: Envelope) -> LogEntry | None:
     return None
 
 
-class LogView(RichLog):
+class LogView(SteadyScroll, RichLog):
     """The scrolling lines; scrolling up pauses following, `End` resumes it."""
 
     BINDINGS: ClassVar[list[BindingType]] = [Binding("f", "scroll_end", "Follow log")]

@@ -1,0 +1,124 @@
+"""What the dashboard repaints: a growing log or table does not lay the whole screen out
+again, a table changed by every drain is redrawn at most once a `table_every`, and the
+dashboard's process quiets its garbage collector (`mrss bench tui` measures all three)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.padding import Padding
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.screen import Screen
+
+from mrss.bus import BusEndpoints
+from mrss.messages import ActionStatus
+from mrss.tui.app import MrssApp
+from mrss.tui.widgets.actions_table import ActionsTable
+from mrss.tui.widgets.keyed_table import Cell, cell
+from mrss.tui.widgets.log_pane import LogView
+from tests.tui.tui_helpers import Peer, connected, row_text, run, until
+
+
+class LogApp(App[None]):
+    CSS = "LogView { height: 10; width: 60; }"
+
+    def compose(self) -> ComposeResult:
+        yield LogView()
+
+
+def test_a_growing_log_lays_the_screen_out_only_when_a_scrollbar_appears() -> None:
+    async def body() -> None:
+        app = LogApp()
+        async with app.run_test(size=(80, 20)) as pilot:
+            view = app.query_one(LogView)
+            await pilot.pause()  # the first layout
+            layouts: list[Screen[None]] = []
+            app.screen.screen_layout_refresh_signal.subscribe(app.screen, layouts.append)
+            before = view.relayouts
+            for i in range(40):  # each line in its own frame
+                view.write(Text(f"line {i}"))
+                await pilot.pause()
+            assert layouts == [] and view.relayouts == before
+            # it still follows: the last line is at the bottom, the thumb sized for 40 lines
+            assert view.scroll_y == view.max_scroll_y == 40 - view.scrollable_content_region.height
+            assert view.vertical_scrollbar.window_virtual_size == 40
+            # a line wider than the view brings the horizontal scrollbar: that is a layout
+            view.write(Text("x" * 200))
+            await until(pilot, lambda: view.show_horizontal_scrollbar, message="scrollbar")
+            assert view.relayouts == before + 1 and layouts
+    run(body())
+
+
+def test_a_table_changed_by_every_drain_is_redrawn_at_most_once_a_table_every(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = MrssApp(endpoints, project="demo", mind_every=0, tree_every=0, world_every=0,
+                      min_refresh=0.05)
+        async with app.run_test(size=(180, 50)) as pilot:
+            await connected(pilot, peer)
+            table = app.query_one(ActionsTable)
+            uuid = "a" * 32
+            draws, flushes, start = table.draws, app.flushes, time.monotonic()
+            for step in range(1, 31):  # a new progress for each drain (0.05 s apart)
+                peer.publish(ActionStatus(uuid=uuid, state="running", robot="ugv1",
+                                          progress={"step": step, "steps": 30}))
+                await pilot.pause(0.03)
+            # the last progress is drawn all the same
+            await until(pilot, lambda: row_text(table, uuid)[6].startswith("30/30")
+                        if table.row_count else False, message="the last progress drawn")
+            elapsed = time.monotonic() - start
+            redraws = table.draws - draws
+            assert app.flushes - flushes > redraws  # drains changed it more often than that
+            assert redraws <= elapsed / app.table_every + 2  # ticks included
+    run(body())
+
+
+QUIET_GC_SCRIPT = """
+import asyncio, gc, sys
+from mrss.bus import BusEndpoints
+from mrss.tui.app import MrssApp
+from mrss.tui.gc_tuning import THRESHOLDS
+
+async def main():
+    app = MrssApp(BusEndpoints.ipc(sys.argv[1]), project="demo", mind_every=0,
+                  tree_every=0, world_every=0, quiet_gc=True)
+    async with app.run_test(size=(120, 40)) as pilot:
+        for _ in range(200):
+            if gc.get_freeze_count():
+                break
+            await pilot.pause(0.02)
+        print(gc.get_threshold() == THRESHOLDS, gc.get_freeze_count() > 1000)
+
+asyncio.run(main())
+"""
+
+
+def test_the_dashboard_process_quiets_its_garbage_collector_once_the_screen_is_up(
+        tmp_path: Path) -> None:
+    # in a process of its own: freezing the collector is process-wide
+    done = subprocess.run([sys.executable, "-c", QUIET_GC_SCRIPT, str(tmp_path)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "True"]  # thresholds set, the widget tree frozen
+
+
+def test_a_table_cell_draws_exactly_what_rich_draws_for_the_same_text() -> None:
+    console = Console(width=40)
+    cases = [("abc", "bold"), ("", "dim"), ("a much longer cell text", "italic"),
+             ("two\nlines", ""), ("tab\there", "red")]
+    for width in (3, 8, 30):
+        options = console.options.update_width(width)
+        for plain, style in cases:
+            ours = cell(plain, style)
+            ours.stylize("underline", 0, 1)
+            theirs = Text(plain, style=style, no_wrap=True, overflow="ellipsis")
+            theirs.stylize("underline", 0, 1)
+            assert isinstance(ours, Cell) and ours == theirs
+            padded = [Padding(ours, (0, 1)), Padding(theirs, (0, 1))]
+            assert (console.render_lines(padded[0], options)
+                    == console.render_lines(padded[1], options)), (plain, width)
