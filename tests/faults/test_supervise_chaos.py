@@ -137,8 +137,12 @@ def test_the_bus_proxys_own_restart_events_reach_a_subscriber_after_it_is_back(
         sub.start(lambda env: late.append(env.body) if isinstance(env.body, SupEvent)
                   and env.body.child == "bus" else None)
         wait_until(lambda: len(late) >= 3, 20, message="the bus proxy's restart events")
-    assert [e.event for e in late] == ["exit", "restart", "start"]
-    exit_, restart, start = late
+    # on a loaded machine the new proxy may miss its start timeout and be restarted once
+    # more: that restart is told after this one, in the same order
+    events = [e.event for e in late]
+    assert events[:3] == ["exit", "restart", "start"], events
+    assert events[3:] == ["exit", "restart", "start"][:len(events) - 3], events
+    exit_, restart, start = late[:3]
     assert exit_.pid == killed and exit_.reason == "killed: SIGKILL"
     assert restart.detail["delay"] == 0.0  # no backoff for the proxy
     assert start.detail["inc"] == before["bus"]["incarnation"] + 1
