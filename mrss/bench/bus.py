@@ -29,6 +29,7 @@ from mrss.testing import find_mosquitto, mosquitto_broker
 QOS0 = "MQTT QoS 0"
 RAW = "raw zmq"  # + " ipc" / " tcp": pyzmq + msgpack between the two processes, no proxy
 BARE = f"{RAW} ipc, bare proxy"  # the same through libzmq's zmq.proxy: the cost of a hop
+DIRECT = "bus ipc, no proxy"  # our Publisher (bind=True) and Subscriber, connected directly
 
 
 class _Child:
@@ -185,6 +186,9 @@ def run(quick: bool) -> BenchReport:
                                "responder": f"ipc://{tmp}/raw-responder.sock"}
         specs[f"{RAW} tcp"] = {"kind": "raw", "driver": raw_tcp.frontend,
                                "responder": raw_tcp.backend}
+        specs[DIRECT] = {"kind": "bus", "direct": {
+            "driver": f"ipc://{tmp}/direct-driver.sock",
+            "responder": f"ipc://{tmp}/direct-responder.sock"}}
         bare = BusEndpoints.ipc(os.path.join(tmp, "bare"))
         _peer(stack, "bare-proxy", {"endpoints": bare.to_dict()}).wait_ready()
         specs[BARE] = {"kind": "raw-proxy", "endpoints": bare.to_dict()}

@@ -3,7 +3,9 @@
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
     python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
-LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]},
+LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} (or, with no proxy,
+{"kind": "bus", "direct": {"driver": EP, "responder": EP}}: each side's Publisher binds
+its EP, its Subscriber connects to the other's),
 {"kind": "mqtt", "host", "port", "qos"}, {"kind": "raw", "driver": EP, "responder": EP}
 (plain pyzmq PUB/SUB between the two processes, each binding its own EP: the limit) or
 {"kind": "raw-proxy", "endpoints": {...}} (the same plain sockets through a bare
@@ -63,8 +65,8 @@ class BusLink:
     """Our bus: a Publisher and a Subscriber."""
 
     def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str,
-                 batching: bool = True) -> None:
-        self.pub = Publisher(endpoints, src=src, batching=batching)
+                 batching: bool = True, bind: bool = False) -> None:
+        self.pub = Publisher(endpoints, src=src, batching=batching, bind=bind)
         self.sub = Subscriber(endpoints, prefixes=topics, name=src)
 
     def publish(self, msg: Message) -> None:
@@ -197,6 +199,10 @@ def make_link(spec: dict[str, Any], topics: list[str], src: str, role: str) -> A
     if spec["kind"] == "raw-proxy":
         ends = spec["endpoints"]
         return RawLink(None, ends["backend"], topics, src, proxy_frontend=ends["frontend"])
+    if spec["kind"] == "bus" and "direct" in spec:  # no proxy: each binds its publisher
+        other = "responder" if role == "driver" else "driver"
+        ends = BusEndpoints(spec["direct"][role], spec["direct"][other])
+        return BusLink(ends, topics, src, bind=True)
     if spec["kind"] == "bus":
         return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
                        batching=spec.get("batching", True))
