@@ -28,6 +28,8 @@ from mrss.testing import find_mosquitto, mosquitto_broker
 
 QOS0 = "MQTT QoS 0"
 RAW = "raw zmq"  # + " ipc" / " tcp": pyzmq + msgpack between the two processes, no proxy
+BARE = f"{RAW} ipc, bare proxy"  # the same through libzmq's zmq.proxy: the cost of a hop
+DIRECT = "bus ipc, no proxy"  # our Publisher (bind=True) and Subscriber, connected directly
 
 
 class _Child:
@@ -184,6 +186,12 @@ def run(quick: bool) -> BenchReport:
                                "responder": f"ipc://{tmp}/raw-responder.sock"}
         specs[f"{RAW} tcp"] = {"kind": "raw", "driver": raw_tcp.frontend,
                                "responder": raw_tcp.backend}
+        specs[DIRECT] = {"kind": "bus", "direct": {
+            "driver": f"ipc://{tmp}/direct-driver.sock",
+            "responder": f"ipc://{tmp}/direct-responder.sock"}}
+        bare = BusEndpoints.ipc(os.path.join(tmp, "bare"))
+        _peer(stack, "bare-proxy", {"endpoints": bare.to_dict()}).wait_ready()
+        specs[BARE] = {"kind": "raw-proxy", "endpoints": bare.to_dict()}
         streams = dict.fromkeys(specs, count)
         binary = find_mosquitto()
         if binary is None:
@@ -232,7 +240,7 @@ def _pair(r: dict[str, Any], base: dict[str, Any] | None) -> str | None:
 def _fill(report: BenchReport, results: dict[str, dict[str, Any]], pings: int) -> None:
     base = results.get(QOS0)
     for name, r in results.items():
-        raw = results.get(f"{RAW} {'tcp' if 'tcp' in name else 'ipc'}")
+        raw = results.get(f"{RAW} {'tcp' if ' tcp' in name else 'ipc'}")
         report.add_row(name, r["messages"], round(100 * r["delivered"], 2), r["rate"],
                        _ratio(r["rate"], raw["rate"] if raw else None),
                        _ratio(r["rate"], base["rate"] if base else None),
@@ -256,9 +264,10 @@ def _fill(report: BenchReport, results: dict[str, dict[str, Any]], pings: int) -
         "handled exactly once. MQTT QoS 1 streams a fifth as many messages (paho and "
         "Mosquitto defaults, 20 in flight). Raw zmq rows: plain pyzmq PUB/SUB sockets between "
         "the two processes (each binds its own, no proxy), the same envelope bytes, msgpack "
-        "unpacked without the bus's validation: the physical limit. MQTT runs with "
-        "TCP_NODELAY on paho's socket and set_tcp_nodelay in Mosquitto (without, QoS 1 "
-        "round trips take ~45-90 ms).")
+        "unpacked without the bus's validation: the physical limit; 'bare proxy' is the same "
+        "through a bare zmq.proxy (XSUB/XPUB, nothing of ours): the cost of a proxy hop. "
+        "MQTT runs with TCP_NODELAY on paho's socket and set_tcp_nodelay in Mosquitto "
+        "(without, QoS 1 round trips take ~45-90 ms).")
     report.notes.append("Every message is a RobotData MRSS envelope of ~160 bytes (encode, "
                         "decode and validate on both sides). Our publisher batches bursts "
                         "(messages < 20 us apart; docs/bus.md), so streams travel in batches "

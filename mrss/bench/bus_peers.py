@@ -3,9 +3,13 @@
     python -m mrss.bench.bus_peers driver|responder LINK_JSON
     python -m mrss.bench.bus_peers reliable-tx|reliable-rx LINK_JSON   (tx: stdin "send N")
 
-LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]},
-{"kind": "mqtt", "host", "port", "qos"} or {"kind": "raw", "driver": EP, "responder": EP}
-(plain pyzmq PUB/SUB between the two processes, each binding its own EP: the limit).
+LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} (or, with no proxy,
+{"kind": "bus", "direct": {"driver": EP, "responder": EP}}: each side's Publisher binds
+its EP, its Subscriber connects to the other's),
+{"kind": "mqtt", "host", "port", "qos"}, {"kind": "raw", "driver": EP, "responder": EP}
+(plain pyzmq PUB/SUB between the two processes, each binding its own EP: the limit) or
+{"kind": "raw-proxy", "endpoints": {...}} (the same plain sockets through a bare
+`zmq.proxy`, started by `python -m mrss.bench.bus_peers bare-proxy LINK_JSON`).
 Both sides do the same application work on every transport: each message is a
 RobotData encoded into an MRSS envelope by the sender and decoded and validated by the
 receiver. Each process prints "ready", then one JSON result line.
@@ -61,8 +65,8 @@ class BusLink:
     """Our bus: a Publisher and a Subscriber."""
 
     def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str,
-                 batching: bool = True) -> None:
-        self.pub = Publisher(endpoints, src=src, batching=batching)
+                 batching: bool = True, bind: bool = False) -> None:
+        self.pub = Publisher(endpoints, src=src, batching=batching, bind=bind)
         self.sub = Subscriber(endpoints, prefixes=topics, name=src)
 
     def publish(self, msg: Message) -> None:
@@ -142,14 +146,19 @@ class RawLink:
     proxy. The same envelope bytes go out (MRSS `encode`); the receiver only unpacks the
     msgpack and fills the message objects, without the bus's validation."""
 
-    def __init__(self, bind: str, peer: str, topics: list[str], src: str) -> None:
+    def __init__(self, bind: str | None, peer: str, topics: list[str], src: str,
+                 proxy_frontend: str | None = None) -> None:
         self.src = src
         self._ids = IdGenerator()
         ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self.pub = ctx.socket(zmq.PUB)
         self.pub.setsockopt(zmq.LINGER, 0)
         self.pub.setsockopt(zmq.SNDHWM, 100_000)
-        self.pub.bind(bind)
+        if proxy_frontend is not None:  # through a bare zmq.proxy: publish to its XSUB
+            self.pub.connect(proxy_frontend)
+        else:
+            assert bind is not None
+            self.pub.bind(bind)
         self.sub = ctx.socket(zmq.SUB)
         self.sub.setsockopt(zmq.LINGER, 0)
         self.sub.setsockopt(zmq.RCVHWM, 100_000)
@@ -187,6 +196,13 @@ def make_link(spec: dict[str, Any], topics: list[str], src: str, role: str) -> A
     if spec["kind"] == "raw":
         other = "responder" if role == "driver" else "driver"
         return RawLink(spec[role], spec[other], topics, src)
+    if spec["kind"] == "raw-proxy":
+        ends = spec["endpoints"]
+        return RawLink(None, ends["backend"], topics, src, proxy_frontend=ends["frontend"])
+    if spec["kind"] == "bus" and "direct" in spec:  # no proxy: each binds its publisher
+        other = "responder" if role == "driver" else "driver"
+        ends = BusEndpoints(spec["direct"][role], spec["direct"][other])
+        return BusLink(ends, topics, src, bind=True)
     if spec["kind"] == "bus":
         return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
                        batching=spec.get("batching", True))
@@ -318,8 +334,26 @@ def reliable_receive(endpoints: BusEndpoints, stop: threading.Event) -> None:
     print(json.dumps({"handled": calls, "unique": len(ids)}), flush=True)
 
 
+def bare_proxy(endpoints: BusEndpoints) -> None:
+    """libzmq's own proxy loop, nothing of ours: XSUB frontend, XPUB backend."""
+    ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
+    frontend, backend = ctx.socket(zmq.XSUB), ctx.socket(zmq.XPUB)
+    for sock, hwm in ((frontend, zmq.RCVHWM), (backend, zmq.SNDHWM)):
+        sock.setsockopt(zmq.LINGER, 0)
+        sock.setsockopt(hwm, 100_000)
+    for path in endpoints.ipc_paths():
+        path.parent.mkdir(parents=True, exist_ok=True)
+    frontend.bind(endpoints.frontend)
+    backend.bind(endpoints.backend)
+    print("ready", flush=True)
+    zmq.proxy(frontend, backend)
+
+
 def main(argv: list[str]) -> int:
     role, spec = argv[0], json.loads(argv[1])
+    if role == "bare-proxy":
+        bare_proxy(BusEndpoints.from_dict(spec["endpoints"]))
+        return 0
     stop = threading.Event()
     if role in ("responder", "reliable-rx"):  # these finish their loop and report
         signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())

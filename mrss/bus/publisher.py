@@ -22,6 +22,7 @@ import zmq
 
 from mrss.bus import sockets
 from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.forwarder import bind_endpoint, clear_stale_socket
 from mrss.errors import BusError
 from mrss.messages import IdGenerator, Message, encode
 
@@ -52,21 +53,35 @@ class Publisher:
     also reports every subscription the proxy passes on, repeats included
     (`subscriptions()`): the root supervisor learns so when a subscriber of its events
     has joined a restarted proxy.
+
+    With `bind` the publisher binds `endpoints.frontend` itself instead of connecting to
+    a proxy there, and subscribers connect straight to it (as their backend): no proxy
+    hop, about half the round trip (docs/bus.md, "Limits"). "Connected" then means a
+    subscriber has subscribed. A building block for direct delivery, which the bus does
+    not do yet: nothing announces such a publisher, so its subscribers must be told
+    where it is.
     """
 
     def __init__(
         self, endpoints: BusEndpoints, src: str, inc: int = 0, *,
         hwm: int = sockets.DEFAULT_HWM, linger: float = 1.0, batching: bool = True,
         context: sockets.Context | None = None, watch_subscriptions: bool = False,
+        bind: bool = False,
     ) -> None:
         self.src = src
         self.inc = inc
         self.endpoints = endpoints
         self._ids = IdGenerator()
         self._lock = threading.Lock()
-        self._sock: sockets.Socket | None = sockets.connect(
-            sockets.context(context), zmq.XPUB, endpoints.frontend, hwm=hwm,
-            linger_ms=int(linger * 1000))
+        self._bound = bind
+        if bind:
+            self._sock: sockets.Socket | None = bound_socket(
+                sockets.context(context), endpoints.frontend, hwm=hwm,
+                linger_ms=int(linger * 1000))
+        else:
+            self._sock = sockets.connect(
+                sockets.context(context), zmq.XPUB, endpoints.frontend, hwm=hwm,
+                linger_ms=int(linger * 1000))
         self._connected = False
         self._sent = 0
         self._batching = batching
@@ -286,6 +301,9 @@ class Publisher:
             self._sock.close()
             self._sock = None
             self._wake.notify_all()
+            if self._bound:
+                for path in BusEndpoints.paths_of([self.endpoints.frontend]):
+                    path.unlink(missing_ok=True)
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join(timeout=5)
 
@@ -295,3 +313,20 @@ class Publisher:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def bound_socket(ctx: sockets.Context, endpoint: str, *, hwm: int, linger_ms: int
+                 ) -> sockets.Socket:
+    """An XPUB bound to `endpoint` (a stale ipc file of a killed owner is removed first)."""
+    for path in BusEndpoints.paths_of([endpoint]):
+        clear_stale_socket(path)
+    sock = ctx.socket(zmq.XPUB)
+    sock.setsockopt(zmq.LINGER, linger_ms)
+    sock.setsockopt(zmq.SNDHWM, hwm)
+    sock.setsockopt(zmq.RCVHWM, hwm)
+    try:
+        bind_endpoint(sock, endpoint)
+    except BusError:
+        sock.close(0)
+        raise
+    return sock

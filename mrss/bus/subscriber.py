@@ -21,6 +21,7 @@ log = sockets.log
 
 # How long a blocked recv waits before it looks whether close() was called.
 _SLICE = 0.05
+_SLICE_MS = int(_SLICE * 1000)
 _NOBLOCK, _RCVMORE, _POLLIN = int(zmq.NOBLOCK), int(zmq.RCVMORE), int(zmq.POLLIN)
 
 
@@ -76,6 +77,8 @@ class Subscriber:
         if self._listen_only:
             sock.setsockopt(zmq.SUBSCRIBE, ANNOUNCEMENT.encode())
         self._sock = sock
+        self._poller = zmq.Poller()  # one for the socket's life: cheaper than sock.poll
+        self._poller.register(sock, _POLLIN)
 
     def _wants(self, topic: str) -> bool:
         return any(topic.startswith(prefix) for prefix in self.prefixes)
@@ -112,18 +115,6 @@ class Subscriber:
             return self._early.popleft()
         if self._batch:
             env = self._next_of_batch()
-            if env is not None:
-                return env
-        # Fast path, taken for most messages under load: one is already waiting.
-        with self._lock:
-            if self._closed:
-                raise BusError("subscriber is closed")
-            try:
-                frames: list[bytes] | None = _recv_multipart(self._sock)
-            except zmq.Again:
-                frames = None
-        if frames is not None:
-            env = self._decode(frames)
             if env is not None:
                 return env
         return self._recv_next(timeout)
@@ -174,15 +165,20 @@ class Subscriber:
                 return env
 
     def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
-        """One multipart message, or None after at most one time slice."""
-        sock = self._sock
-        try:
-            return _recv_multipart(sock)
-        except zmq.Again:
-            pass
-        wait = _SLICE if deadline is None else min(_SLICE, deadline - time.monotonic())
-        if wait > 0 and sock.poll(int(wait * 1000) or 1, _POLLIN):
-            return _recv_multipart(sock)
+        """One multipart message, or None after at most one time slice.
+
+        One poll, which returns at once when a message is waiting, then the frames: no
+        attempt that fails with zmq.Again first (raising it costs more than the poll,
+        and a receiver that waits for each message, as in a request/reply, would pay it
+        on every message).
+        """
+        if deadline is None:
+            wait_ms = _SLICE_MS
+        else:
+            remaining = deadline - time.monotonic()
+            wait_ms = 0 if remaining <= 0 else min(_SLICE_MS, int(remaining * 1000) or 1)
+        if self._poller.poll(wait_ms):
+            return _recv_multipart(self._sock)
         return None
 
     def __iter__(self) -> Iterator[Envelope]:
