@@ -11,7 +11,8 @@ Safety: `q` only detaches this viewer (the system runs on); stopping the system 
 and asks first, naming what stops; so do cancel and teleop. `readonly` refuses every
 control. A picture that never lies: on connecting (and after a proxy restart, and on
 F5) the app asks for a full snapshot (tree, robots, open actions, mind, world model),
-and a red banner says when the system has gone quiet or ended (`models/liveness.py`).
+and a red banner says when the system has gone quiet or ended (`picture.py`). When
+tables are redrawn is `redraws.py`.
 """
 
 from __future__ import annotations
@@ -36,7 +37,6 @@ from mrss.messages import (
     ActionStatus,
     DataReply,
     Envelope,
-    Message,
     MindSnapshot,
     Rejections,
     RobotData,
@@ -57,10 +57,12 @@ from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
-from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
+from mrss.tui.picture import TruthfulPicture
+from mrss.tui.redraws import TABLES, TableRedraws
 from mrss.tui.steering import Steering
 from mrss.tui.vocabulary import Vocabulary
 from mrss.tui.widgets.actions_table import ActionsTable
@@ -73,12 +75,8 @@ from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
-SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
-TABLES = ("supervision", "robots", "actions", "mission")  # redrawn at most every table_every
-TICK_SKIP = 0.9  # the second's tick leaves a table redrawn this recently (x table_every)
 
-
-class MrssApp(Steering, DetailKeys, OperatorTools):
+class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -318,121 +316,6 @@ class MrssApp(Steering, DetailKeys, OperatorTools):
             self.map_model.world_error = reply.error
         elif not self.map_model.apply_world(reply.result):
             self.map_model.world_error = "wm.list answered something other than a list"
-
-    def _system_end(self, event: SupEvent, src: str) -> None:
-        """The root giving up on the whole system ends it: the banner keeps the reason.
-        A component started by the root afterwards is a new run: the banner clears."""
-        if src != ROOT_SRC:
-            return
-        if event.event == "give_up" and event.detail.get("stops") == "system":
-            root = event.supervisor or self.supervision.root or self.project
-            self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
-            self._show_liveness()
-        elif event.event == "stopping" and event.child == (self.supervision.root
-                                                            or event.child):
-            self._system_stopping = True  # its silence, once it falls, is the end
-        elif event.event == "start" and self.liveness.ended:
-            self.liveness.ended = ""
-            self._system_stopping = False
-
-    def _stopped_quietly(self) -> bool:
-        """Silent, after the root said it was stopping, or with every component of the
-        root stopped (but perhaps the bus proxy, which cannot tell its own end over the
-        bus): the system was stopped."""
-        if self.liveness.silence() < self.liveness.stale_after:
-            return False
-        if self._system_stopping:
-            return True  # the root said so (the last exits may not have come through)
-        root = self.supervision.root or self.project
-        states = [n.state for n in self.supervision.nodes.values() if n.parent == root]
-        down = sum(state in ("stopped", "exited", "gave up") for state in states)
-        return "stopped" in states and down >= len(states) - 1
-
-    def _tick(self) -> None:
-        """Once a second: uptimes, ages and the connection state move on."""
-        now = self.clock()
-        recent = time.monotonic() - TICK_SKIP * self.table_every
-        with suppress(NoMatches):  # the panels are gone: the app is closing
-            for table in TABLES:
-                # drawn just now, or a redraw is due soon anyway: skip
-                if self._drawn.get(table, 0.0) < recent and table not in self._table_due:
-                    self._draw_table(table, now)
-            self._show_liveness()
-
-    def _table_changed(self, table: str, now: float) -> None:
-        """A drain changed what `table` shows: redraw it now, or (drawn less than
-        `table_every` ago) once that much time has passed, whatever else changes meanwhile.
-        Each redraw repaints every visible cell of the table (a `DataTable`), so a table
-        is redrawn at most about once a `table_every` (`mrss bench tui`)."""
-        wait = self._drawn.get(table, -self.table_every) + self.table_every - time.monotonic()
-        if wait <= 0:
-            self._draw_table(table, now)
-        elif table not in self._table_due:
-            self._table_due.add(table)
-            self.set_timer(wait, lambda: self._due_table(table))
-
-    def _due_table(self, table: str) -> None:
-        self._table_due.discard(table)
-        with suppress(NoMatches):  # the panels are gone: the app is closing
-            self._draw_table(table, self.clock())
-
-    def _draw_table(self, table: str, now: float) -> None:
-        self._drawn[table] = time.monotonic()
-        widgets: dict[str, type[ActionsTable | RobotsTable | SupervisionTable | MissionPanel]]
-        widgets = {"actions": ActionsTable, "robots": RobotsTable,
-                   "supervision": SupervisionTable, "mission": MissionPanel}
-        self.query_one(widgets[table]).refresh_rows(now)
-
-    def _watch_link(self) -> None:
-        """A (new) greeting from the proxy: we (re)connected, so ask for the whole picture."""
-        welcomes = self.link.welcomes
-        if welcomes != self._welcomes:
-            self._welcomes = welcomes
-            self.ask_snapshot()
-            for delay in SNAPSHOT_RETRIES:
-                self.set_timer(delay, self.ask_snapshot)
-
-    def ask_snapshot(self) -> None:
-        """Ask for everything: the tree (root), robots and open actions (RCL), the mind;
-        and the status of every action shown open (it may have ended unseen)."""
-        self.snapshots_asked += 1
-        requests: list[Message] = [operator.tree_request(), operator.snapshot_request(),
-                                   operator.mind_request(self.agent)]
-        shown_open = [v.uuid for v in self.actions.newest_first() if not v.terminal]
-        if shown_open:
-            requests.append(operator.status_query(shown_open))
-        for request in requests:
-            with suppress(Exception):  # not connected yet: the next ask will do
-                self.link.publish(request)
-        self.ask_world()
-
-    def banner_text(self) -> str:
-        """What the red banner says ("" when the picture is current)."""
-        if not self.liveness.ended and self._stopped_quietly():
-            root = self.supervision.root or self.project
-            self.liveness.end(f"system stopped: every component of {root} stopped")
-        return self.liveness.banner(self.link.connected)
-
-    def _show_liveness(self) -> None:
-        text = self.banner_text()
-        if text == self._banner_shown and self.sub_title:
-            subtitle = text or self._connection_text()
-            if subtitle != self.sub_title:
-                self.sub_title = subtitle
-            return
-        self._banner_shown = text  # a Static's update lays the screen out again: only on change
-        with suppress(NoMatches):
-            banner = self.query_one("#banner", Static)
-            banner.update(text)
-            banner.set_class(bool(text), "-shown")
-            self.query_one(Header).set_class(bool(text), "-stale")
-        self.sub_title = text or self._connection_text()
-
-    def _connection_text(self) -> str:
-        project = f"{self.project} · " if self.project else ""
-        # no message count here: a header title that changes every second lays the whole
-        # screen out again every second (`mrss bench tui`)
-        return f"{project}connected · {self.link.endpoints.backend}"
 
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""
