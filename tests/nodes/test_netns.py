@@ -12,7 +12,9 @@ network namespace). It checks: field's supervision events reach base carrying th
 node; cutting the link (`ip link set ... down`) makes base see field down
 (`sup.node_down` naming its components), ugv1 unavailable and its running action
 failed with `node_down`, a new request refused with it; restoring the link brings
-field back (`sup.node_up`), ugv1 available, and a new action succeeds. Namespace C
+field back (`sup.node_up`), ugv1 available, and a new action succeeds. The dashboard's
+supervision model, fed what base's bus carried, has a level per node and marks field's
+components "node down" while it is lost. Namespace C
 holds a peer with a key the project does not know, and sends garbage: base refuses
 both and logs them, and nothing of C reaches base's bus.
 """
@@ -37,6 +39,7 @@ from mrss.bus.curve import generate, load_public
 from mrss.cli import main
 from mrss.messages import ActionRequest, ActionStatus, Envelope, Percept, RobotState, SupEvent
 from mrss.testing import wait_until
+from mrss.tui.models.supervision import SupervisionModel
 
 HERE = Path(__file__).parent
 PROJECT = HERE / "nodes_project"
@@ -183,11 +186,22 @@ def test_two_nodes_lose_and_regain_each_other_and_refuse_a_stranger(
                     and e.body.event == event and e.body.child == child
                     and not (fresh and e.body.detail.get("repeat"))]
 
+        def tree() -> SupervisionModel:
+            model = SupervisionModel(root="nodesdemo")
+            for e in list(seen):
+                if isinstance(e.body, SupEvent):
+                    model.apply_event(e.body, e.src, e.ts)
+            return model
+
         # field's own root events reach base, carrying their node
         beacon = wait_until(lambda: sup("start", "beacon"), timeout=20,
                             message="field's sup.start of beacon seen on base's bus")[0]
         assert beacon.node == "field"
         wait_until(lambda: sup("node_up", "field"), timeout=10, message="field up at base")
+        # the dashboard's tree, from what base's bus carried: one level per node
+        wait_until(lambda: {"nodesdemo/base/rcl", "nodesdemo/field/beacon"}
+                   <= set(tree().nodes), timeout=10, message="both nodes in the tree")
+        assert tree().nodes["nodesdemo/field"].kind == "node"
 
         def robot(available: bool) -> list[RobotState]:
             return [e.body for e in list(seen) if isinstance(e.body, RobotState)
@@ -213,6 +227,10 @@ def test_two_nodes_lose_and_regain_each_other_and_refuse_a_stranger(
         assert down[0].node == "base"
         lost = wait_until(lambda: robot(False), timeout=10, message="ugv1 unavailable")[-1]
         assert lost.reason.startswith("node down"), lost
+        cut = tree()
+        assert cut.nodes["nodesdemo/field"].state == "down"
+        assert cut.nodes["nodesdemo/field/beacon"].state == "node down"
+        assert cut.nodes["nodesdemo/base/rcl"].state == "running"
         tx.send(ActionRequest(uuid="refused", name="patrol", args=["ugv1", "g", [1]]))
         refused = wait_until(lambda: status("refused", "failed"), timeout=20,
                              message="a request while field is lost refused")[0]
