@@ -13,24 +13,19 @@ from collections.abc import Mapping
 
 from mrss.alert_rules import SECTION, read_alert_rules
 from mrss.check.findings import Report, did_you_mean
+from mrss.check.toml_lines import read_table
 from mrss.config import ProjectConfig
-from mrss.errors import ConfigError
 
 _INDEXED = re.compile(rf"^{SECTION}\[(\d+)\](?:\.(\w+))?$")
 
 
 def check_alerts(config: ProjectConfig, report: Report) -> None:
     """Findings for `[[alerts]]`; nothing when it is absent."""
-    if SECTION not in config.sections:
+    rules = read_table(config, report, SECTION, read_alert_rules, title="[[alerts]]",
+                       line=rule_line)
+    if rules is None:
         return
     file = str(config.file)
-    try:
-        rules = read_alert_rules(config.sections[SECTION], file=file)
-    except ConfigError as exc:
-        key = exc.key or SECTION
-        report.error(file, f"[[alerts]]: {exc.reason}", line=rule_line(config, key),
-                     check="alerts", key=key)
-        return
     robots = declared_robots(config)
     for index, rule in enumerate(rules, start=1):
         if rule.robot and robots and rule.robot not in robots:

@@ -10,9 +10,8 @@ from __future__ import annotations
 import re
 
 from mrss.check.findings import Report
-from mrss.check.toml_lines import key_line
+from mrss.check.toml_lines import key_line, read_table
 from mrss.config import ProjectConfig
-from mrss.errors import ConfigError
 from mrss.map_config import DEFAULT_KINDS, SECTION, MapConfig, read_map
 
 PROJECT_FILES = ("*.py", "*.json", "*.asl")
@@ -20,16 +19,10 @@ PROJECT_FILES = ("*.py", "*.json", "*.asl")
 
 def check_map(config: ProjectConfig, report: Report) -> MapConfig | None:
     """Findings for `[map]`; the table read, or None when it is absent or wrong."""
-    if SECTION not in config.sections:
+    styles = read_table(config, report, SECTION, read_map, title="[map]")
+    if styles is None:
         return None
     file = str(config.file)
-    try:
-        styles = read_map(config.sections[SECTION], file=file)
-    except ConfigError as exc:
-        key = exc.key or SECTION
-        report.error(file, f"[map]: {exc.reason}", line=key_line(config, key),
-                     check="map", key=key)
-        return None
     text = _project_text(config)
     for kind in sorted(set(styles.kinds) | styles.hide):
         if kind in DEFAULT_KINDS or re.search(rf"[\"']{re.escape(kind)}[\"']", text):

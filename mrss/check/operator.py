@@ -14,25 +14,18 @@ from pathlib import Path
 
 from mrss.agentspeak.agent import read_program
 from mrss.check.findings import Report
-from mrss.check.toml_lines import key_line
+from mrss.check.toml_lines import key_line, read_table
 from mrss.config import ProjectConfig
-from mrss.errors import ConfigError
 from mrss.operator_commands import SECTION, OperatorConfig, read_operator
 
 
 def check_operator(config: ProjectConfig, report: Report, *, events_running: bool,
                    agent_files: list[Path]) -> OperatorConfig | None:
     """Findings for `[operator]`; the table read, or None when it is absent or wrong."""
-    if SECTION not in config.sections:
+    operator = read_table(config, report, SECTION, read_operator, title="[operator]")
+    if operator is None:
         return None
     file = str(config.file)
-    try:
-        operator = read_operator(config.sections[SECTION], file=file)
-    except ConfigError as exc:
-        key = exc.key or SECTION
-        report.error(file, f"[operator]: {exc.reason}", line=key_line(config, key),
-                     check="operator", key=key)
-        return None
     if operator.topics and not events_running:
         report.error(file, "[operator] declares commands, but no events manager runs "
                      "(mrss.actors.events:ExternalEventsManager) to make them percepts",
