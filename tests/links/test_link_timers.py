@@ -1,4 +1,4 @@
-"""The shared link timer thread (mrss.links.timers) and the MQTT links' watchdogs on it."""
+"""The shared link loop (mrss.links.timers): its jobs, and the MQTT and MAVLink links on it."""
 
 from __future__ import annotations
 
@@ -7,11 +7,13 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from mrss.links.mavconn import MAV, MavConnection
+from mrss.links.mavlink import MavlinkLink
 from mrss.links.mqtt import MqttLink
 from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.timers import THREAD_NAME, Timers
 from mrss.links.ugv_protocol import ONLINE, UgvTelemetry, UgvTopics
-from mrss.testing import BrokerInfo, wait_until
+from mrss.testing import BrokerInfo, free_port, wait_until
 
 from .test_mavlink_link import Recorder
 
@@ -151,3 +153,71 @@ def test_a_link_whose_telemetry_stops_goes_down_and_comes_back_up(
             assert [up for up, _ in rec.states][-3:] == [True, False, True]
     finally:
         robots.close()
+
+
+class _Vehicles:
+    """MAVLink vehicles as far as a link sees them: a heartbeat every 0.1 s while
+    `alive`, from system 1 of each link's own UDP port."""
+
+    def __init__(self, ports: dict[str, int]) -> None:
+        self.alive = set(ports)
+        self.conns = {r: MavConnection(f"udpout:127.0.0.1:{port}", source_system=1,
+                                       source_component=1) for r, port in ports.items()}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._beat, daemon=True)
+        self._thread.start()
+
+    def _beat(self) -> None:
+        while not self._stop.wait(0.1):  # the vehicles' rate, not a synchronisation
+            for robot in list(self.alive):
+                conn = self.conns[robot]
+                conn.send(conn.conn.mav.heartbeat_encode(
+                    MAV.MAV_TYPE_QUADROTOR, MAV.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 4,
+                    MAV.MAV_STATE_ACTIVE))
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        for conn in self.conns.values():
+            conn.close()
+
+
+@contextmanager
+def _mavlinks(ports: dict[str, int]) -> Iterator[dict[str, tuple[MavlinkLink, Recorder]]]:
+    links: dict[str, tuple[MavlinkLink, Recorder]] = {}
+    try:
+        for robot, port in ports.items():
+            rec = Recorder()
+            link = MavlinkLink(robot, f"udpin:127.0.0.1:{port}", heartbeat_timeout=0.5,
+                               on_link_state=rec.on_state)
+            links[robot] = (link, rec)
+            link.start()
+        for link, _ in links.values():
+            link.wait_up(timeout=20)
+        yield links
+    finally:
+        for link, _ in links.values():
+            link.close()
+
+
+def test_mavlink_udp_links_are_read_by_the_shared_loop_and_see_a_silent_vehicle(
+) -> None:
+    ports = {f"mv{k}": free_port() for k in range(10)}
+    few = dict(list(ports.items())[:2])
+    vehicles = _Vehicles(ports)
+    try:
+        with _mavlinks(few):
+            with_few = {t.name for t in threading.enumerate()}
+            with _mavlinks({r: p for r, p in ports.items() if r not in few}) as links:
+                assert {t.name for t in threading.enumerate()} == with_few  # 8 more links
+                assert len(_timer_threads()) == 1
+                quiet, (link, rec) = "mv5", links["mv5"]
+                vehicles.alive.discard(quiet)
+                wait_until(lambda: not link.up, timeout=10, message=f"{quiet} down")
+                assert rec.states[-1] == (False, "no heartbeat for 0.5 s")
+                assert all(other.up for r, (other, _) in links.items() if r != quiet)
+                vehicles.alive.add(quiet)
+                link.wait_up(timeout=10)
+                assert rec.states[-1] == (True, "heartbeat resumed from system 1")
+    finally:
+        vehicles.close()
