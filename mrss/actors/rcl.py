@@ -286,7 +286,7 @@ class RclCore(RequesterDuties, RobotAvailability):
                 self._reject(request.uuid, _fields(request), reason, requester)
                 return
             action.state, action.reason = ActionState.PENDING, ""
-            self._emit(action.copy(), "", requester)
+            self._emit(action.copy(), "", requester, new=True)  # `_repeat` read the journal
             held = self._held_goals.cause_for(action.goal, requester.src)
             self._tell(action.robot, StartAction(action, held))  # under the lock: before controls
 
@@ -375,11 +375,14 @@ class RclCore(RequesterDuties, RobotAvailability):
 
     # -- plumbing ---------------------------------------------------------------------------
     def _emit(self, action: Action, suspended_by: str,
-              requester: Requester | None = None) -> None:
-        """Journal (committed) first, then publish: a status is never out before it's safe."""
+              requester: Requester | None = None, *, new: bool = False) -> None:
+        """Journal (committed) first, then publish: a status is never out before it's safe.
+
+        `new`: the caller found no journal entry for the uuid under the lock (an accepted
+        request), so it is not looked up again (one read less on the action path)."""
         with self._lock:
             known = self._index.get(action.uuid)
-        if known is None:
+        if known is None and not new:
             done = self.journal.get(action.uuid)
             if done is not None and done.action.terminal:
                 log.warning("action %s is already %s; %s dropped", action.uuid,

@@ -55,6 +55,23 @@ class MavConnection:
             _bind_loopback_sender(self.conn)
         self._queued: deque[Any] = deque()
 
+    @property
+    def datagrams(self) -> bool:
+        """Whether this is a UDP connection (its `socket` may be watched by a selector)."""
+        return self._datagrams
+
+    @property
+    def socket(self) -> Any:
+        """The UDP socket (only for `datagrams`)."""
+        return self.conn.port
+
+    def pending(self) -> bool:
+        """Whether a message is queued or the socket is readable right now (UDP)."""
+        if self._queued:
+            return True
+        readable, _, _ = select.select([self.conn.port], [], [], 0)
+        return bool(readable)
+
     def send(self, message: Any) -> None:
         """Encode and send one MAVLink message (thread-safe)."""
         with self._send_lock:

@@ -3,7 +3,9 @@
 Blocking command helpers (`arm`, `set_mode`, `takeoff`, `goto`, `land`, ...) may be
 called from any thread; they retry unanswered commands and raise LinkDown,
 CommandRejected or CommandTimeout (mrss.links.errors). The link is up while heartbeats
-arrive and goes down after `heartbeat_timeout` seconds without one.
+arrive and goes down after `heartbeat_timeout` seconds without one. A UDP link has no
+thread of its own: the process's shared link loop (mrss.links.timers) reads its socket
+and runs its duties (GCS heartbeat, heartbeat timeout); a stream (TCP, serial) has one.
 
 Failsafe (mrss.links.failsafe): the link is the vehicle's GCS. It sends a GCS heartbeat
 every second while its controller lives (`watch_controller`), sets FS_GCS_ENABLE and
@@ -30,11 +32,15 @@ from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
 from mrss.links.mavlink_signing import down_reason
 from mrss.links.mavlink_telemetry import telemetry_of
+from mrss.links.timers import TIMERS, TimerHandle
 
 GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
 TEXT_REASON_WINDOW_S = 1.0
 REFUSAL_CHECK_S = 0.5
+READ_BATCH = 64         # messages read per turn of the shared loop (then other links)
+TICK_SLACK_S = 0.01     # a duty runs this long after its deadline (never a busy loop)
+FAILSAFE_TICK_S = 0.1   # how often PARAM_SETs are looked at while some are unconfirmed
 
 
 class _PendingCommand:
@@ -72,7 +78,9 @@ class MavlinkLink(RobotLink):
         self.landed: bool | None = None
         self.position_target: tuple[float, float, float] | None = None
         self._conn: MavConnection | None = None
-        self._thread: threading.Thread | None = None
+        self._thread: threading.Thread | None = None  # a stream's own receive thread
+        self._ticker: TimerHandle | None = None  # UDP: duties on the shared link loop
+        self._failsafe_ticking = False
         self._stop = threading.Event()
         self._last_heartbeat: float | None = None
         self._next_gcs_heartbeat = 0.0
@@ -102,6 +110,11 @@ class MavlinkLink(RobotLink):
         except (OSError, ValueError) as exc:
             raise LinkError(self.robot_id, f"cannot open {self.url}: {exc}") from exc
         self._set_link_state(False, "waiting for first heartbeat")
+        if self._conn.datagrams:  # the shared link loop reads it and keeps its time
+            name = f"mavlink-{self.robot_id}"
+            TIMERS.add_reader(self._conn.socket, self._on_readable, name=name)
+            self._ticker = TIMERS.schedule(self._tick, name=name)
+            return
         self._thread = threading.Thread(target=self._receive_loop,
                                         name=f"mavlink-{self.robot_id}", daemon=True)
         self._thread.start()
@@ -109,6 +122,9 @@ class MavlinkLink(RobotLink):
     def close(self) -> None:
         """Stop receiving, close the socket; the link ends down ("link closed")."""
         self._stop.set()
+        if self._ticker is not None and self._conn is not None:
+            self._ticker.cancel()
+            TIMERS.remove_reader(self._conn.socket)  # returns once no callback runs
         if self._thread is not None:
             self._thread.join(timeout=5)
         if self._conn is not None:
@@ -278,6 +294,7 @@ class MavlinkLink(RobotLink):
         return text
 
     def _receive_loop(self) -> None:
+        """A stream connection's own thread (UDP links use the shared loop instead)."""
         assert self._conn is not None
         previous, draining = time.monotonic(), False
         while not self._stop.is_set():
@@ -293,18 +310,62 @@ class MavlinkLink(RobotLink):
                 draining = True  # this process was stalled: read what came meanwhile first
             draining = draining and msg is not None
             previous = now
-            if now >= self._next_gcs_heartbeat:
-                self._next_gcs_heartbeat = now + GCS_HEARTBEAT_S
-                if self._controlled():
-                    self._send(self._mav().heartbeat_encode(
-                        MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0,
-                        MAV.MAV_STATE_ACTIVE))
             self._failsafe.tick(now)
-            self._explain_refusals(now)
-            last = self._last_heartbeat
-            if self.up and not draining and last is not None \
-                    and now - last > self.heartbeat_timeout:
-                self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
+            self._duties(now, draining)
+
+    def _on_readable(self) -> None:
+        """The shared loop: the socket is readable; handle what it holds (a batch)."""
+        conn = self._conn
+        if conn is None or self._stop.is_set():
+            return
+        for _ in range(READ_BATCH):
+            msg = conn.recv(timeout=0)
+            if msg is None:
+                return
+            try:
+                self._dispatch_message(msg)
+            except Exception:
+                self.log.exception("error handling a MAVLink message; continuing")
+
+    def _tick(self) -> float | None:
+        """The shared loop's job for this link: its duties, then the delay to the next
+        (GCS heartbeat, heartbeat timeout, refusal check)."""
+        conn = self._conn
+        if conn is None or self._stop.is_set():
+            return None
+        now = time.monotonic()
+        # Data waiting (after a stall of this process, say) is read before a timeout.
+        self._duties(now, conn.pending())
+        wake = min(self._next_gcs_heartbeat, now + self.heartbeat_timeout)
+        last = self._last_heartbeat
+        if self.up and last is not None:
+            wake = min(wake, last + self.heartbeat_timeout + TICK_SLACK_S)
+        if not self.up and conn.signing is not None:
+            wake = min(wake, self._next_refusal_check)
+        return max(wake - now, TICK_SLACK_S)
+
+    def _failsafe_tick(self) -> float | None:
+        """The shared loop: PARAM_SETs of the failsafe while some are unconfirmed."""
+        if self._stop.is_set() or not self._failsafe.busy:
+            self._failsafe_ticking = False
+            return None
+        self._failsafe.tick(time.monotonic())
+        return FAILSAFE_TICK_S
+
+    def _duties(self, now: float, draining: bool) -> None:
+        """What is due without a message: the GCS heartbeat, the refusals' explanation,
+        the heartbeat timeout (not while `draining` what came during a stall)."""
+        if now >= self._next_gcs_heartbeat:
+            self._next_gcs_heartbeat = now + GCS_HEARTBEAT_S
+            if self._controlled():
+                self._send(self._mav().heartbeat_encode(
+                    MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0,
+                    MAV.MAV_STATE_ACTIVE))
+        self._explain_refusals(now)
+        last = self._last_heartbeat
+        if self.up and not draining and last is not None \
+                and now - last > self.heartbeat_timeout:
+            self._set_link_state(False, f"no heartbeat for {self.heartbeat_timeout:.1f} s")
 
     def _explain_refusals(self, now: float) -> None:
         """While no heartbeat comes, say in the down reason what signing refused."""
@@ -368,6 +429,10 @@ class MavlinkLink(RobotLink):
             what = "heartbeat resumed" if was_seen else "heartbeat"
             if self._set_link_state(True, f"{what} from system {self.target_system}"):
                 self._failsafe.connected()
+                if self._ticker is not None and self._failsafe.busy \
+                        and not self._failsafe_ticking:
+                    self._failsafe_ticking = True
+                    TIMERS.schedule(self._failsafe_tick, name=f"mavlink-{self.robot_id}-fs")
 
     def _on_text(self, msg: Any) -> None:
         text = text_of(msg)

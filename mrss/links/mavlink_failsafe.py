@@ -73,6 +73,11 @@ class FailsafeParams:
         self.failed.update(gone)
         return gone
 
+    @property
+    def pending(self) -> bool:
+        """Whether a parameter still waits for its confirmation (or its next attempt)."""
+        return bool(self._pending)
+
     def confirm(self, name: str, value: float) -> bool:
         """A PARAM_VALUE arrived; True when it confirms the last pending parameter and
         none was given up on."""
@@ -108,6 +113,11 @@ class VehicleFailsafe:
         """The link came up: (re)configure the vehicle."""
         if self.params is not None:
             self.params.begin()
+
+    @property
+    def busy(self) -> bool:
+        """Whether `tick` has work: parameters being set."""
+        return self.params is not None and self.params.pending
 
     def tick(self, now: float) -> None:
         """Send the PARAM_SETs that are due; give up on unconfirmed ones."""

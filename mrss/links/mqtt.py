@@ -32,6 +32,7 @@ from mrss.links.failsafe import (
     FailsafePolicy,
 )
 from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url, with_login
+from mrss.links.timers import TIMERS, TimerHandle
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
     OFFLINE,
@@ -44,6 +45,9 @@ from mrss.links.ugv_protocol import (
     parse_ack,
     parse_telemetry,
 )
+
+WATCH_IDLE_S = 0.1   # before the broker connection: look again this soon for a heartbeat
+WATCH_SLACK_S = 0.01  # run the watchdog this long after a deadline (never busy-loop)
 
 
 class MqttLink(RobotLink):
@@ -80,7 +84,8 @@ class MqttLink(RobotLink):
         self._ids = itertools.count(1)
         self._token = f"{os.getpid():x}{id(self) & 0xFFFF:x}"
         self._stop = threading.Event()
-        self._watchdog: threading.Thread | None = None
+        self._watchdog: TimerHandle | None = None
+        self._next_heartbeat = 0.0
         self._client = new_client(f"mrss-link-{robot_id}-{self._token}", self.address)
         self._client.on_connect = self._on_connect
         self._client.on_disconnect = self._on_disconnect
@@ -90,14 +95,13 @@ class MqttLink(RobotLink):
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> None:
-        """Connect in the background (retrying with backoff) and start the watchdog."""
+        """Connect in the background (retrying with backoff) and start the watchdog (a job
+        of the process's shared link timer thread, mrss.links.timers)."""
         self._set_link_state(False, f"connecting to {self.address.host}:{self.address.port}")
         self._client.connect_async(self.address.host, self.address.port,
                                    keepalive=self.keepalive)
         self._client.loop_start()
-        self._watchdog = threading.Thread(target=self._watch, name=f"mqtt-{self.robot_id}",
-                                          daemon=True)
-        self._watchdog.start()
+        self._watchdog = TIMERS.schedule(self._watch, name=f"mqtt-{self.robot_id}")
 
     def close(self) -> None:
         """Disconnect and stop; the link ends down ("link closed")."""
@@ -105,7 +109,7 @@ class MqttLink(RobotLink):
         self._client.disconnect()
         self._client.loop_stop()
         if self._watchdog is not None:
-            self._watchdog.join(timeout=5)
+            self._watchdog.cancel()
         self._mark_closed()
 
     # -- commands --------------------------------------------------------------------------
@@ -276,14 +280,22 @@ class MqttLink(RobotLink):
             self._set_link_state(True, "control regained after a failsafe" if regained
                                  else f"telemetry from {self.robot_id}")
 
-    def _watch(self) -> None:
-        next_heartbeat = 0.0
-        while not self._stop.wait(0.1):
-            now = time.monotonic()
-            if now >= next_heartbeat and self._heartbeat():
-                next_heartbeat = now + CONTROLLER_HEARTBEAT_S
-            last = self._last_telemetry
-            if self.up and last is not None \
-                    and time.monotonic() - last > self.telemetry_timeout:
+    def _watch(self) -> float | None:
+        """The watchdog job: the controller heartbeat when due, down once telemetry is
+        older than `telemetry_timeout`; returns the seconds until the next of both."""
+        if self._stop.is_set():
+            return None
+        now = time.monotonic()
+        if now >= self._next_heartbeat:
+            self._next_heartbeat = now + (CONTROLLER_HEARTBEAT_S if self._heartbeat()
+                                          else WATCH_IDLE_S)
+        # down: look again within a timeout, for telemetry that may bring it up meanwhile
+        wake = min(self._next_heartbeat, now + self.telemetry_timeout)
+        last = self._last_telemetry
+        if self.up and last is not None:
+            if now - last > self.telemetry_timeout:
                 self._set_link_state(
                     False, f"telemetry timeout: none for {self.telemetry_timeout:.1f} s")
+            else:
+                wake = min(wake, last + self.telemetry_timeout + WATCH_SLACK_S)
+        return max(wake - now, WATCH_SLACK_S)
