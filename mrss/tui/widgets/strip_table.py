@@ -38,6 +38,11 @@ Row = tuple[str, Sequence[Text]]
 _CONTROL = re.compile("[\x00-\x1f\x7f]")  # never sent to the terminal as they are
 
 
+def _printable(plain: str) -> str:
+    """`plain` with control characters (tabs, newlines, escapes) made blanks."""
+    return plain if plain.isprintable() else _CONTROL.sub(" ", plain)
+
+
 def _same(a: Text, b: Text) -> bool:
     """Whether two cells draw the same (`Text.__eq__` ignores the base style)."""
     return a is b or (a.plain == b.plain and a.style == b.style and a.spans == b.spans)
@@ -182,7 +187,7 @@ class StripTable(ScrollView, can_focus=True):
                 new_cells[key], new_lens[key] = old, lens_of[key]
                 continue
             new_cells[key] = cells
-            new_lens[key] = tuple(cell_len(cell.plain) for cell in cells)
+            new_lens[key] = tuple(cell_len(_printable(cell.plain)) for cell in cells)
             strips.pop(key, None)
             changed.append(index)
         self._row_cells, self._row_lens = new_cells, new_lens
@@ -295,15 +300,13 @@ class StripTable(ScrollView, can_focus=True):
         for text, width in zip(cells, self._widths, strict=False):
             if text.spans:  # styled in parts: Rich draws it (not the dashboard's cells)
                 fitted = text.copy()
+                fitted.plain = _printable(fitted.plain)  # as long: the spans stay
                 fitted.truncate(width, overflow="ellipsis", pad=True)
-                fitted.plain = _CONTROL.sub(" ", fitted.plain)
                 segments.append(Segment(gap))
                 segments.extend(fitted.render(self.app.console))
                 gap = pad
                 continue
-            plain = text.plain
-            if not plain.isprintable():
-                plain = _CONTROL.sub(" ", plain)
+            plain = _printable(text.plain)
             size = cell_len(plain)
             if size > width:
                 plain = set_cell_size(plain, width - 1) + "…" if width else ""
