@@ -36,6 +36,7 @@ from textual.strip import Strip
 
 Row = tuple[str, Sequence[Text]]
 _CONTROL = re.compile("[\x00-\x1f\x7f]")  # never sent to the terminal as they are
+_BLANK = Text()
 
 
 def _printable(plain: str) -> str:
@@ -137,6 +138,7 @@ class StripTable(ScrollView, can_focus=True):
         self._row_lens: dict[str, tuple[int, ...]] = {}
         self._row_strips: dict[str, Strip] = {}  # rendered rows (lazily, when drawn)
         self._header_strip: Strip | None = None
+        self._line_width = 0  # the width rows were rendered to
         self._widths = [cell_len(label) for _, label in self.COLUMNS]
         self._cursor = 0
         self._highlighted: str | None = None
@@ -265,13 +267,17 @@ class StripTable(ScrollView, can_focus=True):
     def render_line(self, y: int) -> Strip:
         scroll_x, scroll_y = self.scroll_offset
         width = self.size.width
+        if width != self._line_width:  # rows are rendered as wide as the view at least
+            self._line_width = width
+            self._row_strips.clear()
+            self._header_strip = None
         if y == 0:
             if self._header_strip is None:
                 self._header_strip = self._render_cells(
                     [Text(label) for _, label in self.COLUMNS])
             body, style = self._header_strip, self.get_component_rich_style(
                 "strip-table--header")
-            post = None
+            cursor = None
         else:
             index = scroll_y + y - 1
             if index >= len(self._row_keys):
@@ -284,27 +290,31 @@ class StripTable(ScrollView, can_focus=True):
             body = cached
             style = self.get_component_rich_style(
                 "strip-table--odd-row" if index % 2 else "strip-table--even-row")
-            post = None
-            if index == self._cursor:
-                cursor = self.get_component_rich_style("strip-table--cursor")
-                style += cursor
-                post = Style.from_color(color=cursor.color)  # over the cells' colours
+            cursor = (self.get_component_rich_style("strip-table--cursor")
+                      if index == self._cursor else None)
+        # the crop and the styled line are cached by the row's strip: a row drawn again
+        # (moved, or its stripe changed) makes no new strip
         line = body.crop_extend(scroll_x, scroll_x + width, None)
-        return Strip(Segment.apply_style(line, style, post), width)
+        if cursor is None:
+            return line.apply_style(style)
+        post = Style.from_color(color=cursor.color)  # the cursor's colour over the cells'
+        return Strip(Segment.apply_style(line, style + cursor, post), width)
 
     def _render_cells(self, cells: Sequence[Text]) -> Strip:
-        """One row: each cell's text, padded or cut (with `…`) to its column's width."""
+        """One row: each cell's text, padded or cut (with `…`) to its column's width;
+        as wide as the table, or the view if that is wider."""
         segments: list[Segment] = []
         pad = " " * self.PAD
         gap = pad  # blanks before the next cell's text
-        for text, width in zip(cells, self._widths, strict=False):
+        for column, width in enumerate(self._widths):
+            text = cells[column] if column < len(cells) else _BLANK
             if text.spans:  # styled in parts: Rich draws it (not the dashboard's cells)
                 fitted = text.copy()
                 fitted.plain = _printable(fitted.plain)  # as long: the spans stay
                 fitted.truncate(width, overflow="ellipsis", pad=True)
                 segments.append(Segment(gap))
                 segments.extend(fitted.render(self.app.console))
-                gap = pad
+                gap = pad * 2
                 continue
             plain = _printable(text.plain)
             size = cell_len(plain)
@@ -317,8 +327,13 @@ class StripTable(ScrollView, can_focus=True):
                 gap = " " * (width - size) + pad * 2
             else:
                 gap += " " * width + pad * 2
-        segments.append(Segment(gap[: len(gap) - self.PAD]))
-        return Strip([segment for segment in segments if segment.text])
+        table = self._table_width()
+        line = max(table, self._line_width)
+        segments.append(Segment(gap[: len(gap) - self.PAD] + " " * (line - table)))
+        return Strip([segment for segment in segments if segment.text], line)
+
+    def _table_width(self) -> int:
+        return sum(self._widths) + 2 * self.PAD * len(self._widths)
 
     def _style(self, style: StyleType) -> Style:
         known = self._styles_of.get(style)
@@ -354,8 +369,7 @@ class StripTable(ScrollView, can_focus=True):
         return True
 
     def _resize(self) -> None:
-        width = sum(self._widths) + 2 * self.PAD * len(self._widths)
-        size = Size(width, len(self._row_keys) + 1)
+        size = Size(self._table_width(), len(self._row_keys) + 1)
         if size != self.virtual_size:
             self.virtual_size = size
 
