@@ -160,3 +160,40 @@ def test_a_click_puts_the_cursor_on_a_row_and_a_second_click_selects_it() -> Non
             await pilot.click(Table, offset=(20, 2))
             await until(pilot, lambda: app.selected == ["b"], message="b selected")
     run(body())
+
+
+def test_a_cell_styled_in_parts_keeps_its_styles_and_its_column() -> None:
+    async def body() -> None:
+        app = TableApp()
+        async with app.run_test(size=(60, 12)) as pilot:
+            table = app.query_one(Table)
+            parts = Text.assemble(("ab", "red"), ("c\nd", "blue"))
+            table.show([("r1", [cell("r1"), cell("ok"), cell("n")]),
+                        ("r2", [parts, cell("ok"), cell("n")])])  # not the cursor's row
+            await pilot.pause()
+            assert screen_lines(table)[1:3] == [" r1     ok     n", " abc d  ok     n"]
+            red = [segment for segment in table.render_line(2) if segment.text == "ab"]
+            assert red and red[0].style is not None and red[0].style.color is not None
+            assert red[0].style.color.name == "red"
+    run(body())
+
+
+def test_an_auto_height_table_lays_the_screen_out_only_when_it_gets_taller() -> None:
+    async def body() -> None:
+        app = TableApp()
+        app.CSS = "Table { width: 40; }"  # height: auto (its rows)
+        async with app.run_test(size=(60, 12)) as pilot:
+            table = app.query_one(Table)
+            table.show(rows("a", "b"))
+            await pilot.pause()
+            assert table.region.height == 3
+            before = table.relayouts
+            table.show([("a", [cell("a much wider name"), cell("ok"), cell("")]),
+                        *rows("b")])
+            await pilot.pause()
+            assert table.relayouts == before  # wider, not taller: repainted only
+            assert screen_lines(table)[1] == " a much wider name  ok"
+            table.show(rows("a", "b", "c"))
+            await until(pilot, lambda: table.region.height == 4, message="a row taller")
+            assert table.relayouts == before + 1
+    run(body())
