@@ -148,16 +148,17 @@ def test_keys_move_the_cursor_and_keep_it_in_view_enter_selects() -> None:
 def test_a_click_puts_the_cursor_on_a_row_and_a_second_click_selects_it() -> None:
     async def body() -> None:
         app = TableApp()
+        app.CSS = "Table { height: 8; width: 40; border: round red; }"  # as the panels
         async with app.run_test(size=(60, 12)) as pilot:
             table: Any = app.query_one(Table)
             table.show(rows("a", "b", "c"))
             await pilot.pause()
-            await pilot.click(Table, offset=(3, 2))  # the header is line 0
+            await pilot.click(Table, offset=(3, 3))  # the border, then the header
             assert table.selected_key == "b" and app.selected == []
-            await pilot.click(Table, offset=(3, 0))  # the header: nothing
-            await pilot.click(Table, offset=(3, 6))  # under the last row: nothing
-            assert table.selected_key == "b"
-            await pilot.click(Table, offset=(20, 2))
+            for nothing in ((3, 0), (3, 1), (3, 5), (0, 3)):  # border, header, no row
+                await pilot.click(Table, offset=nothing)
+            assert table.selected_key == "b" and app.selected == []
+            await pilot.click(Table, offset=(20, 3))
             await until(pilot, lambda: app.selected == ["b"], message="b selected")
     run(body())
 
