@@ -13,8 +13,8 @@ row moved down by a new row on top is not rendered again.
 The rows are given as a whole: `show([(key, cells), ...])`. The cursor stays on its
 row's key when rows come or go above it (a cursor on the first row stays there: it
 follows the newest row). Up / down / PgUp / PgDn / Home / End move it, a click puts it
-on a row; Enter, or a click on the cursor's row, posts `RowSelected`; a new row under
-the cursor posts `RowHighlighted`.
+on a row; Enter, or a click on the cursor's row, posts `RowSelected`; the cursor coming
+to another row's key posts `RowHighlighted`.
 """
 
 from __future__ import annotations
