@@ -6,7 +6,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from textual.app import App
-from textual.widgets import DataTable
 
 from mrss.tui.details import ActionDetail, ComponentDetail, DetailScreen, RobotDetail
 from mrss.tui.models.actions import ActionsModel
@@ -17,6 +16,7 @@ from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.mission_panel import MissionPanel
 from mrss.tui.widgets.robots_table import RobotsTable
+from mrss.tui.widgets.strip_table import StripTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 
@@ -33,12 +33,10 @@ class DetailKeys(App[None]):
     def _say(self, text: str, *, error: bool = False) -> None:
         raise NotImplementedError
 
-    def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
+    def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
         """Enter on a row: the detail screen of that action, goal, component or robot."""
-        key = event.row_key.value
-        if key is None:
-            return
-        table = event.data_table
+        key = event.row_key
+        table = event.table
         screen: DetailScreen | None = None
         if isinstance(table, ActionsTable):
             screen = ActionDetail(self.actions, key, clock=self.clock)

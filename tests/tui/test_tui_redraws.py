@@ -9,8 +9,6 @@ import sys
 import time
 from pathlib import Path
 
-from rich.console import Console
-from rich.padding import Padding
 from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.screen import Screen
@@ -19,7 +17,6 @@ from mrss.bus import BusEndpoints
 from mrss.messages import ActionStatus
 from mrss.tui.app import MrssApp
 from mrss.tui.widgets.actions_table import ActionsTable
-from mrss.tui.widgets.keyed_table import Cell, cell
 from mrss.tui.widgets.log_pane import LogView
 from tests.tui.tui_helpers import Peer, connected, row_text, run, until
 
@@ -105,20 +102,3 @@ def test_the_dashboard_process_quiets_its_garbage_collector_once_the_screen_is_u
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True", "True"]  # thresholds set, the widget tree frozen
-
-
-def test_a_table_cell_draws_exactly_what_rich_draws_for_the_same_text() -> None:
-    console = Console(width=40)
-    cases = [("abc", "bold"), ("", "dim"), ("a much longer cell text", "italic"),
-             ("two\nlines", ""), ("tab\there", "red")]
-    for width in (3, 8, 30):
-        options = console.options.update_width(width)
-        for plain, style in cases:
-            ours = cell(plain, style)
-            ours.stylize("underline", 0, 1)
-            theirs = Text(plain, style=style, no_wrap=True, overflow="ellipsis")
-            theirs.stylize("underline", 0, 1)
-            assert isinstance(ours, Cell) and ours == theirs
-            padded = [Padding(ours, (0, 1)), Padding(theirs, (0, 1))]
-            assert (console.render_lines(padded[0], options)
-                    == console.render_lines(padded[1], options)), (plain, width)

@@ -81,7 +81,7 @@ def row_text(table: Any, key: str) -> list[str]:
 
 
 def has_row(table: Any, key: str) -> bool:
-    return any(k.value == key for k in table.rows)
+    return key in table.shown_keys()
 
 
 async def connected(pilot: Pilot[Any], peer: Peer) -> None:

@@ -5,7 +5,9 @@ virtual (scrollable) size changes: each new log line, each new table row or wide
 column. That is half of what the dashboard spends painting (`mrss bench tui`). A panel
 whose own size does not depend on its content (neither its width nor its height is
 `auto`) needs that only when one of its scrollbars appears or disappears; otherwise
-its scrollbars' thumbs are updated and the panel alone is repainted.
+its scrollbars' thumbs are updated and the panel alone is repainted. A panel of `auto`
+height needs it when its content gets taller or shorter, not wider (and the other
+way round for an `auto` width).
 
 Mix it in before the Textual class: `class LogView(SteadyScroll, RichLog)`.
 """
@@ -50,10 +52,14 @@ class SteadyScroll(_Base):
     virtual_size: Reactive[Size] = Reactive(Size(0, 0), layout=False)
     relayouts = 0  # virtual size changes that did lay the screen out (tests watch it)
 
-    def watch_virtual_size(self, size: Size) -> None:
+    def watch_virtual_size(self, old: Size, size: Size) -> None:
         styles = self.styles
-        sized_by_content = any(scalar is not None and scalar.is_auto
-                               for scalar in (styles.width, styles.height))
+        # a panel sized by its content (`height: auto`) changes size with it (the extent
+        # that sizes it, not the other: a wider row does not make a table taller)
+        sized_by_content = any(
+            scalar is not None and scalar.is_auto and before != after
+            for scalar, before, after in ((styles.width, old.width, size.width),
+                                          (styles.height, old.height, size.height)))
         if (sized_by_content or not self.container_size
                 or scrollbars_for(self, size) != (self.show_horizontal_scrollbar,
                                                   self.show_vertical_scrollbar)):
