@@ -62,7 +62,7 @@ from mrss.tui.models.topics import TopicsModel
 from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
 from mrss.tui.picture import TruthfulPicture
-from mrss.tui.redraws import TABLES, TableRedraws
+from mrss.tui.redraws import PANELS, TableRedraws
 from mrss.tui.steering import Steering
 from mrss.tui.vocabulary import Vocabulary
 from mrss.tui.widgets.actions_table import ActionsTable
@@ -299,13 +299,11 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
                     dirty.add("alerts")
         if "actions" in dirty:
             dirty.add("mission")  # its goals' actions
-        for table in TABLES:
+        for table in PANELS:
             if table in dirty:
                 self._table_changed(table, now)
         if mind is not None and isinstance(mind.body, MindSnapshot):
             self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
-        if "map" in dirty:
-            self.query_one(MapPanel).refresh()
         if "alerts" in dirty:
             self.query_one(AlertsStrip).show_alerts()
         if lines:
