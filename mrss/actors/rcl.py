@@ -55,6 +55,7 @@ from mrss.messages import (
     ActionStatus,
     FailureCause,
     Message,
+    SupEvent,
     build,
 )
 from mrss.plans import PlanBoard
@@ -65,6 +66,7 @@ from mrss.supervision import (
     SupervisorSpec,
     actor_child,
 )
+from mrss.supervision.remote import TREE_EVENT
 
 log = logging.getLogger("mrss.rcl")
 
@@ -351,10 +353,11 @@ class RclCore(RequesterDuties, RobotAvailability):
 
     def snapshot(self) -> int:
         """Answer an observer's `Command("snapshot")`: every robot's state, every open
-        action's current status (`repeat`, with name and goal) and the latest plan its
-        skills sent, so a dashboard that attaches late misses nothing. Returns how many
-        statuses went out."""
+        action's current status (`repeat`, with name and goal), the latest plan its
+        skills sent and the tree of its robot actors (`sup.tree`), so a dashboard that
+        attaches late misses nothing. Returns how many statuses went out."""
         self.announce_robots()
+        self._publish_actor_tree()
         for robot, record in self._plans.current():
             self.layer.publish_data(robot, record)
         with self._lock:
@@ -362,6 +365,18 @@ class RclCore(RequesterDuties, RobotAvailability):
             for entry in entries:
                 self._publish(entry.action, repeat=True)
         return len(entries)
+
+    def _publish_actor_tree(self) -> None:
+        robots = self.robots
+        if robots is None:
+            return
+        try:
+            tree = robots.proxy().tree().get(timeout=1.0)
+        except (pykka.ActorDeadError, pykka.Timeout):
+            return  # stopping or busy: the actors' own events tell the rest
+        # scope "component": the tree of a supervisor inside this component, not the root's
+        self.publish(SupEvent(event=TREE_EVENT, child=tree.id,
+                              detail={"tree": tree.to_dict(), "scope": "component"}))
 
     def state(self, uuid: str) -> ActionState | None:
         """The last journaled state of an action (None if never seen)."""

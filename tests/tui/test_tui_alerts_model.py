@@ -119,3 +119,11 @@ def test_a_goal_that_fails_for_good_is_a_severe_alert_each_time() -> None:
     alert = model.goal_failed("a1", "uav1", 5.0)
     assert alert.line() == "goal failed: a1 (uav1)" and alert.kind in SEVERE
     assert model.goal_failed("a1", "uav1", 9.0).count == 2  # sent again, failed again
+
+
+def test_a_components_own_tree_names_its_actors_under_the_component() -> None:
+    model = AlertsModel()
+    raised = model.apply(env(SupEvent(event="tree", child="robots", detail={
+        "scope": "component", "tree": {"id": "robots", "children": [
+            {"id": "uav1", "budget": [2, 2, 10.0]}]}})))  # sent by the RCL (src rcl)
+    assert [(a.kind, a.subject) for a in raised] == [(AlertKind.BUDGET, "rcl/robots/uav1")]

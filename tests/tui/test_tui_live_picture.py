@@ -56,6 +56,9 @@ def test_a_late_dashboard_gets_the_whole_picture_then_progress_and_x_stops_the_s
                                            for r in ("ugv1", "ugv2")),
                         timeout=15, message="both robots available, links up")
             await until(pilot, lambda: actions.row_count == 1, message="the running action")
+            # the RCL's robot actors, from its snapshot's tree: not only from events seen
+            await until(pilot, lambda: {"tuidemo/rcl/robots/ugv1", "tuidemo/rcl/robots/ugv2"}
+                        <= set(app.supervision.nodes), message="the actor rows")
             uuid = actions.selected_key or ""
             row = row_text(actions, uuid)
             assert row[1:5] == ["patrol", "ugv1", "area1", "running"]  # named by the RCL

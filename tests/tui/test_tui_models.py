@@ -136,6 +136,19 @@ def test_supervision_model_has_a_level_per_node_and_marks_a_lost_nodes_component
     assert model.nodes["demo/field/beacon"].state == "running"  # as before the loss
 
 
+def test_a_components_own_tree_hangs_under_the_component() -> None:
+    model = SupervisionModel()
+    model.apply_event(SupEvent(event="tree", child="demo", detail={"tree": {
+        "id": "demo", "children": [{"id": "rcl", "state": "running"}]}}), "supervisor", 1.0)
+    model.apply_event(SupEvent(event="tree", child="robots", detail={"scope": "component",
+        "tree": {"id": "robots", "kind": "supervisor", "state": "running", "children": [
+            {"id": "uav1", "kind": "worker", "state": "running", "restarts": 2}]}}),
+        "rcl", 2.0)
+    assert [n.path for n in model.rows()] == ["demo", "demo/rcl", "demo/rcl/robots",
+                                              "demo/rcl/robots/uav1"]
+    assert model.nodes["demo/rcl/robots/uav1"].restarts == 2
+
+
 def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
     model = SupervisionModel()
     model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {"id": 3}}), "s", 1.0)

@@ -157,7 +157,9 @@ class AlertsModel:
                                    refusal_text(body), env.ts)
         if isinstance(body, SupEvent) and body.event == "tree":
             tree = body.detail.get("tree")
-            return self._budgets(tree, "", env.ts) if isinstance(tree, dict) else []
+            # a component's own tree (the RCL's robot actors) hangs under the component
+            parent = env.src if body.detail.get("scope") == "component" else ""
+            return self._budgets(tree, parent, env.ts) if isinstance(tree, dict) else []
         if isinstance(body, SupEvent):
             kind = {"restart": AlertKind.RESTARTED, "hang": AlertKind.HUNG,
                     "give_up": AlertKind.GAVE_UP, "quarantine": AlertKind.QUARANTINED

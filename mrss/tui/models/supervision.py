@@ -87,7 +87,14 @@ class SupervisionModel:
         if event.event == TREE_EVENT:
             tree = event.detail.get("tree")
             if isinstance(tree, dict):
-                self.apply_tree(tree, ts, node=event.node)
+                # the root's tree, or a component's own (the RCL's robot actors), under it
+                own = event.detail.get("scope") == "component"
+                base = self._component_path(src, event.node) if own else ""
+                if base:
+                    self._ensure(base)
+                    self.apply_tree(tree, ts, base)
+                else:
+                    self.apply_tree(tree, ts, node=event.node)
             return
         if event.event in (NODE_DOWN, NODE_UP):
             self._node_state(event)
