@@ -90,6 +90,7 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
     .panel:focus-within { border: round $accent; }
     #supervision, #mind, #map { width: 1fr; }
     #robots, #log { width: 1fr; }
+    #supervision, #robots { height: 100%; }  /* the row's height, not their rows' */
     #banner { display: none; height: 1; padding: 0 1; background: $error;
               color: $text; text-style: bold; }
     #banner.-shown { display: block; }
