@@ -57,9 +57,10 @@ class PerceptLedger:
         row = self._db.execute("SELECT COALESCE(MAX(seq), 0) FROM percepts").fetchone()
         self._seq = int(row[0])
 
-    def add(self, literal: str) -> None:
-        """The agent perceives `literal` (a repeat keeps its first place)."""
-        key = percept_key(literal)
+    def add(self, literal: str, parsed: Struct | None = None) -> None:
+        """The agent perceives `literal` (a repeat keeps its first place); `parsed`, the
+        same literal already read, saves reading it again."""
+        key = percept_key(literal if parsed is None else parsed)
         with self._lock:
             self._seq += 1
             self._db.execute("INSERT INTO percepts VALUES (?,?,?) ON CONFLICT(key) DO "

@@ -288,9 +288,13 @@ class RclCore(RequesterDuties, RobotAvailability):
                 self._reject(request.uuid, _fields(request), reason, requester)
                 return
             action.state, action.reason = ActionState.PENDING, ""
-            self._emit(action.copy(), "", requester, new=True)  # `_repeat` read the journal
             held = self._held_goals.cause_for(action.goal, requester.src)
-            self._tell(action.robot, StartAction(action, held))  # under the lock: before controls
+            start = StartAction(action, held)
+            # Journaled first, then the robot actor is told (it starts the skills while
+            # PENDING goes out), all under the lock: a later control comes after the
+            # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
+            self._emit(action.copy(), "", requester, new=True,  # `_repeat` read the journal
+                       before_publish=lambda: self._tell(action.robot, start))
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
@@ -390,11 +394,13 @@ class RclCore(RequesterDuties, RobotAvailability):
 
     # -- plumbing ---------------------------------------------------------------------------
     def _emit(self, action: Action, suspended_by: str,
-              requester: Requester | None = None, *, new: bool = False) -> None:
+              requester: Requester | None = None, *, new: bool = False,
+              before_publish: Callable[[], None] | None = None) -> None:
         """Journal (committed) first, then publish: a status is never out before it's safe.
 
         `new`: the caller found no journal entry for the uuid under the lock (an accepted
-        request), so it is not looked up again (one read less on the action path)."""
+        request), so it is not looked up again (one read less on the action path).
+        `before_publish` runs after the commit, under the lock, before the publication."""
         with self._lock:
             known = self._index.get(action.uuid)
         if known is None and not new:
@@ -413,6 +419,8 @@ class RclCore(RequesterDuties, RobotAvailability):
             else:
                 self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
                                                   requester)
+            if before_publish is not None:
+                before_publish()
             self._publish(action)
 
     def _publish(self, action: Action, repeat: bool = False) -> None:

@@ -244,7 +244,7 @@ class Reasoner:
         if self.ledger is not None:
             try:
                 if percept.op == "add":
-                    self.ledger.add(percept.literal)
+                    self.ledger.add(percept.literal, literal)
                 else:
                     self.ledger.remove(literal)
             except (sqlite3.Error, OSError) as exc:

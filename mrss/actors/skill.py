@@ -144,8 +144,10 @@ class SkillActor(pykka.ThreadingActor):
         skill._bind(runner)
 
     def _start_actor_loop(self) -> None:
+        # The worker first: it calls the skill's start(), so it takes the first idle
+        # thread; its report waits in the inbox until the actor loop runs.
+        ACTOR_THREADS.submit(self._work)
         ACTOR_THREADS.submit(self._actor_loop)
-        ACTOR_THREADS.submit(self._work)  # its report waits in the inbox if need be
 
     def on_receive(self, message: Any) -> Any:
         if isinstance(message, Interrupt):

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import pytest
 
+from mrss.actors.journal import ActionJournal
+from mrss.api import Skill
 from mrss.messages import ActionRequest, FailureCause, SupEvent
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import Crash, RclEnv, request_fields
@@ -188,3 +191,41 @@ def test_unavailable_robot_rejects_new_actions(rcl_env: RclEnv) -> None:
     core.set_available("uav1", True)
     core.submit_fields(request_fields("u2", "noop", "uav1", "g1"))
     wait_until(rcl_env.statuses.reached("u2", "succeeded"))
+
+
+class _JournalProbe(Skill):
+    """Reads the journal through a connection of its own first thing in `start()`."""
+
+    def __init__(self, journal_path: Path, seen: dict[str, str | None]) -> None:
+        self.journal_path, self.seen = journal_path, seen
+
+    def start(self) -> None:
+        reader = ActionJournal(self.journal_path)
+        try:
+            entry = reader.get(self.action.uuid)
+            self.seen[self.action.uuid] = None if entry is None else entry.action.state.value
+        finally:
+            reader.close()
+
+    def run(self) -> bool:
+        return True
+
+
+def test_skills_start_after_the_commit_and_pending_is_published_before_running(
+        rcl_env: RclEnv) -> None:
+    # The robot actor is told right after the journal commit, while PENDING goes out:
+    # its skills may start first, but never before the action is journaled (a SIGKILL
+    # then restores it), and its RUNNING is never published before PENDING.
+    seen: dict[str, str | None] = {}
+    rcl_env.layer.recipes["probe"] = lambda a: [_JournalProbe(rcl_env.journal_path, seen)]
+    core = rcl_env.start()
+    uuids = [f"p{i}" for i in range(30)]
+    for i, uuid in enumerate(uuids):
+        core.submit_fields(request_fields(uuid, "probe", ("ugv1", "ugv2", "uav1")[i % 3], "g"))
+    for uuid in uuids:
+        wait_until(rcl_env.statuses.reached(uuid, "succeeded"), message=f"{uuid} succeeded")
+    assert {uuid: seen.get(uuid) in ("pending", "running") for uuid in uuids} == \
+        {uuid: True for uuid in uuids}
+    assert {uuid: rcl_env.statuses.states(uuid) for uuid in uuids} == \
+        {uuid: ["pending", "running", "succeeded"] for uuid in uuids}
+    assert rcl_env.statuses.check_failures == []

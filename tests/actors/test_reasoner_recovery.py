@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
 from mrss.actors.reasoner import Reasoner
 from mrss.edge.datalayer_client import DataLayerError, DataLayerUnavailable
@@ -228,6 +229,19 @@ def test_the_ledger_keeps_standing_percepts_and_forgets_consumed_ones(tmp_path: 
     assert again.standing() == ["area(g1,3)", "battery_low(uav1)"]
     again.close()
     assert PerceptLedger(path, fresh=True).standing() == []
+
+
+def test_a_percept_given_to_the_ledger_already_read_is_keyed_as_its_text(
+        tmp_path: Path) -> None:
+    ledger = PerceptLedger(tmp_path / "ledger.sqlite3", fresh=True)
+    text = "hotspot(h1, -35.1, 149.2)[temp(400)]"
+    ledger.add(text, checked_literal(text))
+    ledger.add("hotspot(h1,-35.1,149.2)")  # the same percept, from its text
+    ledger.add("area(g1, 3)", checked_literal("area(g1, 3)"))
+    assert ledger.standing() == ["hotspot(h1,-35.1,149.2)", "area(g1, 3)"]
+    ledger.remove(checked_literal("area(g1,3)[seen(2)]"))
+    assert ledger.standing() == ["hotspot(h1,-35.1,149.2)"]
+    ledger.close()
 
 
 def test_a_data_layer_that_does_not_answer_fails_the_query_as_transient(tmp_path: Path) -> None:
