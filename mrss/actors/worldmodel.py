@@ -51,11 +51,11 @@ from mrss.edge.worldmodel_access import WORLD_MODEL_URL_FILE
 from mrss.edge.worldmodel_http import DEFAULT_TIMEOUT, WorldModelHttp
 from mrss.edge.worldmodel_rules import RuleEngine
 from mrss.edge.worldmodel_service import (
-    WM_REPLY_TOPIC,
     WM_REQUEST_TOPIC,
     WorldModel,
     load_rules,
     load_seed,
+    wm_reply_topic,
 )
 from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore, postgres_url_problem
 from mrss.errors import ConfigError
@@ -221,7 +221,7 @@ class WorldModelComponent(Component):
         if env.topic != WM_REQUEST_TOPIC or not isinstance(body, DataRequest):
             return
         assert self.world is not None and self._bus is not None
-        self._bus.publish(self.world.handle(body), topic=WM_REPLY_TOPIC)
+        self._bus.publish(self.world.handle(body), topic=wm_reply_topic(env.src))
 
     def stop(self) -> None:
         """Stop HTTP and the bus handlers, close the store."""

@@ -127,7 +127,7 @@ class FleetRun:
                 with self._data:
                     self.requests[body.request_id] = keys
                     self.batches.append(len(objs))
-        elif isinstance(body, DataReply) and env.topic == WM_REPLY_TOPIC and body.ok:
+        elif isinstance(body, DataReply) and env.topic.startswith(WM_REPLY_TOPIC) and body.ok:
             with self._data:
                 for key in self.requests.pop(body.request_id, []):
                     self.written[key] = now  # a batch is answered after its commit

@@ -101,6 +101,11 @@ class ZmqBusPort:
         self._subs: list[Subscriber] = []
         self._lock = threading.Lock()
 
+    @property
+    def src(self) -> str:
+        """The name this port's messages go out under (its Publisher's `src`)."""
+        return str(getattr(self._publisher, "src", self._name))
+
     def publish(self, msg: Message, topic: str | None = None) -> str:
         return self._publisher.publish(msg, topic)
 

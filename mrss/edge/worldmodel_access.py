@@ -23,9 +23,9 @@ from mrss.edge.datalayer_client import DataLayerClient, DataLayerError, DataLaye
 from mrss.edge.retry import DependencyUnavailable
 from mrss.edge.worldmodel_service import (
     UNAVAILABLE_PREFIX,
-    WM_REPLY_TOPIC,
     WM_REQUEST_TOPIC,
     WorldModel,
+    wm_reply_topic,
 )
 from mrss.edge.worldmodel_store import Position, WorldObject
 from mrss.errors import MrssError
@@ -51,8 +51,10 @@ class BusWorldModel:
     down, so callers can tell "try later" from "wrong request"."""
 
     def __init__(self, bus: Any, timeout: float = 2.0) -> None:
+        # the world model answers on a topic of our own (`wm_reply_topic`: our src)
+        reply_topic = wm_reply_topic(str(getattr(bus, "src", "")))
         self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
-                                      reply_topic=WM_REPLY_TOPIC, default_timeout=timeout)
+                                      reply_topic=reply_topic, default_timeout=timeout)
         self._queued: list[dict[str, Any]] = []   # writes not waited for, not yet sent
         self._wake = threading.Condition()
         self._sending = threading.Lock()   # one batch (or call) at a time, in order

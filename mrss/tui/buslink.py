@@ -14,13 +14,15 @@ from collections import deque
 from collections.abc import Callable
 
 from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
+from mrss.edge.worldmodel_service import wm_reply_topic
 from mrss.messages import Envelope, Message
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
-# `percept` (hotspots found, for the alerts), `dl.reply.wm` (the world model, for the map)
-# and `edge.rejections` (the input each component refused).
+# `percept` (hotspots found, for the alerts) and `edge.rejections` (the input each
+# component refused); and the world model's answers to the dashboard's own `wm.list`
+# (for the map), on `dl.reply.wm.<src>` (`wm_reply_topic`).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "dl.reply.wm", "edge.rejections")
+            "edge.rejections")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 
 
@@ -31,7 +33,7 @@ class BusLink:
                  prefixes: tuple[str, ...] = PREFIXES) -> None:
         self.endpoints = endpoints
         self.src = src
-        self._prefixes = prefixes
+        self._prefixes = (*prefixes, wm_reply_topic(src))
         self._inbox: deque[Envelope] = deque()
         self._lock = threading.Lock()
         self._wake: Callable[[], object] = lambda: None

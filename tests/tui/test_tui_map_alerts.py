@@ -10,7 +10,12 @@ from textual.command import CommandList, CommandPalette
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.edge.worldmodel_objects import WorldObject
-from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, WorldModel
+from mrss.edge.worldmodel_service import (
+    WM_REPLY_TOPIC,
+    WM_REQUEST_TOPIC,
+    WorldModel,
+    wm_reply_topic,
+)
 from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.messages import (
     DataReply,
@@ -44,7 +49,7 @@ class WorldService:
 
     def _answer(self, env: Envelope) -> None:
         if isinstance(env.body, DataRequest):
-            self.pub.publish(self.world.handle(env.body), topic=WM_REPLY_TOPIC)
+            self.pub.publish(self.world.handle(env.body), topic=wm_reply_topic(env.src))
 
     def close(self) -> None:
         self.sub.close()
@@ -245,13 +250,18 @@ def test_a_world_model_error_shows_on_the_map_title(endpoints: BusEndpoints,
             panel = app.query_one(MapPanel)
             with Publisher(endpoints, src="worldmodel") as pub:
                 assert pub.wait_connected(10)
+                # another requester's reply (on its own topic, or the shared one): ignored
                 pub.publish(DataReply(request_id="someone-else", ok=False, error="not ours"),
-                            topic=WM_REPLY_TOPIC)
+                            topic=wm_reply_topic("tui"))
+                pub.publish(DataReply(request_id="tui-wm-0", ok=False, error="not for us"),
+                            topic=wm_reply_topic("datalayer"))
                 pub.publish(DataReply(request_id="tui-wm-1", ok=False,
                                       error="WorldStoreUnavailable: db down"),
-                            topic=WM_REPLY_TOPIC)
+                            topic=wm_reply_topic("tui"))
                 pub.flush()
             await until(pilot, lambda: "world model: WorldStoreUnavailable: db down"
                         in str(panel.border_title), message="the error on the title")
             assert "not ours" not in str(panel.border_title)
+            assert "not for us" not in str(panel.border_title)
+            assert WM_REPLY_TOPIC + ".datalayer" not in app.topics.topics  # not subscribed
     run(body())
