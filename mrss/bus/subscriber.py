@@ -19,10 +19,8 @@ from mrss.messages import Envelope, decode
 
 log = sockets.log
 
-# How long a blocked recv waits before it looks again whether close() was called; close()
-# also wakes it at once (an inproc pair), so this is only a safety net, not a poll rate:
-# an idle subscriber thread wakes once a second, not 20 times.
-_SLICE = 1.0
+# How long a blocked recv waits before it looks whether close() was called.
+_SLICE = 0.05
 _SLICE_MS = int(_SLICE * 1000)
 _NOBLOCK, _RCVMORE, _POLLIN = int(zmq.NOBLOCK), int(zmq.RCVMORE), int(zmq.POLLIN)
 
@@ -79,17 +77,8 @@ class Subscriber:
         if self._listen_only:
             sock.setsockopt(zmq.SUBSCRIBE, ANNOUNCEMENT.encode())
         self._sock = sock
-        # close() wakes a receiver blocked in poll through this pair (inproc, same context)
-        wake = f"inproc://mrss-sub-wake-{id(self):x}-{time.monotonic_ns():x}"
-        self._wake_rx = sock.context.socket(zmq.PAIR)
-        self._wake_rx.setsockopt(zmq.LINGER, 0)
-        self._wake_rx.bind(wake)
-        self._wake_tx = sock.context.socket(zmq.PAIR)
-        self._wake_tx.setsockopt(zmq.LINGER, 0)
-        self._wake_tx.connect(wake)
         self._poller = zmq.Poller()  # one for the socket's life: cheaper than sock.poll
         self._poller.register(sock, _POLLIN)
-        self._poller.register(self._wake_rx, _POLLIN)
 
     def _wants(self, topic: str) -> bool:
         return any(topic.startswith(prefix) for prefix in self.prefixes)
@@ -188,15 +177,9 @@ class Subscriber:
         else:
             remaining = deadline - time.monotonic()
             wait_ms = 0 if remaining <= 0 else min(_SLICE_MS, int(remaining * 1000) or 1)
-        ready = self._poller.poll(wait_ms)
-        if not ready:
-            return None
-        if len(ready) == 1 and ready[0][0] is self._wake_rx:
-            return None  # woken by close(): the caller sees the flag
-        try:
+        if self._poller.poll(wait_ms):
             return _recv_multipart(self._sock)
-        except zmq.Again:
-            return None
+        return None
 
     def __iter__(self) -> Iterator[Envelope]:
         """Every message until the subscriber is closed."""
@@ -256,17 +239,11 @@ class Subscriber:
             if self._closed:
                 return
             self._closed = True
-            try:
-                self._wake_tx.send(b"", _NOBLOCK)  # only here, once: one thread uses it
-            except zmq.ZMQError:
-                pass  # the receiver looks at the flag within a slice all the same
         thread = self._thread
         if thread is not None and thread is not threading.current_thread():
             thread.join(timeout=5)
         with self._lock:
             self._sock.close(0)
-            self._wake_rx.close(0)
-            self._wake_tx.close(0)
 
     def __enter__(self) -> Subscriber:
         return self

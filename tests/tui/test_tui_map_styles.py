@@ -223,14 +223,20 @@ def test_the_running_map_shows_a_plan_and_a_styled_object(
             peer.publish(data("uav1", **plan_record("a1", LANES, 3)), src="rcl")
             await until(pilot, lambda: "uav1" in app.map_model.plans and
                         "h1" in app.map_model.objects, message="the plan and h1")
-            await pilot.pause(0.05)
             width, height = panel.content_size.width, panel.content_size.height
-            canvas = app.map_model.draw(panel.view, width, height)
-            grid = cell_styles(canvas)
-            col, row = panel.view.to_cell(47.068, 15.435, width, height)
-            assert (canvas.text()[row][col], grid[row][col]) == ("✹", "green")
-            styles_drawn = {s for line in grid for s in line}
-            assert {"dim cyan", "bold cyan"} <= styles_drawn  # lanes flown and left
+
+            def drawn() -> tuple[str, str, set[str]]:
+                # the view the panel fitted when it last drew (at most a second after a
+                # change: the map is redrawn at most once a table_every)
+                canvas = app.map_model.draw(panel.view, width, height)
+                grid = cell_styles(canvas)
+                col, row = panel.view.to_cell(47.068, 15.435, width, height)
+                return canvas.text()[row][col], grid[row][col], {s for ln in grid for s in ln}
+
+            await until(pilot, lambda: {"dim cyan", "bold cyan"} <= drawn()[2],
+                        message="the lanes flown and left drawn")
+            glyph, style, _ = drawn()
+            assert (glyph, style) == ("✹", "green")
             # the robot's detail shows the plan's size, not every waypoint
             assert ("plan.waypoints", "[6 items]") in app.robots.robots["uav1"].fields()
             panel.focus()
