@@ -105,8 +105,8 @@ class StripTable(ScrollView, can_focus=True):
         Binding("right", "scroll_right", "Scroll right", show=False),
     ]
 
-    class RowHighlighted(Message):
-        """The cursor is on another row (`row_key`, at `cursor_row`)."""
+    class RowMessage(Message):
+        """About one row of `table`: `row_key`, at `cursor_row`."""
 
         def __init__(self, table: StripTable, cursor_row: int, row_key: str) -> None:
             self.table = table
@@ -118,18 +118,11 @@ class StripTable(ScrollView, can_focus=True):
         def control(self) -> StripTable:
             return self.table
 
-    class RowSelected(Message):
-        """Enter (or a click) on the cursor's row (`row_key`, at `cursor_row`)."""
+    class RowHighlighted(RowMessage):
+        """The cursor is on another row."""
 
-        def __init__(self, table: StripTable, cursor_row: int, row_key: str) -> None:
-            self.table = table
-            self.cursor_row = cursor_row
-            self.row_key = row_key
-            super().__init__()
-
-        @property
-        def control(self) -> StripTable:
-            return self.table
+    class RowSelected(RowMessage):
+        """Enter (or a click) on the cursor's row."""
 
     def __init__(self, *, id: str | None = None, classes: str | None = None) -> None:
         super().__init__(id=id, classes=classes)
