@@ -226,8 +226,9 @@ def run(quick: bool = False) -> BenchReport:
                         "stream (the dashboard filling up is not counted); "
                         "headless Textual run_test at 200 x 50; the feeder (proxy and "
                         "publisher) runs in another process; CPU is this process's "
-                        "user + system time over the window (the app's thread and its bus "
-                        "subscriber thread), app thread the Textual loop's alone; the p50 "
+                        "user + system time over the window (the app's thread, which also "
+                        "reads the bus, and ZeroMQ's I/O thread), app thread the Textual "
+                        "loop's alone; the p50 "
                         "and p99 columns are wall time, CPU p99 the worst p99 of the "
                         "drains', ticks' and frames' CPU time")
     return report

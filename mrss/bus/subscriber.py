@@ -191,6 +191,27 @@ class Subscriber:
             if env is not None:
                 yield env
 
+    def fileno(self) -> int:
+        """The socket's descriptor, for an event loop's reader (instead of a thread).
+
+        It is edge-triggered: readable says messages *may* have arrived; take them all
+        with `take_ready`, which also rearms it. Then no thread wakes while nothing comes.
+        """
+        return int(self._sock.getsockopt(zmq.FD))
+
+    def take_ready(self, limit: int = 10_000) -> list[Envelope]:
+        """Every message waiting now (at most `limit`), without waiting; [] once closed."""
+        taken: list[Envelope] = []
+        try:
+            while len(taken) < limit:
+                env = self.recv(timeout=0)
+                if env is None:
+                    break
+                taken.append(env)
+        except BusError:
+            pass
+        return taken
+
     def wait_connected(self, timeout: float = 5.0) -> bool:
         """Whether the proxy has greeted this subscriber (its subscriptions are on the way).
 

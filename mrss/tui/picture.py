@@ -76,7 +76,11 @@ class TruthfulPicture(App[None]):
         return "stopped" in states and down >= len(states) - 1
 
     def _watch_link(self) -> None:
-        """A (new) greeting from the proxy: we (re)connected, so ask for the whole picture."""
+        """A (new) greeting from the proxy: we (re)connected, so ask for the whole picture.
+
+        It also takes what the bus link has waiting, in case the loop missed an edge of
+        its socket (it should not; this bounds the cost if it did to a quarter second)."""
+        self.link.poll()
         welcomes = self.link.welcomes
         if welcomes != self._welcomes:
             self._welcomes = welcomes

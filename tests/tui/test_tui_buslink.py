@@ -1,0 +1,68 @@
+"""The dashboard's bus link reads on the app's event loop: no thread, nothing lost.
+
+Against a real proxy (a thread of the test process) and real ZeroMQ sockets.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+
+from mrss.bus import BusEndpoints, Publisher
+from mrss.messages import Envelope, RobotData
+from mrss.tui.buslink import BATCH, BusLink
+
+TIMEOUT = 10.0
+
+
+async def _until(condition: object, what: str) -> None:
+    deadline = asyncio.get_running_loop().time() + TIMEOUT
+    while not condition():  # type: ignore[operator]
+        assert asyncio.get_running_loop().time() < deadline, f"timed out waiting for {what}"
+        await asyncio.sleep(0.01)
+
+
+def test_the_link_reads_a_burst_on_the_loop_whole_and_in_order_without_a_thread(
+        endpoints: BusEndpoints) -> None:
+    count = 2 * BATCH + 500  # more than one turn of the loop takes
+
+    async def main() -> list[Envelope]:
+        link = BusLink(endpoints, prefixes=("robot.",))
+        wakes: list[int] = []
+        link.start(wake=lambda: wakes.append(1))
+        try:
+            await _until(lambda: link.connected, "the proxy's greeting")
+            assert not [t for t in threading.enumerate() if t.name.startswith("mrss-sub-")]
+            got: list[Envelope] = []
+            with Publisher(endpoints, src="feeder") as pub:
+                for n in range(count):
+                    pub.publish(RobotData(robot="b", data={"n": n}))
+
+                def arrived() -> bool:
+                    got.extend(link.drain())
+                    return len(got) >= count
+                await _until(arrived, f"{count} messages")
+            assert wakes  # the app was told, not left to find them
+            return got
+        finally:
+            link.close()
+
+    got = asyncio.run(main())
+    assert [env.body.data["n"] for env in got] == list(range(count))  # type: ignore[union-attr]
+
+
+def test_a_closed_link_takes_nothing_more_and_closing_twice_is_harmless(
+        endpoints: BusEndpoints) -> None:
+    async def main() -> int:
+        link = BusLink(endpoints, prefixes=("robot.",))
+        link.start(wake=lambda: None)
+        await _until(lambda: link.connected, "the proxy's greeting")
+        link.close()
+        with Publisher(endpoints, src="feeder") as pub:
+            pub.publish(RobotData(robot="b", data={"n": 1}))
+            pub.flush()
+        link.poll()
+        link.close()
+        return link.received
+
+    assert asyncio.run(main()) == 0
