@@ -13,6 +13,9 @@ system's bus. A crash of either side cannot take the other down.
 - Ctrl-C (the dashboard lets the terminal send signals) and SIGTERM/SIGHUP to this
   process are passed on to the system, so a first one stops it in order and a second
   kills what is left; the dashboard shows the stopping and closes when the system ends.
+- A closed terminal (SIGHUP: its window closed, the ssh session dropped) stops the
+  system the same way, and this process ends when the system has, even if the
+  dashboard cannot close on a terminal that is gone (Textual can block writing to it).
 - If the system ends by itself (the root gave up), the dashboard stays open on the
   final picture with the reason in its red banner until the operator closes it (`q`,
   no question then); the last words are printed too. If this process is killed, the
@@ -32,6 +35,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 from types import FrameType
 from typing import Any, ClassVar
@@ -69,6 +73,7 @@ class SupervisedApp(MrssApp):
         self.system = system
         self.log_path = log_path
         self.stop_requested = False  # by the operator: close once the system has ended
+        self.hung_up = False  # the terminal closed (SIGHUP)
 
     def on_mount(self) -> None:  # runs after MrssApp.on_mount (Textual calls each class's)
         self.set_interval(WATCH_EVERY, self._watch_system)
@@ -126,6 +131,10 @@ class SupervisedApp(MrssApp):
             self._say(f"{self.project} keeps running")
 
 
+# After the system ended on a closed terminal, how long the dashboard may take to close.
+HANGUP_GRACE = 3.0
+
+
 def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     """Run the project's system in a child process and the dashboard in this one."""
     run_dir = run_dir_for(config, args.run_dir)
@@ -143,7 +152,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     logs.configure("tui", level=logging.DEBUG if args.verbose else logging.INFO,
                    console=False, file=log_path)
     try:
-        code = _run(args, config, run_dir, endpoints, log_path, map_config)
+        code = _run(args, config, run_dir, endpoints, log_path, map_config, temporary)
     finally:
         if temporary:
             _keep_only(run_dir, log_path)
@@ -155,7 +164,8 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
 
 
 def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
-         endpoints: BusEndpoints, log_path: Path, map_config: MapConfig) -> int:
+         endpoints: BusEndpoints, log_path: Path, map_config: MapConfig,
+         temporary: bool) -> int:
     system = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
@@ -167,8 +177,15 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
                                         config.supervisor.spec.period),
                         vocabulary=vocabulary, alert_rules=rules, map_config=map_config)
 
+    closed = threading.Event()  # app.run() returned
+
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done
+        if signum == signal.SIGHUP and not app.hung_up:
+            app.hung_up = True
+            threading.Thread(target=_end_after_hangup, args=(system, closed, config.name,
+                                                             run_dir, log_path, temporary),
+                             name="mrss-hangup", daemon=True).start()
         with contextlib.suppress(ProcessLookupError):
             system.send_signal(signal.SIGINT if signum == signal.SIGINT else signal.SIGTERM)
 
@@ -180,6 +197,7 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     except Exception:
         log.exception("the dashboard failed")
         print("mrss supervise: the dashboard failed; stopping the system", file=sys.stderr)
+    closed.set()
     if system.poll() is None:
         log.info("dashboard closed: stopping %s", config.name)
         print(f"mrss supervise: stopping {config.name} ...", file=sys.stderr, flush=True)
@@ -187,6 +205,25 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
     code = system.wait()
     log.info("system of %s ended with exit code %d", config.name, code)
     return code
+
+
+def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, name: str,
+                      run_dir: Path, log_path: Path, temporary: bool) -> None:
+    """The terminal is gone: once the system has stopped, end this process.
+
+    The dashboard normally closes by itself when the system ends; on a terminal that is
+    gone Textual may block for ever writing its last escape codes, and nobody is left
+    to see them. So after the system's end the dashboard gets `HANGUP_GRACE` seconds.
+    """
+    code = system.wait()
+    log.info("terminal closed: the system of %s ended with exit code %d", name, code)
+    if closed.wait(HANGUP_GRACE):
+        return
+    log.warning("the dashboard did not close on its closed terminal: exiting")
+    if temporary:
+        _keep_only(run_dir, log_path)
+    logging.shutdown()
+    os._exit(code)
 
 
 def _start_system(args: argparse.Namespace, run_dir: Path,

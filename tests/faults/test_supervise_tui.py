@@ -69,13 +69,19 @@ class Terminal:
     def press(self, keys: bytes) -> None:
         os.write(self.master, keys)
 
+    def hang_up(self) -> None:
+        """Close the terminal, as closing its window does: the kernel sends SIGHUP."""
+        if self.master >= 0:
+            os.close(self.master)
+            self.master = -1
+
     def close(self) -> None:
         if self.proc.poll() is None:
             for child in psutil.Process(self.proc.pid).children(recursive=True):
                 child.kill()
             self.proc.kill()
         self.proc.wait(timeout=10)
-        os.close(self.master)
+        self.hang_up()
         self._reader.join(timeout=5)
 
 
@@ -144,6 +150,18 @@ def test_ctrl_c_in_the_dashboard_stops_the_system_like_without_it(
     assert "stopping every child in reverse order" in log
     assert "all components stopped" in log
     assert "dashboard closed" not in log  # the system ended first, then the dashboard
+
+
+@pytest.mark.slow
+def test_closing_the_terminal_stops_the_system_and_the_dashboard_ends_too(
+        terminal: Terminal, tmp_path: Path) -> None:
+    procs = _system_up(terminal, tmp_path)
+    terminal.hang_up()  # nothing left to draw on: nothing of the run may linger
+    wait_until(lambda: terminal.proc.poll() is not None, timeout=30,
+               message="the dashboard's process ended after its terminal closed")
+    wait_until(lambda: _gone(procs), timeout=10, message="no process of the run left")
+    log = (tmp_path / "mrss.log").read_text()
+    assert "all components stopped" in log  # stopped in order, not killed
 
 
 @pytest.mark.slow
