@@ -29,7 +29,7 @@ commands it has and on which topic, and how its agent's beliefs name its goals:
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -168,42 +168,62 @@ def _hint(word: str, known: list[str]) -> str:
 # -- the payloads (what the events manager reads; projects/wildfire/events.py) -----------
 
 class PayloadError(ValueError):
-    """Operator input that cannot be sent; the text says what to fix."""
+    """Operator input that cannot be sent; the text says what to fix, `field` where."""
+
+    def __init__(self, message: str, field_name: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field_name
 
 
 def _ident(value: str, what: str) -> str:
     text = value.strip()
     if not text or not (text[0].islower() and text.replace("_", "a").isalnum()):
         raise PayloadError(f"{what} must be a lowercase identifier (a1, north_field), "
-                           f"not {value!r}")
+                           f"not {value!r}", what)
     return text
 
 
-def area_payload(name: str, center: str, radius: str, priority: str) -> dict[str, Any]:
-    """An area from the form's text fields; PayloadError naming the field."""
-    goal = _ident(name, "name")
+def _center(text: str) -> list[float]:
     try:
-        lat, lon = (float(v) for v in center.replace(" ", "").split(","))
+        lat, lon = (float(v) for v in text.replace(" ", "").split(","))
     except ValueError:
-        raise PayloadError(f"centre must be LAT,LON (e.g. -35.3606,149.1652), not {center!r}") \
-            from None
+        raise PayloadError(f"centre must be LAT,LON (e.g. -35.3606,149.1652), not {text!r}",
+                           "center") from None
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-        raise PayloadError(f"centre {lat}, {lon} is not a position")
+        raise PayloadError(f"centre {lat}, {lon} is not a position", "center")
+    return [lat, lon]
+
+
+def _radius(text: str) -> float:
     try:
-        metres = float(radius)
+        metres = float(text)
     except ValueError:
-        raise PayloadError(f"radius must be metres, not {radius!r}") from None
+        raise PayloadError(f"radius must be metres, not {text!r}", "radius") from None
     if not metres > 0:
-        raise PayloadError("radius must be more than 0 m")
-    return {"goal": goal, "center": [lat, lon], "radius": metres,
-            "priority": priority_value(priority)}
+        raise PayloadError("radius must be more than 0 m", "radius")
+    return metres
 
 
 def priority_value(text: str) -> int:
     try:
         return int(text.strip())
     except ValueError:
-        raise PayloadError(f"priority must be a whole number, not {text!r}") from None
+        raise PayloadError(f"priority must be a whole number, not {text!r}",
+                           "priority") from None
+
+
+# Each field of an area and its check (the text in, the value or a PayloadError out).
+AREA_FIELDS: dict[str, Callable[[str], Any]] = {
+    "name": lambda text: _ident(text, "name"), "center": _center, "radius": _radius,
+    "priority": priority_value}
+
+
+def area_payload(name: str, center: str, radius: str, priority: str) -> dict[str, Any]:
+    """An area from the form's text fields; PayloadError naming the field."""
+    texts = {"name": name, "center": center, "radius": radius, "priority": priority}
+    value = {key: check(texts[key]) for key, check in AREA_FIELDS.items()}
+    return {"goal": value["name"], "center": value["center"], "radius": value["radius"],
+            "priority": value["priority"]}
 
 
 def cancel_payload(goal: str) -> dict[str, Any]:

@@ -1,9 +1,10 @@
 """AreaForm: the operator's "add an area" form (name, centre, radius, priority).
 
-A modal screen of four inputs; Enter on the last (or Ctrl+S anywhere) checks them with
-`mrss.operator_commands.area_payload`: a mistake is shown under the form, which stays
-open with the text for fixing; a good area dismisses the form with its payload. Esc
-closes it, sending nothing.
+A modal screen of four inputs. Enter checks the field it is on
+(`mrss.operator_commands.AREA_FIELDS`) and moves on only when it is good; on the last
+(or Ctrl+S anywhere) the whole area is checked (`area_payload`). A mistake is shown under
+the form, the field at fault gets the cursor, and the form stays open with the text for
+fixing; a good area dismisses the form with its payload. Esc closes it, sending nothing.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Input, Label, Static
 
-from mrss.operator_commands import PayloadError, area_payload
+from mrss.operator_commands import AREA_FIELDS, PayloadError, area_payload
 
 FIELDS = (("name", "name (a lowercase id, e.g. north)", ""),
           ("center", "centre LAT,LON (e.g. -35.3606,149.1652)", ""),
@@ -63,6 +64,14 @@ class AreaForm(ModalScreen[dict[str, Any] | None]):
         event.stop()
         ids = [f"area-{key}" for key, _, _ in FIELDS]
         here = ids.index(event.input.id or ids[-1])
+        key = FIELDS[here][0]
+        try:
+            AREA_FIELDS[key](event.input.value)
+        except PayloadError as exc:
+            self._show_error(exc)
+            return
+        self.error = ""
+        self.query_one("#form-error", Static).update("")
         if here < len(ids) - 1:
             self.query_one(f"#{ids[here + 1]}", Input).focus()
         else:
@@ -75,10 +84,16 @@ class AreaForm(ModalScreen[dict[str, Any] | None]):
         try:
             payload = area_payload(**self.values())
         except PayloadError as exc:
-            self.error = str(exc)
-            self.query_one("#form-error", Static).update(Text(f"not sent: {exc}"))
+            self._show_error(exc)
             return
         self.dismiss(payload)
+
+    def _show_error(self, exc: PayloadError) -> None:
+        """Say what is wrong under the form and put the cursor in the field at fault."""
+        self.error = str(exc)
+        self.query_one("#form-error", Static).update(Text(f"not sent: {exc}"))
+        if exc.field is not None:
+            self.query_one(f"#area-{exc.field}", Input).focus()
 
     def action_cancel(self) -> None:
         self.dismiss(None)

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from textual.app import App
 from textual.widgets import Input, Tree
 
 from mrss.bus import BusEndpoints
@@ -273,4 +274,44 @@ def test_a_readonly_dashboard_refuses_to_record(endpoints: BusEndpoints) -> None
             assert app.recording is None
         run_dir = run_dir_of(endpoints.backend)
         assert run_dir is not None and not list(Path(run_dir).glob("*.mrssrec"))
+    run(body())
+
+
+def test_the_area_form_keeps_the_cursor_on_a_bad_field_and_says_why() -> None:
+    class Host(App[None]):
+        result: dict[str, Any] | None = None
+
+        def on_mount(self) -> None:
+            self.push_screen(AreaForm(), self._answer)
+
+        def _answer(self, payload: dict[str, Any] | None) -> None:
+            self.result = payload
+
+    async def body() -> None:
+        app = Host()
+        async with app.run_test(size=(80, 24)) as pilot:
+            form = app.screen
+            assert isinstance(form, AreaForm)
+
+            def focused() -> str:
+                return app.focused.id if app.focused is not None else ""
+
+            await pilot.press(*"North", "enter")  # not an id: Enter does not move on
+            assert focused() == "area-name" and "lowercase identifier" in form.error
+            form.query_one("#area-name", Input).value = "north"
+            await pilot.press("enter")
+            assert focused() == "area-center" and form.error == ""
+            await pilot.press(*"north", "enter")
+            assert focused() == "area-center" and "centre must be LAT,LON" in form.error
+            form.query_one("#area-center", Input).value = "47.07,15.43"
+            form.query_one("#area-radius", Input).value = "-3"
+            await pilot.press("ctrl+s")  # sending checks all: the radius gets the cursor
+            assert focused() == "area-radius" and "more than 0 m" in form.error
+            assert isinstance(app.screen, AreaForm)
+            form.query_one("#area-radius", Input).value = "80"
+            await pilot.press("enter", "enter")  # radius, then priority: sent
+            await until(pilot, lambda: app.result is not None, message="the area sent")
+        assert app.result == {"goal": "north", "center": [47.07, 15.43], "radius": 80.0,
+                              "priority": 1}
+
     run(body())
