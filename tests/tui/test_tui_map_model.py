@@ -121,3 +121,18 @@ def test_the_map_draws_robots_with_heading_tracks_objects_and_areas() -> None:
     assert any(ch in text for ch in "⡇⢸")  # the area's sides, in braille
     col, row = view.to_cell(43.601, 1.441, W, H)
     assert model.draw(view, W, H).text()[row][col] == "↗"
+
+
+def test_a_robot_on_an_object_keeps_its_glyph_and_whole_name_on_top() -> None:
+    model = MapModel()
+    model.apply_data(data("ugv1", 43.600, 1.440, 0))
+    model.apply_world([  # the base the robot stands on, and another base further away
+        {"id": "ugv_base", "kind": "base", "position": {"lat": 43.600, "lon": 1.440}},
+        {"id": "far", "kind": "base", "position": {"lat": 43.610, "lon": 1.450}}])
+    view = Viewport()
+    view.fit(model.points(), W, H)
+    rows = model.draw(view, W, H).text()
+    col, row = view.to_cell(43.600, 1.440, W, H)
+    assert rows[row][col:col + 5] == "↑ugv1"  # not the base's name over the robot's
+    assert "ugv_base" not in "\n".join(rows)  # hidden under the robot, not mixed in
+    assert "far" in "\n".join(rows)

@@ -96,8 +96,12 @@ class BrailleCanvas:
                 for x in range(start, min(self.width * 2, math.floor(right + 0.5)), 2):
                     self.dot(x, y, style)
 
-    def glyph(self, col: int, row: int, char: str, style: str = "") -> bool:
-        """Put one character in a cell (over any dots); False if off the canvas."""
+    def glyph(self, col: int, row: int, char: str, style: str = "", *,
+              over: bool = True) -> bool:
+        """Put one character in a cell (over any dots, and over another character unless
+        `over` is false); False if off the canvas or, with `over` false, taken."""
+        if not over and (col, row) in self._glyphs:
+            return False
         if 0 <= col < self.width and 0 <= row < self.height:
             self._glyphs[(col, row)] = (char, style)
             return True

@@ -222,8 +222,9 @@ class MapModel:
         return pts
 
     def draw(self, view: Viewport, width: int, height: int) -> BrailleCanvas:
-        """Areas and rings, then tracks and plans, then objects, then robots (on top)
-        with their names."""
+        """Areas and rings, then tracks and plans (dots), then the characters: robots
+        with their names first, so that they are on top and their names whole, then
+        objects and their names, then areas' names, each where the cell is still free."""
         canvas = BrailleCanvas(width, height)
 
         def dots(line: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -236,9 +237,6 @@ class MapModel:
                 if fill and len(line) >= 3:
                     canvas.fill_polygon(dots(line), style)
                 canvas.polyline(dots(line), style)
-            if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
-                col, row = view.to_cell(*shape.lines[0][0], width, height)
-                canvas.label(col, row, shape.id, style)
         for shape in self.objects.values():
             ring = self.styles.ring(shape.kind, shape.attributes) if shape.point else None
             if shape.point is not None and ring is not None:
@@ -248,18 +246,24 @@ class MapModel:
             canvas.polyline(dots(list(mark.track)), style.replace("bold ", "dim "))
         for robot, plan in self.plans.items():
             self._draw_plan(canvas, dots, robot, plan)
-        for shape in self.objects.values():
-            if shape.point is None:
-                continue
-            char, style = self.styles.point_look(shape.kind, shape.attributes)
-            col, row = view.to_cell(*shape.point, width, height)
-            if canvas.glyph(col, row, char, style) and self.styles.kind(shape.kind).label:
-                canvas.label(col + 1, row, shape.id, "dim")
         for i, mark in enumerate(self.robots.values()):
             style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
             col, row = view.to_cell(mark.lat, mark.lon, width, height)
             if canvas.glyph(col, row, heading_arrow(mark.heading), style):
                 canvas.label(col + 1, row, mark.robot, style)
+        for shape in self.objects.values():
+            if shape.point is None:
+                continue
+            char, style = self.styles.point_look(shape.kind, shape.attributes)
+            col, row = view.to_cell(*shape.point, width, height)
+            if canvas.glyph(col, row, char, style, over=False) \
+                    and self.styles.kind(shape.kind).label:
+                canvas.label(col + 1, row, shape.id, "dim")
+        for shape in self.objects.values():
+            if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
+                style = self.styles.line_style(shape.kind, shape.attributes)
+                col, row = view.to_cell(*shape.lines[0][0], width, height)
+                canvas.label(col, row, shape.id, style)
         return canvas
 
     def robot_style(self, robot: str) -> str:
