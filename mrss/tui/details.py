@@ -208,7 +208,9 @@ class RobotDetail(DetailScreen):
             else:
                 caption.append("no data", "dim")
             self.query_one(f"#spark-label-{key}", Static).update(caption)
-            self.query_one(f"#spark-{key}", Sparkline).data = values or [0.0]
+            spark = self.query_one(f"#spark-{key}", Sparkline)
+            spark.display = bool(values)  # nothing to draw: no bar (an empty one looks full)
+            spark.data = values or [0.0]
 
     def body(self) -> Text:
         view = self.model.robots.get(self.robot)

@@ -127,6 +127,7 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
             spark = detail.query_one("#spark-battery", Sparkline)
             await until(pilot, lambda: len(spark.data or []) >= 3, message="battery sparkline")
             assert set(view.series) == {"battery", "tank"}  # the demo sends no altitude
+            assert spark.display and not detail.query_one("#spark-altitude", Sparkline).display
             await pilot.press("escape")
             await pilot.press("p")
             app.query_one("#percept", Input).value = "fire(area1)"
