@@ -22,15 +22,18 @@ from textual.widgets import Static
 
 @dataclass(frozen=True)
 class KeyHelp:
-    """One key: where it works (`anywhere` or the panel's name), the key, what it does."""
+    """One key: where it works (`anywhere` or the panel's name), the key, what it does;
+    `own`: one of the footer's (the panel's own commands, not moving about)."""
 
     where: str
     key: str
     does: str
+    own: bool = True
 
 
 def current_keys(app: App[Any]) -> list[KeyHelp]:
-    """The keys active on the app's screen now, the focused panel's first."""
+    """The keys active on the app's screen now: the focused panel's first, each place's
+    own commands before its moving keys (cursor, scrolling)."""
     rows: list[KeyHelp] = []
     for key, active in app.screen.active_bindings.items():
         binding, node = active.binding, active.node
@@ -39,8 +42,9 @@ def current_keys(app: App[Any]) -> list[KeyHelp]:
         else:
             where = getattr(node, "id", None) or type(node).__name__
         shown = app.get_key_display(binding) if key == binding.key else key
-        rows.append(KeyHelp(where, shown, binding.description or binding.action))
-    return sorted(rows, key=lambda r: (r.where == "anywhere", r.where, r.key))
+        rows.append(KeyHelp(where, shown, binding.description or binding.action,
+                            binding.show))
+    return sorted(rows, key=lambda r: (r.where == "anywhere", r.where, not r.own, r.key))
 
 
 class HelpScreen(ModalScreen[None]):

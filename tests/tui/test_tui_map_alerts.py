@@ -180,6 +180,8 @@ def test_help_lists_every_key_of_the_app_and_the_focused_panel(
                            for _, does in rows), binding
             assert ("map", "Follow robot") in rows and ("anywhere", "Ack alerts") in rows
             assert not any(does == "Teleop on/off" for _, does in rows)  # not focused
+            mine = [k.own for k in app.screen.keys if k.where == "map"]
+            assert mine[0] and mine == sorted(mine, reverse=True)  # its commands first
             await pilot.press("z")  # any key closes it, and does nothing else
             assert not isinstance(app.screen, HelpScreen)
             await pilot.press("f1")
