@@ -78,7 +78,7 @@ class PanelLayout(App[None]):
             self._show_current()
             widget = self.panel(ident)
             target = widget if widget.can_focus else next(
-                (w for w in widget.query("*") if w.can_focus), widget)
+                (w for w in widget.query("*") if w.can_focus and w.display), widget)
             target.focus()
 
     def on_descendant_focus(self, event: events.DescendantFocus) -> None:

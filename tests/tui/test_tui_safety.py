@@ -106,3 +106,19 @@ def test_readonly_dashboard_refuses_every_control_with_a_notice(
             await pilot.press("q")
             await until(pilot, lambda: not app.is_running, message="q still detaches")
     run(body())
+
+
+def test_at_80x24_every_tab_key_focuses_its_panel_and_q_still_detaches_from_the_log(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=(80, 24)) as pilot:
+            await connected(pilot, peer)
+            for key in "1234567":
+                await pilot.press(key)
+                focused = app.focused
+                assert focused is not None and focused.display, key
+                assert not isinstance(focused, Input), (key, focused)  # not a hidden line
+            await pilot.press("q")  # on the log: a key, not the first letter of a filter
+            await until(pilot, lambda: not app.is_running, message="the app closed")
+    run(body())
