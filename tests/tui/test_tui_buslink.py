@@ -29,10 +29,12 @@ def test_the_link_reads_a_burst_on_the_loop_whole_and_in_order_without_a_thread(
     async def main() -> list[Envelope]:
         link = BusLink(endpoints, prefixes=("robot.",))
         wakes: list[int] = []
+        before = set(threading.enumerate())  # other tests' threads may live on in here
         link.start(wake=lambda: wakes.append(1))
         try:
             await _until(lambda: link.connected, "the proxy's greeting")
-            assert not [t for t in threading.enumerate() if t.name.startswith("mrss-sub-")]
+            assert not [t for t in set(threading.enumerate()) - before
+                        if t.name.startswith("mrss-sub-")]
             got: list[Envelope] = []
             with Publisher(endpoints, src="feeder") as pub:
                 for n in range(count):
