@@ -43,6 +43,7 @@ from mrss.actors.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.orphans import Orphans
 from mrss.actors.progress_feed import ProgressFeed
 from mrss.actors.rcl_availability import RobotAvailability
+from mrss.actors.rcl_observers import ObserverReports
 from mrss.actors.rcl_requesters import Entry, RequesterDuties
 from mrss.actors.resources import ResourceBroker
 from mrss.actors.robot import Control, RobotActor, StartAction
@@ -55,7 +56,6 @@ from mrss.messages import (
     ActionStatus,
     FailureCause,
     Message,
-    SupEvent,
     build,
 )
 from mrss.plans import PlanBoard
@@ -66,7 +66,6 @@ from mrss.supervision import (
     SupervisorSpec,
     actor_child,
 )
-from mrss.supervision.remote import TREE_EVENT
 
 log = logging.getLogger("mrss.rcl")
 
@@ -74,7 +73,7 @@ Publish = Callable[[Message], object]
 
 
 
-class RclCore(RequesterDuties, RobotAvailability):
+class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
     """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
 
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
@@ -336,61 +335,6 @@ class RclCore(RequesterDuties, RobotAvailability):
         for uuid in targets:
             self._tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
         return targets
-
-    def publish_progress(self) -> int:
-        """Publish the progress that is due (`ProgressFeed`) as repeat statuses; how many.
-
-        Under the lock that also covers a transition's publication, and only for an action
-        whose journaled state is the one last published: a progress status never goes out
-        after its action's terminal status, nor before a transition already journaled."""
-        sent = 0
-        with self._lock:
-            for uuid, progress in self.progress.take_due().items():
-                known, entry = self._index.get(uuid), self.journal.get(uuid)
-                if known is None or entry is None or entry.action.state is not known.state:
-                    continue
-                action = entry.action
-                action.progress = progress
-                self._publish(action, repeat=True)
-                sent += 1
-        return sent
-
-    def snapshot(self) -> int:
-        """Answer an observer's `Command("snapshot")`: every robot's state, every open
-        action's current status (`repeat`, with name and goal), the latest plan its
-        skills sent and the tree of its robot actors (`sup.tree`), so a dashboard that
-        attaches late misses nothing. Returns how many statuses went out."""
-        self.announce_robots()
-        self._publish_actor_tree()
-        for robot, record in self._plans.current():
-            self.layer.publish_data(robot, record)
-        with self._lock:
-            entries = [e for e in self.journal.open_actions() if e.action.uuid in self._index]
-            for entry in entries:
-                self._publish(entry.action, repeat=True)
-        return len(entries)
-
-    def _publish_actor_tree(self) -> None:
-        robots = self.robots
-        if robots is None:
-            return
-        try:
-            tree = robots.proxy().tree().get(timeout=1.0)
-        except (pykka.ActorDeadError, pykka.Timeout):
-            return  # stopping or busy: the actors' own events tell the rest
-        # scope "component": the tree of a supervisor inside this component, not the root's
-        self.publish(SupEvent(event=TREE_EVENT, child=tree.id,
-                              detail={"tree": tree.to_dict(), "scope": "component"}))
-
-    def state(self, uuid: str) -> ActionState | None:
-        """The last journaled state of an action (None if never seen)."""
-        entry = self.journal.get(uuid)
-        return entry.action.state if entry else None
-
-    def active(self) -> dict[str, ActionState]:
-        """Every non-terminal action and its state."""
-        with self._lock:
-            return {u: e.state for u, e in self._index.items()}
 
     # -- plumbing ---------------------------------------------------------------------------
     def _emit(self, action: Action, suspended_by: str,
