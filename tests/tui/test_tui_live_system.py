@@ -41,7 +41,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
                 if not has_row(table, row):
                     return None
                 cells = row_text(table, row)
-                return cells if cells[1] == "running" and cells[3] == str(inc) else None
+                return cells if cells[1] == "running" and cells[5] == str(inc) else None
 
             await until(pilot, lambda: announcer(1), timeout=30, message="announcer running")
             assert table.shown_keys() == ["busdemo", "busdemo/bus", row]
@@ -51,7 +51,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             await pilot.press("k", "k")
             cells = await until(pilot, lambda: announcer(2), timeout=30,
                                 message="announcer killed and restarted")
-            assert cells[4] == "1" and "SIGKILL" in cells[7]
+            assert cells[2] == "1" and "SIGKILL" in cells[7]  # restarts, last reason
             log = app.query_one(LogPane)
             await until(pilot, lambda: any("fault kill injected into announcer" in line
                                            for line in log.lines_text()), message="fault logged")
@@ -59,7 +59,7 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             await pilot.press("enter")
             detail = await until(pilot, lambda: isinstance(app.screen, ComponentDetail)
                                  and app.screen, message="the component's detail")
-            pid = row_text(table, row)[2]
+            pid = row_text(table, row)[4]
             budget = f"restart budget  1 of {spec.intensity} in {spec.period:g} s\n"
             text = await until(pilot, lambda: "CPU measuring" not in detail.body_text
                                and budget in detail.body_text and detail.body_text,
@@ -71,11 +71,11 @@ def test_dashboard_shows_the_live_tree_and_its_fault_keys_kill_hang_crash_a_comp
             await pilot.press("h", "h")
             cells = await until(pilot, lambda: announcer(3), timeout=30,
                                 message="hung announcer found and restarted")
-            assert cells[4] == "2" and "hung" in cells[7]
+            assert cells[2] == "2" and "hung" in cells[7]
             await pilot.press("x", "x")
             cells = await until(pilot, lambda: announcer(4), timeout=30,
                                 message="crashed announcer restarted")
-            assert cells[4] == "3" and "InjectedFault" in cells[7]
+            assert cells[2] == "3" and "InjectedFault" in cells[7]
             # a bad fault request from elsewhere on the bus is refused, and said so
             with Publisher(endpoints, src="operator2") as other:
                 assert other.wait_connected(10)

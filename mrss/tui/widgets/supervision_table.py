@@ -39,11 +39,12 @@ def uptime_text(seconds: float | None) -> str:
 
 
 class SupervisionTable(KeyedTable):
-    """Components and actors with state, pid, incarnation, restarts, uptime, the input
-    they refused (bad robot data, percepts, events, MAVLink messages), last reason."""
+    """Components and actors with state, restarts, uptime (what an operator looks at
+    first, so it shows in a narrow panel), pid, incarnation, the input they refused (bad
+    robot data, percepts, events, MAVLink messages), last reason."""
 
-    COLUMNS = (("name", "component"), ("state", "state"), ("pid", "pid"), ("inc", "inc"),
-               ("restarts", "restarts"), ("uptime", "uptime"), ("refused", "refused"),
+    COLUMNS = (("name", "component"), ("state", "state"), ("restarts", "restarts"),
+               ("uptime", "uptime"), ("pid", "pid"), ("inc", "inc"), ("refused", "refused"),
                ("reason", "last exit reason"))
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("k", "fault('kill')", "Kill"),
@@ -63,9 +64,9 @@ class SupervisionTable(KeyedTable):
         indent = "  " * node.depth
         return node.path, (
             cell(f"{indent}{node.name}", "bold" if node.kind == "supervisor" else ""),
-            cell(node.state, STATE_STYLES.get(node.state, "")),
-            cell(node.pid or ""), cell(node.incarnation or ""), cell(node.restarts),
+            cell(node.state, STATE_STYLES.get(node.state, "")), cell(node.restarts),
             cell(uptime_text(node.uptime(now))),
+            cell(node.pid or ""), cell(node.incarnation or ""),
             cell(node.refused or "", "bold yellow" if node.refused else ""),
             cell(node.last_reason, "italic"))
 
