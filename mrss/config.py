@@ -41,7 +41,7 @@ COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_tim
                   "node", "nice", "cpus", "realtime")
 SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
                    "retry_after", "shared_intensity", "groups", "heartbeat_interval",
-                   "heartbeat_misses", "launcher", "run_dir", "backoff")
+                   "heartbeat_misses", "launcher", "run_dir", "backoff", "cpu_latency_us")
 # [supervisor] keys of earlier versions, and what replaced them.
 REPLACED_KEYS = {"on_exceeded": "on_give_up", "probation": "retry_after"}
 # The bus proxy restarts without backoff unless its table says otherwise: all need it.
@@ -143,6 +143,7 @@ class SupervisorConfig:
     heartbeat_misses: int = 3
     launcher: Literal["fork", "exec"] = "fork"
     run_dir: str | None = None
+    cpu_latency_us: int | None = None  # held while the system runs (cpu_latency.py)
 
 
 @dataclass(frozen=True)
@@ -276,8 +277,14 @@ class _Reader:
         if launcher not in ("fork", "exec"):
             raise self.error("supervisor.launcher", f"must be 'fork' or 'exec', not {launcher!r}")
         run_dir = self.typed(sup, "supervisor.run_dir", str, "") or None
+        latency = None
+        if "cpu_latency_us" in sup:
+            latency = self.typed(sup, "supervisor.cpu_latency_us", int, 0)
+            if latency < 0:
+                raise self.error("supervisor.cpu_latency_us",
+                                 f"must be a whole number of microseconds >= 0, not {latency}")
         return SupervisorConfig(spec, interval, misses,
-                                cast(Literal["fork", "exec"], launcher), run_dir)
+                                cast(Literal["fork", "exec"], launcher), run_dir, latency)
 
     def retry_after(self, sup: dict[str, Any]) -> float:
         """`retry_after`: seconds >= 0, or "never" (a given-up component stays down)."""

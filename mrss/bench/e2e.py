@@ -30,6 +30,7 @@ from mrss.bench.report import BenchReport
 from mrss.bench.restart import percentile
 from mrss.bench.restart_peers import bus_restarts
 from mrss.messages import ActionStatus, Command, Envelope, MindSnapshot, Percept
+from mrss.supervision.cpu_latency import cpu_latency
 
 ROBOTS = 10
 PROJECT = "e2ebench"
@@ -238,6 +239,8 @@ def _row(report: BenchReport, label: str, step: Step) -> None:
 
 # (nice, SCHED_RR priority) of the action path's components under --under-load
 SCHEDULING: tuple[int | None, int | None] = (None, 10)
+# ... and the CPUs held awake as `[supervisor] cpu_latency_us` does (a system-wide request)
+CPU_LATENCY_US = 0
 HOGS = 2
 
 
@@ -276,17 +279,9 @@ def _favoured(nice: int | None, realtime: int | None) -> str:
     return " and ".join(parts) or "no settings"
 
 
-def run_under_load(quick: bool) -> BenchReport:
-    """Quiet and loaded rows of the same system in one run: e2e baseline and restarts."""
-    report = BenchReport("e2e --under-load", ["run", "load", "n", "p50 ms", "p99 ms",
-                                             "max ms", "lost", "p99 / quiet"], quick=quick)
-    count = 200 if quick else 1000
-    kills = 6 if quick else 40
-    load_before = os.getloadavg()[0]
-    # The bench stands in for the events manager, a component on the action path: it
-    # runs at the same nice value (its hogs explicitly at 0).
-    nice, realtime = SCHEDULING
-    favour_this_process(nice, realtime)
+def _quiet_and_loaded(count: int, kills: int, nice: int | None, realtime: int | None,
+                      ) -> tuple[dict[str, Step], dict[str, list[float]]]:
+    """The e2e steps and the restarts, quiet then beside the hogs."""
     harness = Harness(ROBOTS, nice=nice, realtime=realtime)
     steps: dict[str, Step] = {}
     try:
@@ -304,6 +299,22 @@ def run_under_load(quick: bool) -> BenchReport:
         with cpu_hogs(HOGS if label != "quiet" else 0):
             restarts[label] = [(a.marks["pong"] - killed) / 1e6 for killed, a in
                                bus_restarts(kills, "fork", nice=nice, realtime=realtime)]
+    return steps, restarts
+
+
+def run_under_load(quick: bool) -> BenchReport:
+    """Quiet and loaded rows of the same system in one run: e2e baseline and restarts."""
+    report = BenchReport("e2e --under-load", ["run", "load", "n", "p50 ms", "p99 ms",
+                                             "max ms", "lost", "p99 / quiet"], quick=quick)
+    count = 200 if quick else 1000
+    kills = 6 if quick else 40
+    load_before = os.getloadavg()[0]
+    # The bench stands in for the events manager, a component on the action path: it
+    # runs at the same nice value (its hogs explicitly at 0).
+    nice, realtime = SCHEDULING
+    favour_this_process(nice, realtime)
+    with cpu_latency(CPU_LATENCY_US) as held:
+        steps, restarts = _quiet_and_loaded(count, kills, nice, realtime)
     quiet_e2e, quiet_restart = steps["quiet"].p99, percentile(restarts["quiet"], 99)
     for label, step in steps.items():
         report.add_row(f"percept -> skill start, {ROBOTS} robots, 100/s", label, step.count,
@@ -325,7 +336,9 @@ def run_under_load(quick: bool) -> BenchReport:
         "tables of bus, rcl, reasoner (restart rows: bus, echo); the hogs are `python -c "
         f"'while True: pass'` at nice 0, one per CPU ({os.cpu_count()} CPUs), started for the "
         f"loaded rows only; the bench process (which publishes the percepts and pings, as "
-        f"the events manager would) likewise")
+        f"the events manager would) likewise; CPUs held to wake within {CPU_LATENCY_US} us "
+        f"(`[supervisor] cpu_latency_us`) during both: "
+        f"{'held' if held else 'NOT held (no write access to /dev/cpu_dma_latency)'}")
     report.notes.append(
         f"load average {load_before:.2f} before the run, {os.getloadavg()[0]:.2f} after (the "
         "machine is shared with other work: its load adds to the hogs)")

@@ -39,6 +39,7 @@ from mrss.config import PROXY_MODULE, ProjectConfig, load_project
 from mrss.errors import ConfigError
 from mrss.nodes import keys_dir, node_children, node_plan
 from mrss.supervision.children import ProcessSettings
+from mrss.supervision.cpu_latency import cpu_latency
 from mrss.supervision.events import NODE_ENV, Publish
 from mrss.supervision.launchers import become_subreaper
 from mrss.supervision.outbox import EventOutbox
@@ -183,7 +184,8 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
                                bus=endpoints.to_dict(), node=node)
         remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
         try:
-            return _run_root(config, run_dir, sup, early)
+            with cpu_latency(config.supervisor.cpu_latency_us):
+                return _run_root(config, run_dir, sup, early)
         finally:
             remote.close()
     finally:

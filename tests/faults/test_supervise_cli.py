@@ -192,3 +192,41 @@ def test_components_do_not_outlive_a_killed_root_supervisor(
     proc.wait(timeout=10)
     _, alive = psutil.wait_procs(tree, timeout=10)
     assert alive == []
+
+
+def _pm_qos_holders(pid: int) -> int:
+    """How many of `pid`'s open files are the PM QoS CPU latency file."""
+    fds = Path(f"/proc/{pid}/fd")
+    return sum(1 for fd in fds.iterdir() if os.path.realpath(fd) == "/dev/cpu_dma_latency")
+
+
+def test_cpu_latency_us_is_held_by_the_root_supervisor_while_the_system_runs(
+        supervise: list[subprocess.Popen[str]], tmp_path: Path) -> None:
+    """As root (CI) the root supervisor holds /dev/cpu_dma_latency open with the value
+    while it runs; without write access to it the run goes on and says why."""
+    projects = tmp_path / "projects"
+    (projects / "latency").mkdir(parents=True)
+    (projects / "latency" / "project.toml").write_text(
+        '[project]\nname = "latency"\n\n[supervisor]\ncpu_latency_us = 0\n\n'
+        '[components.alpha]\nmodule = "tests.projects.workers:Worker"\n')
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mrss", "supervise", "latency", "--run-dir", str(run_dir)],
+        env={**os.environ, "MRSS_PROJECTS": str(projects)},
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    supervise.append(proc)
+    wait_until(lambda: (run_dir / "alpha.1.started").exists(), timeout=20,
+               message="alpha started")
+    allowed = os.access("/dev/cpu_dma_latency", os.W_OK)
+    if allowed:
+        assert _pm_qos_holders(proc.pid) == 1
+        with open("/dev/cpu_dma_latency", "rb") as current:  # the tightest request held
+            assert int.from_bytes(current.read(4), sys.byteorder, signed=True) == 0
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    if allowed:
+        assert "CPUs held to wake within 0 us" in err
+    else:
+        assert "cpu_latency_us 0 not applied: cannot open /dev/cpu_dma_latency" in err
