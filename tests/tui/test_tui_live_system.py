@@ -113,7 +113,7 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         timeout=10, message="the agent's beliefs")
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "ugv1")
-                        and row_text(robots, "ugv1")[6].endswith("%"), message="telemetry")
+                        and row_text(robots, "ugv1")[3].endswith("%"), message="telemetry")
             # Enter on a robot: every telemetry field and the sparklines, filling up
             robots.focus()
             await pilot.press("enter")
@@ -152,7 +152,7 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
             await pilot.press("t", "y")  # ugv1 (the first row) to teleop: its action suspended
             await until(pilot, lambda: action_state() == "suspended: robot in teleop",
                         message="suspended by teleop")
-            await until(pilot, lambda: row_text(robots, "ugv1")[3] == "on", message="teleop on")
+            await until(pilot, lambda: row_text(robots, "ugv1")[6] == "on", message="teleop on")
             await pilot.press("t", "y")
             await until(pilot, lambda: action_state().startswith("running"),
                         message="resumed after teleop")

@@ -66,7 +66,7 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
                         timeout=20, message="a1 running on uav1")
             robots = app.query_one(RobotsTable)
             await until(pilot, lambda: has_row(robots, "uav1")
-                        and row_text(robots, "uav1")[4] == "a1", message="uav1's goal a1")
+                        and row_text(robots, "uav1")[5] == "a1", message="uav1's goal a1")
             # Enter on the running action: its detail, progress moving while it is open
             actions = app.query_one(ActionsTable)
             actions.focus()

@@ -127,7 +127,7 @@ def test_teleop_key_toggles_teleop_for_the_selected_robot(
             # the RCL answers with the robot's new state; the next t turns it off
             peer.publish(RobotState(robot="ugv1", available=True, attributes={"teleop": True}),
                          src="rcl")
-            await until(pilot, lambda: row_text(table, "ugv1")[3] == "on", message="teleop shown")
+            await until(pilot, lambda: row_text(table, "ugv1")[6] == "on", message="teleop shown")
             await pilot.press("t", "y")
             await until(pilot, lambda: len(commands(peer)) == 2, message="teleop off")
             assert commands(peer) == [

@@ -104,15 +104,16 @@ def test_robots_table_shows_availability_link_and_latest_telemetry(
 
             def shown() -> bool:
                 return (has_row(table, "uav1") and has_row(table, "ugv1")
-                        and row_text(table, "ugv1")[7] != "" and row_text(table, "uav1")[6] != "")
+                        and row_text(table, "ugv1")[4] != "" and row_text(table, "uav1")[3] != "")
 
             await until(pilot, shown, message="both robots with telemetry")
-            robot, available, link, teleop, goal, position, battery, tank, _, reason = \
+            robot, available, link, battery, tank, goal, teleop, position, _, reason = \
                 row_text(table, "ugv1")
             assert (available, link, teleop) == ("yes", "up", "off")
             assert (position, battery, tank) == ("47.07000, 15.43000", "81%", "12.5/20.0 L")
             assert row_text(table, "uav1")[1:3] == ["no", "down"]
-            assert row_text(table, "uav1")[5:7] == ["47.10000, 15.40000 alt 30.0", "55%"]
+            assert [row_text(table, "uav1")[i] for i in (7, 3)] == [
+                "47.10000, 15.40000 alt 30.0", "55%"]  # position, battery
             assert goal == ""  # no goal patterns declared: no goals known
             assert row_text(table, "uav1")[9] == "no heartbeat for 3.0 s"
     run(body())
