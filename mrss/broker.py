@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import copy
 import logging
 import signal
@@ -253,7 +254,10 @@ class EmbeddedBroker(Component):
         """Shut the broker down and join its thread."""
         loop, stop = self._loop, self._stop
         if loop is not None and stop is not None and self.running:
-            loop.call_soon_threadsafe(stop.set)
+            # The loop may close between the check and the call (a broker that failed to
+            # start ends by itself): then there is nothing left to stop.
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(stop.set)
         if self._thread is not None:
             self._thread.join(timeout=10)
 
