@@ -104,9 +104,14 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
         app = MrssApp(endpoints, project="tuidemo", mind_every=0.3, tree_every=0.5)
         async with app.run_test(size=(180, 50)) as pilot:
             sup = app.query_one(SupervisionTable)
+
+            def picture() -> str:  # what the dashboard had, should this wait time out
+                rows = {key: row_text(sup, key)[1] for key in sup.shown_keys()}
+                return (f"rows {rows}; bus messages received {app.link.received}, proxy "
+                        f"greetings {app.link.welcomes}")
             await until(pilot, lambda: [row_text(sup, f"tuidemo/{c}")[1] for c in COMPONENTS
                                         if has_row(sup, f"tuidemo/{c}")] == ["running"] * 4,
-                        timeout=30, message="four components running")
+                        timeout=45, message="four components running", describe=picture)
             mind = app.query_one(MindInspector)
             await until(pilot, lambda: mind.snapshot is not None
                         and "robot(ugv1)[source(self)]" in mind.snapshot.beliefs,

@@ -23,15 +23,17 @@ M = TypeVar("M", bound=Message)
 
 
 async def until(pilot: Pilot[Any], condition: Callable[[], T], timeout: float = 10.0,
-                message: str = "condition") -> T:
-    """Poll `condition`, letting the app run between polls, until it is truthy; return it."""
+                message: str = "condition", describe: Callable[[], str] | None = None) -> T:
+    """Poll `condition`, letting the app run between polls, until it is truthy; return it.
+    On a timeout `describe()` (if given) says what was there instead."""
     deadline = time.monotonic() + timeout
     while True:
         value = condition()
         if value:
             return value
         if time.monotonic() >= deadline:
-            raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s")
+            seen = f"; instead: {describe()}" if describe is not None else ""
+            raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s{seen}")
         await pilot.pause(0.01)
 
 
