@@ -73,7 +73,6 @@ class SupervisedApp(MrssApp):
         self.system = system
         self.log_path = log_path
         self.stop_requested = False  # by the operator: close once the system has ended
-        self.hung_up = False  # the terminal closed (SIGHUP)
 
     def on_mount(self) -> None:  # runs after MrssApp.on_mount (Textual calls each class's)
         self.set_interval(WATCH_EVERY, self._watch_system)
@@ -178,11 +177,12 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
                         vocabulary=vocabulary, alert_rules=rules, map_config=map_config)
 
     closed = threading.Event()  # app.run() returned
+    hung_up = threading.Event()  # the terminal closed (SIGHUP)
 
     def forward(signum: int, frame: FrameType | None) -> None:
         app.stop_requested = True  # asked for: the dashboard closes when it is done
-        if signum == signal.SIGHUP and not app.hung_up:
-            app.hung_up = True
+        if signum == signal.SIGHUP and not hung_up.is_set():
+            hung_up.set()
             threading.Thread(target=_end_after_hangup, args=(system, closed, config.name,
                                                              run_dir, log_path, temporary),
                              name="mrss-hangup", daemon=True).start()

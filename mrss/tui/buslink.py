@@ -36,7 +36,7 @@ class BusLink:
         self.endpoints = endpoints
         self.src = src
         self._prefixes = (*prefixes, wm_reply_topic(src))
-        self._inbox: deque[Envelope] = deque()
+        self._inbox: deque[Envelope] = deque(maxlen=INBOX_LIMIT)  # drops the oldest
         self._loop: asyncio.AbstractEventLoop | None = None
         self._wake: Callable[[], object] = lambda: None
         self._woken = False
@@ -69,13 +69,9 @@ class BusLink:
             self._loop.call_soon(self.poll)  # more waiting: the loop serves others between
         if not envelopes:
             return
-        inbox = self._inbox
         self.received += len(envelopes)
-        inbox.extend(envelopes)
-        excess = len(inbox) - INBOX_LIMIT
-        for _ in range(excess):
-            inbox.popleft()
-        self.dropped += max(0, excess)
+        self.dropped += max(0, len(self._inbox) + len(envelopes) - INBOX_LIMIT)
+        self._inbox.extend(envelopes)
         if not self._woken:
             self._woken = True
             self._wake()
