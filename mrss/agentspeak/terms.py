@@ -6,6 +6,9 @@ arity 0) are `Struct`; free variables are `Var` (mutable, bound through `ref`).
 Templates -- the terms inside compiled plans and rules -- may also hold `Slot`
 (a plan variable, bound in a frame list) and `Expr` (arithmetic, evaluated when the
 template is resolved against a frame).
+
+A term's text is in `termtext` and their standard order in `termorder`; both are
+also importable from here.
 """
 
 from __future__ import annotations
@@ -331,139 +334,9 @@ def is_number(t: object) -> bool:
     return tt is int or tt is float
 
 
-# ----------------------------------------------------------------------------- printing
-
-_OPERATORS = {"&", "|", ">", "<", ">=", "<=", "==", "\\==", "="}
-
-
-def format_number(n: float | int) -> str:
-    """Jason prints integral reals without `.0` (8/2 prints 4)."""
-    if type(n) is float:
-        if n.is_integer() and abs(n) < 1e15:
-            return str(int(n))
-        return repr(n)
-    return str(n)
-
-
-def quote(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
-
-
-def term_str(t: Term, top: bool = False) -> str:
-    """Jason's text of a term; with `top`, a string prints without quotes (as `.print`)."""
-    t = deref(t)
-    tt = type(t)
-    if tt is str:
-        return t if top else quote(t)  # type: ignore
-    if tt is int or tt is float:
-        return format_number(t)  # type: ignore[arg-type]
-    if tt is Struct:
-        s: Struct = t  # type: ignore[assignment]
-        if s.functor == ":-" and len(s.args) == 2:  # a rule as a term (`.relevant_rules`)
-            return f"{{ {term_str(s.args[0])} :- {term_str(s.args[1])} }}"
-        if s.functor in _OPERATORS and len(s.args) == 2:
-            text = f"({term_str(s.args[0])} {s.functor} {term_str(s.args[1])})"
-        elif s.functor == "not" and len(s.args) == 1:
-            text = f"not ({term_str(s.args[0])})"
-        else:
-            text = ("~" + s.functor if "::" not in s.functor else  # ns::~b
-                    s.functor.replace("::", "::~", 1)) if s.neg else s.functor
-            if s.args:
-                text += "(" + ",".join([term_str(a) for a in s.args]) + ")"
-        if s.annots:
-            text += _annots_str(s.annots)
-        return text
-    if tt is tuple:
-        return "[" + ",".join([term_str(a) for a in t]) + "]"  # type: ignore[union-attr]
-    if tt is Var:
-        return t.name  # type: ignore[union-attr]
-    if tt is PList:
-        p: PList = t  # type: ignore[assignment]
-        return "[" + ",".join([term_str(a) for a in p.items]) + "|" + term_str(p.tail) + "]"
-    if tt is Slot:
-        return t.name  # type: ignore[union-attr]
-    if tt is Expr:
-        e: Expr = t  # type: ignore[assignment]
-        if len(e.args) == 2 and not e.op[0].isalpha():
-            return f"({term_str(e.args[0])}{e.op}{term_str(e.args[1])})"
-        if e.op == "neg":
-            return f"(-{term_str(e.args[0])})"
-        return e.op + "(" + ",".join([term_str(a) for a in e.args]) + ")"
-    if tt is Trigger:
-        return OP_TEXT[t.op] + term_str(t.lit)  # type: ignore
-    if tt is VarAnnot:
-        return term_str(t.var) + _annots_str(t.annots)  # type: ignore[union-attr]
-    if tt is AnnotTail:
-        return "|" + term_str(t.tail)  # type: ignore[union-attr]
-    if tt is PlanTerm:
-        from mrss.agentspeak.planterms import plan_term_text
-        return plan_term_text(t.src)  # type: ignore[union-attr]
-    return repr(t)
-
-
-def _annots_str(annots: tuple[Term, ...]) -> str:
-    last = annots[-1]
-    if type(last) is AnnotTail:
-        return "[" + ",".join([term_str(a) for a in annots[:-1]]) + term_str(last) + "]"
-    return "[" + ",".join([term_str(a) for a in annots]) + "]"
-
-
-# ----------------------------------------------------------------------------- ordering
-
-def _rank(t: Term) -> int:
-    tt = type(t)
-    if tt is int or tt is float:
-        return 0
-    if tt is str:
-        return 1
-    if tt is tuple or tt is PList:
-        return 2
-    if tt is Struct:
-        return 3
-    return 4
-
-
-def compare(a: Term, b: Term) -> int:
-    """Jason's order: numbers < strings < lists < literals (negation, arity, functor,
-    arguments, annotations) < variables. Returns -1, 0 or 1."""
-    a = deref(a)
-    b = deref(b)
-    ra, rb = _rank(a), _rank(b)
-    if ra != rb:
-        return -1 if ra < rb else 1
-    if ra == 0 or ra == 1:
-        return -1 if a < b else (1 if a > b else 0)  # type: ignore[operator]
-    if ra == 2:
-        la = _as_items(a)
-        lb = _as_items(b)
-        if len(la) != len(lb):
-            return -1 if len(la) < len(lb) else 1
-        return _compare_seq(la, lb)
-    if ra == 3:
-        sa: Struct = a  # type: ignore[assignment]
-        sb: Struct = b  # type: ignore[assignment]
-        for x, y in ((sa.neg, sb.neg), (len(sa.args), len(sb.args)), (sa.functor, sb.functor)):
-            if x != y:
-                return -1 if x < y else 1  # type: ignore[operator]
-        c = _compare_seq(sa.args, sb.args)
-        if c:
-            return c
-        if len(sa.annots) != len(sb.annots):
-            return -1 if len(sa.annots) < len(sb.annots) else 1
-        return _compare_seq(sa.annots, sb.annots)
-    na, nb = getattr(a, "name", ""), getattr(b, "name", "")
-    return -1 if na < nb else (1 if na > nb else 0)
-
-
-def _as_items(t: Term) -> tuple[Term, ...]:
-    if type(t) is tuple:
-        return t  # type: ignore[return-value]
-    return t.items + (t.tail,)  # type: ignore
-
-
-def _compare_seq(a: tuple[Term, ...], b: tuple[Term, ...]) -> int:
-    for x, y in zip(a, b, strict=False):
-        c = compare(x, y)
-        if c:
-            return c
-    return 0 if len(a) == len(b) else (-1 if len(a) < len(b) else 1)
+# Moved to modules of their own; still importable from here. Imported last: they build
+# on the term types above.
+from mrss.agentspeak.termorder import compare as compare  # noqa: E402
+from mrss.agentspeak.termtext import format_number as format_number  # noqa: E402
+from mrss.agentspeak.termtext import quote as quote  # noqa: E402
+from mrss.agentspeak.termtext import term_str as term_str  # noqa: E402
