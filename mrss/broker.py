@@ -45,9 +45,9 @@ from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
-from mrss.config import Check, Option
 from mrss.edge.broker_auth import PASSWORD_FILE_KEY, password_file_problem
 from mrss.errors import ConfigError, MrssError
+from mrss.options import Check, Option
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")

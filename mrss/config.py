@@ -5,6 +5,10 @@ dotted key, e.g. `projects/demo/project.toml:12: key 'components.rcl.restart': .
 Tables this module does not know are kept raw in `ProjectConfig.sections` for the
 layers that own them (robots, links, broker, ...). Every key is documented in
 docs/config.md.
+
+What a validated project is (`ProjectConfig` and its parts) is `mrss.project_config`;
+how a component declares the options it reads, `mrss.options`; how a key's line is
+found, `mrss.key_lines`. Their names are also importable from here.
 """
 
 from __future__ import annotations
@@ -13,20 +17,26 @@ import math
 import re
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from enum import StrEnum
 from functools import partial
 from pathlib import Path
 from typing import Any, Literal, cast
 
 from mrss.errors import ConfigError, SupervisionError
+from mrss.key_lines import key_line_number as key_line_number
+from mrss.key_lines import line_of_key
+from mrss.options import Check as Check
+from mrss.options import Option as Option
+from mrss.options import option_names as option_names
+from mrss.project_config import DEFAULT_RETRY_AFTER as DEFAULT_RETRY_AFTER
+from mrss.project_config import ComponentConfig as ComponentConfig
+from mrss.project_config import ProjectConfig as ProjectConfig
+from mrss.project_config import SupervisorConfig as SupervisorConfig
 from mrss.projects import PROJECT_FILE, project_path
-from mrss.supervision.children import ComponentStart, Scheduling
 from mrss.supervision.spec import (
     KILL,
     Backoff,
     ChildKind,
-    ChildSpec,
     Group,
     OnExceeded,
     Restart,
@@ -48,7 +58,6 @@ REPLACED_KEYS = {"on_exceeded": "on_give_up", "probation": "retry_after"}
 PROXY_MODULE = "mrss.bus.component:ProxyComponent"
 NEVER = "never"
 NICE_MIN, NICE_MAX = -20, 19
-DEFAULT_RETRY_AFTER = 60.0
 
 
 class OnGiveUp(StrEnum):
@@ -64,106 +73,6 @@ class OnGiveUp(StrEnum):
 OTHER_SECTIONS = ("nodes", "bus", "broker", "operator", "robots", "links", "reasoner", "rcl",
                   "events", "datalayer", "worldmodel", "tui", "sim", "skills", "alerts",
                   "map")
-
-
-class Check(StrEnum):
-    """What an option's value must be beyond its type (validated by `mrss check`)."""
-
-    NONE = "none"
-    POSITIVE = "positive"  # a number > 0
-    NON_NEGATIVE = "non_negative"  # a number >= 0
-    PORT = "port"  # 0 (a free port) .. 65535
-    URL = "url"  # scheme://host[:port][/path], the port a number
-    MAVLINK_URL = "mavlink_url"  # udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, ...
-    POSTGRES_URL = "postgres_url"  # postgresql://user@host:port/database
-    PROJECT_FILE = "project_file"  # a file that exists in the project folder
-    POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
-    RANGE = "range"  # [low, high], finite numbers, low <= high
-    SIGNING_KEY = "signing_key"  # a MAVLink signing key file (64 hex chars) in the project
-    PASSWORD_FILE = "password_file"  # an MQTT password file (mrss.edge.broker_auth)
-    TOKEN_FILE = "token_file"  # an HTTP bearer token file in the project (mrss.edge.http_token)
-
-
-@dataclass(frozen=True)
-class Option:
-    """One option a component (or an edge table, adapter, data layer) reads: declared once,
-    by the code that reads it, as `OPTIONS: ClassVar[tuple[Option, ...]]` on its class.
-
-    `kind` is the type (a tuple for several; float accepts int), `default` the value used
-    when it is absent, `doc` one line for docs and `mrss check`, `check` a value rule,
-    `choices` the values allowed (a closed set; empty: any).
-    """
-
-    name: str
-    kind: type | tuple[type, ...]
-    default: Any = None
-    doc: str = ""
-    check: Check = Check.NONE
-    choices: tuple[Any, ...] = ()
-
-
-def option_names(options: tuple[str | Option, ...]) -> tuple[str, ...]:
-    """The key names of a declaration that may mix plain names and `Option`s."""
-    return tuple(o.name if isinstance(o, Option) else o for o in options)
-
-
-@dataclass(frozen=True)
-class ComponentConfig:
-    """One `[components.<id>]` table."""
-
-    id: str
-    module: str
-    restart: Restart = Restart.PERMANENT
-    shutdown: float | Literal["kill"] = 5.0
-    kind: ChildKind = ChildKind.WORKER
-    enabled: bool = True
-    start_timeout: float = 10.0
-    backoff: bool = True
-    options: dict[str, Any] = field(default_factory=dict)
-    node: str = ""  # the node it runs on (`[nodes]`, mrss.nodes); "" on a single host
-    nice: int | None = None  # the process's nice value (-20..19); None: inherited
-    cpus: tuple[int, ...] | None = None  # the CPUs it may run on; None: all
-    realtime: int | None = None  # SCHED_RR priority 1..99; None: the normal scheduler
-
-    def child_spec(self) -> ChildSpec[ComponentStart]:
-        start = ComponentStart(self.module, dict(self.options), self.start_timeout,
-                               Scheduling(self.nice, self.cpus, self.realtime))
-        return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
-                         kind=self.kind, backoff=self.backoff)
-
-
-@dataclass(frozen=True)
-class SupervisorConfig:
-    """The `[supervisor]` table: restart flags plus process-watching settings."""
-
-    spec: SupervisorSpec = field(
-        default_factory=lambda: SupervisorSpec(on_exceeded=OnExceeded.QUARANTINE,
-                                               probation=DEFAULT_RETRY_AFTER))
-    heartbeat_interval: float = 0.5
-    heartbeat_misses: int = 3
-    launcher: Literal["fork", "exec"] = "fork"
-    run_dir: str | None = None
-    cpu_latency_us: int | None = None  # held while the system runs (cpu_latency.py)
-
-
-@dataclass(frozen=True)
-class ProjectConfig:
-    """A whole validated project.toml."""
-
-    name: str
-    directory: Path
-    file: Path
-    description: str = ""
-    supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
-    components: tuple[ComponentConfig, ...] = ()
-    sections: dict[str, Any] = field(default_factory=dict)
-
-    def child_specs(self) -> list[ChildSpec[ComponentStart]]:
-        """The enabled components in file order: the root supervisor's children."""
-        return [c.child_spec() for c in self.components if c.enabled]
-
-    def enabled(self) -> tuple[ComponentConfig, ...]:
-        return tuple(c for c in self.components if c.enabled)
 
 
 def load_project(name: str, base: Path | None = None) -> ProjectConfig:
@@ -200,23 +109,7 @@ class _Reader:
 
     def line_of(self, key: str) -> int | None:
         """Best effort: the line of `key` under its table header, or of the header."""
-        *table, last = key.split(".")
-        header = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(map(re.escape, table)) + r"\s*\]")
-        assign = re.compile(r"^\s*" + re.escape(last) + r"\s*=")
-        in_table = not table
-        found = None
-        for number, line in enumerate(self.lines, start=1):
-            if line.lstrip().startswith("["):
-                in_table = bool(table) and bool(header.match(line))
-                if in_table and found is None:
-                    found = number
-            elif in_table and assign.match(line):
-                return number
-        whole = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(map(re.escape, [*table, last])))
-        for number, line in enumerate(self.lines, start=1):
-            if whole.match(line):
-                return number
-        return found
+        return line_of_key(self.lines, key)
 
     def project(self, data: dict[str, Any]) -> ProjectConfig:
         project = self.table(data, "project", ("name", "description"))
@@ -443,14 +336,6 @@ class _Reader:
             return make()
         except SupervisionError as exc:
             raise self.error(key, str(exc)) from None
-
-
-def key_line_number(path: Path, key: str) -> int | None:
-    """The line of a dotted key (or of its table) in a project.toml, for error messages."""
-    try:
-        return _Reader(path, read_text(path)).line_of(key)
-    except (OSError, NotUtf8Error):
-        return None
 
 
 def _close_to(word: str, options: tuple[str, ...]) -> str | None:

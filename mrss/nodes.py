@@ -29,8 +29,9 @@ from pathlib import Path
 from typing import Any
 
 from mrss.bus.mesh import MeshSettings
-from mrss.config import ID_PATTERN, PROXY_MODULE, ProjectConfig
+from mrss.config import ID_PATTERN, PROXY_MODULE
 from mrss.errors import ConfigError
+from mrss.project_config import ProjectConfig
 from mrss.supervision.children import ComponentStart
 from mrss.supervision.spec import ChildSpec
 
@@ -140,7 +141,7 @@ def node_plan(config: ProjectConfig) -> NodePlan:
     """The validated layout; ConfigError (file, line, key) for the first problem."""
     plan, problems = read_nodes(config)
     if problems:
-        from mrss.config import key_line_number
+        from mrss.key_lines import key_line_number
 
         first = problems[0]
         line = key_line_number(config.file, first.key)

@@ -36,7 +36,7 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from pathlib import Path
 from typing import Any, ClassVar
 
-from mrss.config import Check, Option, load_file
+from mrss.config import load_file
 from mrss.edge.adapters import DataLayer, DataLayerContext, WorldModelAccess
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
@@ -59,6 +59,7 @@ from mrss.edge.validation import (
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError, TransientError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
+from mrss.options import Check, Option
 from mrss.projects import PROJECT_FILE
 from mrss.supervision.component import Component, ComponentContext
 

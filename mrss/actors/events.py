@@ -40,7 +40,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
-from mrss.config import Check, Option
 from mrss.edge.adapters import EventsContext, ExternalAdapter
 from mrss.edge.busport import BusPort, MessagePublisher
 from mrss.edge.component import bus_port, edge_config, table, with_broker
@@ -54,6 +53,7 @@ from mrss.edge.percepts import EventCounters, PerceptPublisher, PerceptSink
 from mrss.edge.retry import RetryPolicy
 from mrss.errors import ConfigError
 from mrss.messages import Percept
+from mrss.options import Check, Option
 from mrss.supervision.component import Component, ComponentContext
 
 DEFAULT_MODULE = "events.py"

@@ -44,7 +44,6 @@ from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl import RclCore
 from mrss.api import RobotCommLayer
 from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
-from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
 from mrss.errors import ConfigError, MrssError
@@ -57,6 +56,7 @@ from mrss.messages import (
     Heartbeat,
     SupEvent,
 )
+from mrss.options import Check, Option
 from mrss.supervision import Component, ComponentContext
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 

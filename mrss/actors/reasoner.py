@@ -52,7 +52,6 @@ from mrss.bus import (
     ReliableSender,
     Subscriber,
 )
-from mrss.config import Check, Option
 from mrss.edge.component import ZmqBusPort, bus_port
 from mrss.edge.datalayer_client import DataLayerClient
 from mrss.edge.rejections import RejectionLog
@@ -72,6 +71,7 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
+from mrss.options import Check, Option
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.reasoner")

@@ -37,7 +37,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
-from mrss.config import Check, Option
 from mrss.edge.busport import BusPort
 from mrss.edge.component import bus_port, edge_config, table
 from mrss.edge.http_token import (
@@ -60,6 +59,7 @@ from mrss.edge.worldmodel_service import (
 from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore, postgres_url_problem
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
+from mrss.options import Check, Option
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.worldmodel")

@@ -43,7 +43,6 @@ from mrss.api._layer import (
 from mrss.api._layer import (
     check_json as check_json,  # the RCL's; not part of the contract
 )
-from mrss.config import Check, Option
 from mrss.edge.adapters import DataLayer, ExternalAdapter, external
 from mrss.edge.component import BROKER_URL_FILE
 from mrss.edge.http_token import project_token as world_model_token
@@ -68,6 +67,7 @@ from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step
 from mrss.links.mqtt_publish import publish_json
 from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
+from mrss.options import Check, Option
 from mrss.plans import plan_record
 from mrss.projects import PROJECT_FILE
 

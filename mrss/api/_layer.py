@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
 from mrss.actors.lifecycle import check_action_transition
-from mrss.config import Option, option_names
 from mrss.errors import ActionError, MrssError
 from mrss.links.connect import connect_link
 from mrss.messages import (
@@ -28,6 +27,7 @@ from mrss.messages import (
     Message,
     RobotData,
 )
+from mrss.options import Option, option_names
 from mrss.plans import plan_record
 
 

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import psutil
 
-from mrss.config import ProjectConfig
 from mrss.errors import MrssError
+from mrss.project_config import ProjectConfig
 from mrss.supervision.forkserver import is_fork_server
 
 PROXY_MODULE = "mrss.bus.component:ProxyComponent"

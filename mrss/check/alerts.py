@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from mrss.alert_rules import SECTION, read_alert_rules
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import read_table
-from mrss.config import ProjectConfig
+from mrss.project_config import ProjectConfig
 
 _INDEXED = re.compile(rf"^{SECTION}\[(\d+)\](?:\.(\w+))?$")
 

@@ -18,9 +18,9 @@ from typing import Any
 
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, section_key
-from mrss.config import ProjectConfig
 from mrss.edge.broker_auth import PASSWORD_FILE_KEY
 from mrss.edge.http_token import TOKEN_ENV_KEY, TOKEN_FILE_KEY, exposure_problem
+from mrss.project_config import ProjectConfig
 
 
 def check_exposure(config: ProjectConfig, report: Report, table: Mapping[str, Any],

@@ -11,8 +11,8 @@ import re
 
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, read_table
-from mrss.config import ProjectConfig
 from mrss.map_config import DEFAULT_KINDS, SECTION, MapConfig, read_map
+from mrss.project_config import ProjectConfig
 
 PROJECT_FILES = ("*.py", "*.json", "*.asl")
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 from mrss.bus.curve import paths, permission_problem
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line
-from mrss.config import ProjectConfig
 from mrss.nodes import keys_dir, read_nodes
+from mrss.project_config import ProjectConfig
 
 
 def check_nodes(config: ProjectConfig, report: Report) -> None:

@@ -15,8 +15,8 @@ from pathlib import Path
 from mrss.agentspeak.agent import read_program
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, read_table
-from mrss.config import ProjectConfig
 from mrss.operator_commands import SECTION, OperatorConfig, read_operator
+from mrss.project_config import ProjectConfig
 
 
 def check_operator(config: ProjectConfig, report: Report, *, events_running: bool,

@@ -1,7 +1,7 @@
 """Options of components and edge tables: every key declared, of its type, with a valid value.
 
 Rules:
-- the code that reads an option declares it (`OPTIONS` of `mrss.config.Option`s on the
+- the code that reads an option declares it (`OPTIONS` of `mrss.options.Option`s on the
   component class; a component that reads a table of its own names it in `SECTION`, and
   the project class it runs — adapter, data layer — adds its own `OPTIONS`);
 - a key nobody declares is an error, with "did you mean" among the declared keys (and the
@@ -29,11 +29,13 @@ from mrss.broker import BROKER_EMBEDDED_OPTIONS, BROKER_OPTIONS
 from mrss.bus.component import BUS_OPTIONS
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import key_line
-from mrss.config import COMPONENT_KEYS, OTHER_SECTIONS, Check, Option, ProjectConfig
+from mrss.config import COMPONENT_KEYS, OTHER_SECTIONS
 from mrss.edge.broker_auth import password_file_problem
 from mrss.edge.http_token import token_file_problem
 from mrss.edge.worldmodel_store import postgres_url_problem
 from mrss.links.mavlink_signing import key_problem
+from mrss.options import Check, Option
+from mrss.project_config import ProjectConfig
 
 MAVLINK_URL = re.compile(r"^(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:]+):(.+)$")
 

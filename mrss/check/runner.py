@@ -35,9 +35,11 @@ from mrss.check.recipes import (
 from mrss.check.robots import check_robots
 from mrss.check.sources import PySource, Sources
 from mrss.check.toml_lines import key_line, section_key
-from mrss.config import COMPONENT_KEYS, ComponentConfig, Option, ProjectConfig, option_names
+from mrss.config import COMPONENT_KEYS
 from mrss.edge.adapters import DataLayer, ExternalAdapter
 from mrss.errors import SupervisionError
+from mrss.options import Option, option_names
+from mrss.project_config import ComponentConfig, ProjectConfig
 from mrss.supervision.component_main import load_class
 
 REASONER = "mrss.actors.reasoner:ReasonerComponent"

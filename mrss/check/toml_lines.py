@@ -6,8 +6,9 @@ from collections.abc import Callable
 from typing import TypeVar
 
 from mrss.check.findings import Report
-from mrss.config import ProjectConfig, key_line_number
 from mrss.errors import ConfigError
+from mrss.key_lines import key_line_number
+from mrss.project_config import ProjectConfig
 
 T = TypeVar("T")
 

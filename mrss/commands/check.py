@@ -16,8 +16,9 @@ import json
 import sys
 
 from mrss.check import Report, check_project
-from mrss.config import ProjectConfig, load_project
+from mrss.config import load_project
 from mrss.errors import ConfigError
+from mrss.project_config import ProjectConfig
 from mrss.supervision.spec import OnExceeded
 
 EXIT_INVALID = 2

@@ -35,9 +35,10 @@ from mrss.bus import Publisher
 from mrss.bus.component import endpoints_from_config
 from mrss.bus.curve import load_keys, load_public
 from mrss.commands import check
-from mrss.config import PROXY_MODULE, ProjectConfig, load_project
+from mrss.config import PROXY_MODULE, load_project
 from mrss.errors import ConfigError
 from mrss.nodes import keys_dir, node_children, node_plan
+from mrss.project_config import ProjectConfig
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
 from mrss.supervision.events import NODE_ENV, Publish

@@ -43,13 +43,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
-from mrss.config import Check, Option
 from mrss.errors import ConfigError
 from mrss.links.connect import ADDRESS_SUFFIX
 from mrss.links.connect import project_broker_url as links_broker_url
 from mrss.links.failsafe import policy_of
 from mrss.links.geo import distance_m
 from mrss.links.mavlink_signing import load_key
+from mrss.options import Check, Option
 from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv

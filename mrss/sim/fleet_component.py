@@ -17,8 +17,8 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from mrss.config import Check, Option
 from mrss.errors import ConfigError
+from mrss.options import Check, Option
 from mrss.sim.component import number, position, project_broker_url, speedup_of
 from mrss.sim.fleet import FleetSpec, SimFleet
 from mrss.sim.uav import DEFAULT_HOME
