@@ -8,9 +8,9 @@ from __future__ import annotations
 from mrss.agentspeak.agent import Agent, default_registry
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.host import ConsoleHost, run_standalone
+from mrss.agentspeak.hostactions import Host
 from mrss.agentspeak.parser import parse_literal, parse_term
 from mrss.agentspeak.registry import IAContext, Registry
-from mrss.agentspeak.runtime import Host
 from mrss.agentspeak.terms import Struct, Var, term_str
 
 __all__ = [

@@ -19,10 +19,11 @@ from typing import Any
 from mrss.agentspeak.compile import compile_program
 from mrss.agentspeak.depth import ensure_recursion_limit
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
+from mrss.agentspeak.hostactions import Host
 from mrss.agentspeak.intentions import RUNNABLE
 from mrss.agentspeak.parser import parse_literal, parse_program
 from mrss.agentspeak.registry import Registry
-from mrss.agentspeak.runtime import Host, Runtime
+from mrss.agentspeak.runtime import Runtime
 from mrss.agentspeak.snapshot import take_snapshot
 from mrss.agentspeak.terms import (
     ADD_BEL,

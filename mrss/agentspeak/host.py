@@ -1,4 +1,4 @@
-"""Hosts for environment actions: the protocol lives in `runtime.Host`; here is the
+"""Hosts for environment actions: the protocol is `hostactions.Host`; here is the
 console host used by `mrss agent`, which prints each action and succeeds at once."""
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 Holds beliefs, plans, the event queue, intentions (a round-robin queue of runnable
 ones; parked ones are not in it, so blocked intentions cost nothing per cycle), the
 environment actions in progress and the `.wait` timers. `agent.Agent` drives it.
+How environment actions go out to the host and come back is `hostactions`, the
+`.wait` and `.at` timers are `timers`: their functions are `Runtime` methods.
 
 Jason's transition rules (Bordini et al., "Programming Multi-Agent Systems in
 AgentSpeak using Jason", formal semantics) and where each one is:
@@ -28,25 +30,24 @@ AgentSpeak using Jason", formal semantics) and where each one is:
 
 from __future__ import annotations
 
-import heapq
 import itertools
 import logging
 from collections import deque
 from collections.abc import Callable, Hashable
-from typing import Any, Protocol
+from typing import Any
 
-from mrss.agentspeak import goals, goalstates
+from mrss.agentspeak import goals, goalstates, hostactions, timers
 from mrss.agentspeak.beliefs import BeliefBase
 from mrss.agentspeak.depth import DEPTH_ERROR, depth_message
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import Query, compile_query
+from mrss.agentspeak.hostactions import Host as Host
 from mrss.agentspeak.instructions import Jump
 from mrss.agentspeak.intentions import (
     DROPPED,
     FINISHED,
     PENDING_EVENT,
     RUNNABLE,
-    WAIT_ACTION,
     Event,
     IntendedMeans,
     Intention,
@@ -60,25 +61,10 @@ from mrss.agentspeak.terms import (
     SOURCE_PERCEPT,
     Struct,
     Term,
-    term_str,
 )
 from mrss.agentspeak.unify import resolve, undo, unify
 
 log = logging.getLogger("mrss.agentspeak")
-
-
-class Host(Protocol):
-    """Where environment actions go. `execute` returns a handle; the host later calls
-    `agent.complete_action(handle, success)` (from any thread). `cancel` is called
-    when the intention waiting on the action is dropped.
-
-    A host may declare `open_actions`, a set of action functors whose arguments may
-    hold free variables (e.g. MRSS's `query(Function, Args, Result)`): their
-    completion may carry a result term, unified with the action literal."""
-
-    def execute(self, action: Struct, intention_id: int) -> Hashable: ...
-
-    def cancel(self, handle: Hashable) -> None: ...
 
 
 class Extras:
@@ -333,90 +319,17 @@ class Runtime:
             self._clear_atomic()
         self.make_runnable(it)
 
-    def start_action(self, it: Intention, lit: Struct, line: int) -> None:
-        if self.host is None:
-            raise AslRuntimeError(f"no host to execute action {term_str(lit)}",
-                                  error="action_failed")
-        try:
-            handle = self.host.execute(lit, it.id)
-        except Exception as exc:  # the host's failure is the action's failure
-            raise AslRuntimeError(f"action {term_str(lit)} failed at the host: {exc}",
-                                  error="action_failed") from exc
-        it.state = WAIT_ACTION
-        it.action = handle
-        it.action_lit = lit
-        it.line = line
-        self.pending_actions[handle] = it
-        if self.plans.meta:
-            goalstates.emit_top(self, it, goalstates.GoalState.WAITING,
-                                Struct("action", (lit,)))
-
-    def process_completion(self, handle: Hashable, ok: bool, reason: str | None,
-                           result: Term | None = None, error: str | None = None) -> None:
-        it = self.pending_actions.pop(handle, None)
-        if it is None or it.dropped:
-            return  # dropped or unknown: late feedback is ignored
-        it.action = None
-        lit, it.action_lit = it.action_lit, None
-        if ok and result is not None and lit is not None and not unify(lit, None, result, []):
-            ok, reason = False, f"result {term_str(result)} does not match {term_str(lit)}"
-        if ok:
-            if self.plans.meta and not it.suspended:  # else `.resume` resumes it
-                goalstates.emit_top(self, it, goalstates.GoalState.RESUMED)
-            self.make_runnable(it)
-            self.pop_finished(it)
-        else:
-            im = it.stack[-1]
-            it.state = RUNNABLE
-            goals.fail(self, it, error or "action_failed",
-                       f"action failed: {reason or 'failure'}", im.plan.file, it.line)
-
-    def cancel_action(self, it: Intention) -> None:
-        handle = it.action
-        if handle is None:
-            return
-        it.action = None
-        self.pending_actions.pop(handle, None)
-        if self.host is not None:
-            try:
-                self.host.cancel(handle)
-            except Exception as exc:
-                self.warn(f"host could not cancel action {handle!r}: {exc}")
+    # environment actions (`hostactions`): out to the host and back
+    start_action = hostactions.start_action
+    process_completion = hostactions.process_completion
+    cancel_action = hostactions.cancel_action
 
     # ------------------------------------------------------------------ timers
-    def add_timer(self, deadline: float, it: Intention, token: int) -> None:
-        heapq.heappush(self.timers, (deadline, next(self._seq), it, token))
-
-    def add_event_at(self, deadline: float, ev: Event) -> None:
-        """Post `ev` when the clock reaches `deadline` (`.at`)."""
-        heapq.heappush(self.timers, (deadline, next(self._seq), None, ev))
-
-    def next_deadline(self) -> float | None:
-        """The earliest `.wait` deadline (clock seconds), skipping stale timers."""
-        timers = self.timers
-        while timers:
-            _, _, it, token = timers[0]
-            if it is None or (it.wait is not None and it.wait.token == token
-                              and not it.dropped):
-                return timers[0][0]
-            heapq.heappop(timers)
-        return None
-
-    def expire_timers(self, now: float) -> bool:
-        fired = False
-        timers = self.timers
-        while timers and timers[0][0] <= now:
-            _, _, it, token = heapq.heappop(timers)
-            if it is None:  # `.at`: its event is due
-                if token.op == ADD_ACH:
-                    self.post_goal(token.lit, None)
-                else:
-                    self.post(token)
-                fired = True
-            elif it.wait is not None and it.wait.token == token and not it.dropped:
-                goals.wait_timeout(self, it, now)
-                fired = True
-        return fired
+    # `.wait` deadlines and `.at` events (`timers`)
+    add_timer = timers.add_timer
+    add_event_at = timers.add_event_at
+    next_deadline = timers.next_deadline
+    expire_timers = timers.expire_timers
 
     # ------------------------------------------------------------------ internal actions
     def ia_context(self, it: Intention | None, im: IntendedMeans | None,
