@@ -70,6 +70,7 @@ class Sample:
     topics: Counter[str] = field(default_factory=Counter)
     cpu: dict[str, float] = field(default_factory=dict)
     rss_mb: dict[str, float] = field(default_factory=dict)
+    threads: dict[str, int] = field(default_factory=dict)
 
     @property
     def lost_assignments(self) -> int:
@@ -184,6 +185,7 @@ class FleetRun:
             try:
                 sample.cpu[name] = 100 * (_cpu(p) - cpu0[name]) / sample.window_s
                 sample.rss_mb[name] = p.memory_info().rss / 2**20
+                sample.threads[name] = p.num_threads()
             except psutil.Error:
                 continue
         with self._cond:
@@ -254,8 +256,10 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
         report.notes.append(f"N={robots}: load average {load:.2f} before, "
                             f"{os.getloadavg()[0]:.2f} after")
     for sample in samples:
-        report.notes.append(f"N={sample.robots} CPU % of one core / RSS MB: " + ", ".join(
-            f"{name} {sample.cpu[name]:.0f}/{sample.rss_mb[name]:.0f}"
+        report.notes.append(f"N={sample.robots} CPU % of one core / RSS MB / threads: "
+                            + ", ".join(
+            f"{name} {sample.cpu[name]:.0f}/{sample.rss_mb[name]:.0f}/"
+            f"{sample.threads.get(name, 0)}"
             for name in sorted(sample.cpu, key=lambda n: -sample.cpu[n])))
         if sample.batches:
             report.notes.append(

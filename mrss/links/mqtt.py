@@ -3,9 +3,11 @@
 The link is up while the broker connection stands, the robot's retained status is not
 "offline" and valid telemetry keeps arriving; it goes down with the reason
 ("broker connection lost: ...", "last will: offline", "telemetry timeout: none for 3.0 s").
-paho reconnects to the broker with a growing delay. Command helpers block until the
-robot accepts (and, with ``wait=True``, finishes) the command, repeating an unanswered
-command with the same id (the robot answers repeats without doing them twice).
+The links of a process that log in to a broker alike share one connection
+(mrss.links.mqtt_session), which paho reconnects with a growing delay. Command helpers
+block until the robot accepts (and, with ``wait=True``, finishes) the command, repeating
+an unanswered command with the same id (the robot answers repeats without doing them
+twice).
 
 Failsafe (mrss.links.failsafe): the link publishes a controller heartbeat every second
 on the robot's ``heartbeat`` topic while its controller lives (`watch_controller`),
@@ -22,16 +24,15 @@ import threading
 import time
 from typing import Any
 
-from paho.mqtt import client as mqtt
-
 from mrss.errors import DecodeError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
-from mrss.links.errors import CommandRejected, CommandTimeout
+from mrss.links.errors import CommandRejected, CommandTimeout, LinkDown
 from mrss.links.failsafe import (
     CONTROLLER_HEARTBEAT_S,
     FailsafePolicy,
 )
-from mrss.links.mqtt_url import disable_nagle, new_client, parse_broker_url, with_login
+from mrss.links.mqtt_session import MqttSession
+from mrss.links.mqtt_url import parse_broker_url, with_login
 from mrss.links.timers import TIMERS, TimerHandle
 from mrss.links.ugv_protocol import (
     DEFAULT_PREFIX,
@@ -86,28 +87,24 @@ class MqttLink(RobotLink):
         self._stop = threading.Event()
         self._watchdog: TimerHandle | None = None
         self._next_heartbeat = 0.0
-        self._client = new_client(f"mrss-link-{robot_id}-{self._token}", self.address)
-        self._client.on_connect = self._on_connect
-        self._client.on_disconnect = self._on_disconnect
-        self._client.on_connect_fail = self._on_connect_fail
-        self._client.on_message = self._on_message
-        self._client.reconnect_delay_set(min_delay=1, max_delay=10)
+        self._session: MqttSession | None = None
 
     # -- life cycle ------------------------------------------------------------------------
     def start(self) -> None:
-        """Connect in the background (retrying with backoff) and start the watchdog (a job
-        of the process's shared link timer thread, mrss.links.timers)."""
+        """Join the process's connection to the broker (mrss.links.mqtt_session: made in
+        the background for the first link, retrying with backoff) and start the watchdog
+        (a job of the process's shared link timer thread, mrss.links.timers)."""
         self._set_link_state(False, f"connecting to {self.address.host}:{self.address.port}")
-        self._client.connect_async(self.address.host, self.address.port,
-                                   keepalive=self.keepalive)
-        self._client.loop_start()
+        self._session = MqttSession.attach(self.address, self.keepalive, self)
         self._watchdog = TIMERS.schedule(self._watch, name=f"mqtt-{self.robot_id}")
 
     def close(self) -> None:
         """Disconnect and stop; the link ends down ("link closed")."""
         self._stop.set()
-        self._client.disconnect()
-        self._client.loop_stop()
+        session, self._session = self._session, None
+        if session is not None:
+            session.detach(self)
+        self._connected = False
         if self._watchdog is not None:
             self._watchdog.cancel()
         self._mark_closed()
@@ -171,7 +168,8 @@ class MqttLink(RobotLink):
 
     def _publish_until_answered(self, cmd: str, ident: str, payload: bytes) -> None:
         for _ in range(self.retries):
-            self._client.publish(self.topics.cmd, payload, qos=1)
+            if not self._publish(self.topics.cmd, payload, qos=1):
+                raise LinkDown(self.robot_id, "link closed")
             try:
                 self.wait_for(lambda: self._waiting.get(ident) is not None,
                               self.command_timeout, cmd)
@@ -180,32 +178,29 @@ class MqttLink(RobotLink):
                 continue
         raise CommandTimeout(self.robot_id, cmd, self.command_timeout, self.retries)
 
-    # -- MQTT callbacks (paho's network thread) --------------------------------------------
-    def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any,
-                    reason_code: Any, properties: Any) -> None:
-        if reason_code.is_failure:
-            self._set_link_state(False, f"broker refused the connection: {reason_code}")
-            return
-        disable_nagle(client)
+    def _publish(self, topic: str, payload: bytes, qos: int) -> bool:
+        """Publish through the session; False once the link is closed."""
+        session = self._session
+        if session is None:
+            return False
+        session.publish(topic, payload, qos)
+        return True
+
+    # -- the shared session's callbacks (its network thread) -------------------------------
+    def session_topics(self) -> tuple[str, ...]:
+        return (self.topics.status, self.topics.telemetry, self.topics.ack)
+
+    def session_connected(self) -> None:
         self._connected = True
-        for topic in (self.topics.status, self.topics.telemetry, self.topics.ack):
-            client.subscribe(topic, qos=1)
         self._heartbeat()  # the robot hears its controller at once
         self.log.info("connected to broker %s:%d", self.address.host, self.address.port)
 
-    def _on_connect_fail(self, client: mqtt.Client, userdata: Any) -> None:
-        tls = " (TLS: is ca_certs the broker's CA?)" if self.address.tls else ""
-        self._set_link_state(False, f"cannot connect to {self.address.host}:"
-                                    f"{self.address.port}{tls}")
+    def session_down(self, reason: str) -> None:
+        self._connected = False
+        if not self._stop.is_set():
+            self._set_link_state(False, reason)
 
-    def _on_disconnect(self, client: mqtt.Client, userdata: Any, flags: Any,
-                       reason_code: Any, properties: Any) -> None:
-        was_connected, self._connected = self._connected, False
-        if not self._stop.is_set() and was_connected:  # else: on_connect said why
-            self._set_link_state(False, f"broker connection lost: {reason_code}")
-
-    def _on_message(self, client: mqtt.Client, userdata: Any, message: Any) -> None:
-        topic, payload = str(message.topic), bytes(message.payload)
+    def session_message(self, topic: str, payload: bytes) -> None:
         try:
             if topic == self.topics.telemetry:
                 self._on_telemetry(parse_telemetry(payload, self.robot_id, topic))
@@ -268,7 +263,7 @@ class MqttLink(RobotLink):
             policy = self.failsafe
             beat = UgvHeartbeat(time.time(), policy.action if policy else None,
                                 policy.timeout_s if policy else None)
-            self._client.publish(self.topics.heartbeat, beat.to_json(), qos=0)
+            return self._publish(self.topics.heartbeat, beat.to_json(), qos=0)
         return True
 
     # -- liveness --------------------------------------------------------------------------
