@@ -8,7 +8,10 @@ query shape itself, all at once in shapely, before the survivors are read as obj
 and shapely decides the predicate (`mrss.edge.worldmodel_geometry` for the distance
 method).
 Safe to share between threads (the bus handler and the HTTP server): one lock serialises
-every statement. The schema version is SQLite's `user_version`; files of older versions
+every statement. An upsert merges with the stored object, which the store reads only
+when it does not hold it already: it keeps the points it wrote (a moving robot's row is
+not read before each of its updates) and forgets them all when another connection has
+written the file or a write failed. The schema version is SQLite's `user_version`; files of older versions
 are migrated when opened.
 """
 
@@ -72,6 +75,7 @@ END;
 _COLUMNS = "id, kind, lat, lon, alt, attributes, version, updated, geometry"
 _BOX_TEST_FROM = 32   # candidates from which their boxes are tested against the shape
 _METRES_PER_DEGREE = EARTH_RADIUS_M * math.pi / 180
+_KEPT_MAX = 10_000  # stored points kept in memory, to spare a read per upsert
 
 
 class SqliteWorldStore:
@@ -85,6 +89,11 @@ class SqliteWorldStore:
         self._lock = threading.Lock()
         self._checkpointer: Checkpointer | None = None
         self._db = sqlite3.connect(str(path), check_same_thread=False, isolation_level=None)
+        # id -> the point object exactly as a read of its row would give it, so that an
+        # upsert of a moving robot does not read its row first; dropped as a whole when
+        # another connection has written the file (`data_version`) or a write rolls back.
+        self._kept: dict[str, WorldObject] = {}
+        self._data_version: int | None = None
         if str(path) != ":memory:":
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
@@ -110,29 +119,47 @@ class SqliteWorldStore:
     def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
         """Insert `obj`, or update the object with its id (`worldmodel_objects.merge`)."""
         with self._lock:
-            return self._upsert(obj, replace_attributes)
+            self._check_kept()
+            try:
+                return self._upsert(obj, replace_attributes)
+            except BaseException:
+                self._kept.clear()
+                raise
 
     def upsert_many(self, objs: list[WorldObject]) -> list[Change]:
         """Upsert `objs` in order in one transaction: all are committed or none (the
         error is raised after the rollback); returns once committed."""
         with self._lock:
+            self._check_kept()
             self._db.execute("BEGIN")
             try:
                 changes = [self._upsert(obj, False) for obj in objs]
                 self._db.execute("COMMIT")
             except BaseException:
+                self._kept.clear()
                 if self._db.in_transaction:
                     self._db.execute("ROLLBACK")
                 raise
             return changes
 
+    def _check_kept(self) -> None:
+        """Forget the kept objects if another connection wrote the file since (lock held)."""
+        (version,) = self._db.execute("PRAGMA data_version").fetchone()
+        if version != self._data_version:
+            self._kept.clear()
+            self._data_version = version
+
     def _upsert(self, obj: WorldObject, replace_attributes: bool) -> Change:
-        change = merge(obj, self._get(obj.id), replace_attributes=replace_attributes)
+        previous = self._kept.get(obj.id)
+        if previous is None:
+            previous = self._get(obj.id)
+        change = merge(obj, previous, replace_attributes=replace_attributes)
         if change.op == "unchanged":
             return change
         new = change.obj
-        pos, shape = new.position, new.shape
-        box = shape.bounds if shape is not None else (None, None, None, None)
+        pos = new.position
+        box = _box(new)
+        attributes = json.dumps(new.attributes, allow_nan=False)
         self._db.execute(
             f"INSERT INTO objects ({_COLUMNS}, minlon, minlat, maxlon, maxlat)"
             " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (id) DO UPDATE SET "
@@ -142,10 +169,20 @@ class SqliteWorldStore:
             "geometry = excluded.geometry, minlon = excluded.minlon, "
             "minlat = excluded.minlat, maxlon = excluded.maxlon, maxlat = excluded.maxlat",
             (new.id, new.kind, pos.lat if pos else None, pos.lon if pos else None,
-             pos.alt if pos else None, json.dumps(new.attributes, allow_nan=False),
-             new.version, new.updated,
+             pos.alt if pos else None, attributes, new.version, new.updated,
              None if new.geometry is None else new.geometry.to_text(), *box))
+        self._keep(new, attributes)
         return change
+
+    def _keep(self, new: WorldObject, attributes: str) -> None:
+        """Keep `new` if a read of its row would give it back exactly: a point (or no
+        shape) whose attributes come back from JSON as they are (not so a tuple)."""
+        if new.geometry is None and _json_returns(new.attributes, attributes):
+            if len(self._kept) >= _KEPT_MAX:
+                self._kept.clear()
+            self._kept[new.id] = new
+        else:
+            self._kept.pop(new.id, None)
 
     def get(self, object_id: str) -> WorldObject | None:
         """The object with this id, or None."""
@@ -155,6 +192,7 @@ class SqliteWorldStore:
     def delete(self, object_id: str) -> bool:
         """Remove an object; False when there was none."""
         with self._lock:
+            self._kept.pop(object_id, None)
             cur = self._db.execute("DELETE FROM objects WHERE id = ?", (object_id,))
             return cur.rowcount > 0
 
@@ -237,6 +275,25 @@ def _expanded(box: tuple[float, float, float, float],
         return -180.0, low, 180.0, high
     dlon = dlat / math.cos(math.radians(widest))
     return max(-180.0, minlon - dlon), low, min(180.0, maxlon + dlon), high
+
+
+_SCALARS = (str, int, float, bool, type(None))  # JSON gives these back as they are
+
+
+def _json_returns(attributes: dict[str, Any], text: str) -> bool:
+    """Whether `text` (the JSON of `attributes`) reads back as `attributes` itself."""
+    if all(type(k) is str and type(v) in _SCALARS for k, v in attributes.items()):
+        return True
+    return bool(json.loads(text) == attributes)
+
+
+def _box(obj: WorldObject) -> tuple[float | None, float | None, float | None, float | None]:
+    """The object's lon/lat bounding box (a point's is itself: no shapely object made)."""
+    pos = obj.position
+    if pos is not None:
+        return pos.lon, pos.lat, pos.lon, pos.lat
+    shape = obj.shape
+    return shape.bounds if shape is not None else (None, None, None, None)
 
 
 def _row_object(row: Any) -> WorldObject:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 import threading
-from typing import Any
+from typing import Any, cast
 
 import pytest
 
@@ -322,3 +322,37 @@ def test_a_long_query_line_is_cut_into_pieces_that_are_the_same_line() -> None:
     assert all(math.dist(*p) <= PIECE_DEG + 1e-12 for p in pieces)
     huge = Geometry.from_json({"type": "LineString", "coordinates": [[0.0, 0.0], [5.0, 5.0]]})
     assert len(line_pieces(huge) or []) == MAX_PIECES
+
+
+def test_the_sqlite_store_upserts_over_what_is_stored_even_when_another_writer_came_first(
+        tmp_path: Any) -> None:
+    """SQLite keeps the points it wrote in memory (no read before each upsert); what
+    another connection wrote, and what a failed batch rolled back, must still count."""
+    path = tmp_path / "world.db"
+    ours, theirs = SqliteWorldStore(path), SqliteWorldStore(path)
+    try:
+        ours.upsert(obj("uav1", "robot", position={"lat": 1.0, "lon": 2.0},
+                        attributes={"battery": 90}))
+        theirs.upsert(obj("uav1", "robot", attributes={"tank": 5}))  # version 2
+        change = ours.upsert(obj("uav1", "robot", attributes={"battery": 80}))
+        assert (change.op, change.obj.version) == ("update", 3)
+        assert change.obj.attributes == {"battery": 80, "tank": 5}
+        # A batch that fails half-way is rolled back whole; the next upsert merges with
+        # the stored object, not with the rolled-back one.
+        bad = WorldObject("uav1", "robot", Position(1.0, 2.0), {"battery": 70})
+        with pytest.raises(AttributeError):  # not an object: fails after `bad` is written
+            ours.upsert_many([bad, cast(WorldObject, None)])
+        assert theirs.get("uav1").attributes["battery"] == 80  # type: ignore[union-attr]
+        again = ours.upsert(obj("uav1", "robot", attributes={"battery": 80}))
+        assert (again.op, again.obj.version) == ("unchanged", 3)
+        # Attributes that JSON gives back otherwise (a tuple comes back as a list) are
+        # compared as stored: the same list again changes nothing.
+        ours.upsert(WorldObject("ugv1", "robot", Position(1.0, 2.0), {"path": (1, 2)}))
+        same = ours.upsert(WorldObject("ugv1", "robot", Position(1.0, 2.0), {"path": [1, 2]}))
+        assert same.op == "unchanged"
+        assert ours.delete("ugv1")
+        assert ours.upsert(obj("ugv1", "robot")).op == "insert"
+        assert theirs.get("uav1") == ours.get("uav1")
+    finally:
+        ours.close()
+        theirs.close()
