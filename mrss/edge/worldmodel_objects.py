@@ -183,8 +183,8 @@ def merge(obj: WorldObject, previous: WorldObject | None, *,
     a new position or geometry replaces it (a point may become an area).
     """
     if previous is None:
-        new = WorldObject(obj.id, obj.kind, obj.position, dict(obj.attributes), 1,
-                          time.time(), obj.geometry)
+        new = _of_checked_parts(obj.id, obj.kind, obj.position, dict(obj.attributes), 1,
+                                time.time(), obj.geometry)
         return Change("insert", new, None)
     attributes = dict(obj.attributes) if replace_attributes else {
         **previous.attributes, **obj.attributes}
@@ -195,6 +195,19 @@ def merge(obj: WorldObject, previous: WorldObject | None, *,
     if (obj.kind, position, geometry, attributes) == (
             previous.kind, previous.position, previous.geometry, previous.attributes):
         return Change("unchanged", previous, previous)
-    new = WorldObject(obj.id, obj.kind, position, attributes, previous.version + 1,
-                      time.time(), geometry)
+    new = _of_checked_parts(obj.id, obj.kind, position, attributes, previous.version + 1,
+                            time.time(), geometry)
     return Change("update", new, previous)
+
+
+_FIELDS = ("id", "kind", "position", "attributes", "version", "updated", "geometry")
+
+
+def _of_checked_parts(*values: Any) -> WorldObject:
+    """A WorldObject made of the parts of objects already checked (a merge of two of
+    them is one too), without checking them again: a write of a moving robot made three
+    objects and checked each, attributes encoded to JSON every time."""
+    new = object.__new__(WorldObject)
+    for name, value in zip(_FIELDS, values, strict=True):
+        object.__setattr__(new, name, value)
+    return new

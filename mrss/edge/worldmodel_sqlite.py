@@ -11,8 +11,8 @@ Safe to share between threads (the bus handler and the HTTP server): one lock se
 every statement. An upsert merges with the stored object, which the store reads only
 when it does not hold it already: it keeps the points it wrote (a moving robot's row is
 not read before each of its updates) and forgets them all when another connection has
-written the file or a write failed. The schema version is SQLite's `user_version`; files of older versions
-are migrated when opened.
+written the file or a write failed. The schema version is SQLite's `user_version`;
+files of older versions are migrated when opened.
 """
 
 from __future__ import annotations

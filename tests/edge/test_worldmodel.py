@@ -219,3 +219,19 @@ def test_a_batch_of_writes_is_one_transaction_answered_per_object() -> None:
     reply = world.handle(DataRequest(request_id="r9", function="wm.upsert_many",
                                      args=[{"id": "h1"}]))
     assert not reply.ok and "list of objects" in reply.error
+
+
+def test_a_merge_makes_the_object_a_checked_construction_would() -> None:
+    from dataclasses import fields
+
+    from mrss.edge.worldmodel_objects import _FIELDS, Position, WorldObject, merge
+
+    assert tuple(f.name for f in fields(WorldObject)) == _FIELDS  # one per field, in order
+    old = WorldObject("uav1", "robot", Position(1.0, 2.0), {"battery": 90}, 4, 10.0)
+    change = merge(WorldObject("uav1", "robot", Position(1.5, 2.0), {"tank": 3}), old)
+    made = change.obj
+    assert made == WorldObject("uav1", "robot", Position(1.5, 2.0),
+                               {"battery": 90, "tank": 3}, 5, made.updated)
+    first = merge(WorldObject("ugv1", "robot", attributes={"a": 1}), None).obj
+    assert first == WorldObject("ugv1", "robot", attributes={"a": 1}, version=1,
+                                updated=first.updated)
