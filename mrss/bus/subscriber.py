@@ -43,6 +43,10 @@ class Subscriber:
     are dropped (`stale` counts them; mrss/bus/incarnations.py states the rule) unless
     `stale=Stale.KEEP`.
 
+    `skip(topic)` refuses messages by topic before they are decoded, for a subscriber
+    that needs some of a prefix's topics only (ZeroMQ filters by prefix alone): the
+    reasoner takes `robot.<id>.state` but not the `robot.<id>.data` stream.
+
     Use one of `recv`, iteration or `start(callback)`; `close()` may be called from any
     thread and ends an iteration or a callback thread.
     """
@@ -52,6 +56,7 @@ class Subscriber:
         hwm: int = sockets.DEFAULT_HWM, name: str = "subscriber",
         context: sockets.Context | None = None, stale: Stale = Stale.DROP,
         incarnations: Incarnations | None = None,
+        skip: Callable[[bytes], bool] | None = None,
     ) -> None:
         if isinstance(prefixes, str):
             raise TypeError("prefixes must be a list of strings, not one string")
@@ -63,6 +68,8 @@ class Subscriber:
         self._listen_only = self._incarnations is not None and not self._wants(ANNOUNCEMENT)
         self._early: deque[Envelope] = deque()
         self._batch: deque[tuple[bytes, bytes]] = deque()  # rest of a received batch
+        self._skip = skip
+        self.skipped = 0  # messages whose topic `skip` refused, never decoded
         self._drops = sockets.DropLog(name)
         self._lock = threading.Lock()
         self._close_lock = threading.Lock()
@@ -120,7 +127,11 @@ class Subscriber:
         return self._recv_next(timeout)
 
     def _decode(self, frames: list[bytes]) -> Envelope | None:
-        """The (first) message in `frames`; None for control frames and malformed ones."""
+        """The (first) message in `frames`; None for control frames, malformed ones and
+        topics to skip."""
+        if self._skip is not None and self._skip(frames[0]):
+            self.skipped += len(frames) - 1
+            return None
         try:
             if len(frames) == 2 and frames[0][:4] != b"rel.":
                 return decode(frames[0], frames[1])

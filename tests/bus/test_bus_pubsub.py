@@ -13,7 +13,15 @@ import pytest
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.bus.publisher import MAX_BATCH
 from mrss.errors import BusError
-from mrss.messages import Envelope, Heartbeat, LogRecord, Percept, RobotData, encode
+from mrss.messages import (
+    Envelope,
+    Heartbeat,
+    LogRecord,
+    Percept,
+    RobotData,
+    RobotState,
+    encode,
+)
 from mrss.testing import wait_until
 from tests.bus.bus_helpers import sync
 
@@ -105,6 +113,29 @@ def test_a_batch_delivers_its_messages_in_order_and_drops_only_bad_ones(
         got = [env.body.literal for env in _drain(sub)]  # type: ignore[attr-defined]
         assert got == ["p0", "p1", "p2"]
         assert sub.dropped == 1
+
+
+def test_skipped_topics_are_never_decoded_and_the_rest_of_the_prefix_arrives(
+        proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    def data(topic: bytes) -> bool:
+        return topic.endswith(b".data")
+
+    with Publisher(ep, src="t") as pub, \
+            Subscriber(ep, prefixes=["robot."], skip=data) as states:
+        sync(pub, states, lambda k: RobotState(robot=f"sync{k}", available=True))
+        for n in range(3):
+            pub.publish(RobotData(robot="a", data={"n": n}))
+        frames = [encode(RobotData(robot="b", data={"n": n}), src="t", msg_id=f"t-{n}")
+                  for n in range(5)]
+        pub.send_frames([frames[0][0], *(payload for _, payload in frames)])  # a batch
+        pub.send_frames([b"robot.c.data", b"\xc1 not msgpack"])
+        pub.publish(RobotState(robot="a", available=False, reason="link down"))
+        env = states.recv(timeout=10)
+        assert env is not None and env.body == RobotState(robot="a", available=False,
+                                                          reason="link down")
+        assert states.recv(timeout=0.3) is None
+        assert (states.skipped, states.dropped) == (3 + 5 + 1, 0)
 
 
 def test_a_burst_is_batched_and_arrives_whole_and_in_order(proxy_thread: BusEndpoints) -> None:
