@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from mrss.links.mavconn import MAV, MavConnection
@@ -97,13 +97,14 @@ class _Robots:
 
 
 @contextmanager
-def _links(broker: BrokerInfo, ids: list[str]) -> Iterator[dict[str, tuple[MqttLink,
-                                                                               Recorder]]]:
+def mqtt_links(url: str, ids: Sequence[str], telemetry_timeout: float = 1.0
+               ) -> Iterator[dict[str, tuple[MqttLink, Recorder]]]:
+    """An MQTT link per robot of `ids` to the broker at `url`, each up; closed after."""
     links: dict[str, tuple[MqttLink, Recorder]] = {}
     try:
         for robot in ids:
             rec = Recorder()
-            link = MqttLink(robot, broker.url, telemetry_timeout=1.0, keepalive=5,
+            link = MqttLink(robot, url, telemetry_timeout=telemetry_timeout, keepalive=5,
                             on_link_state=rec.on_state)
             links[robot] = (link, rec)
             link.start()
@@ -129,10 +130,10 @@ def test_many_mqtt_links_share_one_watchdog_thread(mqtt_broker: BrokerInfo) -> N
     many = [f"tm{k}" for k in range(12)]
     robots = _Robots(mqtt_broker, few + many)
     try:
-        with _links(mqtt_broker, few):
+        with mqtt_links(mqtt_broker.url, few):
             with_few = _own_threads()
             assert len(_timer_threads()) == 1
-            with _links(mqtt_broker, many):
+            with mqtt_links(mqtt_broker.url, many):
                 more = _own_threads() - with_few
                 # 12 more links: no thread of theirs (a thread per link would be 12)
                 assert not [n for n in more if any(r in n for r in many)], more
@@ -147,7 +148,7 @@ def test_a_link_whose_telemetry_stops_goes_down_and_comes_back_up(
     ids = [f"ts{k}" for k in range(4)]
     robots = _Robots(mqtt_broker, ids)
     try:
-        with _links(mqtt_broker, ids) as links:
+        with mqtt_links(mqtt_broker.url, ids) as links:
             quiet, (link, rec) = ids[0], links[ids[0]]
             robots.alive.discard(quiet)
             wait_until(lambda: not link.up, timeout=10, message=f"{quiet} down")

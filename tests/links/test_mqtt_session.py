@@ -10,8 +10,8 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import pytest
@@ -22,6 +22,7 @@ from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import ONLINE, UgvTelemetry, UgvTopics
 from mrss.testing import BrokerInfo, find_mosquitto, free_port, wait_until
 
+from .test_link_timers import mqtt_links
 from .test_mavlink_link import Recorder
 
 
@@ -65,22 +66,9 @@ class _Robots:
         self.client.disconnect()
 
 
-@contextmanager
-def _links(url: str, ids: Sequence[str]) -> Iterator[dict[str, tuple[MqttLink, Recorder]]]:
-    links: dict[str, tuple[MqttLink, Recorder]] = {}
-    try:
-        for robot in ids:
-            rec = Recorder()
-            link = MqttLink(robot, url, telemetry_timeout=2.0, keepalive=5,
-                            on_link_state=rec.on_state)
-            links[robot] = (link, rec)
-            link.start()
-        for link, _ in links.values():
-            link.wait_up(timeout=20)
-        yield links
-    finally:
-        for link, _ in links.values():
-            link.close()
+def _links(url: str, ids: Sequence[str]) -> AbstractContextManager[
+        dict[str, tuple[MqttLink, Recorder]]]:
+    return mqtt_links(url, ids, telemetry_timeout=2.0)
 
 
 def _paho_threads() -> list[str]:
