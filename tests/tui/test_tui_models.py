@@ -149,6 +149,22 @@ def test_a_components_own_tree_hangs_under_the_component() -> None:
     assert model.nodes["demo/rcl/robots/uav1"].restarts == 2
 
 
+def test_siblings_follow_their_supervisors_order_once_a_tree_came() -> None:
+    """A late dashboard may hear the RCL's own events before the root's tree: the tree's
+    order (the supervisor's start order) wins over the order heard."""
+    model = SupervisionModel()
+    model.apply_event(SupEvent(event="start", supervisor="demo", child="rcl", pid=7),
+                      "supervisor", 1.0)
+    model.apply_event(SupEvent(event="start", supervisor="demo", child="reasoner", pid=8),
+                      "supervisor", 1.0)
+    assert [n.path for n in model.rows()] == ["demo", "demo/rcl", "demo/reasoner"]
+    model.apply_event(SupEvent(event="tree", child="demo", detail={"tree": {
+        "id": "demo", "children": [{"id": "bus"}, {"id": "rcl"}, {"id": "reasoner"}]}}),
+        "supervisor", 2.0)
+    assert [n.path for n in model.rows()] == ["demo", "demo/bus", "demo/rcl",
+                                              "demo/reasoner"]
+
+
 def test_supervision_model_ignores_malformed_tree_snapshots() -> None:
     model = SupervisionModel()
     model.apply_event(SupEvent(event="tree", child="x", detail={"tree": {"id": 3}}), "s", 1.0)

@@ -75,7 +75,8 @@ class SupNode:
 
 
 class SupervisionModel:
-    """Every node heard of, by path; `rows()` lists them depth-first in the order heard."""
+    """Every node heard of, by path; `rows()` lists them depth-first, siblings in their
+    supervisor's order (the order heard until a tree came)."""
 
     def __init__(self, root: str = "") -> None:
         self.root = root  # the root supervisor's name (the project's), once known
@@ -202,9 +203,15 @@ class SupervisionModel:
             for child in children:
                 if isinstance(child, dict):
                     self.apply_tree(child, ts, node.path)
+            # siblings in the supervisor's order (its start order), whatever came first
+            for child in children:
+                path = f"{node.path}/{child.get('id')}" if isinstance(child, dict) else ""
+                if path in self.nodes:
+                    self.nodes[path] = self.nodes.pop(path)
 
     def rows(self) -> list[SupNode]:
-        """The nodes depth-first, each after its parent, siblings in the order first heard."""
+        """The nodes depth-first, each after its parent; siblings in their supervisor's
+        order once a tree of it came, before that in the order first heard."""
         kids: dict[str, list[SupNode]] = {}
         for node in self.nodes.values():
             kids.setdefault(node.parent, []).append(node)
