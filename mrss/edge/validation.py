@@ -24,6 +24,7 @@ logs: `mrss.edge.rejections.RejectionLog` counts and logs what callers refuse.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, fields, replace
 from enum import Enum, StrEnum
@@ -250,6 +251,8 @@ def _field(spec: Spec, value: Any, where: str, limits: Limits) -> None:
 def check_record(record: Any, limits: Limits) -> dict[str, Any]:
     """One telemetry record checked against its type's declaration (`RECORDS`); a type
     not declared there is checked as plain bounded data. Returns the record."""
+    if type(record) is dict and _fits(record, limits):
+        return dict(record)
     if not isinstance(record, Mapping):
         raise Rejected("record not an object", f"a {type(record).__name__}")
     _count(record, "record")
@@ -267,6 +270,82 @@ def check_record(record: Any, limits: Limits) -> dict[str, Any]:
         else:
             _field(spec, value, f"{name}.{key}", limits)
     return dict(record)
+
+
+# ------------------------------------------------------- the fast path of check_record
+# A field as the fast path checks it: kind code, low, high, required. Numbers of no
+# declared range get the finite floats as their range, so inf and NaN never fit.
+_FastSpec = tuple[int, float, float, bool]
+_FastTable = tuple[dict[str, _FastSpec], tuple[str, ...]]  # fields, required keys
+_NUMBER, _INT, _TEXT, _FLAG = range(4)
+_CODES = {FieldKind.NUMBER: _NUMBER, FieldKind.INT: _INT, FieldKind.TEXT: _TEXT,
+          FieldKind.FLAG: _FLAG}
+_FINITE = sys.float_info.max
+#: id(limits) -> (limits, table of each declared type, table of the other types)
+_FAST: dict[int, tuple[Limits, dict[str, _FastTable], _FastTable]] = {}
+_FAST_KEEP = 1024  # Limits objects remembered (then the cache starts again)
+
+
+def _fast_table(declared: Mapping[str, Spec], limits: Limits) -> _FastTable:
+    specs: dict[str, _FastSpec] = {}
+    for key, spec in (*COMMON.items(), *declared.items()):  # declared wins, as there
+        bound = getattr(limits, spec.bound) if isinstance(spec.bound, str) else spec.bound
+        low = -_FINITE if bound is None else max(float(bound.low), -_FINITE)
+        high = _FINITE if bound is None else min(float(bound.high), _FINITE)
+        specs[key] = (_CODES[spec.kind], low, high, spec.required)
+    return specs, tuple(key for key, spec in declared.items() if spec.required)
+
+
+def _compiled(limits: Limits) -> tuple[Limits, dict[str, _FastTable], _FastTable]:
+    entry = _FAST.get(id(limits))
+    if entry is None or entry[0] is not limits:
+        if len(_FAST) >= _FAST_KEEP:
+            _FAST.clear()
+        entry = (limits, {kind: _fast_table(declared, limits)
+                          for kind, declared in RECORDS.items()}, _fast_table({}, limits))
+        _FAST[id(limits)] = entry
+    return entry
+
+
+def _fits(record: dict[str, Any], limits: Limits) -> bool:
+    """Whether `record` certainly passes `check_record`: a quick look at the common,
+    well-formed record (declared or common fields only, each of its exact type within
+    its range). False means "not sure": the full check then accepts it or says why not."""
+    kind = record.get("type")
+    if type(kind) is not str or len(record) > MAX_ITEMS:
+        return False
+    _, tables, other = _compiled(limits)
+    specs, required = tables.get(kind, other)
+    for key in required:
+        if key not in record:
+            return False
+    for key, value in record.items():
+        spec = specs.get(key)
+        if spec is None:
+            return False
+        code, low, high, needed = spec
+        if value is None:
+            if needed:
+                return False
+            continue
+        kind_of = type(value)
+        if code == _NUMBER:
+            if kind_of is float:
+                if not low <= value <= high:
+                    return False
+            elif kind_of is not int or not (-MAX_INT <= value <= MAX_INT
+                                            and low <= value <= high):
+                return False
+        elif code == _INT:
+            if kind_of is not int or not (-MAX_INT <= value <= MAX_INT
+                                          and low <= value <= high):
+                return False
+        elif code == _TEXT:
+            if kind_of is not str or len(value) > MAX_TEXT:
+                return False
+        elif kind_of is not bool:
+            return False
+    return True
 
 
 class RecordValidator:

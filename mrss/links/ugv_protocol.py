@@ -134,8 +134,11 @@ def _object(payload: bytes, topic: str | None) -> dict[str, Any]:
 
 
 def _number(data: dict[str, Any], key: str, topic: str | None, lo: float, hi: float) -> float:
+    value = data.get(key)
+    if type(value) is float and lo <= value <= hi:  # the usual case (finite: within bounds)
+        return value
     try:  # bounded before float(): a 400-digit integer is refused, never an OverflowError
-        return float(validation.number(data.get(key), repr(key), validation.Range(lo, hi)))
+        return float(validation.number(value, repr(key), validation.Range(lo, hi)))
     except validation.Rejected as exc:
         raise DecodeError(str(exc)[:200], topic=topic) from None
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import logging
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -11,6 +13,7 @@ import pytest
 
 from mrss.actors.datalayer import (
     DataLayerService,
+    TelemetryQueue,
     load_datalayer_class,
     plain,
     robot_validator,
@@ -193,3 +196,32 @@ def test_refused_robot_data_never_reaches_the_project(service: DataLayerService)
     assert not seen and service.rejections.total == 3
     assert service.telemetry(RobotData(robot="uav1", data={"type": "battery", "remaining": 50}))
     assert seen == [("uav1", {"type": "battery", "remaining": 50})]
+
+
+def test_the_telemetry_queue_hands_records_on_in_order_and_outlives_a_failure(
+        caplog: pytest.LogCaptureFixture) -> None:
+    seen: list[int] = []
+    done = threading.Event()
+    total = 3000
+
+    def handle(data: RobotData) -> None:
+        n = int(data.data["n"])  # type: ignore[arg-type]
+        if n == 5:
+            raise RuntimeError("a bad record")
+        seen.append(n)
+        if n == total - 1:
+            done.set()
+
+    queue = TelemetryQueue(handle)
+    for n in range(total):
+        queue.put(RobotData(robot="ugv1", data={"n": n}))
+        if n % 500 == 0:  # let the queue run dry so that its thread waits, then wake it
+            deadline = time.monotonic() + 5
+            while queue.pending() and time.monotonic() < deadline:
+                time.sleep(0.001)
+    assert done.wait(5.0)
+    assert seen == [n for n in range(total) if n != 5]
+    assert "telemetry of robot ugv1 was not handled" in caplog.text
+    queue.close()
+    queue._thread.join(5.0)
+    assert not queue._thread.is_alive()

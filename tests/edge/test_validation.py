@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import math
+from types import MappingProxyType
 from typing import Any
 
 import pytest
@@ -28,6 +29,7 @@ from mrss.edge.validation import (
     Rejected,
     RobotType,
     Spec,
+    _fits,
     check_record,
     configured_robots,
     limit_overrides,
@@ -116,6 +118,34 @@ def test_a_missing_required_field_is_refused(kind: str) -> None:
             record = {"type": kind, **{k: 1 for k in RECORDS[kind] if k != key}}
             with pytest.raises(Rejected, match=f"{kind}.{key} missing"):
                 check_record(record, AERIAL)
+
+
+@pytest.mark.parametrize("kind", sorted(RECORDS))
+def test_the_quick_look_takes_only_what_the_full_check_takes(kind: str) -> None:
+    """`check_record` first looks quickly at a well-formed record (`_fits`); it must never
+    let through what the full check refuses, and must take the records links send."""
+    fields = sorted(RECORDS[kind])
+    limits = DEFAULT_LIMITS[RobotType.GROUND].overridden({"alt": [0.0, math.inf]})
+
+    @settings(max_examples=80, deadline=None)
+    @given(valid_record(kind), st.lists(st.sampled_from(fields), max_size=2), st.data())
+    def check(record: dict[str, Any], spoiled: list[str], data: st.DataObject) -> None:
+        assert _fits(dict(record), AERIAL)
+        for key in spoiled:
+            record[key] = data.draw(st.one_of(invalid_value(RECORDS[kind][key], AERIAL),
+                                              st.none()))
+        for lim in (AERIAL, limits):
+            if _fits(record, lim):
+                try:
+                    _full_check(record, lim)
+                except Rejected as exc:
+                    pytest.fail(f"quick look took {record}, the full check refused: {exc}")
+    check()
+
+
+def _full_check(record: dict[str, Any], limits: Limits) -> None:
+    """check_record without its quick look: a read-only mapping is never looked at quickly."""
+    check_record(MappingProxyType(record), limits)
 
 
 json_values = st.recursive(
