@@ -166,6 +166,12 @@ class FleetRun:
         sample = Sample(robots=len(self.robot_ids))
         procs = _components(self.system.proc.pid)
         procs["bench"] = psutil.Process()  # this process: goals out, the whole bus in
+        for child in procs["bench"].children():
+            try:
+                if child.name() == "mosquitto":
+                    procs["mosquitto"] = child  # the UGVs' broker
+            except psutil.Error:
+                continue
         cpu0 = {name: _cpu(p) for name, p in procs.items()}
         sent: dict[int, int] = {}
         gap_ns = int(ASSIGN_EVERY_S / len(self.robot_ids) * 1e9)
@@ -292,7 +298,7 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
 
 
 def _row(report: BenchReport, s: Sample) -> None:
-    system = [name for name in s.cpu if name != "bench"]
+    system = [name for name in s.cpu if name not in ("bench", "mosquitto")]
     busiest = max(system, key=lambda n: s.cpu[n]) if system else None
     report.add_row(
         s.robots, s.assigned,
