@@ -2,7 +2,7 @@
 over a simulated 24-hour soak with compaction.
 
 Each action is journaled as the RCL does for a short one: PENDING, RUNNING, SUCCEEDED
-(three committed transitions). The soak runs 1M actions (quick: 20k) through a journal
+(three committed transitions). The soak runs 1M actions (quick: 5k) through a journal
 whose clock spreads them evenly over 24 simulated hours; it compacts every simulated
 10 minutes, keeping ended actions for 1 hour and always the newest 1000, as the RCL's
 timer does. The target: the file does not grow after the first hours (the size at the
@@ -74,7 +74,7 @@ def _soak(path: Path, actions: int) -> tuple[float, int, int, int, int]:
 
 
 def run(quick: bool = False) -> BenchReport:
-    plain, synced, soaked = (300, 100, 20_000) if quick else (20_000, 2_000, 1_000_000)
+    plain, synced, soaked = (300, 100, 5_000) if quick else (20_000, 2_000, 1_000_000)
     report = BenchReport("journal", ["case", "actions", "actions/s", "journal MB"],
                          quick=quick)
     mb = 1024.0 * 1024.0
