@@ -151,7 +151,8 @@ class RclService(Component):
         self._port = bus_port(ctx)
         self._data = DataLayerClient(self._port)
         self.layer.bind_runtime(project_dir=ctx.project_dir, run_dir=ctx.run_dir,
-                                publish=publisher.publish, data_call=self._data.call)
+                                publish=publisher.publish, data_call=self._data.call,
+                                gather=publisher.gathering)
         robots = opts.get("robots", {})
         if not isinstance(robots, dict) or not robots:
             raise ConfigError("the RCL needs a table of robots", key="robots")

@@ -12,6 +12,7 @@ import json
 import logging
 import threading
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -284,13 +285,22 @@ class RobotCommLayer:
         telemetry sent to the data layer (`publish_data`) and its state to the RCL
         (`report_link`); None for a table without `link`.
         """
-        return connect_link(robot, options, project_dir=self.project_dir, run_dir=self.run_dir,
-                            layer_keys=option_names(self.robot_settings),
+        link = connect_link(robot, options, project_dir=self.project_dir,
+                            run_dir=self.run_dir, layer_keys=option_names(self.robot_settings),
                             on_link_state=lambda up, why: self.report_link(robot, up, why),
                             on_telemetry=lambda record: self._forward_telemetry(robot, record))
+        set_scope = getattr(link, "set_sample_scope", None)
+        if callable(set_scope):
+            set_scope(self.sample_scope)
+        return link
 
     def _forward_telemetry(self, robot: str, record: Mapping[str, JsonValue]) -> None:
         self.publish_data(robot, record)
+
+    def sample_scope(self) -> AbstractContextManager[object]:
+        """The block a link hands one telemetry sample's records over in: their
+        `publish_data` messages leave as one bus message (nothing special unbound)."""
+        return self._gather_fn() if self._gather_fn is not None else nullcontext()
 
     def disconnect_robot(self, robot: str, link: Any) -> None:
         """Close a link made by `connect_robot` (default: its `close()` if it has one)."""
@@ -350,17 +360,22 @@ class RobotCommLayer:
     _data_fn: Callable[[str, Sequence[Any], float | None], Any] | None = None
     _link_state_fn: Callable[[str, bool, str], object] | None = None
     _link_states: dict[str, tuple[bool, str]] | None = None
+    _gather_fn: Callable[[], AbstractContextManager[object]] | None = None
 
     def bind_runtime(self, *, project_dir: Path | None = None, run_dir: Path | None = None,
                      publish: Callable[[Message], object] | None = None,
                      data_call: Callable[[str, Sequence[Any], float | None], Any] | None = None,
-                     link_state: Callable[[str, bool, str], object] | None = None) -> None:
+                     link_state: Callable[[str, bool, str], object] | None = None,
+                     gather: Callable[[], AbstractContextManager[object]] | None = None,
+                     ) -> None:
         """Connect the layer to its RCL (called by RclService; given arguments replace).
 
         `publish` sends a bus message, `data_call(function, args, timeout)` calls the
         Symbol and Data Layer, `link_state(robot, up, reason)` tells the RCL a robot's
         link went down (it is unavailable and its actions fail with the reason) or came
-        back; link states reported before it was bound are replayed to it.
+        back; link states reported before it was bound are replayed to it. Inside a
+        `gather()` block what `publish` sends is held and sent together at its end (the
+        records of one telemetry sample: `sample_scope`).
         """
         if project_dir is not None:
             self.project_dir = project_dir
@@ -368,6 +383,8 @@ class RobotCommLayer:
             self.run_dir = run_dir
         if publish is not None:
             self._publish_fn = publish
+        if gather is not None:
+            self._gather_fn = gather
         if data_call is not None:
             self._data_fn = data_call
         if link_state is not None:

@@ -8,6 +8,11 @@ changes, when it is `MAX_HOLD` old at the next publish, or else by a flusher thr
 publishing has paused for `FLUSH_IDLE` (50 us; a few milliseconds at worst, when other
 Python threads hold the GIL). So isolated messages (requests, replies, statuses) never
 wait, and streams cost a fraction per message. Subscribers unpack batches transparently.
+
+A caller that knows its messages belong together says so: inside `gathering()`, what a
+thread publishes on one topic is held and sent as one batch when the block ends (the
+RCL sends the records of one telemetry sample of a robot so: three messages, one on
+the wire); a message on another topic sends the held ones first and goes at once.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ import select
 import threading
 import time
 from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import TracebackType
 
 import zmq
@@ -96,6 +103,7 @@ class Publisher:
         self._held: deque[tuple[bytes, ...]] = deque(maxlen=hwm)
         self._joiner: threading.Thread | None = None
         self._watch = watch_subscriptions
+        self._gathered = threading.local()  # .held: this thread's messages in `gathering`
         self._subscribed: deque[bytes] = deque(maxlen=_WATCHED)
         if watch_subscriptions:  # repeats too: a restarted proxy subscribes again
             self._sock.setsockopt(zmq.XPUB_VERBOSE, 1)
@@ -105,6 +113,12 @@ class Publisher:
         msg_id = self._ids()
         topic_frame, payload = encode(msg, src=self.src, inc=self.inc, msg_id=msg_id,
                                       topic=topic)
+        held = getattr(self._gathered, "held", None)
+        if held is not None:
+            if not held or held[0][0] == topic_frame:
+                held.append((topic_frame, payload))
+                return msg_id
+            self._send_gathered(held)  # another topic: no waiting behind the held ones
         with self._lock:
             sock = self._sock
             if sock is None:
@@ -186,6 +200,29 @@ class Publisher:
                     self._wake.wait(max(FLUSH_IDLE, self._batch_since + MAX_HOLD - now))
                     continue
                 self._send_batch(self._sock)
+
+    @contextmanager
+    def gathering(self) -> Iterator[None]:
+        """Hold what this thread publishes on one topic until the block ends (even by an
+        exception) and send it then as one batch. A message on another topic sends what
+        is held first and goes at once (a request waits for nothing held: its reply can
+        come). Other threads publish as usual meanwhile; a nested block joins the outer
+        one."""
+        if getattr(self._gathered, "held", None) is not None:
+            yield
+            return
+        held: list[tuple[bytes, bytes]] = []
+        self._gathered.held = held
+        try:
+            yield
+        finally:
+            self._gathered.held = None
+            self._send_gathered(held)
+
+    def _send_gathered(self, held: list[tuple[bytes, bytes]]) -> None:
+        for frames in _batches(held):
+            self.send_frames(frames)
+        held.clear()
 
     def flush(self) -> None:
         """Send a held batch now."""
@@ -313,6 +350,24 @@ class Publisher:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def _batches(messages: list[tuple[bytes, bytes]]) -> Iterator[list[bytes]]:
+    """`[topic, envelope, ...]` per run of consecutive messages on one topic, each within
+    `MAX_BATCH` messages and about `MAX_BATCH_BYTES`."""
+    frames: list[bytes] = []
+    size = 0
+    for topic, payload in messages:
+        if frames and (topic != frames[0] or len(frames) > MAX_BATCH
+                       or size >= MAX_BATCH_BYTES):
+            yield frames
+            frames, size = [], 0
+        if not frames:
+            frames = [topic]
+        frames.append(payload)
+        size += len(payload)
+    if frames:
+        yield frames
 
 
 def bound_socket(ctx: sockets.Context, endpoint: str, *, hwm: int, linger_ms: int

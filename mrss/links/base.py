@@ -19,6 +19,7 @@ import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from mrss.edge.rejections import RejectionLog
@@ -36,6 +37,7 @@ from mrss.links.failsafe import FailsafeEvent, FailsafePolicy, failsafe_reason
 Telemetry = dict[str, Any]
 TelemetryCallback = Callable[[Telemetry], None]
 LinkStateCallback = Callable[[bool, str], None]
+SampleScope = Callable[[], AbstractContextManager[object]]
 
 
 class RobotLink(ABC):
@@ -71,6 +73,7 @@ class RobotLink(ABC):
         self._in_failsafe = False        # ... and it does not hear us yet
         self._state_callbacks: list[LinkStateCallback] = []
         self._telemetry_callbacks: list[TelemetryCallback] = []
+        self._sample_scope: SampleScope = nullcontext
         if on_link_state is not None:
             self._state_callbacks.append(on_link_state)
         if on_telemetry is not None:
@@ -102,6 +105,12 @@ class RobotLink(ABC):
     def add_telemetry_callback(self, callback: TelemetryCallback) -> None:
         """Call `callback(record)` for every telemetry record received."""
         self._telemetry_callbacks.append(callback)
+
+    def set_sample_scope(self, scope: SampleScope) -> None:
+        """Hand the records of one telemetry sample (an MQTT robot's position, battery
+        and tank) to the callbacks inside one `scope()` block: the RCL's publisher then
+        sends them as one bus message."""
+        self._sample_scope = scope
 
     def watch_controller(self, check: Callable[[], bool]) -> None:
         """Send the robot heartbeats only while `check()` is true (a live controller).

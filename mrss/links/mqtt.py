@@ -237,17 +237,20 @@ class MqttLink(RobotLink):
         self._last_telemetry = time.monotonic()
         self._follow_failsafe(t)
         self._evaluate()
-        self._publish_telemetry("position", {"lat": t.lat, "lon": t.lon,
-                                             "heading": t.heading, "speed": t.speed})
-        self._publish_telemetry("battery", {"remaining": t.battery, "voltage": None,
-                                            "current": None})
-        self._publish_telemetry("tank", {"level": t.tank, "capacity": t.tank_capacity,
-                                         "pumping": t.pumping})
-        status = (t.mode, t.at_base, t.teleop, t.failsafe)
-        if status != self._last_status:
-            self._last_status = status
-            self._publish_telemetry("status", {"mode": t.mode, "at_base": t.at_base,
-                                               "teleop": t.teleop, "failsafe": t.failsafe})
+        with self._sample_scope():  # the records of one sample go out together
+            self._publish_telemetry("position", {"lat": t.lat, "lon": t.lon,
+                                                 "heading": t.heading, "speed": t.speed})
+            self._publish_telemetry("battery", {"remaining": t.battery, "voltage": None,
+                                                "current": None})
+            self._publish_telemetry("tank", {"level": t.tank,
+                                             "capacity": t.tank_capacity,
+                                             "pumping": t.pumping})
+            status = (t.mode, t.at_base, t.teleop, t.failsafe)
+            if status != self._last_status:
+                self._last_status = status
+                self._publish_telemetry("status", {"mode": t.mode, "at_base": t.at_base,
+                                                   "teleop": t.teleop,
+                                                   "failsafe": t.failsafe})
 
     # -- failsafe --------------------------------------------------------------------------
     def _follow_failsafe(self, t: UgvTelemetry) -> None:

@@ -59,3 +59,33 @@ def test_a_failing_publisher_or_availability_sink_is_contained() -> None:
     layer.bind_runtime(publish=boom, link_state=boom)
     assert layer.publish_data("uav1", {"type": "text"}) is False
     layer.report_link("uav1", False, "link closed")          # logged, not raised
+
+
+def test_a_links_samples_are_handed_over_in_the_bound_gathering(tmp_path: Any) -> None:
+    """connect_robot gives the links it makes the layer's sample scope; bound to the
+    RCL's publisher, the records of one sample leave as one bus message."""
+    from collections.abc import Iterator
+    from contextlib import contextmanager
+
+    from mrss.testing import free_port
+
+    opened: list[str] = []
+
+    @contextmanager
+    def gather() -> Iterator[None]:
+        opened.append("gather")
+        yield
+
+    layer = RobotCommLayer()
+    with layer.sample_scope():  # unbound: nothing special
+        pass
+    layer.bind_runtime(gather=gather)
+    with layer.sample_scope():
+        pass
+    assert opened == ["gather"]
+    link = layer.connect_robot("ugv9", {"link": "mqtt",
+                                        "broker_url": f"mqtt://127.0.0.1:{free_port()}"})
+    try:
+        assert link._sample_scope == layer.sample_scope
+    finally:
+        layer.disconnect_robot("ugv9", link)

@@ -138,6 +138,37 @@ def test_skipped_topics_are_never_decoded_and_the_rest_of_the_prefix_arrives(
         assert (states.skipped, states.dropped) == (3 + 5 + 1, 0)
 
 
+def test_a_gathering_sends_one_topics_messages_as_one_batch_and_holds_nothing_else(
+        proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    with Publisher(ep, src="t") as pub, Subscriber(ep, prefixes=["robot.", "log."]) as sub:
+        sync(pub, sub, _robot_sync)
+        before = pub.sends
+        with pub.gathering():
+            for n in range(3):
+                pub.publish(RobotData(robot="a", data={"n": n}))
+            assert pub.sends == before  # held
+            # another thread is not held: its message arrives while the block is open
+            other = threading.Thread(target=pub.publish, args=(
+                LogRecord(component="c", level="INFO", message="other thread"),))
+            other.start()
+            other.join()
+            env = sub.recv(timeout=10)
+            assert env is not None and env.body.message == "other thread"  # type: ignore[attr-defined]
+        assert pub.sends == before + 2  # the log record, then the three records as one
+        assert _receive(sub, 3) == [0, 1, 2]
+        # a message on another topic sends the held ones first and goes at once
+        with pytest.raises(RuntimeError), pub.gathering():
+            pub.publish(RobotData(robot="a", data={"n": 3}))
+            pub.publish(LogRecord(component="c", level="INFO", message="request"))
+            seen = sub.recv(timeout=10), sub.recv(timeout=10)
+            pub.publish(RobotData(robot="a", data={"n": 4}))
+            raise RuntimeError("the block ends by an exception")
+        assert [getattr(e.body, "data", None) or e.body.message for e in seen  # type: ignore
+                if e is not None] == [{"n": 3}, "request"]
+        assert _receive(sub, 1) == [4]  # sent at the end, exception or not
+
+
 def test_a_burst_is_batched_and_arrives_whole_and_in_order(proxy_thread: BusEndpoints) -> None:
     ep = proxy_thread
     count = 5000

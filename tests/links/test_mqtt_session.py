@@ -10,8 +10,8 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
-from collections.abc import Sequence
-from contextlib import AbstractContextManager
+from collections.abc import Iterator, Sequence
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 
 import pytest
@@ -210,3 +210,36 @@ def test_all_links_go_down_with_a_killed_broker_and_come_back_with_it(
             robots.close()
         broker.kill()
         broker.wait(timeout=10)
+
+
+def test_the_records_of_one_sample_are_handed_on_inside_one_scope(
+        mqtt_broker: BrokerInfo) -> None:
+    """The RCL's publisher gathers what is published inside the scope into one bus
+    message: the link must open one scope per telemetry sample, around all its records."""
+    robots = _Robots(mqtt_broker.url, ["scope1"])
+    scopes: list[list[str]] = []
+    inside: list[list[str]] = []
+
+    @contextmanager
+    def scope() -> Iterator[None]:
+        inside.append([])
+        try:
+            yield
+        finally:
+            scopes.append(inside.pop())
+
+    def on_record(record: dict[str, object]) -> None:
+        assert inside, f"record {record['type']} handed on outside a scope"
+        inside[-1].append(str(record["type"]))
+
+    link = MqttLink("scope1", mqtt_broker.url, telemetry_timeout=2.0, on_telemetry=on_record)
+    link.set_sample_scope(scope)
+    link.start()
+    try:
+        link.wait_up(timeout=20)
+        wait_until(lambda: len(scopes) >= 3, timeout=10, message="three samples")
+        assert scopes[0] == ["position", "battery", "tank", "status"]  # first: with status
+        assert all(s == ["position", "battery", "tank"] for s in scopes[1:3])
+    finally:
+        link.close()
+        robots.close()
