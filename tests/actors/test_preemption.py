@@ -33,7 +33,10 @@ def test_higher_priority_preempts_and_the_lower_resumes_when_free(rcl_env: RclEn
     uav.arrive()
     wait_until(rcl_env.statuses.reached("high", "succeeded"))
     wait_until(lambda: ugv.is_moving_to("x"), message="low resumed once airspace was free")
-    assert rcl_env.statuses.states("low") == ["pending", "running", "suspended", "running"]
+    # the robot may move before the RUNNING of the resumption is published: wait for it
+    wait_until(lambda: rcl_env.statuses.states("low") == ["pending", "running", "suspended",
+                                                          "running"],
+               message="low: pending, running, suspended, running")
     ugv.arrive()
     wait_until(rcl_env.statuses.reached("low", "succeeded"))
     assert core.broker.holders("airspace") == set()
