@@ -108,8 +108,9 @@ class RobotLink(ABC):
 
     def set_sample_scope(self, scope: SampleScope) -> None:
         """Hand the records of one telemetry sample (an MQTT robot's position, battery
-        and tank) to the callbacks inside one `scope()` block: the RCL's publisher then
-        sends them as one bus message."""
+        and tank; the MAVLink messages a UDP link reads in one go) to the callbacks
+        inside one `scope()` block: the RCL's publisher then sends them as one bus
+        message."""
         self._sample_scope = scope
 
     def watch_controller(self, check: Callable[[], bool]) -> None:

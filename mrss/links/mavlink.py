@@ -318,14 +318,16 @@ class MavlinkLink(RobotLink):
         conn = self._conn
         if conn is None or self._stop.is_set():
             return
-        for _ in range(READ_BATCH):
-            msg = conn.recv(timeout=0)
-            if msg is None:
-                return
-            try:
-                self._dispatch_message(msg)
-            except Exception:
-                self.log.exception("error handling a MAVLink message; continuing")
+        # The records of what came together (a telemetry tick's messages) go out together.
+        with self._sample_scope():
+            for _ in range(READ_BATCH):
+                msg = conn.recv(timeout=0)
+                if msg is None:
+                    return
+                try:
+                    self._dispatch_message(msg)
+                except Exception:
+                    self.log.exception("error handling a MAVLink message; continuing")
 
     def _tick(self) -> float | None:
         """The shared loop's job for this link: its duties, then the delay to the next

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import pytest
@@ -172,3 +173,38 @@ def test_link_down_when_sim_killed_and_up_when_restarted(
     link.set_mode("GUIDED")
     link.arm()
     assert [up for up, _ in rec.states][-2:] == [False, True]
+
+
+def test_records_read_together_are_handed_on_inside_one_scope(spawn: Spawn) -> None:
+    """The RCL's publisher gathers what is published inside the link's sample scope into
+    one bus message: a UDP link hands on every record inside a scope, those it read in
+    one go inside the same one."""
+    port = free_udp_port()
+    start_uav(spawn, port)
+    scopes: list[list[str]] = []
+    inside: list[list[str]] = []
+    outside: list[str] = []
+
+    @contextmanager
+    def scope() -> Iterator[None]:
+        inside.append([])
+        try:
+            yield
+        finally:
+            scopes.append(inside.pop())
+
+    def on_record(record: dict[str, Any]) -> None:
+        (inside[-1] if inside else outside).append(str(record["type"]))
+
+    link = MavlinkLink("uav1", f"udpin:127.0.0.1:{port}", on_telemetry=on_record)
+    link.set_sample_scope(scope)
+    link.start()
+    try:
+        link.wait_up(timeout=15)
+        wait_until(lambda: sum(s.count("position") for s in list(scopes)) >= 10, timeout=10,
+                   message="ten positions")
+        assert outside == []
+        seen = {kind for s in list(scopes) for kind in s}
+        assert {"position", "battery"} <= seen
+    finally:
+        link.close()
