@@ -17,6 +17,10 @@ Targets come from the project's components by module (`targets`). A pid is check
 a descendant of the root supervisor before any signal, so a recycled pid is never hit.
 A timed fault returns its `heal`, which the campaign calls when the duration is over
 (also when the campaign stops early); healing a process that died meanwhile is a no-op.
+Timed faults on one process may overlap (a second hang of a hung process, a second
+full disk): the process is resumed, or its file size limit given back, when the last
+of them is over, never by the first heal while another is still on (a second full disk
+would otherwise save the limit of 0 and "restore" it for ever).
 """
 
 from __future__ import annotations
@@ -76,6 +80,17 @@ class Fault:
 Heal = Callable[[], None]
 
 
+class Effect(StrEnum):
+    """What a timed fault does to a process, which overlapping faults share."""
+
+    STOPPED = "stopped"      # SIGSTOP until SIGCONT: hang, blackout, link
+    DISK_FULL = "disk_full"  # RLIMIT_FSIZE 0 until the saved limit is back
+
+
+def _nothing() -> None:
+    pass
+
+
 def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, list[str]]:
     """The possible targets of each fault kind in this project (empty list: not possible).
 
@@ -109,6 +124,9 @@ class Injector:
     def __init__(self, root_pid: int, pid_of: Callable[[str], int | None]) -> None:
         self.root_pid = root_pid
         self.pid_of = pid_of
+        # (pid, effect) -> how many timed faults hold it now, and how to undo it (the
+        # first fault's heal), run by the heal that brings the count back to 0.
+        self._holding: dict[tuple[int, Effect], tuple[int, Heal]] = {}
 
     def inject(self, fault: Fault) -> tuple[int, Heal | None]:
         """Inject `fault` now; the pid hit and, for a timed fault, how to heal it."""
@@ -123,10 +141,35 @@ class Injector:
             return pid, None
         if kind in (FaultKind.HANG, FaultKind.BLACKOUT, FaultKind.LINK):
             self._signal(pid, signal.SIGSTOP)
-            return pid, lambda: _resume(pid)
+            return pid, self._held(pid, Effect.STOPPED, lambda: _resume(pid))
         if kind is FaultKind.DISK_FULL:
-            return pid, self._fill_disk(pid)
+            if (pid, Effect.DISK_FULL) in self._holding:  # already full: keep its limit
+                return pid, self._held(pid, Effect.DISK_FULL, _nothing)
+            return pid, self._held(pid, Effect.DISK_FULL, self._fill_disk(pid))
         raise InjectionError(f"unknown fault kind {kind!r}")
+
+    def _held(self, pid: int, effect: Effect, undo: Heal) -> Heal:
+        """One more fault holds `effect` on `pid`; `undo` (the first one's) runs when the
+        last of them is healed. Each heal counts once."""
+        key = (pid, effect)
+        if key not in self._holding:
+            self._holding[key] = (0, undo)
+        count, first_undo = self._holding[key]
+        self._holding[key] = (count + 1, first_undo)
+        healed = False
+
+        def heal() -> None:
+            nonlocal healed
+            if healed:
+                return
+            healed = True
+            left, first = self._holding[key]
+            if left > 1:
+                self._holding[key] = (left - 1, first)
+                return
+            del self._holding[key]
+            first()
+        return heal
 
     def _component(self, name: str) -> int:
         pid = self.pid_of(name)
