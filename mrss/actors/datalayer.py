@@ -17,7 +17,7 @@ project.toml:
     workers = 4                 # calls running at once
     world_model = "bus"         # "bus" (embedded component), "http://host:port", or "none"
     robots = ["uav1", "ugv1"]   # who may send robot data (default: the RCL's robots table)
-    alt_range = [-500, 12000]   # physical limits over the robot type's (mrss.edge.validation)
+    alt_range = [-500, 12000]   # physical limits over the robot type's (record_declarations)
 The `[components.<id>]` free keys of this component are laid over `[datalayer]`.
 
 Robot data is checked before the project sees it (`mrss.edge.validation`): a record from
@@ -47,17 +47,15 @@ from mrss.edge.http_token import configured_token
 from mrss.edge.loader import load_project_class, project_file
 from mrss.edge.percept_channel import PerceptChannel
 from mrss.edge.percepts import PerceptPublisher, PerceptSink
-from mrss.edge.rejections import RejectionLog
-from mrss.edge.retry import DependencyUnavailable
-from mrss.edge.validation import (
+from mrss.edge.record_declarations import (
     DEFAULT_LIMITS,
     LIMIT_NAMES,
-    RecordValidator,
-    Rejected,
     RobotType,
     configured_robots,
-    limit_overrides,
 )
+from mrss.edge.rejections import RejectionLog
+from mrss.edge.retry import DependencyUnavailable
+from mrss.edge.validation import RecordValidator, Rejected, limit_overrides
 from mrss.edge.worldmodel_access import BusWorldModel, HttpWorldModel
 from mrss.errors import ConfigError, TransientError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
@@ -287,7 +285,7 @@ class DataLayerComponent(Component):
         Option("reject_log_interval", float, 60.0, "seconds between summaries of refused "
                "robot data", Check.POSITIVE),
         *(Option(f"{name}_range", list, None, f"[low, high] of {name.replace('_', ' ')} "
-                 "over the robot type's default (mrss.edge.validation)", Check.RANGE)
+                 "over the robot type's default (mrss.edge.record_declarations)", Check.RANGE)
           for name in LIMIT_NAMES),
     )
 

@@ -23,7 +23,8 @@ import math
 
 from mrss.agentspeak import AslSyntaxError, Struct, parse_literal
 from mrss.agentspeak.terms import PList, Var
-from mrss.edge.validation import MAX_INT, Rejected
+from mrss.edge.record_declarations import MAX_INT
+from mrss.edge.validation import Rejected
 
 MAX_TEXT = 64 * 1024  # bytes of a percept's text
 MAX_DEPTH = 64  # nesting of arguments, lists and annotations

@@ -27,6 +27,8 @@ incarnation and lets this one wait for it, instead of cancelling and redoing it.
 
 A failure reaches the agent with its cause (`-!g[error(Cause)]`): the RCL's
 `FailureCause` (transient, link_down, cancelled, ...), or Jason's `action_failed`.
+The translations themselves (a literal to a request or a control, a status to an
+error) are mrss.actors.reasoner_messages.
 """
 
 from __future__ import annotations
@@ -41,14 +43,18 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from mrss.actors.reasoner_messages import (
+    GOAL_MANAGEMENT,
+    action_request,
+    failure_error,
+    goal_management_control,
+    plain_arg,
+)
 from mrss.agentspeak import Struct, term_str
-from mrss.agentspeak.terms import PList
 from mrss.edge.datalayer_client import DataLayerUnavailable
 from mrss.edge.predicates import term as term_text
 from mrss.errors import MrssError
 from mrss.messages import (
-    CONTROL_COMMANDS,
-    CONTROL_TARGETS,
     ActionControl,
     ActionInventory,
     ActionQuery,
@@ -60,7 +66,6 @@ from mrss.messages import (
 
 log = logging.getLogger("mrss.reasoner")
 
-GOAL_MANAGEMENT = "rcl_goal_management"
 QUERY = "query"
 ABANDONED_MEMORY = 4096  # uuids of lease-failed actions still to be seen ending at the RCL
 
@@ -74,16 +79,6 @@ class AgentPort(Protocol):
 
 
 DataCall = Callable[[str, list[Any], float], Any]
-ACTION_FAILED = "action_failed"  # Jason's error for a failed action of no known cause
-
-
-def failure_error(status: ActionStatus) -> str:
-    """The `error(E)` a failed or cancelled action gives its plan."""
-    if status.cause:
-        return status.cause
-    if status.state == ActionState.CANCELLED.value:
-        return FailureCause.CANCELLED.value
-    return ACTION_FAILED
 
 
 @dataclass
@@ -99,28 +94,6 @@ class Latch:
     last_status: str = ActionState.PENDING.value
     status_at: float = 0.0
     progress: dict[str, Any] = field(default_factory=dict)
-
-
-def plain_arg(t: Any) -> Any:
-    """An action argument as a JSON-like value for the RCL (structures as their text)."""
-    if isinstance(t, bool):
-        return t
-    if isinstance(t, (int, float, str)):
-        return t
-    if isinstance(t, tuple):
-        return [plain_arg(x) for x in t]
-    if isinstance(t, PList):
-        return term_str(t)
-    if isinstance(t, Struct) and not t.args and not t.annots and not t.neg:
-        return t.functor
-    return term_str(t)
-
-
-def _annotation(action: Struct, name: str) -> Any:
-    for a in action.annots:
-        if isinstance(a, Struct) and a.functor == name and len(a.args) == 1:
-            return a.args[0]
-    return None
 
 
 class ReasonerHost:
@@ -165,14 +138,7 @@ class ReasonerHost:
             return self._goal_management(action)
         if action.functor == QUERY and len(action.args) == 3:
             return self._query(action)
-        args = [plain_arg(a) for a in action.args]
-        priority = _annotation(action, "priority")
-        request = ActionRequest(
-            uuid=uuidlib.uuid4().hex, name=action.functor, args=args,
-            robot=str(args[0]) if args else "", goal=str(args[1]) if len(args) > 1 else "",
-            priority=priority if isinstance(priority, int) else 0,
-            literal=term_str(Struct(action.functor, action.args)),
-        )
+        request = action_request(action)
         now = self._clock()
         handle = request.uuid
         with self._lock:
@@ -430,26 +396,3 @@ def adoptable(items: list[dict[str, Any]]) -> dict[str, list[str]]:
     return {literal: open_.get(literal) or [ended[literal]]
             for literal in {**ended, **open_}}
 
-
-def goal_management_control(action: Struct) -> ActionControl:
-    """The ActionControl of `rcl_goal_management(Command, Target)` (or `(C, Kind, T)`)."""
-    args = action.args
-    if len(args) not in (2, 3):
-        raise MrssError(f"{GOAL_MANAGEMENT} takes (Command, Target) or (Command, Kind, "
-                        f"Target), not {term_str(action)}")
-    command = str(plain_arg(args[0]))
-    if command not in CONTROL_COMMANDS:
-        raise MrssError(f"{GOAL_MANAGEMENT}: unknown command {command!r}")
-    if len(args) == 3:
-        kind, target = str(plain_arg(args[1])), plain_arg(args[2])
-    else:
-        target_term = args[1]
-        kind = "goal"
-        if (isinstance(target_term, Struct) and len(target_term.args) == 1
-                and target_term.functor in CONTROL_TARGETS):
-            kind, target = target_term.functor, plain_arg(target_term.args[0])
-        else:
-            target = plain_arg(target_term)
-    if kind not in CONTROL_TARGETS:
-        raise MrssError(f"{GOAL_MANAGEMENT}: unknown target kind {kind!r}")
-    return ActionControl(command=command, target=str(target), target_kind=kind)

@@ -30,18 +30,18 @@ from __future__ import annotations
 from mrss.actors.lifecycle import (
     ACTION_TRANSITIONS as ACTION_TRANSITIONS,  # the RCL's; not part of the contract
 )
-from mrss.api._layer import (
+from mrss.api._action import Action
+from mrss.api._action import (
+    check_json as check_json,  # the RCL's; not part of the contract
+)
+from mrss.api._layer import RobotCommLayer
+from mrss.api._skill import (
     SKILL_TRANSITIONS,
-    Action,
     Resource,
-    RobotCommLayer,
     Skill,
     SkillInterrupted,
     SkillOutcome,
     SkillState,
-)
-from mrss.api._layer import (
-    check_json as check_json,  # the RCL's; not part of the contract
 )
 from mrss.edge.adapters import DataLayer, ExternalAdapter, external
 from mrss.edge.component import BROKER_URL_FILE

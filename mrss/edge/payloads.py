@@ -11,9 +11,10 @@ string), `string`, `int`, `number`, `lat`, `lon`, `bool`, `list` (of scalars or 
 `term` (any JSON scalar or list), or a callable that converts the value and raises
 ValueError for bad input. A field name may be a dotted path into nested objects.
 
-Every value is also held to the bounds of `mrss.edge.validation`: strings of at most
-MAX_TEXT characters, integers within +-2**53, finite numbers, lists of at most
-MAX_ITEMS items nested at most MAX_DEPTH deep.
+Every value is also held to the bounds of plain data (`mrss.edge.record_declarations`,
+checked by `mrss.edge.validation`): strings of at most MAX_TEXT characters, integers
+within +-2**53, finite numbers, lists of at most MAX_ITEMS items nested at most
+MAX_DEPTH deep.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final
 
-from mrss.edge import validation
+from mrss.edge import record_declarations, validation
 from mrss.edge.predicates import Atom, PredicateError, Term, is_atom_name, literal, symbol
 from mrss.errors import DecodeError
 
@@ -121,10 +122,10 @@ def json_term(value: Any, depth: int = 0) -> Term:
     if isinstance(value, (int, float)):
         return _as_number(value)
     if isinstance(value, list):
-        if depth >= validation.MAX_DEPTH:
-            raise ValueError(f"list nested more than {validation.MAX_DEPTH} deep")
-        if len(value) > validation.MAX_ITEMS:
-            raise ValueError(f"list of {len(value)} items > {validation.MAX_ITEMS}")
+        if depth >= record_declarations.MAX_DEPTH:
+            raise ValueError(f"list nested more than {record_declarations.MAX_DEPTH} deep")
+        if len(value) > record_declarations.MAX_ITEMS:
+            raise ValueError(f"list of {len(value)} items > {record_declarations.MAX_ITEMS}")
         return [json_term(v, depth + 1) for v in value]
     raise ValueError(f"a JSON {type(value).__name__} has no term form")
 

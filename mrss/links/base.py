@@ -22,15 +22,9 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
+from mrss.edge.record_declarations import DEFAULT_LIMITS, LINK_TYPES, Limits, RobotType
 from mrss.edge.rejections import RejectionLog
-from mrss.edge.validation import (
-    DEFAULT_LIMITS,
-    LINK_TYPES,
-    Limits,
-    RecordValidator,
-    Rejected,
-    RobotType,
-)
+from mrss.edge.validation import RecordValidator, Rejected
 from mrss.links.errors import CommandTimeout, LinkDown
 from mrss.links.failsafe import FailsafeEvent, FailsafePolicy, failsafe_reason
 

@@ -21,7 +21,7 @@ Rules (the one place they are implemented):
   folder; a robot `username` replaces the project's `[broker]` login.
 - HTTP needs its `url` (a robot's own API: nothing to find).
 - The link checks telemetry with its robot type's limits, with the project's
-  `[datalayer]` `*_range` overrides over them (mrss.edge.validation).
+  `[datalayer]` `*_range` overrides over them (mrss.edge.record_declarations).
 - Every other key goes to the link factory, which checks it (unknown keys, types, the
   failsafe options of docs/robots.md).
 """

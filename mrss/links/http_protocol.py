@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 from urllib.parse import urlsplit
 
-from mrss.edge import validation
+from mrss.edge import record_declarations, validation
 from mrss.errors import ConfigError, DecodeError
 
 COMMAND_PATH = "/command"
@@ -89,7 +89,7 @@ def _number(data: dict[str, Any], key: str, path: str, lo: float, hi: float,
     if key not in data and not required:
         return None
     try:  # bounded before float(): a 400-digit integer is refused, never an OverflowError
-        return float(validation.number(data.get(key), repr(key), validation.Range(lo, hi)))
+        return float(validation.number(data.get(key), repr(key), record_declarations.Range(lo, hi)))
     except validation.Rejected as exc:
         raise DecodeError(str(exc)[:200], topic=path) from None
 

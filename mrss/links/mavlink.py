@@ -1,11 +1,12 @@
 """The MAVLink robot link: commands and telemetry of one ArduCopter-style vehicle.
 
 Blocking command helpers (`arm`, `set_mode`, `takeoff`, `goto`, `land`, ...) may be
-called from any thread; they retry unanswered commands and raise LinkDown,
-CommandRejected or CommandTimeout (mrss.links.errors). The link is up while heartbeats
-arrive and goes down after `heartbeat_timeout` seconds without one. A UDP link has no
-thread of its own: the process's shared link loop (mrss.links.timers) reads its socket
-and runs its duties (GCS heartbeat, heartbeat timeout); a stream (TCP, serial) has one.
+called from any thread; they retry unanswered commands (mrss.links.mavlink_commands)
+and raise LinkDown, CommandRejected or CommandTimeout (mrss.links.errors). The link is
+up while heartbeats arrive and goes down after `heartbeat_timeout` seconds without one.
+A UDP link has no thread of its own: the process's shared link loop (mrss.links.timers)
+reads its socket and runs its duties (GCS heartbeat, heartbeat timeout); a stream (TCP,
+serial) has one.
 
 Failsafe (mrss.links.failsafe): the link is the vehicle's GCS. It sends a GCS heartbeat
 every second while its controller lives (`watch_controller`), sets FS_GCS_ENABLE and
@@ -27,7 +28,8 @@ from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
 from mrss.links.failsafe import CONTROLLER_HEARTBEAT_S, FailsafeEvent, FailsafePolicy
 from mrss.links.geo import distance_m
-from mrss.links.mavconn import MAV, MavConnection, enum_name, text_of
+from mrss.links.mavconn import MAV, MavConnection, text_of
+from mrss.links.mavlink_commands import CommandExchange
 from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
 from mrss.links.mavlink_signing import down_reason
@@ -36,20 +38,10 @@ from mrss.links.timers import TIMERS, TimerHandle
 
 GCS_HEARTBEAT_S = CONTROLLER_HEARTBEAT_S
 POSITION_ONLY = 0xFF8  # SET_POSITION_TARGET type_mask: use lat/lon/alt, ignore the rest
-TEXT_REASON_WINDOW_S = 1.0
 REFUSAL_CHECK_S = 0.5
 READ_BATCH = 64         # messages read per turn of the shared loop (then other links)
 TICK_SLACK_S = 0.01     # a duty runs this long after its deadline (never a busy loop)
 FAILSAFE_TICK_S = 0.1   # how often PARAM_SETs are looked at while some are unconfirmed
-
-
-class _PendingCommand:
-    """A COMMAND_LONG waiting for its COMMAND_ACK."""
-
-    def __init__(self, command: int) -> None:
-        self.command = command
-        self.event = threading.Event()
-        self.result: int | None = None
 
 
 class MavlinkLink(RobotLink):
@@ -84,11 +76,9 @@ class MavlinkLink(RobotLink):
         self._stop = threading.Event()
         self._last_heartbeat: float | None = None
         self._next_gcs_heartbeat = 0.0
-        self._pending: dict[int, _PendingCommand] = {}
-        self._pending_lock = threading.Lock()
-        self._command_lock = threading.Lock()
+        self._command_lock = threading.Lock()  # one exchange at a time: command, mission
+        self._commands = CommandExchange(robot_id, self._send_command, self.require_up)
         self._mission_replies: queue.Queue[Any] = queue.Queue()
-        self._last_warning: tuple[float, str] | None = None
         self._reported: tuple[str | None, bool, bool | None] = (None, False, None)
         self._next_refusal_check = 0.0
         self._refusals_explained = 0
@@ -144,28 +134,8 @@ class MavlinkLink(RobotLink):
     def command(self, command: int, *params: float, timeout: float | None = None) -> int:
         """Send a COMMAND_LONG until acknowledged; return the MAV_RESULT if ACCEPTED."""
         timeout = self.command_timeout if timeout is None else timeout
-        name = enum_name("MAV_CMD", command)
-        values = [float(p) for p in params] + [0.0] * (7 - len(params))
         with self._command_lock:
-            for attempt in range(self.retries):
-                self.require_up()
-                pending = _PendingCommand(command)
-                with self._pending_lock:
-                    self._pending[command] = pending
-                sent_at = time.monotonic()
-                self._send(self._mav().command_long_encode(
-                    self._target(), 1, command, attempt, *values))
-                try:
-                    result = self._await_ack(pending, timeout)
-                finally:
-                    with self._pending_lock:
-                        self._pending.pop(command, None)
-                if result is None:
-                    continue
-                if result == MAV.MAV_RESULT_ACCEPTED:
-                    return result
-                raise CommandRejected(self.robot_id, name, self._describe(result, sent_at))
-        raise CommandTimeout(self.robot_id, name, timeout, self.retries)
+            return self._commands.run(command, params, timeout, self.retries)
 
     def arm(self) -> None:
         """Arm the motors (the vehicle must be in an armable mode, e.g. GUIDED)."""
@@ -269,29 +239,12 @@ class MavlinkLink(RobotLink):
         if self._conn is not None:
             self._conn.send(msg)
 
+    def _send_command(self, command: int, attempt: int, values: list[float]) -> None:
+        self._send(self._mav().command_long_encode(self._target(), 1, command, attempt,
+                                                   *values))
+
     def _target(self) -> int:
         return self.target_system or 1
-
-    def _await_ack(self, pending: _PendingCommand, timeout: float) -> int | None:
-        deadline = time.monotonic() + timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            if pending.event.wait(min(max(remaining, 0.0), 0.1)):
-                if pending.result == MAV.MAV_RESULT_IN_PROGRESS:
-                    pending.event.clear()
-                    deadline = time.monotonic() + timeout
-                    continue
-                return pending.result
-            self.require_up()
-            if remaining <= 0:
-                return None
-
-    def _describe(self, result: int, sent_at: float) -> str:
-        text = enum_name("MAV_RESULT", result)
-        warning = self._last_warning
-        if warning is not None and warning[0] >= sent_at - TEXT_REASON_WINDOW_S:
-            text += f" ({warning[1]})"
-        return text
 
     def _receive_loop(self) -> None:
         """A stream connection's own thread (UDP links use the shared loop instead)."""
@@ -392,11 +345,7 @@ class MavlinkLink(RobotLink):
         if self.target_system is None or msg.get_srcSystem() != self.target_system:
             return
         if kind == "COMMAND_ACK":
-            with self._pending_lock:
-                pending = self._pending.get(msg.command)
-            if pending is not None:
-                pending.result = msg.result
-                pending.event.set()
+            self._commands.acked(msg.command, msg.result)
         elif kind in MISSION_REPLIES:
             self._mission_replies.put(msg)
         elif kind == "POSITION_TARGET_GLOBAL_INT":
@@ -446,7 +395,7 @@ class MavlinkLink(RobotLink):
                                                 "temperature": spot.temperature})
             return
         if msg.severity <= MAV.MAV_SEVERITY_WARNING:
-            self._last_warning = (time.monotonic(), text)
+            self._commands.warned(text)
         self._publish_telemetry("text", {"severity": msg.severity, "text": text})
 
     # -- failsafe (mrss.links.mavlink_failsafe) ---------------------------------------------

@@ -18,7 +18,7 @@ import json
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from mrss.edge import validation
+from mrss.edge import record_declarations, validation
 from mrss.errors import DecodeError
 from mrss.links.failsafe import MAX_TIMEOUT_S, MIN_TIMEOUT_S, FailsafeAction
 
@@ -138,7 +138,7 @@ def _number(data: dict[str, Any], key: str, topic: str | None, lo: float, hi: fl
     if type(value) is float and lo <= value <= hi:  # the usual case (finite: within bounds)
         return value
     try:  # bounded before float(): a 400-digit integer is refused, never an OverflowError
-        return float(validation.number(value, repr(key), validation.Range(lo, hi)))
+        return float(validation.number(value, repr(key), record_declarations.Range(lo, hi)))
     except validation.Rejected as exc:
         raise DecodeError(str(exc)[:200], topic=topic) from None
 

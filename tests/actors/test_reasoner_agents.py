@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.reasoner import Reasoner, ReasonerComponent
+from mrss.actors.reasoner import ReasonerComponent
 from mrss.actors.reasoner_agents import AgentSpec
+from mrss.actors.reasoner_core import Reasoner
 from mrss.bus import BusEndpoints, ProxyThread
 from mrss.errors import ConfigError
 from mrss.messages import ActionRequest, ActionStatus, Percept

@@ -12,7 +12,7 @@ import pytest
 
 from mrss.actors.percept_guard import checked_literal
 from mrss.actors.percept_ledger import PerceptLedger
-from mrss.actors.reasoner import Reasoner
+from mrss.actors.reasoner_core import Reasoner
 from mrss.edge.datalayer_client import DataLayerError, DataLayerUnavailable
 from mrss.messages import (
     ActionControl,

@@ -12,7 +12,7 @@ import pytest
 
 from mrss.actors.journal import ActionJournal, Requester
 from mrss.actors.rcl_service import RclService
-from mrss.actors.reasoner import Reasoner
+from mrss.actors.reasoner_core import Reasoner
 from mrss.api import Action
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
 from mrss.messages import (

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mrss.edge import validation
+from mrss.edge import record_declarations
 from mrss.edge.payloads import (
     CONVERTERS,
     Field,
@@ -103,11 +103,11 @@ def test_term_and_list_kinds_convert_nested_json() -> None:
 # -- one property per field kind: what it declares is taken, nothing outside it ----------
 FIELD_VALID: dict[str, st.SearchStrategy[Any]] = {
     "atom": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True),
-    "symbol": st.text(max_size=validation.MAX_TEXT),
-    "string": st.text(max_size=validation.MAX_TEXT),
-    "int": st.integers(-validation.MAX_INT, validation.MAX_INT),
+    "symbol": st.text(max_size=record_declarations.MAX_TEXT),
+    "string": st.text(max_size=record_declarations.MAX_TEXT),
+    "int": st.integers(-record_declarations.MAX_INT, record_declarations.MAX_INT),
     "number": st.floats(allow_nan=False, allow_infinity=False)
-    | st.integers(-validation.MAX_INT, validation.MAX_INT),
+    | st.integers(-record_declarations.MAX_INT, record_declarations.MAX_INT),
     "lat": st.floats(-90.0, 90.0),
     "lon": st.floats(-180.0, 180.0),
     "bool": st.booleans(),
@@ -117,7 +117,7 @@ FIELD_VALID: dict[str, st.SearchStrategy[Any]] = {
 EXTREMES = st.one_of(
     st.integers(), st.floats(allow_nan=False), st.text(), st.none(), st.booleans(),
     st.just(2 ** 53 + 1), st.just(-(2 ** 60)), st.just(10 ** 300), st.just(1e308),
-    st.just("x" * (validation.MAX_TEXT + 1)), st.just({"a": 1}),
+    st.just("x" * (record_declarations.MAX_TEXT + 1)), st.just({"a": 1}),
     st.just([[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]), st.just(list(range(300))),
     st.lists(st.integers(), max_size=4))
 
@@ -132,12 +132,13 @@ def _within(kind: str, value: Any) -> bool:
     if kind in ("int", "number", "lat", "lon"):
         bound = {"lat": 90.0, "lon": 180.0}.get(kind, math.inf)
         if isinstance(value, int):
-            bound = min(bound, validation.MAX_INT)
+            bound = min(bound, record_declarations.MAX_INT)
         return not isinstance(value, bool) and math.isfinite(value) and abs(value) <= bound
     if kind in ("string", "symbol", "atom") or isinstance(value, str):
-        return len(str(value)) <= validation.MAX_TEXT
+        return len(str(value)) <= record_declarations.MAX_TEXT
     if kind in ("list", "term") and isinstance(value, list):
-        return len(value) <= validation.MAX_ITEMS and all(_within("term", v) for v in value)
+        return len(value) <= record_declarations.MAX_ITEMS \
+            and all(_within("term", v) for v in value)
     if kind == "term" and isinstance(value, int | float) and not isinstance(value, bool):
         return _within("number", value)
     return True

@@ -13,8 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mrss.edge.rejections import RejectionLog
-from mrss.edge.validation import (
+from mrss.edge.record_declarations import (
     DEFAULT_LIMITS,
     LIMIT_NAMES,
     MAX_DEPTH,
@@ -25,13 +24,16 @@ from mrss.edge.validation import (
     FieldKind,
     Limits,
     Range,
-    RecordValidator,
-    Rejected,
     RobotType,
     Spec,
+    configured_robots,
+)
+from mrss.edge.rejections import RejectionLog
+from mrss.edge.validation import (
+    RecordValidator,
+    Rejected,
     _fits,
     check_record,
-    configured_robots,
     limit_overrides,
     plain,
 )

@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 import pytest
 
 from mrss.api import ConfigError, RobotCommLayer
-from mrss.edge.validation import DEFAULT_LIMITS, RobotType
+from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
 from mrss.links.connect import connect_link, link_options
 from mrss.messages import Message, RobotData
 from mrss.testing import BrokerInfo, free_udp_port, wait_until

@@ -13,7 +13,8 @@ from mrss.api.testing import memory_world
 from mrss.config import load_file
 from mrss.edge.adapters import DataLayerContext
 from mrss.edge.loader import import_project_module
-from mrss.edge.validation import DEFAULT_LIMITS, RobotType, check_record
+from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
+from mrss.edge.validation import check_record
 from mrss.map_config import read_map
 from mrss.plans import PLAN_MAX_WAYPOINTS, plan_record
 from mrss.tui.models.geo import METRES_PER_DEGREE, Viewport

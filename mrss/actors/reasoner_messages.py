@@ -1,0 +1,98 @@
+"""The reasoner's translation between AgentSpeak actions and the RCL's messages; pure.
+
+- an environment action literal becomes an `ActionRequest` (`action_request`): a new
+  uuid, its arguments as plain JSON-like values (`plain_arg`: structures as their
+  text), robot and goal its first two, its `priority(P)` annotation;
+- `rcl_goal_management(Command, Target)` (or `(Command, Kind, Target)`) becomes an
+  `ActionControl` (`goal_management_control`);
+- a failed or cancelled `ActionStatus` becomes the `error(E)` its plan sees
+  (`failure_error`): the RCL's `FailureCause`, or Jason's `action_failed`.
+"""
+
+from __future__ import annotations
+
+import uuid as uuidlib
+from typing import Any
+
+from mrss.agentspeak import Struct, term_str
+from mrss.agentspeak.terms import PList
+from mrss.errors import MrssError
+from mrss.messages import (
+    CONTROL_COMMANDS,
+    CONTROL_TARGETS,
+    ActionControl,
+    ActionRequest,
+    ActionState,
+    ActionStatus,
+    FailureCause,
+)
+
+GOAL_MANAGEMENT = "rcl_goal_management"
+ACTION_FAILED = "action_failed"  # Jason's error for a failed action of no known cause
+
+
+def failure_error(status: ActionStatus) -> str:
+    """The `error(E)` a failed or cancelled action gives its plan."""
+    if status.cause:
+        return status.cause
+    if status.state == ActionState.CANCELLED.value:
+        return FailureCause.CANCELLED.value
+    return ACTION_FAILED
+
+
+def plain_arg(t: Any) -> Any:
+    """An action argument as a JSON-like value for the RCL (structures as their text)."""
+    if isinstance(t, bool):
+        return t
+    if isinstance(t, (int, float, str)):
+        return t
+    if isinstance(t, tuple):
+        return [plain_arg(x) for x in t]
+    if isinstance(t, PList):
+        return term_str(t)
+    if isinstance(t, Struct) and not t.args and not t.annots and not t.neg:
+        return t.functor
+    return term_str(t)
+
+
+def _annotation(action: Struct, name: str) -> Any:
+    for a in action.annots:
+        if isinstance(a, Struct) and a.functor == name and len(a.args) == 1:
+            return a.args[0]
+    return None
+
+
+def action_request(action: Struct) -> ActionRequest:
+    """The ActionRequest of an environment action, under a new uuid."""
+    args = [plain_arg(a) for a in action.args]
+    priority = _annotation(action, "priority")
+    return ActionRequest(
+        uuid=uuidlib.uuid4().hex, name=action.functor, args=args,
+        robot=str(args[0]) if args else "", goal=str(args[1]) if len(args) > 1 else "",
+        priority=priority if isinstance(priority, int) else 0,
+        literal=term_str(Struct(action.functor, action.args)),
+    )
+
+
+def goal_management_control(action: Struct) -> ActionControl:
+    """The ActionControl of `rcl_goal_management(Command, Target)` (or `(C, Kind, T)`)."""
+    args = action.args
+    if len(args) not in (2, 3):
+        raise MrssError(f"{GOAL_MANAGEMENT} takes (Command, Target) or (Command, Kind, "
+                        f"Target), not {term_str(action)}")
+    command = str(plain_arg(args[0]))
+    if command not in CONTROL_COMMANDS:
+        raise MrssError(f"{GOAL_MANAGEMENT}: unknown command {command!r}")
+    if len(args) == 3:
+        kind, target = str(plain_arg(args[1])), plain_arg(args[2])
+    else:
+        target_term = args[1]
+        kind = "goal"
+        if (isinstance(target_term, Struct) and len(target_term.args) == 1
+                and target_term.functor in CONTROL_TARGETS):
+            kind, target = target_term.functor, plain_arg(target_term.args[0])
+        else:
+            target = plain_arg(target_term)
+    if kind not in CONTROL_TARGETS:
+        raise MrssError(f"{GOAL_MANAGEMENT}: unknown target kind {kind!r}")
+    return ActionControl(command=command, target=str(target), target_kind=kind)
