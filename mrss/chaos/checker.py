@@ -15,9 +15,11 @@ runs them all. What each one relies on is stated here and in docs/chaos.md:
   terminal status taken, the intention dropped, or the lease failing it) or dies, by
   T + `latch`. The observable is the reasoner's log line (bus `log.*` or the run's log).
 - GOAL_HANDLED: every operator goal the broker accepted ends in one of: an action for
-  it succeeded, a reply to the operator names it, the operator cancelled it, an action
-  for it is still open at the end, or the final mind still holds it (a belief of the
-  project's `pending_beliefs` naming it). Otherwise it was dropped silently.
+  it succeeded, a reply to the operator names it or the final mind says it failed (the
+  project's `[operator.goals] failed` belief, which the dashboard shows), the operator
+  cancelled it, an action for it is still open at the end, or the final mind still
+  holds it (a belief of the project's `pending_beliefs` naming it). Otherwise it was
+  dropped silently.
 - NO_COMMAND_AFTER_CANCEL: no skill started for an action already terminal (the RCL's
   "already <terminal>; running dropped"), no skill abandoned still running ("ignored its
   interrupt"), an action the reasoner cancels is terminal within `cancel` s, every

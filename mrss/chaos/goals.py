@@ -1,7 +1,9 @@
 """What became of each operator goal: the outcomes of the goal-handled invariant (pure).
 
 An accepted goal (the broker acknowledged its publish) ends SUCCEEDED if an action for
-it succeeded, REPORTED if a message on a reply topic names it, CANCELLED if the operator
+it succeeded, REPORTED if a message on a reply topic names it or the agent's final mind
+says it failed (a belief of the project's `[operator.goals] failed` pattern naming it:
+the operator's dashboard shows that goal as failed), CANCELLED if the operator
 cancelled it, IN_PROGRESS if an action for it is open at the end, HELD if the agent's
 final mind has a belief of the project's `pending_beliefs` naming it, else DROPPED.
 Actions and cancels count for a goal from its publish until the goal is sent again.
@@ -36,6 +38,7 @@ def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
     acted: set[str] = set()
     goals = accepted(h, "goal")
     pending = tuple(str(p) for p in h.campaign.get("pending_beliefs", ()))
+    failed = tuple(str(p) for p in h.campaign.get("failed_beliefs", ()))
     mind = last_mind(h)
     for i, step in enumerate(goals):
         later = [g.t for g in goals[i + 1:] if g.goal == step.goal]
@@ -46,7 +49,8 @@ def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
             acted.add(step.goal)
         if any(a.state == "succeeded" for a in mine):
             outcome = GoalOutcome.SUCCEEDED
-        elif any(_names_goal(r.payload, step.goal) for r in h.replies if r.t >= step.t):
+        elif any(_names_goal(r.payload, step.goal) for r in h.replies if r.t >= step.t) \
+                or (failed and mind is not None and _held(mind, step.goal, failed)):
             outcome = GoalOutcome.REPORTED
         elif any(c.goal == step.goal and step.t <= c.t < until
                  for c in accepted(h, "cancel")):

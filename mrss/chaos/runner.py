@@ -39,7 +39,9 @@ from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config import load_project
+from mrss.operator_commands import SECTION, GoalState, read_operator
 from mrss.procedures import RunningProject
+from mrss.project_config import ProjectConfig
 
 Say = Callable[[str], None]
 SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise`, in the run folder
@@ -62,6 +64,15 @@ class Options:
     warmup: float = 5.0
     bounds: Bounds = field(default_factory=Bounds)
     env: dict[str, str] = field(default_factory=dict)
+
+
+def failed_goal_functors(config: ProjectConfig) -> list[str]:
+    """The belief by which the project's agent tells the operator a goal failed (its
+    `[operator.goals] failed` pattern, which the dashboard shows), if it declares one."""
+    if SECTION not in config.sections:
+        return []
+    pattern = read_operator(config.sections[SECTION]).goals.get(GoalState.FAILED)
+    return [pattern.functor] if pattern is not None else []
 
 
 def run(options: Options, say: Say = print) -> Path:
@@ -88,6 +99,7 @@ def run(options: Options, say: Say = print) -> Path:
                      wall=recorder.wall0, run_dir=str(options.run_dir),
                      options=_plain_options(options), reasoners=reasoners, rcls=rcls,
                      pending_beliefs=list(traffic.pending_beliefs),
+                     failed_beliefs=failed_goal_functors(config),
                      mode_beliefs=traffic.mode_beliefs,
                      planned=[dataclasses.asdict(f) for f in faults])
         system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=STARTUP)

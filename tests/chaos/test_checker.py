@@ -177,6 +177,22 @@ def test_a_belief_outside_the_pending_ones_does_not_hold_a_goal() -> None:
     assert verdict(records).goals["a2"] is GoalOutcome.DROPPED
 
 
+def test_a_goal_the_agent_says_failed_where_the_operator_sees_it_is_reported() -> None:
+    """The project's `[operator.goals] failed` belief is how its dashboard tells the
+    operator a goal failed: a failed goal the final mind says so of is not dropped."""
+    records = with_second_action(healthy() + [operator(19.0, "goal", "a2")], "failed",
+                                 20.0, ended=21.0)
+    records.append(log(21.05, "reasoner", f"action {U2} cover(uav1,a2) failed"))
+    records[0]["failed_beliefs"] = ["failed_goal"]
+    assert verdict(records).goals["a2"] is GoalOutcome.DROPPED  # the mind says nothing
+    records.append(probe(35.0, beliefs=["failed_goal(a3)[source(self)]",
+                                        "done_goal(a2)[source(self)]"]))
+    assert verdict(records).goals["a2"] is GoalOutcome.DROPPED  # another goal's, not a2's
+    records.append(probe(36.0, beliefs=["failed_goal(a2)[source(self)]"]))
+    v = verdict(records)
+    assert v.goals["a2"] is GoalOutcome.REPORTED and v.violations == []
+
+
 def test_a_goal_whose_action_failed_silently_is_dropped() -> None:
     records = with_second_action(healthy() + [operator(19.0, "goal", "a2")], "failed",
                                  20.0, ended=21.0)

@@ -14,6 +14,7 @@ from mrss.chaos.checker import Invariant, check
 from mrss.chaos.faults import FaultKind, targets
 from mrss.chaos.history import HistoryError, HistoryWriter, load, parse
 from mrss.chaos.report import summary, text
+from mrss.chaos.runner import failed_goal_functors
 from mrss.chaos.traffic import Intent, load_traffic, step_from
 from mrss.cli import main
 from mrss.config import load_project
@@ -77,6 +78,12 @@ def test_wildfire_traffic_is_well_formed_and_pairs_every_teleop_on_with_off() ->
     goals = [s.goal for s in steps if s.intent is Intent.GOAL]
     assert len(goals) == len(set(goals))
     assert steps == [s for s, _ in zip(traffic.steps(3, 20.0), range(200), strict=False)]
+
+
+def test_the_campaign_knows_how_a_project_tells_the_operator_a_goal_failed() -> None:
+    assert failed_goal_functors(load_project("wildfire", WILDFIRE.parent)) == ["failed_goal"]
+    # A project without [operator.goals] failed: only replies count as telling.
+    assert failed_goal_functors(load_project("amadee", WILDFIRE.parent)) == []
 
 
 def test_a_bad_step_is_refused_with_the_key_and_what_was_expected() -> None:
