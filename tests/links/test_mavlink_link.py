@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import signal
 from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 import pytest
@@ -16,6 +15,7 @@ from mrss.links.mavlink_mission import MissionItem
 from mrss.testing import free_udp_port, wait_until
 
 from .conftest import Spawn
+from .sample_scopes import ScopeRecorder
 
 HOME = (-35.363262, 149.165237)
 HOTSPOT = offset(*HOME, 80.0, 0.0)  # 80 m north of home
@@ -181,30 +181,15 @@ def test_records_read_together_are_handed_on_inside_one_scope(spawn: Spawn) -> N
     one go inside the same one."""
     port = free_udp_port()
     start_uav(spawn, port)
-    scopes: list[list[str]] = []
-    inside: list[list[str]] = []
-    outside: list[str] = []
-
-    @contextmanager
-    def scope() -> Iterator[None]:
-        inside.append([])
-        try:
-            yield
-        finally:
-            scopes.append(inside.pop())
-
-    def on_record(record: dict[str, Any]) -> None:
-        (inside[-1] if inside else outside).append(str(record["type"]))
-
-    link = MavlinkLink("uav1", f"udpin:127.0.0.1:{port}", on_telemetry=on_record)
-    link.set_sample_scope(scope)
+    rec = ScopeRecorder()
+    link = MavlinkLink("uav1", f"udpin:127.0.0.1:{port}", on_telemetry=rec.on_record)
+    link.set_sample_scope(rec.scope)
     link.start()
     try:
         link.wait_up(timeout=15)
-        wait_until(lambda: sum(s.count("position") for s in list(scopes)) >= 10, timeout=10,
-                   message="ten positions")
-        assert outside == []
-        seen = {kind for s in list(scopes) for kind in s}
-        assert {"position", "battery"} <= seen
+        wait_until(lambda: sum(s.count("position") for s in list(rec.scopes)) >= 10,
+                   timeout=10, message="ten positions")
+        assert rec.outside == []
+        assert {"position", "battery"} <= {kind for s in list(rec.scopes) for kind in s}
     finally:
         link.close()

@@ -10,8 +10,8 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager
+from collections.abc import Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import pytest
@@ -22,6 +22,7 @@ from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import ONLINE, UgvTelemetry, UgvTopics
 from mrss.testing import BrokerInfo, find_mosquitto, free_port, wait_until
 
+from .sample_scopes import ScopeRecorder
 from .test_link_timers import mqtt_links
 from .test_mavlink_link import Recorder
 
@@ -217,29 +218,17 @@ def test_the_records_of_one_sample_are_handed_on_inside_one_scope(
     """The RCL's publisher gathers what is published inside the scope into one bus
     message: the link must open one scope per telemetry sample, around all its records."""
     robots = _Robots(mqtt_broker.url, ["scope1"])
-    scopes: list[list[str]] = []
-    inside: list[list[str]] = []
-
-    @contextmanager
-    def scope() -> Iterator[None]:
-        inside.append([])
-        try:
-            yield
-        finally:
-            scopes.append(inside.pop())
-
-    def on_record(record: dict[str, object]) -> None:
-        assert inside, f"record {record['type']} handed on outside a scope"
-        inside[-1].append(str(record["type"]))
-
-    link = MqttLink("scope1", mqtt_broker.url, telemetry_timeout=2.0, on_telemetry=on_record)
-    link.set_sample_scope(scope)
+    rec = ScopeRecorder()
+    link = MqttLink("scope1", mqtt_broker.url, telemetry_timeout=2.0,
+                    on_telemetry=rec.on_record)
+    link.set_sample_scope(rec.scope)
     link.start()
     try:
         link.wait_up(timeout=20)
-        wait_until(lambda: len(scopes) >= 3, timeout=10, message="three samples")
-        assert scopes[0] == ["position", "battery", "tank", "status"]  # first: with status
-        assert all(s == ["position", "battery", "tank"] for s in scopes[1:3])
+        wait_until(lambda: len(rec.scopes) >= 3, timeout=10, message="three samples")
+        assert rec.outside == []
+        assert rec.scopes[0] == ["position", "battery", "tank", "status"]  # first: status
+        assert all(s == ["position", "battery", "tank"] for s in rec.scopes[1:3])
     finally:
         link.close()
         robots.close()
