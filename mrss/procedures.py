@@ -56,6 +56,7 @@ class RunningProject:
         self.process: subprocess.Popen[bytes] | None = None
         self.percepts: list[str] = []
         self.status_log: list[ActionStatus] = []
+        self.latest: dict[str, ActionStatus] = {}  # uuid -> newest status, repeats too
         self.heartbeats: set[str] = set()
         self.incarnations: dict[str, tuple[int, int]] = {}  # component -> (inc, pid)
         self._lock = threading.Lock()
@@ -154,8 +155,10 @@ class RunningProject:
         with self._lock:
             if isinstance(body, Percept) and body.op == "add":
                 self.percepts.append(body.literal)
-            elif isinstance(body, ActionStatus) and not body.repeat:  # transitions only
-                self.status_log.append(body)
+            elif isinstance(body, ActionStatus):
+                self.latest[body.uuid] = body  # progress goes out as repeat statuses
+                if not body.repeat:  # the log: transitions only
+                    self.status_log.append(body)
             elif isinstance(body, Heartbeat):
                 self.heartbeats.add(body.component)
                 if env.inc >= self.incarnations.get(body.component, (0, 0))[0]:
@@ -166,6 +169,13 @@ class RunningProject:
         with self._lock:
             return [s for s in self.status_log if (robot is None or s.robot == robot)
                     and (state is None or s.state == state)]
+
+    def progress(self, uuid: str) -> dict[str, JsonValue]:
+        """An action's newest progress: its latest status, a transition or a repeat (the
+        RCL sends progress as repeat statuses, which `statuses()` leaves out)."""
+        with self._lock:
+            status = self.latest.get(uuid)
+            return dict(status.progress) if status is not None else {}
 
     def incarnation(self, component: str) -> int:
         """The newest incarnation of a component heard heartbeating (0: none yet)."""

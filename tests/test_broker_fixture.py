@@ -24,8 +24,8 @@ def _roundtrip(info: BrokerInfo) -> bytes:
         wait_until(lambda: got, timeout=10, message="message delivery")
         return got[0]
     finally:
+        client.disconnect()  # first: a loop stopped first sits out its 1 s select
         client.loop_stop()
-        client.disconnect()
 
 
 def test_private_broker_delivers(mqtt_broker: BrokerInfo) -> None:

@@ -10,7 +10,10 @@ Rules:
   the query's arguments), else it stays open until `answer(...)` (fails at once when
   `hold` is False);
 - any other action stays open until `complete`/`finish`; `cancel` (the agent dropped the
-  intention) moves it from `open` to `cancelled`.
+  intention) moves it from `open` to `cancelled`;
+- with `virtual_time`, an agent made by `load` runs on the host's clock, which only
+  `run_until` moves: straight to the next `.wait` deadline when nothing else is to be
+  done (a test of the agent's retries does not wait out their pauses).
 """
 
 from __future__ import annotations
@@ -50,8 +53,11 @@ class ScriptedHost:
     def __init__(self, *, answers: Mapping[str, Any] | None = None, hold: bool = True,
                  immediate: Collection[str] = (GOAL_MANAGEMENT,),
                  on_action: Callable[[int, str], None] | None = None,
-                 on_cancel: Callable[[int, str], None] | None = None) -> None:
+                 on_cancel: Callable[[int, str], None] | None = None,
+                 virtual_time: bool = False) -> None:
         self.agent: Agent | None = None
+        self.virtual_time = virtual_time
+        self.now = 0.0  # the clock of a virtual-time agent (seconds)
         self.answers: dict[str, Any] = dict(answers or {})
         self.hold = hold
         self.immediate = frozenset(immediate)
@@ -69,8 +75,9 @@ class ScriptedHost:
     def load(self, path: str | Path, *, name: str | None = None,
              out: Callable[[str], None] | None = None) -> Agent:
         """The agent of `path` on this host, run until idle (its initial goals done)."""
+        clock = (lambda: self.now) if self.virtual_time else time.monotonic
         agent = Agent.from_file(path, host=self, name=name or Path(path).stem,
-                                out=out or (lambda line: None))
+                                out=out or (lambda line: None), clock=clock)
         self.agent = agent
         agent.run_until_idle()
         return agent
@@ -167,14 +174,21 @@ class ScriptedHost:
 
     def run_until(self, condition: Callable[[], bool], timeout: float = 10.0) -> None:
         """Reason (timers included: `.wait`) until `condition` holds; AssertionError after
-        `timeout` seconds."""
+        `timeout` seconds (of the agent's clock, with `virtual_time`)."""
         agent = self._agent()
-        deadline = time.monotonic() + timeout
+        clock = agent.clock if self.virtual_time else time.monotonic
+        deadline = clock() + timeout
         agent.run_until_idle()
         while not condition():
-            if time.monotonic() >= deadline:
+            if clock() >= deadline:
                 raise AssertionError(f"condition did not hold within {timeout:g} s")
-            agent.wait_for_work(0.05)
+            due = agent.next_deadline() if self.virtual_time else None
+            if due is None:
+                agent.wait_for_work(0.05)
+                if self.virtual_time:
+                    self.now += 0.05
+            elif not agent.has_work():
+                self.now = max(self.now, due)  # nothing to do before it: skip to it
             agent.run_until_idle()
 
     def _agent(self) -> Agent:

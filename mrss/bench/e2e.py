@@ -306,8 +306,8 @@ def run_under_load(quick: bool) -> BenchReport:
     """Quiet and loaded rows of the same system in one run: e2e baseline and restarts."""
     report = BenchReport("e2e --under-load", ["run", "load", "n", "p50 ms", "p99 ms",
                                              "max ms", "lost", "p99 / quiet"], quick=quick)
-    count = 200 if quick else 1000
-    kills = 6 if quick else 40
+    count = 100 if quick else 1000
+    kills = 3 if quick else 40
     load_before = os.getloadavg()[0]
     # The bench stands in for the events manager, a component on the action path: it
     # runs at the same nice value (its hogs explicitly at 0).

@@ -241,7 +241,7 @@ def _cpu(p: psutil.Process) -> float:
 def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
     """The fleet bench at `sizes` robots (default: 10 with `quick`, else 10 to 200)."""
     sizes = sizes or ([10] if quick else [10, 50, 100, 200])
-    window = 4.0 if quick else 25.0
+    window = 2.0 if quick else 25.0
     report = BenchReport(
         "fleet", ["robots", "assignments", "e2e p50 ms", "e2e p99 ms", "telemetry",
                   "lag p50 ms", "lag p99 ms", "lost", "busiest component (CPU %, RSS MB)",

@@ -180,9 +180,9 @@ def run(quick: bool) -> BenchReport:
     report = BenchReport("restart", ["what", "n", "p50 ms", "p99 ms", "max ms", "mean ms"],
                          quick=quick)
     load = os.getloadavg()
-    bus_fork = bus_restarts(6 if quick else 100, "fork")
+    bus_fork = bus_restarts(3 if quick else 100, "fork")
     bus_exec = bus_restarts(3 if quick else 30, "exec")
-    chaos = chaos_restarts(6 if quick else 60)
+    chaos = chaos_restarts(3 if quick else 60)
     tune_interpreter()  # as component_main does: actors run inside a component
     with _logs_to_devnull():
         fork = process_restarts(6 if quick else 100, "fork")

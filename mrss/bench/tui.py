@@ -197,7 +197,7 @@ def _one(rate: float, seconds: float, warmup: float = WARMUP) -> dict[str, Any]:
 
 
 def run(quick: bool = False) -> BenchReport:
-    seconds = 3.0 if quick else 15.0
+    seconds = 1.5 if quick else 15.0
     report = BenchReport("tui", ["msgs/s", "seconds", "received", "CPU % of a core",
                                  "app thread %", "target %", "drains", "drain p50 ms",
                                  "drain p99 ms", "tick p99 ms", "frames", "frame p50 ms",

@@ -2,7 +2,9 @@
 
 One campaign runs for the module: `python -m mrss chaos wildfire --json` as its own
 process, with the simulators 20 times faster than real time, three faults (kills, hangs,
-a bus blackout, a link loss), operator traffic every ~3 s. About a minute.
+a bus blackout, a link loss), operator traffic every ~3 s. About half a minute: 2 s of
+warm-up, a fault every 3-4 s (each over before the next begins: they last 2-3 s), then
+the checker's latch and cancel bounds (10 s) of calm so that every rule can be judged.
 
 `test_the_campaign_checks_a_real_history` holds whatever the system does: the faults were
 really injected, actions really ran, the history file is complete, and the checker's
@@ -27,8 +29,8 @@ from mrss.chaos.report import summary, text
 
 PROJECTS = Path(__file__).resolve().parents[2] / "projects"
 CAMPAIGN = ["--faults", "3", "--seed", "11", "--kinds", "kill,hang,blackout,link",
-            "--interval", "4..6", "--duration", "2..3", "--operator-every", "3",
-            "--warmup", "4", "--latch-bound", "10", "--cancel-bound", "10",
+            "--interval", "3..4", "--duration", "2..3", "--operator-every", "3",
+            "--warmup", "2", "--latch-bound", "10", "--cancel-bound", "10",
             "--converge-bound", "30"]
 
 

@@ -90,7 +90,7 @@ def test_a_killed_reasoner_is_replaced_by_one_that_adopts_its_running_actions(
 
 def test_teleop_off_reaching_a_restarted_reasoner_switches_the_robot_back(
         system: System) -> None:
-    system.percept("patrol_goal(ugv1, g1, 200)")
+    system.percept("patrol_goal(ugv1, g1, 80)")
     uuid = system.request("patrol", "g1").uuid
     system.wait_state(uuid, "running")
     system.percept("teleop(ugv1, on)")

@@ -207,8 +207,8 @@ def fuzz_mqtt(broker_url: str, rng: random.Random, rounds: int = 60) -> tuple[in
         for info in infos:
             info.wait_for_publish(timeout=10)
     finally:
+        client.disconnect()  # first: a loop stopped first sits out its 1 s select
         client.loop_stop()
-        client.disconnect()
     return link, events
 
 

@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -238,11 +239,19 @@ class SupervisedEdge:
         if self.mqtt is None:
             self.connect_mqtt(self.broker_url())
         for n, prefix in enumerate(("mrss/ui", "short/ui")):
-            # Until the manager's subscription is in place a message may pass it by.
-            def answered(prefix: str = prefix, n: int = n) -> bool:
-                self.publish(f"{prefix}/cancel", {"goal": f"probe{n}", "id": f"probe-{n}"})
-                return bool(self.percepts(f"goal_cancelled(probe{n})"))
-            wait_until(answered, timeout, interval=0.5,
+            # Until the manager's subscription is in place a message may pass it by: the
+            # probe goes again every 0.5 s until its percept arrives (looked for at once).
+            sent = [-1.0]
+
+            def answered(prefix: str = prefix, n: int = n, sent: list[float] = sent) -> bool:
+                if self.percepts(f"goal_cancelled(probe{n})"):
+                    return True
+                if time.monotonic() - sent[0] >= 0.5:
+                    self.publish(f"{prefix}/cancel", {"goal": f"probe{n}",
+                                                      "id": f"probe-{n}"})
+                    sent[0] = time.monotonic()
+                return False
+            wait_until(answered, timeout, interval=0.01,
                        message=f"{prefix} events reaching the percept channel\n"
                                f"{self.log_text()[-3000:]}")
 

@@ -90,8 +90,8 @@ def connect(url: str, user: str | None, password: str | None) -> tuple[bool, str
     try:
         wait_until(done.is_set, timeout=20, message="CONNACK")
     finally:
+        client.disconnect()  # first: a loop stopped first sits out its 1 s select
         client.loop_stop()
-        client.disconnect()
     return answer["ok"], answer["reason"]
 
 

@@ -181,7 +181,7 @@ def test_the_wildfire_mission_runs_with_every_guard_on(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MRSS_TEST_MQTT_PASSWORD", PASSWORD)   # for this process's publish
     project = secured_copy(tmp_path)
-    with RunningProject(project, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "8"}) as system:
+    with RunningProject(project, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
         system.wait_ready(timeout=60)
         # the data layer stores telemetry; the world model answers only with the token
         system.wait_for(lambda: (system.world("uav1") or {}).get("position"), 30,

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -77,13 +78,19 @@ class Supervised:
         with self._lock:
             seen = len(self._trees)
 
+        asked = [-1.0]  # when the question last went out
+
         def answer() -> dict[str, Any] | None:
             self.alive()
-            self.pub.publish(Command(command="tree"))
             with self._lock:
-                return self._trees[-1] if len(self._trees) > seen else None
+                if len(self._trees) > seen:
+                    return self._trees[-1]
+            if time.monotonic() - asked[0] >= 0.1:  # asked again every 0.1 s, while the
+                self.pub.publish(Command(command="tree"))  # answer is taken at once
+                asked[0] = time.monotonic()
+            return None
 
-        found: dict[str, Any] = wait_until(answer, timeout, interval=0.1,
+        found: dict[str, Any] = wait_until(answer, timeout, interval=0.005,
                                            message="a ctl.tree answer")
         return found
 

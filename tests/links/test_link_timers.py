@@ -92,8 +92,8 @@ class _Robots:
     def close(self) -> None:
         self._stop.set()
         self._thread.join(timeout=5)
+        self.client.disconnect()  # first: a loop stopped first sits out its 1 s select
         self.client.loop_stop()
-        self.client.disconnect()
 
 
 @contextmanager

@@ -22,7 +22,6 @@ from .failsafe_driver import LinkProcess
 
 HOME = (-35.363262, 149.165237, 584.0)
 FAR = offset(HOME[0], HOME[1], 2000.0, 0.0)   # never reached during a test
-NEAR = offset(HOME[0], HOME[1], 0.0, 60.0)
 ALT = 10.0
 TIMEOUT_S = 4.0   # failsafe_timeout: well above the 1 s heartbeat period on a busy machine
 WAIT = 60.0
@@ -130,9 +129,10 @@ def test_sigstopped_link_copter_brakes_then_obeys_a_new_command(
     # down it reported is the failsafe
     assert [why for up, why in link.states() if not up] == [down]
 
-    link.call("set_mode", "GUIDED")  # a new command takes effect
-    link.call("goto", NEAR[0], NEAR[1], ALT)
-    wait_until(lambda: distance_m(snap(sim).lat, snap(sim).lon, *NEAR) < 2, timeout=WAIT,
+    link.call("set_mode", "GUIDED")  # a new command takes effect: 30 m east of the brake
+    near = offset(snap(sim).lat, snap(sim).lon, 0.0, 30.0)
+    link.call("goto", near[0], near[1], ALT)
+    wait_until(lambda: distance_m(snap(sim).lat, snap(sim).lon, *near) < 2, timeout=WAIT,
                message="arrival at the new target")
     assert snap(sim).mode == "GUIDED" and sim.failsafe.fired == 1
 

@@ -153,8 +153,8 @@ def test_a_robot_link_over_tls_with_its_own_login_and_the_acl_stops_another_robo
         assert all(r["lat"] != FORGED_LAT for r in rec.of_type("position"))
         assert link.bad_messages == 0
     finally:
+        forger.disconnect()  # first: a loop stopped first sits out its 1 s select
         forger.loop_stop()
-        forger.disconnect()
         link.close()
         sim.stop()
 

@@ -61,7 +61,7 @@ class MavProxy:
 @pytest.fixture()
 def vehicle_and_gcs(tmp_path: object) -> Iterator[tuple[SimUav, MavProxy]]:
     port = free_udp_port()
-    uav = SimUav(f"udpout:127.0.0.1:{port}", hotspots=[Hotspot(1, *HOTSPOT)], speedup=10)
+    uav = SimUav(f"udpout:127.0.0.1:{port}", hotspots=[Hotspot(1, *HOTSPOT)], speedup=20)
     gcs = MavProxy(f"udpin:127.0.0.1:{port}", str(tmp_path))
     uav.start()
     try:

@@ -19,7 +19,7 @@ G1 = "move(robot1,g1,48.209,16.3745)"
 
 @pytest.fixture()
 def world() -> tuple[Agent, ScriptedHost]:
-    host = ScriptedHost()
+    host = ScriptedHost(virtual_time=True)  # the retries' .wait pauses are not waited out
     return host.load(AGENT, name="template"), host
 
 

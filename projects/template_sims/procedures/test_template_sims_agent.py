@@ -18,7 +18,7 @@ AGENT = Path(__file__).resolve().parent.parent / "agent.asl"
 
 @pytest.fixture()
 def world() -> tuple[Agent, ScriptedHost]:
-    host = ScriptedHost()
+    host = ScriptedHost(virtual_time=True)  # the retries' .wait pauses are not waited out
     return host.load(AGENT, name="template_sims"), host
 
 

@@ -30,7 +30,7 @@ def running(rcl: ScriptedHost) -> list[str]:
 
 @pytest.fixture()
 def world() -> tuple[Agent, ScriptedHost]:
-    host = ScriptedHost()
+    host = ScriptedHost(virtual_time=True)  # the retries' .wait pauses are not waited out
     return host.load(AGENT, name="wildfire"), host
 
 

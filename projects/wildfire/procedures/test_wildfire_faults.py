@@ -28,18 +28,19 @@ AREA = {"goal": "a1", "priority": 2, "center": [-35.360567, 149.165237], "radius
 @pytest.mark.slow
 def test_a_reasoner_killed_mid_cover_is_replaced_and_the_cover_is_adopted(
         tmp_path: Path) -> None:
-    with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "8"}) as system:
+    with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
         system.wait_ready()
         system.wait_for(lambda: (system.world("uav1") or {}).get("position"), 20,
                         "UAV telemetry in the world model")
         system.publish("mrss/ui/area", AREA)
         cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
                                 "the cover to run")[0]
-        system.wait_for(lambda: [s for s in system.statuses("uav1") if s.uuid == cover.uuid
-                                 and int(s.progress.get("waypoint", 0) or 0) >= 1], 30,
-                        "the cover past its first waypoint")
+        system.wait_for(lambda: int(system.progress(cover.uuid).get("waypoint", 0) or 0) >= 1,
+                        30, "the cover past its first waypoint")
 
         system.signal("reasoner", signal.SIGKILL)
+        killed_at = system.progress(cover.uuid)  # mid-cover: waypoints were left to fly
+        assert int(str(killed_at["waypoint"])) < int(str(killed_at["waypoints"])), killed_at
         system.wait_for(lambda: system.incarnation("reasoner") >= 2, 20,
                         "a new reasoner incarnation")
 
