@@ -94,6 +94,10 @@ def apply_op(op: str, args: list[Number]) -> Number:
     fn = FUNCTIONS.get(op)
     if fn is None:
         raise AslRuntimeError(f"unknown arithmetic function {op}")
+    if len(args) not in ARITY[op]:  # a percept's text is parsed at run time: no TypeError
+        want = " or ".join(str(n) for n in ARITY[op])
+        raise AslRuntimeError(f"{op} takes {want} argument{'s' if want != '1' else ''}, "
+                              f"not {len(args)}")
     try:
         return fn(*args)
     except (ValueError, OverflowError) as exc:

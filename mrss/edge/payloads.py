@@ -27,7 +27,15 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from mrss.edge import record_declarations, validation
-from mrss.edge.predicates import Atom, PredicateError, Term, is_atom_name, literal, symbol
+from mrss.edge.predicates import (
+    RESERVED,
+    Atom,
+    PredicateError,
+    Term,
+    is_atom_name,
+    literal,
+    symbol,
+)
 from mrss.errors import DecodeError
 
 
@@ -109,6 +117,9 @@ def _as_bool(value: Any) -> bool:
 def _as_atom(value: Any) -> Atom:
     text = _as_str(value)
     if not is_atom_name(text):
+        if text in RESERVED:
+            raise ValueError(f"{text!r} is a reserved word of AgentSpeak, not an atom "
+                             "(a 'string' or 'symbol' field takes it)")
         raise ValueError(f"{text!r} is not a lowercase identifier")
     return Atom(text)
 

@@ -26,9 +26,10 @@ from mrss.errors import MrssError
 
 _ATOM_RE = re.compile(r"[a-z][a-zA-Z0-9_]*\Z")
 #: Words the AgentSpeak grammar reserves; as data they are quoted, never bare atoms.
+#: `neg` is an arithmetic function: bare, it is a call (mrss.agentspeak.arith.ARITY).
 RESERVED = frozenset({
     "not", "div", "mod", "true", "false", "if", "elif", "else", "for", "while",
-    "begin", "end", "include", "namespace", "register_function",
+    "begin", "end", "include", "namespace", "register_function", "neg",
 })
 _ESCAPES = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\r": "\\r", "\t": "\\t",
             "\b": "\\b", "\f": "\\f"}

@@ -8,9 +8,11 @@ from hypothesis import strategies as st
 
 from mrss.actors.percept_guard import MAX_DEPTH, MAX_TEXT, checked_literal
 from mrss.agentspeak import Struct
+from mrss.edge.predicates import is_atom_name
 from mrss.edge.validation import Rejected
 
-atoms = st.from_regex(r"[a-z][a-z0-9_]{0,8}", fullmatch=True)
+# Words the grammar reads as operators, calls or keywords (`not`, `neg`, `div`) are no atoms.
+atoms = st.from_regex(r"[a-z][a-z0-9_]{0,8}", fullmatch=True).filter(is_atom_name)
 numbers = st.integers(-(2 ** 53), 2 ** 53) | st.floats(allow_nan=False, allow_infinity=False,
                                                         width=32)
 strings = st.text(st.characters(codec="utf-8", exclude_categories=("Cc", "Cs"),
@@ -45,6 +47,13 @@ def test_a_sender_set_source_is_refused(functor: str, source: str) -> None:
     with pytest.raises(Rejected, match="percept sets its source"):
         checked_literal(f"{functor}(a)[source({source})]")
     assert checked_literal(f"{functor}(a)[seen_by(uav1)]").annots  # other annotations stay
+
+
+@pytest.mark.parametrize("text", ["f(math.abs)", "f(a,neg)", "f(math.max(1))",
+                                  "f(math.pi(1))", "f(math.sqrt(1,2))", "f(math.round)"])
+def test_a_function_called_with_the_wrong_arguments_is_refused(text: str) -> None:
+    with pytest.raises(Rejected, match=r"takes \d.* argument"):
+        checked_literal(text)
 
 
 @pytest.mark.parametrize(("text", "reason"), [

@@ -19,6 +19,7 @@ from mrss.edge.payloads import (
     decode_json,
     decode_json_object,
 )
+from mrss.edge.predicates import RESERVED
 
 from .termcheck import read_literal
 
@@ -100,9 +101,20 @@ def test_term_and_list_kinds_convert_nested_json() -> None:
         mapping.literal(b'{"ids": [{"a": 1}], "extra": 1, "who": "x"}')
 
 
+def test_a_reserved_word_is_refused_as_an_atom_and_says_so() -> None:
+    mapping = JsonMapping("p", Field("v", "atom"))
+    for word in ("if", "not", "while", "div"):
+        with pytest.raises(PayloadError, match=f"'{word}' is a reserved word"):
+            mapping.literal(json.dumps({"v": word}).encode(), topic="t")
+    text = JsonMapping("p", Field("v", "symbol")).literal(b'{"v": "if"}', topic="t")
+    assert read_literal(text)[1] == ["if"]  # a symbol field quotes it
+
+
 # -- one property per field kind: what it declares is taken, nothing outside it ----------
 FIELD_VALID: dict[str, st.SearchStrategy[Any]] = {
-    "atom": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True),
+    # reserved words (`if`, `not`, ...) are no atoms: refused, see the test below
+    "atom": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True).filter(
+        lambda text: text not in RESERVED),
     "symbol": st.text(max_size=record_declarations.MAX_TEXT),
     "string": st.text(max_size=record_declarations.MAX_TEXT),
     "int": st.integers(-record_declarations.MAX_INT, record_declarations.MAX_INT),

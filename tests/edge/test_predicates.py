@@ -9,6 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from mrss.actors.percept_guard import checked_literal
+from mrss.agentspeak.arith import ARITY
 from mrss.edge.predicates import (
     Atom,
     PredicateError,
@@ -106,6 +108,16 @@ def test_atoms_are_validated_and_symbol_chooses_atom_or_string() -> None:
     assert isinstance(symbol("h1"), Atom)
     assert symbol("H1") == "H1" and not isinstance(symbol("H1"), Atom)
     assert literal("p", symbol("h1"), symbol("a b"), symbol("true")) == 'p(h1,"a b","true")'
+
+
+@pytest.mark.parametrize("word", sorted({n for n in ARITY if "." not in n} | {
+    "not", "div", "mod", "true", "false", "if", "else", "while", "for"}))
+def test_a_word_the_reasoner_reads_as_no_atom_is_sent_as_a_string(word: str) -> None:
+    """The edge's literals are the reasoner's percepts: a word its parser takes for an
+    operator, a function call (`neg`) or a keyword goes out quoted, and is accepted."""
+    assert not is_atom_name(word)
+    text = literal("p", symbol(word), [symbol(word)])
+    assert checked_literal(text).functor == "p"
 
 
 def test_unsupported_values_are_refused_with_the_type() -> None:
