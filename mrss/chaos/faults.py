@@ -87,10 +87,6 @@ class Effect(StrEnum):
     DISK_FULL = "disk_full"  # RLIMIT_FSIZE 0 until the saved limit is back
 
 
-def _nothing() -> None:
-    pass
-
-
 def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, list[str]]:
     """The possible targets of each fault kind in this project (empty list: not possible).
 
@@ -140,22 +136,18 @@ class Injector:
             self._signal(pid, signal.SIGKILL)
             return pid, None
         if kind in (FaultKind.HANG, FaultKind.BLACKOUT, FaultKind.LINK):
-            self._signal(pid, signal.SIGSTOP)
-            return pid, self._held(pid, Effect.STOPPED, lambda: _resume(pid))
+            return pid, self._hold(pid, Effect.STOPPED, self._stop)
         if kind is FaultKind.DISK_FULL:
-            if (pid, Effect.DISK_FULL) in self._holding:  # already full: keep its limit
-                return pid, self._held(pid, Effect.DISK_FULL, _nothing)
-            return pid, self._held(pid, Effect.DISK_FULL, self._fill_disk(pid))
+            return pid, self._hold(pid, Effect.DISK_FULL, self._fill_disk)
         raise InjectionError(f"unknown fault kind {kind!r}")
 
-    def _held(self, pid: int, effect: Effect, undo: Heal) -> Heal:
-        """One more fault holds `effect` on `pid`; `undo` (the first one's) runs when the
-        last of them is healed. Each heal counts once."""
+    def _hold(self, pid: int, effect: Effect, start: Callable[[int], Heal]) -> Heal:
+        """One more fault holds `effect` on `pid`: the first starts it (`start(pid)`,
+        which returns how to undo it), the last one healed undoes it. Each heal counts
+        once."""
         key = (pid, effect)
-        if key not in self._holding:
-            self._holding[key] = (0, undo)
-        count, first_undo = self._holding[key]
-        self._holding[key] = (count + 1, first_undo)
+        count, undo = self._holding.get(key) or (0, None)
+        self._holding[key] = (count + 1, undo or start(pid))
         healed = False
 
         def heal() -> None:
@@ -163,13 +155,16 @@ class Injector:
             if healed:
                 return
             healed = True
-            left, first = self._holding[key]
+            left, undo = self._holding.pop(key)
             if left > 1:
-                self._holding[key] = (left - 1, first)
-                return
-            del self._holding[key]
-            first()
+                self._holding[key] = (left - 1, undo)
+            else:
+                undo()
         return heal
+
+    def _stop(self, pid: int) -> Heal:
+        self._signal(pid, signal.SIGSTOP)
+        return lambda: _resume(pid)
 
     def _component(self, name: str) -> int:
         pid = self.pid_of(name)
