@@ -220,8 +220,19 @@ class Publisher:
             self._send_gathered(held)
 
     def _send_gathered(self, held: list[tuple[bytes, bytes]]) -> None:
-        for frames in _batches(held):
-            self.send_frames(frames)
+        """Send what a gathering held (all on one topic) as batches of at most
+        `MAX_BATCH` messages and about `MAX_BATCH_BYTES`."""
+        if not held:
+            return
+        topic = held[0][0]
+        frames, size = [topic], 0
+        for _, payload in held:
+            if len(frames) > MAX_BATCH or size >= MAX_BATCH_BYTES:
+                self.send_frames(frames)
+                frames, size = [topic], 0
+            frames.append(payload)
+            size += len(payload)
+        self.send_frames(frames)
         held.clear()
 
     def flush(self) -> None:
@@ -350,24 +361,6 @@ class Publisher:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
-
-
-def _batches(messages: list[tuple[bytes, bytes]]) -> Iterator[list[bytes]]:
-    """`[topic, envelope, ...]` per run of consecutive messages on one topic, each within
-    `MAX_BATCH` messages and about `MAX_BATCH_BYTES`."""
-    frames: list[bytes] = []
-    size = 0
-    for topic, payload in messages:
-        if frames and (topic != frames[0] or len(frames) > MAX_BATCH
-                       or size >= MAX_BATCH_BYTES):
-            yield frames
-            frames, size = [], 0
-        if not frames:
-            frames = [topic]
-        frames.append(payload)
-        size += len(payload)
-    if frames:
-        yield frames
 
 
 def bound_socket(ctx: sockets.Context, endpoint: str, *, hwm: int, linger_ms: int
