@@ -14,6 +14,7 @@ from mrss.errors import ConfigError
 # sockaddr_un.sun_path holds 108 bytes including the terminating NUL.
 _MAX_IPC_PATH = 107
 _SCHEMES = ("ipc://", "tcp://", "inproc://")
+_LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
 
 
 @dataclass(frozen=True)
@@ -27,32 +28,41 @@ class BusEndpoints:
 
     frontend: str
     backend: str
+    direct: bool = False  # deliver directly, the proxy only introducing (mrss/bus/direct.py)
 
     def __post_init__(self) -> None:
         for key in ("frontend", "backend"):
             _check_endpoint(getattr(self, key), key)
         if self.frontend == self.backend:
             raise ConfigError("frontend and backend must differ", key="bus")
+        if self.direct and self.backend.startswith("tcp://") and \
+                self.backend[len("tcp://"):].rpartition(":")[0] not in _LOOPBACK:
+            raise ConfigError("direct delivery is for one host: use ipc, or tcp on "
+                              "127.0.0.1", key="bus.delivery")
 
     @classmethod
-    def ipc(cls, run_dir: str | os.PathLike[str]) -> BusEndpoints:
+    def ipc(cls, run_dir: str | os.PathLike[str], *, direct: bool = False) -> BusEndpoints:
         """Unix sockets `bus-pub.sock` and `bus-sub.sock` in `run_dir` (the default)."""
         base = Path(run_dir).absolute()
-        return cls(f"ipc://{base / 'bus-pub.sock'}", f"ipc://{base / 'bus-sub.sock'}")
+        return cls(f"ipc://{base / 'bus-pub.sock'}", f"ipc://{base / 'bus-sub.sock'}", direct)
 
     @classmethod
-    def tcp(cls, host: str, pub_port: int, sub_port: int) -> BusEndpoints:
+    def tcp(cls, host: str, pub_port: int, sub_port: int, *, direct: bool = False
+            ) -> BusEndpoints:
         """TCP on `host` (configure 127.0.0.1 unless other hosts must connect)."""
-        return cls(f"tcp://{host}:{pub_port}", f"tcp://{host}:{sub_port}")
+        return cls(f"tcp://{host}:{pub_port}", f"tcp://{host}:{sub_port}", direct)
 
     @classmethod
-    def tcp_loopback(cls) -> BusEndpoints:
+    def tcp_loopback(cls, *, direct: bool = False) -> BusEndpoints:
         """TCP on 127.0.0.1 with two ports free right now (for tests and benchmarks)."""
-        return cls.tcp("127.0.0.1", *_free_ports(2))
+        return cls.tcp("127.0.0.1", *_free_ports(2), direct=direct)
 
-    def to_dict(self) -> dict[str, str]:
+    def to_dict(self) -> dict[str, Any]:
         """A plain map, e.g. for a child process's command line or context."""
-        return {"frontend": self.frontend, "backend": self.backend}
+        plain: dict[str, Any] = {"frontend": self.frontend, "backend": self.backend}
+        if self.direct:
+            plain["direct"] = True
+        return plain
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> BusEndpoints:
@@ -62,10 +72,13 @@ class BusEndpoints:
         for key in ("frontend", "backend"):
             if not isinstance(data.get(key), str):
                 raise ConfigError("missing or not a string", key=f"bus.{key}")
-        extra = sorted(set(data) - {"frontend", "backend"})
+        extra = sorted(set(data) - {"frontend", "backend", "direct"})
         if extra:
             raise ConfigError(f"unknown key(s) {extra}", key="bus")
-        return cls(data["frontend"], data["backend"])
+        direct = data.get("direct", False)
+        if not isinstance(direct, bool):
+            raise ConfigError("must be true or false", key="bus.direct")
+        return cls(data["frontend"], data["backend"], direct)
 
     def ipc_paths(self) -> list[Path]:
         """The socket files of ipc endpoints (empty for tcp)."""

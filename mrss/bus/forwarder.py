@@ -21,6 +21,7 @@ from pathlib import Path
 import zmq
 
 from mrss.bus import sockets
+from mrss.bus.direct import MARKER, MEMBER, WELCOME_DIRECT
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.wire import WELCOME
 from mrss.errors import BusError
@@ -52,18 +53,21 @@ def run_proxy(
             sock.setsockopt(zmq.LINGER, 0)
         frontend.setsockopt(zmq.RCVHWM, hwm)
         backend.setsockopt(zmq.SNDHWM, hwm)
-        backend.setsockopt(zmq.XPUB_WELCOME_MSG, WELCOME)
+        backend.setsockopt(zmq.XPUB_WELCOME_MSG, WELCOME_DIRECT if endpoints.direct
+                           else WELCOME)
         for sock, endpoint in ((frontend, endpoints.frontend), (backend, endpoints.backend)):
             bind_endpoint(sock, endpoint)
             bound.append(endpoint)
         # Take everything from publishers; subscribers' filters apply at the backend.
-        frontend.send(b"\x01")
+        # Direct: take nothing, only tell publishers to deliver directly (direct.py).
+        frontend.send(b"\x01" + MARKER if endpoints.direct else b"\x01")
         # unique: id() may repeat while a closed socket's inproc name is still taken
         control_ep = f"inproc://mrss-proxy-control-{uuid.uuid4().hex}"
         control.bind(control_ep)
         steer.connect(control_ep)
         forwarder = threading.Thread(
-            target=_forward, args=(frontend, backend, control), name="mrss-bus-proxy",
+            target=_introduce if endpoints.direct else _forward,
+            args=(frontend, backend, control), name="mrss-bus-proxy",
             daemon=True)
         forwarder.start()
         log.info("bus proxy: frontend %s, backend %s", endpoints.frontend, endpoints.backend)
@@ -123,6 +127,30 @@ class ProxyThread:
 def _forward(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket) -> None:
     try:
         zmq.proxy_steerable(frontend, backend, None, control)
+    except zmq.ZMQError as exc:
+        if exc.errno != zmq.ETERM:
+            log.error("bus proxy stopped: %s", exc)
+
+
+def _introduce(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket
+               ) -> None:
+    """The direct proxy (direct.py, rules 2 and 5): pass subscriptions on to publishers,
+    except `""`, and answer each new membership to its member."""
+    poller = zmq.Poller()
+    for sock in (frontend, backend, control):
+        poller.register(sock, zmq.POLLIN)
+    try:
+        while True:
+            for sock, _ in poller.poll():
+                frames = sock.recv_multipart()
+                if sock is control:
+                    return
+                if sock is frontend or len(frames[0]) < 2:
+                    continue  # publishers send nothing here; "" is not passed on
+                notice = frames[0]
+                frontend.send(notice)
+                if notice[:2] == b"\x01" + MEMBER:
+                    backend.send(notice[1:])
     except zmq.ZMQError as exc:
         if exc.errno != zmq.ETERM:
             log.error("bus proxy stopped: %s", exc)

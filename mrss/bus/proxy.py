@@ -32,12 +32,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--frontend", help="endpoint publishers connect to (XSUB side)")
     parser.add_argument("--backend", help="endpoint subscribers connect to (XPUB side)")
     parser.add_argument("--run-dir", help="use ipc sockets bus-pub.sock/bus-sub.sock here")
+    parser.add_argument("--direct", action="store_true",
+                        help="deliver directly: introduce publishers to subscribers and "
+                        "forward nothing (docs/bus.md, 'Direct delivery')")
     args = parser.parse_args(argv)
     try:
         if args.run_dir and not (args.frontend or args.backend):
-            endpoints = BusEndpoints.ipc(args.run_dir)
+            endpoints = BusEndpoints.ipc(args.run_dir, direct=args.direct)
         elif args.frontend and args.backend and not args.run_dir:
-            endpoints = BusEndpoints(args.frontend, args.backend)
+            endpoints = BusEndpoints(args.frontend, args.backend, args.direct)
         else:
             parser.error("give either --run-dir, or both --frontend and --backend")
     except ConfigError as exc:

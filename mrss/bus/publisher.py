@@ -28,6 +28,8 @@ from types import TracebackType
 import zmq
 
 from mrss.bus import sockets
+from mrss.bus.direct import MARKER, MEMBER, PATIENCE
+from mrss.bus.direct_route import DirectRoute
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.forwarder import bind_endpoint, clear_stale_socket
 from mrss.errors import BusError
@@ -81,6 +83,10 @@ class Publisher:
         self._ids = IdGenerator()
         self._lock = threading.Lock()
         self._bound = bind
+        self._ctx = sockets.context(context)
+        self._hwm, self._linger_ms = hwm, int(linger * 1000)
+        self._route: DirectRoute | None = None  # on a direct bus (mrss/bus/direct.py)
+        self._early_members: list[bytes] = []  # membership notices before the marker
         if bind:
             self._sock: sockets.Socket | None = bound_socket(
                 sockets.context(context), endpoints.frontend, hwm=hwm,
@@ -123,6 +129,8 @@ class Publisher:
             sock = self._sock
             if sock is None:
                 raise BusError("publisher is closed")
+            if self._route is not None and self._route.news_waiting():
+                self._drain_subscriptions(sock)  # a member the proxy just told of
             if (not self._connected or self._held) and self._hold((topic_frame, payload), sock):
                 return msg_id
             now = time.perf_counter()
@@ -267,10 +275,13 @@ class Publisher:
                 self._drain_subscriptions(sock)
                 if self._connected:
                     return True
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return False
+                if self._route is not None:  # its watcher says when members join
+                    self._route.changed.wait(min(remaining, 0.05))
+                    continue
                 fd = int(sock.getsockopt(zmq.FD))
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
             # ZeroMQ's descriptor signals news for the socket, but another thread's send may
             # consume the signal: wait in short slices and look again.
             try:
@@ -279,15 +290,62 @@ class Publisher:
                 pass  # closed meanwhile: the next look says so
 
     def _drain_subscriptions(self, sock: sockets.Socket) -> None:
+        """Read the subscription notices: the proxy's, or on a direct bus the members'."""
+        if self._route is not None:
+            self._route.take_news()
+            self._connected = self._route.ready
+            return
         while True:
             try:
                 notice = sock.recv(zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if notice[:1] == b"\x01":
+            first = notice[1:2]
+            if first == MEMBER:  # a direct bus's member, or a stray one on ours
+                self._early_members.append(notice)
+            elif first == MARKER and notice[:1] == b"\x01":
+                self._go_direct(sock)
+                self._drain_subscriptions(sock)  # what the proxy said after its marker
+                return
+            elif notice[:1] == b"\x01":
                 self._connected = True
+                self._early_members.clear()
                 if self._watch:
                     self._subscribed.append(notice[1:])
+
+    def _go_direct(self, control: sockets.Socket) -> None:
+        """The proxy said the bus is direct: deliver to its members (lock held)."""
+        data = self._ctx.socket(zmq.XPUB)
+        data.setsockopt(zmq.LINGER, self._linger_ms)
+        data.setsockopt(zmq.SNDHWM, self._hwm)
+        data.setsockopt(zmq.RCVHWM, self._hwm)
+        data.setsockopt(zmq.RECONNECT_IVL, sockets.RECONNECT_IVL_MS)
+        data.setsockopt(zmq.RECONNECT_IVL_MAX, sockets.RECONNECT_IVL_MAX_MS)
+        watched = self._subscribed if self._watch else deque(maxlen=0)
+        route = DirectRoute(control, data, self._lock, self._release_direct, self.src, watched)
+        for notice in self._early_members:
+            route.on_control(notice)
+        self._early_members.clear()
+        self._route, self._sock = route, data
+        self._connected = route.ready
+        route.start()
+
+    def _release_direct(self) -> bool:
+        """Send the held messages no joining member waits for, in order (lock held);
+        True if some still wait."""
+        route, sock = self._route, self._sock
+        if route is None or sock is None:
+            return False
+        self._connected = route.ready
+        if self._held and self._batch:
+            self._send_batch(sock)  # it was published before them
+        while self._held and not route.must_hold(self._held[0][0]):
+            frames = self._held.popleft()
+            last = len(frames) - 1
+            for i, frame in enumerate(frames):
+                sock.send(frame, _SNDMORE if i < last else 0)
+            self._sent += 1
+        return bool(self._held)
 
     def subscriptions(self) -> list[str]:
         """Topic prefixes subscribed through the proxy since the last call (with
@@ -299,8 +357,14 @@ class Publisher:
         return found
 
     def _hold(self, frames: tuple[bytes, ...], sock: sockets.Socket) -> bool:
-        """Hold `frames` while the proxy has not subscribed yet (lock held); False if it has."""
+        """Hold `frames` while the proxy has not subscribed yet, or on a direct bus while a
+        member that wants them joins (lock held); False if they may go."""
         self._drain_subscriptions(sock)
+        if self._route is not None:
+            if not self._held and not self._route.must_hold(frames[0]):
+                return False
+            self._held.append(frames)  # the route's watcher releases them
+            return True
         if self._connected and not self._held:
             return False
         self._held.append(frames)
@@ -329,7 +393,9 @@ class Publisher:
                 return  # closed meanwhile
             if connected:
                 with self._lock:
-                    if self._sock is not None:
+                    if self._route is not None:
+                        self._release_direct()
+                    elif self._sock is not None:
                         self._send_held(self._sock)
                     self._joiner = None
                 return
@@ -344,16 +410,25 @@ class Publisher:
         with self._lock:
             if self._sock is None:
                 return
+            route = self._route
+            if route is not None:  # let members that are joining have what waits for them
+                deadline = time.monotonic() + PATIENCE + 0.5
+                while self._held and time.monotonic() < deadline:
+                    route.changed.wait(0.05)
             if self._batch:
                 self._send_batch(self._sock)
             self._sock.close()
             self._sock = None
+            if route is not None:
+                route.close()
             self._wake.notify_all()
             if self._bound:
                 for path in BusEndpoints.paths_of([self.endpoints.frontend]):
                     path.unlink(missing_ok=True)
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join(timeout=5)
+        if route is not None:
+            route.join()
 
     def __enter__(self) -> Publisher:
         return self

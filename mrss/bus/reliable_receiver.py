@@ -24,7 +24,7 @@ from types import TracebackType
 
 import zmq
 
-from mrss.bus import sockets, wire
+from mrss.bus import direct, sockets, wire
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.incarnations import Incarnations
 from mrss.bus.publisher import Publisher
@@ -85,8 +85,8 @@ class ReliableReceiver:
         self.held_back = 0  # NotHandled answers: messages left for their sender to repeat
         self._held_logged = 0.0
         ctx = sockets.context(context)
-        self._sub = sockets.connect(ctx, zmq.SUB, endpoints.backend)
-        self._sub.setsockopt(zmq.SUBSCRIBE, wire.data_topic(channel))
+        self._sub, self._member = direct.subscriber_socket(ctx, endpoints,
+                                                           [wire.data_topic(channel)])
         self._pub = Publisher(endpoints, src, inc, linger=0, context=ctx)
         self._closed = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True,
@@ -116,6 +116,7 @@ class ReliableReceiver:
             raise
         finally:
             self._sub.close(0)
+            direct.forget_member(self._member)
             self._pub.close()
 
     def _receive_until_closed(self) -> None:
@@ -139,6 +140,8 @@ class ReliableReceiver:
                 next_expiry = now + min(self._session_ttl, 60.0)
 
     def _take(self, frames: list[bytes], now: float, touched: dict[bytes, _Session]) -> None:
+        if wire.is_answer(frames):
+            return
         try:
             if len(frames) != 4:
                 raise DecodeError(f"reliable message of {len(frames)} frame(s), not 4",

@@ -18,7 +18,7 @@ from types import TracebackType
 
 import zmq
 
-from mrss.bus import sockets, wire
+from mrss.bus import direct, sockets, wire
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.publisher import Publisher
 from mrss.errors import BusError, DecodeError
@@ -60,8 +60,8 @@ class ReliableSender:
         self._data_topic = wire.data_topic(channel)
         ctx = sockets.context(context)
         self._pub = Publisher(endpoints, src, inc, context=ctx)
-        self._acks = sockets.connect(ctx, zmq.SUB, endpoints.backend)
-        self._acks.setsockopt(zmq.SUBSCRIBE, wire.ack_topic(channel, self._session))
+        self._acks, self._member = direct.subscriber_socket(
+            ctx, endpoints, [wire.ack_topic(channel, self._session)])
         self._lock = threading.Lock()
         self._all_acked = threading.Condition(self._lock)
         self._pending: dict[int, _Outgoing] = {}
@@ -132,6 +132,8 @@ class ReliableSender:
                 frames = self._acks.recv_multipart(zmq.NOBLOCK)
             except zmq.Again:
                 break
+            if wire.is_answer(frames):
+                continue
             try:
                 if len(frames) != 2:
                     raise DecodeError(f"ack of {len(frames)} frames")
@@ -182,6 +184,7 @@ class ReliableSender:
             left = len(self._pending)
         self._thread.join(timeout=5)
         self._acks.close(0)
+        direct.forget_member(self._member)
         self._pub.close()
         if left:
             log.warning("reliable sender on channel %r closed with %d unacknowledged",

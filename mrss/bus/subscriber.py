@@ -10,10 +10,10 @@ from types import TracebackType
 
 import zmq
 
-from mrss.bus import sockets
+from mrss.bus import direct, sockets
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.incarnations import ANNOUNCEMENT, Incarnations, Stale
-from mrss.bus.wire import WELCOME, message_frames
+from mrss.bus.wire import WELCOME, WELCOME_DIRECT, message_frames
 from mrss.errors import BusError, DecodeError
 from mrss.messages import Envelope, decode
 
@@ -84,8 +84,35 @@ class Subscriber:
         if self._listen_only:
             sock.setsockopt(zmq.SUBSCRIBE, ANNOUNCEMENT.encode())
         self._sock = sock
+        self._member: str | None = None  # the endpoint it binds on a direct bus
+        self._membership = b""
+        if endpoints.direct:
+            self._become_member()
         self._poller = zmq.Poller()  # one for the socket's life: cheaper than sock.poll
         self._poller.register(sock, _POLLIN)
+
+    def _become_member(self) -> None:
+        """Bind an endpoint of its own and say so in a membership topic (direct.py, rule 1)."""
+        prefixes = [p.encode() for p in self.prefixes]
+        if self._listen_only:
+            prefixes.append(ANNOUNCEMENT.encode())
+        try:
+            self._member = direct.bind_member(self._sock, self.endpoints)
+        except zmq.ZMQError as exc:
+            raise BusError(f"{self._drops.where}: cannot bind its direct endpoint: {exc}"
+                           ) from exc
+        self._membership = direct.membership_topic(self._member, tuple(prefixes))
+        self._sock.setsockopt(zmq.SUBSCRIBE, self._membership)
+        direct.KEEPER.add(id(self), self._touch)
+
+    def _touch(self) -> None:
+        """Let ZeroMQ take in publishers' connections while nobody receives (rule 7)."""
+        if self._lock.acquire(blocking=False):
+            try:
+                if not self._closed:
+                    self._sock.getsockopt(zmq.EVENTS)
+            finally:
+                self._lock.release()
 
     def _wants(self, topic: str) -> bool:
         return any(topic.startswith(prefix) for prefix in self.prefixes)
@@ -140,12 +167,20 @@ class Subscriber:
             self._drops.drop(exc)
             return None
         if not pairs:
-            if frames[0] == WELCOME:
-                self.welcomes += 1
-                self._connected.set()
+            self._greeted(frames[0])
             return None
         self._batch.extend(pairs)
         return self._next_of_batch()
+
+    def _greeted(self, frame: bytes) -> None:
+        """The proxy's welcome (or, on a direct bus, its answer to our membership)."""
+        if frame == WELCOME or (frame == self._membership and frame):
+            self.welcomes += 1
+            self._connected.set()
+        elif frame == WELCOME_DIRECT and self._member is None:
+            with self._lock:  # a direct bus we were not told of: join it now
+                if not self._closed:
+                    self._become_member()
 
     def _next_of_batch(self) -> Envelope | None:
         """Decode the held messages of a batch until one is valid; None if none is."""
@@ -276,6 +311,9 @@ class Subscriber:
             thread.join(timeout=5)
         with self._lock:
             self._sock.close(0)
+        if self._member is not None:
+            direct.KEEPER.remove(id(self))
+            direct.forget_member(self._member)
 
     def __enter__(self) -> Subscriber:
         return self

@@ -3,7 +3,9 @@
 * Batch: `[topic, envelope, envelope, ...]`, consecutive messages of one publisher on
   one topic, sent together in a burst (see `Publisher`).
 * Welcome: the proxy greets each new subscriber with one `[WELCOME]` frame, which tells
-  a subscriber it is connected (see `Subscriber.wait_connected`).
+  a subscriber it is connected (see `Subscriber.wait_connected`); a direct proxy greets
+  with `[WELCOME_DIRECT]` and answers a membership with `[membership topic]`
+  (mrss/bus/direct.py).
 * Reliable data: `[b"rel.<channel>.msg", topic, envelope, header]`; the middle two frames
   are an ordinary message, `header` is `session (16 bytes), seq, base` where `base` is the
   sender's lowest unacknowledged sequence number.
@@ -20,6 +22,9 @@ from mrss.errors import ConfigError, DecodeError
 from mrss.messages import Envelope, decode
 
 WELCOME = b"\x00mrss.welcome"
+WELCOME_DIRECT = b"\x00mrss.welcome.direct"  # the direct proxy's (mrss/bus/direct.py)
+MEMBER = b"\xfe"  # a membership topic's first byte (direct.py)
+MARKER = b"\xff"  # a direct proxy's one subscription to its publishers (direct.py)
 RELIABLE_PREFIX = b"rel."
 SESSION_BYTES = 16
 _HEADER = struct.Struct("!16sQQ")
@@ -69,6 +74,11 @@ def unpack_ack(payload: bytes) -> tuple[bytes, int]:
     return bytes(session), int(watermark)
 
 
+def is_answer(frames: list[bytes]) -> bool:
+    """Whether a message is a direct proxy's answer to a member's membership."""
+    return len(frames) == 1 and frames[0][:1] == MEMBER
+
+
 def is_ack(topic: bytes) -> bool:
     return topic.startswith(RELIABLE_PREFIX) and b".ack." in topic
 
@@ -86,7 +96,8 @@ def message_frames(frames: list[bytes]) -> list[tuple[bytes, bytes]]:
         return [(topic, payload) for payload in frames[1:]]
     if count == 4 and frames[0].startswith(RELIABLE_PREFIX):
         return [(frames[1], frames[2])]
-    if (count == 2 and is_ack(frames[0])) or (count == 1 and frames[0] == WELCOME):
+    if (count == 2 and is_ack(frames[0])) or (count == 1 and (
+            frames[0] in (WELCOME, WELCOME_DIRECT) or frames[0][:1] == MEMBER)):
         return []
     raise DecodeError(f"unexpected message of {count} frame(s)",
                       topic=_printable(frames[0]) if frames else None)

@@ -24,8 +24,8 @@ from types import FrameType
 
 import zmq
 
-from mrss.bus import BusEndpoints, sockets
-from mrss.bus.wire import WELCOME, is_ack, message_frames
+from mrss.bus import BusEndpoints, direct, sockets
+from mrss.bus.wire import MEMBER, WELCOME, is_ack, message_frames
 from mrss.commands.busargs import (
     add_bus_arguments,
     endpoints_from_args,
@@ -99,10 +99,9 @@ class BusRecorder:
     """A raw subscriber: hands every bus message, frames untouched, to a RecordingWriter."""
 
     def __init__(self, endpoints: BusEndpoints, prefixes: list[str]) -> None:
-        sock = sockets.connect(sockets.context(), zmq.SUB, endpoints.backend, hwm=RECORDER_HWM)
-        sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
-        for prefix in prefixes:
-            sock.setsockopt(zmq.SUBSCRIBE, prefix.encode())
+        sock, self._member = direct.subscriber_socket(
+            sockets.context(), endpoints, [WELCOME, *(p.encode() for p in prefixes)],
+            hwm=RECORDER_HWM)
         self._sock = sock
 
     def wait_connected(self, timeout: float, stop: threading.Event) -> bool:
@@ -113,8 +112,11 @@ class BusRecorder:
             if remaining <= 0:
                 return False
             wait_ms = max(1, min(_POLL_MS, int(remaining * 1000)))
-            if self._sock.poll(wait_ms, zmq.POLLIN) and self._sock.recv_multipart() == [WELCOME]:
-                return True
+            if not self._sock.poll(wait_ms, zmq.POLLIN):
+                continue
+            frames = self._sock.recv_multipart()
+            if frames == [WELCOME] or (self._member and frames[0][:1] == MEMBER):
+                return True  # the proxy's welcome; on a direct bus its answer to us
         return False
 
     def record(self, writer: RecordingWriter, stop: threading.Event,
@@ -149,6 +151,7 @@ class BusRecorder:
 
     def close(self) -> None:
         self._sock.close(0)
+        direct.forget_member(self._member)
 
 
 def fault_of(frames: list[bytes]) -> str:

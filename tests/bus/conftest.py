@@ -26,12 +26,14 @@ def run_dir() -> Iterator[Path]:
         shutil.rmtree(path, ignore_errors=True)
 
 
-@pytest.fixture(params=["ipc", "tcp"])
+@pytest.fixture(params=["ipc", "tcp", "ipc-direct", "tcp-direct"])
 def endpoints(request: pytest.FixtureRequest, run_dir: Path) -> BusEndpoints:
-    """Default ipc endpoints in the run directory, or tcp on free loopback ports."""
-    if request.param == "ipc":
-        return BusEndpoints.ipc(run_dir)
-    return BusEndpoints.tcp_loopback()
+    """Default ipc endpoints in the run directory, or tcp on free loopback ports; each
+    also with direct delivery (mrss/bus/direct.py), where the proxy only introduces."""
+    direct = request.param.endswith("-direct")
+    if request.param.startswith("ipc"):
+        return BusEndpoints.ipc(run_dir, direct=direct)
+    return BusEndpoints.tcp_loopback(direct=direct)
 
 
 @pytest.fixture()
@@ -42,7 +44,7 @@ def spawn() -> Iterator[Spawn]:
     def start_process(endpoints: BusEndpoints, mode: str, *args: str) -> BusProcess:
         if mode == "proxy":
             argv = [sys.executable, "-m", "mrss.bus.proxy", "--frontend", endpoints.frontend,
-                    "--backend", endpoints.backend]
+                    "--backend", endpoints.backend, *(["--direct"] if endpoints.direct else [])]
         else:
             argv = [sys.executable, "-m", "tests.bus.bus_peer",
                     json.dumps(endpoints.to_dict()), mode, *args]
@@ -69,7 +71,7 @@ def proxy_thread(endpoints: BusEndpoints) -> Iterator[BusEndpoints]:
             if not endpoints.frontend.startswith("tcp://"):
                 raise
             # Another process on this busy machine took a free port first: pick again.
-            endpoints = BusEndpoints.tcp_loopback()
+            endpoints = BusEndpoints.tcp_loopback(direct=endpoints.direct)
             proxy = ProxyThread(endpoints)
     else:
         raise AssertionError("no free loopback ports for the proxy")

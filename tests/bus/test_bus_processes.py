@@ -93,7 +93,11 @@ def test_10000_reliable_messages_survive_two_proxy_kills_exactly_once(
     wait_until(lambda: sender.lines[1:] != [], 60, message="the sender to finish")
     assert sender.lines[1] == f"acked {count}"
     wait_until(lambda: len(sender.lines) > 2, 10, message="resend count")
-    assert int(sender.lines[2].split()[1]) > 0, "the kills should have cost messages"
+    resent = int(sender.lines[2].split()[1])
+    if endpoints.direct:  # messages go past the proxy, which only introduces
+        assert resent == 0, "a direct bus's proxy carries no messages: its kills cost none"
+    else:
+        assert resent > 0, "the kills should have cost messages"
     uuids = handled()
     duplicates = [u for u, n in Counter(uuids).items() if n > 1]
     assert duplicates == []

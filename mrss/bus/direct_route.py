@@ -1,0 +1,201 @@
+"""A publisher's direct links to the members of a direct bus (mrss/bus/direct.py, rules 3-4).
+
+`DirectRoute` keeps the members the proxy told of (on the publisher's control socket,
+connected to the proxy) and the data socket connected to each of them; it knows which
+have joined (their membership came back on the data socket) and says which messages
+must wait for one that has not (`must_hold`). A watcher thread reads both sockets, under
+the publisher's lock, and lets the publisher release what it held whenever that changes.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import select
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import zmq
+
+from mrss.bus import sockets
+from mrss.bus.direct import MARKER, MEMBER, PATIENCE, SWEEP, Membership, alive, read_membership
+
+log = logging.getLogger("mrss.bus")
+
+BUSY_SLICE = 0.002  # seconds between looks while a member is joining or messages are held
+IDLE_SLICE = 0.25   # otherwise (the control socket's descriptor wakes the watcher at once)
+_SUBSCRIBE = b"\x01"
+
+
+@dataclass
+class _Member:
+    membership: Membership
+    since: float = field(default_factory=time.monotonic)
+    joined: bool = False
+
+
+class DirectRoute:
+    """Members, their joins and departures; all methods but `start` with the lock held."""
+
+    def __init__(self, control: sockets.Socket, data: sockets.Socket, lock: threading.Lock,
+                 release: Callable[[], bool], name: str, watched: deque[bytes]) -> None:
+        self.control = control
+        self.data = data
+        self._lock = lock
+        self._release = release  # sends held messages that may go; True if some still wait
+        self._name = name
+        self._members: dict[bytes, _Member] = {}
+        self._waiting: dict[bytes, _Member] = {}  # not joined, within PATIENCE
+        self._watched = watched  # data prefixes subscribed through the proxy
+        self._closed = False
+        # A member learnt by a publishing thread wakes the watcher, which waits for its join.
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_w, False)
+        self.changed = threading.Condition(lock)
+        self._thread = threading.Thread(target=self._watch, name=f"mrss-pub-direct-{name}",
+                                        daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    @property
+    def ready(self) -> bool:
+        """No member the proxy told of is still joining."""
+        return not self._waiting
+
+    @property
+    def members(self) -> int:
+        return len(self._members)
+
+    def must_hold(self, topic: bytes) -> bool:
+        """Whether a member that wants `topic` has not joined yet."""
+        return any(m.membership.wants(topic) for m in self._waiting.values())
+
+    def take_news(self) -> None:
+        """Read what the proxy and the members said since the last look."""
+        self._take(self.control, self.on_control)
+        self._take(self.data, self._on_data)
+
+    def news_waiting(self) -> bool:
+        """Whether the proxy has said something not read yet (cheap: no receive)."""
+        return bool(int(self.control.getsockopt(zmq.EVENTS)) & zmq.POLLIN)
+
+    @staticmethod
+    def _take(sock: sockets.Socket, handle: Callable[[bytes], None]) -> None:
+        while True:
+            try:
+                frames = sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            handle(frames[0])
+
+    def on_control(self, notice: bytes) -> None:
+        topic = notice[1:]
+        subscribed = notice[:1] == _SUBSCRIBE
+        if topic[:1] == MEMBER:
+            if subscribed:
+                self._learn(topic)
+            elif topic in self._members:
+                self._forget(topic)  # it left the proxy: closed, or died
+        elif subscribed and topic[:1] != MARKER:
+            self._watched.append(topic)
+
+    def _learn(self, topic: bytes) -> None:
+        if topic in self._members:
+            return  # the proxy restarted and passes the member on again
+        membership = read_membership(topic)
+        if membership is None:
+            log.warning("%s: ignored a malformed membership %r", self._name, topic[:80])
+            return
+        try:
+            self.data.connect(membership.endpoint)
+        except zmq.ZMQError as exc:
+            log.warning("%s: cannot connect to member %s: %s", self._name,
+                        membership.endpoint, exc)
+            return
+        member = _Member(membership)
+        self._members[topic] = self._waiting[topic] = member
+        if threading.current_thread() is not self._thread:
+            try:
+                os.write(self._wake_w, b"!")
+            except BlockingIOError:
+                pass  # woken already
+
+    def _on_data(self, notice: bytes) -> None:
+        topic = notice[1:]
+        if topic[:1] != MEMBER:
+            return
+        if notice[:1] == _SUBSCRIBE:
+            member = self._members.get(topic)
+            if member is not None:
+                member.joined = True
+                self._waiting.pop(topic, None)
+        elif topic in self._members:
+            self._forget(topic)
+
+    def _forget(self, topic: bytes) -> None:
+        member = self._members.pop(topic)
+        self._waiting.pop(topic, None)
+        try:
+            self.data.disconnect(member.membership.endpoint)
+        except zmq.ZMQError:
+            pass  # never connected, or already gone
+
+    def _sweep(self) -> None:
+        """Forget members whose process is gone (rule 4: the proxy may have missed it)."""
+        for topic, member in list(self._members.items()):
+            if not alive(member.membership.pid):
+                self._forget(topic)
+
+    def _expire(self) -> None:
+        now = time.monotonic()
+        for topic, member in list(self._waiting.items()):
+            if now - member.since > PATIENCE:
+                del self._waiting[topic]
+                log.warning("%s: member %s did not join within %.1f s; sending without it",
+                            self._name, member.membership.endpoint, PATIENCE)
+
+    def _watch(self) -> None:
+        """Read both sockets, release what may go, sleep until something is said."""
+        next_sweep = time.monotonic() + SWEEP
+        while True:
+            with self._lock:
+                if self._closed:
+                    return
+                try:
+                    self.take_news()
+                    self._expire()
+                    if time.monotonic() >= next_sweep:
+                        self._sweep()
+                        next_sweep = time.monotonic() + SWEEP
+                    busy = self._release() or bool(self._waiting)
+                    fds = [int(self.control.getsockopt(zmq.FD)),
+                           int(self.data.getsockopt(zmq.FD)), self._wake_r]
+                except zmq.ZMQError:
+                    return  # closed meanwhile
+                self.changed.notify_all()
+            try:
+                readable, _, _ = select.select(fds, [], [], BUSY_SLICE if busy else IDLE_SLICE)
+                if self._wake_r in readable:
+                    os.read(self._wake_r, 64)
+            except (OSError, ValueError):
+                pass  # closed meanwhile: the next look says so
+
+    def close(self) -> None:
+        """Stop the watcher (the publisher closes the sockets, lock held)."""
+        self._closed = True
+        self.changed.notify_all()
+        self.control.close(0)
+
+    def join(self) -> None:
+        """Wait for the watcher to end, then close the wake pipe."""
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout=5)
+        for fd in (self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
