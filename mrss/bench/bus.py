@@ -29,7 +29,9 @@ from mrss.testing import find_mosquitto, mosquitto_broker
 QOS0 = "MQTT QoS 0"
 RAW = "raw zmq"  # + " ipc" / " tcp": pyzmq + msgpack between the two processes, no proxy
 BARE = f"{RAW} ipc, bare proxy"  # the same through libzmq's zmq.proxy: the cost of a hop
-DIRECT = "bus ipc, no proxy"  # our Publisher (bind=True) and Subscriber, connected directly
+DIRECT = "bus ipc, no proxy"
+DIRECT_IPC = "bus ipc, direct"  # [bus] delivery = "direct": the proxy only introduces
+DIRECT_TCP = "bus tcp, direct"  # our Publisher (bind=True) and Subscriber, connected directly
 
 
 class _Child:
@@ -172,14 +174,18 @@ def run(quick: bool) -> BenchReport:
         # different transports use the same topics.
         ipc, tcp = BusEndpoints.ipc(tmp), BusEndpoints.tcp_loopback()
         ipc_plain = BusEndpoints.ipc(os.path.join(tmp, "plain"))
-        for ep in (ipc, tcp, ipc_plain):
+        ipc_direct = BusEndpoints.ipc(os.path.join(tmp, "direct"), direct=True)
+        tcp_direct = BusEndpoints.tcp_loopback(direct=True)
+        for ep in (ipc, tcp, ipc_plain, ipc_direct, tcp_direct):
             _spawn(stack, "mrss.bus.proxy", "--frontend", ep.frontend,
-                   "--backend", ep.backend).wait_ready()
+                   "--backend", ep.backend, *(["--direct"] if ep.direct else [])).wait_ready()
         specs: dict[str, dict[str, Any]] = {
             "bus ipc": {"kind": "bus", "endpoints": ipc.to_dict()},
             "bus tcp": {"kind": "bus", "endpoints": tcp.to_dict()},
             "bus ipc, no batching": {"kind": "bus", "endpoints": ipc_plain.to_dict(),
                                      "batching": False},
+            DIRECT_IPC: {"kind": "bus", "endpoints": ipc_direct.to_dict()},
+            DIRECT_TCP: {"kind": "bus", "endpoints": tcp_direct.to_dict()},
         }
         raw_tcp = BusEndpoints.tcp_loopback()
         specs[f"{RAW} ipc"] = {"kind": "raw", "driver": f"ipc://{tmp}/raw-driver.sock",
@@ -212,7 +218,7 @@ def run(quick: bool) -> BenchReport:
         reliable_pairs = {
             f"bus reliable {name[4:]}": (_peer(stack, "reliable-tx", specs[name]),
                                          _peer(stack, "reliable-rx", specs[name]))
-            for name in ("bus ipc", "bus tcp")}
+            for name in ("bus ipc", "bus tcp", DIRECT_IPC)}
         for driver, responder in [*pairs.values(), *reliable_pairs.values()]:
             responder.wait_ready()
             driver.wait_ready()
@@ -245,11 +251,12 @@ def _fill(report: BenchReport, results: dict[str, dict[str, Any]], pings: int) -
                        _ratio(r["rate"], raw["rate"] if raw else None),
                        _ratio(r["rate"], base["rate"] if base else None),
                        r.get("p50"), r.get("p99"), _pair(r, raw), _pair(r, base))
-    for name in ("bus ipc", "bus tcp"):
-        r, raw = results[name], results[f"{RAW} {name[4:]}"]
-        report.check(f"{name}: RTT p50 and p99 within 1.5x {RAW} {name[4:]}'s",
+    for name in ("bus ipc", "bus tcp", DIRECT_IPC, DIRECT_TCP):
+        transport = "tcp" if " tcp" in name else "ipc"
+        r, raw = results[name], results[f"{RAW} {transport}"]
+        report.check(f"{name}: RTT p50 and p99 within 1.5x {RAW} {transport}'s",
                      r["p50"] <= 1.5 * raw["p50"] and r["p99"] <= 1.5 * raw["p99"])
-        report.check(f"{name}: throughput >= 50 % of {RAW} {name[4:]}'s",
+        report.check(f"{name}: throughput >= 50 % of {RAW} {transport}'s",
                      bool(r["rate"] and raw["rate"] and r["rate"] >= 0.5 * raw["rate"]))
         report.check(f"{name}: throughput >= 3x {QOS0}",
                      bool(base and r["rate"] and base["rate"] and r["rate"] >= 3 * base["rate"]))

@@ -46,6 +46,9 @@ BUS_OPTIONS: tuple[Option, ...] = (
     Option("transport", str, "ipc", "ipc: sockets in the run folder; tcp: host and ports",
            choices=("ipc", "tcp")),
     Option("host", str, "127.0.0.1", "tcp: the proxy's address"),
+    Option("delivery", str, "proxy", "proxy: every message through the proxy; direct: "
+           "publisher to subscriber, the proxy only introduces (one host)",
+           choices=("proxy", "direct")),
     Option("frontend_port", int, None, "tcp: the port publishers connect to", Check.PORT),
     Option("backend_port", int, None, "tcp: the port subscribers connect to", Check.PORT),
     Option("keys_dir", str, "keys", "[nodes]: the folder of the nodes' CurveZMQ keys "
@@ -62,10 +65,16 @@ BUS_OPTIONS: tuple[Option, ...] = (
 def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = ""
                           ) -> BusEndpoints:
     """The `[bus]` table: `transport = "ipc"` (default, sockets in the run directory) or
-    `"tcp"` with `host` (default 127.0.0.1), `frontend_port`, `backend_port`."""
+    `"tcp"` with `host` (default 127.0.0.1), `frontend_port`, `backend_port`; `delivery`
+    `"proxy"` (default) or `"direct"` (mrss/bus/direct.py)."""
     transport = section.get("transport", "ipc")
+    delivery = section.get("delivery", "proxy")
+    if delivery not in ("proxy", "direct"):
+        raise ConfigError(f"must be 'proxy' or 'direct', not {delivery!r}", file=file,
+                          key="bus.delivery")
+    direct = delivery == "direct"
     if transport == "ipc":
-        return BusEndpoints.ipc(run_dir)
+        return BusEndpoints.ipc(run_dir, direct=direct)
     if transport != "tcp":
         raise ConfigError(f"must be 'ipc' or 'tcp', not {transport!r}", file=file,
                           key="bus.transport")
@@ -79,4 +88,7 @@ def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = 
         ports.append(port)
     if not isinstance(host, str) or not host:
         raise ConfigError("must be a host name or address", file=file, key="bus.host")
-    return BusEndpoints.tcp(host, ports[0], ports[1])
+    try:
+        return BusEndpoints.tcp(host, ports[0], ports[1], direct=direct)
+    except ConfigError as exc:
+        raise ConfigError(exc.reason, file=file, key=exc.key) from None

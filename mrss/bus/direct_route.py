@@ -18,10 +18,12 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import msgpack
 import zmq
 
 from mrss.bus import sockets
 from mrss.bus.direct import MARKER, MEMBER, PATIENCE, SWEEP, Membership, alive, read_membership
+from mrss.bus.wire import BYE, HELLO, JOINED
 
 log = logging.getLogger("mrss.bus")
 
@@ -51,6 +53,7 @@ class DirectRoute:
         self._waiting: dict[bytes, _Member] = {}  # not joined, within PATIENCE
         self._watched = watched  # data prefixes subscribed through the proxy
         self._closed = False
+        self._id = os.urandom(8)  # who we are to the proxy (introducer.py)
         # A member learnt by a publishing thread wakes the watcher, which waits for its join.
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_w, False)
@@ -59,7 +62,15 @@ class DirectRoute:
                                         daemon=True)
 
     def start(self) -> None:
+        """Say hello to the proxy and start the watcher (lock held)."""
+        self._hello()
         self._thread.start()
+
+    def _hello(self) -> None:
+        self.control.send_multipart([HELLO, msgpack.packb([self._id, os.getpid()])])
+
+    def _joined(self, topic: bytes) -> None:
+        self.control.send_multipart([JOINED, self._id, topic])
 
     @property
     def ready(self) -> bool:
@@ -97,15 +108,20 @@ class DirectRoute:
         subscribed = notice[:1] == _SUBSCRIBE
         if topic[:1] == MEMBER:
             if subscribed:
-                self._learn(topic)
+                member = self._members.get(topic)
+                if member is None:
+                    self._learn(topic)
+                elif member.joined:
+                    self._joined(topic)  # a restarted proxy asks again
             elif topic in self._members:
                 self._forget(topic)  # it left the proxy: closed, or died
-        elif subscribed and topic[:1] != MARKER:
+        elif topic[:1] == MARKER:
+            if subscribed:
+                self._hello()  # a (restarted) proxy: it must know us to wait for us
+        elif subscribed:
             self._watched.append(topic)
 
     def _learn(self, topic: bytes) -> None:
-        if topic in self._members:
-            return  # the proxy restarted and passes the member on again
         membership = read_membership(topic)
         if membership is None:
             log.warning("%s: ignored a malformed membership %r", self._name, topic[:80])
@@ -130,9 +146,10 @@ class DirectRoute:
             return
         if notice[:1] == _SUBSCRIBE:
             member = self._members.get(topic)
-            if member is not None:
+            if member is not None and not member.joined:
                 member.joined = True
                 self._waiting.pop(topic, None)
+                self._joined(topic)
         elif topic in self._members:
             self._forget(topic)
 
@@ -188,7 +205,11 @@ class DirectRoute:
         """Stop the watcher (the publisher closes the sockets, lock held)."""
         self._closed = True
         self.changed.notify_all()
-        self.control.close(0)
+        try:
+            self.control.send_multipart([BYE, self._id])
+        except zmq.ZMQError:
+            pass  # closing anyway
+        self.control.close()
 
     def join(self) -> None:
         """Wait for the watcher to end, then close the wake pipe."""

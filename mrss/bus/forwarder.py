@@ -21,8 +21,9 @@ from pathlib import Path
 import zmq
 
 from mrss.bus import sockets
-from mrss.bus.direct import MARKER, MEMBER, WELCOME_DIRECT
+from mrss.bus.direct import MARKER, WELCOME_DIRECT
 from mrss.bus.endpoints import BusEndpoints
+from mrss.bus.introducer import introduce
 from mrss.bus.wire import WELCOME
 from mrss.errors import BusError
 
@@ -66,7 +67,7 @@ def run_proxy(
         control.bind(control_ep)
         steer.connect(control_ep)
         forwarder = threading.Thread(
-            target=_introduce if endpoints.direct else _forward,
+            target=introduce if endpoints.direct else _forward,
             args=(frontend, backend, control), name="mrss-bus-proxy",
             daemon=True)
         forwarder.start()
@@ -127,30 +128,6 @@ class ProxyThread:
 def _forward(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket) -> None:
     try:
         zmq.proxy_steerable(frontend, backend, None, control)
-    except zmq.ZMQError as exc:
-        if exc.errno != zmq.ETERM:
-            log.error("bus proxy stopped: %s", exc)
-
-
-def _introduce(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket
-               ) -> None:
-    """The direct proxy (direct.py, rules 2 and 5): pass subscriptions on to publishers,
-    except `""`, and answer each new membership to its member."""
-    poller = zmq.Poller()
-    for sock in (frontend, backend, control):
-        poller.register(sock, zmq.POLLIN)
-    try:
-        while True:
-            for sock, _ in poller.poll():
-                frames = sock.recv_multipart()
-                if sock is control:
-                    return
-                if sock is frontend or len(frames[0]) < 2:
-                    continue  # publishers send nothing here; "" is not passed on
-                notice = frames[0]
-                frontend.send(notice)
-                if notice[:2] == b"\x01" + MEMBER:
-                    backend.send(notice[1:])
     except zmq.ZMQError as exc:
         if exc.errno != zmq.ETERM:
             log.error("bus proxy stopped: %s", exc)

@@ -133,6 +133,7 @@ class Publisher:
                 self._drain_subscriptions(sock)  # a member the proxy just told of
             if (not self._connected or self._held) and self._hold((topic_frame, payload), sock):
                 return msg_id
+            sock = self._socket()  # going direct (in _hold) swaps it
             now = time.perf_counter()
             burst = self._batching and now - self._last_publish < BURST_GAP
             self._last_publish = now
@@ -255,6 +256,7 @@ class Publisher:
             sock = self._socket()
             if (not self._connected or self._held) and self._hold(tuple(frames), sock):
                 return
+            sock = self._socket()  # going direct (in _hold) swaps it
             if self._batch:
                 self._send_batch(sock)  # keep the publisher's order
             last = len(frames) - 1
@@ -273,8 +275,8 @@ class Publisher:
             with self._lock:
                 sock = self._socket()
                 self._drain_subscriptions(sock)
-                if self._connected:
-                    return True
+                if self._connected and (self._route is None or not self._held):
+                    return True  # (direct: and what it held has gone out)
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     return False
@@ -321,6 +323,7 @@ class Publisher:
         data.setsockopt(zmq.RCVHWM, self._hwm)
         data.setsockopt(zmq.RECONNECT_IVL, sockets.RECONNECT_IVL_MS)
         data.setsockopt(zmq.RECONNECT_IVL_MAX, sockets.RECONNECT_IVL_MAX_MS)
+        control.setsockopt(zmq.XPUB_VERBOSE, 1)  # a restarted proxy's repeats too
         watched = self._subscribed if self._watch else deque(maxlen=0)
         route = DirectRoute(control, data, self._lock, self._release_direct, self.src, watched)
         for notice in self._early_members:

@@ -25,6 +25,8 @@ WELCOME = b"\x00mrss.welcome"
 WELCOME_DIRECT = b"\x00mrss.welcome.direct"  # the direct proxy's (mrss/bus/direct.py)
 MEMBER = b"\xfe"  # a membership topic's first byte (direct.py)
 MARKER = b"\xff"  # a direct proxy's one subscription to its publishers (direct.py)
+# What direct publishers tell the direct proxy (under its marker; mrss/bus/introducer.py).
+HELLO, JOINED, BYE = MARKER + b"hello", MARKER + b"joined", MARKER + b"bye"
 RELIABLE_PREFIX = b"rel."
 SESSION_BYTES = 16
 _HEADER = struct.Struct("!16sQQ")

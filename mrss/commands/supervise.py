@@ -121,6 +121,11 @@ def pick_node(config: ProjectConfig, wanted: str | None) -> str:
     if not wanted:
         raise ConfigError(f"the project runs on nodes {', '.join(plan.nodes)}: say which "
                           "one this is with --node NAME", file=str(config.file), key="nodes")
+    bus = config.sections.get("bus", {})
+    if isinstance(bus, dict) and bus.get("delivery") == "direct":
+        raise ConfigError("direct delivery is for one host; a project on [nodes] runs its "
+                          "bus through each node's proxy: remove delivery = \"direct\"",
+                          file=str(config.file), key="bus.delivery")
     name = plan.check_node(wanted).name
     folder = keys_dir(config)
     load_keys(folder, name)  # this node's keys, and every peer's public key: now, not in
