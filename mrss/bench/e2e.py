@@ -46,17 +46,19 @@ class Rcl(BenchLayer):
 """
 
 
-def _toml(robots: int, nice: int | None = None, realtime: int | None = None) -> str:
+def _toml(robots: int, nice: int | None = None, realtime: int | None = None,
+          direct: bool = False) -> str:
     table = ", ".join(f"r{i} = {{}}" for i in range(robots))
     favoured = ("" if nice is None else f"nice = {nice}\n") + \
         ("" if realtime is None else f"realtime = {realtime}\n")
+    bus = '[bus]\ndelivery = "direct"\n' if direct else ""
     return f"""\
 [project]
 name = "{PROJECT}"
 
 [supervisor]
 heartbeat_interval = 0.5
-
+{bus}
 [components.bus]
 module = "mrss.bus.component:ProxyComponent"
 {favoured}
@@ -118,16 +120,16 @@ class Harness:
     """The supervised system plus the bench's own bus endpoints."""
 
     def __init__(self, robots: int, nice: int | None = None,
-                 realtime: int | None = None) -> None:
+                 realtime: int | None = None, direct: bool = False) -> None:
         self.robots = robots
         self._cond = threading.Condition()
         self.starts: dict[int, int] = {}  # seq -> skill start, ns
         self.minds = 0
         self.system = SupervisedProject(
-            PROJECT, {"project.toml": _toml(robots, nice, realtime), "agent.asl": AGENT,
+            PROJECT, {"project.toml": _toml(robots, nice, realtime, direct), "agent.asl": AGENT,
                       "rcl.py": RCL},
             prefixes=["action.status", "mind."], on_message=self._on,
-            tmp_prefix="mrss-bench-e2e-", nice=nice, realtime=realtime)
+            tmp_prefix="mrss-bench-e2e-", nice=nice, realtime=realtime, direct=direct)
         self.tmp, self.run_dir = self.system.tmp, self.system.run_dir
         self.endpoints, self.proc = self.system.endpoints, self.system.proc
         self.sub, self.pub = self.system.sub, self.system.pub
@@ -212,6 +214,15 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
             sustained = rate
     finally:
         harness.close()
+    direct = Harness(ROBOTS, direct=True)  # [bus] delivery = "direct": no proxy hop
+    try:
+        direct.wait_ready()
+        direct.run_step(Step(base_rate, 100), 0)  # warm-up, not reported
+        direct_base = Step(base_rate, base_count)
+        direct.run_step(direct_base, 100)
+        _row(report, f"baseline, {ROBOTS} robots, direct bus", direct_base)
+    finally:
+        direct.close()
     report.check(f"p99 percept -> first skill start <= 5 ms ({base_count:,} events, "
                  f"{ROBOTS} robots)",
                  base.p99 <= 5.0 and base.missing == 0)

@@ -25,7 +25,8 @@ class SupervisedProject:
 
     def __init__(self, name: str, files: Mapping[str, str], *, prefixes: Sequence[str],
                  on_message: Callable[[Envelope], None], tmp_prefix: str,
-                 nice: int | None = None, realtime: int | None = None) -> None:
+                 nice: int | None = None, realtime: int | None = None,
+                 direct: bool = False) -> None:
         self.tmp = Path(tempfile.mkdtemp(prefix=tmp_prefix))
         project = self.tmp / "projects" / name
         project.mkdir(parents=True)
@@ -33,7 +34,7 @@ class SupervisedProject:
             (project / file_name).write_text(text)
         self.run_dir = self.tmp / "run"
         self.run_dir.mkdir()
-        self.endpoints = BusEndpoints.ipc(self.run_dir)
+        self.endpoints = BusEndpoints.ipc(self.run_dir, direct=direct)  # as its [bus] says
         self.sub = Subscriber(self.endpoints, prefixes=list(prefixes), name="bench")
         self.sub.start(on_message)
         self.pub = Publisher(self.endpoints, src="bench", batching=False)

@@ -90,10 +90,6 @@ class DirectRoute:
         self._take(self.control, self.on_control)
         self._take(self.data, self._on_data)
 
-    def news_waiting(self) -> bool:
-        """Whether the proxy has said something not read yet (cheap: no receive)."""
-        return bool(int(self.control.getsockopt(zmq.EVENTS)) & zmq.POLLIN)
-
     @staticmethod
     def _take(sock: sockets.Socket, handle: Callable[[bytes], None]) -> None:
         while True:
@@ -189,8 +185,11 @@ class DirectRoute:
                         self._sweep()
                         next_sweep = time.monotonic() + SWEEP
                     busy = self._release() or bool(self._waiting)
-                    fds = [int(self.control.getsockopt(zmq.FD)),
-                           int(self.data.getsockopt(zmq.FD)), self._wake_r]
+                    # The data socket only while a member joins: streaming keeps waking
+                    # its descriptor, and a leave is told on the control socket.
+                    fds = [int(self.control.getsockopt(zmq.FD)), self._wake_r]
+                    if busy:
+                        fds.append(int(self.data.getsockopt(zmq.FD)))
                 except zmq.ZMQError:
                     return  # closed meanwhile
                 self.changed.notify_all()

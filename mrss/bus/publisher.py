@@ -129,8 +129,6 @@ class Publisher:
             sock = self._sock
             if sock is None:
                 raise BusError("publisher is closed")
-            if self._route is not None and self._route.news_waiting():
-                self._drain_subscriptions(sock)  # a member the proxy just told of
             if (not self._connected or self._held) and self._hold((topic_frame, payload), sock):
                 return msg_id
             sock = self._socket()  # going direct (in _hold) swaps it
