@@ -301,15 +301,17 @@ class Publisher:
             except zmq.Again:
                 return
             first = notice[1:2]
-            if first == MEMBER:  # a direct bus's member, or a stray one on ours
-                self._early_members.append(notice)
+            if first == MEMBER:  # a direct bus's member (a stray one on a plain bus)
+                if not self._connected:
+                    self._early_members.append(notice)
             elif first == MARKER and notice[:1] == b"\x01":
                 self._go_direct(sock)
                 self._drain_subscriptions(sock)  # what the proxy said after its marker
                 return
             elif notice[:1] == b"\x01":
-                self._connected = True
-                self._early_members.clear()
+                if notice == b"\x01":  # a plain proxy takes everything: it is there
+                    self._connected = True
+                    self._early_members.clear()
                 if self._watch:
                     self._subscribed.append(notice[1:])
 
