@@ -112,8 +112,11 @@ class DirectRoute:
             elif topic in self._members:
                 self._forget(topic)  # it left the proxy: closed, or died
         elif topic[:1] == MARKER:
-            if subscribed:
-                self._hello()  # a (restarted) proxy: it must know us to wait for us
+            if subscribed:  # a (restarted) proxy: it must know us, and whom we joined
+                self._hello()
+                for known, member in self._members.items():
+                    if member.joined:
+                        self._joined(known)
         elif subscribed:
             self._watched.append(topic)
 

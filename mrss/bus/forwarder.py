@@ -21,7 +21,7 @@ from pathlib import Path
 import zmq
 
 from mrss.bus import sockets
-from mrss.bus.direct import MARKER, WELCOME_DIRECT
+from mrss.bus.direct import WELCOME_DIRECT
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.introducer import introduce
 from mrss.bus.wire import WELCOME
@@ -60,8 +60,10 @@ def run_proxy(
             bind_endpoint(sock, endpoint)
             bound.append(endpoint)
         # Take everything from publishers; subscribers' filters apply at the backend.
-        # Direct: take nothing, only tell publishers to deliver directly (direct.py).
-        frontend.send(b"\x01" + MARKER if endpoints.direct else b"\x01")
+        # Direct: take nothing; its marker, a little later, tells publishers to deliver
+        # directly (mrss/bus/introducer.py).
+        if not endpoints.direct:
+            frontend.send(b"\x01")
         # unique: id() may repeat while a closed socket's inproc name is still taken
         control_ep = f"inproc://mrss-proxy-control-{uuid.uuid4().hex}"
         control.bind(control_ep)

@@ -3,14 +3,19 @@
 mrss/bus/direct.py states the rules; this is rules 2 and 5 on the proxy's side:
 
 * Every subscription from the backend is passed on to the publishers, except `""`.
-* A publisher says `HELLO` (its id and pid) when it sees the proxy's marker, `JOINED`
-  (its id, a membership topic) when a member has joined it, `BYE` when it closes.
-* A new membership is answered (one frame, the membership topic, on the backend: only
-  that member takes it) once every publisher known when it came has joined it, or has
-  gone (said bye, or its process is gone), or after `PATIENCE` (logged, with who).
-* A (re)started proxy knows its publishers only once they have reconnected and said
-  hello, which ZeroMQ does within `RECONNECT_IVL_MAX_MS`: it answers no member in its
-  first `GRACE` seconds.
+* A (re)started proxy first lets its clients reconnect, which ZeroMQ does within
+  `RECONNECT_IVL_MAX_MS`: only after `GRACE` seconds does it subscribe its marker, which
+  introduces it to its publishers with every member it has by then (ZeroMQ replays a
+  proxy's subscriptions in byte order, the marker last). A publisher that hears of it
+  earlier holds what it publishes meanwhile (its first words).
+* A publisher says `HELLO` (its id and pid) on the marker, `JOINED` (its id, a membership
+  topic) when a member has joined it (again for all its members on a new marker), `BYE`
+  when it closes.
+* A membership is answered (one frame, the membership topic, on the backend: only that
+  member takes it) once every publisher the proxy knows has joined it, from `SETTLE`
+  after the marker on (the publishers' hellos are in by then); a publisher that said bye
+  or whose process is gone is not waited for; after `PATIENCE` the member is answered
+  anyway (logged, with who did not join).
 """
 
 from __future__ import annotations
@@ -22,18 +27,19 @@ import msgpack
 import zmq
 
 from mrss.bus import sockets
-from mrss.bus.direct import MEMBER, PATIENCE, alive
+from mrss.bus.direct import MARKER, MEMBER, PATIENCE, alive
 from mrss.bus.wire import BYE, HELLO, JOINED
 
 log = sockets.log
 
-_LOOK = 50  # ms between looks at waiting members (dead publishers, patience)
-GRACE = sockets.RECONNECT_IVL_MAX_MS / 1000 + 0.1
+GRACE = sockets.RECONNECT_IVL_MAX_MS / 1000 + 0.1  # seconds before the marker
+SETTLE = 0.1  # seconds after the marker before the first answer
+_LOOK = 0.05  # seconds between looks (marker due, dead publishers, patience)
 
 
 @dataclass
-class _Waiting:
-    publishers: set[bytes]
+class _Member:
+    joined: set[bytes] = field(default_factory=set)  # publishers it has joined
     deadline: float = field(default_factory=lambda: time.monotonic() + PATIENCE)
 
 
@@ -44,8 +50,15 @@ class Introducer:
         self.frontend = frontend
         self.backend = backend
         self.publishers: dict[bytes, int] = {}  # id -> pid
-        self.waiting: dict[bytes, _Waiting] = {}  # membership topic -> who must join it
-        self._known_from = time.monotonic() + GRACE  # every publisher said hello by then
+        self.waiting: dict[bytes, _Member] = {}  # membership topic -> not answered yet
+        now = time.monotonic()
+        self._marker_at: float | None = now + GRACE  # None once subscribed
+        self._answer_from = now + GRACE + SETTLE
+
+    @property
+    def busy(self) -> bool:
+        """Whether something is due without a message: the marker, or an answer."""
+        return self._marker_at is not None or bool(self.waiting)
 
     def on_subscription(self, notice: bytes) -> None:
         if len(notice) < 2:
@@ -55,7 +68,7 @@ class Introducer:
         if topic[:1] != MEMBER:
             return
         if notice[:1] == b"\x01":
-            self.waiting[topic] = _Waiting(set(self.publishers))
+            self.waiting[topic] = _Member()
             self._answer_if_joined(topic)
         else:
             self.waiting.pop(topic, None)
@@ -68,49 +81,52 @@ class Introducer:
                 if isinstance(pub_id, bytes) and isinstance(pid, int):
                     self.publishers[pub_id] = pid
             elif frames[0] == JOINED and len(frames) == 3:
-                waiting = self.waiting.get(frames[2])
-                if waiting is not None:
-                    waiting.publishers.discard(frames[1])
+                member = self.waiting.get(frames[2])
+                if member is not None:
+                    member.joined.add(frames[1])
                     self._answer_if_joined(frames[2])
             elif frames[0] == BYE and len(frames) == 2:
-                self._gone(frames[1])
+                self.publishers.pop(frames[1], None)
+                self._answer_all()
         except (ValueError, TypeError, msgpack.ExtraData, msgpack.FormatError,
                 msgpack.StackError):
             log.warning("bus proxy: dropped a malformed note from a publisher")
 
     def look(self) -> None:
-        """Drop publishers whose process is gone; answer members past their patience, or
-        those that waited for the grace to end."""
-        if not self.waiting:
+        """Subscribe the marker when due; drop publishers whose process is gone; answer
+        members whose publishers have all joined, or whose patience is out."""
+        now = time.monotonic()
+        if self._marker_at is not None and now >= self._marker_at:
+            self._marker_at = None
+            self.frontend.send(b"\x01" + MARKER)
+        if not self.waiting or now < self._answer_from:
             return
-        if time.monotonic() >= self._known_from:
-            for topic in list(self.waiting):
-                self._answer_if_joined(topic)
         for pub_id, pid in list(self.publishers.items()):
             if not alive(pid):
-                self._gone(pub_id)
-        now = time.monotonic()
-        for topic, waiting in list(self.waiting.items()):
-            if now >= waiting.deadline:
-                log.warning("bus proxy: %d publisher(s) (pids %s) did not join a member "
-                            "within %.1f s; answering it anyway", len(waiting.publishers),
-                            sorted(self.publishers.get(p, 0) for p in waiting.publishers),
-                            PATIENCE)
-                waiting.publishers.clear()
-                self._answer_if_joined(topic)
+                del self.publishers[pub_id]
+        for topic, member in list(self.waiting.items()):
+            if not self._answer_if_joined(topic) and now >= member.deadline:
+                missing = sorted(pid for p, pid in self.publishers.items()
+                                 if p not in member.joined)
+                log.warning("bus proxy: publisher(s) of pid %s did not join a member within "
+                            "%.1f s; answering it anyway", missing, PATIENCE)
+                self._answer(topic)
 
-    def _gone(self, pub_id: bytes) -> None:
-        self.publishers.pop(pub_id, None)
+    def _answer_all(self) -> None:
         for topic in list(self.waiting):
-            self.waiting[topic].publishers.discard(pub_id)
             self._answer_if_joined(topic)
 
-    def _answer_if_joined(self, topic: bytes) -> None:
-        waiting = self.waiting.get(topic)
-        if waiting is not None and not waiting.publishers and \
-                time.monotonic() >= self._known_from:
-            del self.waiting[topic]
-            self.backend.send(topic)
+    def _answer_if_joined(self, topic: bytes) -> bool:
+        member = self.waiting.get(topic)
+        if member is None or time.monotonic() < self._answer_from or \
+                not self.publishers.keys() <= member.joined:
+            return False
+        self._answer(topic)
+        return True
+
+    def _answer(self, topic: bytes) -> None:
+        del self.waiting[topic]
+        self.backend.send(topic)
 
 
 def introduce(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket
@@ -122,7 +138,7 @@ def introduce(frontend: sockets.Socket, backend: sockets.Socket, control: socket
         poller.register(sock, zmq.POLLIN)
     try:
         while True:
-            ready = dict(poller.poll(_LOOK if state.waiting else None))
+            ready = dict(poller.poll(int(_LOOK * 1000) if state.busy else None))
             if control in ready:
                 return
             if backend in ready:

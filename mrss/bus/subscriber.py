@@ -191,7 +191,9 @@ class Subscriber:
                 self._drops.drop(exc)
         return None
 
-    def _recv_next(self, timeout: float | None) -> Envelope | None:
+    def _recv_next(self, timeout: float | None, until_greeted: bool = False
+                   ) -> Envelope | None:
+        """The next message; None after `timeout`, or (`until_greeted`) once greeted."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             if self._batch:
@@ -207,7 +209,7 @@ class Subscriber:
                     return None
                 continue
             env = self._decode(frames)
-            if env is not None:
+            if env is not None or (until_greeted and self._connected.is_set()):
                 return env
 
     def _recv_frames(self, deadline: float | None) -> list[bytes] | None:
@@ -270,7 +272,7 @@ class Subscriber:
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     return False
-                env = self._recv_next(min(remaining, _SLICE))
+                env = self._recv_next(min(remaining, _SLICE), until_greeted=True)
                 if env is not None:
                     self._early.append(env)
             return True

@@ -154,3 +154,33 @@ def test_delivery_is_a_bus_key_and_direct_is_for_one_host(tmp_path: Path) -> Non
     ep = BusEndpoints.tcp("127.0.0.1", 5601, 5602, direct=True)
     assert BusEndpoints.from_dict(ep.to_dict()) == ep
     assert "direct" not in BusEndpoints.ipc(tmp_path).to_dict()  # as before for the rest
+
+
+def test_a_publisher_made_before_the_proxy_goes_direct_whatever_it_hears_first(
+        spawn: Spawn, direct_ipc: BusEndpoints) -> None:
+    # Members' subscriptions (the welcome topic sorts first) can reach a publisher before
+    # the proxy's marker, the more so the more there are: it must not take them for a
+    # plain proxy and send through it (where nothing is forwarded).
+    ep = direct_ipc
+    prefixes = [f"percept.{'x' * 40}.{k}" for k in range(20)] + ["percept"]
+    with Publisher(ep, src="p") as pub:
+        pub.publish(_percept(0))  # held: nobody introduced it yet
+        proxy = spawn(ep, "proxy")
+        subs = [Subscriber(ep, prefixes=prefixes) for _ in range(30)]
+        try:
+            assert all(sub.wait_connected(10) for sub in subs)
+            assert pub.wait_connected(10) and pub._route is not None
+            pub.publish(_percept(1))
+            for sub in subs:
+                got = [sub.recv(timeout=5) for _ in range(2)]
+                assert [e.body.literal for e in got if e][-1] == "p(1)"
+            proxy.kill()  # and again, reconnecting to a proxy that has them all
+            spawn(ep, "proxy")
+            with Publisher(ep, src="q") as late:
+                assert late.wait_connected(10) and late._route is not None
+                late.publish(_percept(2))
+                assert all((e := sub.recv(timeout=5)) is not None and e.body.literal == "p(2)"
+                           for sub in subs)
+        finally:
+            for sub in subs:
+                sub.close()
