@@ -5,13 +5,14 @@ With `[bus] delivery = "direct"` the proxy forwards no messages. The rules:
 1. A subscriber is a *member*: its SUB socket binds an endpoint of its own (ipc: a file
    `bus-m-<pid>-<n>.sock` beside the proxy's sockets; tcp: a free port on the proxy's
    host) and subscribes, besides its prefixes, its *membership topic* `MEMBER` +
-   msgpack([endpoint, prefixes, pid]). It still connects to the proxy, so its subscriptions,
-   membership included, reach the proxy and through it every publisher.
-2. The direct proxy subscribes its publishers to `MARKER` only (never to everything) and
-   passes every subscription on except `""`. A publisher whose proxy subscribed `MARKER`
-   delivers directly; one whose proxy subscribed `""` sends through the proxy as before.
-   ZeroMQ replays a proxy's subscriptions to each new publisher in byte order, so
-   `MARKER` comes after every membership: a publisher that has seen it knows all members.
+   msgpack([endpoint, prefixes, pid]). It still connects to the proxy, so its
+   subscriptions, membership included, reach the proxy and through it every publisher.
+2. The direct proxy subscribes its publishers to `MARKER` only (never to everything),
+   once its clients had time to reconnect after its start, and passes every subscription
+   on except `""`. A publisher whose proxy subscribed `MARKER` delivers directly; one
+   whose proxy subscribed `""` sends through the proxy as before. ZeroMQ replays a
+   proxy's subscriptions to each new publisher in byte order, so `MARKER` comes after
+   every membership: a publisher that has seen it knows all members.
 3. A publisher connects a socket of its own to each member's endpoint; the member has
    *joined* when its membership topic comes back on that socket (a SUB sends its
    subscriptions in byte order too, so all of them are in by then). Until then the
@@ -22,7 +23,9 @@ With `[bus] delivery = "direct"` the proxy forwards no messages. The rules:
    publisher disconnects. A proxy that dies withdraws nothing (ZeroMQ keeps a connecting
    socket's subscriptions for its reconnection), so the direct links carry on.
 5. The proxy answers each new membership with one frame `[membership topic]` on its
-   backend, after passing the membership on: the member's `wait_connected` waits for it.
+   backend once every publisher it knows has joined the member (mrss/bus/introducer.py):
+   the member's `wait_connected` waits for it, so what is published after it returns
+   reaches the member.
    A member binds when it is made (`BusEndpoints(direct=True)`), or when the proxy's
    welcome says the bus is direct (`WELCOME_DIRECT`) to a subscriber not told so.
 6. A member's ipc file is removed when it closes; files of members whose process is
