@@ -56,8 +56,7 @@ class _Child:
         except queue.Empty:
             line = None
         if line is None:
-            self.stop()
-            err = self.proc.stderr.read() if self.proc.stderr else ""
+            err = self.stop()
             raise RuntimeError(f"{' '.join(self.argv[2:4])}: no output within {timeout}s\n{err}")
         return line
 
@@ -71,8 +70,9 @@ class _Child:
         self.proc.stdin.flush()
         return self.result(timeout)
 
-    def stop(self) -> None:
-        if self.proc.stdin is not None:
+    def stop(self) -> str:
+        """End the child; what it wrote on stderr (for a failure's message)."""
+        if self.proc.stdin is not None and not self.proc.stdin.closed:
             self.proc.stdin.close()  # a driver waiting for commands ends on EOF
         if self.proc.poll() is None:
             self.proc.terminate()
@@ -81,9 +81,13 @@ class _Child:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        err = ""
+        if self.proc.stderr is not None and not self.proc.stderr.closed:
+            err = self.proc.stderr.read()
         for stream in (self.proc.stdout, self.proc.stderr):
             if stream is not None:
                 stream.close()
+        return err
 
 
     def wait_ready(self, timeout: float = 30) -> _Child:

@@ -309,7 +309,8 @@ class Publisher:
                 self._drain_subscriptions(sock)  # what the proxy said after its marker
                 return
             elif notice[:1] == b"\x01":
-                if notice == b"\x01":  # a plain proxy takes everything: it is there
+                # A plain proxy takes everything: it is there (bound: any subscriber).
+                if notice == b"\x01" or self._bound:
                     self._connected = True
                     self._early_members.clear()
                 if self._watch:

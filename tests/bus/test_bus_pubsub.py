@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import sys
 import threading
+from pathlib import Path
 
 import msgpack
 import psutil
@@ -363,3 +364,15 @@ def test_publishing_is_not_blocked_by_a_thread_waiting_for_the_proxy() -> None:
         assert thread.is_alive()  # all 200 returned within the waiter's 2 s
         thread.join(10)
     assert results == [False]
+
+
+def test_a_bound_publisher_delivers_once_a_subscriber_connected_to_it(run_dir: Path) -> None:
+    # No proxy: the publisher binds, the subscriber connects there (bench bus "no proxy").
+    at = f"ipc://{run_dir}/bound.sock"
+    with Publisher(BusEndpoints(at, f"ipc://{run_dir}/unused.sock"), src="b", bind=True) as pub, \
+            Subscriber(BusEndpoints(f"ipc://{run_dir}/unused.sock", at),
+                       prefixes=["robot."]) as sub:
+        pub.publish(RobotData(robot="r", data={"n": 0}))  # held until it subscribed
+        assert pub.wait_connected(5)
+        pub.publish(RobotData(robot="r", data={"n": 1}))
+        assert _receive(sub, 2) == [0, 1]
