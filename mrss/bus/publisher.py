@@ -171,8 +171,14 @@ class Publisher:
 
     @property
     def sends(self) -> int:
-        """How many ZeroMQ messages went out (a batch counts once)."""
-        return self._sent
+        """How many ZeroMQ messages went out (a batch counts once).
+
+        Read under the lock: a joiner or direct-route thread sends, then counts, both
+        under the lock, and a subscriber may receive the message in between; unlocked,
+        this could say less than what has already arrived.
+        """
+        with self._lock:
+            return self._sent
 
     def _count_sent(self, sock: sockets.Socket) -> None:
         self._sent += 1
