@@ -123,12 +123,18 @@ def subscriber_socket(ctx: sockets.Context, endpoints: BusEndpoints, topics: lis
     if not endpoints.direct:
         return sock, None
     try:
-        endpoint = bind_member(sock, endpoints)
+        return sock, become_member(sock, endpoints, topics)
     except zmq.ZMQError:
         sock.close(0)
         raise
+
+
+def become_member(sock: sockets.Socket, endpoints: BusEndpoints, topics: list[bytes]) -> str:
+    """Bind `sock` (a SUB already subscribed to `topics`) as a member and announce it;
+    its endpoint. For a socket made for a plain bus that the welcome says is direct."""
+    endpoint = bind_member(sock, endpoints)
     sock.setsockopt(zmq.SUBSCRIBE, membership_topic(endpoint, tuple(topics)))
-    return sock, endpoint
+    return endpoint
 
 
 def forget_member(endpoint: str | None) -> None:

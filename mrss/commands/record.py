@@ -25,7 +25,7 @@ from types import FrameType
 import zmq
 
 from mrss.bus import BusEndpoints, direct, sockets
-from mrss.bus.wire import MEMBER, WELCOME, is_ack, message_frames
+from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
 from mrss.commands.busargs import (
     add_bus_arguments,
     endpoints_from_args,
@@ -99,9 +99,10 @@ class BusRecorder:
     """A raw subscriber: hands every bus message, frames untouched, to a RecordingWriter."""
 
     def __init__(self, endpoints: BusEndpoints, prefixes: list[str]) -> None:
+        self._endpoints = endpoints
+        self._topics = [WELCOME, *(p.encode() for p in prefixes)]
         sock, self._member = direct.subscriber_socket(
-            sockets.context(), endpoints, [WELCOME, *(p.encode() for p in prefixes)],
-            hwm=RECORDER_HWM)
+            sockets.context(), endpoints, self._topics, hwm=RECORDER_HWM)
         self._sock = sock
 
     def wait_connected(self, timeout: float, stop: threading.Event) -> bool:
@@ -115,7 +116,10 @@ class BusRecorder:
             if not self._sock.poll(wait_ms, zmq.POLLIN):
                 continue
             frames = self._sock.recv_multipart()
-            if frames == [WELCOME] or (self._member and frames[0][:1] == MEMBER):
+            if frames == [WELCOME_DIRECT] and self._member is None:
+                # A direct bus we were not told of (--run-dir): join it, then be answered.
+                self._member = direct.become_member(self._sock, self._endpoints, self._topics)
+            elif frames == [WELCOME] or (self._member and frames[0][:1] == MEMBER):
                 return True  # the proxy's welcome; on a direct bus its answer to us
         return False
 

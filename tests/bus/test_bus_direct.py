@@ -184,3 +184,21 @@ def test_a_publisher_made_before_the_proxy_goes_direct_whatever_it_hears_first(
         finally:
             for sub in subs:
                 sub.close()
+
+
+def test_mrss_record_given_only_a_run_dir_joins_a_direct_bus(run_dir: Path) -> None:
+    import threading
+
+    from mrss.commands.record import BusRecorder  # the recorder behind `mrss record`
+
+    direct, plain = BusEndpoints.ipc(run_dir, direct=True), BusEndpoints.ipc(run_dir)
+    with ProxyThread(direct), Publisher(plain, src="p") as pub:
+        rec = BusRecorder(plain, ["percept"])
+        try:
+            assert rec.wait_connected(10, threading.Event())  # joined, then answered
+            pub.publish(_percept(1))
+            assert rec._sock.poll(5000)
+            assert rec._sock.recv_multipart()[0] == b"percept"
+        finally:
+            rec.close()
+    assert list(run_dir.glob("bus-m-*.sock")) == []
