@@ -21,7 +21,7 @@ import select
 import threading
 import time
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import TracebackType
 
@@ -324,12 +324,7 @@ class Publisher:
 
     def _go_direct(self, control: sockets.Socket) -> None:
         """The proxy said the bus is direct: deliver to its members (lock held)."""
-        data = self._ctx.socket(zmq.XPUB)
-        data.setsockopt(zmq.LINGER, self._linger_ms)
-        data.setsockopt(zmq.SNDHWM, self._hwm)
-        data.setsockopt(zmq.RCVHWM, self._hwm)
-        data.setsockopt(zmq.RECONNECT_IVL, sockets.RECONNECT_IVL_MS)
-        data.setsockopt(zmq.RECONNECT_IVL_MAX, sockets.RECONNECT_IVL_MAX_MS)
+        data = sockets.connecting(self._ctx, zmq.XPUB, hwm=self._hwm, linger_ms=self._linger_ms)
         control.setsockopt(zmq.XPUB_VERBOSE, 1)  # a restarted proxy's repeats too
         watched = self._subscribed if self._watch else deque(maxlen=0)
         route = DirectRoute(control, data, self._lock, self._release_direct, self.src, watched)
@@ -349,12 +344,7 @@ class Publisher:
         self._connected = route.ready
         if self._held and self._batch:
             self._send_batch(sock)  # it was published before them
-        while self._held and not route.must_hold(self._held[0][0]):
-            frames = self._held.popleft()
-            last = len(frames) - 1
-            for i, frame in enumerate(frames):
-                sock.send(frame, _SNDMORE if i < last else 0)
-            self._sent += 1
+        self._send_held(sock, until=route.must_hold)
         return bool(self._held)
 
     def subscriptions(self) -> list[str]:
@@ -386,8 +376,10 @@ class Publisher:
             self._joiner.start()
         return True
 
-    def _send_held(self, sock: sockets.Socket) -> None:
-        while self._held:
+    def _send_held(self, sock: sockets.Socket,
+                   until: Callable[[bytes], bool] | None = None) -> None:
+        """Send held messages in order: all, or up to the first whose topic `until` holds."""
+        while self._held and not (until is not None and until(self._held[0][0])):
             frames = self._held.popleft()
             last = len(frames) - 1
             for i, frame in enumerate(frames):

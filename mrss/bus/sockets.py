@@ -32,17 +32,25 @@ def connect(
     ctx: Context, kind: int, endpoint: str, *, hwm: int = DEFAULT_HWM, linger_ms: int = 0,
 ) -> Socket:
     """A socket of `kind` connected to `endpoint`, reconnecting on its own when it drops."""
+    sock = connecting(ctx, kind, hwm=hwm, linger_ms=linger_ms)
+    try:
+        sock.connect(endpoint)
+    except zmq.ZMQError:
+        sock.close(0)
+        raise
+    return sock
+
+
+def connecting(ctx: Context, kind: int, *, hwm: int = DEFAULT_HWM, linger_ms: int = 0
+               ) -> Socket:
+    """A socket of `kind` set up to connect (queues, linger, reconnection), not yet
+    connected: a direct publisher connects it to each member as it hears of them."""
     sock = ctx.socket(kind)
     sock.setsockopt(zmq.LINGER, linger_ms)
     sock.setsockopt(zmq.SNDHWM, hwm)
     sock.setsockopt(zmq.RCVHWM, hwm)
     sock.setsockopt(zmq.RECONNECT_IVL, RECONNECT_IVL_MS)
     sock.setsockopt(zmq.RECONNECT_IVL_MAX, RECONNECT_IVL_MAX_MS)
-    try:
-        sock.connect(endpoint)
-    except zmq.ZMQError:
-        sock.close(0)
-        raise
     return sock
 
 
