@@ -32,6 +32,7 @@ from mrss.bus.direct import MARKER, MEMBER, PATIENCE
 from mrss.bus.direct_route import DirectRoute
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.forwarder import bind_endpoint, clear_stale_socket
+from mrss.bus.wire import WELCOME
 from mrss.errors import BusError
 from mrss.messages import IdGenerator, Message, encode
 
@@ -66,7 +67,9 @@ class Publisher:
     With `bind` the publisher binds `endpoints.frontend` itself instead of connecting to
     a proxy there, and subscribers connect straight to it (as their backend): no proxy
     hop, about half the round trip (docs/bus.md, "Limits"). "Connected" then means a
-    subscriber has subscribed. A building block for direct delivery, which the bus does
+    subscriber has subscribed to a prefix (its welcome topic does not count: it can
+    arrive before the prefixes); for a subscriber of several prefixes, the first. A
+    building block for direct delivery, which the bus does
     not do yet: nothing announces such a publisher, so its subscribers must be told
     where it is.
     """
@@ -315,8 +318,9 @@ class Publisher:
                 self._drain_subscriptions(sock)  # what the proxy said after its marker
                 return
             elif notice[:1] == b"\x01":
-                # A plain proxy takes everything: it is there (bound: any subscriber).
-                if notice == b"\x01" or self._bound:
+                # A plain proxy takes everything: it is there. Bound: a subscriber's first
+                # prefix, not its welcome (which sorts, and may arrive, before them).
+                if notice == b"\x01" or (self._bound and notice[1:] != WELCOME):
                     self._connected = True
                     self._early_members.clear()
                 if self._watch:
