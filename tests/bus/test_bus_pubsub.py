@@ -10,9 +10,11 @@ from pathlib import Path
 import msgpack
 import psutil
 import pytest
+import zmq
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.bus.publisher import MAX_BATCH
+from mrss.bus.wire import WELCOME
 from mrss.errors import BusError
 from mrss.messages import (
     Envelope,
@@ -364,6 +366,30 @@ def test_publishing_is_not_blocked_by_a_thread_waiting_for_the_proxy() -> None:
         assert thread.is_alive()  # all 200 returned within the waiter's 2 s
         thread.join(10)
     assert results == [False]
+
+
+def test_a_bound_publisher_is_not_connected_by_a_welcome_subscription_alone(
+        run_dir: Path) -> None:
+    # A subscriber's welcome topic sorts first and can reach the publisher before its
+    # prefixes: what the publisher held must wait for a prefix, or it goes to nobody.
+    at = f"ipc://{run_dir}/bound.sock"
+    with Publisher(BusEndpoints(at, f"ipc://{run_dir}/unused.sock"), src="b",
+                   bind=True, watch_subscriptions=True) as pub:
+        sock = zmq.Context.instance().socket(zmq.SUB)
+        try:
+            sock.connect(at)
+            sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
+            pub.publish(RobotData(robot="r", data={"n": 0}))
+            wait_until(lambda: "\x00mrss.welcome" in pub.subscriptions(), timeout=10,
+                       message="the welcome subscription at the publisher")
+            assert not pub.wait_connected(0.2)
+            sock.setsockopt(zmq.SUBSCRIBE, b"robot.")
+            assert pub.wait_connected(10)
+            assert sock.poll(10_000), "the held message never came"
+            topic, payload = sock.recv_multipart()
+            assert topic == b"robot.r.data" and msgpack.unpackb(payload)["body"]["data"] == {"n": 0}
+        finally:
+            sock.close(0)
 
 
 def test_a_bound_publisher_delivers_once_a_subscriber_connected_to_it(run_dir: Path) -> None:
