@@ -68,10 +68,9 @@ class Publisher:
     a proxy there, and subscribers connect straight to it (as their backend): no proxy
     hop, about half the round trip (docs/bus.md, "Limits"). "Connected" then means a
     subscriber has subscribed to a prefix (its welcome topic does not count: it can
-    arrive before the prefixes); for a subscriber of several prefixes, the first. A
-    building block for direct delivery, which the bus does
-    not do yet: nothing announces such a publisher, so its subscribers must be told
-    where it is.
+    arrive before the prefixes); for a subscriber of several prefixes, the first.
+    Nothing announces such a publisher, so its subscribers must be told where it is
+    (the bus's direct delivery does not use it: mrss/bus/direct.py).
     """
 
     def __init__(

@@ -380,7 +380,7 @@ def test_a_bound_publisher_is_not_connected_by_a_welcome_subscription_alone(
             sock.connect(at)
             sock.setsockopt(zmq.SUBSCRIBE, WELCOME)
             pub.publish(RobotData(robot="r", data={"n": 0}))
-            wait_until(lambda: "\x00mrss.welcome" in pub.subscriptions(), timeout=10,
+            wait_until(lambda: WELCOME.decode() in pub.subscriptions(), timeout=10,
                        message="the welcome subscription at the publisher")
             assert not pub.wait_connected(0.2)
             sock.setsockopt(zmq.SUBSCRIBE, b"robot.")
