@@ -37,7 +37,6 @@ import contextlib
 import copy
 import logging
 import signal
-import socket
 import sys
 import threading
 from collections.abc import Mapping
@@ -48,6 +47,7 @@ from urllib.parse import urlsplit
 from mrss.edge.broker_auth import PASSWORD_FILE_KEY, password_file_problem
 from mrss.errors import ConfigError, MrssError
 from mrss.options import Check, Option
+from mrss.ports import free_port
 from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")
@@ -68,13 +68,6 @@ def broker_config(host: str, port: int, password_file: str | None = None) -> dic
         "listeners": {"default": {"type": "tcp", "bind": f"{host}:{port}"}},
         "plugins": plugin,
     }
-
-
-def _free_port(host: str) -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((host, 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 #: The keys of `[broker]` and `[broker.embedded]` (read by resolve_broker; `mrss check`
@@ -144,7 +137,7 @@ def resolve_broker(config: Mapping[str, Any]) -> tuple[str, bool]:
             or not 0 <= port < 65536:
         raise ConfigError("host must be a string and port an integer in 0..65535",
                           key="broker.embedded")
-    return f"mqtt://{host}:{port or _free_port(host)}", True
+    return f"mqtt://{host}:{port or free_port(host)}", True
 
 
 def with_broker_url(config: Mapping[str, Any]) -> tuple[dict[str, Any], bool]:

@@ -18,6 +18,9 @@ from typing import TypeVar
 
 import psutil
 
+from mrss.ports import free_port as free_port
+from mrss.ports import free_udp_port as free_udp_port
+
 T = TypeVar("T")
 
 
@@ -38,14 +41,6 @@ def wait_until(
         if time.monotonic() >= deadline:
             raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s")
         time.sleep(interval)
-
-
-def free_port(host: str = "127.0.0.1") -> int:
-    """A TCP port on `host` that nothing listens on right now."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((host, 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 def find_mosquitto() -> str | None:
@@ -129,14 +124,6 @@ def _broker_process(argv: list[str], host: str, port: int, timeout: float) -> It
             proc.wait()
         if proc.stderr:
             proc.stderr.close()
-
-
-def free_udp_port(host: str = "127.0.0.1") -> int:
-    """A UDP port on `host` that nothing is bound to right now."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((host, 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 def stop_supervised(proc: subprocess.Popen[bytes] | subprocess.Popen[str],

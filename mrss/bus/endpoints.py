@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import ipaddress
 import os
-import socket
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from mrss.errors import ConfigError
+from mrss.ports import free_ports
 
 # sockaddr_un.sun_path holds 108 bytes including the terminating NUL.
 _MAX_IPC_PATH = 107
@@ -55,7 +55,7 @@ class BusEndpoints:
     @classmethod
     def tcp_loopback(cls, *, direct: bool = False) -> BusEndpoints:
         """TCP on 127.0.0.1 with two ports free right now (for tests and benchmarks)."""
-        return cls.tcp("127.0.0.1", *_free_ports(2), direct=direct)
+        return cls.tcp("127.0.0.1", *free_ports(2), direct=direct)
 
     def to_dict(self) -> dict[str, Any]:
         """A plain map, e.g. for a child process's command line or context."""
@@ -112,15 +112,3 @@ def _check_endpoint(endpoint: str, key: str) -> None:
                 ipaddress.ip_address(host.strip("[]"))
             except ValueError:
                 raise ConfigError(f"{host!r} is not an IP address", key=f"bus.{key}") from None
-
-
-def _free_ports(count: int) -> list[int]:
-    """`count` distinct TCP ports on 127.0.0.1 that nothing listens on right now."""
-    held = [socket.socket(socket.AF_INET, socket.SOCK_STREAM) for _ in range(count)]
-    try:
-        for s in held:
-            s.bind(("127.0.0.1", 0))
-        return [int(s.getsockname()[1]) for s in held]
-    finally:
-        for s in held:
-            s.close()

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import logging
 import os
-import socket
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -50,6 +49,7 @@ from mrss.links.failsafe import policy_of
 from mrss.links.geo import distance_m
 from mrss.links.mavlink_signing import load_key
 from mrss.options import Check, Option
+from mrss.ports import free_udp_port
 from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv
@@ -120,13 +120,6 @@ def signing_key_of(options: Mapping[str, Any], project_dir: Path) -> bytes | Non
     if not isinstance(value, str):
         raise ConfigError(f"must be a key file name, not {value!r}", key="signing_key")
     return load_key(value, project_dir)
-
-
-def free_udp_port(host: str = "127.0.0.1") -> int:
-    """A UDP port nobody uses right now on `host`."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind((host, 0))
-        return int(sock.getsockname()[1])
 
 
 class GroundCrewUav(SimUav):

@@ -21,6 +21,7 @@ import argparse
 import logging
 import selectors
 import signal
+import socket
 import sys
 import threading
 import time
@@ -35,6 +36,7 @@ from mrss.links.connect import ADDRESS_SUFFIX
 from mrss.links.geo import offset
 from mrss.links.mavconn import MAV
 from mrss.links.ugv_protocol import DEFAULT_PREFIX
+from mrss.ports import free_ports
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import SimUgv
 
@@ -59,22 +61,6 @@ class FleetSpec:
     run_dir: Path | None = None  # where UAV address files go
 
 
-def free_udp_ports(count: int) -> list[int]:
-    """`count` distinct loopback UDP ports free right now (held open until all are found)."""
-    import socket
-
-    held = []
-    try:
-        for _ in range(count):
-            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            sock.bind(("127.0.0.1", 0))
-            held.append(sock)
-        return [int(s.getsockname()[1]) for s in held]
-    finally:
-        for sock in held:
-            sock.close()
-
-
 def grid_position(home: tuple[float, float, float], index: int) -> tuple[float, float]:
     """Robot `index`'s home on a square grid around `home`, SPACING_M apart."""
     side = 16
@@ -92,7 +78,7 @@ class SimFleet:
         if spec.ugvs and not spec.broker_url:
             raise ValueError("UGVs need an MQTT broker (--broker)")
         self.spec = spec
-        ports = free_udp_ports(spec.uavs)
+        ports = free_ports(spec.uavs, kind=socket.SOCK_DGRAM)
         self.uavs: dict[str, SimUav] = {}
         self.ports: dict[str, int] = {}
         for k, port in enumerate(ports, start=1):

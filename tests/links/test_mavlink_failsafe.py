@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from mrss.links.geo import distance_m, offset
-from mrss.sim.component import free_udp_port
+from mrss.ports import free_udp_port
 from mrss.sim.uav import SimUav, UavSnapshot
 from mrss.testing import wait_until
 

@@ -1,0 +1,88 @@
+"""Free ports to name in advance (loopback endpoints, the embedded broker, tests).
+
+A port chosen now and bound later by another socket or process can be taken in
+between. The kernel hands out ports of its ephemeral range on its own (`bind(port 0)`,
+`tcp://host:*`, the source port of every outgoing connection), so a port chosen there
+and freed again can go to any of those. The rule here: choose outside the ephemeral
+range (`/proc/sys/net/ipv4/ip_local_port_range`), where the kernel never assigns by
+itself, at random, never the same port twice in one process, and only a port that
+binds now. Where no such range can be read or nothing is left outside it, the kernel
+chooses (port 0), as before.
+"""
+
+from __future__ import annotations
+
+import functools
+import random
+import socket
+import threading
+from pathlib import Path
+
+_RANGE_FILE = Path("/proc/sys/net/ipv4/ip_local_port_range")
+_LOWEST = 10_000  # below: well-known and registered services of the host
+_DRAWS = 200  # random tries before the kernel chooses
+_handed_out: set[tuple[int, int]] = set()  # (socket kind, port)
+_lock = threading.Lock()
+
+
+def free_ports(count: int, host: str = "127.0.0.1",
+               kind: socket.SocketKind = socket.SOCK_STREAM) -> list[int]:
+    """`count` distinct ports on `host` that nothing is bound to right now (TCP, or
+    `kind=socket.SOCK_DGRAM` for UDP)."""
+    with _lock:
+        ports = _outside_ephemeral(count, host, kind)
+        _handed_out.update((kind, port) for port in ports)
+        return ports
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """One TCP port on `host` that nothing listens on right now."""
+    return free_ports(1, host)[0]
+
+
+def free_udp_port(host: str = "127.0.0.1") -> int:
+    """One UDP port on `host` that nothing is bound to right now."""
+    return free_ports(1, host, socket.SOCK_DGRAM)[0]
+
+
+def _outside_ephemeral(count: int, host: str, kind: socket.SocketKind) -> list[int]:
+    found: list[int] = []
+    allowed = _allowed()
+    for _ in range(_DRAWS if allowed else 0):
+        if len(found) == count:
+            break
+        port = random.choice(allowed)
+        if (kind, port) not in _handed_out and port not in found \
+                and _binds(host, port, kind):
+            found.append(port)
+    while len(found) < count:  # no range known, or nothing free found outside it
+        port = _kernel_port(host, kind)
+        if port not in found:
+            found.append(port)
+    return found
+
+
+@functools.cache
+def _allowed() -> list[int]:
+    """The ports outside the kernel's ephemeral range (none if it cannot be read)."""
+    try:
+        low, high = (int(n) for n in _RANGE_FILE.read_text().split())
+    except (OSError, ValueError):
+        return []
+    return [p for p in range(_LOWEST, 65536) if not low <= p <= high]
+
+
+def _binds(host: str, port: int, kind: socket.SocketKind) -> bool:
+    with socket.socket(socket.AF_INET, kind) as s:
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+        return True
+
+
+def _kernel_port(host: str, kind: socket.SocketKind) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind((host, 0))
+        port: int = s.getsockname()[1]
+        return port
