@@ -35,8 +35,11 @@ typecheck: $(VENV)/.installed-dev
 	$(BIN)/mypy mrss
 	@set -e; for p in $(PROJECT_DIRS); do echo "mypy $$p"; $(BIN)/mypy $$p; done
 
+# One worker per CPU (pytest-xdist); each has ports of its own (tests/conftest.py).
+# TEST_WORKERS=0 runs the suite in this one process.
+TEST_WORKERS ?= auto
 pytest: $(VENV)/.installed-dev
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist worksteal
 
 test: lint typecheck pytest
 

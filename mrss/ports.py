@@ -8,17 +8,24 @@ range (`/proc/sys/net/ipv4/ip_local_port_range`), where the kernel never assigns
 itself, at random, never the same port twice in one process, and only a port that
 binds now. Where no such range can be read or nothing is left outside it, the kernel
 chooses (port 0), as before.
+
+Processes that run side by side and choose at the same time (the test suite's parallel
+workers, each with its own systems) can each be given a share of their own:
+`MRSS_PORTS=LOW-HIGH` in the environment narrows the choice to those ports (still outside
+the ephemeral range). A process's children inherit it.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 import random
 import socket
 import threading
 from pathlib import Path
 
 _RANGE_FILE = Path("/proc/sys/net/ipv4/ip_local_port_range")
+SHARE_VARIABLE = "MRSS_PORTS"  # LOW-HIGH: this process's (and its children's) share
 _LOWEST = 10_000  # below: well-known and registered services of the host
 _DRAWS = 200  # random tries before the kernel chooses
 _handed_out: set[tuple[int, int]] = set()  # (socket kind, port)
@@ -62,14 +69,38 @@ def _outside_ephemeral(count: int, host: str, kind: socket.SocketKind) -> list[i
     return found
 
 
+def shares(count: int) -> list[str]:
+    """The ports outside the ephemeral range cut into `count` disjoint shares, each as a
+    `MRSS_PORTS` value (empty where no range can be read)."""
+    allowed = outside_ephemeral()
+    if not allowed:
+        return []
+    size = len(allowed) // count
+    return [f"{allowed[i * size]}-{allowed[(i + 1) * size - 1]}" for i in range(count)]
+
+
 @functools.cache
-def _allowed() -> list[int]:
+def outside_ephemeral() -> list[int]:
     """The ports outside the kernel's ephemeral range (none if it cannot be read)."""
     try:
         low, high = (int(n) for n in _RANGE_FILE.read_text().split())
     except (OSError, ValueError):
         return []
     return [p for p in range(_LOWEST, 65536) if not low <= p <= high]
+
+
+@functools.cache
+def _allowed() -> list[int]:
+    """Outside the ephemeral range, and within this process's share if it has one."""
+    share = os.environ.get(SHARE_VARIABLE, "")
+    if not share:
+        return outside_ephemeral()
+    try:
+        low, high = (int(n) for n in share.split("-"))
+    except ValueError:
+        raise ValueError(f"{SHARE_VARIABLE}={share!r}: expected LOW-HIGH, two port "
+                         "numbers (e.g. 10000-20000)") from None
+    return [p for p in outside_ephemeral() if low <= p <= high]
 
 
 def _binds(host: str, port: int, kind: socket.SocketKind) -> bool:

@@ -1,12 +1,27 @@
-"""Shared fixtures: a private MQTT broker per test session, a run directory."""
+"""Shared fixtures: a private MQTT broker per test session, a run directory; each
+parallel worker's share of ports."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 
 import pytest
 
+from mrss import ports
 from mrss.testing import BrokerInfo, amqtt_broker, find_mosquitto, mosquitto_broker
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist each worker runs its own systems at the same time as the
+    others: give each worker (and the processes it starts) ports of its own, so two
+    workers never choose the same port in the moment before it is bound."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ...
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if worker.startswith("gw") and count > 1:
+        shares = ports.shares(count)
+        if shares:
+            os.environ[ports.SHARE_VARIABLE] = shares[int(worker[2:])]
 
 
 def pytest_report_header(config: pytest.Config) -> str:

@@ -41,11 +41,44 @@ def test_a_port_in_use_is_not_chosen(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_without_a_readable_range_the_kernel_chooses(monkeypatch: pytest.MonkeyPatch,
                                                      tmp_path: Path) -> None:
-    ports._allowed.cache_clear()
+    _forget_ranges()
     monkeypatch.setattr(ports, "_RANGE_FILE", tmp_path / "missing")
     try:
         chosen = ports.free_ports(3)
         assert len(set(chosen)) == 3
         assert all(p in _ephemeral() for p in chosen)
+        assert ports.shares(2) == []
     finally:
-        ports._allowed.cache_clear()
+        _forget_ranges()
+
+
+def _forget_ranges() -> None:
+    ports._allowed.cache_clear()
+    ports.outside_ephemeral.cache_clear()
+
+
+def test_shares_are_disjoint_and_a_share_narrows_the_choice(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    first, second = ports.shares(2)
+    spans = [tuple(int(n) for n in share.split("-")) for share in (first, second)]
+    assert spans[0][1] < spans[1][0]  # disjoint, in order
+    monkeypatch.setenv(ports.SHARE_VARIABLE, second)
+    _forget_ranges()
+    try:
+        chosen = ports.free_ports(30)
+        assert all(spans[1][0] <= p <= spans[1][1] for p in chosen)
+        assert not any(p in _ephemeral() for p in chosen)
+    finally:
+        monkeypatch.undo()
+        _forget_ranges()
+
+
+def test_a_malformed_share_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(ports.SHARE_VARIABLE, "10000:20000")
+    _forget_ranges()
+    try:
+        with pytest.raises(ValueError, match="MRSS_PORTS='10000:20000': expected LOW-HIGH"):
+            ports.free_port()
+    finally:
+        monkeypatch.undo()
+        _forget_ranges()

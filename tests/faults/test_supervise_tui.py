@@ -37,6 +37,9 @@ class Terminal:
 
     def __init__(self, argv: list[str], env: dict[str, str], rows: int = 40,
                  cols: int = 140) -> None:
+        # The size is the terminal's: COLUMNS/LINES left in the environment (pytest-xdist's
+        # workers have 80x24 there) would override it for the dashboard.
+        env = {k: v for k, v in env.items() if k not in ("COLUMNS", "LINES")}
         self.master, slave = pty.openpty()
         fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
         try:
