@@ -35,9 +35,9 @@ typecheck: $(VENV)/.installed-dev
 	$(BIN)/mypy mrss
 	@set -e; for p in $(PROJECT_DIRS); do echo "mypy $$p"; $(BIN)/mypy $$p; done
 
-# One worker per CPU (pytest-xdist); each has ports of its own (tests/conftest.py).
+# One worker per logical CPU (pytest-xdist); each has ports of its own (tests/conftest.py).
 # TEST_WORKERS=0 runs the suite in this one process.
-TEST_WORKERS ?= auto
+TEST_WORKERS ?= logical
 pytest: $(VENV)/.installed-dev
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist worksteal
 
