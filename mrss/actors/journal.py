@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 
 from mrss.api import Action
 from mrss.messages import ActionState
-from mrss.sqlite_checkpoint import manual_checkpoints
+from mrss.sqlite_checkpoint import RARE_INTERVAL, manual_checkpoints
 
 log = logging.getLogger("mrss.rcl.journal")
 
@@ -92,7 +92,7 @@ class ActionJournal:
         self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
         self._db.executescript(_SCHEMA)
         # Checkpoints sync the file: on a thread of their own, never in a transition.
-        self._checkpointer = manual_checkpoints(self._db, self.path)
+        self._checkpointer = manual_checkpoints(self._db, self.path, RARE_INTERVAL)
         columns = {row[1] for row in self._db.execute("PRAGMA table_info(actions)")}
         if "cause" not in columns:  # a journal kept from before failure causes existed
             self._db.execute("ALTER TABLE actions ADD COLUMN cause TEXT NOT NULL DEFAULT ''")

@@ -23,7 +23,7 @@ import threading
 from pathlib import Path
 
 from mrss.agentspeak import Struct, parse_literal, term_str
-from mrss.sqlite_checkpoint import manual_checkpoints
+from mrss.sqlite_checkpoint import RARE_INTERVAL, manual_checkpoints
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS percepts (
@@ -51,7 +51,7 @@ class PerceptLedger:
         self._db.execute("PRAGMA synchronous=NORMAL")  # survives a killed process
         self._db.executescript(_SCHEMA)
         # Checkpoints sync the file: on a thread of their own, not as a percept arrives.
-        self._checkpointer = manual_checkpoints(self._db, self.path)
+        self._checkpointer = manual_checkpoints(self._db, self.path, RARE_INTERVAL)
         if fresh:
             self._db.execute("DELETE FROM percepts")
         row = self._db.execute("SELECT COALESCE(MAX(seq), 0) FROM percepts").fetchone()
