@@ -37,7 +37,7 @@ def free_ports(count: int, host: str = "127.0.0.1",
     """`count` distinct ports on `host` that nothing is bound to right now (TCP, or
     `kind=socket.SOCK_DGRAM` for UDP)."""
     with _lock:
-        ports = _outside_ephemeral(count, host, kind)
+        ports = _choose(count, host, kind)
         _handed_out.update((kind, port) for port in ports)
         return ports
 
@@ -52,7 +52,7 @@ def free_udp_port(host: str = "127.0.0.1") -> int:
     return free_ports(1, host, socket.SOCK_DGRAM)[0]
 
 
-def _outside_ephemeral(count: int, host: str, kind: socket.SocketKind) -> list[int]:
+def _choose(count: int, host: str, kind: socket.SocketKind) -> list[int]:
     found: list[int] = []
     allowed = _allowed()
     for _ in range(_DRAWS if allowed else 0):
