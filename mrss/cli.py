@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 from mrss import __version__
 from mrss.bench import BENCHES
+from mrss.config.projects import project_path
 from mrss.errors import UnknownProjectError
-from mrss.projects import project_path
 
 
 @dataclass(frozen=True)

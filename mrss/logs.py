@@ -19,7 +19,7 @@ counted, and the count is reported (logged, and published when the bus takes it)
 Records of the bus's own loggers (`mrss.bus`), of this module, and any record logged on
 the handler's own thread while it publishes are never published, so a bus that logs
 cannot loop. Supervision events (logged by `SupEvents.emit`) are already on the bus as
-`sup.*`, and `mrss.supervision.remote` publishes its own `LogRecord`s: neither is
+`sup.*`, and `mrss.runtime.remote` publishes its own `LogRecord`s: neither is
 published twice.
 """
 
@@ -40,7 +40,7 @@ from mrss.messages import LogRecord, Message
 LOG_FILE = "mrss.log"
 LINE_FORMAT = "%(asctime)s {component}[%(process)d] %(levelname)s %(message)s"
 # Loggers (and their children) whose records never go on the bus.
-NOT_PUBLISHED = ("mrss.bus", "mrss.logs", "mrss.supervision.remote")
+NOT_PUBLISHED = ("mrss.bus", "mrss.logs", "mrss.runtime.remote")
 RATE = 200.0  # records per second a process may put on the bus, sustained
 BURST = 400  # ... and in one burst
 QUEUE = 1000  # records waiting for the publishing thread

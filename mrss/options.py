@@ -29,7 +29,7 @@ class Check(StrEnum):
     POSITION = "position"  # [lat, lon] or [lat, lon, alt], numbers
     RANGE = "range"  # [low, high], finite numbers, low <= high
     SIGNING_KEY = "signing_key"  # a MAVLink signing key file (64 hex chars) in the project
-    PASSWORD_FILE = "password_file"  # an MQTT password file (mrss.edge.broker_auth)
+    PASSWORD_FILE = "password_file"  # an MQTT password file (mrss.actors.broker.passwords)
     TOKEN_FILE = "token_file"  # an HTTP bearer token file in the project (mrss.edge.http_token)
 
 

@@ -33,7 +33,7 @@ from urllib.parse import quote
 import psutil
 
 from mrss.bus import Publisher, Subscriber
-from mrss.bus.component import endpoints_from_config
+from mrss.bus.settings import endpoints_from_config
 from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
 from mrss.links.connect import project_broker_url

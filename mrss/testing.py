@@ -103,7 +103,7 @@ def mosquitto_broker(
 def amqtt_broker(host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
     """An embedded amqtt broker in a child process on a free loopback port."""
     port = free_port(host)
-    argv = [sys.executable, "-m", "mrss.broker", "--host", host, "--port", str(port)]
+    argv = [sys.executable, "-m", "mrss.actors.broker.service", "--host", host, "--port", str(port)]
     with _broker_process(argv, host, port, 20.0):
         yield BrokerInfo(host, port, "amqtt")
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.config import load_file
+from mrss.config.loader import load_file
+from mrss.config.nodes import read_nodes
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
-from mrss.nodes import read_nodes
 
 REPO = Path(__file__).resolve().parent.parent
 DOCUMENTS = sorted((REPO / "docs").glob("*.md")) + [REPO / "README.md"]
@@ -21,12 +21,12 @@ FORBIDDEN = re.compile(r"shared/|/work/|/root/|/home/\w|/Users/\w|(?<![\w.])/\S*
 TOML_BLOCK = re.compile(r"```toml\n(.*?)```", re.S)
 # What a fragment of project.toml is completed with (the components it does not define).
 BASE_COMPONENTS = {
-    "bus": "mrss.bus.component:ProxyComponent", "broker": "mrss.broker:EmbeddedBroker",
-    "worldmodel": "mrss.actors.worldmodel:WorldModelComponent",
-    "datalayer": "mrss.actors.datalayer:DataLayerComponent",
-    "events": "mrss.actors.events:ExternalEventsManager",
-    "rcl": "mrss.actors.rcl_service:RclService",
-    "reasoner": "mrss.actors.reasoner:ReasonerComponent",
+    "bus": "mrss.actors.proxy.service:ProxyComponent", "broker": "mrss.actors.broker.service:EmbeddedBroker",
+    "worldmodel": "mrss.actors.worldmodel.service:WorldModelComponent",
+    "datalayer": "mrss.actors.datalayer.service:DataLayerComponent",
+    "events": "mrss.actors.events.service:ExternalEventsManager",
+    "rcl": "mrss.actors.rcl.service:RclService",
+    "reasoner": "mrss.actors.reasoner.service:ReasonerComponent",
 }
 
 
@@ -88,7 +88,7 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
 @pytest.mark.parametrize(("where", "block"), [e for e in examples() if "[map" in e[1]],
                          ids=[w for w, b in examples() if "[map" in b])
 def test_every_map_example_reads_as_the_dashboard_reads_it(where: str, block: str) -> None:
-    from mrss.map_config import read_map
+    from mrss.config.map import read_map
 
     config = read_map(tomllib.loads(block)["map"], file=where)
     assert config.kinds or config.hide, where
@@ -100,8 +100,8 @@ def test_the_map_examples_are_found() -> None:
 
 
 def test_the_world_model_json_example_is_a_valid_seed() -> None:
-    from mrss.edge.worldmodel_service import WorldModel
-    from mrss.edge.worldmodel_store import Position, SqliteWorldStore
+    from mrss.actors.worldmodel.model import WorldModel
+    from mrss.actors.worldmodel.store import Position, SqliteWorldStore
 
     text = (REPO / "docs" / "edges.md").read_text(encoding="utf-8")
     section = text.split("## The world model", 1)[1]
@@ -118,7 +118,7 @@ def test_the_amadee_rules_data_example_is_what_the_rules_read() -> None:
     """docs/amadee.md, "The rules' data": a terrain grid and a time window, seeded with
     the project's world.json, forbid what the document says they forbid."""
     from mrss.api.testing import memory_world
-    from mrss.edge.loader import import_project_module
+    from mrss.runtime.loader import import_project_module
 
     project = REPO / "projects" / "amadee"
     legality = import_project_module(project, "legality.py")

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mrss.recording import (
+from mrss.recording.format import (
     MAGIC,
     MAX_BLOCK,
     RecordedMessage,

@@ -6,8 +6,8 @@ import sqlite3
 import time
 from pathlib import Path
 
-from mrss.actors.journal import ActionJournal
-from mrss.actors.percept_ledger import PerceptLedger
+from mrss.actors.rcl.journal import ActionJournal
+from mrss.actors.reasoner.percept_ledger import PerceptLedger
 from mrss.api import Action
 from mrss.sqlite_checkpoint import DEFAULT_INTERVAL, RARE_INTERVAL, manual_checkpoints
 from mrss.testing import wait_until

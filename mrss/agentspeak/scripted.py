@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.agent import Agent
+from mrss.agentspeak.literals import term as term_text
 from mrss.agentspeak.terms import PList, Struct, term_str
-from mrss.edge.predicates import term as term_text
 
 QUERY = "query"
 GOAL_MANAGEMENT = "rcl_goal_management"

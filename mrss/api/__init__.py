@@ -27,15 +27,17 @@ By idea:
 
 from __future__ import annotations
 
-from mrss.actors.lifecycle import (
-    ACTION_TRANSITIONS as ACTION_TRANSITIONS,  # the RCL's; not part of the contract
-)
-from mrss.api._action import Action
-from mrss.api._action import (
+from mrss.actors.datalayer.layer import DataLayer, external
+from mrss.actors.events.adapter import ExternalAdapter
+from mrss.actors.rcl.action import Action
+from mrss.actors.rcl.action import (
     check_json as check_json,  # the RCL's; not part of the contract
 )
-from mrss.api._layer import RobotCommLayer
-from mrss.api._skill import (
+from mrss.actors.rcl.layer import RobotCommLayer
+from mrss.actors.rcl.lifecycle import (
+    ACTION_TRANSITIONS as ACTION_TRANSITIONS,  # the RCL's; not part of the contract
+)
+from mrss.actors.rcl.skill import (
     SKILL_TRANSITIONS,
     Resource,
     Skill,
@@ -43,21 +45,14 @@ from mrss.api._skill import (
     SkillOutcome,
     SkillState,
 )
-from mrss.edge.adapters import DataLayer, ExternalAdapter, external
-from mrss.edge.component import BROKER_URL_FILE
+from mrss.actors.worldmodel.rules import NoObjectWithin, rule
+from mrss.actors.worldmodel.store import Geometry, WorldStore, WorldStoreUnavailable
+from mrss.agentspeak.literals import Atom, PredicateError, Struct, literal, symbol
+from mrss.config.broker import BROKER_URL_FILE
+from mrss.config.projects import PROJECT_FILE
 from mrss.edge.http_token import project_token as world_model_token
-from mrss.edge.loader import import_project_module
 from mrss.edge.payloads import Field, JsonMapping, PayloadError
-from mrss.edge.predicates import Atom, PredicateError, Struct, literal, symbol
 from mrss.edge.retry import DependencyUnavailable
-from mrss.edge.worldmodel_access import (
-    WORLD_MODEL_URL_FILE,
-    WorldModelClient,
-    WorldModelRejected,
-    WorldModelUnavailable,
-)
-from mrss.edge.worldmodel_rules import NoObjectWithin, rule
-from mrss.edge.worldmodel_store import Geometry, WorldStore, WorldStoreUnavailable
 from mrss.errors import ActionError, ConfigError, MrssError, TransientError
 from mrss.links.base import RobotLink
 from mrss.links.connect import connect_link, project_broker_url, simulator_address
@@ -67,9 +62,15 @@ from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step
 from mrss.links.mqtt_publish import publish_json
 from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
+from mrss.messages.plans import plan_record
 from mrss.options import Check, Option
-from mrss.plans import plan_record
-from mrss.projects import PROJECT_FILE
+from mrss.runtime.loader import import_project_module
+from mrss.world.access import (
+    WORLD_MODEL_URL_FILE,
+    WorldModelClient,
+    WorldModelRejected,
+    WorldModelUnavailable,
+)
 
 #: The robot link kinds a robot's `link` key may name.
 LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)

@@ -23,11 +23,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from mrss.actors.worldmodel.local import LocalWorldModel
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.sqlite import SqliteWorldStore
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.scripted import ScriptedHost
-from mrss.edge.worldmodel_access import LocalWorldModel
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.procedures import RunningProject
 from mrss.testing import WaitTimeout, free_port, free_udp_port, wait_until
 

@@ -60,14 +60,14 @@ name = "{PROJECT}"
 heartbeat_interval = 0.5
 {bus}
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 {favoured}
 [components.rcl]
-module = "mrss.actors.rcl_service:RclService"
+module = "mrss.actors.rcl.service:RclService"
 robots = {{ {table} }}
 {favoured}
 [components.reasoner]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 {favoured}"""
 
 

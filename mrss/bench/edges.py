@@ -17,17 +17,18 @@ import time
 from pathlib import Path
 from typing import Any
 
-from mrss.actors.datalayer import DataLayerComponent
-from mrss.actors.events import ExternalEventsManager
-from mrss.actors.worldmodel import WorldModelComponent
+from mrss.actors.broker.service import EmbeddedBroker, resolve_broker
+from mrss.actors.datalayer.service import DataLayerComponent
+from mrss.actors.events.service import ExternalEventsManager
+from mrss.actors.worldmodel.service import WorldModelComponent
 from mrss.bench.report import BenchReport
-from mrss.broker import EmbeddedBroker, resolve_broker
 from mrss.bus import BusEndpoints, ProxyThread, Subscriber
-from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerClient
+from mrss.config.broker import BROKER_URL_FILE
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import Envelope, Percept
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.busport import ZmqBusPort
+from mrss.runtime.component import ComponentContext
+from mrss.runtime.datalayer_client import DataLayerClient
 
 PROJECT_TOML = """
 [worldmodel]
@@ -35,7 +36,7 @@ seed = "world.json"
 http = false
 """
 EVENTS_PY = """
-from mrss.edge.adapters import ExternalAdapter
+from mrss.actors.events.adapter import ExternalAdapter
 from mrss.edge.payloads import Field
 
 class BenchAdapter(ExternalAdapter):

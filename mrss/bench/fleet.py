@@ -35,7 +35,6 @@ from mrss.bench import fleet_project
 from mrss.bench.harness import SupervisedProject
 from mrss.bench.report import BenchReport
 from mrss.bench.restart import percentile
-from mrss.edge.worldmodel_service import WM_REPLY_TOPIC, WM_REQUEST_TOPIC
 from mrss.messages import (
     ActionStatus,
     Command,
@@ -46,8 +45,9 @@ from mrss.messages import (
     Percept,
     RobotData,
 )
-from mrss.supervision.forkserver import COMPONENT_COMM_PREFIX
+from mrss.runtime.forkserver import COMPONENT_COMM_PREFIX
 from mrss.testing import find_mosquitto, mosquitto_broker
+from mrss.world.topics import WM_REPLY_TOPIC, WM_REQUEST_TOPIC
 
 RATE_HZ = 5.0
 ASSIGN_EVERY_S = 10.0

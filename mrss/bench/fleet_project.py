@@ -63,16 +63,16 @@ heartbeat_interval = 0.5
 {f'[broker]{chr(10)}url = "{broker_url}"' if broker_url else ""}
 
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 {FAVOURED}
-{"" if broker_url else '[components.broker]' + chr(10) + 'module = "mrss.broker:EmbeddedBroker"'}
+{"" if broker_url else '[components.broker]' + chr(10) + 'module = "mrss.actors.broker.service:EmbeddedBroker"'}
 
 [components.worldmodel]
-module = "mrss.actors.worldmodel:WorldModelComponent"
+module = "mrss.actors.worldmodel.service:WorldModelComponent"
 {TELEMETRY}
 
 [components.datalayer]
-module = "mrss.actors.datalayer:DataLayerComponent"
+module = "mrss.actors.datalayer.service:DataLayerComponent"
 {TELEMETRY}
 
 [components.fleet]
@@ -84,13 +84,13 @@ rate = {rate}
 speedup = 1.0
 
 [components.rcl]
-module = "mrss.actors.rcl_service:RclService"
+module = "mrss.actors.rcl.service:RclService"
 start_timeout = 120.0
 {FAVOURED}
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 {FAVOURED}
 """
 

@@ -15,7 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from mrss.actors.journal import ActionJournal
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Action, ActionState
 from mrss.bench.report import BenchReport
 

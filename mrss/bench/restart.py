@@ -36,9 +36,9 @@ from mrss.bench.report import BenchReport
 from mrss.bench.restart_chaos import chaos_restarts
 from mrss.bench.restart_peers import PHASES, Answer, bus_restarts
 from mrss.messages import Message, SupEvent
+from mrss.runtime.component import Component, ComponentContext
 from mrss.supervision.actors import ActorSupervisor, actor_child
 from mrss.supervision.children import ComponentStart, ProcessSettings
-from mrss.supervision.component import Component, ComponentContext
 from mrss.supervision.process import ProcessSupervisor
 from mrss.supervision.spec import ChildSpec, SupervisorSpec
 from mrss.supervision.supervised import ActorContext, CrashNow, SupervisedActor

@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.config.projects import project_path
 from mrss.messages import Command, Envelope, SupEvent
-from mrss.projects import project_path
 
 _START = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \S+ INFO start (\S+) pid=\d+ "
                     r"inc=(\d+)")

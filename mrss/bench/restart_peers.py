@@ -26,7 +26,7 @@ from mrss.bench.harness import SupervisedProject
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.errors import BusError
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
-from mrss.supervision.component import Component, ComponentContext
+from mrss.runtime.component import Component, ComponentContext
 
 PROJECT = "benchbus"
 ECHO = "echo"
@@ -56,7 +56,7 @@ heartbeat_interval = 0.5
 launcher = "{launcher}"
 
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 {favoured}
 [components.{ECHO}]
 module = "mrss.bench.restart_peers:BusEcho"

@@ -15,11 +15,11 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from mrss.actors.worldmodel.http import WorldModelHttp
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.rules import RuleEngine
+from mrss.actors.worldmodel.store import WorldModelStore
 from mrss.bench.report import BenchReport
-from mrss.edge.worldmodel_http import WorldModelHttp
-from mrss.edge.worldmodel_rules import RuleEngine
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import WorldModelStore
 from mrss.links.mavlink_signing import Signing, SigningParser
 
 

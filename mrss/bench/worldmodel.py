@@ -16,15 +16,15 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from mrss.bench.report import BenchReport
-from mrss.bench.worldmodel_legality import add_timed_row, legality_and_telemetry
-from mrss.edge.worldmodel_store import (
+from mrss.actors.worldmodel.store import (
     Geometry,
     Position,
     SqliteWorldStore,
     WorldObject,
     WorldStore,
 )
+from mrss.bench.report import BenchReport
+from mrss.bench.worldmodel_legality import add_timed_row, legality_and_telemetry
 
 URL_ENV = "MRSS_BENCH_POSTGIS_URL"
 
@@ -95,7 +95,7 @@ def run(quick: bool) -> BenchReport:
         sqlite.close()
     url = os.environ.get(URL_ENV)
     if url:
-        from mrss.edge.worldmodel_postgis import PostgisWorldStore, safe_url
+        from mrss.actors.worldmodel.postgis import PostgisWorldStore, safe_url
         store = PostgisWorldStore(url)
         try:
             _measure(report, "postgis", store, n, queries)

@@ -27,10 +27,10 @@ from functools import partial
 from types import ModuleType
 from typing import Any
 
+from mrss.actors.worldmodel.local import LocalWorldModel
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.store import WorldStore
 from mrss.bench.report import BenchReport
-from mrss.edge.worldmodel_access import LocalWorldModel
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import WorldStore
 
 HOME = (39.7700, 44.8000)
 HALF_LAT, HALF_LON = 0.1, 0.13           # ~11 km each way
@@ -42,9 +42,9 @@ TELEMETRY_HZ, TELEMETRY_ROBOTS = 5, 100
 
 def legality_module() -> ModuleType | None:
     """projects/amadee/legality.py, or None when the amadee project is not here."""
-    from mrss.edge.loader import import_project_module
+    from mrss.config.projects import project_path
     from mrss.errors import MrssError
-    from mrss.projects import project_path
+    from mrss.runtime.loader import import_project_module
     try:
         return import_project_module(project_path("amadee"), "legality.py")
     except MrssError:

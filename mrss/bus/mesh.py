@@ -1,7 +1,7 @@
 """The bus proxy of one node of several: the local proxy, plus CurveZMQ links to the peers.
 
 On a single host the proxy is `mrss.bus.forwarder` (libzmq's own proxy loop). A node of
-a multi-node project (`[nodes]`, mrss.nodes) runs this instead, one thread polling:
+a multi-node project (`[nodes]`, mrss.config.nodes) runs this instead, one thread polling:
 
 * frontend (XSUB, local publishers) -> backend (XPUB, local subscribers) and every
   peer's inbox; backend subscriptions -> frontend, as the plain proxy does;
@@ -60,7 +60,7 @@ _HANDSHAKE_EVENTS: dict[zmq.Event, str] = {
 
 @dataclass(frozen=True)
 class MeshSettings:
-    """What one node's proxy needs to know about the mesh (from `mrss.nodes.NodePlan`)."""
+    """What one node's proxy needs to know about the mesh (from `mrss.config.nodes.NodePlan`)."""
 
     node: str
     inbox: str  # tcp://bind:port of this node

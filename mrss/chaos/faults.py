@@ -34,15 +34,15 @@ from pathlib import Path
 
 import psutil
 
+from mrss.config.project import ProjectConfig
 from mrss.errors import MrssError
-from mrss.project_config import ProjectConfig
-from mrss.supervision.forkserver import is_fork_server
+from mrss.runtime.forkserver import is_fork_server
 
-PROXY_MODULE = "mrss.bus.component:ProxyComponent"
-BROKER_MODULE = "mrss.broker:EmbeddedBroker"
+PROXY_MODULE = "mrss.actors.proxy.service:ProxyComponent"
+BROKER_MODULE = "mrss.actors.broker.service:EmbeddedBroker"
 SIM_MODULE_PREFIX = "mrss.sim.component:"
-RCL_MODULE = "mrss.actors.rcl_service:RclService"
-REASONER_MODULE = "mrss.actors.reasoner:ReasonerComponent"
+RCL_MODULE = "mrss.actors.rcl.service:RclService"
+REASONER_MODULE = "mrss.actors.reasoner.service:ReasonerComponent"
 FORKSERVER = "forkserver"
 SIGXFSZ_BIT = 1 << (signal.SIGXFSZ - 1)
 

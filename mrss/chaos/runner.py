@@ -38,10 +38,10 @@ from mrss.chaos.faults import (
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import OperatorStep, Sent, Traffic, load_traffic, publish
-from mrss.config import load_project
-from mrss.operator_commands import SECTION, GoalState, read_operator
+from mrss.config.loader import load_project
+from mrss.config.operator import SECTION, GoalState, read_operator
+from mrss.config.project import ProjectConfig
 from mrss.procedures import RunningProject
-from mrss.project_config import ProjectConfig
 
 Say = Callable[[str], None]
 SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise`, in the run folder

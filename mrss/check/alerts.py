@@ -1,4 +1,4 @@
-"""`[[alerts]]`: a project's own alert rules for the dashboard (`mrss.alert_rules`).
+"""`[[alerts]]`: a project's own alert rules for the dashboard (`mrss.config.alerts`).
 
 The array must read (known keys, a name and a field, a threshold, a known severity;
 names differ); an error names `alerts[N].key` and the line of that rule's key. A rule
@@ -11,10 +11,10 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from mrss.alert_rules import SECTION, read_alert_rules
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import read_table
-from mrss.project_config import ProjectConfig
+from mrss.config.alerts import SECTION, read_alert_rules
+from mrss.config.project import ProjectConfig
 
 _INDEXED = re.compile(rf"^{SECTION}\[(\d+)\](?:\.(\w+))?$")
 

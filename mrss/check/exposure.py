@@ -4,7 +4,7 @@
   (`mrss.edge.http_token`); both at once is an error; a `token_env` variable unset where
   `mrss check` runs is a warning (the world model refuses to start without it).
 - `[broker.embedded] password_file` needs `[broker] username` (and a password): the
-  project's own clients log in with them (`mrss.edge.broker_auth`).
+  project's own clients log in with them (`mrss.actors.broker.passwords`).
 - A secret file (signing key, token, password file) others than its owner may read is a
   warning (`secret_mode_warning`).
 """
@@ -16,11 +16,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from mrss.actors.broker.passwords import PASSWORD_FILE_KEY
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, section_key
-from mrss.edge.broker_auth import PASSWORD_FILE_KEY
+from mrss.config.project import ProjectConfig
 from mrss.edge.http_token import TOKEN_ENV_KEY, TOKEN_FILE_KEY, exposure_problem
-from mrss.project_config import ProjectConfig
 
 
 def check_exposure(config: ProjectConfig, report: Report, table: Mapping[str, Any],

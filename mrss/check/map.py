@@ -1,6 +1,6 @@
 """`[map]`: how the dashboard's map draws the project's world-model objects.
 
-The table must read (`mrss.map_config.read_map`: known keys, one-character glyphs, Rich
+The table must read (`mrss.config.map.read_map`: known keys, one-character glyphs, Rich
 styles, states with a state_field); a kind that neither the world model's seed nor
 anything else in the project names is probably misspelt (a warning).
 """
@@ -11,8 +11,8 @@ import re
 
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, read_table
-from mrss.map_config import DEFAULT_KINDS, SECTION, MapConfig, read_map
-from mrss.project_config import ProjectConfig
+from mrss.config.map import DEFAULT_KINDS, SECTION, MapConfig, read_map
+from mrss.config.project import ProjectConfig
 
 PROJECT_FILES = ("*.py", "*.json", "*.asl")
 

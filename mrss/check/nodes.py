@@ -1,13 +1,13 @@
 """`[nodes]` and every `node = "..."`: the node layout's problems as findings at their
-line and column (mrss.nodes validates), and the nodes' key files (mrss.bus.curve)."""
+line and column (mrss.config.nodes validates), and the nodes' key files (mrss.bus.curve)."""
 
 from __future__ import annotations
 
 from mrss.bus.curve import paths, permission_problem
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line
-from mrss.nodes import keys_dir, read_nodes
-from mrss.project_config import ProjectConfig
+from mrss.config.nodes import keys_dir, read_nodes
+from mrss.config.project import ProjectConfig
 
 
 def check_nodes(config: ProjectConfig, report: Report) -> None:

@@ -1,6 +1,6 @@
 """`[operator]`: the operator commands a project declares and its goal patterns.
 
-The table must read (`mrss.operator_commands.read_operator`: known commands, topics
+The table must read (`mrss.config.operator.read_operator`: known commands, topics
 without wildcards, goal patterns that parse and name Goal); commands need an events
 manager to turn them into percepts, and a topic outside `[events] topic_prefix` is
 probably not one the project's adapter reads; a goal pattern whose predicate agent.asl
@@ -15,8 +15,8 @@ from pathlib import Path
 from mrss.agentspeak.agent import read_program
 from mrss.check.findings import Report
 from mrss.check.toml_lines import key_line, read_table
-from mrss.operator_commands import SECTION, OperatorConfig, read_operator
-from mrss.project_config import ProjectConfig
+from mrss.config.operator import SECTION, OperatorConfig, read_operator
+from mrss.config.project import ProjectConfig
 
 
 def check_operator(config: ProjectConfig, report: Report, *, events_running: bool,
@@ -28,7 +28,7 @@ def check_operator(config: ProjectConfig, report: Report, *, events_running: boo
     file = str(config.file)
     if operator.topics and not events_running:
         report.error(file, "[operator] declares commands, but no events manager runs "
-                     "(mrss.actors.events:ExternalEventsManager) to make them percepts",
+                     "(mrss.actors.events.service:ExternalEventsManager) to make them percepts",
                      line=key_line(config, SECTION), check="operator", key=SECTION)
     events = config.sections.get("events", {})
     prefix = events.get("topic_prefix") if isinstance(events, dict) else None

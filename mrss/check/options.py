@@ -25,17 +25,17 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from mrss.broker import BROKER_EMBEDDED_OPTIONS, BROKER_OPTIONS
-from mrss.bus.component import BUS_OPTIONS
+from mrss.actors.broker.passwords import password_file_problem
+from mrss.actors.broker.service import BROKER_EMBEDDED_OPTIONS, BROKER_OPTIONS
+from mrss.actors.worldmodel.store import postgres_url_problem
+from mrss.bus.settings import BUS_OPTIONS
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import key_line
-from mrss.config import COMPONENT_KEYS, OTHER_SECTIONS
-from mrss.edge.broker_auth import password_file_problem
+from mrss.config.loader import COMPONENT_KEYS, OTHER_SECTIONS
+from mrss.config.project import ProjectConfig
 from mrss.edge.http_token import token_file_problem
-from mrss.edge.worldmodel_store import postgres_url_problem
 from mrss.links.mavlink_signing import key_problem
 from mrss.options import Check, Option
-from mrss.project_config import ProjectConfig
 
 MAVLINK_URL = re.compile(r"^(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:]+):(.+)$")
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from mrss.check.agent import AgentUses
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.sources import PySource
-from mrss.project_config import ProjectConfig
+from mrss.config.project import ProjectConfig
 
 BUILTIN = {("robot_unavailable", 1)}
 

@@ -8,10 +8,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from mrss.actors.reasoner_agents import AGENT_KEYS, AgentProblem, AgentSpec, parse_agents
+from mrss.actors.reasoner.agents import AGENT_KEYS, AgentProblem, AgentSpec, parse_agents
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.toml_lines import key_line
-from mrss.project_config import ComponentConfig, ProjectConfig
+from mrss.config.project import ComponentConfig, ProjectConfig
 from mrss.textfile import NotUtf8Error, read_text
 
 

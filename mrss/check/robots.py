@@ -13,20 +13,20 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from mrss.agentspeak.literals import is_atom_name
 from mrss.check.exposure import warn_secret
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.options import mavlink_url_problem, url_problem, value_problem
 from mrss.check.toml_lines import key_line
-from mrss.edge.predicates import is_atom_name
+from mrss.config.project import ProjectConfig
 from mrss.links.connect import MQTT_FILES
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
 from mrss.links.mavlink_signing import key_problem
 from mrss.options import Option
-from mrss.project_config import ProjectConfig
 
 # Keys of a robot's table that the RCL reads itself, whatever its link: the link kind, and
-# the node it is reached through (mrss.nodes; validated there).
+# the node it is reached through (mrss.config.nodes; validated there).
 ROBOT_KEYS = ("link", "node")
 URL_OPTIONS = {("mavlink", "url"): mavlink_url_problem, ("mqtt", "broker_url"): url_problem,
                ("http", "url"): http_url_problem}

@@ -15,6 +15,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from mrss.actors.datalayer.layer import DataLayer
+from mrss.actors.events.adapter import ExternalAdapter
 from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
 from mrss.check.alerts import check_alerts
@@ -35,18 +37,17 @@ from mrss.check.recipes import (
 from mrss.check.robots import check_robots
 from mrss.check.sources import PySource, Sources
 from mrss.check.toml_lines import key_line, section_key
-from mrss.config import COMPONENT_KEYS
-from mrss.edge.adapters import DataLayer, ExternalAdapter
+from mrss.config.loader import COMPONENT_KEYS
+from mrss.config.project import ComponentConfig, ProjectConfig
 from mrss.errors import SupervisionError
 from mrss.options import Option, option_names
-from mrss.project_config import ComponentConfig, ProjectConfig
-from mrss.supervision.component_main import load_class
+from mrss.runtime.main import load_class
 
-REASONER = "mrss.actors.reasoner:ReasonerComponent"
-EVENTS = "mrss.actors.events:ExternalEventsManager"
-DATALAYER = "mrss.actors.datalayer:DataLayerComponent"
-RCL = "mrss.actors.rcl_service:RclService"
-WORLDMODEL = "mrss.actors.worldmodel:WorldModelComponent"
+REASONER = "mrss.actors.reasoner.service:ReasonerComponent"
+EVENTS = "mrss.actors.events.service:ExternalEventsManager"
+DATALAYER = "mrss.actors.datalayer.service:DataLayerComponent"
+RCL = "mrss.actors.rcl.service:RclService"
+WORLDMODEL = "mrss.actors.worldmodel.service:WorldModelComponent"
 
 
 def check_project(config: ProjectConfig) -> Report:

@@ -3,7 +3,7 @@
 Rules:
 - a file is parsed with `ast` first: a syntax error is one finding at its line and
   column (with a caret), and the file is not imported;
-- then it is imported from the project folder (`mrss.edge.loader`); an exception is one
+- then it is imported from the project folder (`mrss.runtime.loader`); an exception is one
   finding at the deepest line of that file in the traceback;
 - a file whose import failed only because a file it imports is broken (that file's path
   is in the error or its traceback) gets no finding of its own but a note that it was
@@ -23,8 +23,8 @@ from types import ModuleType
 from typing import Any
 
 from mrss.check.findings import Report, did_you_mean
-from mrss.edge.loader import import_project_module, project_file
 from mrss.errors import ConfigError
+from mrss.runtime.loader import import_project_module, project_file
 from mrss.textfile import NotUtf8Error, read_text
 
 

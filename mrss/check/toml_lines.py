@@ -6,9 +6,9 @@ from collections.abc import Callable
 from typing import TypeVar
 
 from mrss.check.findings import Report
+from mrss.config.key_lines import key_line_number
+from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
-from mrss.key_lines import key_line_number
-from mrss.project_config import ProjectConfig
 
 T = TypeVar("T")
 

@@ -1,6 +1,6 @@
 """`mrss check PROJECT`: prove a project consistent without starting anything.
 
-project.toml is loaded and validated (`mrss.config`), then every check of `mrss.check`
+project.toml is loaded and validated (`mrss.config.loader`), then every check of `mrss.check`
 runs on it: options declared and valid, agent actions with recipes, recipes with skills,
 skills with the right hooks, queries the data layer answers, percepts the agent handles.
 Every error is printed as `file:line:col: message` and the exit code is 2; warnings are
@@ -16,9 +16,9 @@ import json
 import sys
 
 from mrss.check import Report, check_project
-from mrss.config import load_project
+from mrss.config.loader import load_project
+from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
-from mrss.project_config import ProjectConfig
 from mrss.supervision.spec import OnExceeded
 
 EXIT_INVALID = 2

@@ -12,9 +12,9 @@ import argparse
 import sys
 
 from mrss.bus.curve import generate, paths
-from mrss.config import load_project
+from mrss.config.loader import load_project
+from mrss.config.nodes import keys_dir, node_plan
 from mrss.errors import ConfigError
-from mrss.nodes import keys_dir, node_plan
 
 EXIT_CONFIG = 2
 

@@ -20,8 +20,8 @@ import shutil
 import sys
 from pathlib import Path
 
+from mrss.config.projects import PROJECT_FILE, known_projects, project_path, projects_dir
 from mrss.errors import UnknownProjectError
-from mrss.projects import PROJECT_FILE, known_projects, project_path, projects_dir
 
 EXIT_REFUSED = 2
 NAME = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")

@@ -5,7 +5,7 @@ mrss record --run-dir DIR [--prefix P ...] [--out FILE] [--duration S]
 ```
 
 Records the ZeroMQ messages the proxy delivers, exactly as received (frames and
-receive time; format in `mrss.recording`), until SIGINT/SIGTERM or `--duration`
+receive time; format in `mrss.recording.format`), until SIGINT/SIGTERM or `--duration`
 seconds, then prints how many it recorded and exits 0. Messages that do not decode as
 bus messages are recorded too, with the reason, and counted as malformed. The proxy's
 welcome and reliable-channel acknowledgements are not bus traffic and are left out.
@@ -22,26 +22,17 @@ import time
 from pathlib import Path
 from types import FrameType
 
-import zmq
-
-from mrss.bus import BusEndpoints, direct, sockets
-from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
 from mrss.commands.busargs import (
     add_bus_arguments,
     endpoints_from_args,
     no_bus_error,
     positive_float,
 )
-from mrss.errors import DecodeError, MrssError
-from mrss.messages import decode
-from mrss.recording import RecordedMessage, RecordingWriter
+from mrss.errors import MrssError
+from mrss.recording.format import RecordingWriter
+from mrss.recording.recorder import BusRecorder
 
 EXIT_ERROR = 2
-_POLL_MS = 100
-# The recorder's own queue, in ZeroMQ messages (a batch is one): ten times a component's,
-# so a burst the writer is briefly behind on is not dropped at the proxy.
-RECORDER_HWM = 100_000
-_NOBLOCK = int(zmq.NOBLOCK)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -93,76 +84,3 @@ def run(args: argparse.Namespace) -> int:
     print(f"recorded {writer.count} messages ({writer.malformed} malformed) to {out}",
           flush=True)
     return 0
-
-
-class BusRecorder:
-    """A raw subscriber: hands every bus message, frames untouched, to a RecordingWriter."""
-
-    def __init__(self, endpoints: BusEndpoints, prefixes: list[str]) -> None:
-        self._endpoints = endpoints
-        self._topics = [WELCOME, *(p.encode() for p in prefixes)]
-        sock, self._member = direct.subscriber_socket(
-            sockets.context(), endpoints, self._topics, hwm=RECORDER_HWM)
-        self._sock = sock
-
-    def wait_connected(self, timeout: float, stop: threading.Event) -> bool:
-        """Wait for the proxy's welcome; False on timeout or when `stop` is set."""
-        deadline = time.monotonic() + timeout
-        while not stop.is_set():
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
-            wait_ms = max(1, min(_POLL_MS, int(remaining * 1000)))
-            if not self._sock.poll(wait_ms, zmq.POLLIN):
-                continue
-            frames = self._sock.recv_multipart()
-            if frames == [WELCOME_DIRECT] and self._member is None:
-                # A direct bus we were not told of (--run-dir): join it, then be answered.
-                self._member = direct.become_member(self._sock, self._endpoints, self._topics)
-            elif frames == [WELCOME] or (self._member and frames[0][:1] == MEMBER):
-                return True  # the proxy's welcome; on a direct bus its answer to us
-        return False
-
-    def record(self, writer: RecordingWriter, stop: threading.Event,
-               deadline: float | None) -> None:
-        """Record until `stop` is set or the monotonic `deadline` passes."""
-        while not stop.is_set():
-            wait_ms = _POLL_MS
-            if deadline is not None:
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return
-                wait_ms = max(1, min(wait_ms, int(remaining * 1000)))
-            try:
-                ready = self._sock.poll(wait_ms, zmq.POLLIN)
-            except zmq.ZMQError:  # EINTR when a signal arrives
-                continue
-            if not ready:
-                continue
-            self._drain(writer)
-            writer.flush()  # a recorder killed now loses nothing it has written
-
-    def _drain(self, writer: RecordingWriter) -> None:
-        while True:
-            try:
-                frames = self._sock.recv_multipart(_NOBLOCK)
-            except zmq.Again:
-                return
-            received = time.time()
-            if frames == [WELCOME] or (len(frames) == 2 and is_ack(frames[0])):
-                continue  # a proxy restart's greeting, a reliable ack: not traffic
-            writer.write(RecordedMessage(received, tuple(frames), fault_of(frames)))
-
-    def close(self) -> None:
-        self._sock.close(0)
-        direct.forget_member(self._member)
-
-
-def fault_of(frames: list[bytes]) -> str:
-    """Why `frames` are not a valid bus message ("" if they are)."""
-    try:
-        for topic, payload in message_frames(frames):
-            decode(topic, payload)
-    except DecodeError as exc:
-        return exc.reason
-    return ""

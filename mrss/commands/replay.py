@@ -40,7 +40,7 @@ from mrss.commands.busargs import (
     number_in,
 )
 from mrss.errors import MrssError
-from mrss.recording import RecordedMessage, RecordingError, RecordingReader
+from mrss.recording.format import RecordedMessage, RecordingError, RecordingReader
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130

@@ -36,6 +36,7 @@ from mrss.agentspeak.parser import parse_term
 from mrss.agentspeak.syntax import MAX_INT_DIGITS
 from mrss.agentspeak.terms import Struct, is_ground
 from mrss.commands.busargs import add_bus_arguments, connected_publisher, endpoints_from_args
+from mrss.config.projects import project_path
 from mrss.errors import DecodeError, MrssError
 from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
@@ -49,7 +50,6 @@ from mrss.messages import (
     Percept,
     build,
 )
-from mrss.projects import project_path
 
 EXIT_BAD_INPUT = 2
 _NAME = re.compile(r"\A[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*\Z")

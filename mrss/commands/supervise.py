@@ -7,7 +7,7 @@ restart budget is stopped and reported (`sup.give_up`) while the rest keeps runn
 retried after `retry_after`; only with `[supervisor] on_give_up = "stop_system"` does the
 root stop everything and exit 1 with a message naming the child and its last reason.
 Bad config exits 2. While it runs, the root answers `ctl.tree` and executes `ctl.fault`
-commands from the bus (`mrss.supervision.remote`, for the TUI). Its `sup.*` events go
+commands from the bus (`mrss.runtime.remote`, for the TUI). Its `sup.*` events go
 through an `EventOutbox`, which holds them while the bus proxy is down.
 
 Every record of the run (the root's and every component's) is written to stderr and to
@@ -32,20 +32,20 @@ from typing import Any
 
 from mrss import logs
 from mrss.bus import Publisher
-from mrss.bus.component import endpoints_from_config
 from mrss.bus.curve import load_keys, load_public
+from mrss.bus.settings import endpoints_from_config
 from mrss.commands import check
-from mrss.config import PROXY_MODULE, load_project
+from mrss.config.loader import PROXY_MODULE, load_project
+from mrss.config.nodes import keys_dir, node_children, node_plan
+from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
-from mrss.nodes import keys_dir, node_children, node_plan
-from mrss.project_config import ProjectConfig
+from mrss.runtime.remote import RemoteControl
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
 from mrss.supervision.events import NODE_ENV, Publish
 from mrss.supervision.launchers import become_subreaper
 from mrss.supervision.outbox import EventOutbox
 from mrss.supervision.process import ProcessSupervisor
-from mrss.supervision.remote import RemoteControl
 
 EXIT_GAVE_UP = 1
 EXIT_CONFIG = 2

@@ -43,13 +43,13 @@ from typing import Any, ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss import logs
-from mrss.alert_rules import project_alert_rules
 from mrss.bus import BusEndpoints
-from mrss.bus.component import endpoints_from_config
+from mrss.bus.settings import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
+from mrss.config.alerts import project_alert_rules
+from mrss.config.map import MapConfig
+from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
-from mrss.map_config import MapConfig
-from mrss.project_config import ProjectConfig
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.mission import project_map, project_mission

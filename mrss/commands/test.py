@@ -15,8 +15,8 @@ import os
 import subprocess
 import sys
 
+from mrss.config.projects import project_path
 from mrss.errors import UnknownProjectError
-from mrss.projects import project_path
 
 EXIT_USAGE = 2
 PROCEDURES = "procedures"

@@ -49,8 +49,8 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, UnknownProjectError) as exc:
         print(f"mrss tui: {exc}", file=sys.stderr)
         return EXIT_NO_BUS
-    from mrss.alert_rules import project_alert_rules
-    from mrss.config import load_project
+    from mrss.config.alerts import project_alert_rules
+    from mrss.config.loader import load_project
     from mrss.tui.app import MrssApp
     from mrss.tui.mission import project_map, project_mission, run_dir_of
     from mrss.tui.vocabulary import Vocabulary, project_agent_files

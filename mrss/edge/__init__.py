@@ -1,6 +1,3 @@
-"""The edges of MRSS: what connects the outside world to the bus.
-
-Predicate building, the MQTT client helper, payload schemas, the world model store and
-its HTTP API, and the base classes project adapters subclass (`mrss.edge.adapters`).
-The components themselves live in `mrss.actors.events`, `.datalayer` and `.worldmodel`.
-"""
+"""What comes from outside MRSS, checked at the door: robot records and payload schemas,
+the validation layer, refusals counted and reported, the MQTT client, retry rules and the
+HTTP API's token. The components that use them live in `mrss.actors`."""

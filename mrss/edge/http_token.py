@@ -101,8 +101,8 @@ def configured_token(section: Mapping[str, Any], project_dir: Path | None) -> st
 def project_token(project_dir: Path) -> str | None:
     """The world model token of the project in `project_dir` (its project.toml's
     `[worldmodel]`), or None; ConfigError naming the key when it cannot be read."""
-    from mrss.config import load_file
-    from mrss.projects import PROJECT_FILE
+    from mrss.config.loader import load_file
+    from mrss.config.projects import PROJECT_FILE
 
     path = project_dir / PROJECT_FILE
     if not path.is_file():

@@ -26,8 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final
 
-from mrss.edge import record_declarations, validation
-from mrss.edge.predicates import (
+from mrss.agentspeak.literals import (
     RESERVED,
     Atom,
     PredicateError,
@@ -36,6 +35,7 @@ from mrss.edge.predicates import (
     literal,
     symbol,
 )
+from mrss.edge import record_declarations, validation
 from mrss.errors import DecodeError
 
 

@@ -1,7 +1,7 @@
 """A component's refusal counters on the bus, for the dashboard.
 
 Every component process runs a `RejectionReporter` beside its heartbeat
-(`mrss.supervision.component_main`): when the refusals counted in the process
+(`mrss.runtime.main`): when the refusals counted in the process
 (`mrss.edge.rejections.process_counts`: robot data, telemetry records, percepts,
 events, MAVLink messages) have changed, it publishes a `Rejections` message on
 `edge.rejections.<component>` with the total and the `MAX_KINDS` commonest kinds, at

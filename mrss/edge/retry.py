@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from mrss.edge.predicates import PredicateError
+from mrss.agentspeak.literals import PredicateError
 from mrss.errors import ConfigError, DecodeError, TransientError
 
 

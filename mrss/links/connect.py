@@ -32,13 +32,13 @@ from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
-from mrss.config import load_file
-from mrss.edge.component import resolved_broker_url, with_login
+from mrss.config.broker import resolved_broker_url, with_login
+from mrss.config.loader import load_file
+from mrss.config.projects import PROJECT_FILE
 from mrss.edge.validation import Rejected, limit_overrides
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.factory import create_link
-from mrss.projects import PROJECT_FILE
 
 #: The key naming a robot's link kind.
 LINK_KEY = "link"

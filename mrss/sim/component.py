@@ -50,11 +50,11 @@ from mrss.links.geo import distance_m
 from mrss.links.mavlink_signing import load_key
 from mrss.options import Check, Option
 from mrss.ports import free_udp_port
+from mrss.runtime.component import Component, ComponentContext
 from mrss.sim.hotspots import Hotspot, hotspots_from_records, parse_hotspots
 from mrss.sim.uav import DEFAULT_HOME, SimUav
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv
 from mrss.sim.ugv_model import UgvParams
-from mrss.supervision.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.sim")
 

@@ -19,10 +19,10 @@ from typing import ClassVar
 
 from mrss.errors import ConfigError
 from mrss.options import Check, Option
+from mrss.runtime.component import Component, ComponentContext
 from mrss.sim.component import number, position, project_broker_url, speedup_of
 from mrss.sim.fleet import FleetSpec, SimFleet
 from mrss.sim.uav import DEFAULT_HOME
-from mrss.supervision.component import Component, ComponentContext
 
 
 class SimFleetComponent(Component):

@@ -1,13 +1,12 @@
 """Supervision: OTP-style restart policies for component processes and pykka actors.
 
-Processes: `ProcessSupervisor` (the root of `mrss supervise`) runs `Component`
-subclasses. Actors: `ActorSupervisor` runs `SupervisedActor`s, nested as deep as
-needed. Both decide with the same `RestartPolicy`. See docs/supervision.md.
+Processes: `ProcessSupervisor` (the root of `mrss supervise`) runs component processes
+(`mrss.runtime`), each started with a `StartContext`. Actors: `ActorSupervisor` runs
+`SupervisedActor`s, nested as deep as needed. Both decide with the same `RestartPolicy`. See docs/supervision.md.
 """
 
 from mrss.supervision.actors import ActorSupervisor
 from mrss.supervision.children import ComponentStart, ProcessSettings
-from mrss.supervision.component import Component, ComponentContext
 from mrss.supervision.events import EventLog, SupEvents
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.process import ProcessSupervisor
@@ -22,6 +21,7 @@ from mrss.supervision.spec import (
     Strategy,
     SupervisorSpec,
 )
+from mrss.supervision.start import StartContext
 from mrss.supervision.status import ChildState, ChildStatus, Outcome
 from mrss.supervision.supervised import (
     ActorContext,
@@ -34,8 +34,7 @@ from mrss.supervision.supervised import (
 
 __all__ = [
     "KILL", "Action", "ActorContext", "ActorStart", "ActorSupervisor", "Backoff", "Cause",
-    "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "Component", "ComponentContext",
-    "ComponentStart", "Decision", "Escalation", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
+    "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "ComponentStart", "Decision", "Escalation", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
     "Outcome", "ProcessSettings", "ProcessSupervisor", "Restart", "RestartPolicy", "Strategy",
-    "SupEvents", "SupervisedActor", "SupervisorSpec", "actor_child",
+    "StartContext", "SupEvents", "SupervisedActor", "SupervisorSpec", "actor_child",
 ]

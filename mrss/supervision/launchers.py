@@ -52,7 +52,7 @@ class Launcher:
 
 
 class ExecLauncher(Launcher):
-    """`python -m mrss.supervision.component_main ...` per start; exits seen via pidfd."""
+    """`python -m mrss.runtime.main ...` per start; exits seen via pidfd."""
 
     def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
                  python: str = sys.executable) -> None:
@@ -63,7 +63,7 @@ class ExecLauncher(Launcher):
     def spawn(self, target: str, name: str, inc: int, context: str,
               control: socket.socket) -> int:
         fd = control.fileno()
-        argv = [self.python, "-m", "mrss.supervision.component_main", target, "--name", name,
+        argv = [self.python, "-m", "mrss.runtime.main", target, "--name", name,
                 "--inc", str(inc), "--context", context, "--control-fd", str(fd)]
         try:
             proc = subprocess.Popen(argv, pass_fds=(fd,), stdin=subprocess.DEVNULL,
@@ -141,7 +141,7 @@ class ForkLauncher(Launcher):
         if self._sock is not None:
             return
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        argv = [self.python, "-m", "mrss.supervision.forkserver", "--fd", str(theirs.fileno()),
+        argv = [self.python, "-m", "mrss.runtime.forkserver", "--fd", str(theirs.fileno()),
                 "--preload", ",".join(self.preload)]
         for p in self.path:
             argv += ["--path", p]

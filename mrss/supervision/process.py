@@ -29,13 +29,13 @@ from mrss.errors import SupervisionError
 from mrss.supervision import control
 from mrss.supervision import events as ev
 from mrss.supervision.children import ComponentStart, Proc, ProcessSettings
-from mrss.supervision.component import ComponentContext
 from mrss.supervision.events import Publish, SupEvents
 from mrss.supervision.launchers import ExecLauncher, ForkLauncher, Launcher
 from mrss.supervision.loop import EventLoop
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildKind, ChildSpec, Strategy, SupervisorSpec
+from mrss.supervision.start import StartContext
 from mrss.supervision.status import ChildState, ChildStatus, Outcome
 
 log = logging.getLogger("mrss.supervision.process")
@@ -288,7 +288,7 @@ class ProcessSupervisor:
         assert self._launcher is not None
         p.incarnation += 1
         p.killed, p.verdict, p.told, p.kill_at = False, None, "", None
-        ctx = ComponentContext(
+        ctx = StartContext(
             name=p.id, incarnation=p.incarnation, project_dir=self.settings.project_dir,
             run_dir=self.settings.run_dir, bus=self.settings.bus,
             options=p.spec.start.options, heartbeat_interval=self.settings.heartbeat_interval,

@@ -28,10 +28,10 @@ from textual.containers import Horizontal
 from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
-from mrss.alert_rules import AlertRule
 from mrss.bus import BusEndpoints
-from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
-from mrss.map_config import MapConfig
+from mrss.config.alerts import AlertRule
+from mrss.config.map import MapConfig
+from mrss.config.operator import GoalState, OperatorConfig
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
@@ -43,7 +43,6 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
-from mrss.operator_commands import GoalState, OperatorConfig
 from mrss.tui import gc_tuning, operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import DetailKeys
@@ -74,6 +73,7 @@ from mrss.tui.widgets.mission_panel import MissionPanel, goal_line
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
+from mrss.world.topics import WM_REQUEST_TOPIC
 
 
 class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools):

@@ -1,7 +1,7 @@
 """AreaForm: the operator's "add an area" form (name, centre, radius, priority).
 
 A modal screen of four inputs. Enter checks the field it is on
-(`mrss.operator_commands.AREA_FIELDS`) and moves on only when it is good; on the last
+(`mrss.config.operator.AREA_FIELDS`) and moves on only when it is good; on the last
 (or Ctrl+S anywhere) the whole area is checked (`area_payload`). A mistake is shown under
 the form, the field at fault gets the cursor, and the form stays open with the text for
 fixing; a good area dismisses the form with its payload. Esc closes it, sending nothing.
@@ -18,7 +18,7 @@ from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Input, Label, Static
 
-from mrss.operator_commands import AREA_FIELDS, PayloadError, area_payload
+from mrss.config.operator import AREA_FIELDS, PayloadError, area_payload
 
 FIELDS = (("name", "name (a lowercase id, e.g. north)", ""),
           ("center", "centre LAT,LON (e.g. -35.3606,149.1652)", ""),

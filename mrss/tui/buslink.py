@@ -15,8 +15,8 @@ from collections import deque
 from collections.abc import Callable
 
 from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
-from mrss.edge.worldmodel_service import wm_reply_topic
 from mrss.messages import Envelope, Message
+from mrss.world.topics import wm_reply_topic
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
 # `percept` (hotspots found, for the alerts) and `edge.rejections` (the input each

@@ -13,8 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mrss.bus import BusEndpoints
-from mrss.bus.component import endpoints_from_config
-from mrss.config import load_project
+from mrss.bus.settings import endpoints_from_config
+from mrss.config.loader import load_project
 from mrss.errors import ConfigError
 
 SOCKET = "bus-sub.sock"

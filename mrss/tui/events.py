@@ -13,8 +13,8 @@ from typing import Any
 
 from textual.message import Message
 
+from mrss.config.operator import OperatorCommand
 from mrss.messages import Message as BusMessage
-from mrss.operator_commands import OperatorCommand
 
 
 class BusActivity(Message):

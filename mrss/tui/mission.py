@@ -1,7 +1,7 @@
 """The mission panel's way to the agent: the project's operator commands, sent as its
 operator UI sends them.
 
-A command declared in `[operator]` (`mrss.operator_commands`) is JSON published on the
+A command declared in `[operator]` (`mrss.config.operator`) is JSON published on the
 project's MQTT broker (`[broker] url`, else the embedded broker's `<run_dir>/broker.url`)
 and sent again until the events manager answers on `<topic>/reply`
 (`mrss.api.request_json`); the events manager turns it into a percept, so the agent
@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mrss.config.map import SECTION as MAP_SECTION
+from mrss.config.map import MapConfig, read_map
+from mrss.config.operator import SECTION, OperatorCommand, OperatorConfig, read_operator
 from mrss.errors import MrssError
-from mrss.map_config import SECTION as MAP_SECTION
-from mrss.map_config import MapConfig, read_map
-from mrss.operator_commands import SECTION, OperatorCommand, OperatorConfig, read_operator
 
 ACCEPTED = ("accepted", "duplicate")
 

@@ -4,7 +4,7 @@
   it must parse as one ground AgentSpeak literal, or `OperatorError` says why;
 - `action.control` for the selected action (cancel / suspend / resume);
 - `ctl.teleop` for a robot, `ctl.fault` for a component (executed by the root supervisor,
-  `mrss.supervision.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
+  `mrss.runtime.remote`), `ctl.mind` and `ctl.tree` snapshot requests;
 - `ctl.snapshot` (the RCL re-announces every robot and open action), with an
   `action.query` for the actions the dashboard believes open, and `ctl.stop` (the
   root supervisor stops the whole system in order);

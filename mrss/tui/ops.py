@@ -14,7 +14,7 @@ from contextlib import suppress
 
 from textual.app import App
 
-from mrss.operator_commands import OperatorCommand
+from mrss.config.operator import OperatorCommand
 from mrss.tui.buslink import BusLink
 from mrss.tui.events import READONLY_NOTICE
 from mrss.tui.mission import MissionChannel

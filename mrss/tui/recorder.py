@@ -14,8 +14,8 @@ import time
 from pathlib import Path
 
 from mrss.bus import BusEndpoints
-from mrss.commands.record import BusRecorder
-from mrss.recording import RecordingWriter
+from mrss.recording.format import RecordingWriter
+from mrss.recording.recorder import BusRecorder
 from mrss.tui.mission import run_dir_of
 
 CONNECT_TIMEOUT = 5.0

@@ -13,8 +13,8 @@ from contextlib import suppress
 
 from textual.css.query import NoMatches
 
+from mrss.config.operator import OperatorCommand, PayloadError, hold_payload
 from mrss.messages import Percept
-from mrss.operator_commands import OperatorCommand, PayloadError, hold_payload
 from mrss.tui import operator
 from mrss.tui.area_form import AreaForm
 from mrss.tui.buslink import BusLink

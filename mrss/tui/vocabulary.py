@@ -145,12 +145,12 @@ def _predicates(term: Any) -> Iterator[Predicate]:
             stack.append(t.tail)
 
 
-REASONER = "mrss.actors.reasoner:ReasonerComponent"
+REASONER = "mrss.actors.reasoner.service:ReasonerComponent"
 
 
 def project_agent_files(components: Iterable[Any], project_dir: Path) -> list[Path]:
     """The agent programs the project's enabled reasoners run (`agent`, or `agents`)."""
-    from mrss.actors.reasoner_agents import agent_specs
+    from mrss.actors.reasoner.agents import agent_specs
     from mrss.errors import ConfigError
 
     files: list[Path] = []

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mrss.actors.journal import ActionJournal
-from mrss.actors.rcl import RclCore
+from mrss.actors.rcl.core import RclCore
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Action, Resource, RobotCommLayer, Skill
 from mrss.messages import ActionStatus, Message
 

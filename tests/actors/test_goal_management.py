@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mrss.actors.rcl import RclCore
+from mrss.actors.rcl.core import RclCore
 from mrss.messages import ActionControl, ActionStatus, RobotState
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv, request_fields

@@ -3,7 +3,7 @@ grace, the RCL cancels those orphans; reconciliation answers from the journal.""
 
 from __future__ import annotations
 
-from mrss.actors.journal import Requester
+from mrss.actors.rcl.journal import Requester
 from mrss.api import Action, CommandRejected, CommandTimeout, LinkDown, Skill, TransientError
 from mrss.messages import ActionInventory, ActionQuery, ActionRequest, FailureCause
 from mrss.testing import wait_until

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.journal import ActionJournal
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Action, ActionState
 
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors import lifecycle as lc
-from mrss.actors.lifecycle import (
+from mrss.actors.rcl import lifecycle as lc
+from mrss.actors.rcl.lifecycle import (
     ACTION_TRANSITIONS,
     RULES,
     EndCause,

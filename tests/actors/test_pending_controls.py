@@ -8,10 +8,10 @@ from typing import Any
 
 import pytest
 
-from mrss.actors import controls
-from mrss.actors import lifecycle as lc
-from mrss.actors.journal import ActionJournal
-from mrss.actors.rcl import RclCore
+from mrss.actors.rcl import controls
+from mrss.actors.rcl import lifecycle as lc
+from mrss.actors.rcl.core import RclCore
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.errors import DecodeError
 from mrss.messages import ActionControl, ActionState, FailureCause
 from mrss.testing import wait_until

@@ -1,4 +1,4 @@
-"""Property tests of what the reasoner accepts as a percept (mrss.actors.percept_guard)."""
+"""Property tests of what the reasoner accepts as a percept (mrss.actors.reasoner.percept_guard)."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mrss.actors.percept_guard import MAX_DEPTH, MAX_TEXT, checked_literal
+from mrss.actors.reasoner.percept_guard import MAX_DEPTH, MAX_TEXT, checked_literal
 from mrss.agentspeak import Struct
-from mrss.edge.predicates import is_atom_name
+from mrss.agentspeak.literals import is_atom_name
 from mrss.edge.validation import Rejected
 
 # Words the grammar reads as operators, calls or keywords (`not`, `neg`, `div`) are no atoms.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from mrss.actors.rcl import RclCore
+from mrss.actors.rcl.core import RclCore
 from mrss.messages import ActionControl, FailureCause
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv, request_fields

@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from mrss.actors.rcl_service import RclService
+from mrss.actors.rcl.service import RclService
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, ReliableSender, Subscriber
 from mrss.errors import ConfigError
 from mrss.messages import (
@@ -22,7 +22,7 @@ from mrss.messages import (
     Envelope,
     Heartbeat,
 )
-from mrss.supervision import ComponentContext
+from mrss.runtime.component import ComponentContext
 from mrss.testing import wait_until
 
 PROJECT = Path(__file__).parent / "rcl_project"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.journal import ActionJournal
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Skill
 from mrss.messages import ActionRequest, FailureCause, SupEvent
 from mrss.testing import wait_until

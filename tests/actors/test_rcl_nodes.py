@@ -1,4 +1,4 @@
-"""Robots reached through a node (`node` in a robot's table, mrss.nodes): the node lost
+"""Robots reached through a node (`node` in a robot's table, mrss.config.nodes): the node lost
 fails their actions with node_down and refuses new ones; a link report meanwhile does
 not hide the node's loss; the node back makes them available; repeats change nothing."""
 

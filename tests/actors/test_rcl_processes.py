@@ -79,7 +79,7 @@ def run_dir() -> Iterator[Path]:
 
 def _supervisor(run_dir: Path, endpoints: BusEndpoints) -> ProcessSupervisor:
     options: dict[str, Any] = {"robots": {r: {"leg": 0.05} for r in ROBOTS}}
-    child = ChildSpec("rcl", ComponentStart("mrss.actors.rcl_service:RclService", options,
+    child = ChildSpec("rcl", ComponentStart("mrss.actors.rcl.service:RclService", options,
                                             20.0), shutdown=5.0)
     spec = SupervisorSpec(intensity=3, period=30.0, backoff=Backoff(initial=0.02, jitter=0.0))
     settings = ProcessSettings(PROJECT, run_dir, bus=endpoints.to_dict(),

@@ -5,8 +5,8 @@ from __future__ import annotations
 import sqlite3
 from typing import Any
 
-from mrss.actors.journal import ActionJournal
-from mrss.actors.rcl import RclCore
+from mrss.actors.rcl.core import RclCore
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.messages import ActionControl, ActionRequest
 from mrss.testing import wait_until
 from tests.actors.rcl_sim import RclEnv, SimRobot, request_fields

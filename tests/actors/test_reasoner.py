@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.reasoner_core import Reasoner
+from mrss.actors.reasoner.core import Reasoner
 from mrss.messages import (
     ActionControl,
     ActionRequest,

@@ -10,10 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.percept_guard import checked_literal
-from mrss.actors.percept_ledger import PerceptLedger
-from mrss.actors.reasoner_core import Reasoner
-from mrss.edge.datalayer_client import DataLayerError, DataLayerUnavailable
+from mrss.actors.reasoner.core import Reasoner
+from mrss.actors.reasoner.percept_guard import checked_literal
+from mrss.actors.reasoner.percept_ledger import PerceptLedger
 from mrss.messages import (
     ActionControl,
     ActionInventory,
@@ -23,6 +22,7 @@ from mrss.messages import (
     FailureCause,
     Percept,
 )
+from mrss.runtime.datalayer_client import DataLayerError, DataLayerUnavailable
 from mrss.testing import wait_until
 from tests.actors.test_reasoner import env
 

@@ -6,7 +6,7 @@ import threading
 
 import pytest
 
-from mrss.actors.resources import Holder, ResourceBroker
+from mrss.actors.rcl.resources import Holder, ResourceBroker
 from mrss.api import SkillInterrupted
 from mrss.errors import ActionError
 from mrss.testing import wait_until

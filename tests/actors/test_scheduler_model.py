@@ -1,7 +1,7 @@
 """The resource rule against a reference model: random arrivals, priorities, completions,
 cancellations, operator suspensions, teleop and link loss (hypothesis, stateful).
 
-The system under test is the real lifecycle (`mrss.actors.lifecycle.step`) and the real
+The system under test is the real lifecycle (`mrss.actors.rcl.lifecycle.step`) and the real
 schedule (`ResourceSchedule`), wired the way the robot actor and the broker wire them,
 with one synchronous skill per action that needs one resource for `work` ticks. The
 reference model knows only the rule: the resource belongs to the highest-priority action
@@ -18,8 +18,8 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
-from mrss.actors import lifecycle as lc
-from mrss.actors.resources import Decision, Holder, ResourceSchedule
+from mrss.actors.rcl import lifecycle as lc
+from mrss.actors.rcl.resources import Decision, Holder, ResourceSchedule
 from mrss.api import Action
 from mrss.messages import ActionState
 
@@ -253,8 +253,7 @@ def test_the_resource_rule_is_stated_identically_in_the_docs_the_code_and_the_te
     import re
     from pathlib import Path
 
-    from mrss.actors import resources
-
+    from mrss.actors.rcl import resources
     root = Path(__file__).resolve().parents[2]
     doc = (root / "docs" / "rcl.md").read_text(encoding="utf-8")
     found = re.search(r"<!-- resource-rule -->\n(.*?)<!-- /resource-rule -->", doc, re.S)

@@ -40,9 +40,9 @@ def test_every_project_file_imports_only_mrss_api() -> None:
 
 def test_the_import_check_catches_an_internal_import(tmp_path: Path) -> None:
     bad = tmp_path / "rcl.py"
-    bad.write_text("from mrss.api import Skill\nimport mrss.config\n"
+    bad.write_text("from mrss.api import Skill\nimport mrss.config.loader\n"
                    "from mrss.links.geo import offset\n", encoding="utf-8")
-    assert outside_contract(bad, tmp_path) == ["rcl.py:2: imports mrss.config",
+    assert outside_contract(bad, tmp_path) == ["rcl.py:2: imports mrss.config.loader",
                                                "rcl.py:3: imports mrss.links.geo"]
 
 

@@ -11,8 +11,8 @@ import pytest
 import zmq
 
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
-from mrss.bus.component import endpoints_from_config
 from mrss.bus.direct import MEMBER, subscriber_socket
+from mrss.bus.settings import endpoints_from_config
 from mrss.errors import ConfigError
 from mrss.messages import Percept, RobotData
 from mrss.testing import wait_until
@@ -189,7 +189,7 @@ def test_a_publisher_made_before_the_proxy_goes_direct_whatever_it_hears_first(
 def test_mrss_record_given_only_a_run_dir_joins_a_direct_bus(run_dir: Path) -> None:
     import threading
 
-    from mrss.commands.record import BusRecorder  # the recorder behind `mrss record`
+    from mrss.recording.recorder import BusRecorder  # the recorder behind `mrss record`
 
     direct, plain = BusEndpoints.ipc(run_dir, direct=True), BusEndpoints.ipc(run_dir)
     with ProxyThread(direct), Publisher(plain, src="p") as pub:

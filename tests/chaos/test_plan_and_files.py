@@ -17,7 +17,7 @@ from mrss.chaos.report import summary, text
 from mrss.chaos.runner import failed_goal_functors
 from mrss.chaos.traffic import Intent, load_traffic, step_from
 from mrss.cli import main
-from mrss.config import load_project
+from mrss.config.loader import load_project
 from mrss.errors import ConfigError
 from tests.chaos.histories import edit, healthy, operator
 

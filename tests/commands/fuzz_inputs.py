@@ -17,7 +17,7 @@ from pathlib import Path
 import msgpack
 
 from mrss.cli import INTERNAL, main
-from mrss.recording import MAGIC
+from mrss.recording.format import MAGIC
 
 VALID_ASL = """\
 count(0).

@@ -118,7 +118,7 @@ PROJECT_TOML = """\
 name = "fz"
 
 [components.reasoner]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 agent = "agent.asl"
 beliefs = ["level(a1, 2)"]
 """

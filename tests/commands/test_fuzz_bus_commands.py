@@ -14,7 +14,7 @@ import msgpack
 import pytest
 
 from mrss.messages import Percept, encode
-from mrss.recording import RecordedMessage, RecordingWriter
+from mrss.recording.format import RecordedMessage, RecordingWriter
 from tests.commands.cli_bus import ROOT, mrss, running_bus
 from tests.commands.fuzz_inputs import (
     EXTREME_NUMBERS,

@@ -19,7 +19,7 @@ from mrss.bus import Publisher, ReliableReceiver, ReliableSender
 from mrss.bus.wire import message_frames
 from mrss.cli import main
 from mrss.messages import ActionRequest, Envelope, Message, Percept, RobotData, decode, encode
-from mrss.recording import RecordedMessage, RecordingError, RecordingReader, RecordingWriter
+from mrss.recording.format import RecordedMessage, RecordingError, RecordingReader, RecordingWriter
 from mrss.testing import wait_until
 from tests.commands.cli_bus import (
     ROOT,

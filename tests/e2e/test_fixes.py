@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.journal import ActionJournal, Requester
-from mrss.actors.rcl_service import RclService
-from mrss.actors.reasoner_core import Reasoner
+from mrss.actors.rcl.journal import ActionJournal, Requester
+from mrss.actors.rcl.service import RclService
+from mrss.actors.reasoner.core import Reasoner
 from mrss.api import Action
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
 from mrss.messages import (
@@ -23,7 +23,7 @@ from mrss.messages import (
     Envelope,
     Percept,
 )
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.component import ComponentContext
 from mrss.testing import wait_until
 
 E2E_PROJECT = Path(__file__).resolve().parent.parent / "projects" / "e2e"

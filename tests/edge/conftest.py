@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore
+from mrss.actors.worldmodel.store import SqliteWorldStore, WorldStore
 from mrss.testing import find_mosquitto, free_port, wait_until
 
 from .pgcluster import PgCluster, started_cluster
@@ -101,7 +101,7 @@ class RestartableAmqtt:
 
     def start(self) -> None:
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "mrss.broker", "--host", "127.0.0.1", "--port",
+            [sys.executable, "-m", "mrss.actors.broker.service", "--host", "127.0.0.1", "--port",
              str(self.port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         wait_until(lambda: _accepting("127.0.0.1", self.port), timeout=20,
                    message="amqtt accepting")
@@ -154,7 +154,7 @@ def open_store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Store
         url = request.getfixturevalue("postgis_url")
 
         def factory() -> WorldStore:
-            from mrss.edge.worldmodel_postgis import PostgisWorldStore
+            from mrss.actors.worldmodel.postgis import PostgisWorldStore
             return PostgisWorldStore(url)
     opened: list[WorldStore] = []
 

@@ -30,7 +30,7 @@ from mrss.links.mavconn import MAV, MavConnection
 from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import UgvTopics
 from mrss.messages import Heartbeat, Percept, RobotData, encode
-from mrss.recording import RecordedMessage, RecordingWriter
+from mrss.recording.format import RecordedMessage, RecordingWriter
 
 FORGED_IDS = range(900, 1000)  # hotspot ids of forged reports
 FORGED_LAT = 95.0  # an impossible latitude

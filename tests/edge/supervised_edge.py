@@ -26,9 +26,9 @@ from typing import Any
 
 from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, Subscriber
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
-from mrss.edge.worldmodel_access import WorldModelClient
 from mrss.messages import Command, Envelope, EventReport, LogRecord, Percept, SupEvent
 from mrss.testing import stop_supervised, wait_until
+from mrss.world.access import WorldModelClient
 
 WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
 PROJECT = "edgefaults"
@@ -50,16 +50,16 @@ cap = 0.2
 jitter = 0.0
 
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 {broker_component}
 [components.worldmodel]
-module = "mrss.actors.worldmodel:WorldModelComponent"
+module = "mrss.actors.worldmodel.service:WorldModelComponent"
 
 [components.events]
-module = "mrss.actors.events:ExternalEventsManager"
+module = "mrss.actors.events.service:ExternalEventsManager"
 
 [components.events_short]
-module = "mrss.actors.events:ExternalEventsManager"
+module = "mrss.actors.events.service:ExternalEventsManager"
 topic_prefix = "short/ui"
 retry_budget = 1.0
 
@@ -90,7 +90,7 @@ def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str 
         (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_text(text)
     broker_component = "" if broker_url else (
-        '\n[components.broker]\nmodule = "mrss.broker:EmbeddedBroker"\n')
+        '\n[components.broker]\nmodule = "mrss.actors.broker.service:EmbeddedBroker"\n')
     (folder / "project.toml").write_text(PROJECT_TOML.format(
         name=PROJECT, broker_component=broker_component,
         broker_url=f'url = "{broker_url}"\n' if broker_url else "",

@@ -1,6 +1,6 @@
 """An independent reader of ground AgentSpeak literals, for checking what the builder writes.
 
-Written separately from `mrss.edge.predicates` (character by character, no regexes) so a
+Written separately from `mrss.agentspeak.literals` (character by character, no regexes) so a
 bug in the builder's quoting cannot hide behind the same bug in its own checker. Values
 come back as: atoms `("atom", name)`, strings `str`, numbers `int`/`float`, lists `list`,
 compound terms `("struct", functor, [args])`.

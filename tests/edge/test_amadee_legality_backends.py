@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mrss.actors.datalayer.layer import DataLayerContext
+from mrss.actors.worldmodel.local import LocalWorldModel
+from mrss.actors.worldmodel.model import WorldModel
 from mrss.api.testing import ScriptedHost
-from mrss.edge.adapters import DataLayerContext
-from mrss.edge.loader import import_project_module
-from mrss.edge.worldmodel_access import LocalWorldModel
-from mrss.edge.worldmodel_service import WorldModel
+from mrss.runtime.loader import import_project_module
 
 from .conftest import StoreFactory
 

@@ -19,9 +19,9 @@ from typing import Any
 
 import pytest
 
+from mrss.actors.worldmodel.postgis import PostgisWorldStore
 from mrss.api import distance_m
 from mrss.api.testing import RunningProject
-from mrss.edge.worldmodel_postgis import PostgisWorldStore
 
 from .pgcluster import started_cluster
 

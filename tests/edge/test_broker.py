@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from mrss.broker import BrokerError, EmbeddedBroker, resolve_broker, with_broker_url
+from mrss.actors.broker.service import BrokerError, EmbeddedBroker, resolve_broker, with_broker_url
 from mrss.edge.mqtt_client import Delivery, MqttClient, MqttSettings
 from mrss.errors import ConfigError
 from mrss.testing import free_port, wait_until

@@ -11,7 +11,8 @@ from typing import Any
 
 import pytest
 
-from mrss.actors.datalayer import (
+from mrss.actors.datalayer.layer import DataLayer, DataLayerContext
+from mrss.actors.datalayer.service import (
     DataLayerService,
     TelemetryQueue,
     load_datalayer_class,
@@ -19,14 +20,14 @@ from mrss.actors.datalayer import (
     robot_validator,
     world_access,
 )
-from mrss.edge.adapters import DataLayer, DataLayerContext
-from mrss.edge.datalayer_client import DataLayerUnavailable
+from mrss.actors.worldmodel.local import LocalWorldModel
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.store import WorldModelStore
 from mrss.edge.validation import Rejected
-from mrss.edge.worldmodel_access import HttpWorldModel, LocalWorldModel
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import WorldModelStore
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, RobotData
+from mrss.runtime.datalayer_client import DataLayerUnavailable
+from mrss.world.access import HttpWorldModel
 
 from .conftest import PROJECT_FIXTURE
 
@@ -157,7 +158,7 @@ def test_world_model_option() -> None:
 
 PROJECT_WITH_ROBOTS = """\
 [components.rcl]
-module = "mrss.actors.rcl_service:RclService"
+module = "mrss.actors.rcl.service:RclService"
 [components.rcl.robots.uav1]
 link = "mavlink"
 [components.rcl.robots.ugv1]

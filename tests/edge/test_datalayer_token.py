@@ -11,12 +11,12 @@ from typing import Any
 
 import pytest
 
-from mrss.actors.datalayer import DataLayerComponent
-from mrss.actors.worldmodel import URL_FILE, WorldModelComponent
+from mrss.actors.datalayer.service import DataLayerComponent
+from mrss.actors.worldmodel.service import URL_FILE, WorldModelComponent
 from mrss.bus import BusEndpoints, ProxyThread
-from mrss.edge.component import ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerClient, DataLayerError
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.busport import ZmqBusPort
+from mrss.runtime.component import ComponentContext
+from mrss.runtime.datalayer_client import DataLayerClient, DataLayerError
 from mrss.testing import wait_until
 
 from .conftest import PROJECT_FIXTURE

@@ -19,15 +19,16 @@ from typing import Any
 
 import pytest
 
-from mrss.actors.datalayer import DataLayerComponent
-from mrss.actors.events import ExternalEventsManager
-from mrss.actors.worldmodel import URL_FILE, WorldModelComponent
+from mrss.actors.datalayer.service import DataLayerComponent
+from mrss.actors.events.service import ExternalEventsManager
+from mrss.actors.worldmodel.service import URL_FILE, WorldModelComponent
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
-from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
+from mrss.config.broker import BROKER_URL_FILE
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.busport import ZmqBusPort
+from mrss.runtime.component import ComponentContext
+from mrss.runtime.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
 from mrss.testing import BrokerInfo, wait_until
 
 from .conftest import PROJECT_FIXTURE

@@ -18,22 +18,23 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.worldmodel import URL_FILE
+from mrss.actors.worldmodel.service import URL_FILE
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
-from mrss.edge.component import BROKER_URL_FILE, ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerClient
+from mrss.config.broker import BROKER_URL_FILE
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import Envelope, Percept
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.busport import ZmqBusPort
+from mrss.runtime.component import ComponentContext
+from mrss.runtime.datalayer_client import DataLayerClient
 from mrss.testing import wait_until
 
 from .conftest import PROJECT_FIXTURE
 
 COMPONENTS = {
-    "broker": "mrss.broker:EmbeddedBroker",
-    "worldmodel": "mrss.actors.worldmodel:WorldModelComponent",
-    "datalayer": "mrss.actors.datalayer:DataLayerComponent",
-    "events": "mrss.actors.events:ExternalEventsManager",
+    "broker": "mrss.actors.broker.service:EmbeddedBroker",
+    "worldmodel": "mrss.actors.worldmodel.service:WorldModelComponent",
+    "datalayer": "mrss.actors.datalayer.service:DataLayerComponent",
+    "events": "mrss.actors.events.service:ExternalEventsManager",
 }
 
 
@@ -51,7 +52,7 @@ class Processes:
                                run_dir=self.run_dir, bus=self.endpoints.to_dict())
         log = open(self.run_dir / f"{name}.{inc}.log", "wb")  # noqa: SIM115 (kept by Popen)
         self.procs[name] = subprocess.Popen(
-            [sys.executable, "-m", "mrss.supervision.component_main", COMPONENTS[name],
+            [sys.executable, "-m", "mrss.runtime.main", COMPONENTS[name],
              "--name", name, "--inc", str(inc), "--context", ctx.to_json()],
             stdout=log, stderr=subprocess.STDOUT)
         log.close()

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mrss.actors.events import ExternalEventsManager
+from mrss.actors.events.service import ExternalEventsManager
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import Message, Percept
 from mrss.testing import BrokerInfo, wait_until

@@ -13,14 +13,14 @@ from typing import Any
 
 import pytest
 
-from mrss.edge.event_reports import EventReporter, reply_template
-from mrss.edge.intake import EventIntake, InboundEvent, identify
-from mrss.edge.percepts import PerceptPublisher
-from mrss.edge.predicates import Atom
+from mrss.actors.events.intake import EventIntake, InboundEvent, identify
+from mrss.actors.events.reports import EventReporter, reply_template
+from mrss.agentspeak.literals import Atom
 from mrss.edge.retry import Attempt, RetryPolicy, classify
-from mrss.edge.worldmodel_access import WorldModelRejected, WorldModelUnavailable
 from mrss.errors import ConfigError
 from mrss.messages import EventReport, EventStatus, Message, Percept
+from mrss.runtime.percepts import PerceptPublisher
+from mrss.world.access import WorldModelRejected, WorldModelUnavailable
 
 FAST = RetryPolicy(initial=0.01, max_delay=0.05, budget=60.0)
 

@@ -6,14 +6,15 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.datalayer import load_datalayer_class
-from mrss.edge.adapters import DataLayer, ExternalAdapter
-from mrss.edge.loader import import_project_module, load_project_class
+from mrss.actors.datalayer.layer import DataLayer
+from mrss.actors.datalayer.service import load_datalayer_class
+from mrss.actors.events.adapter import ExternalAdapter
 from mrss.errors import ConfigError
+from mrss.runtime.loader import import_project_module, load_project_class
 
 from .conftest import PROJECT_FIXTURE
 
-ADAPTER = ("from mrss.edge.adapters import ExternalAdapter\n"
+ADAPTER = ("from mrss.api import ExternalAdapter\n"
            "class {name}(ExternalAdapter):\n    pass\n")
 
 
@@ -67,11 +68,11 @@ def test_syntax_and_import_errors_name_file_and_line(tmp_path: Path) -> None:
 
 
 def test_class_selection(tmp_path: Path) -> None:
-    (tmp_path / "none.py").write_text("from mrss.edge.adapters import ExternalAdapter\n")
+    (tmp_path / "none.py").write_text("from mrss.api import ExternalAdapter\n")
     with pytest.raises(ConfigError, match="no subclass of ExternalAdapter"):
         load_project_class(tmp_path, "none.py", ExternalAdapter)
     (tmp_path / "two.py").write_text(ADAPTER.format(name="A") + ADAPTER.format(name="B")
-                                     .replace("from mrss.edge.adapters import ExternalAdapter\n",
+                                     .replace("from mrss.api import ExternalAdapter\n",
                                               ""))
     with pytest.raises(ConfigError, match=r"several subclasses.*A, B"):
         load_project_class(tmp_path, "two.py", ExternalAdapter)

@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mrss.agentspeak.literals import RESERVED
 from mrss.edge import record_declarations
 from mrss.edge.payloads import (
     CONVERTERS,
@@ -19,7 +20,6 @@ from mrss.edge.payloads import (
     decode_json,
     decode_json_object,
 )
-from mrss.edge.predicates import RESERVED
 
 from .termcheck import read_literal
 

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mrss.actors.percept_guard import checked_literal
+from mrss.actors.reasoner.percept_guard import checked_literal
 from mrss.agentspeak.arith import ARITY
-from mrss.edge.predicates import (
+from mrss.agentspeak.literals import (
     Atom,
     PredicateError,
     Struct,

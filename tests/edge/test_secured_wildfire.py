@@ -18,12 +18,11 @@ from pathlib import Path
 
 import pytest
 
+from mrss.actors.broker.passwords import add_user
+from mrss.actors.worldmodel.http import REFUSED
 from mrss.api.testing import RunningProject
 from mrss.bus import BusEndpoints, Subscriber
-from mrss.edge.broker_auth import add_user
 from mrss.edge.http_token import project_token
-from mrss.edge.worldmodel_access import WorldModelClient, WorldModelRejected
-from mrss.edge.worldmodel_http import REFUSED
 from mrss.links.connect import project_broker_url
 from mrss.messages import (
     ActionRequest,
@@ -35,6 +34,7 @@ from mrss.messages import (
     SupEvent,
 )
 from mrss.testing import wait_until
+from mrss.world.access import WorldModelClient, WorldModelRejected
 
 from . import edge_fuzz
 

@@ -7,16 +7,16 @@ from pathlib import Path
 
 import pytest
 
-from mrss.edge.predicates import literal, symbol
-from mrss.edge.worldmodel_rules import NoObjectWithin, RuleEngine, rule
-from mrss.edge.worldmodel_service import WorldModel, builtin_rule, load_rules, load_seed
-from mrss.edge.worldmodel_store import (
+from mrss.actors.worldmodel.model import WorldModel, builtin_rule, load_rules, load_seed
+from mrss.actors.worldmodel.rules import NoObjectWithin, RuleEngine, rule
+from mrss.actors.worldmodel.store import (
     Change,
     Position,
     WorldModelStore,
     WorldObject,
     haversine_m,
 )
+from mrss.agentspeak.literals import literal, symbol
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest
 
@@ -160,7 +160,7 @@ def test_config_rules_seed_and_project_rule_module(tmp_path: Path) -> None:
     (tmp_path / "world.json").write_text(
         '[{"id": "lake", "kind": "water_source", "position": {"lat": 43.6, "lon": 1.44}}]')
     (tmp_path / "worldmodel.py").write_text(
-        "from mrss.edge.worldmodel_rules import rule\n"
+        "from mrss.actors.worldmodel.rules import rule\n"
         "@rule(kind='zone')\n"
         "def zone_seen(change, world):\n"
         "    yield 'zone_seen'\n"
@@ -224,7 +224,7 @@ def test_a_batch_of_writes_is_one_transaction_answered_per_object() -> None:
 def test_a_merge_makes_the_object_a_checked_construction_would() -> None:
     from dataclasses import fields
 
-    from mrss.edge.worldmodel_objects import _FIELDS, Position, WorldObject, merge
+    from mrss.world.objects import _FIELDS, Position, WorldObject, merge
 
     assert tuple(f.name for f in fields(WorldObject)) == _FIELDS  # one per field, in order
     old = WorldObject("uav1", "robot", Position(1.0, 2.0), {"battery": 90}, 4, 10.0)

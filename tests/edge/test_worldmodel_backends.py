@@ -15,9 +15,9 @@ from typing import Any, cast
 
 import pytest
 
-from mrss.edge.worldmodel_rules import NoObjectWithin, RuleEngine
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import (
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.rules import NoObjectWithin, RuleEngine
+from mrss.actors.worldmodel.store import (
     Geometry,
     Position,
     SqliteWorldStore,
@@ -307,7 +307,7 @@ def test_a_long_diagonal_path_among_many_zones_finds_exactly_the_crossed_ones(
 
 
 def test_a_long_query_line_is_cut_into_pieces_that_are_the_same_line() -> None:
-    from mrss.edge.worldmodel_postgis import MAX_PIECES, PIECE_DEG, line_pieces
+    from mrss.actors.worldmodel.postgis import MAX_PIECES, PIECE_DEG, line_pieces
 
     short = Geometry.from_json(line((0, 0), (500, 500)))
     assert line_pieces(short) is None

@@ -13,15 +13,15 @@ from typing import Any
 
 import pytest
 
-from mrss.actors.worldmodel import WorldModelComponent, open_store
+from mrss.actors.worldmodel.postgis import PostgisWorldStore
+from mrss.actors.worldmodel.service import WorldModelComponent, open_store
+from mrss.actors.worldmodel.sqlite import SqliteWorldStore
 from mrss.bus import BusEndpoints, ProxyThread
-from mrss.edge.component import ZmqBusPort
-from mrss.edge.datalayer_client import DataLayerUnavailable
-from mrss.edge.worldmodel_access import BusWorldModel, WorldModelClient
-from mrss.edge.worldmodel_postgis import PostgisWorldStore
-from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.errors import ConfigError
+from mrss.runtime.busport import ZmqBusPort
+from mrss.runtime.datalayer_client import DataLayerUnavailable
 from mrss.testing import wait_until
+from mrss.world.access import BusWorldModel, WorldModelClient
 
 from .test_edge_bus import context
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.edge.worldmodel_access import WorldModelClient, WorldModelRejected
-from mrss.supervision.component import ComponentContext
+from mrss.runtime.component import ComponentContext
 from mrss.testing import wait_until
+from mrss.world.access import WorldModelClient, WorldModelRejected
 
 from .supervised_edge import SupervisedEdge
 
@@ -61,8 +61,8 @@ def test_the_world_model_refuses_to_start_beyond_loopback_without_a_token(
     ctx = ComponentContext(name="worldmodel", incarnation=1, project_dir=project,
                            run_dir=tmp_path)
     out = subprocess.run(
-        [sys.executable, "-m", "mrss.supervision.component_main",
-         "mrss.actors.worldmodel:WorldModelComponent", "--name", "worldmodel",
+        [sys.executable, "-m", "mrss.runtime.main",
+         "mrss.actors.worldmodel.service:WorldModelComponent", "--name", "worldmodel",
          "--context", ctx.to_json()], capture_output=True, text=True, timeout=60)
     assert out.returncode != 0
     assert "key 'worldmodel.token_file'" in out.stderr
@@ -75,7 +75,7 @@ def test_mrss_check_names_the_token_key(tmp_path: Path) -> None:
     folder = tmp_path / "projects" / "open"
     folder.mkdir(parents=True)
     (folder / "project.toml").write_text(
-        '[components.worldmodel]\nmodule = "mrss.actors.worldmodel:WorldModelComponent"\n'
+        '[components.worldmodel]\nmodule = "mrss.actors.worldmodel.service:WorldModelComponent"\n'
         '[worldmodel]\nhttp_host = "10.0.0.7"\n')
     out = subprocess.run([sys.executable, "-m", "mrss", "check", "open", "--json"],
                          capture_output=True, text=True, timeout=120,

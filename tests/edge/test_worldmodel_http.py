@@ -10,17 +10,17 @@ from typing import Any
 
 import pytest
 
+from mrss.actors.worldmodel.http import WorldModelHttp
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.rules import NoObjectWithin, RuleEngine
+from mrss.actors.worldmodel.store import WorldModelStore
 from mrss.edge.retry import Attempt, classify
-from mrss.edge.worldmodel_access import (
+from mrss.world.access import (
     HttpWorldModel,
     WorldModelClient,
     WorldModelRejected,
     WorldModelUnavailable,
 )
-from mrss.edge.worldmodel_http import WorldModelHttp
-from mrss.edge.worldmodel_rules import NoObjectWithin, RuleEngine
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import WorldModelStore
 
 
 class Served:

@@ -15,15 +15,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mrss.actors.worldmodel.http import WorldModelHttp
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.rules import RuleEngine
+from mrss.actors.worldmodel.store import WorldModelStore
 from mrss.api import world_model_token
 from mrss.edge.http_token import configured_token, exposure_problem, is_loopback
-from mrss.edge.worldmodel_access import HttpWorldModel, WorldModelClient, WorldModelRejected
-from mrss.edge.worldmodel_http import WorldModelHttp
-from mrss.edge.worldmodel_rules import RuleEngine
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import WorldModelStore
 from mrss.errors import ConfigError
 from mrss.testing import wait_until
+from mrss.world.access import HttpWorldModel, WorldModelClient, WorldModelRejected
 
 TOKEN = "s3cret-token-0123456789abcdef"
 HOTSPOT = {"id": "h1", "kind": "hotspot", "position": {"lat": -35.0, "lon": 149.0}}

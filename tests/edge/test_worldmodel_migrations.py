@@ -12,9 +12,9 @@ from pathlib import Path
 
 import psycopg
 
-from mrss.edge.worldmodel_postgis import SCHEMA_VERSION, PostgisWorldStore
-from mrss.edge.worldmodel_sqlite import SCHEMA_VERSION as SQLITE_VERSION
-from mrss.edge.worldmodel_store import Position, SqliteWorldStore, WorldStore
+from mrss.actors.worldmodel.postgis import SCHEMA_VERSION, PostgisWorldStore
+from mrss.actors.worldmodel.sqlite import SCHEMA_VERSION as SQLITE_VERSION
+from mrss.actors.worldmodel.store import Position, SqliteWorldStore, WorldStore
 
 
 def test_a_first_release_sqlite_file_is_migrated_in_place(tmp_path: Path) -> None:

@@ -11,9 +11,9 @@ import threading
 
 import pytest
 
-from mrss.edge.worldmodel_postgis import PostgisWorldStore
-from mrss.edge.worldmodel_service import WorldModel
-from mrss.edge.worldmodel_store import Position, WorldObject, WorldStoreUnavailable
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.postgis import PostgisWorldStore
+from mrss.actors.worldmodel.store import Position, WorldObject, WorldStoreUnavailable
 from mrss.messages import DataRequest
 from mrss.testing import wait_until
 

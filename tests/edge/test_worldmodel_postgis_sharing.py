@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import threading
 
-from mrss.edge.worldmodel_postgis import PostgisWorldStore
-from mrss.edge.worldmodel_store import Position, WorldObject
+from mrss.actors.worldmodel.postgis import PostgisWorldStore
+from mrss.actors.worldmodel.store import Position, WorldObject
 
 
 def test_stores_on_one_database_merge_each_others_writes(postgis_url: str) -> None:

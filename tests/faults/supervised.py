@@ -22,7 +22,7 @@ import psutil
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
-from mrss.supervision.forkserver import is_fork_server
+from mrss.runtime.forkserver import is_fork_server
 from mrss.testing import WaitTimeout, wait_until
 
 REPO = Path(__file__).resolve().parent.parent.parent

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from mrss.actors.reasoner import ReasonerComponent
+from mrss.actors.reasoner.service import ReasonerComponent
 from mrss.errors import ConfigError
+from mrss.runtime.component import ComponentContext
 from mrss.supervision.children import ComponentStart
-from mrss.supervision.component import ComponentContext
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildSpec, OnExceeded
 from tests.faults.conftest import MakeTree, worker
@@ -47,7 +47,7 @@ def test_a_reasoner_process_with_an_unloadable_program_is_refused_once(
         make_tree: MakeTree, tmp_path: Path) -> None:
     (tmp_path / "agent.asl").write_text("ok.\nb(X+1).\n")
     reasoner = ChildSpec("reasoner", ComponentStart(
-        "mrss.actors.reasoner:ReasonerComponent", {"agent": "agent.asl"}, 10.0))
+        "mrss.actors.reasoner.service:ReasonerComponent", {"agent": "agent.asl"}, 10.0))
     tree = make_tree(worker("ok"), reasoner, intensity=10, on_exceeded=OnExceeded.QUARANTINE,
                      probation=0.2, wait=False)
     (give_up,) = tree.log.wait_for("give_up", "reasoner", timeout=30)

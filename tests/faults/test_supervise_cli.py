@@ -12,7 +12,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from mrss.supervision.forkserver import is_fork_server
+from mrss.runtime.forkserver import is_fork_server
 from mrss.testing import wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"

@@ -169,7 +169,7 @@ def test_link_and_robot_reconnect_after_the_broker_restarts(spawn: Spawn) -> Non
     url = f"mqtt://127.0.0.1:{port}"
 
     def start_broker() -> Any:
-        proc = spawn("mrss.broker", "--host", "127.0.0.1", "--port", str(port))
+        proc = spawn("mrss.actors.broker.service", "--host", "127.0.0.1", "--port", str(port))
         wait_until(lambda: _accepting(port), timeout=20, message="broker listening")
         return proc
 

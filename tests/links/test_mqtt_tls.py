@@ -21,9 +21,9 @@ from mrss.links.factory import create_link
 from mrss.links.mqtt import MqttLink
 from mrss.links.mqtt_url import BrokerAddress, new_client
 from mrss.links.ugv_protocol import UgvTelemetry, UgvTopics
+from mrss.runtime.component import ComponentContext
 from mrss.sim.component import SimUgvComponent
 from mrss.sim.ugv import main as ugv_main
-from mrss.supervision.component import ComponentContext
 from mrss.testing import find_mosquitto, free_port, wait_until
 
 from .test_mavlink_link import Recorder

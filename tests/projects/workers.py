@@ -15,7 +15,7 @@ import time
 from typing import Any
 
 from mrss.errors import ConfigError
-from mrss.supervision.component import Component, ComponentContext
+from mrss.runtime.component import Component, ComponentContext
 
 
 class Worker(Component):

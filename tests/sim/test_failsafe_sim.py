@@ -12,12 +12,12 @@ from mrss.errors import ConfigError
 from mrss.links.failsafe import FailsafeAction, FailsafePolicy
 from mrss.links.geo import offset
 from mrss.links.ugv_protocol import UgvAck, UgvCommand
+from mrss.runtime.component import ComponentContext
 from mrss.sim.component import SimUavComponent, SimUgvComponent
 from mrss.sim.controller_watch import ControllerWatch, WatchEvent
 from mrss.sim.copter import BRAKE, GUIDED, LAND, RTL, CopterModel
 from mrss.sim.gcs_failsafe import GcsFailsafe
 from mrss.sim.ugv_model import UgvModel
-from mrss.supervision.component import ComponentContext
 
 from .test_copter import HOME, airborne, fly
 

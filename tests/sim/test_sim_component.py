@@ -12,8 +12,8 @@ from mrss.errors import ConfigError
 from mrss.links.connect import connect_link
 from mrss.links.mavlink import MavlinkLink
 from mrss.links.mqtt import MqttLink
+from mrss.runtime.component import ComponentContext
 from mrss.sim.component import SimUavComponent, SimUgvComponent, speedup_of
-from mrss.supervision.component import ComponentContext
 from mrss.testing import BrokerInfo, WaitTimeout, wait_until
 
 

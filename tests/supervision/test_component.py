@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 from mrss.errors import BusError, SupervisionError
+from mrss.runtime.component import ComponentContext
+from mrss.runtime.main import load_class
 from mrss.supervision import control
-from mrss.supervision.component import ComponentContext
-from mrss.supervision.component_main import load_class
 from mrss.testing import wait_until
 from tests.projects.workers import Worker
 
@@ -22,7 +22,7 @@ from tests.projects.workers import Worker
 def main_cmd(target: str, tmp_path: Path, *extra: str) -> list[str]:
     ctx = json.dumps({"project_dir": str(tmp_path), "run_dir": str(tmp_path),
                       "options": {}, "heartbeat_interval": 0.05})
-    return [sys.executable, "-m", "mrss.supervision.component_main", target, "--name", "w",
+    return [sys.executable, "-m", "mrss.runtime.main", target, "--name", "w",
             "--inc", "4", "--context", ctx, *extra]
 
 

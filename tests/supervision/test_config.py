@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.config import load_file, load_project
+from mrss.config.loader import load_file, load_project
 from mrss.errors import ConfigError
 from mrss.supervision.spec import KILL, OnExceeded, Restart, Strategy
 
@@ -63,7 +63,7 @@ infrastructure = ["bus", "wm"]
 robots = { children = ["sim", "off"], intensity = 2, period = 60 }
 
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 [components.wm]
 module = "a:B"
 [components.sim]
@@ -217,7 +217,7 @@ def test_component_scheduling_is_read_checked_and_applied_to_every_thread(
     # at the nice value, on the given CPU.
     script = """
 import logging, os, threading
-from mrss.supervision.component_main import apply_scheduling
+from mrss.runtime.main import apply_scheduling
 before = threading.Event(); done = threading.Event(); seen = {}
 def look(name):
     seen[name] = (os.getpriority(os.PRIO_PROCESS, threading.get_native_id()),

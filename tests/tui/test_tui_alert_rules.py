@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from mrss.alert_rules import AlertRule, Severity, project_alert_rules, read_alert_rules
 from mrss.check import check_project
-from mrss.config import load_file
+from mrss.config.alerts import AlertRule, Severity, project_alert_rules, read_alert_rules
+from mrss.config.loader import load_file
 from mrss.errors import ConfigError
 from mrss.messages import Envelope, Message, RobotData
 from mrss.tui.models.alerts import AlertKind, AlertsModel
@@ -101,10 +101,10 @@ PROJECT = """\
 name = "alertsdemo"
 
 [components.bus]
-module = "mrss.bus.component:ProxyComponent"
+module = "mrss.actors.proxy.service:ProxyComponent"
 
 [components.rcl]
-module = "mrss.actors.rcl_service:RclService"
+module = "mrss.actors.rcl.service:RclService"
 kind = "supervisor"
 robots = {{ ugv1 = {{ leg = 0.3 }} }}
 

@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 
 from mrss.bus import BusEndpoints, Publisher
-from mrss.edge.worldmodel_service import WM_REQUEST_TOPIC
 from mrss.messages import DataRequest
 from mrss.tui.app import MrssApp
 from mrss.tui.models.alerts import AlertKind
 from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.map_panel import MapPanel
+from mrss.world.topics import WM_REQUEST_TOPIC
 from tests.tui.conftest import HERE, supervise
 from tests.tui.tui_helpers import run, until
 

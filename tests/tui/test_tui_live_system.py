@@ -8,7 +8,7 @@ import pytest
 from textual.widgets import Input, Sparkline
 
 from mrss.bus import BusEndpoints, Publisher
-from mrss.config import load_project
+from mrss.config.loader import load_project
 from mrss.messages import Command, Percept
 from mrss.tui.app import MrssApp
 from mrss.tui.details import ComponentDetail, RobotDetail

@@ -8,15 +8,9 @@ from collections.abc import Iterator
 import pytest
 from textual.command import CommandList, CommandPalette
 
+from mrss.actors.worldmodel.model import WorldModel
+from mrss.actors.worldmodel.sqlite import SqliteWorldStore
 from mrss.bus import BusEndpoints, Publisher, Subscriber
-from mrss.edge.worldmodel_objects import WorldObject
-from mrss.edge.worldmodel_service import (
-    WM_REPLY_TOPIC,
-    WM_REQUEST_TOPIC,
-    WorldModel,
-    wm_reply_topic,
-)
-from mrss.edge.worldmodel_sqlite import SqliteWorldStore
 from mrss.messages import (
     DataReply,
     DataRequest,
@@ -32,6 +26,8 @@ from mrss.tui.widgets.alerts_strip import AlertsStrip
 from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.robots_table import RobotsTable
+from mrss.world.objects import WorldObject
+from mrss.world.topics import WM_REPLY_TOPIC, WM_REQUEST_TOPIC, wm_reply_topic
 from tests.tui.tui_helpers import Peer, connected, run, until
 
 SIZE = (180, 50)

@@ -12,17 +12,17 @@ import pytest
 
 from mrss.bus import BusEndpoints
 from mrss.check import check_project
-from mrss.config import load_file
-from mrss.edge.worldmodel_objects import WorldObject
+from mrss.config.loader import load_file
+from mrss.config.map import MapConfig, PolygonDraw, read_map
 from mrss.errors import ConfigError
-from mrss.map_config import MapConfig, PolygonDraw, read_map
 from mrss.messages import ActionStatus, RobotData
-from mrss.plans import PLAN_MAX_WAYPOINTS, clear_record, plan_record
+from mrss.messages.plans import PLAN_MAX_WAYPOINTS, clear_record, plan_record
 from mrss.tui.app import MrssApp
 from mrss.tui.models.braille import BrailleCanvas
 from mrss.tui.models.geo import Viewport
 from mrss.tui.models.map import MapModel
 from mrss.tui.widgets.map_panel import MapPanel
+from mrss.world.objects import WorldObject
 from tests.tui.conftest import HERE
 from tests.tui.test_tui_map_alerts import WorldService, world  # noqa: F401 - the fixture
 from tests.tui.tui_helpers import Peer, connected, run, until

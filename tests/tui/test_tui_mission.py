@@ -9,7 +9,7 @@ from pathlib import Path
 from textual.widgets import Input
 
 from mrss.bus import BusEndpoints
-from mrss.config import load_project
+from mrss.config.loader import load_project
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.confirm import ConfirmScreen

@@ -9,15 +9,15 @@ import pytest
 
 from mrss.bus import BusEndpoints
 from mrss.check import check_project
-from mrss.config import load_file
-from mrss.errors import ConfigError
-from mrss.operator_commands import (
+from mrss.config.loader import load_file
+from mrss.config.operator import (
     GoalState,
     OperatorCommand,
     PayloadError,
     area_payload,
     read_operator,
 )
+from mrss.errors import ConfigError
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.mission import MissionChannel

@@ -14,9 +14,9 @@ from textual.widgets import Input, Tree
 
 from mrss.bus import BusEndpoints
 from mrss.bus.wire import message_frames
+from mrss.config.operator import read_operator
 from mrss.messages import LogRecord, RobotData, decode
-from mrss.operator_commands import read_operator
-from mrss.recording import RecordingError, RecordingReader
+from mrss.recording.format import RecordingError, RecordingReader
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.mission import MissionChannel, run_dir_of
@@ -136,7 +136,7 @@ def test_log_lines_screen_shows_one_long_line_whole(endpoints: BusEndpoints,
 
 def test_alerts_list_acknowledges_one_alert_and_A_all(endpoints: BusEndpoints,
                                                       peer: Peer) -> None:
-    from mrss.alert_rules import read_alert_rules
+    from mrss.config.alerts import read_alert_rules
 
     async def body() -> None:
         app = make_app(endpoints, alert_rules=read_alert_rules(list(RULES)))

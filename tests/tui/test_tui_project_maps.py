@@ -9,14 +9,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from mrss.actors.datalayer.layer import DataLayerContext
 from mrss.api.testing import memory_world
-from mrss.config import load_file
-from mrss.edge.adapters import DataLayerContext
-from mrss.edge.loader import import_project_module
+from mrss.config.loader import load_file
+from mrss.config.map import read_map
 from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
 from mrss.edge.validation import check_record
-from mrss.map_config import read_map
-from mrss.plans import PLAN_MAX_WAYPOINTS, plan_record
+from mrss.messages.plans import PLAN_MAX_WAYPOINTS, plan_record
+from mrss.runtime.loader import import_project_module
 from mrss.tui.models.geo import METRES_PER_DEGREE, Viewport
 from mrss.tui.models.map import MapModel
 

@@ -17,6 +17,7 @@ from typing import Any
 import pytest
 
 from mrss.bus import BusEndpoints
+from mrss.config.operator import read_operator
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
@@ -27,7 +28,6 @@ from mrss.messages import (
     RobotState,
     SupEvent,
 )
-from mrss.operator_commands import read_operator
 from mrss.tui.app import MrssApp
 from tests.tui.test_tui_mission_config import GOALS
 

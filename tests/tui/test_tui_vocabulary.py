@@ -7,7 +7,7 @@ from pathlib import Path
 from textual.widgets import Input
 
 from mrss.bus import BusEndpoints
-from mrss.config import load_file
+from mrss.config.loader import load_file
 from mrss.messages import Percept
 from mrss.tui.app import MrssApp
 from mrss.tui.vocabulary import Reach, Vocabulary, project_agent_files
@@ -52,13 +52,13 @@ def test_the_agents_of_a_project_are_found_from_its_reasoners(tmp_path: Path) ->
     (tmp_path / "project.toml").write_text("""
 name = "voc"
 [components.reasoner]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 agents = [{name = "a", file = "a.asl"}, {name = "b", file = "b.asl"}]
 [components.other]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 agent = "solo.asl"
 [components.off]
-module = "mrss.actors.reasoner:ReasonerComponent"
+module = "mrss.actors.reasoner.service:ReasonerComponent"
 enabled = false
 agent = "off.asl"
 """)

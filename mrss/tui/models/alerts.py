@@ -10,7 +10,7 @@ failed for good, as the goals model reads it from the agent) raise one alert per
 subject, counted when they recur: a recurrence of an acknowledged alert raises it
 again. Acknowledging clears the highlight; every alert stays in the history; one alert
 can be acknowledged by its key (`acknowledge_one`). A project's own rules (`[[alerts]]`,
-`mrss.alert_rules`) are conditions on a telemetry field, named by the rule. Pure
+`mrss.config.alerts`) are conditions on a telemetry field, named by the rule. Pure
 Python: no Textual.
 """
 
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from mrss.alert_rules import AlertRule, Severity
+from mrss.config.alerts import AlertRule, Severity
 from mrss.messages import Envelope, Percept, Rejections, RobotData, RobotState, SupEvent
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 

@@ -1,7 +1,7 @@
 """The mission's goals as the dashboard knows them: read from the agent's beliefs.
 
 The project names its goal beliefs in `[operator.goals]` (`task(Robot, Goal, Priority)`
-is running, ...; `mrss.operator_commands`). Each mind snapshot is matched against those
+is running, ...; `mrss.config.operator`). Each mind snapshot is matched against those
 patterns: a goal found is queued, running, suspended or failed, with its robot and
 priority. Projects that declare `done` and `cancelled` patterns say how a goal ended;
 otherwise a goal that was seen and is no longer in any pattern has ended, and how is
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct, term_str
-from mrss.operator_commands import GoalPattern, GoalState
+from mrss.config.operator import GoalPattern, GoalState
 from mrss.tui.models.actions import ActionsModel, ActionView
 
 # a goal seen in several patterns at once is in the first of these (an open state

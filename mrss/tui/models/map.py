@@ -1,8 +1,8 @@
 """What the map panel shows: robots (position, heading, a short track) and their plans
-(`plan` robot data, mrss.plans: the path flown dim, the path left bright) from robot
+(`plan` robot data, mrss.messages.plans: the path flown dim, the path left bright) from robot
 data, and the world model's objects (hotspots, water sources, bases as points; operator
 areas and other shapes as outlines) from its `wm.list` answers, styled by the project's
-`[map]` table (mrss.map_config). Drawn onto a braille canvas through a `Viewport`.
+`[map]` table (mrss.config.map). Drawn onto a braille canvas through a `Viewport`.
 Pure Python: no Textual.
 """
 
@@ -14,9 +14,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mrss.map_config import MapConfig, PolygonDraw
+from mrss.config.map import MapConfig, PolygonDraw
 from mrss.messages import ActionState, ActionStatus, RobotData
-from mrss.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
+from mrss.messages.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
 from mrss.tui.models.braille import BrailleCanvas
 from mrss.tui.models.geo import DOTS_X, DOTS_Y, METRES_PER_DEGREE, Viewport, heading_arrow
 
@@ -51,7 +51,7 @@ class WorldShape:
 
 @dataclass(frozen=True)
 class Plan:
-    """A robot's planned path: `next` waypoints of it reached (mrss.plans)."""
+    """A robot's planned path: `next` waypoints of it reached (mrss.messages.plans)."""
 
     action: str
     waypoints: list[tuple[float, float]]

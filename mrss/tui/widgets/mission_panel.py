@@ -15,7 +15,7 @@ from typing import ClassVar
 from rich.text import Text
 from textual.binding import Binding, BindingType
 
-from mrss.operator_commands import (
+from mrss.config.operator import (
     GoalState,
     OperatorCommand,
     PayloadError,

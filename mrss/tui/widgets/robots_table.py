@@ -7,7 +7,7 @@ from typing import ClassVar
 
 from textual.binding import Binding, BindingType
 
-from mrss.operator_commands import OperatorCommand, teleop_payload
+from mrss.config.operator import OperatorCommand, teleop_payload
 from mrss.tui import operator
 from mrss.tui.events import MissionRequested, Note, SendRequested
 from mrss.tui.models.goals import GoalsModel

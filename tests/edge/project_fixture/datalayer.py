@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from mrss.edge.adapters import DataLayer, external
+from mrss.actors.datalayer.layer import DataLayer, external
 from mrss.errors import TransientError
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from mrss.edge.adapters import ExternalAdapter
+from mrss.actors.events.adapter import ExternalAdapter
+from mrss.agentspeak.literals import Atom
 from mrss.edge.payloads import Field
-from mrss.edge.predicates import Atom
 
 
 class FixtureAdapter(ExternalAdapter):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mrss.supervision import Component, ComponentContext
+from mrss.runtime.component import Component, ComponentContext
 
 
 class Beacon(Component):

@@ -6,7 +6,7 @@ import math
 import threading
 
 from mrss.messages import RobotData
-from mrss.supervision.component import Component, ComponentContext
+from mrss.runtime.component import Component, ComponentContext
 
 
 class Telemetry(Component):

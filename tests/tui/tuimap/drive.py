@@ -1,13 +1,13 @@
 """A robot for tuimap: it drives east along a line, reporting its position and heading,
-and its plan (four waypoints along the line, `mrss.plans`) as each waypoint is passed."""
+and its plan (four waypoints along the line, `mrss.messages.plans`) as each waypoint is passed."""
 
 from __future__ import annotations
 
 import threading
 
 from mrss.messages import RobotData
-from mrss.plans import plan_record
-from mrss.supervision.component import Component, ComponentContext
+from mrss.messages.plans import plan_record
+from mrss.runtime.component import Component, ComponentContext
 
 WAYPOINT_STEPS = (0, 33, 66, 99)  # steps of the drive at the plan's waypoints
 

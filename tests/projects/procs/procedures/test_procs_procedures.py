@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from mrss.config import load_project
+from mrss.config.loader import load_project
 
 
 def test_passing_procedure_loads_its_own_project() -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 import threading
 
-from mrss.supervision.component import Component, ComponentContext
+from mrss.runtime.component import Component, ComponentContext
 
 
 class Chatty(Component):

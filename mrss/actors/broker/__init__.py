@@ -1,0 +1,1 @@
+"""The embedded MQTT broker component, its passwords and its persistent sessions."""

@@ -1,0 +1,1 @@
+"""The Symbol and Data Layer (paper IV-C): grounding, external functions, telemetry."""

@@ -1,0 +1,1 @@
+"""The External Events Manager (paper IV-B): outside events become percepts, in order, once."""

@@ -1,0 +1,190 @@
+"""Where each robot stands for the RCL: available or not, and why; teleop; its link.
+
+Part of `RclCore` (mrss/actors/rcl/core.py), as a base class working on the core's state.
+Rules:
+- a robot is unavailable for one cause at a time (`lifecycle.EndCause`): its link lost
+  (`link_lost`), its failsafe taken (`failsafe`), or its actor quarantined
+  (`quarantined`); new requests for it are refused with that cause, so the agent can
+  tell a robot to wait for from a broken one;
+- a robot reached through a node (`node` in its table, mrss.config.nodes) is unavailable with
+  cause `node_down` while that node is lost (`sup.node_down` from the bus proxy), its
+  open actions failing with it; `sup.node_up` makes it available again;
+- a link going down fails the robot's open actions (`link_down`, or `failsafe` when the
+  robot overtook the command); a link coming back makes it available again, unless
+  something else (a quarantine) holds it; a quarantine fails its open actions, a
+  release makes it available;
+- every change, and every restart of a requester, is announced as a `RobotState`
+  (level-triggered: availability, reason, link, teleop).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from mrss.actors.rcl import lifecycle as lc
+from mrss.actors.rcl.action import Action
+from mrss.actors.rcl.journal import ActionJournal
+from mrss.actors.rcl.requesters import Entry
+from mrss.actors.rcl.resources import ResourceBroker
+from mrss.actors.rcl.robot import SetTeleop
+from mrss.errors import ActionError
+from mrss.links.failsafe import LinkDownCause, link_down_cause
+from mrss.messages import ActionState, Message, RobotState, SupEvent
+from mrss.supervision import events as ev
+
+log = logging.getLogger("mrss.rcl")
+
+LINK_DOWN = "link down"  # how an unavailable robot's reason starts when its link is lost
+NODE_DOWN = "node down"  # ... when the node it is reached through is lost
+LINK_CAUSES = (lc.EndCause.LINK_LOST, lc.EndCause.FAILSAFE)
+
+
+class RobotAvailability:
+    """Availability, teleop and link state of the robots (the rules of the module)."""
+
+    links: dict[str, Any]
+    journal: ActionJournal
+    broker: ResourceBroker
+    publish: Callable[[Message], object]
+    _lock: threading.RLock
+    _index: dict[str, Entry]
+    _unavailable: dict[str, str]
+    _unavailable_cause: dict[str, lc.EndCause]
+    robot_nodes: dict[str, str]  # robot -> the node it is reached through (mrss.config.nodes)
+    stopping: bool  # RclCore.stop() was called
+
+    if TYPE_CHECKING:  # provided by RclCore (no stub here: it would shadow them)
+        def _tell(self, robot: str, message: object) -> None:
+            ...
+
+        def _control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
+            ...
+
+        def _end_unrouted(self, action: Action, end: lc.End) -> None:
+            ...
+
+    def announce_robots(self) -> None:
+        """Publish every robot's state (availability, link, teleop): level-triggered, so a
+        restarted reasoner or dashboard knows where each robot stands."""
+        teleop = self.journal.teleop_robots()
+        for robot in self.links:
+            self._robot_state(robot, teleop=robot in teleop)
+
+    def set_teleop(self, robot: str, on: bool) -> None:
+        """Teleop on suspends every action of `robot`; off resumes them from progress."""
+        if robot not in self.links:
+            raise ActionError(f"teleop for unknown robot {robot!r}")
+        self.journal.set_teleop(robot, on)
+        self._tell(robot, SetTeleop(on))
+        self._robot_state(robot, teleop=on)
+
+    def set_available(self, robot: str, available: bool, reason: str = "",
+                      cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
+        """Mark `robot` (un)available; new actions for an unavailable robot are refused,
+        with `cause` (a lost link, a quarantine: the agent may try again later)."""
+        with self._lock:
+            before = self._unavailable.get(robot)
+            if available:
+                self._unavailable.pop(robot, None)
+                self._unavailable_cause.pop(robot, None)
+            else:
+                self._unavailable[robot] = reason or "unavailable"
+                self._unavailable_cause[robot] = cause
+            changed = before != self._unavailable.get(robot)
+        if changed:
+            self._robot_state(robot)
+
+    def link_state(self, robot: str, up: bool, reason: str = "") -> list[str]:
+        """The robot's link went down (robot unreachable) or came back.
+
+        Down: the robot is marked unavailable and its open actions fail with the link's
+        reason ("robot uav1 unreachable: no heartbeat for 3.0 s"). Up: available again,
+        unless something else (a quarantine) still holds it. Returns the failed uuids.
+        """
+        if robot not in self.links:
+            return []
+        if self.stopping:  # our own links closing: the next start resumes the actions
+            log.info("link of %s %s while the RCL stops: nothing failed", robot,
+                     "up" if up else f"down ({reason})")
+            return []
+        with self._lock:
+            current = self._unavailable_cause.get(robot)
+        if up:
+            if current in LINK_CAUSES:  # not when something else (a quarantine) holds it
+                self.set_available(robot, True)
+            return []
+        if current is lc.EndCause.NODE_DOWN:
+            return []  # its node's loss is the deeper cause (and failed its actions)
+        self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
+                           lc.EndCause.FAILSAFE if link_down_cause(reason)
+                           is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
+        with self._lock:
+            targets = [u for u, e in self._index.items() if e.robot == robot]
+        why, cause = f"robot {robot} unreachable: {reason or 'link down'}", lc.EndCause.LINK_LOST
+        if link_down_cause(reason) is LinkDownCause.FAILSAFE:
+            why, cause = reason, lc.EndCause.FAILSAFE  # the robot overtook the command
+        for uuid in targets:
+            self._control_one(uuid, lc.End(ActionState.FAILED, cause, why))
+        return targets
+
+    def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:
+        """The node some robots are reached through was lost (`sup.node_down`) or is back.
+
+        Lost: its robots are unavailable with cause `node_down` and their open actions
+        fail with it (the agent sees `error(node_down)`). Back: available again, unless
+        something else holds them. Repeats change nothing. Returns the failed uuids.
+        """
+        failed: list[str] = []
+        for robot in [r for r, n in self.robot_nodes.items() if n == node and r in self.links]:
+            with self._lock:
+                current = self._unavailable_cause.get(robot)
+            if up:
+                if current is lc.EndCause.NODE_DOWN:
+                    self.set_available(robot, True)
+                continue
+            if current is lc.EndCause.NODE_DOWN:
+                continue  # a repeat (sup.node_down is level-triggered)
+            why = reason or f"node {node} lost"
+            self.set_available(robot, False, f"{NODE_DOWN}: {why}", lc.EndCause.NODE_DOWN)
+            with self._lock:
+                targets = [u for u, e in self._index.items() if e.robot == robot]
+            for uuid in targets:
+                self._control_one(uuid, lc.End(
+                    ActionState.FAILED, lc.EndCause.NODE_DOWN,
+                    f"robot {robot} is reached through node {node}, which is lost: {why}"))
+            failed += targets
+        return failed
+
+    def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
+        attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
+        with self._lock:
+            reason = self._unavailable.get(robot, "")
+            link_down = self._unavailable_cause.get(robot) in LINK_CAUSES
+        try:
+            self.publish(RobotState(robot=robot, available=not reason, reason=reason,
+                                    link="down" if link_down else "up", attributes=attrs))
+        except Exception as exc:
+            log.error("publishing state of robot %s failed: %r", robot, exc)
+
+    def _publish_sup(self, event: Message) -> object:
+        """Supervision events go out; a quarantine also fails the robot's open actions."""
+        if isinstance(event, SupEvent) and event.child in self.links:
+            if event.event == ev.QUARANTINE:
+                self._quarantined(event.child, event.reason)
+            elif event.event == ev.RELEASE:
+                self.set_available(event.child, True)
+        return self.publish(event)
+
+    def _quarantined(self, robot: str, reason: str) -> None:
+        self.set_available(robot, False, f"quarantined after repeated crashes ({reason})",
+                           lc.EndCause.QUARANTINED)
+        self.journal.drop_controls(robot)  # its actions fail below
+        for entry in self.journal.open_actions():
+            if entry.action.robot == robot:
+                self.broker.forget_action(entry.action.uuid)
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.QUARANTINED,
+                    f"robot {robot} quarantined: its actor keeps crashing ({reason})"))

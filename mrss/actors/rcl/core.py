@@ -1,0 +1,441 @@
+"""The Robot Communication Layer core: accept actions, route them to robot actors, report.
+
+Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
+management through `control`, and statuses leave through the injected `publish` callable,
+so the same object runs in-process in tests and behind the bus (`RclService`). Rules:
+- a request is validated by the project's `action_cb`; a malformed one is FAILED at once,
+  its reason logged and in the status;
+- a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
+- every status is committed to the ActionJournal before it is published;
+- on `start`, every non-terminal action of the journal is resumed or explicitly failed;
+- robot actors run under an ActorSupervisor (mrss.supervision): a crashed one is
+  restarted and takes its actions back from the journal; more than `max_robot_restarts`
+  in `restart_period` seconds quarantines the robot: its open actions fail, new ones are
+  refused until `probation` has passed (the sup.quarantine / sup.release events go out);
+- a terminal status is final: nothing is journaled or published for that uuid after it;
+- reconciliation: an `ActionQuery` is answered from the journal, one status per known
+  uuid, so a status lost on the bus is asked for again and never wedges a latch;
+- a goal suspended by goal management stays suspended: an action requested for it
+  before it is resumed starts SUSPENDED (mrss/actors/rcl/held_goals.py);
+- adoption: when a requester restarts, what its dead incarnation left open keeps
+  running for `adopt_grace` seconds (suspended ones `adopt_grace_suspended`); the new
+  incarnation adopts an action by requesting its uuid again (it learns them from the
+  `ActionInventory` answer to its query). What nobody adopts in time is cancelled
+  ("orphaned"), so no robot works for an intention that is gone.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import logging
+import threading
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import pykka
+
+from mrss.actors.rcl import controls
+from mrss.actors.rcl import lifecycle as lc
+from mrss.actors.rcl.action import Action, check_json
+from mrss.actors.rcl.availability import RobotAvailability
+from mrss.actors.rcl.held_goals import HeldGoals
+from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
+from mrss.actors.rcl.layer import RobotCommLayer
+from mrss.actors.rcl.observers import ObserverReports
+from mrss.actors.rcl.orphans import Orphans
+from mrss.actors.rcl.progress_feed import ProgressFeed
+from mrss.actors.rcl.requesters import Entry, RequesterDuties
+from mrss.actors.rcl.resources import ResourceBroker
+from mrss.actors.rcl.robot import Control, RobotActor, StartAction
+from mrss.errors import ActionError, DecodeError
+from mrss.messages import (
+    ActionControl,
+    ActionRequest,
+    ActionState,
+    ActionStatus,
+    FailureCause,
+    Message,
+    build,
+)
+from mrss.messages.plans import PlanBoard
+from mrss.supervision import (
+    ActorContext,
+    ActorSupervisor,
+    OnExceeded,
+    SupervisorSpec,
+    actor_child,
+)
+
+log = logging.getLogger("mrss.rcl")
+
+Publish = Callable[[Message], object]
+
+
+
+class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
+    """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
+
+    def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
+                 robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
+                 restart_period: float = 60.0, probation: float = 30.0,
+                 robot_watchdog: float | None = 30.0, adopt_grace: float = 10.0,
+                 adopt_grace_suspended: float = 120.0, preempted_timeout: float = 0.0,
+                 progress_every: float = 0.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.layer, self.journal, self.publish = layer, journal, publish
+        self.links = dict(robots)
+        self.broker = ResourceBroker(self._preempt, self._resume_preempted)
+        self.robot_spec = SupervisorSpec(intensity=max_robot_restarts, period=restart_period,
+                                         on_exceeded=OnExceeded.QUARANTINE,
+                                         probation=probation)
+        self.robot_watchdog = robot_watchdog
+        self._preempted_timeout = preempted_timeout
+        self.robots: pykka.ActorRef[ActorSupervisor] | None = None
+        self._lock = threading.RLock()
+        self._index: dict[str, Entry] = {}
+        self._held_goals = HeldGoals()
+        self._refs: dict[str, pykka.ActorRef[Any]] = {}
+        self._unavailable: dict[str, str] = {}
+        self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
+        self.robot_nodes: dict[str, str] = {}  # robot -> the node it is reached through
+        self._incarnations: dict[str, int] = {}
+        self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
+        self.stopping = False  # set by stop(): links closing then are no news of robots
+        self.progress = ProgressFeed(progress_every, clock)
+        self._plans = PlanBoard()  # skills' latest plans, for the snapshot
+
+    # -- lifecycle of the core ----------------------------------------------------------
+    def start(self, *, new_run: bool = False) -> None:
+        """Start the robot supervisor (one actor per robot); they resume the journal's
+        open actions, and what cannot be resumed fails explicitly here.
+
+        `new_run`: the whole system (re)started, not just this RCL, so nobody waits for
+        the actions left open: they are failed, and old incarnation numbers forgotten.
+        """
+        self.stopping = False
+        with self._lock:
+            self._incarnations = {} if new_run else self.journal.incarnations()
+        if new_run:
+            self.journal.drop_controls()  # nobody waits for what they would change
+        for entry in self.journal.open_actions():
+            if new_run:
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
+                    "left over from a previous run of MRSS"))
+            elif entry.action.robot not in self.links:
+                self._end_unrouted(entry.action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
+                    f"robot {entry.action.robot!r} is not configured after an RCL restart"))
+        children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
+                                shutdown=self.layer.interrupt_timeout + 2.0)
+                    for robot in self.links]
+        self.robots = ActorSupervisor.start(
+            self.robot_spec, children, name="robots", publish=self._publish_sup,
+            on_give_up=lambda why: log.error("robot supervisor gave up: %s", why))
+        # answered after the supervisor's start hook, which sets every robot actor up
+        self.robots.proxy().which_children().get(timeout=30.0)
+        for robot, link in self.links.items():  # failsafe hook: no live actor, no heartbeat
+            watch = getattr(link, "watch_controller", None)
+            if callable(watch):
+                watch(functools.partial(self.controls, robot))
+        self.announce_robots()  # so the reasoner and the dashboard know each robot now
+
+    def controls(self, robot: str) -> bool:
+        """Whether a live robot actor controls `robot` (its link heartbeats the robot only
+        then, so a robot whose actor is gone or quarantined takes its failsafe). Called by
+        link threads every second: no lock, a heartbeat never waits for a journal write."""
+        ref = self._refs.get(robot)
+        return ref is not None and ref.is_alive()
+
+    def stop(self) -> None:
+        """Stop every robot actor (and its skills); open actions stay in the journal, for
+        the next start to resume: the links that close after this (RclService
+        disconnects them) report "link closed", which fails nothing."""
+        self.stopping = True
+        robots, self.robots = self.robots, None
+        if robots is None:
+            return
+        try:
+            robots.stop(block=True, timeout=len(self.links) * (self.layer.interrupt_timeout
+                                                               + 3.0))
+        except pykka.Timeout:
+            log.error("robot supervisor did not stop in time")
+        with self._lock:
+            self._refs.clear()
+
+    @property
+    def preempted_timeout(self) -> float:
+        """Seconds a pre-empted action may wait before it fails (0: for ever)."""
+        return self._preempted_timeout
+
+    def _robot_factory(self, robot: str) -> Callable[[ActorContext], pykka.ActorRef[Any]]:
+        def start(ctx: ActorContext) -> pykka.ActorRef[Any]:
+            ref: pykka.ActorRef[Any] = RobotActor.start(
+                ctx, robot, self.links[robot], self.layer, self.broker, self)
+            return ref
+        return start
+
+    # -- RobotHost: what robot actors call -------------------------------------------------
+    def emit(self, action: Action, suspended_by: str) -> None:
+        self._emit(action, suspended_by)
+
+    def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
+        self.journal.save_progress(uuid, progress)
+        if self.progress.enabled:
+            self.progress.record(uuid, progress)
+            self.publish_progress()
+
+    def register(self, robot: str, ref: pykka.ActorRef[Any]) -> None:
+        with self._lock:
+            self._refs[robot] = ref
+
+    def restore(self, robot: str, first: bool) -> tuple[list[JournalEntry], bool]:
+        """A robot actor (re)starts: its open actions, minus those the project won't resume."""
+        entries: list[JournalEntry] = []
+        for entry in self.journal.open_actions():
+            action = entry.action
+            if action.robot != robot:
+                continue
+            if first and not self.layer.resume_after_restart(action.copy()):
+                self._end_unrouted(action, lc.End(
+                    ActionState.FAILED, lc.EndCause.RCL_RESTARTED, "RCL restarted; the project "
+                    f"does not resume {action.name!r} actions", FailureCause.TRANSIENT))
+                continue
+            self.broker.forget_action(action.uuid)  # holds of a dead incarnation
+            with self._lock:
+                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
+                                                  entry.requester)
+            log.info("restoring action %s (%s) on %s", action.uuid, action.state.value, robot)
+            entries.append(entry)
+        return entries, robot in self.journal.teleop_robots()
+
+    def pending_controls(self, robot: str) -> list[Control]:
+        """The controls for `robot` a dead incarnation of its actor may not have applied."""
+        pending = []
+        for seq, uuid, text in self.journal.pending_controls(robot):
+            try:
+                pending.append(Control(uuid, controls.decode(text), seq))
+            except DecodeError as exc:
+                log.error("robot %s: pending control %d dropped: %s", robot, seq, exc.reason)
+                self.journal.claim_control(seq)
+        return pending
+
+    def claim_control(self, seq: int) -> None:
+        self.journal.claim_control(seq)
+
+    def publish_sup(self, event: Message) -> object:
+        """A skill's sup.* event (mrss.actors.rcl.skill_actor) goes out as it is."""
+        return self.publish(event)
+
+    @property
+    def plans(self) -> PlanBoard:
+        return self._plans
+
+    def compact_journal(self, keep_seconds: float, keep_last: int) -> int:
+        """Drop old terminal actions from the journal (ActionJournal.compact); how many."""
+        dropped = self.journal.compact(keep_seconds, keep_last)
+        if dropped:
+            log.info("journal compacted: %d ended actions older than %.0fs dropped "
+                     "(the newest %d kept)", dropped, keep_seconds, keep_last)
+        return dropped
+
+    # -- requests -------------------------------------------------------------------------
+    def submit_fields(self, fields: Mapping[str, Any]) -> None:
+        """Accept a raw action.request body; a malformed one is rejected with its reason."""
+        try:
+            request = build(ActionRequest, dict(fields))
+        except DecodeError as exc:
+            uuid = fields.get("uuid")
+            if isinstance(uuid, str) and uuid:
+                self._reject(uuid, fields, exc.reason)
+            else:
+                log.warning("dropped an action request without a uuid: %s", exc.reason)
+            return
+        self.submit(request)
+
+    def submit(self, request: ActionRequest, requester: Requester | None = None) -> None:
+        """Accept an action request once per uuid; refine and run it on its robot.
+
+        `requester` (the sender's component name and incarnation, from the envelope)
+        lets the RCL cancel a dead incarnation's orphans (its late requests never get
+        here: the bus drops them, mrss/bus/incarnations.py).
+        """
+        requester = requester or NOBODY
+        if requester.src:
+            self.saw_incarnation(requester.src, requester.inc)
+        with self._lock:
+            if self._repeat(request.uuid, requester):
+                return
+            try:
+                request.validate()
+                action = self.layer.action_cb(request)
+                if action.uuid != request.uuid:
+                    raise ActionError("action_cb changed the uuid", uuid=request.uuid)
+                check_json(action.args, "action arguments")
+                if action.robot not in self.links:
+                    raise ActionError(f"unknown robot {action.robot!r} (known: "
+                                      f"{', '.join(sorted(self.links)) or 'none'})")
+                if action.robot in self._unavailable:
+                    self._reject(request.uuid, _fields(request),
+                                 f"robot {action.robot} unavailable: "
+                                 f"{self._unavailable[action.robot]}", requester,
+                                 self._unavailable_cause[action.robot])
+                    return
+            except Exception as exc:
+                reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
+                self._reject(request.uuid, _fields(request), reason, requester)
+                return
+            action.state, action.reason = ActionState.PENDING, ""
+            held = self._held_goals.cause_for(action.goal, requester.src)
+            start = StartAction(action, held)
+            # Journaled first, then the robot actor is told (it starts the skills while
+            # PENDING goes out), all under the lock: a later control comes after the
+            # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
+            self._emit(action.copy(), "", requester, new=True,  # `_repeat` read the journal
+                       before_publish=lambda: self._tell(action.robot, start))
+
+    def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
+                requester: Requester = NOBODY,
+                cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
+        log.warning("rejected action request %s: %s", uuid, reason)
+        with self._lock:
+            if self.journal.get(uuid) is not None:
+                return
+            action = Action(uuid=uuid, name=str(fields.get("name", "")))
+            for key in ("robot", "goal"):
+                if isinstance(fields.get(key), str):
+                    setattr(action, key, fields[key])
+            end = lc.end_unrouted(action.state, lc.End(ActionState.FAILED, cause,
+                                                       f"rejected: {reason}"))
+            action.transition(end.state, end.reason, end.cause)
+            self._emit(action, "", requester)
+
+    # -- goal management, teleop, availability -------------------------------------------
+    def control(self, control: ActionControl, src: str = "") -> list[str]:
+        """Apply cancel/suspend/resume/succeed/fail to an action, a goal or a robot.
+
+        `src` is the sender: a control from an action's own requester is the agent's,
+        any other (the dashboard, `mrss send`, a test) the operator's."""
+        control.validate()
+        with self._lock:
+            if control.target_kind == "goal":
+                self._held_goals.control(control.command, control.target, src)
+            targets = [u for u, e in self._index.items()
+                       if (control.target_kind == "action" and u == control.target)
+                       or (control.target_kind == "goal" and e.goal == control.target)
+                       or (control.target_kind == "robot" and e.robot == control.target)]
+            robots = {u: self._index[u].robot for u in targets}
+            agent = {u for u in targets if src and self._index[u].requester.src == src}
+        if not targets and control.target_kind == "goal" and control.command == "suspend":
+            log.info("suspend goal %r: no action yet; held for its later ones", control.target)
+        elif not targets:
+            log.warning("%s %s %r: no active action", control.command, control.target_kind,
+                        control.target)
+        for uuid in targets:
+            self._tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
+        return targets
+
+    # -- plumbing ---------------------------------------------------------------------------
+    def _emit(self, action: Action, suspended_by: str,
+              requester: Requester | None = None, *, new: bool = False,
+              before_publish: Callable[[], None] | None = None) -> None:
+        """Journal (committed) first, then publish: a status is never out before it's safe.
+
+        `new`: the caller found no journal entry for the uuid under the lock (an accepted
+        request), so it is not looked up again (one read less on the action path).
+        `before_publish` runs after the commit, under the lock, before the publication."""
+        with self._lock:
+            known = self._index.get(action.uuid)
+        if known is None and not new:
+            done = self.journal.get(action.uuid)
+            if done is not None and done.action.terminal:
+                log.warning("action %s is already %s; %s dropped", action.uuid,
+                            done.action.state.value, action.state.value)
+                return
+        if requester is None:
+            requester = known.requester if known else NOBODY
+        self.journal.record(action, suspended_by, requester)
+        with self._lock:  # with the publication: see publish_progress
+            if action.terminal:
+                self._index.pop(action.uuid, None)
+                self.progress.forget(action.uuid)
+            else:
+                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
+                                                  requester)
+            if before_publish is not None:
+                before_publish()
+            self._publish(action)
+
+    def _publish(self, action: Action, repeat: bool = False) -> None:
+        status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
+                              progress=dict(action.progress), robot=action.robot,
+                              cause=action.cause, repeat=repeat, name=action.name,
+                              goal=action.goal)
+        try:
+            self.publish(status)
+        except Exception as exc:  # the journal has it; a reconnecting sender re-asks
+            log.error("publishing status of %s failed: %r", action.uuid, exc)
+
+    def _end_unrouted(self, action: Action, end: lc.End) -> None:
+        """End an action no robot actor runs (lifecycle.end_unrouted)."""
+        publish = lc.end_unrouted(action.state, end)
+        log.warning("ending action %s (%s): %s", action.uuid, publish.state.value,
+                    publish.reason)
+        action.transition(publish.state, publish.reason, publish.cause)
+        try:
+            self.layer.on_action_end(action.copy())
+        except Exception as exc:
+            log.error("on_action_end(%s) raised %r", action.uuid, exc)
+        self._emit(action, "")
+
+    def _tell(self, robot: str, message: object) -> None:
+        """Send to the robot's current incarnation. Nothing is lost if it is down: a
+        StartAction is journaled first (the next incarnation restores the action), a
+        Control is journaled pending here (the next incarnation applies it)."""
+        if isinstance(message, Control) and not message.seq:
+            try:
+                seq = self.journal.add_control(robot, message.uuid,
+                                               controls.encode(message.event))
+                message = dataclasses.replace(message, seq=seq)
+            except Exception as exc:  # the live actor may still get it
+                log.error("journaling a control for %s failed: %r", message.uuid, exc)
+        with self._lock:
+            ref = self._refs.get(robot)
+        try:
+            if ref is None:
+                raise pykka.ActorDeadError(robot)
+            ref.tell(message)
+        except pykka.ActorDeadError:
+            log.warning("robot actor %s is down; %r waits for its next incarnation",
+                        robot, message)
+
+    def _preempt(self, uuid: str, resource: str) -> None:
+        self._control_one(uuid, lc.Suspend(lc.SuspendCause.PREEMPTED, f"pre-empted: {resource} "
+                                           "is needed by a higher-priority action"))
+
+    def _resume_preempted(self, uuid: str, resource: str) -> None:
+        self._control_one(uuid, lc.Resume(lc.SuspendCause.PREEMPTED))
+
+    def _control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
+        with self._lock:
+            entry = self._index.get(uuid)
+        if entry is not None:
+            self._tell(entry.robot, Control(uuid, event))
+
+
+_END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,
+           "fail": ActionState.FAILED}
+
+
+def _event_of(command: str, by_agent: bool) -> lc.Suspend | lc.Resume | lc.End:
+    """The lifecycle event of a goal-management command (ActionControl validated it)."""
+    if command in _END_OF:
+        return lc.End(_END_OF[command], lc.EndCause.AGENT if by_agent else lc.EndCause.OPERATOR)
+    by = lc.SuspendCause.AGENT if by_agent else lc.SuspendCause.OPERATOR
+    return lc.Suspend(by) if command == "suspend" else lc.Resume(by)
+
+
+def _fields(request: ActionRequest) -> dict[str, Any]:
+    return {"name": request.name, "robot": request.robot, "goal": request.goal}

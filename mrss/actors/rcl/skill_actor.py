@@ -1,0 +1,294 @@
+"""One pykka actor per running skill; the skill's own code runs on a worker thread it owns.
+
+`run` may block on a robot link, so the actor never calls it on its own thread: the
+worker drives START -> RUN -> FINISH and reports, while the actor stays free to take an
+`Interrupt` (set the flag, move to INTERRUPT, call `terminate()`), even if `run` never
+returns. Nothing a skill raises escapes to the robot actor.
+
+Skill restarts follow the supervision policy (mrss.supervision.policy.RestartPolicy),
+with the skill as the one child of a supervisor `robots/<robot>`: a skill that raises is
+started again from START after the policy's backoff (with jitter), at most
+`max_restarts` times within `restart_period` seconds; one more crash escalates: the
+skill fails with the exception's message, and so its action, and the escalation goes on
+to the robot's supervisor as a crash of the robot actor (restarted, its other actions
+taken back from the journal, and counted in `max_robot_restarts`: a robot whose skills
+keep escalating is quarantined). Every restart is a `sup.restart` event, the escalation a
+`sup.escalate` event (detail: the action's uuid). A skill without a restart budget
+(`max_restarts = 0`, the default) only fails its action: it has nothing to escalate.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import pykka
+
+from mrss.actors.rcl.action import Action
+from mrss.actors.rcl.failure_causes import failure_cause
+from mrss.actors.rcl.resources import Holder, ResourceBroker
+from mrss.actors.rcl.skill import Skill, SkillInterrupted, SkillOutcome, SkillState
+from mrss.messages import JsonValue
+from mrss.supervision.events import ESCALATE, RESTART, SupEvents
+from mrss.supervision.policy import Action as Verdict
+from mrss.supervision.policy import RestartPolicy
+from mrss.supervision.reason import Cause, ExitReason
+from mrss.supervision.spec import Backoff, ChildSpec, OnExceeded, SupervisorSpec
+from mrss.supervision.threads import ACTOR_THREADS
+
+log = logging.getLogger("mrss.rcl.skill")
+
+#: A crash-looping skill waits 0.05 s before its second restart, doubling up to 2 s.
+SKILL_BACKOFF = Backoff(initial=0.05, factor=2.0, cap=2.0, jitter=0.2)
+
+
+@dataclass(frozen=True)
+class SkillEnded:
+    """To the robot actor: skill `index` of run `run` of action `uuid` is over."""
+
+    uuid: str
+    run: int
+    index: int
+    outcome: SkillOutcome
+    reason: str
+    cause: str = ""  # the FailureCause of what it raised (failure_causes.py)
+    escalated: bool = False  # crashed past its restart budget: the robot actor fails too
+
+
+@dataclass(frozen=True)
+class ProgressRecorded:
+    """To the robot actor: a skill recorded progress for its action."""
+
+    uuid: str
+    run: int
+    values: dict[str, JsonValue]
+
+
+@dataclass(frozen=True)
+class Interrupt:
+    """To a skill actor: stop the skill now (suspend, cancel, pre-emption, shutdown)."""
+
+
+@dataclass(frozen=True)
+class _WorkerDone:
+    outcome: SkillOutcome
+    reason: str
+    escalated: bool = False
+
+
+Report = Callable[[object], None]
+
+
+class SkillRunner:
+    """The runtime a skill sees (mrss.api.SkillRuntime): link, flag, progress, resources."""
+
+    def __init__(self, action: Action, run: int, index: int, link: Any,
+                 broker: ResourceBroker, report: Report,
+                 publish: Callable[[Any], object] | None = None,
+                 data: Callable[[Mapping[str, JsonValue]], bool] | None = None) -> None:
+        self.action = action
+        self._data = data  # where the skill's robot data goes (the layer's publish_data)
+        self.publish = publish  # where the skill's sup.* events go
+        self.link = link
+        self.run = run
+        self.index = index
+        self.interrupt_event = threading.Event()
+        self.lock = threading.Lock()
+        self.token = f"{action.uuid}/{run}/{index}"
+        self.cause = ""  # of the last attempt: the FailureCause of what it raised
+        self._broker = broker
+        self._report = report
+
+    def record_progress(self, values: Mapping[str, JsonValue]) -> None:
+        try:
+            self._report(ProgressRecorded(self.action.uuid, self.run, dict(values)))
+        except pykka.ActorDeadError:
+            log.warning("skill %s: progress %r lost, robot actor stopped", self.token, values)
+
+    def publish_data(self, data: Mapping[str, JsonValue]) -> bool:
+        if self._data is None:
+            log.warning("skill %s: robot data %r not sent, no bus", self.token, data)
+            return False
+        return self._data(data)
+
+    def acquire(self, resource: str, timeout: float | None) -> None:
+        holder = Holder(self.token, self.action.uuid, self.action.priority)
+        self._broker.acquire(resource, holder, self.interrupt_event, timeout)
+
+    def release(self, resource: str) -> None:
+        self._broker.release(resource, self.token)
+
+    def release_all(self) -> None:
+        self._broker.release_token(self.token)
+
+    def interrupt(self) -> None:
+        self.interrupt_event.set()
+        self._broker.wake(self.token)
+
+
+class SkillActor(pykka.ThreadingActor):
+    """Owns one skill's worker thread; reports SkillEnded to its robot actor.
+
+    The actor loop and the worker both run on pre-started pool threads, which an
+    abandoned skill never keeps the process alive with: starting a thread waits until
+    it runs, which on a busy machine cost milliseconds per skill start.
+    """
+
+    def __init__(self, skill: Skill, runner: SkillRunner, report: Report) -> None:
+        super().__init__()
+        self.skill = skill
+        self.runner = runner
+        self.report = report
+        skill._bind(runner)
+
+    def _start_actor_loop(self) -> None:
+        # The worker first: it calls the skill's start(), so it takes the first idle
+        # thread; its report waits in the inbox until the actor loop runs.
+        ACTOR_THREADS.submit(self._work)
+        ACTOR_THREADS.submit(self._actor_loop)
+
+    def on_receive(self, message: Any) -> Any:
+        if isinstance(message, Interrupt):
+            self._interrupt()
+        elif isinstance(message, _WorkerDone):
+            try:
+                self.report(SkillEnded(self.runner.action.uuid, self.runner.run,
+                                       self.runner.index, message.outcome, message.reason,
+                                       self.runner.cause, message.escalated))
+            except pykka.ActorDeadError:
+                log.info("skill %s ended after its robot actor stopped", self.runner.token)
+            self.stop()
+        else:
+            log.warning("skill actor %s: unexpected message %r", self.runner.token, message)
+        return None
+
+    def _interrupt(self) -> None:
+        with self.runner.lock:
+            if self.skill.state in (SkillState.START, SkillState.RUN):
+                self.skill._set_state(SkillState.INTERRUPT)
+            else:
+                return
+        self.runner.interrupt()
+        try:
+            self.skill.terminate()
+        except Exception as exc:  # project code: log, the worker still ends the skill
+            log.error("skill %s: terminate() raised %s: %s", self.skill.name,
+                      type(exc).__name__, exc)
+
+    def _work(self) -> None:
+        escalated = False
+        try:
+            outcome, reason, escalated = drive(self.skill, self.runner)
+        except BaseException as exc:  # noqa: BLE001 - never lose the report
+            outcome, reason = SkillOutcome.FAILED, f"{self.skill.name}: {exc!r}"
+        finally:
+            self.runner.release_all()
+        try:
+            self.actor_ref.tell(_WorkerDone(outcome, reason, escalated))
+        except pykka.ActorDeadError:
+            log.info("skill %s ended after being abandoned (%s)", self.runner.token, outcome)
+
+
+def restart_policy(skill: Skill) -> RestartPolicy:
+    """The policy deciding a skill's restarts: it alone, its `max_restarts` within its
+    `restart_period`, escalation beyond (the action fails)."""
+    spec = SupervisorSpec(intensity=max(0, int(skill.max_restarts)),
+                          period=float(skill.restart_period), backoff=SKILL_BACKOFF,
+                          on_exceeded=OnExceeded.ESCALATE)
+    return RestartPolicy(spec, [ChildSpec(_child_id(skill), start=None)])
+
+
+def _child_id(skill: Skill) -> str:
+    return skill.name
+
+
+def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
+    """Run the skill's state machine to FINISH on this thread; return outcome, reason and
+    whether it escalated.
+
+    A crash is decided by the skill's RestartPolicy (see the module docstring)."""
+    policy, child = restart_policy(skill), _child_id(skill)
+    events = SupEvents(f"robots/{runner.action.robot}", runner.publish, log)
+    while True:
+        policy.child_started(child)
+        outcome, reason, crashed = _attempt(skill, runner)
+        if crashed and not runner.interrupt_event.is_set():
+            if skill.max_restarts <= 0:  # no budget: nothing to restart or escalate
+                return (*_finish(skill, runner, outcome, reason), False)
+            decision = policy.child_exited(child, ExitReason(Cause.CRASHED, reason))
+            if decision.action is not Verdict.RESTART:
+                events.emit(ESCALATE, child, reason=reason, count=decision.count,
+                            note=decision.note, action=runner.action.uuid,
+                            index=runner.index)
+                return (*_finish(skill, runner, outcome, reason), True)
+            events.emit(RESTART, child, reason=reason, count=decision.count,
+                        delay=round(decision.delay, 3), action=runner.action.uuid,
+                        index=runner.index)
+            _finish(skill, runner, SkillOutcome.FAILED, reason)
+            runner.release_all()
+            with runner.lock:
+                skill._set_state(SkillState.START)
+            if runner.interrupt_event.wait(decision.delay):
+                with runner.lock:
+                    if skill.state is SkillState.START:
+                        skill._set_state(SkillState.INTERRUPT)
+                    skill._set_state(SkillState.FINISH)
+                return (*_finish(skill, runner, SkillOutcome.INTERRUPTED, ""), False)
+            continue
+        return (*_finish(skill, runner, outcome, reason), False)
+
+
+def _attempt(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
+    """One pass START -> RUN -> FINISH; (outcome, reason, crashed)."""
+    outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False
+    runner.cause = ""
+    try:
+        for resource in skill.resources:
+            skill.acquire(resource)
+        if not runner.interrupt_event.is_set():
+            skill.start()
+        with runner.lock:
+            go = skill.state is SkillState.START
+            if go:
+                skill._set_state(SkillState.RUN)
+        if go:
+            outcome, reason = _normalise(skill, skill.run())
+    except SkillInterrupted:
+        outcome = SkillOutcome.INTERRUPTED
+    except Exception as exc:
+        outcome, crashed = SkillOutcome.FAILED, True
+        reason = f"{skill.name} raised {type(exc).__name__}: {exc}"
+        runner.cause = failure_cause(exc)
+    with runner.lock:
+        if skill.state is SkillState.INTERRUPT:
+            outcome, reason, crashed = SkillOutcome.INTERRUPTED, "", False
+        skill._set_state(SkillState.FINISH)
+    return outcome, reason, crashed
+
+
+def _normalise(skill: Skill, result: SkillOutcome | bool | None) -> tuple[SkillOutcome, str]:
+    if isinstance(result, SkillOutcome):
+        outcome = result
+    else:
+        outcome = SkillOutcome.FAILED if result is False else SkillOutcome.SUCCEEDED
+    if outcome is SkillOutcome.SUCCEEDED:
+        return outcome, ""
+    return outcome, skill.reason or f"{skill.name} {outcome.value}"
+
+
+def _finish(skill: Skill, runner: SkillRunner, outcome: SkillOutcome,
+            reason: str) -> tuple[SkillOutcome, str]:
+    """Call the skill's `finish` hook; a raising hook turns success into failure."""
+    skill.outcome, skill.reason = outcome, reason
+    try:
+        skill.finish(outcome)
+    except Exception as exc:
+        log.error("skill %s: finish() raised %s: %s", skill.name, type(exc).__name__, exc)
+        if outcome is SkillOutcome.SUCCEEDED:
+            outcome = SkillOutcome.FAILED
+            reason = f"{skill.name}.finish raised {type(exc).__name__}: {exc}"
+            skill.outcome, skill.reason = outcome, reason
+    return outcome, reason

@@ -1,0 +1,180 @@
+"""A pre-imported template process that forks component processes on request.
+
+Starting Python and importing MRSS costs far more than a restart should; the fork
+server pays it once. It is started by the root supervisor with one end of a
+SOCK_SEQPACKET pair, imports the component modules ahead of time, then serves:
+
+  supervisor -> server: {"op": "spawn", "req": N, "target", "name", "inc", "context"}
+                        plus the child's control socket (SCM_RIGHTS)
+  server -> supervisor: {"op": "spawned", "req": N, "pid": P} | {"op": "error", ...}
+                        {"op": "exit", "pid": P, "status": S}  (raw waitpid status)
+
+Forked children get their own process group; the server exits when the supervisor's end
+closes, and a child whose supervisor is gone stops itself (its control channel closes).
+It never creates threads or sockets beyond its channel before forking, so children start
+from a clean template.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import logging
+import os
+import select
+import signal
+import socket
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+log = logging.getLogger("mrss.runtime.forkserver")
+
+PRELOAD = ("mrss.runtime.main", "mrss.messages", "pykka", "msgpack", "zmq")
+
+
+COMPONENT_COMM_PREFIX = "mrss:"  # a forked component's process name: "mrss:reasoner"
+
+
+def is_fork_server(cmdline: Sequence[str], name: str) -> bool:
+    """Whether a process (its argv and its name) is a fork server, not a component it
+    forked: those share its argv, but name themselves after their component."""
+    return (any("mrss.runtime.forkserver" in part for part in cmdline)
+            and not name.startswith(COMPONENT_COMM_PREFIX))
+
+
+def _name_process(name: str) -> None:
+    """Set the process name (`ps`, `top`, psutil's name()) to `mrss:<component>`."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        libc.prctl(15, f"{COMPONENT_COMM_PREFIX}{name}"[:15].encode(), 0, 0, 0)  # PR_SET_NAME
+    except OSError:
+        pass
+
+
+def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: int) -> None:
+    """In the forked child: become a component; never returns."""
+    code = 1
+    try:
+        _name_process(str(req["name"]))
+        signal.set_wakeup_fd(-1)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        sock.close()
+        os.close(wake[0])
+        os.close(wake[1])
+        os.setpgid(0, 0)
+        from mrss.runtime.main import run_component
+
+        logging.getLogger().handlers.clear()
+        logging.basicConfig(
+            level=logging.INFO, force=True,
+            format=f"%(asctime)s {req['name']}[{os.getpid()}] %(levelname)s %(message)s")
+        code = run_component(req["target"], req["name"], int(req["inc"]), req["context"], fd)
+    except BaseException:  # anything, in a forked child, must end in os._exit
+        logging.getLogger("mrss.runtime.forkserver").exception("forked child failed")
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
+def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
+    try:
+        sock.send(json.dumps(msg).encode())
+        return True
+    except OSError:
+        return False
+
+
+def serve(sock: socket.socket) -> int:
+    """The server loop: spawn on request, report exits, stop when the supervisor goes."""
+    wake = os.pipe()
+    os.set_blocking(wake[1], False)
+    os.set_blocking(wake[0], False)
+    signal.set_wakeup_fd(wake[1])
+    signal.signal(signal.SIGCHLD, lambda *_: None)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the supervisor decides when we stop
+    signal.signal(signal.SIGTERM, lambda *_: None)
+    _send(sock, {"op": "hello", "pid": os.getpid()})
+    while True:
+        try:
+            readable, _, _ = select.select([sock.fileno(), wake[0]], [], [])
+        except InterruptedError:
+            continue
+        if wake[0] in readable:
+            try:
+                os.read(wake[0], 4096)
+            except BlockingIOError:
+                pass
+            _reap(sock)
+        if sock.fileno() in readable:
+            try:
+                data, fds, _, _ = socket.recv_fds(sock, 1 << 20, 1)
+            except OSError:
+                data, fds = b"", []
+            if not data:
+                return 0
+            _handle(sock, wake, data, fds)
+
+
+def _reap(sock: socket.socket) -> None:
+    while True:
+        try:
+            pid, status = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            return
+        _send(sock, {"op": "exit", "pid": pid, "status": status})
+
+
+def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[int]) -> None:
+    try:
+        req = json.loads(data)
+        if req.get("op") != "spawn" or len(fds) != 1:
+            raise ValueError("expected a spawn request with one control socket")
+    except ValueError as exc:
+        for fd in fds:
+            os.close(fd)
+        _send(sock, {"op": "error", "req": None, "error": str(exc)})
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:
+        _child(sock, wake, req, fds[0])
+    os.close(fds[0])
+    _send(sock, {"op": "spawned", "req": req.get("req"), "pid": pid})
+
+
+def preload(modules: Sequence[str], path: Sequence[str]) -> None:
+    """Import what children will need, so a fork starts with it loaded."""
+    for p in reversed(path):
+        if p and p not in sys.path:
+            sys.path.insert(0, p)
+    for name in (*PRELOAD, *modules):
+        try:
+            importlib.import_module(name)
+        except Exception as exc:  # the child will import again and report properly
+            log.debug("preload of %s failed: %s", name, exc)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m mrss.runtime.forkserver")
+    p.add_argument("--fd", type=int, required=True, help="inherited SOCK_SEQPACKET socket")
+    p.add_argument("--preload", default="", help="comma-separated modules to import")
+    p.add_argument("--path", action="append", default=[], help="prepend to sys.path")
+    args = p.parse_args(argv)
+    preload([m for m in args.preload.split(",") if m], args.path)
+    return serve(socket.socket(fileno=args.fd))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

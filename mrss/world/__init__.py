@@ -1,0 +1,1 @@
+"""What the world model holds and how a component reaches it: objects, shapes, clients."""
