@@ -27,8 +27,10 @@ install: $(VENV)/.installed-dev
 run: $(VENV)/.installed-run
 	$(BIN)/mrss supervise $(PROJECT)
 
+# The package layers and the components' independence (pyproject.toml, docs/architecture.md).
 lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check mrss tests projects
+	$(BIN)/lint-imports --no-cache
 
 # Each project on its own: two projects' rcl.py would be one module name to mypy.
 typecheck: $(VENV)/.installed-dev

@@ -20,14 +20,7 @@ DOCUMENTS = sorted((REPO / "docs").glob("*.md")) + [REPO / "README.md"]
 FORBIDDEN = re.compile(r"shared/|/work/|/root/|/home/\w|/Users/\w|(?<![\w.])/\S*\.venv/")
 TOML_BLOCK = re.compile(r"```toml\n(.*?)```", re.S)
 # What a fragment of project.toml is completed with (the components it does not define).
-BASE_COMPONENTS = {
-    "bus": "mrss.actors.proxy.service:ProxyComponent", "broker": "mrss.actors.broker.service:EmbeddedBroker",
-    "worldmodel": "mrss.actors.worldmodel.service:WorldModelComponent",
-    "datalayer": "mrss.actors.datalayer.service:DataLayerComponent",
-    "events": "mrss.actors.events.service:ExternalEventsManager",
-    "rcl": "mrss.actors.rcl.service:RclService",
-    "reasoner": "mrss.actors.reasoner.service:ReasonerComponent",
-}
+BASE_COMPONENTS = ("bus", "broker", "worldmodel", "datalayer", "events", "rcl", "reasoner")
 
 
 def examples() -> list[tuple[str, str]]:
@@ -38,7 +31,7 @@ def examples() -> list[tuple[str, str]]:
 def completed(block: str) -> str:
     """`block` with the components it does not define (a fragment becomes a project)."""
     missing = [c for c in BASE_COMPONENTS if not re.search(rf"^\[components\.{c}\]", block, re.M)]
-    prelude = "".join(f'[components.{c}]\nmodule = "{BASE_COMPONENTS[c]}"\n' for c in missing)
+    prelude = "".join(f'[components.{c}]\nkind = "{c}"\n' for c in missing)
     return prelude + block
 
 
@@ -135,3 +128,16 @@ def test_the_amadee_rules_data_example_is_what_the_rules_read() -> None:
     found = legality.judge("drive(rover1,g1,39.77225,44.7985)", world, after)
     assert (found.rule, "'dune_field'" in found.detail) == ("slope_limit", True)
     assert legality.judge("image(rover1,g2)", world, during).legal
+
+
+def test_the_architecture_table_is_the_layer_contract() -> None:
+    """docs/architecture.md lists the import-linter layers of pyproject.toml, in order."""
+    contracts = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
+    (layers,) = [c["layers"] for c in contracts["contracts"] if c["type"] == "layers"]
+    text = (REPO / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| (\d+) \| (.*?) \|", text, re.M)
+    assert [int(n) for n, _ in rows] == list(range(1, len(layers) + 1))
+    for (_, folders), layer in zip(rows, layers, strict=True):
+        named = {m.strip("/").removesuffix(".py").replace("/", ".")
+                 for m in re.findall(r"`(mrss/[\w/.]+)`", folders)}
+        assert named == {m.strip() for m in re.split(r"[|:]", layer)}, folders

@@ -21,6 +21,8 @@ By idea:
 - geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
 - errors: MrssError, ActionError, ConfigError, TransientError;
 - options a project class declares for `mrss check`: Option, Check;
+- a project's own component process (`module = "beacon:Beacon"` in project.toml):
+  Component, ComponentContext;
 - the project folder and its run folder: PROJECT_FILE, import_project_module,
   project_broker_url, simulator_address, BROKER_URL_FILE, WORLD_MODEL_URL_FILE.
 """
@@ -64,6 +66,7 @@ from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
 from mrss.messages.plans import plan_record
 from mrss.options import Check, Option
+from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.loader import import_project_module
 from mrss.world.access import (
     WORLD_MODEL_URL_FILE,
@@ -97,4 +100,6 @@ __all__ = [
     "project_broker_url", "simulator_address",
     # options a project class reads from its table, declared for `mrss check`
     "Check", "Option",
+    # a project's own component process
+    "Component", "ComponentContext",
 ]

@@ -60,14 +60,14 @@ name = "{PROJECT}"
 heartbeat_interval = 0.5
 {bus}
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 {favoured}
 [components.rcl]
-module = "mrss.actors.rcl.service:RclService"
+kind = "rcl"
 robots = {{ {table} }}
 {favoured}
 [components.reasoner]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 {favoured}"""
 
 

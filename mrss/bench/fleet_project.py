@@ -63,20 +63,20 @@ heartbeat_interval = 0.5
 {f'[broker]{chr(10)}url = "{broker_url}"' if broker_url else ""}
 
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 {FAVOURED}
-{"" if broker_url else '[components.broker]' + chr(10) + 'module = "mrss.actors.broker.service:EmbeddedBroker"'}
+{"" if broker_url else '[components.broker]' + chr(10) + 'kind = "broker"'}
 
 [components.worldmodel]
-module = "mrss.actors.worldmodel.service:WorldModelComponent"
+kind = "worldmodel"
 {TELEMETRY}
 
 [components.datalayer]
-module = "mrss.actors.datalayer.service:DataLayerComponent"
+kind = "datalayer"
 {TELEMETRY}
 
 [components.fleet]
-module = "mrss.sim.fleet_component:SimFleetComponent"
+kind = "sim_fleet"
 start_timeout = 120.0
 uav = {uavs}
 ugv = {ugvs}
@@ -84,13 +84,13 @@ rate = {rate}
 speedup = 1.0
 
 [components.rcl]
-module = "mrss.actors.rcl.service:RclService"
+kind = "rcl"
 start_timeout = 120.0
 {FAVOURED}
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 {FAVOURED}
 """
 

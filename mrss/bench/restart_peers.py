@@ -56,7 +56,7 @@ heartbeat_interval = 0.5
 launcher = "{launcher}"
 
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 {favoured}
 [components.{ECHO}]
 module = "mrss.bench.restart_peers:BusEcho"

@@ -34,15 +34,12 @@ from pathlib import Path
 
 import psutil
 
+from mrss.config.kinds import ComponentKind
 from mrss.config.project import ProjectConfig
 from mrss.errors import MrssError
 from mrss.runtime.forkserver import is_fork_server
 
-PROXY_MODULE = "mrss.actors.proxy.service:ProxyComponent"
-BROKER_MODULE = "mrss.actors.broker.service:EmbeddedBroker"
-SIM_MODULE_PREFIX = "mrss.sim.component:"
-RCL_MODULE = "mrss.actors.rcl.service:RclService"
-REASONER_MODULE = "mrss.actors.reasoner.service:ReasonerComponent"
+SIMULATORS = (ComponentKind.SIM_UAV, ComponentKind.SIM_UGV, ComponentKind.SIM_FLEET)
 FORKSERVER = "forkserver"
 SIGXFSZ_BIT = 1 << (signal.SIGXFSZ - 1)
 
@@ -96,22 +93,22 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
     names = [c.id for c in enabled]
     chosen = [n for n in names if n in set(only)] if only else names
 
-    def by(match: Callable[[str], bool]) -> list[str]:
-        return [c.id for c in enabled if match(c.module)]
+    def by(*kinds: ComponentKind) -> list[str]:
+        return [c.id for c in enabled if c.kind in kinds]
 
     return {
         FaultKind.KILL: chosen,
         FaultKind.HANG: chosen,
-        FaultKind.BLACKOUT: by(lambda m: m == PROXY_MODULE),
-        FaultKind.BROKER: by(lambda m: m == BROKER_MODULE),
-        FaultKind.LINK: by(lambda m: m.startswith(SIM_MODULE_PREFIX)),
+        FaultKind.BLACKOUT: by(ComponentKind.BUS),
+        FaultKind.BROKER: by(ComponentKind.BROKER),
+        FaultKind.LINK: by(*SIMULATORS),
         FaultKind.FORKSERVER: [FORKSERVER] if config.supervisor.launcher == "fork" else [],
-        FaultKind.DISK_FULL: by(lambda m: m == RCL_MODULE),
+        FaultKind.DISK_FULL: by(ComponentKind.RCL),
     }
 
 
-def components_of(config: ProjectConfig, module: str) -> list[str]:
-    return [c.id for c in config.components if c.enabled and c.module == module]
+def components_of(config: ProjectConfig, kind: ComponentKind) -> list[str]:
+    return [c.id for c in config.of_kind(kind)]
 
 
 class Injector:

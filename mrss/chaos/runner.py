@@ -25,8 +25,6 @@ from mrss.chaos.campaign import Range, plan
 from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
-    RCL_MODULE,
-    REASONER_MODULE,
     Fault,
     FaultKind,
     Heal,
@@ -38,6 +36,7 @@ from mrss.chaos.faults import (
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import OperatorStep, Sent, Traffic, load_traffic, publish
+from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
 from mrss.config.operator import SECTION, GoalState, read_operator
 from mrss.config.project import ProjectConfig
@@ -81,8 +80,8 @@ def run(options: Options, say: Say = print) -> Path:
     traffic = load_traffic(config.directory)
     faults = plan(options.seed, options.faults, options.kinds,
                   targets(config, options.only), options.interval, options.duration)
-    reasoners = components_of(config, REASONER_MODULE)
-    rcls = components_of(config, RCL_MODULE)
+    reasoners = components_of(config, ComponentKind.REASONER)
+    rcls = components_of(config, ComponentKind.RCL)
     options.run_dir.mkdir(parents=True, exist_ok=True)
     path = options.run_dir / FILE_NAME
     writer = HistoryWriter(path)

@@ -28,7 +28,7 @@ def check_operator(config: ProjectConfig, report: Report, *, events_running: boo
     file = str(config.file)
     if operator.topics and not events_running:
         report.error(file, "[operator] declares commands, but no events manager runs "
-                     "(mrss.actors.events.service:ExternalEventsManager) to make them percepts",
+                     "(kind = \"events\") to make them percepts",
                      line=key_line(config, SECTION), check="operator", key=SECTION)
     events = config.sections.get("events", {})
     prefix = events.get("topic_prefix") if isinstance(events, dict) else None

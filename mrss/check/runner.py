@@ -37,23 +37,26 @@ from mrss.check.recipes import (
 from mrss.check.robots import check_robots
 from mrss.check.sources import PySource, Sources
 from mrss.check.toml_lines import key_line, section_key
+from mrss.config.kinds import ComponentKind
 from mrss.config.loader import COMPONENT_KEYS
 from mrss.config.project import ComponentConfig, ProjectConfig
 from mrss.errors import SupervisionError
 from mrss.options import Option, option_names
 from mrss.runtime.main import load_class
 
-REASONER = "mrss.actors.reasoner.service:ReasonerComponent"
-EVENTS = "mrss.actors.events.service:ExternalEventsManager"
-DATALAYER = "mrss.actors.datalayer.service:DataLayerComponent"
-RCL = "mrss.actors.rcl.service:RclService"
-WORLDMODEL = "mrss.actors.worldmodel.service:WorldModelComponent"
+REASONER, EVENTS = ComponentKind.REASONER, ComponentKind.EVENTS
+DATALAYER, RCL, WORLDMODEL = ComponentKind.DATALAYER, ComponentKind.RCL, ComponentKind.WORLDMODEL
 
 
 def check_project(config: ProjectConfig) -> Report:
     """Every check on a loaded project.toml; nothing is started."""
     report = Report(config.name)
     sources = Sources(config.directory, report)
+    for former in config.warnings:  # an earlier release's spelling: it runs, and says so
+        file, _, line = former.where.rpartition(":")
+        report.warning(file if line.isdigit() else former.where,
+                       f"{former.key}: {former.what}; write {former.instead}",
+                       line=int(line) if line.isdigit() else 0, check="config", key=former.key)
     check_tables(config, report)
     check_nodes(config, report)
     check_broker_login(config, report)
@@ -81,8 +84,8 @@ def check_project(config: ProjectConfig) -> Report:
     return report
 
 
-def _running(config: ProjectConfig, target: str) -> list[ComponentConfig]:
-    return [c for c in config.components if c.enabled and c.module == target]
+def _running(config: ProjectConfig, kind: ComponentKind) -> list[ComponentConfig]:
+    return list(config.of_kind(kind))
 
 
 def _component_classes(config: ProjectConfig, report: Report) -> dict[str, type]:
@@ -98,7 +101,7 @@ def _component_classes(config: ProjectConfig, report: Report) -> dict[str, type]
                          line=key_line(config, key), check="components", key=key)
             continue
         classes[comp.id] = cls
-        ignore = ("robots",) if comp.module == RCL else ()
+        ignore = ("robots",) if comp.kind is RCL else ()
         check_component(config, report, comp.id, cls, comp.options, ignore)
     return classes
 
@@ -205,10 +208,10 @@ def _rcl(config: ProjectConfig, comp: ComponentConfig, sources: Sources,
 
 
 def _edge(config: ProjectConfig, sources: Sources, report: Report, classes: dict[str, type],
-          section: str, target: str, base: type, default: str
+          section: str, kind: ComponentKind, base: type, default: str
           ) -> tuple[PySource | None, type | None] | None:
     """An edge component's table and the project class it runs: (source, class)."""
-    comps = _running(config, target)
+    comps = _running(config, kind)
     table = dict(config.sections.get(section, {}) or {})
     comp_id = comps[0].id if comps else None
     for comp in comps:

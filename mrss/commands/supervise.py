@@ -35,7 +35,8 @@ from mrss.bus import Publisher
 from mrss.bus.curve import load_keys, load_public
 from mrss.bus.settings import endpoints_from_config
 from mrss.commands import check
-from mrss.config.loader import PROXY_MODULE, load_project
+from mrss.config.kinds import ComponentKind
+from mrss.config.loader import load_project
 from mrss.config.nodes import keys_dir, node_children, node_plan
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
@@ -204,7 +205,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
 def proxy_child(config: ProjectConfig) -> str:
     """The id of the component that runs the bus proxy ("" if the project has none)."""
     return next((c.id for c in config.components
-                 if c.enabled and c.module == PROXY_MODULE), "")
+                 if c.enabled and c.kind is ComponentKind.BUS), "")
 
 
 def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor,

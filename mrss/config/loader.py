@@ -24,8 +24,10 @@ from typing import Any, Literal, cast
 
 from mrss.config.key_lines import key_line_number as key_line_number
 from mrss.config.key_lines import line_of_key
+from mrss.config.kinds import KINDS, ComponentKind, kind_of_target
 from mrss.config.project import DEFAULT_RETRY_AFTER as DEFAULT_RETRY_AFTER
 from mrss.config.project import ComponentConfig as ComponentConfig
+from mrss.config.project import ConfigWarning as ConfigWarning
 from mrss.config.project import ProjectConfig as ProjectConfig
 from mrss.config.project import SupervisorConfig as SupervisorConfig
 from mrss.config.projects import PROJECT_FILE, project_path
@@ -47,15 +49,13 @@ from mrss.textfile import NotUtf8Error, read_text
 
 ID_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 TARGET_PATTERN = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
-COMPONENT_KEYS = ("module", "restart", "shutdown", "kind", "enabled", "start_timeout", "backoff",
-                  "node", "nice", "cpus", "realtime")
+COMPONENT_KEYS = ("kind", "module", "child", "restart", "shutdown", "enabled", "start_timeout",
+                  "backoff", "node", "nice", "cpus", "realtime")
 SUPERVISOR_KEYS = ("strategy", "intensity", "period", "healthy_after", "on_give_up",
                    "retry_after", "shared_intensity", "groups", "heartbeat_interval",
                    "heartbeat_misses", "launcher", "run_dir", "backoff", "cpu_latency_us")
 # [supervisor] keys of earlier versions, and what replaced them.
 REPLACED_KEYS = {"on_exceeded": "on_give_up", "probation": "retry_after"}
-# The bus proxy restarts without backoff unless its table says otherwise: all need it.
-PROXY_MODULE = "mrss.actors.proxy.service:ProxyComponent"
 NEVER = "never"
 NICE_MIN, NICE_MAX = -20, 19
 
@@ -101,6 +101,7 @@ class _Reader:
     def __init__(self, path: Path, text: str) -> None:
         self.path = path
         self.lines = text.splitlines()
+        self.warnings: list[ConfigWarning] = []
 
     def error(self, key: str, reason: str) -> ConfigError:
         line = self.line_of(key)
@@ -123,7 +124,8 @@ class _Reader:
         # they are judged; `mrss supervise` runs it first): loading stays quiet.
         return ProjectConfig(name=name, directory=self.path.parent, file=self.path,
                              description=description, supervisor=supervisor,
-                             components=components, sections=sections)
+                             components=components, sections=sections,
+                             warnings=tuple(self.warnings))
 
     def supervisor(self, data: dict[str, Any],
                    components: tuple[ComponentConfig, ...]) -> SupervisorConfig:
@@ -243,10 +245,7 @@ class _Reader:
                                       "letters, digits, '_', '-' and '.'")
             if not isinstance(table, dict):
                 raise self.error(key, "must be a table")
-            module = table.get("module")
-            if not isinstance(module, str) or not TARGET_PATTERN.match(module):
-                raise self.error(f"{key}.module", "required: 'dotted.module:ClassName'"
-                                 + (f", not {module!r}" if module is not None else ""))
+            kind, module, child = self.what_runs(table, key)
             shutdown = table.get("shutdown", 5.0)
             if shutdown != KILL and (isinstance(shutdown, bool)
                                      or not isinstance(shutdown, int | float) or shutdown < 0):
@@ -256,18 +255,57 @@ class _Reader:
             if timeout <= 0:
                 raise self.error(f"{key}.start_timeout", "must be > 0")
             result.append(ComponentConfig(
-                id=cid, module=module,
+                id=cid, module=module, kind=kind,
                 restart=Restart(self.choice(table, f"{key}.restart", Restart, Restart.PERMANENT)),
                 shutdown=shutdown if shutdown == KILL else float(shutdown),
-                kind=ChildKind(self.choice(table, f"{key}.kind", ChildKind, ChildKind.WORKER)),
+                child=child,
                 enabled=self.typed(table, f"{key}.enabled", bool, True),
                 start_timeout=timeout,
-                backoff=self.typed(table, f"{key}.backoff", bool, module != PROXY_MODULE),
+                backoff=self.typed(table, f"{key}.backoff", bool,
+                                   kind is not ComponentKind.BUS),
                 node=self.typed(table, f"{key}.node", str, ""),
                 options={k: v for k, v in table.items() if k not in COMPONENT_KEYS},
                 nice=self.nice(table, f"{key}.nice"), cpus=self.cpus(table, f"{key}.cpus"),
                 realtime=self.realtime(table, f"{key}.realtime")))
         return tuple(result)
+
+    def what_runs(self, table: dict[str, Any], key: str
+                  ) -> tuple[ComponentKind | None, str, ChildKind]:
+        """A component's kind (None for a project's own class), the class it starts and its
+        child kind, from `kind` or `module` (config/kinds.py); former spellings warn."""
+        kind_value, module = table.get("kind"), table.get("module")
+        child = ChildKind(self.choice(table, f"{key}.child", ChildKind, ChildKind.WORKER))
+        if kind_value in tuple(ChildKind):
+            # Earlier releases' `kind` was the child kind; a shipped kind implies it now.
+            known = kind_of_target(module) if isinstance(module, str) else None
+            self.warn(f"{key}.kind", f"kind = {kind_value!r} is the former spelling of the "
+                      "child kind", "drop it (the component's kind implies it)" if known
+                      else f"child = {kind_value!r}")
+            child, kind_value = ChildKind(kind_value), None
+        if kind_value is not None:
+            if module is not None:
+                raise self.error(f"{key}.module", "give kind or module, not both: kind names a "
+                                 "component MRSS ships, module a project's own class")
+            kind = ComponentKind(self.choice(table, f"{key}.kind", ComponentKind, None))
+            return kind, KINDS[kind].target, KINDS[kind].child
+        if not isinstance(module, str) or not TARGET_PATTERN.match(module):
+            raise self.error(f"{key}.kind" if module is None else f"{key}.module",
+                             "required: kind = one of "
+                             f"{', '.join(k.value for k in ComponentKind)} (a component MRSS "
+                             "ships), or module = 'dotted.module:ClassName' (one of the "
+                             "project's own)" + (f"; not module = {module!r}"
+                                                 if module is not None else ""))
+        former = kind_of_target(module)
+        if former is None:
+            return None, module, child
+        self.warn(f"{key}.module", f"module = {module!r} names a class inside MRSS",
+                  f"kind = {former.value!r}")
+        return former, KINDS[former].target, KINDS[former].child
+
+    def warn(self, key: str, what: str, instead: str) -> None:
+        line = self.line_of(key)
+        self.warnings.append(ConfigWarning(f"{self.path}:{line}" if line else str(self.path),
+                                           key, what, instead))
 
     # -- typed getters ----------------------------------------------------------------------
     def table(self, data: dict[str, Any], name: str, keys: tuple[str, ...],

@@ -29,7 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from mrss.bus.mesh import MeshSettings
-from mrss.config.loader import ID_PATTERN, PROXY_MODULE
+from mrss.config.kinds import ComponentKind
+from mrss.config.loader import ID_PATTERN
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.supervision.children import ComponentStart
@@ -37,7 +38,6 @@ from mrss.supervision.spec import ChildSpec
 
 NODE_KEYS = ("address", "port", "bind")
 DEFAULT_KEYS_DIR = "keys"
-RCL_MODULE = "mrss.actors.rcl.service:RclService"
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ def read_nodes(config: ProjectConfig) -> tuple[NodePlan, list[NodeProblem]]:
     placement: dict[str, str] = {}
     for comp in config.enabled():
         key = f"components.{comp.id}.node"
-        if comp.module == PROXY_MODULE:
+        if comp.kind is ComponentKind.BUS:
             if comp.node:
                 problems.append(NodeProblem(key, "the bus proxy runs on every node; "
                                                  "remove 'node' here"))
@@ -122,7 +122,7 @@ def read_nodes(config: ProjectConfig) -> tuple[NodePlan, list[NodeProblem]]:
         placement[comp.id] = _place(comp.node, key, names, raw is not None, problems)
     robots: dict[str, str] = {}
     for comp in config.enabled():
-        table = comp.options.get("robots") if comp.module == RCL_MODULE else None
+        table = comp.options.get("robots") if comp.kind is ComponentKind.RCL else None
         if not isinstance(table, Mapping):
             continue
         for robot, options in table.items():
@@ -166,7 +166,7 @@ def node_children(config: ProjectConfig, plan: NodePlan,
         max_skew=float(bus.get("max_clock_skew", 5.0))).to_dict()
     children = []
     for comp in config.enabled():
-        if comp.module == PROXY_MODULE:
+        if comp.kind is ComponentKind.BUS:
             comp = replace(comp, options={**comp.options, "mesh": mesh})
         elif plan.placement.get(comp.id) != node:
             continue

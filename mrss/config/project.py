@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from mrss.config.kinds import ComponentKind
 from mrss.supervision.children import ComponentStart, Scheduling
 from mrss.supervision.spec import (
     ChildKind,
@@ -27,14 +28,28 @@ DEFAULT_RETRY_AFTER = 60.0  # `[supervisor] retry_after`: seconds before a given
 
 
 @dataclass(frozen=True)
+class ConfigWarning:
+    """A spelling of an earlier release that still works: where, and what to write now."""
+
+    where: str  # file:line
+    key: str
+    what: str
+    instead: str
+
+    def __str__(self) -> str:
+        return f"{self.where}: {self.key}: {self.what}; write {self.instead}"
+
+
+@dataclass(frozen=True)
 class ComponentConfig:
     """One `[components.<id>]` table."""
 
     id: str
-    module: str
+    module: str  # the class it starts, "dotted.module:Class" (its kind's, or the project's)
+    kind: ComponentKind | None = None  # None: a project's own class
     restart: Restart = Restart.PERMANENT
     shutdown: float | Literal["kill"] = 5.0
-    kind: ChildKind = ChildKind.WORKER
+    child: ChildKind = ChildKind.WORKER
     enabled: bool = True
     start_timeout: float = 10.0
     backoff: bool = True
@@ -48,7 +63,7 @@ class ComponentConfig:
         start = ComponentStart(self.module, dict(self.options), self.start_timeout,
                                Scheduling(self.nice, self.cpus, self.realtime))
         return ChildSpec(self.id, start, restart=self.restart, shutdown=self.shutdown,
-                         kind=self.kind, backoff=self.backoff)
+                         kind=self.child, backoff=self.backoff)
 
 
 @dataclass(frozen=True)
@@ -76,6 +91,7 @@ class ProjectConfig:
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     components: tuple[ComponentConfig, ...] = ()
     sections: dict[str, Any] = field(default_factory=dict)
+    warnings: tuple[ConfigWarning, ...] = ()  # former spellings met while loading
 
     def child_specs(self) -> list[ChildSpec[ComponentStart]]:
         """The enabled components in file order: the root supervisor's children."""
@@ -83,3 +99,7 @@ class ProjectConfig:
 
     def enabled(self) -> tuple[ComponentConfig, ...]:
         return tuple(c for c in self.components if c.enabled)
+
+    def of_kind(self, kind: ComponentKind) -> tuple[ComponentConfig, ...]:
+        """The enabled components of one kind, in file order."""
+        return tuple(c for c in self.components if c.enabled and c.kind is kind)

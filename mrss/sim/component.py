@@ -1,7 +1,7 @@
 """The simulated robots as supervised components: `mrss supervise` runs them like any part.
 
     [components.sim_uav]
-    module = "mrss.sim.component:SimUavComponent"
+    kind = "sim_uav"
     id = "uav1"                       # names the address file: <run_dir>/uav1.mavlink
     home = [-35.363262, 149.165237, 584.0]
     hotspots = [{lat = -35.3604, lon = 149.1657, temperature = 450}]   # or "FILE" / "LAT,LON;..."
@@ -15,7 +15,7 @@
     signing_key = "keys/uav1.key"     # MAVLink 2 signing (the robot's link names the same file)
 
     [components.sim_ugv]
-    module = "mrss.sim.component:SimUgvComponent"
+    kind = "sim_ugv"
     id = "ugv1"
     base = [-35.3635, 149.165]
     speedup = 4.0                     # $MRSS_SIM_SPEEDUP overrides

@@ -1,7 +1,7 @@
 """`mrss sim fleet` as a supervised component: many simulated robots in one process.
 
     [components.fleet]
-    module = "mrss.sim.fleet_component:SimFleetComponent"
+    kind = "sim_fleet"
     uav = 50                          # uav1..uav50, MAVLink over loopback UDP (addresses in
                                       # <run_dir>/uav<k>.mavlink, found by link = "mavlink")
     ugv = 50                          # ugv1..ugv50 on the project's broker (link = "mqtt")

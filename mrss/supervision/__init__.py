@@ -2,7 +2,8 @@
 
 Processes: `ProcessSupervisor` (the root of `mrss supervise`) runs component processes
 (`mrss.runtime`), each started with a `StartContext`. Actors: `ActorSupervisor` runs
-`SupervisedActor`s, nested as deep as needed. Both decide with the same `RestartPolicy`. See docs/supervision.md.
+`SupervisedActor`s, nested as deep as needed. Both decide with the same
+`RestartPolicy`. See docs/supervision.md.
 """
 
 from mrss.supervision.actors import ActorSupervisor
@@ -34,7 +35,8 @@ from mrss.supervision.supervised import (
 
 __all__ = [
     "KILL", "Action", "ActorContext", "ActorStart", "ActorSupervisor", "Backoff", "Cause",
-    "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "ComponentStart", "Decision", "Escalation", "EventLog", "ExitReason", "LinkDown", "OnExceeded",
-    "Outcome", "ProcessSettings", "ProcessSupervisor", "Restart", "RestartPolicy", "Strategy",
+    "ChildKind", "ChildSpec", "ChildState", "ChildStatus", "ComponentStart", "Decision",
+    "Escalation", "EventLog", "ExitReason", "LinkDown", "OnExceeded", "Outcome",
+    "ProcessSettings", "ProcessSupervisor", "Restart", "RestartPolicy", "Strategy",
     "StartContext", "SupEvents", "SupervisedActor", "SupervisorSpec", "actor_child",
 ]

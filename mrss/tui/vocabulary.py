@@ -24,6 +24,7 @@ from mrss.agentspeak.errors import AslSyntaxError
 from mrss.agentspeak.parser import parse_literal, parse_program
 from mrss.agentspeak.syntax import BeliefSrc, GoalSrc, IfItem, LoopItem, PlanSrc, RuleSrc
 from mrss.agentspeak.terms import ADD_BEL, DEL_BEL, Expr, PList, Struct, Trigger, VarAnnot
+from mrss.config.kinds import ComponentKind
 
 Predicate = tuple[str, int]  # functor, arity
 
@@ -145,7 +146,6 @@ def _predicates(term: Any) -> Iterator[Predicate]:
             stack.append(t.tail)
 
 
-REASONER = "mrss.actors.reasoner.service:ReasonerComponent"
 
 
 def project_agent_files(components: Iterable[Any], project_dir: Path) -> list[Path]:
@@ -155,7 +155,7 @@ def project_agent_files(components: Iterable[Any], project_dir: Path) -> list[Pa
 
     files: list[Path] = []
     for comp in components:
-        if not comp.enabled or comp.module != REASONER:
+        if not comp.enabled or comp.kind is not ComponentKind.REASONER:
             continue
         try:
             specs = agent_specs(dict(comp.options), project_dir)

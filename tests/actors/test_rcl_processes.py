@@ -19,6 +19,7 @@ from typing import Any
 import pytest
 
 from mrss.bus import BusEndpoints, ReliableSender, Subscriber
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.messages import ActionRequest, ActionStatus, Envelope
 from mrss.supervision import (
     Backoff,
@@ -79,7 +80,7 @@ def run_dir() -> Iterator[Path]:
 
 def _supervisor(run_dir: Path, endpoints: BusEndpoints) -> ProcessSupervisor:
     options: dict[str, Any] = {"robots": {r: {"leg": 0.05} for r in ROBOTS}}
-    child = ChildSpec("rcl", ComponentStart("mrss.actors.rcl.service:RclService", options,
+    child = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target, options,
                                             20.0), shutdown=5.0)
     spec = SupervisorSpec(intensity=3, period=30.0, backoff=Backoff(initial=0.02, jitter=0.0))
     settings = ProcessSettings(PROJECT, run_dir, bus=endpoints.to_dict(),

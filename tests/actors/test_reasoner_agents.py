@@ -16,6 +16,7 @@ from mrss.actors.reasoner.agents import AgentSpec
 from mrss.actors.reasoner.core import Reasoner
 from mrss.actors.reasoner.service import ReasonerComponent
 from mrss.bus import BusEndpoints, ProxyThread
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.errors import ConfigError
 from mrss.messages import ActionRequest, ActionStatus, Percept
 from mrss.runtime.component import ComponentContext
@@ -104,7 +105,7 @@ def test_a_reasoner_process_runs_its_agents_together(tmp_path: Path) -> None:
         "+!ping[source(S)] : ready <- .print(ping_from(S)); .send(S, tell, pong).\n")
     agents = [{"file": "ping.asl"}, {"file": "pong.asl", "beliefs": ["ready"]}]
     reasoner = ChildSpec("reasoner", ComponentStart(
-        "mrss.actors.reasoner.service:ReasonerComponent", {"agents": agents}, 20.0))
+        KINDS[ComponentKind.REASONER].target, {"agents": agents}, 20.0))
     sockets = Path(tempfile.mkdtemp(prefix="mrss-"))  # ipc paths must be short
     endpoints = BusEndpoints.ipc(sockets)
     settings = ProcessSettings(tmp_path, tmp_path, bus=endpoints.to_dict(),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 from types import ModuleType
 
@@ -72,3 +73,32 @@ def test_what_a_project_needs_is_in_the_contract() -> None:
               "publish_json"}
     assert needed <= set(mrss.api.__all__)
     assert {"ScriptedHost", "RunningProject", "wait_until"} <= set(mrss.api.testing.__all__)
+
+
+# -- the configuration contract: project.toml names components by kind ----------------------
+INTERNAL_PATH = re.compile(r"""(?<![\w.])(mrss\.[A-Za-z_][\w.]*:[A-Za-z_]\w*)""")
+CONFIG_FILES = sorted([*(REPO / "projects").rglob("project.toml"),
+                       *(REPO / "tests").rglob("project.toml"),
+                       *(REPO / "tests").rglob("project.toml.in"),
+                       *(REPO / "docs").glob("*.md"), REPO / "README.md"])
+
+
+def internal_paths(path: Path, root: Path = REPO) -> list[str]:
+    """file:line of every `mrss.<module>:<Class>` a configuration file or doc names."""
+    return [f"{path.relative_to(root)}:{n}: {m.group(1)}"
+            for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+            for m in INTERNAL_PATH.finditer(line)]
+
+
+def test_no_project_test_project_or_doc_names_an_internal_module_path() -> None:
+    assert len(CONFIG_FILES) > 20, "the shipped and test projects were not found"
+    problems = [p for path in CONFIG_FILES for p in internal_paths(path)]
+    assert not problems, "name the component by kind (config/kinds.py):\n" + "\n".join(problems)
+
+
+def test_the_path_check_catches_a_module_line(tmp_path: Path) -> None:
+    toml = tmp_path / "project.toml"
+    toml.write_text('[components.rcl]\nmodule = "mrss.actors.rcl_service:RclService"\n'
+                    '[components.own]\nmodule = "beacon:Beacon"\n', encoding="utf-8")
+    assert internal_paths(toml, tmp_path) == [
+        "project.toml:2: mrss.actors.rcl_service:RclService"]

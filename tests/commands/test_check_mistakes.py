@@ -23,7 +23,7 @@ import pytest
 from mrss.cli import main
 
 TEMPLATE = Path(__file__).resolve().parents[2] / "projects" / "template"
-SIM_UAV = '\n[components.sim_uav]\nmodule = "mrss.sim.component:SimUavComponent"\n'
+SIM_UAV = '\n[components.sim_uav]\nkind = "sim_uav"\n'
 ROBOT2 = '\n[components.rcl.robots.robot2]\nlink = "mavlink"\n'
 
 

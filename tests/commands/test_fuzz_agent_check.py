@@ -118,7 +118,7 @@ PROJECT_TOML = """\
 name = "fz"
 
 [components.reasoner]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 agent = "agent.asl"
 beliefs = ["level(a1, 2)"]
 """

@@ -50,16 +50,16 @@ cap = 0.2
 jitter = 0.0
 
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 {broker_component}
 [components.worldmodel]
-module = "mrss.actors.worldmodel.service:WorldModelComponent"
+kind = "worldmodel"
 
 [components.events]
-module = "mrss.actors.events.service:ExternalEventsManager"
+kind = "events"
 
 [components.events_short]
-module = "mrss.actors.events.service:ExternalEventsManager"
+kind = "events"
 topic_prefix = "short/ui"
 retry_budget = 1.0
 
@@ -90,7 +90,7 @@ def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str 
         (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_text(text)
     broker_component = "" if broker_url else (
-        '\n[components.broker]\nmodule = "mrss.actors.broker.service:EmbeddedBroker"\n')
+        '\n[components.broker]\nkind = "broker"\n')
     (folder / "project.toml").write_text(PROJECT_TOML.format(
         name=PROJECT, broker_component=broker_component,
         broker_url=f'url = "{broker_url}"\n' if broker_url else "",

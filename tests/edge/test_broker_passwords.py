@@ -18,6 +18,7 @@ from paho.mqtt.enums import CallbackAPIVersion
 
 from mrss.actors.broker.passwords import password_file_problem, read_users
 from mrss.config.broker import BROKER_URL_FILE
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.links.connect import connect_link
 from mrss.links.mqtt import MqttLink
 from mrss.runtime.component import ComponentContext
@@ -53,7 +54,7 @@ def guarded_broker(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     ctx = ComponentContext(name="broker", incarnation=1, project_dir=project, run_dir=run_dir)
     log = open(tmp_path / "broker.log", "wb")  # noqa: SIM115 (kept by Popen)
     proc = subprocess.Popen([sys.executable, "-m", "mrss.runtime.main",
-                             "mrss.actors.broker.service:EmbeddedBroker", "--name", "broker",
+                             KINDS[ComponentKind.BROKER].target, "--name", "broker",
                              "--context", ctx.to_json()], stdout=log, stderr=subprocess.STDOUT)
     log.close()
     try:
@@ -144,7 +145,7 @@ def test_mrss_check_wants_the_projects_login_with_a_password_file(tmp_path: Path
     (folder / "secrets").mkdir(parents=True)
     add_user(folder / "secrets" / "mqtt.passwd", "ops", PASSWORD)
     (folder / "project.toml").write_text(
-        '[components.broker]\nmodule = "mrss.actors.broker.service:EmbeddedBroker"\n'
+        '[components.broker]\nkind = "broker"\n'
         '[broker.embedded]\npassword_file = "secrets/mqtt.passwd"\n')
     out = subprocess.run([sys.executable, "-m", "mrss", "check", "guarded", "--json"],
                          capture_output=True, text=True, timeout=120,
@@ -154,7 +155,7 @@ def test_mrss_check_wants_the_projects_login_with_a_password_file(tmp_path: Path
     assert [(e["key"], e["line"]) for e in errors] == [("broker.embedded.password_file", 4)]
     assert "set username and password_env" in errors[0]["message"]
     (folder / "project.toml").write_text(PROJECT_TOML.replace(
-        "[broker]", '[components.broker]\nmodule = "mrss.actors.broker.service:EmbeddedBroker"\n[broker]'))
+        "[broker]", '[components.broker]\nkind = "broker"\n[broker]'))
     (folder / "secrets" / "mqtt.passwd").chmod(0o644)
     out = subprocess.run([sys.executable, "-m", "mrss", "check", "guarded", "--json"],
                          capture_output=True, text=True, timeout=120,

@@ -158,7 +158,7 @@ def test_world_model_option() -> None:
 
 PROJECT_WITH_ROBOTS = """\
 [components.rcl]
-module = "mrss.actors.rcl.service:RclService"
+kind = "rcl"
 [components.rcl.robots.uav1]
 link = "mavlink"
 [components.rcl.robots.ugv1]

@@ -21,6 +21,7 @@ import pytest
 from mrss.actors.worldmodel.service import URL_FILE
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
 from mrss.config.broker import BROKER_URL_FILE
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import Envelope, Percept
 from mrss.runtime.busport import ZmqBusPort
@@ -31,10 +32,10 @@ from mrss.testing import wait_until
 from .conftest import PROJECT_FIXTURE
 
 COMPONENTS = {
-    "broker": "mrss.actors.broker.service:EmbeddedBroker",
-    "worldmodel": "mrss.actors.worldmodel.service:WorldModelComponent",
-    "datalayer": "mrss.actors.datalayer.service:DataLayerComponent",
-    "events": "mrss.actors.events.service:ExternalEventsManager",
+    "broker": KINDS[ComponentKind.BROKER].target,
+    "worldmodel": KINDS[ComponentKind.WORLDMODEL].target,
+    "datalayer": KINDS[ComponentKind.DATALAYER].target,
+    "events": KINDS[ComponentKind.EVENTS].target,
 }
 
 

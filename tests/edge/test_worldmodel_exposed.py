@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.runtime.component import ComponentContext
 from mrss.testing import wait_until
 from mrss.world.access import WorldModelClient, WorldModelRejected
@@ -62,7 +63,7 @@ def test_the_world_model_refuses_to_start_beyond_loopback_without_a_token(
                            run_dir=tmp_path)
     out = subprocess.run(
         [sys.executable, "-m", "mrss.runtime.main",
-         "mrss.actors.worldmodel.service:WorldModelComponent", "--name", "worldmodel",
+         KINDS[ComponentKind.WORLDMODEL].target, "--name", "worldmodel",
          "--context", ctx.to_json()], capture_output=True, text=True, timeout=60)
     assert out.returncode != 0
     assert "key 'worldmodel.token_file'" in out.stderr
@@ -75,7 +76,7 @@ def test_mrss_check_names_the_token_key(tmp_path: Path) -> None:
     folder = tmp_path / "projects" / "open"
     folder.mkdir(parents=True)
     (folder / "project.toml").write_text(
-        '[components.worldmodel]\nmodule = "mrss.actors.worldmodel.service:WorldModelComponent"\n'
+        '[components.worldmodel]\nkind = "worldmodel"\n'
         '[worldmodel]\nhttp_host = "10.0.0.7"\n')
     out = subprocess.run([sys.executable, "-m", "mrss", "check", "open", "--json"],
                          capture_output=True, text=True, timeout=120,

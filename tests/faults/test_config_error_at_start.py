@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from mrss.actors.reasoner.service import ReasonerComponent
+from mrss.config.kinds import KINDS, ComponentKind
 from mrss.errors import ConfigError
 from mrss.runtime.component import ComponentContext
 from mrss.supervision.children import ComponentStart
@@ -47,7 +48,7 @@ def test_a_reasoner_process_with_an_unloadable_program_is_refused_once(
         make_tree: MakeTree, tmp_path: Path) -> None:
     (tmp_path / "agent.asl").write_text("ok.\nb(X+1).\n")
     reasoner = ChildSpec("reasoner", ComponentStart(
-        "mrss.actors.reasoner.service:ReasonerComponent", {"agent": "agent.asl"}, 10.0))
+        KINDS[ComponentKind.REASONER].target, {"agent": "agent.asl"}, 10.0))
     tree = make_tree(worker("ok"), reasoner, intensity=10, on_exceeded=OnExceeded.QUARANTINE,
                      probation=0.2, wait=False)
     (give_up,) = tree.log.wait_for("give_up", "reasoner", timeout=30)

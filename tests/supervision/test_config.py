@@ -63,7 +63,7 @@ infrastructure = ["bus", "wm"]
 robots = { children = ["sim", "off"], intensity = 2, period = 60 }
 
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 [components.wm]
 module = "a:B"
 [components.sim]
@@ -118,7 +118,7 @@ enabled = false
      '[components.a]\nmodule = "a:B"\n', "supervisor", 1, "groups need strategy"),
     ('[components.a]\nmodule = "a:B"\nbackoff = "no"\n', "components.a.backoff", 3,
      "must be bool"),
-    ('[components.a]\nrestart = "permanent"\n', "components.a.module", 1, "required"),
+    ('[components.a]\nrestart = "permanent"\n', "components.a.kind", 1, "required"),
     ('[components.a]\nmodule = "nocolon"\n', "components.a.module", 2, "dotted.module:Class"),
     ('\n[components.a]\nmodule = "a:B"\nrestart = "sometimes"\n', "components.a.restart", 4,
      "permanent, transient, temporary"),

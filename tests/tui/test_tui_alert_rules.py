@@ -101,11 +101,10 @@ PROJECT = """\
 name = "alertsdemo"
 
 [components.bus]
-module = "mrss.actors.proxy.service:ProxyComponent"
+kind = "bus"
 
 [components.rcl]
-module = "mrss.actors.rcl.service:RclService"
-kind = "supervisor"
+kind = "rcl"
 robots = {{ ugv1 = {{ leg = 0.3 }} }}
 
 [[alerts]]

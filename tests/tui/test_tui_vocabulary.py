@@ -52,13 +52,13 @@ def test_the_agents_of_a_project_are_found_from_its_reasoners(tmp_path: Path) ->
     (tmp_path / "project.toml").write_text("""
 name = "voc"
 [components.reasoner]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 agents = [{name = "a", file = "a.asl"}, {name = "b", file = "b.asl"}]
 [components.other]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 agent = "solo.asl"
 [components.off]
-module = "mrss.actors.reasoner.service:ReasonerComponent"
+kind = "reasoner"
 enabled = false
 agent = "off.asl"
 """)

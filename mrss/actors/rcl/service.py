@@ -94,7 +94,7 @@ def load_layer(project_dir: Path, spec: str = "") -> RobotCommLayer:
 class RclService(Component):
     """The Robot Communication Layer component (one OS process under the supervisor).
 
-    project.toml: `[components.rcl] start = "mrss.actors.rcl.service:RclService"`.
+    project.toml: `[components.rcl] kind = "rcl"`.
     """
 
     #: The options this component reads (`mrss check` validates them; docs/config.md).

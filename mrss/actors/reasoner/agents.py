@@ -1,7 +1,7 @@
 """Several agents in one reasoner component: the `agents` option, like Jason's `.mas2j`.
 
     [components.reasoner]
-    module = "mrss.actors.reasoner.service:ReasonerComponent"
+    kind = "reasoner"
     agents = [
       { name = "leader", file = "leader.asl" },
       { name = "scout", file = "scout.asl", beliefs = ["zone(z1)"] },

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mrss.runtime.component import Component, ComponentContext
+from mrss.api import Component, ComponentContext
 
 
 class Beacon(Component):
