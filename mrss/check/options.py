@@ -52,8 +52,13 @@ def declared_options(*classes: type | None) -> list[Option]:
 
 def check_values(config: ProjectConfig, report: Report, values: Mapping[str, Any],
                  declared: Sequence[Option], key_of: Any, *, owner: str,
-                 ignore: Iterable[str] = (), hints: Iterable[str] = ()) -> None:
-    """Findings for unknown keys and bad values; `key_of(name)` is the dotted key."""
+                 ignore: Iterable[str] = (), hints: Iterable[str] = (),
+                 undeclaring: type | None = None) -> None:
+    """Findings for unknown keys and bad values; `key_of(name)` is the dotted key.
+
+    `undeclaring`: a project class that declares no `OPTIONS` (written before options
+    were declared): an unknown key may be one it reads, so it is a warning that shows the
+    declaration to add, not an error."""
     by_name = {o.name: o for o in declared}
     skip = set(ignore)
     for name, value in values.items():
@@ -63,14 +68,28 @@ def check_values(config: ProjectConfig, report: Report, values: Mapping[str, Any
         line = key_line(config, key)
         option = by_name.get(name)
         if option is None:
-            report.error(str(config.file), f"unknown option of {owner}"
-                         + did_you_mean(name, by_name, what="it reads", also=hints),
-                         line=line, check="options", key=key)
+            hint = did_you_mean(name, by_name, what="it reads", also=hints)
+            if undeclaring is not None and "did you mean" not in hint:
+                report.warning(str(config.file), f"{name} is not declared: if "
+                               f"{undeclaring.__name__} reads it, add to the class: "
+                               f"{declaration(name, value)}", line=line, check="options",
+                               key=key)
+            else:
+                report.error(str(config.file), f"unknown option of {owner}" + hint,
+                             line=line, check="options", key=key)
             continue
         problem = value_problem(option, value, config.directory)
         if problem:
             report.error(str(config.file), f"{problem} ({option.doc})" if option.doc
                          else problem, line=line, check="options", key=key)
+
+
+def declaration(name: str, value: Any) -> str:
+    """The one-line `OPTIONS` declaration of a key with this value."""
+    kind = next((k for k in (bool, int, float, str, list, dict) if type(value) is k), None)
+    default = repr(value) if kind in (bool, int, float, str) else "None"
+    return (f"OPTIONS = (Option({name!r}, {kind.__name__ if kind else 'object'}, {default}, "
+            f'"what it does"),)  # from mrss.api import Option')
 
 
 def value_problem(option: Option, value: Any, project_dir: Path) -> str | None:

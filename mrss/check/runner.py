@@ -245,13 +245,20 @@ def _edge(config: ProjectConfig, sources: Sources, report: Report, classes: dict
                      lambda n: section_key(config, section, comp_id, n),
                      owner=f"[{section}] ({component.__name__}"
                            + (f" and {cls.__name__}" if cls else "") + ")",
-                     hints=COMPONENT_KEYS)
+                     hints=COMPONENT_KEYS,
+                     undeclaring=cls if cls is not None and cls is not base
+                     and not _declares_options(cls, base) else None)
     if cls is not None:
         extra = ""
         if issubclass(cls, DataLayer):
             extra = ", functions " + ", ".join(sorted(cls.__new__(cls).functions()))
         report.summary.append(f"  {section} {module}: {cls.__name__}{extra}")
     return source, cls
+
+
+def _declares_options(cls: type, base: type) -> bool:
+    """Whether a project class (or a class between it and MRSS's base) declares OPTIONS."""
+    return any("OPTIONS" in vars(k) for k in cls.__mro__[:cls.__mro__.index(base)])
 
 
 def _worldmodel(config: ProjectConfig, report: Report, classes: dict[str, type]) -> None:

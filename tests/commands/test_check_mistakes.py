@@ -296,3 +296,30 @@ def test_supervise_refuses_to_start_a_project_with_an_error(project: Path) -> No
     assert "not started" in out.stderr
     assert not (project.parent / "run").exists() or \
         not list((project.parent / "run").glob("*.sqlite3"))  # nothing ran
+
+
+def test_an_adapter_of_an_earlier_release_without_options_warns_with_the_declaration(
+        project: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An adapter written before options were declared reads keys it does not declare:
+    each is a warning (at its line, with the one-line OPTIONS to add), not a refusal."""
+    inject(project, Mistake("", "events.py", '    OPTIONS = (Option("topic_prefix", str, '
+                            '"mrss/ui", "prefix of the UI\'s topics"),)\n', "", "", ""))
+    inject(project, Mistake("", "project.toml", "[events]  ", '[events]\nzone = "north"\n  ', "",
+                            ""))
+    code, report = run_check(capsys)
+    assert code == 0, report
+    (finding,) = [f for f in report["findings"] if f["key"] == "events.zone"]
+    assert finding["severity"] == "warning"
+    assert finding["line"] == line_of(project / "project.toml", 'zone = "north"')
+    assert "if ProjectEvents reads it, add to the class: OPTIONS = (Option('zone', str, " \
+           "'north', " in finding["message"]
+
+
+def test_an_adapter_that_declares_options_still_has_unknown_keys_refused(
+        project: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    inject(project, Mistake("", "project.toml", "[events]  ", '[events]\nzone = "north"\n  ', "",
+                            ""))
+    code, report = run_check(capsys)
+    assert code == 2
+    (finding,) = [f for f in report["findings"] if f["key"] == "events.zone"]
+    assert finding["severity"] == "error" and "unknown option of [events]" in finding["message"]
