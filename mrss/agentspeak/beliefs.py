@@ -298,6 +298,6 @@ class BeliefBase:
         """Every belief and rule as Jason prints it, in belief-base order."""
         out: list[str] = []
         for s in self.preds.values():
-            out.extend(c.text if type(c) is Rule else term_str(c)  # type: ignore[union-attr, arg-type]
+            out.extend(c.text if type(c) is Rule else term_str(c)  # type: ignore[arg-type]
                        for c in (s.clauses() if s.rules else s.facts()))
         return out

@@ -194,7 +194,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
     def neg(self, c: list[Term]) -> Term:
         x = c[0]
         if type(x) is int or type(x) is float:
-            return -x  # type: ignore[operator]
+            return -x
         return Expr("neg", (x,))
 
     # plan bodies

@@ -43,7 +43,7 @@ def _slot(frame: list[Any], idx: int, name: str) -> Term:
     v = frame[idx]
     if v is None:
         v = frame[idx] = fresh_var(name)
-        return v  # type: ignore[no-any-return]
+        return v
     return value(v)
 
 
@@ -164,7 +164,7 @@ class _Gen:
 
 def _conjuncts(q: Query) -> list[Query]:
     if type(q) is AndQuery:
-        a: AndQuery = q  # type: ignore[assignment]
+        a: AndQuery = q
         return _conjuncts(a.left) + _conjuncts(a.right)
     return [q]
 
@@ -174,7 +174,7 @@ class _TooBig(Exception):
 
 
 def _is_ground_const(t: Term) -> bool:
-    return type(t) is Struct and t.ground  # type: ignore[union-attr]
+    return type(t) is Struct and t.ground
 
 
 def _pure(e: Expr) -> bool:
@@ -197,7 +197,7 @@ def _build(name: str, params: str, body: str, env: dict[str, Any]) -> Any:
 
 def resolver(t: Term) -> Resolver:
     """A function `frame -> term` computing `resolve(t, frame)`."""
-    if type(t) is Struct and t.ground:  # type: ignore[union-attr]
+    if type(t) is Struct and t.ground:
         return lambda frame: t
     g = _Gen()
     try:

@@ -92,7 +92,7 @@ class LiteralQuery(Query):
         # arguments are plain slots or constants and no annotations: a ground instance can
         # be looked up directly instead of scanned for
         self.direct = not lit.annots and all(
-            type(a) in (Slot, int, float, str) or (type(a) is Struct and a.ground)  # type: ignore[union-attr]
+            type(a) in (Slot, int, float, str) or (type(a) is Struct and a.ground)
             for a in lit.args)
 
     def solve(self, rt: Runtime, frame: Any) -> Iterator[None]:
@@ -212,8 +212,8 @@ class RelQuery(Query):
         self.right = right
         self.term = term
         self.cmp = _ORDER.get(op)
-        self.lslot = left.index if type(left) is Slot else -1  # type: ignore[union-attr]
-        self.rslot = right.index if type(right) is Slot else -1  # type: ignore[union-attr]
+        self.lslot = left.index if type(left) is Slot else -1
+        self.rslot = right.index if type(right) is Slot else -1
 
     def solve(self, rt: Runtime, frame: Any) -> Iterator[None]:
         cmp = self.cmp

@@ -55,7 +55,7 @@ def _numbers(name: str, t: Term) -> list[float | int]:
 
 def _length(t: Term) -> Term:
     if type(t) is str or type(t) is tuple:
-        return len(t)  # type: ignore[arg-type]
+        return len(t)
     raise AslRuntimeError(f".length: {term_str(t)} is not a list or a string")
 
 

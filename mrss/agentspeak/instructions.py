@@ -138,7 +138,7 @@ class TestGoal(Instr):
         lit = resolve(self.lit, im.frame)
         if type(lit) is Struct and rt.plans.has(ADD_TEST, lit.key):
             im.pc += 1
-            rt.post_subgoal(it, lit, False, self.line, ADD_TEST)  # type: ignore[arg-type]
+            rt.post_subgoal(it, lit, False, self.line, ADD_TEST)
             return
         raise AslRuntimeError(f"test goal ?{term_str(lit)} failed: no such belief",
                               error="test_goal_failed")
@@ -415,7 +415,7 @@ class ForNext(Instr):
             loops.append(state)
         nxt = next(state[2], None)
         if nxt is None:
-            loops.pop()  # type: ignore[union-attr]
+            loops.pop()
             frame[:] = state[1]
             im.pc = self.target
         else:

@@ -50,7 +50,7 @@ class _Closer:
         if tt is Var:
             v = value(t)
             if type(v) is Var:
-                return self.new(id(v), v.name)  # type: ignore[union-attr]
+                return self.new(id(v), v.name)
             return self.term(v, True)
         if tt is Struct:
             s: Struct = t  # type: ignore[assignment]

@@ -270,7 +270,7 @@ class Runtime:
         if pc < len(code):
             ins = code[pc]
             while type(ins) is Jump:
-                im.pc = pc = ins.target  # type: ignore[attr-defined]
+                im.pc = pc = ins.target
                 if pc >= len(code):
                     break
                 ins = code[pc]

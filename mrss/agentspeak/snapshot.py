@@ -30,7 +30,7 @@ def _next(im: IntendedMeans) -> str | None:
     code = im.code
     pc = im.pc
     while pc < len(code) and type(code[pc]).__name__ == "Jump":
-        pc = code[pc].target  # type: ignore[attr-defined]
+        pc = code[pc].target
     return code[pc].text() if pc < len(code) else None
 
 

@@ -59,7 +59,7 @@ def compare(a: Term, b: Term) -> int:
 
 def _as_items(t: Term) -> tuple[Term, ...]:
     if type(t) is tuple:
-        return t  # type: ignore[return-value]
+        return t
     return t.items + (t.tail,)  # type: ignore
 
 

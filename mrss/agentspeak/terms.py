@@ -85,7 +85,7 @@ class Struct:
                 self.ground = False
                 return
         for a in annots:
-            if type(a) is Struct and a.ground:  # type: ignore[union-attr]
+            if type(a) is Struct and a.ground:
                 continue
             if not _all_ground((a,)):
                 self.ground = False
@@ -169,13 +169,13 @@ def splice_annots(annots: tuple[Term, ...]) -> tuple[Term, ...]:
     last = annots[-1]
     if type(last) is not AnnotTail:
         return annots
-    tail = deref(last.tail)  # type: ignore[union-attr]
+    tail = deref(last.tail)
     head = annots[:-1]
     if type(tail) is tuple:
-        extra: tuple[Term, ...] = tail  # type: ignore[assignment]
+        extra: tuple[Term, ...] = tail
         return head + tuple(a for a in extra if a not in head)
     if type(tail) is PList:
-        p: PList = tail  # type: ignore[assignment]
+        p: PList = tail
         return head + p.items + (AnnotTail(p.tail),)
     return head + (AnnotTail(tail),)
 
@@ -240,7 +240,7 @@ def fresh_var(name: str = "_") -> Var:
 def deref(t: Term) -> Term:
     """Follow variable bindings until a non-variable or a free variable."""
     while type(t) is Var:
-        r = t.ref  # type: ignore[union-attr]
+        r = t.ref
         if r is None:
             return t
         t = r
@@ -269,9 +269,9 @@ def value(t: Term) -> Term:
         items = tuple([value(a) for a in p.items])
         tail = value(p.tail)
         if type(tail) is tuple:
-            return items + tail  # type: ignore[operator]
+            return items + tail
         if type(tail) is PList:
-            return PList(items + tail.items, tail.tail)  # type: ignore[union-attr]
+            return PList(items + tail.items, tail.tail)
         return PList(items, tail)
     if tt is Trigger:
         return Trigger(t.op, value(t.lit))  # type: ignore

@@ -195,7 +195,7 @@ def _unify_annots_apart(tannots: tuple[Term, ...], frame: Frame | None,
             undo(trail, mark)
         else:
             return False
-    return tail is None or unify(tail.tail, frame, tuple(left), trail)  # type: ignore[union-attr]
+    return tail is None or unify(tail.tail, frame, tuple(left), trail)
 
 
 def _split(t: Term, frame: Frame | None) -> tuple[list[Term], Term | None]:
@@ -204,17 +204,17 @@ def _split(t: Term, frame: Frame | None) -> tuple[list[Term], Term | None]:
     tail: Term | None = t
     while True:
         if type(tail) is Slot:
-            v = frame[tail.index]  # type: ignore[index, union-attr]
+            v = frame[tail.index]  # type: ignore[index]
             if v is None:
                 return items, tail
             tail = v
         tail = deref(tail)  # type: ignore[arg-type]
         if type(tail) is tuple:
-            items.extend(tail)  # type: ignore[arg-type]
+            items.extend(tail)
             return items, None
         if type(tail) is PList:
-            items.extend(tail.items)  # type: ignore[union-attr]
-            tail = tail.tail  # type: ignore[union-attr]
+            items.extend(tail.items)
+            tail = tail.tail
             continue
         return items, tail
 
@@ -263,7 +263,7 @@ def resolve(t: Term, frame: Frame | None) -> Term:
         v = frame[t.index]  # type: ignore[index, union-attr]
         if v is None:
             v = frame[t.index] = fresh_var(t.name)  # type: ignore[index, union-attr]
-            return v  # type: ignore[no-any-return]
+            return v
         return value(v)
     if tt is int or tt is str or tt is float:
         return t
@@ -278,9 +278,9 @@ def resolve(t: Term, frame: Frame | None) -> Term:
         items = tuple([resolve(a, frame) for a in p.items])
         tail = resolve(p.tail, frame)
         if type(tail) is tuple:
-            return items + tail  # type: ignore[operator]
+            return items + tail
         if type(tail) is PList:
-            return PList(items + tail.items, tail.tail)  # type: ignore[union-attr]
+            return PList(items + tail.items, tail.tail)
         return PList(items, tail)
     if tt is Trigger:
         return Trigger(t.op, resolve(t.lit, frame))  # type: ignore
@@ -314,9 +314,9 @@ def _unify_var_annot(t: VarAnnot, frame: Frame | None, r: Term, trail: Trail) ->
     literal without its annotations."""
     r = deref(r)
     if type(r) is VarAnnot:
-        r = deref(r.var)  # type: ignore[union-attr]
+        r = deref(r.var)
     if type(r) is Struct:
-        rs: Struct = r  # type: ignore[assignment]
+        rs: Struct = r
         if t.annots and not unify_annots(t.annots, frame, rs.annots, trail):
             return False
         if rs.annots:

@@ -93,7 +93,7 @@ class BenchLayer(RobotCommLayer):
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "move":
-            return [Mark(int(action.args[2]))]  # type: ignore[arg-type]
+            return [Mark(int(action.args[2]))]
         return super().refine_action(action)
 
 

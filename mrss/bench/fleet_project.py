@@ -124,7 +124,7 @@ class FleetLayer(RobotCommLayer):
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "goto":
-            return [Assignment(int(action.args[1]))]  # type: ignore[arg-type]
+            return [Assignment(int(action.args[1]))]
         return super().refine_action(action)
 
 

@@ -55,7 +55,7 @@ class _Tree:
     def _on(self, env: Envelope) -> None:
         if isinstance(env.body, SupEvent) and isinstance(env.body.detail.get("tree"), dict):
             with self._cond:
-                self._trees.append(env.body.detail["tree"])  # type: ignore[arg-type]
+                self._trees.append(env.body.detail["tree"])
                 self._cond.notify_all()
 
     def children(self, timeout: float = 10.0) -> dict[str, dict[str, Any]]:

@@ -38,7 +38,7 @@ def plan_record(action: str, waypoints: Sequence[Sequence[float]], next_index: i
         done = sum(1 for i in kept if i < done)
         points = [points[i] for i in kept]
     record: dict[str, JsonValue] = {"type": PLAN_RECORD, "action": action,
-                                    "waypoints": points, "next": done}  # type: ignore[dict-item]
+                                    "waypoints": points, "next": done}
     if goal:
         record["goal"] = goal
     return record

@@ -118,5 +118,5 @@ class ProjectRcl(RobotCommLayer):
             lat, lon = action.args[2], action.args[3]
             if not all(isinstance(v, (int, float)) for v in (lat, lon)):
                 raise ActionError("move: Lat and Lon must be numbers", uuid=action.uuid)
-            return [skills.MoveTo(float(lat), float(lon))]  # type: ignore[arg-type]
+            return [skills.MoveTo(float(lat), float(lon))]
         return super().refine_action(action)

@@ -101,7 +101,7 @@ class CoverArea(UavSkill):
         self.first = start
 
     def run(self) -> bool:
-        done = max(self.first, int(self.progress.get("waypoint", 0) or 0))  # type: ignore[arg-type]
+        done = max(self.first, int(self.progress.get("waypoint", 0) or 0))
         self.publish_plan(self.waypoints, done)  # the dashboard's map: lanes done and left
         if not self.airborne(self.altitude):
             return False
@@ -185,7 +185,7 @@ class UgvSkill(RobotSkill):
         TransientError (cause `transient`: the agent tries again) rather than as a
         pump that stopped (chaos: a UGV frozen right after pumping began failed
         "pump stopped after 0 of 60 l", and its hotspot never got water)."""
-        pumped = float(self.progress.get("pumped", 0.0) or 0.0)  # type: ignore[arg-type]
+        pumped = float(self.progress.get("pumped", 0.0) or 0.0)
         wanted = litres - pumped
         if wanted <= 0.5:
             return True

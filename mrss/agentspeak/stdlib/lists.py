@@ -15,7 +15,7 @@ from mrss.agentspeak.unify import undo, unify
 def list_arg(ctx: IAContext, t: Term) -> tuple[Term, ...]:
     t = value(t)
     if type(t) is tuple:
-        return t  # type: ignore[return-value]
+        return t
     if type(t) is PList:
         raise ctx.error(f"the list {term_str(t)} has an unbound tail")
     raise ctx.error(f"expected a list, not {term_str(t)}")

@@ -51,7 +51,7 @@ def include(ctx: IAContext, args: list[Any]) -> bool:
             h = clause.head
             rt.bb.add_rule((h.functor, len(h.args), h.neg), clause)  # type: ignore[arg-type]
         else:
-            rt.bb.add(clause, front=False)  # type: ignore[arg-type]
+            rt.bb.add(clause, front=False)
     for plan in compiled.plans:
         rt.plans.add(plan)
     for goal in compiled.goals:

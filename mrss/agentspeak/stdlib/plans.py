@@ -34,7 +34,7 @@ from mrss.agentspeak.unify import undo, unify
 
 def _items(t: Term) -> list[Term]:
     t = deref(t)
-    return [deref(x) for x in t] if type(t) is tuple else [t]  # type: ignore[union-attr]
+    return [deref(x) for x in t] if type(t) is tuple else [t]
 
 
 def _source_of(ctx: IAContext, t: Term) -> PlanSrc:

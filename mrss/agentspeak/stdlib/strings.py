@@ -78,7 +78,7 @@ def _format(ctx: IAContext, fmt: str, items: list[Term]) -> str:
         if conv in "dxXoc":
             if type(arg) is not int and not (type(arg) is float and arg == int(arg)):
                 raise ctx.error(f"{spec} needs an integer, not {term_str(arg)}")
-            out.append(spec % int(arg))  # type: ignore[arg-type]
+            out.append(spec % int(arg))
         elif conv in "feE":
             if not is_number(arg):
                 raise ctx.error(f"{spec} needs a number, not {term_str(arg)}")
