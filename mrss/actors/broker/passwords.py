@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-log = logging.getLogger("mrss.actors.broker.service.auth")
+log = logging.getLogger("mrss.broker.auth")
 PASSWORD_FILE_KEY = "password_file"
 HASH_PREFIX = "$argon2"
 

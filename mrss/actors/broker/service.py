@@ -46,11 +46,11 @@ from urllib.parse import urlsplit
 
 from mrss.actors.broker.passwords import PASSWORD_FILE_KEY, password_file_problem
 from mrss.errors import ConfigError, MrssError
-from mrss.options import Check, Option
+from mrss.options import Check, Option, OptionValues
 from mrss.ports import free_port
 from mrss.runtime.component import Component, ComponentContext
 
-log = logging.getLogger("mrss.actors.broker.service")
+log = logging.getLogger("mrss.broker")
 
 
 class BrokerError(MrssError):
@@ -131,8 +131,8 @@ def resolve_broker(config: Mapping[str, Any]) -> tuple[str, bool]:
     embedded = section.get("embedded", {})
     if not isinstance(embedded, Mapping):
         raise ConfigError("[broker.embedded] must be a table", key="broker.embedded")
-    host = embedded.get("host", "127.0.0.1")
-    port = embedded.get("port", 0)
+    declared = OptionValues(BROKER_EMBEDDED_OPTIONS, embedded, section="broker.embedded")
+    host, port = declared.raw("host"), declared.raw("port")  # judged together below
     if not isinstance(host, str) or isinstance(port, bool) or not isinstance(port, int) \
             or not 0 <= port < 65536:
         raise ConfigError("host must be a string and port an integer in 0..65535",

@@ -54,7 +54,7 @@ from mrss.edge.retry import DependencyUnavailable
 from mrss.edge.validation import RecordValidator, Rejected, limit_overrides
 from mrss.errors import ConfigError, TransientError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
-from mrss.options import Check, Option
+from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import BusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient, DataLayerError
@@ -167,7 +167,8 @@ def world_access(section: Mapping[str, Any], bus: BusPort | None, *,
                  token: str | None = None) -> WorldModelAccess | None:
     """The world model the `[datalayer] world_model` option points to (over HTTP with
     the project's world model `token`)."""
-    target = section.get("world_model", "bus")
+    target = OptionValues(DataLayerComponent.OPTIONS, section, section="datalayer").raw(
+        "world_model")  # judged below: 'bus', 'none' or a URL
     if target == "none":
         return None
     if target == "bus":
@@ -187,13 +188,6 @@ def load_datalayer_class(project_dir: Path, section: Mapping[str, Any]) -> type[
         return DataLayer
     return load_project_class(project_dir, str(module or DEFAULT_MODULE), DataLayer,
                               class_name=section.get("class"), key="datalayer.module")
-
-
-def _positive(section: Mapping[str, Any], key: str, default: float) -> float:
-    value = section.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
-        raise ConfigError("must be a positive number", key=f"datalayer.{key}")
-    return float(value)
 
 
 def robot_validator(project_dir: Path, section: Mapping[str, Any]) -> RecordValidator:
@@ -314,11 +308,11 @@ class DataLayerComponent(Component):
         The project's percepts go to `percepts` (default: published on `bus`).
         """
         section = table(config, "datalayer")
+        values = OptionValues(self.OPTIONS, section, section="datalayer")
         cls = load_datalayer_class(project_dir, section)
-        timeout = _positive(section, "call_timeout", 5.0)
-        workers = int(_positive(section, "workers", 4))
+        timeout, workers = values.number("call_timeout"), values.whole("workers")
         self._bus = bus
-        over_http = str(section.get("world_model", "bus")).startswith(("http://", "https://"))
+        over_http = values.text("world_model").startswith(("http://", "https://"))
         token = configured_token(table(config, "worldmodel"), project_dir) if over_http \
             else None
         self._world = world_access(section, bus, token=token)
@@ -333,7 +327,7 @@ class DataLayerComponent(Component):
         self.service = DataLayerService(
             self.datalayer, call_timeout=timeout, workers=workers,
             validator=robot_validator(project_dir, section),
-            reject_interval=_positive(section, "reject_log_interval", 60.0))
+            reject_interval=values.number("reject_log_interval"))
         # Dispatch threads wait on calls, so a slow call never holds up the others.
         self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
                                             thread_name_prefix="dl-dispatch")

@@ -41,15 +41,14 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from mrss.actors.events.adapter import EventsContext, ExternalAdapter
-from mrss.actors.events.intake import DEFAULT_MEMORY, EventIntake
+from mrss.actors.events.intake import EventIntake
 from mrss.actors.events.reports import EventReporter, reply_template
 from mrss.config.broker import table, with_broker
 from mrss.edge.http_token import configured_token
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.edge.retry import RetryPolicy
-from mrss.errors import ConfigError
 from mrss.messages import Percept
-from mrss.options import Check, Option
+from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import BusPort, MessagePublisher, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.edge import edge_config
@@ -59,20 +58,6 @@ from mrss.runtime.percepts import EventCounters, PerceptPublisher, PerceptSink
 
 DEFAULT_MODULE = "events.py"
 PERCEPT_FLUSH = 1.0  # seconds a stopping manager gives its last percepts to be acknowledged
-
-
-def _flag(section: Mapping[str, Any], key: str, default: bool) -> bool:
-    value = section.get(key, default)
-    if not isinstance(value, bool):
-        raise ConfigError("must be true or false", key=f"events.{key}")
-    return value
-
-
-def _memory(section: Mapping[str, Any]) -> int:
-    value = section.get("dedup_memory", DEFAULT_MEMORY)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ConfigError("must be a positive integer", key="events.dedup_memory")
-    return value
 
 
 class ExternalEventsManager(Component):
@@ -113,10 +98,8 @@ class ExternalEventsManager(Component):
         config = with_broker(edge_config(ctx, "events"), ctx.run_dir)
         self._bus = bus_port(ctx)
         self.percepts = PerceptChannel.for_component(ctx)
-        events = table(config, "events")
-        client_id = events.get("client_id", f"mrss-{ctx.project_dir.name}-{ctx.name}")
-        if not isinstance(client_id, str) or not client_id:
-            raise ConfigError("must be a non-empty string", key="events.client_id")
+        values = OptionValues(self.OPTIONS, table(config, "events"), section="events")
+        client_id = values.text("client_id") or f"mrss-{ctx.project_dir.name}-{ctx.name}"
         self.run(ctx.project_dir, config, self._bus, client_id=client_id,
                  run_dir=ctx.run_dir, percepts=self.percepts.send, component=ctx.name)
 
@@ -130,14 +113,14 @@ class ExternalEventsManager(Component):
         to `percepts` (default: published on `publisher`), event reports on `publisher`.
         """
         events = table(config, "events")
+        values = OptionValues(self.OPTIONS, events, section="events")
         broker = table(config, "broker")
-        adapter_cls = load_project_class(project_dir, str(events.get("module", DEFAULT_MODULE)),
-                                         ExternalAdapter, class_name=events.get("class"),
-                                         key="events.module")
+        adapter_cls = load_project_class(project_dir, values.text("module"), ExternalAdapter,
+                                         class_name=values["class"], key="events.module")
         policy = RetryPolicy.from_config(events)
         template = reply_template(events)
-        reply_accepted = _flag(events, "reply_accepted", False)
-        persistent = client_id is not None and _flag(events, "persistent_session", True)
+        reply_accepted = values.flag("reply_accepted")
+        persistent = client_id is not None and values.flag("persistent_session")
         if broker.get("url"):
             settings = MqttSettings.from_config(broker)
             self.mqtt = MqttClient(settings, client_id=client_id or f"mrss-events-{os.getpid()}",
@@ -152,7 +135,7 @@ class ExternalEventsManager(Component):
                                  reply_topic=template, reply_accepted=reply_accepted,
                                  log=self.log)
         self.intake = EventIntake(publish, policy=policy, reporter=reporter, log=self.log,
-                                  memory=_memory(events))
+                                  memory=values.whole("dedup_memory"))
         options = {k: v for k, v in events.items() if k not in ("module", "class")}
         token = configured_token(table(config, "worldmodel"), project_dir)
         self.adapter = adapter_cls(EventsContext(

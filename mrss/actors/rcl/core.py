@@ -44,6 +44,7 @@ from mrss.actors.rcl.held_goals import HeldGoals
 from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.observers import ObserverReports
+from mrss.actors.rcl.options import default
 from mrss.actors.rcl.orphans import Orphans
 from mrss.actors.rcl.progress_feed import ProgressFeed
 from mrss.actors.rcl.requesters import Entry, RequesterDuties
@@ -78,10 +79,14 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
     """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
 
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
-                 robots: Mapping[str, Any], *, max_robot_restarts: int = 5,
-                 restart_period: float = 60.0, probation: float = 30.0,
-                 robot_watchdog: float | None = 30.0, adopt_grace: float = 10.0,
-                 adopt_grace_suspended: float = 120.0, preempted_timeout: float = 0.0,
+                 robots: Mapping[str, Any], *,
+                 max_robot_restarts: int = default("max_robot_restarts"),
+                 restart_period: float = default("restart_period"),
+                 probation: float = default("probation"),
+                 robot_watchdog: float | None = 30.0,
+                 adopt_grace: float = default("adopt_grace"),
+                 adopt_grace_suspended: float = default("adopt_grace_suspended"),
+                 preempted_timeout: float = default("preempted_timeout"),
                  progress_every: float = 0.0,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish

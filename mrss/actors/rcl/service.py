@@ -43,6 +43,7 @@ from typing import Any, ClassVar
 from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
+from mrss.actors.rcl.options import RCL_OPTIONS
 from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import (
@@ -54,7 +55,7 @@ from mrss.messages import (
     Heartbeat,
     SupEvent,
 )
-from mrss.options import Check, Option
+from mrss.options import Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
@@ -98,35 +99,7 @@ class RclService(Component):
     """
 
     #: The options this component reads (`mrss check` validates them; docs/config.md).
-    OPTIONS: ClassVar[tuple[Option, ...]] = (
-        Option("layer", str, "rcl.py", "\"file.py\" or \"file.py:Class\" of the RobotCommLayer"),
-        Option("robots", dict, {}, "robot id -> its table (link options and the layer's own)"),
-        Option("journal", str, None,
-               "action journal path (default <run_dir>/<name>-journal.sqlite3)"),
-        Option("durable", bool, False, "fsync every journal transition"),
-        Option("max_robot_restarts", int, 5, "robot actor restarts before quarantine",
-               Check.POSITIVE),
-        Option("restart_period", float, 60.0, "... within this many seconds", Check.POSITIVE),
-        Option("probation", float, 30.0, "seconds a quarantined robot waits", Check.NON_NEGATIVE),
-        Option("adopt_grace", float, 10.0, "seconds a dead requester's actions wait",
-               Check.NON_NEGATIVE),
-        Option("adopt_grace_suspended", float, 120.0, "the same for suspended actions",
-               Check.NON_NEGATIVE),
-        Option("preempted_timeout", float, 0.0,
-               "seconds a pre-empted action may wait for its resource before it fails "
-               "with error(preempted) (0: it waits for ever)", Check.NON_NEGATIVE),
-        Option("heartbeat", float, 0.5, "seconds between heartbeats", Check.POSITIVE),
-        Option("progress_every", float, 1.0,
-               "at most one progress status (repeat) per action every this many seconds "
-               "(0: progress goes out with transitions only)", Check.NON_NEGATIVE),
-        Option("journal_keep_seconds", float, 86400.0,
-               "ended actions older than this are compacted out of the journal",
-               Check.NON_NEGATIVE),
-        Option("journal_keep_last", int, 1000,
-               "... except the newest this many (the dashboard's history)", Check.NON_NEGATIVE),
-        Option("journal_compact_period", float, 600.0,
-               "seconds between journal compactions (also done at start)", Check.POSITIVE),
-    )
+    OPTIONS: ClassVar[tuple[Option, ...]] = RCL_OPTIONS
 
     def __init__(self) -> None:
         self.core: RclCore | None = None
@@ -144,24 +117,24 @@ class RclService(Component):
         self._compaction = (86400.0, 1000, 600.0)  # keep seconds, keep last, period
 
     def start(self, ctx: ComponentContext) -> None:
-        opts = ctx.options
+        opts = OptionValues(self.OPTIONS, ctx.options)
         self._name = ctx.name
-        self.layer = load_layer(ctx.project_dir, str(opts.get("layer", "")))
+        self.layer = load_layer(ctx.project_dir, opts.text("layer"))
         publisher = ctx.publisher
         self._port = bus_port(ctx)
         self._data = DataLayerClient(self._port)
         self.layer.bind_runtime(project_dir=ctx.project_dir, run_dir=ctx.run_dir,
                                 publish=publisher.publish, data_call=self._data.call,
                                 gather=publisher.gathering)
-        robots = opts.get("robots", {})
+        robots = opts["robots"]
         if not isinstance(robots, dict) or not robots:
             raise ConfigError("the RCL needs a table of robots", key="robots")
         # `node`: the node a robot is reached through (mrss.config.nodes), the RCL's, not the link's
         tables = {str(r): dict(o) if isinstance(o, dict) else {} for r, o in robots.items()}
         robot_nodes = {r: str(t.pop("node")) for r, t in tables.items() if "node" in t}
         self.links = {r: self.layer.connect_robot(r, t) for r, t in tables.items()}
-        journal_path = Path(opts.get("journal") or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
-        self.journal = ActionJournal(journal_path, durable=bool(opts.get("durable", False)))
+        journal_path = Path(opts["journal"] or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
+        self.journal = ActionJournal(journal_path, durable=opts.flag("durable"))
         if not publisher.wait_connected(5.0):  # else the restored statuses could be lost
             log.warning("%s: the bus proxy has not greeted the publisher yet", ctx.name)
         endpoints = BusEndpoints.from_dict(ctx.bus)
@@ -181,26 +154,25 @@ class RclService(Component):
         if not self._sub.wait_connected(5.0):
             log.warning("%s: control subscription not confirmed by the proxy yet", ctx.name)
         self.core = RclCore(self.layer, self.journal, publisher.publish, self.links,
-                            max_robot_restarts=int(opts.get("max_robot_restarts", 5)),
-                            restart_period=float(opts.get("restart_period", 60.0)),
-                            probation=float(opts.get("probation", 30.0)),
-                            adopt_grace=float(opts.get("adopt_grace", 10.0)),
-                            adopt_grace_suspended=float(opts.get("adopt_grace_suspended",
-                                                                 120.0)),
-                            preempted_timeout=float(opts.get("preempted_timeout", 0.0)),
-                            progress_every=float(opts.get("progress_every", 1.0)))
+                            max_robot_restarts=opts.whole("max_robot_restarts"),
+                            restart_period=opts.number("restart_period"),
+                            probation=opts.number("probation"),
+                            adopt_grace=opts.number("adopt_grace"),
+                            adopt_grace_suspended=opts.number("adopt_grace_suspended"),
+                            preempted_timeout=opts.number("preempted_timeout"),
+                            progress_every=opts.number("progress_every"))
         self.core.robot_nodes = robot_nodes
         self.layer.bind_runtime(link_state=self.core.link_state)
-        self._compaction = (float(opts.get("journal_keep_seconds", 86400.0)),
-                            int(opts.get("journal_keep_last", 1000)),
-                            float(opts.get("journal_compact_period", 600.0)))
+        self._compaction = (opts.number("journal_keep_seconds"),
+                            opts.whole("journal_keep_last"),
+                            opts.number("journal_compact_period"))
         self._compact()
         self.core.start(new_run=ctx.incarnation <= 1)
         self._sub.start(self._on_message)
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=ACTION_CHANNEL, handler=self._on_request,
                                     incarnations=self.incarnations)
-        period = float(opts.get("heartbeat", 0.5))
+        period = opts.number("heartbeat")
         self._beat = threading.Thread(target=self._heartbeat, args=(publisher, period),
                                       name=f"{ctx.name}-heartbeat", daemon=True)
         self._beat.start()

@@ -44,7 +44,7 @@ from mrss.bus import (
 )
 from mrss.errors import ConfigError
 from mrss.messages import Heartbeat, MindSnapshot
-from mrss.options import Check, Option
+from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
@@ -85,10 +85,10 @@ class ReasonerComponent(Component):
         self._ledger: PerceptLedger | None = None
 
     def start(self, ctx: ComponentContext) -> None:
-        opts = ctx.options
-        specs = agent_specs(opts, ctx.project_dir)
-        agent_file = ctx.project_dir / str(opts.get("agent", "agent.asl"))
-        beliefs = opts.get("beliefs", [])
+        opts = OptionValues(self.OPTIONS, ctx.options)
+        specs = agent_specs(ctx.options, ctx.project_dir)
+        agent_file = ctx.project_dir / opts.text("agent")
+        beliefs = opts["beliefs"]
         if specs is None:
             if not agent_file.is_file():
                 raise ConfigError("agent file not found", file=str(agent_file), key="agent")
@@ -106,7 +106,7 @@ class ReasonerComponent(Component):
         self._port = bus_port(ctx)
         self._data = DataLayerClient(self._port)
         heartbeat = Heartbeat(component=ctx.name, pid=os.getpid())
-        period = float(opts.get("heartbeat", 0.5))
+        period = opts.number("heartbeat")
         last = [0.0]
 
         def tick() -> None:
@@ -118,7 +118,7 @@ class ReasonerComponent(Component):
         tx = self._tx
         restarted = ctx.incarnation > 1  # within this run: mission state is taken back
         self._ledger = PerceptLedger(
-            Path(opts.get("ledger") or ctx.run_dir / f"{ctx.name}-percepts.sqlite3"),
+            Path(opts["ledger"] or ctx.run_dir / f"{ctx.name}-percepts.sqlite3"),
             fresh=not restarted)
         try:
             reasoner = Reasoner(
@@ -126,11 +126,11 @@ class ReasonerComponent(Component):
                 base=ctx.project_dir, send_request=lambda r: tx.send(r),
                 send_control=lambda c: tx.send(c),  # in order with its requests, resent
                 data_call=self._data.call,
-                beliefs=list(beliefs), lease=float(opts.get("lease", 10.0)),
-                query_timeout=float(opts.get("query_timeout", 5.0)), on_tick=tick,
+                beliefs=list(beliefs), lease=opts.number("lease"),
+                query_timeout=opts.number("query_timeout"), on_tick=tick,
                 tick=min(period, 0.5), send_query=lambda q: publisher.publish(q),
-                reconcile=float(opts.get("reconcile", 1.0)),
-                adopt_wait=float(opts.get("adopt_wait", 3.0)), ledger=self._ledger)
+                reconcile=opts.number("reconcile"),
+                adopt_wait=opts.number("adopt_wait"), ledger=self._ledger)
         except AslSyntaxError as exc:
             raise ConfigError(str(exc), file=str(agent_file),
                               key="agent" if specs is None else "agents") from exc

@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from mrss.actors.worldmodel.options import values_of
 from mrss.actors.worldmodel.rules import NoObjectWithin, Rule, RuleEngine
 from mrss.actors.worldmodel.store import (
     Change,
@@ -254,10 +255,8 @@ def builtin_rule(table: Mapping[str, Any], index: int) -> Rule:
 
 def load_rules(project_dir: Path | None, options: Mapping[str, Any]) -> list[Rule]:
     """The built-in rules of the config, then the project's `rules(options)` if any."""
-    declared = options.get("rules", [])
-    if not isinstance(declared, list):
-        raise ConfigError("must be a list of tables", key="worldmodel.rules")
-    rules = [builtin_rule(t, i) for i, t in enumerate(declared)]
+    values = values_of(options)
+    rules = [builtin_rule(t, i) for i, t in enumerate(values["rules"])]
     module_name = options.get("rules_module")
     if project_dir is None:
         return rules
@@ -279,7 +278,7 @@ def load_rules(project_dir: Path | None, options: Mapping[str, Any]) -> list[Rul
 
 def load_seed(world: WorldModel, project_dir: Path | None, options: Mapping[str, Any]) -> int:
     """Load the `seed` file of the config into the world model; the number of objects."""
-    seed = options.get("seed")
+    seed = values_of(options)["seed"]
     if not seed or project_dir is None:
         return 0
     path = project_file(project_dir, str(seed), key="worldmodel.seed")

@@ -39,18 +39,18 @@ from urllib.parse import urlsplit
 
 from mrss.actors.worldmodel.http import DEFAULT_TIMEOUT, WorldModelHttp
 from mrss.actors.worldmodel.model import WorldModel, load_rules, load_seed
+from mrss.actors.worldmodel.options import WORLDMODEL_OPTIONS, values_of
 from mrss.actors.worldmodel.rules import RuleEngine
 from mrss.actors.worldmodel.store import SqliteWorldStore, WorldStore, postgres_url_problem
 from mrss.config.broker import table
 from mrss.edge.http_token import (
-    TOKEN_ENV_KEY,
     TOKEN_FILE_KEY,
     configured_token,
     exposure_problem,
 )
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest, Envelope, Percept
-from mrss.options import Check, Option
+from mrss.options import Option
 from mrss.runtime.busport import BusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.edge import edge_config
@@ -98,17 +98,12 @@ def http_settings(section: Mapping[str, Any], project_dir: Path | None
                   ) -> tuple[tuple[str, int] | None, str | None, float]:
     """((host, port) or None without HTTP, token, timeout); ConfigError naming the key,
     also when the API would be served beyond loopback without a token."""
-    if not section.get("http", True):
+    values = values_of(section)
+    if not values.flag("http"):
         return None, None, DEFAULT_TIMEOUT
-    host = section.get("http_host", "127.0.0.1")
-    port = section.get("http_port", 0)
-    timeout = section.get("http_timeout", DEFAULT_TIMEOUT)
-    if not isinstance(host, str) or not host:
+    host, port, timeout = values["http_host"], values.whole("http_port"), values["http_timeout"]
+    if not host:
         raise ConfigError("must be a host name or address", key="worldmodel.http_host")
-    if isinstance(port, bool) or not isinstance(port, int):
-        raise ConfigError("must be an integer", key="worldmodel.http_port")
-    if isinstance(timeout, bool) or not isinstance(timeout, int | float) or timeout <= 0:
-        raise ConfigError("must be a positive number of seconds", key="worldmodel.http_timeout")
     token = configured_token(section, project_dir)
     problem = exposure_problem(host, token is not None)
     if problem:
@@ -118,12 +113,10 @@ def http_settings(section: Mapping[str, Any], project_dir: Path | None
 
 def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
     """The store the configuration names: PostGIS at `url`, else SQLite at `path`."""
-    url = section.get("url")
+    values = values_of(section)
+    url = values.raw("url")  # judged below, with what a PostgreSQL URL looks like
     if url is None:
-        durable = section.get("durable", False)
-        if not isinstance(durable, bool):
-            raise ConfigError(f"must be true or false, not {durable!r}", key="worldmodel.durable")
-        return SqliteWorldStore(store_path(run_dir, section), durable=durable)
+        return SqliteWorldStore(store_path(run_dir, section), durable=values.flag("durable"))
     text = url if isinstance(url, str) else repr(url)
     problem = postgres_url_problem(text)
     if problem:
@@ -134,8 +127,8 @@ def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
 
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
     """Where the SQLite file goes: `path` under the run folder, or ':memory:'."""
-    path = section.get("path", "worldmodel.sqlite")
-    if not isinstance(path, str) or not path:
+    path = values_of(section).text("path")
+    if not path:
         raise ConfigError("must be a file name or ':memory:'", key="worldmodel.path")
     if path == ":memory:" or run_dir is None:
         return ":memory:"
@@ -147,28 +140,7 @@ class WorldModelComponent(Component):
 
     #: The options this component reads (`mrss check` validates them; docs/config.md).
     SECTION: ClassVar[str] = "worldmodel"  # read from [worldmodel], under its own table's keys
-    OPTIONS: ClassVar[tuple[Option, ...]] = (
-        Option("path", str, "worldmodel.sqlite",
-               "database file in the run folder, or \":memory:\" (without url)"),
-        Option("url", str, None, "postgresql://user@host:port/db: keep the objects in "
-               "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
-        Option("durable", bool, False, "SQLite: sync every write to disk (survives a power "
-               "cut; several times fewer writes per second)"),
-        Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
-        Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
-        Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),
-        Option("http", bool, True, "serve the HTTP API"),
-        Option("http_host", str, "127.0.0.1", "address of the HTTP API"),
-        Option("http_port", int, 0, "port of the HTTP API (0: a free one, kept across restarts)",
-               Check.PORT),
-        Option("http_timeout", float, DEFAULT_TIMEOUT,
-               "seconds a connection may take to send a request before it is dropped",
-               Check.POSITIVE),
-        Option(TOKEN_FILE_KEY, str, None, "file (in the project) holding the HTTP API's "
-               "bearer token; required when http_host is not loopback", Check.TOKEN_FILE),
-        Option(TOKEN_ENV_KEY, str, None, "environment variable holding the bearer token "
-               "(instead of token_file)"),
-    )
+    OPTIONS: ClassVar[tuple[Option, ...]] = WORLDMODEL_OPTIONS
 
     def __init__(self) -> None:
         self.world: WorldModel | None = None
