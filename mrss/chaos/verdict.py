@@ -156,8 +156,8 @@ def missing(h: History) -> list[str]:
         out.append(f"{injected} of the {planned} planned faults injected")
     if not accepted(h, "goal"):
         out.append("no operator goal accepted by the broker" + (
-            "" if h.campaign.get("operator", True) else
-            " (the project declares no operator traffic: projects/<name>/chaos.py)"))
+            "" if h.campaign.get("operator", True) else " (the project declares no "
+            f"operator traffic: projects/{h.campaign.get('project', '<name>')}/chaos.py)"))
     if log_gap(h):
         out.append(log_gap(h))
     return out
