@@ -243,7 +243,6 @@ def _settle(system: RunningProject, recorder: Recorder, bounds: Bounds,
     """Probe until converged and the latch/cancel bounds are over since `calm_from` (the
     later of the last fault and the last mode switch: mode-consistent is judged only
     after that much calm); the convergence time after the faults."""
-    calm = max(bounds.latch, bounds.cancel)
     converged: float | None = None
     while True:
         record = recorder.probe(_running(system))
@@ -251,11 +250,19 @@ def _settle(system: RunningProject, recorder: Recorder, bounds: Bounds,
         if converged is None and not probe_problems(parse([{"type": "probe", **record}])
                                                     .probes[0]):
             converged = now - faults_ended
-        if (converged is not None and now >= calm_from + calm) \
-                or now >= max(faults_ended + bounds.converge, calm_from + calm) \
+        if settled(now, converged is not None, faults_ended, calm_from, bounds) \
                 or not _running(system):
             return converged
         time.sleep(1.0)
+
+
+def settled(now: float, converged: bool, faults_ended: float, calm_from: float,
+            bounds: Bounds) -> bool:
+    """Whether probing may stop at campaign time `now`: converged, and the latch and
+    cancel bounds over since `calm_from`, so every rule can be judged; or, converged
+    or not, the convergence bound over since the faults and that calm too."""
+    calm = calm_from + max(bounds.latch, bounds.cancel)
+    return now >= calm and (converged or now >= faults_ended + bounds.converge)
 
 
 def _stop(system: RunningProject) -> int | None:

@@ -13,6 +13,7 @@ from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Judgement, Outcom
 from mrss.chaos.history import FILE_NAME, HistoryWriter, load, parse
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.report import summary, text
+from mrss.chaos.runner import settled
 from mrss.cli import main
 from tests.chaos.histories import U1, Record, edit, healthy, operator, probe, status
 
@@ -219,3 +220,14 @@ def test_the_verdict_and_exit_codes_are_one_closed_set() -> None:
     assert {o: o.exit_code for o in Outcome} == {
         Outcome.HOLDS: 0, Outcome.FAILS: 1, Outcome.INCOMPLETE: 4}
     assert [j.value for j in Judgement] == ["holds", "fails", "incomplete", "vacuous"]
+
+
+def test_the_runner_probes_until_the_calm_after_the_last_mode_switch() -> None:
+    """mode-consistent is judged only `cancel` s after the later of the last fault and
+    the last switch: the campaign must look that long, not just after the faults."""
+    b = Bounds(latch=10.0, cancel=10.0, converge=30.0)
+    assert not settled(25.0, True, faults_ended=14.0, calm_from=18.0, bounds=b)
+    assert settled(28.0, True, faults_ended=14.0, calm_from=18.0, bounds=b)
+    assert not settled(40.0, False, faults_ended=14.0, calm_from=18.0, bounds=b)
+    assert settled(44.0, False, faults_ended=14.0, calm_from=18.0, bounds=b)
+    assert not settled(44.0, False, faults_ended=14.0, calm_from=40.0, bounds=b)
