@@ -1,7 +1,9 @@
 """The invariants of a campaign, checked over its recorded history (pure: no I/O, no clock).
 
-Each rule is one function `check_<rule>(history, bounds) -> list[Violation]`; `check`
-runs them all. What each one relies on is stated here and in docs/chaos.md:
+Each rule is one function `check_<rule>(history, bounds) -> Ruling`: its violations, how
+many subjects it judged, and why it could not judge when the history lacks what it needs
+(`mrss.chaos.verdict` turns that into holds / fails / incomplete / vacuous); `check` runs
+them all. What each one relies on is stated here and in docs/chaos.md:
 
 - ONE_TERMINAL: an action has at most one terminal state, in the journal (one terminal
   transition) and on the bus (one distinct terminal state, ignoring statuses of an RCL
@@ -18,8 +20,8 @@ runs them all. What each one relies on is stated here and in docs/chaos.md:
   it succeeded, a reply to the operator names it or the final mind says it failed (the
   project's `[operator.goals] failed` belief, which the dashboard shows), the operator
   cancelled it, an action for it is still open at the end, or the final mind still
-  holds it (a belief of the project's `pending_beliefs` naming it). Otherwise it was
-  dropped silently.
+  holds it (a belief of the project's `pending_beliefs` naming it; none holds one when
+  the project declares none). Otherwise it was dropped silently.
 - NO_COMMAND_AFTER_CANCEL: no skill started for an action already terminal (the RCL's
   "already <terminal>; running dropped"), no skill abandoned still running ("ignored its
   interrupt"), an action the reasoner cancels is terminal within `cancel` s, every
@@ -29,23 +31,40 @@ runs them all. What each one relies on is stated here and in docs/chaos.md:
   name, robot and goal within that time).
 - MODE_CONSISTENT: for each robot mode the operator switched (teleop), once the faults
   are over, the last accepted switch, the reasoner's belief (project's `mode_beliefs`),
-  the RCL journal's flag and the robot's last telemetry of it agree.
+  the RCL journal's flag and the robot's last telemetry of it agree. Undetermined
+  (incomplete) when the history ends less than `cancel` s after the later of the last
+  fault and the last switch.
 - CONVERGED: within `converge` s of the last fault a probe finds every component
   running, every intention's action open in the journal and every open action waited
-  on by an intention (`probe_problems`).
+  on by an intention (`probe_problems`). Incomplete when no probe came after the faults;
+  vacuous when no fault was injected (a system that is not running still fails it).
+
+A rule that needs the journal (or the run's log) and finds it missing is incomplete; it
+still reports what it could see without it, when that is a violation whatever the rest
+says (two terminal states on the bus), and nothing that the missing part could refute.
 """
 
 from __future__ import annotations
 
 import re
 from collections import defaultdict
-from dataclasses import dataclass, field
-from enum import StrEnum
+from dataclasses import dataclass
 from typing import Any
 
 from mrss.chaos.convergence import converged_after, probe_problems
 from mrss.chaos.goals import GoalOutcome, goal_outcomes
 from mrss.chaos.history import History, JournalAction, OperatorEvent
+from mrss.chaos.verdict import (
+    Invariant,
+    Judgement,
+    Outcome,
+    Ruling,
+    Verdict,
+    Violation,
+    journal_gap,
+    log_gap,
+    missing,
+)
 from mrss.chaos.views import (
     TERMINAL,
     accepted,
@@ -59,22 +78,12 @@ from mrss.chaos.views import (
     terminal_at,
 )
 
-__all__ = ["Bounds", "GoalOutcome", "Invariant", "Verdict", "Violation", "check",
-           "converged_after", "goal_outcomes", "probe_problems"]
+__all__ = ["Bounds", "GoalOutcome", "Invariant", "Judgement", "Outcome", "Ruling", "Verdict",
+           "Violation", "check", "converged_after", "goal_outcomes", "probe_problems"]
 
 STARTED_AFTER_TERMINAL = re.compile(
     r"action ([0-9a-f]{32}) is already (succeeded|failed|cancelled); running dropped")
 ABANDONED_SKILL = re.compile(r"skill \d+ of action ([0-9a-f]{32}) ignored its interrupt")
-
-
-class Invariant(StrEnum):
-    ONE_TERMINAL = "one-terminal-state"
-    NO_TRANSITION_AFTER_TERMINAL = "no-transition-after-terminal"
-    LATCH_RELEASED = "latch-released"
-    GOAL_HANDLED = "goal-handled"
-    NO_COMMAND_AFTER_CANCEL = "no-command-after-cancel"
-    MODE_CONSISTENT = "mode-consistent"
-    CONVERGED = "converged"
 
 
 @dataclass(frozen=True)
@@ -86,40 +95,29 @@ class Bounds:
     converge: float = 60.0
 
 
-@dataclass(frozen=True)
-class Violation:
-    invariant: Invariant
-    subject: str
-    evidence: tuple[str, ...]
-
-
-@dataclass
-class Verdict:
-    violations: list[Violation] = field(default_factory=list)
-    goals: dict[str, GoalOutcome] = field(default_factory=dict)
-    acted_on: set[str] = field(default_factory=set)
-    converged_after: float | None = None
-
-    def of(self, invariant: Invariant) -> list[Violation]:
-        return [v for v in self.violations if v.invariant is invariant]
-
-
 def check(history: History, bounds: Bounds = Bounds()) -> Verdict:
-    """Every invariant over `history`."""
-    verdict = Verdict()
+    """Every invariant over `history`, and what the history lacks to be complete."""
+    verdict = Verdict(missing=missing(history))
     verdict.goals, verdict.acted_on = goal_outcomes(history)
     verdict.converged_after = converged_after(history)
-    for rule in (check_one_terminal, check_no_transition_after_terminal,
-                 check_latch_released, check_goal_handled, check_no_command_after_cancel,
-                 check_mode_consistent, check_converged):
-        verdict.violations.extend(rule(history, bounds))
+    for invariant, rule in ((Invariant.ONE_TERMINAL, check_one_terminal),
+                            (Invariant.NO_TRANSITION_AFTER_TERMINAL,
+                             check_no_transition_after_terminal),
+                            (Invariant.LATCH_RELEASED, check_latch_released),
+                            (Invariant.GOAL_HANDLED, check_goal_handled),
+                            (Invariant.NO_COMMAND_AFTER_CANCEL, check_no_command_after_cancel),
+                            (Invariant.MODE_CONSISTENT, check_mode_consistent),
+                            (Invariant.CONVERGED, check_converged)):
+        verdict.rulings[invariant] = rule(history, bounds)
     return verdict
 
 
 # -- the rules ------------------------------------------------------------------------------
-def check_one_terminal(h: History, b: Bounds) -> list[Violation]:
+def check_one_terminal(h: History, b: Bounds) -> Ruling:
     out: list[Violation] = []
+    subjects = set(statuses(h)) | set(requests(h))
     if h.journal is not None:
+        subjects |= {a.uuid for a in h.journal.actions}
         ends: dict[str, list[str]] = defaultdict(list)
         for x in sorted(h.journal.transitions, key=lambda x: x.seq):
             if x.state in TERMINAL:
@@ -147,12 +145,15 @@ def check_one_terminal(h: History, b: Bounds) -> list[Violation]:
             out.append(Violation(Invariant.ONE_TERMINAL, uuid, (
                 f"requested at {req.t:.1f}s by {req.src} inc {req.inc}: "
                 f"{req.body.get('literal')}", "never in the RCL journal")))
-    return out
+    return Ruling(out, len(subjects), journal_gap(h))
 
 
-def check_no_transition_after_terminal(h: History, b: Bounds) -> list[Violation]:
+def check_no_transition_after_terminal(h: History, b: Bounds) -> Ruling:
     out: list[Violation] = []
+    subjects = {u for u, s in statuses(h).items() if any(e.body.get("state") in TERMINAL
+                                                         for e in s)}
     if h.journal is not None:
+        subjects |= {a.uuid for a in h.journal.actions}
         by_uuid: dict[str, list[Any]] = defaultdict(list)
         for x in sorted(h.journal.transitions, key=lambda x: x.seq):
             by_uuid[x.uuid].append(x)
@@ -174,21 +175,24 @@ def check_no_transition_after_terminal(h: History, b: Bounds) -> list[Violation]
             out.append(Violation(Invariant.NO_TRANSITION_AFTER_TERMINAL, uuid, tuple(
                 f"bus at {e.t:.1f}s from {e.src} inc {e.inc}: {e.body.get('state')} "
                 f"{e.body.get('reason', '')!r}" for e in [final, *after])))
-    return out
+    return Ruling(out, len(subjects), journal_gap(h))
 
 
-def check_latch_released(h: History, b: Bounds) -> list[Violation]:
-    if h.journal is None:
-        return []
+def check_latch_released(h: History, b: Bounds) -> Ruling:
+    gap = journal_gap(h) or log_gap(h)
+    if h.journal is None or gap:
+        return Ruling(unknown=gap)  # an unread log shows no release: nothing to assert
     names = reasoners(h)
     lines = messages(h, names)
     deaths = death_times(h)
     ends = terminal_at(h)
     out: list[Violation] = []
+    judged = 0
     for action in h.journal.actions:
         ended = ends.get(action.uuid)
         if ended is None or action.requester not in names or ended[0] + b.latch > end_of(h):
             continue
+        judged += 1
         prefix = f"action {action.uuid} "
         released = [t for t, m in lines if m.startswith(prefix) and not m.endswith(" sent")]
         died = deaths.get((action.requester, action.requester_inc))
@@ -200,13 +204,16 @@ def check_latch_released(h: History, b: Bounds) -> list[Violation]:
             f"inc {action.requester_inc}", f"journal {ended[1]} at {ended[0]:.1f}s",
             f"release seen at {released[0]:.1f}s" if released else
             f"no release by {end_of(h):.1f}s, requester still alive")))
-    return out
+    return Ruling(out, judged)
 
 
-def check_goal_handled(h: History, b: Bounds) -> list[Violation]:
+def check_goal_handled(h: History, b: Bounds) -> Ruling:
+    goals = accepted(h, "goal")
+    if journal_gap(h):  # an action of a "dropped" goal may have succeeded: assert nothing
+        return Ruling(checked=len(goals), unknown=journal_gap(h))
     outcomes, acted = goal_outcomes(h)
     out = []
-    for step in accepted(h, "goal"):
+    for step in goals:
         if outcomes.get(step.goal) is not GoalOutcome.DROPPED:
             continue
         mine = [a for a in (h.journal.actions if h.journal else []) if a.goal == step.goal]
@@ -215,10 +222,10 @@ def check_goal_handled(h: History, b: Bounds) -> list[Violation]:
             "actions: " + (", ".join(f"{a.name} {a.state} ({a.reason})" for a in mine)
                            if mine else "none requested"),
             "no reply to the operator, not held by the agent at the end")))
-    return out
+    return Ruling(out, len({g.goal for g in goals}))
 
 
-def check_no_command_after_cancel(h: History, b: Bounds) -> list[Violation]:
+def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
     out: list[Violation] = []
     v = Invariant.NO_COMMAND_AFTER_CANCEL
     for t, m in messages(h, set(h.campaign.get("rcls") or ["rcl"])):
@@ -227,8 +234,8 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> list[Violation]:
             found = pattern.search(m)
             if found:
                 out.append(Violation(v, found.group(1), (f"{what} at {t:.1f}s: {m}",)))
-    if h.journal is None:
-        return out
+    if h.journal is None or h.journal.error:
+        return Ruling(out, 0, journal_gap(h))
     ends = terminal_at(h)
     end = end_of(h)
     by_uuid = {a.uuid: a for a in h.journal.actions}
@@ -289,7 +296,7 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> list[Violation]:
                 f"{action.name}({action.robot},{action.goal}) of {action.requester} inc "
                 f"{action.requester_inc}, which died at {died:.1f}s", f"orphan {why}, "
                 "not adopted by a newer incarnation")))
-    return out
+    return Ruling(out, len(h.journal.actions), log_gap(h))  # the log: skills after the end
 
 
 def mode_views(h: History, robot: str, mode: str) -> dict[str, bool | None]:
@@ -309,14 +316,21 @@ def mode_views(h: History, robot: str, mode: str) -> dict[str, bool | None]:
     return {"reasoner": reasoner, "rcl": rcl, "robot": robot_view}
 
 
-def check_mode_consistent(h: History, b: Bounds) -> list[Violation]:
+def check_mode_consistent(h: History, b: Bounds) -> Ruling:
     last: dict[tuple[str, str], OperatorEvent] = {}
     for step in accepted(h, "mode"):
         last[(step.robot, step.mode)] = step
     out = []
-    settled = max(h.faults_ended_at, max((s.t for s in last.values()), default=0.0))
+    if not last:
+        return Ruling()
+    settled = max(h.faults_ended_at, max(s.t for s in last.values()))
     if end_of(h) < settled + b.cancel:
-        return []  # not enough calm after the last switch to judge
+        return Ruling(checked=len(last), unknown=(
+            f"undetermined: the history ends at {end_of(h):.1f}s, "
+            f"{max(0.0, end_of(h) - settled):.1f}s after the last fault or switch "
+            f"({settled:.1f}s); judging needs {b.cancel:g}s of calm"))
+    if journal_gap(h):
+        return Ruling(checked=len(last), unknown=journal_gap(h))  # the RCL's view
     for (robot, mode), step in sorted(last.items()):
         views = mode_views(h, robot, mode)
         wrong = {k: v for k, v in views.items() if v is not None and v != step.on}
@@ -324,23 +338,24 @@ def check_mode_consistent(h: History, b: Bounds) -> list[Violation]:
             out.append(Violation(Invariant.MODE_CONSISTENT, f"{robot} {mode}", (
                 f"operator switched it {'on' if step.on else 'off'} at {step.t:.1f}s",
                 *(f"{k} sees it {'on' if val else 'off'}" for k, val in wrong.items()))))
-    return out
+    return Ruling(out, len(last))
 
 
-def check_converged(h: History, b: Bounds) -> list[Violation]:
-    after = converged_after(h)
-    if after is not None and after <= b.converge:
-        return []
+def check_converged(h: History, b: Bounds) -> Ruling:
     start = h.faults_ended_at
     late = [p for p in h.probes if p.t >= start]
+    if not late:  # the campaign always probes after the faults: the history is cut short
+        return Ruling(unknown=f"no probe after the last fault ({start:.1f}s)" + (
+            f"; mrss supervise exited {h.end.get('exit_code')}"
+            if h.end.get("exit_code") is not None else ""))
+    disturbed = int(any(f.ok for f in h.faults))  # else nothing to converge from: vacuous
+    after = converged_after(h)
+    if after is not None and after <= b.converge:
+        return Ruling(checked=disturbed)
     evidence = [f"last fault over at {start:.1f}s"]
     if after is not None:
         evidence.append(f"converged only {after:.1f}s later")
-    elif not late:
-        evidence.append("no probe after the last fault"
-                        + (f"; mrss supervise exited {h.end.get('exit_code')}"
-                           if h.end.get("exit_code") is not None else ""))
     else:
         evidence.append(f"not converged at the last probe ({late[-1].t:.1f}s):")
         evidence += probe_problems(late[-1])[:10]
-    return [Violation(Invariant.CONVERGED, "system", tuple(evidence))]
+    return Ruling([Violation(Invariant.CONVERGED, "system", tuple(evidence))], disturbed)

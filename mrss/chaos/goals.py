@@ -6,6 +6,9 @@ says it failed (a belief of the project's `[operator.goals] failed` pattern nami
 the operator's dashboard shows that goal as failed), CANCELLED if the operator
 cancelled it, IN_PROGRESS if an action for it is open at the end, HELD if the agent's
 final mind has a belief of the project's `pending_beliefs` naming it, else DROPPED.
+Nothing holds a goal, nor says it failed, unless the project declares which beliefs do
+(chaos.py's `PENDING_BELIEFS`, `[operator.goals] failed`): a belief that merely names
+the goal (`refused(a1, rule)`, `failed_goal(a1)`) is not a promise to pursue it.
 Actions and cancels count for a goal from its publish until the goal is sent again.
 """
 
@@ -50,7 +53,7 @@ def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
         if any(a.state == "succeeded" for a in mine):
             outcome = GoalOutcome.SUCCEEDED
         elif any(_names_goal(r.payload, step.goal) for r in h.replies if r.t >= step.t) \
-                or (failed and mind is not None and _held(mind, step.goal, failed)):
+                or (mind is not None and _held(mind, step.goal, failed)):
             outcome = GoalOutcome.REPORTED
         elif any(c.goal == step.goal and step.t <= c.t < until
                  for c in accepted(h, "cancel")):
@@ -84,6 +87,10 @@ def _names_goal(payload: str, goal: str) -> bool:
 
 
 def _held(mind: dict[str, Any], goal: str, functors: tuple[str, ...]) -> bool:
+    """Whether a belief of one of `functors` names `goal` (never, without functors)."""
+    if not functors:
+        return False
     arg = re.compile(rf"[(,]{re.escape(goal)}[,)]")
-    return any(arg.search(text) and (not functors or text.startswith(
-        tuple(f"{f}(" for f in functors))) for text in mind.get("beliefs", []))
+    starts = tuple(f"{f}(" for f in functors)
+    return any(text.startswith(starts) and arg.search(text)
+               for text in mind.get("beliefs", []))

@@ -15,6 +15,7 @@ start wall time). Record types:
                the supervision tree (any may be null when it did not answer)
     journal    the RCL journal at the end: actions, transitions, robots' teleop flags
     logline    a line of the run's log file (`<run_dir>/mrss.log`), with its creation time
+    log        the run's log file was read: how many lines were kept, or why it could not be
     end        last line: when the faults ended, the system's exit code
 
 `load` reads a file back into a `History`, checking each record, so the checker runs
@@ -152,6 +153,16 @@ class LogLine:
     message: str
 
 
+@dataclass(frozen=True)
+class LogRead:
+    """The run's log file read at the end: lines kept, or the error that stopped it."""
+
+    t: float
+    file: str
+    lines: int
+    error: str = ""
+
+
 @dataclass
 class History:
     """A whole campaign, records grouped by type, each list in time order."""
@@ -165,6 +176,7 @@ class History:
     probes: list[Probe] = field(default_factory=list)
     journal: Journal | None = None
     loglines: list[LogLine] = field(default_factory=list)
+    log: LogRead | None = None
     end: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -282,6 +294,9 @@ def _add(h: History, r: dict[str, Any]) -> None:
     elif kind == "logline":
         h.loglines.append(LogLine(float(r["t"]), str(r["component"]), int(r["pid"]),
                                   str(r["level"]), str(r["message"])))
+    elif kind == "log":
+        h.log = LogRead(float(r["t"]), str(r.get("file", "")), int(r.get("lines", 0)),
+                        str(r.get("error", "")))
     elif kind == "end":
         h.end = dict(r)
     else:

@@ -9,7 +9,9 @@
 - Probes: the supervision tree (`ctl.tree`), a mind snapshot (`ctl.mind`) and the open
   actions of the RCL journal, asked for at one moment.
 - At the end: the whole RCL journal (SQLite, opened read-only) and the run's log lines
-  of the reasoner and RCL (and every warning or error), with their creation times.
+  of the reasoner and RCL (and every warning or error), with their creation times. A
+  journal or log that cannot be read is recorded with its error, never skipped quietly:
+  the checker calls such a history incomplete.
 
 Wall-clock times (journal, log) are moved onto the campaign's time line by its start.
 """
@@ -207,11 +209,15 @@ class Recorder:
         self.writer.write("journal", **record)
 
     def record_log(self, components: set[str]) -> int:
-        """Log lines of `components` and every warning or error; returns how many."""
+        """Log lines of `components` and every warning or error, then a `log` record of
+        how many (or of the error that kept the file from being read); returns how many."""
         count = 0
+        path = log_file(self.run_dir)
         try:
-            lines = log_file(self.run_dir).read_text(encoding="utf-8", errors="replace")
-        except OSError:
+            lines = path.read_text(encoding="utf-8", errors="replace")
+        except OSError as exc:
+            self.writer.write("log", t=self.now(), file=str(path), lines=0,
+                              error=f"{path}: {exc.strerror or exc}")
             return 0
         for line in lines.splitlines():
             found = LOG_LINE.match(line)
@@ -225,6 +231,7 @@ class Recorder:
             self.writer.write("logline", t=self.since_start(wall), component=component,
                               pid=int(pid), level=level, message=message)
             count += 1
+        self.writer.write("log", t=self.now(), file=str(path), lines=count)
         return count
 
 

@@ -3,7 +3,8 @@
 `summary` gathers what a person qualifying a deployment asks first (pure, from the
 history and the verdict): faults by kind, restarts by component, actions by final
 state, the operator's goals (accepted, acted on, reported failed, and each one's
-outcome), the time to converge, and each invariant with its violations. `text` renders
+outcome), the time to converge, each invariant's judgement (holds, fails, incomplete,
+vacuous) with its violations, what the history lacks, and the verdict. `text` renders
 it; `mrss chaos --json` prints the summary itself.
 """
 
@@ -12,7 +13,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from mrss.chaos.checker import GoalOutcome, Invariant, Verdict
+from mrss.chaos.checker import GoalOutcome, Invariant, Judgement, Outcome, Verdict
 from mrss.chaos.history import History
 
 EVIDENCE_SHOWN = 5  # violations shown per invariant in the text
@@ -52,9 +53,13 @@ def summary(history: History, verdict: Verdict, source: str = "") -> dict[str, A
         "faults_ended": round(history.faults_ended_at, 1),
         "converged_after": None if verdict.converged_after is None
         else round(verdict.converged_after, 1),
-        "invariants": {i.value: len(verdict.of(i)) for i in Invariant},
+        "invariants": {i.value: {"judgement": verdict.judgement(i).value,
+                                 "violations": len(verdict.of(i)), "why": verdict.why(i)}
+                       for i in Invariant},
         "violations": [{"invariant": v.invariant.value, "subject": v.subject,
                         "evidence": list(v.evidence)} for v in verdict.violations],
+        "missing": list(verdict.missing),
+        "verdict": verdict.outcome.value,
     }
 
 
@@ -103,8 +108,8 @@ def text(s: dict[str, Any]) -> str:
         f"  exit code        {s['exit_code']}",
         "invariants:",
     ]
-    for name, count in s["invariants"].items():
-        lines.append(f"  {name:<30} {'ok' if count == 0 else f'{count} VIOLATED'}")
+    for name, judged in s["invariants"].items():
+        lines.append(f"  {name:<30} {_judgement(judged)}")
     shown: Counter[str] = Counter()
     for v in s["violations"]:
         shown[v["invariant"]] += 1
@@ -115,8 +120,39 @@ def text(s: dict[str, Any]) -> str:
     hidden = {k: n - EVIDENCE_SHOWN for k, n in shown.items() if n > EVIDENCE_SHOWN}
     if hidden:
         lines.append(f"  (not shown: {counts(hidden)}; all of them: --json)")
-    total = len(s["violations"])
-    broken = sum(1 for n in s["invariants"].values() if n)
-    lines.append("verdict: every invariant holds" if total == 0 else
-                 f"verdict: {broken} invariant(s) violated, {total} violation(s)")
+    if s["missing"]:
+        lines.append("the history is incomplete:")
+        lines += [f"  - {m}" for m in s["missing"]]
+    lines.append(f"verdict: {_verdict(s)} (exit {Outcome(s['verdict']).exit_code})")
     return "\n".join(lines)
+
+
+def _judgement(judged: dict[str, Any]) -> str:
+    j = Judgement(judged["judgement"])
+    if j is Judgement.FAILS:
+        return f"FAILS: {judged['violations']} violation(s)"
+    if j is Judgement.HOLDS:
+        return "holds"
+    return f"{j.value.upper() if j is Judgement.INCOMPLETE else j.value}: {judged['why']}"
+
+
+def _verdict(s: dict[str, Any]) -> str:
+    """The last line: the outcome and what decided it."""
+    judged = {k: Judgement(v["judgement"]) for k, v in s["invariants"].items()}
+    count = Counter(judged.values())
+    outcome = Outcome(s["verdict"])
+    if outcome is Outcome.FAILS:
+        if count[Judgement.FAILS]:
+            return (f"FAILS: {count[Judgement.FAILS]} invariant(s) violated, "
+                    f"{len(s['violations'])} violation(s)")
+        return "FAILS: every invariant is vacuous, the campaign checked nothing"
+    if outcome is Outcome.INCOMPLETE:
+        why = []
+        if s["missing"]:
+            why.append(f"the history lacks {len(s['missing'])} thing(s) above")
+        if count[Judgement.INCOMPLETE]:
+            why.append(f"{count[Judgement.INCOMPLETE]} invariant(s) could not be judged")
+        return "INCOMPLETE: " + " and ".join(why) + "; no violation found, none ruled out"
+    vacuous = [k for k, j in judged.items() if j is Judgement.VACUOUS]
+    return "holds: every invariant holds" + (
+        f" ({len(vacuous)} vacuous: {', '.join(vacuous)})" if vacuous else "")

@@ -6,7 +6,8 @@
    while the project's operator traffic runs; timed faults are healed when they are over.
 3. Once the last fault is over the traffic stops and the system is probed every second
    until it has converged and at least the checker's latch and cancel bounds have
-   passed (so every rule can be judged), or until the convergence bound is exceeded.
+   passed since the later of the last fault and the operator's last mode switch (so
+   every rule can be judged), or until the convergence bound is exceeded.
 4. The RCL journal and the run's log are recorded, the system is stopped (SIGINT), and
    the history file is closed. Checking it is the caller's business (`mrss chaos`).
 """
@@ -35,7 +36,7 @@ from mrss.chaos.faults import (
 )
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.recorder import Recorder
-from mrss.chaos.traffic import OperatorStep, Sent, Traffic, load_traffic, publish
+from mrss.chaos.traffic import Intent, OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
 from mrss.config.operator import SECTION, GoalState, read_operator
@@ -97,6 +98,7 @@ def run(options: Options, say: Say = print) -> Path:
         writer.write("campaign", t=0.0, project=options.project, seed=options.seed,
                      wall=recorder.wall0, run_dir=str(options.run_dir),
                      options=_plain_options(options), reasoners=reasoners, rcls=rcls,
+                     operator=traffic.source is not None,
                      pending_beliefs=list(traffic.pending_beliefs),
                      failed_beliefs=failed_goal_functors(config),
                      mode_beliefs=traffic.mode_beliefs,
@@ -105,9 +107,10 @@ def run(options: Options, say: Say = print) -> Path:
         say(f"chaos: {options.project} up in {options.run_dir}; "
             f"{len(faults)} faults, seed {options.seed}")
         stop_traffic = threading.Event()
+        switched: list[float] = []  # when the operator's accepted mode switches were sent
         operator = threading.Thread(target=_operate, args=(
-            traffic, options, recorder, writer, stop_traffic), name="chaos-operator",
-            daemon=True)
+            traffic, options, recorder, writer, stop_traffic, switched),
+            name="chaos-operator", daemon=True)
         operator.start()
         _sleep_until(recorder, options.warmup, system)
         injector = Injector(_root_pid(system), recorder.pid_of)
@@ -128,7 +131,8 @@ def run(options: Options, say: Say = print) -> Path:
         faults_ended = recorder.now()
         stop_traffic.set()  # no new step; the one in hand is delivered (answered) first
         operator.join(timeout=options.answer_patience + 15)
-        converged = _settle(system, recorder, options.bounds, faults_ended)
+        converged = _settle(system, recorder, options.bounds, faults_ended,
+                            max([faults_ended, *switched]))
         say(f"chaos: faults over at {faults_ended:.1f}s; "
             + (f"converged {converged:.1f}s later" if converged is not None
                else "did not converge"))
@@ -153,8 +157,9 @@ def _plain_options(options: Options) -> dict[str, object]:
 
 
 def _operate(traffic: Traffic, options: Options, recorder: Recorder, writer: HistoryWriter,
-             stop: threading.Event) -> None:
-    """The operator: publish the project's steps at their pace until told to stop."""
+             stop: threading.Event, switched: list[float]) -> None:
+    """The operator: publish the project's steps at their pace until told to stop; the
+    time of each accepted mode switch goes to `switched` (the calm is counted from it)."""
     for n, step in enumerate(traffic.steps(options.seed, options.operator_every), 1):
         if stop.wait(step.after):
             return
@@ -165,6 +170,8 @@ def _operate(traffic: Traffic, options: Options, recorder: Recorder, writer: His
         writer.write("operator", t=t, intent=step.intent.value, topic=step.topic,
                      payload=step.payload, ok=sent.ok, goal=step.goal, robot=step.robot,
                      mode=step.mode, on=step.on, error=sent.error, attempts=attempts)
+        if sent.ok and step.intent is Intent.MODE:
+            switched.append(t)
 
 
 def _deliver(step: OperatorStep, options: Options, recorder: Recorder) -> tuple[Sent, int]:
@@ -231,9 +238,10 @@ def _sleep_until(recorder: Recorder, t: float, system: RunningProject,
 
 
 def _settle(system: RunningProject, recorder: Recorder, bounds: Bounds,
-            faults_ended: float) -> float | None:
-    """Probe until converged and the latch/cancel bounds are over; the convergence time."""
-    calm = max(bounds.latch, bounds.cancel)
+            faults_ended: float, calm_from: float) -> float | None:
+    """Probe until converged and the latch/cancel bounds are over since `calm_from` (the
+    later of the last fault and the last mode switch: mode-consistent is judged only
+    after that much calm); the convergence time after the faults."""
     converged: float | None = None
     while True:
         record = recorder.probe(_running(system))
@@ -241,10 +249,19 @@ def _settle(system: RunningProject, recorder: Recorder, bounds: Bounds,
         if converged is None and not probe_problems(parse([{"type": "probe", **record}])
                                                     .probes[0]):
             converged = now - faults_ended
-        if (converged is not None and now >= faults_ended + calm) \
-                or now >= faults_ended + max(bounds.converge, calm) or not _running(system):
+        if settled(now, converged is not None, faults_ended, calm_from, bounds) \
+                or not _running(system):
             return converged
         time.sleep(1.0)
+
+
+def settled(now: float, converged: bool, faults_ended: float, calm_from: float,
+            bounds: Bounds) -> bool:
+    """Whether probing may stop at campaign time `now`: converged, and the latch and
+    cancel bounds over since `calm_from`, so every rule can be judged; or, converged
+    or not, the convergence bound over since the faults and that calm too."""
+    calm = calm_from + max(bounds.latch, bounds.cancel)
+    return now >= calm and (converged or now >= faults_ended + bounds.converge)
 
 
 def _stop(system: RunningProject) -> int | None:

@@ -6,7 +6,9 @@
 3. skills.py, then rcl.py and its robots (`sources`, `recipes`, `robots`): an agent
    action without a recipe, a recipe's unknown skill, a hook with the wrong signature;
 4. events.py and datalayer.py with their tables; the agent's queries against the data
-   layer's functions; percepts against the agent's triggers (`percepts`).
+   layer's functions; percepts against the agent's triggers (`percepts`);
+5. the dashboard's tables (`operator`, `alerts`, `map`) and the operator traffic of
+   `mrss chaos` (`chaos_traffic`: chaos.py).
 A check whose input is broken is skipped (its input's error says why): no cascades.
 """
 
@@ -20,6 +22,7 @@ from mrss.actors.events.adapter import ExternalAdapter
 from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
 from mrss.check.alerts import check_alerts
+from mrss.check.chaos_traffic import check_chaos_traffic
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.map import check_map
@@ -74,6 +77,7 @@ def check_project(config: ProjectConfig) -> Report:
                      for c in _running(config, REASONER)})
     check_operator(config, report, events_running=bool(_running(config, EVENTS)),
                    agent_files=[a for a in agents if a.is_file()])
+    check_chaos_traffic(config, report, agent_files=[a for a in agents if a.is_file()])
     check_alerts(config, report)
     check_map(config, report)
     if uses is not None:

@@ -6,8 +6,12 @@
 The campaign runs `mrss supervise PROJECT` as its own process, injects the seeded
 faults while the project's operator traffic runs, records the history into the run
 folder (`chaos-history.jsonl`), checks the invariants over it and prints the report
-(docs/chaos.md). Exit code: 0 every invariant holds, 1 a violation, 2 bad usage or a
-history/project that cannot be read, 3 the system could not be run.
+(docs/chaos.md). Exit code (`mrss.chaos.verdict.Outcome`): 0 the history is complete and
+every invariant holds (or has nothing to check), 1 a violation, or every invariant had
+nothing to check; 4 the history is incomplete (no journal, no end record, a planned fault
+not injected, no operator goal accepted, the log unread) or an invariant could not be
+judged; 2 bad usage or a history/project that cannot be read; 3 the system could not be
+run.
 """
 
 from __future__ import annotations
@@ -23,9 +27,11 @@ from mrss.chaos import history as chaos_history
 from mrss.chaos import report, runner
 from mrss.chaos.campaign import CampaignError, parse_kinds, parse_range
 from mrss.chaos.checker import Bounds, check
+from mrss.chaos.verdict import Outcome
 from mrss.errors import ConfigError, MrssError
 
-EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_NOT_RUN = 0, 1, 2, 3
+EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_NOT_RUN, EXIT_INCOMPLETE = (
+    Outcome.HOLDS.exit_code, Outcome.FAILS.exit_code, 2, 3, Outcome.INCOMPLETE.exit_code)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -115,4 +121,4 @@ def _check(path: Path, bounds: Bounds, as_json: bool) -> int:
     verdict = check(history, bounds)
     s = report.summary(history, verdict, str(path))
     print(json.dumps(s, indent=2) if as_json else report.text(s))
-    return EXIT_VIOLATED if verdict.violations else EXIT_OK
+    return verdict.outcome.exit_code

@@ -37,8 +37,11 @@ def run(args: argparse.Namespace) -> int:
         config = load_project(args.project)
     except ConfigError as exc:
         if args.json:
+            file, _, line = (exc.file or "").rpartition(":")  # "path:line" names the line
+            if not line.isdigit():
+                file, line = exc.file or "", "0"
             print(json.dumps({"project": args.project, "ok": False, "findings": [
-                {"file": exc.file or "", "line": 0, "col": 0, "message": exc.reason,
+                {"file": file, "line": int(line), "col": 0, "message": exc.reason,
                  "severity": "error", "check": "config", "key": exc.key, "detail": ""}]}))
         else:
             print(f"mrss check: {exc}", file=sys.stderr)

@@ -1,10 +1,11 @@
 """Hand-made campaign histories for the checker's tests: one healthy run, and edits to it.
 
-`healthy()` is a short campaign in which every invariant holds: the operator sends goal
+`healthy()` is a short complete campaign in which every invariant holds and none is
+vacuous: the operator sends goal
 a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
-teleop and back; after the faults a probe finds everything running and idle. Each test
-changes one thing and expects one invariant to break.
+teleop and back; after the faults a probe finds everything running and idle; the
+journal and the run's log are read. Each test changes one thing and expects one invariant to break.
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ def healthy() -> list[Record]:
          "transitions": transitions(U1, ("pending", 2.1), ("running", 2.2),
                                     ("succeeded", 10.0)),
          "teleop": {}},
+        {"type": "log", "t": 40.5, "file": "run/mrss.log", "lines": 1},
         {"type": "end", "t": 41.0, "faults_ended": 5.0, "exit_code": 0},
     ]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Verdict, check
+from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Judgement, Verdict, check
 from mrss.chaos.history import parse
 from tests.chaos.histories import (
     TREE,
@@ -343,8 +343,20 @@ def test_converging_later_than_the_bound_is_a_violation() -> None:
     assert "converged only 85.0s later" in found[0].evidence
 
 
-def test_no_probe_after_the_faults_is_not_converged() -> None:
+def test_no_probe_after_the_faults_leaves_convergence_undetermined() -> None:
+    """A campaign always probes after the faults: a history without such a probe was cut
+    short, and says nothing about convergence either way."""
     records = [r for r in healthy() if r["type"] != "probe"]
     edit(records, "end")["exit_code"] = 1
+    v = verdict(records)
+    assert v.of(Invariant.CONVERGED) == []
+    assert v.judgement(Invariant.CONVERGED) is Judgement.INCOMPLETE
+    assert "mrss supervise exited 1" in v.why(Invariant.CONVERGED)
+
+
+def test_a_probe_that_finds_the_system_stopped_is_not_converged() -> None:
+    records = [r for r in healthy() if r["type"] != "probe"]
+    records.append({"type": "probe", "t": 30.0, "mind": None, "tree": None,
+                    "open_actions": None, "system_running": False})
     found = verdict(records).of(Invariant.CONVERGED)
-    assert "mrss supervise exited 1" in found[0].evidence[1]
+    assert "mrss supervise is not running" in found[0].evidence

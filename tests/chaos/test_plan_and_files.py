@@ -130,7 +130,9 @@ def test_the_report_has_every_section_and_each_violation_with_evidence() -> None
     report = text(s)
     for i in Invariant:
         assert i.value in report
-    assert "- goal-handled a2" in report and "verdict: 1 invariant(s) violated" in report
+    assert "- goal-handled a2" in report
+    assert "  goal-handled                   FAILS: 1 violation(s)" in report
+    assert report.endswith("verdict: FAILS: 1 invariant(s) violated, 1 violation(s) (exit 1)")
 
 
 def test_restarts_are_the_roots_count_when_a_probe_got_the_tree() -> None:
@@ -150,7 +152,7 @@ def write(path: Path, records: list[dict[str, object]]) -> Path:
 def test_mrss_chaos_check_exits_0_when_every_invariant_holds(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["chaos", "--check", str(write(tmp_path / "h.jsonl", healthy()))]) == 0
-    assert "verdict: every invariant holds" in capsys.readouterr().out
+    assert capsys.readouterr().out.endswith("verdict: holds: every invariant holds (exit 0)\n")
 
 
 def test_mrss_chaos_check_exits_1_on_a_violation_and_2_on_a_bad_file(
@@ -158,7 +160,9 @@ def test_mrss_chaos_check_exits_1_on_a_violation_and_2_on_a_bad_file(
     bad = write(tmp_path / "bad.jsonl", healthy() + [operator(20.0, "goal", "a2")])
     assert main(["chaos", "--check", str(bad), "--json"]) == 1
     out = json.loads(capsys.readouterr().out)
-    assert out["invariants"]["goal-handled"] == 1
+    assert out["invariants"]["goal-handled"] == {"judgement": "fails", "violations": 1,
+                                                 "why": ""}
+    assert out["verdict"] == "fails" and out["missing"] == []
     assert main(["chaos", "--check", str(tmp_path / "missing.jsonl")]) == 2
     assert "cannot read" in capsys.readouterr().err
     assert main(["chaos"]) == 2

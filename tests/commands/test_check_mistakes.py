@@ -77,9 +77,9 @@ MISTAKES = [
     Mistake("robot data limit that is not a range", "project.toml", "[datalayer]",
             "[datalayer]\nalt_range = [500, -500]", "alt_range",
             r"expected \[low, high\] \(finite numbers, low <= high\)"),
-    Mistake("component class misspelt", "project.toml", "reasoner:ReasonerComponent",
-            "reasoner:ReasonerComponnt", "ReasonerComponnt",
-            r"defines no class 'ReasonerComponnt'; did you mean 'ReasonerComponent'\?"),
+    Mistake("component kind misspelt", "project.toml", 'kind = "reasoner"',
+            'kind = "reasonr"', "reasonr",
+            r"must be one of bus, .*, not 'reasonr'; did you mean 'reasoner'\?"),
     Mistake("adapter class that does not exist", "project.toml", "[events]",
             '[events]\nclass = "FloodEvents"', "FloodEvents",
             r"class 'FloodEvents' is not defined in events.py; events.py defines the "
