@@ -170,6 +170,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
     finally:
+        # Everything has stopped: a stop asked for now has nothing left to do. Ignored,
+        # so it cannot kill the interpreter while it shuts down (Python restores the
+        # default handlers then, and the exit status would be "killed by SIGTERM").
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
         if temporary:
             shutil.rmtree(run_dir, ignore_errors=True)
 
