@@ -25,7 +25,7 @@ def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:
     assert last is not None and last.progress == {"waypoint": 3} and last.robot == "ugv1"
     assert [a.uuid for a in rcl_env.layer.ended] == ["a1"]
     assert rcl_env.layer.ended[0].state.value == "succeeded"
-    assert core.active() == {}
+    assert core.observers.active() == {}
 
 
 def test_every_status_is_journaled_before_it_is_published(rcl_env: RclEnv) -> None:
@@ -183,12 +183,12 @@ def test_duplicate_of_a_running_action_does_not_start_it_again(rcl_env: RclEnv) 
 
 def test_unavailable_robot_rejects_new_actions(rcl_env: RclEnv) -> None:
     core = rcl_env.start()
-    core.set_available("uav1", False, "link down")
+    core.availability.set_available("uav1", False, "link down")
     core.submit_fields(request_fields("u1", "noop", "uav1", "g1"))
     wait_until(rcl_env.statuses.reached("u1", "failed"))
     last = rcl_env.statuses.last("u1")
     assert last is not None and "uav1 unavailable: link down" in last.reason
-    core.set_available("uav1", True)
+    core.availability.set_available("uav1", True)
     core.submit_fields(request_fields("u2", "noop", "uav1", "g1"))
     wait_until(rcl_env.statuses.reached("u2", "succeeded"))
 
