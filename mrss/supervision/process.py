@@ -1,5 +1,9 @@
 """The root supervisor: component processes under the shared RestartPolicy.
 
+One idea in one module, on purpose (~480 lines): the loop owns every child's state and
+is the only writer of it, so starting, watching, stopping and deciding read as one
+sequence; the rules it applies live elsewhere (policy.py, child_states.py, children.py).
+
 One thread runs the loop and owns all child state; other threads (signal handlers, the
 TUI, tests) submit commands and read snapshots. The loop starts children one at a time
 in order and waits for each to report ready; detects exits (any reason, SIGKILL

@@ -1,5 +1,9 @@
 """The Robot Communication Layer core: accept actions, route them to robot actors, report.
 
+One idea in one module (~450 lines): accepting, journaling and routing an action under
+one lock; what is not that lives in its collaborators (requesters.py, availability.py,
+observers.py, open_actions.py) and the lifecycle rules in lifecycle.py.
+
 Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
 management through `control`, and statuses leave through the injected `publish` callable,
 so the same object runs in-process in tests and behind the bus (`RclService`). Rules:

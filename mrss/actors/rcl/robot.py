@@ -1,5 +1,8 @@
 """One supervised pykka actor per robot: its link, teleop flag, its actions, their skills.
 
+One idea in one module (~440 lines): the actor that performs the lifecycle's effects for
+one robot; the decisions are lifecycle.py's, the skills skill_actor.py's.
+
 The robot actor carries out the action lifecycle (mrss.actors.rcl.lifecycle): it feeds
 `lifecycle.step` what happens to an action (accepted, a skill ended, a control, a teleop,
 a stop completed or timed out) and performs the effects it returns: refine the action
