@@ -31,7 +31,7 @@ from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import SetTeleop
 from mrss.errors import ActionError
 from mrss.links.failsafe import LinkDownCause, link_down_cause
-from mrss.messages import ActionState, Message, RobotState, SupEvent
+from mrss.messages import ActionState, LinkState, Message, RobotState, SupEvent
 from mrss.supervision import events as ev
 
 log = logging.getLogger("mrss.rcl")
@@ -157,7 +157,8 @@ class RobotAvailability:
             link_down = self._unavailable_cause.get(robot) in LINK_CAUSES
         try:
             self.publish(RobotState(robot=robot, available=not reason, reason=reason,
-                                    link="down" if link_down else "up", attributes=attrs))
+                                    link=LinkState.DOWN if link_down else LinkState.UP,
+                                    attributes=attrs))
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)
 

@@ -60,6 +60,8 @@ from mrss.messages import (
     ActionRequest,
     ActionState,
     ActionStatus,
+    ControlCommand,
+    ControlTarget,
     FailureCause,
     Message,
     build,
@@ -332,16 +334,17 @@ class RclCore:
         any other (the dashboard, `mrss send`, a test) the operator's."""
         control.validate()
         with self._lock:
-            if control.target_kind == "goal":
+            if control.target_kind is ControlTarget.GOAL:
                 self._held_goals.control(control.command, control.target, src)
             chosen = self.actions.matching(
-                lambda u, e: (control.target_kind == "action" and u == control.target)
-                or (control.target_kind == "goal" and e.goal == control.target)
-                or (control.target_kind == "robot" and e.robot == control.target))
+                lambda u, e: (control.target_kind is ControlTarget.ACTION and u == control.target)
+                or (control.target_kind is ControlTarget.GOAL and e.goal == control.target)
+                or (control.target_kind is ControlTarget.ROBOT and e.robot == control.target))
             targets = list(chosen)
             robots = {u: e.robot for u, e in chosen.items()}
             agent = {u for u, e in chosen.items() if src and e.requester.src == src}
-        if not targets and control.target_kind == "goal" and control.command == "suspend":
+        if not targets and control.target_kind is ControlTarget.GOAL \
+                and control.command is ControlCommand.SUSPEND:
             log.info("suspend goal %r: no action yet; held for its later ones", control.target)
         elif not targets:
             log.warning("%s %s %r: no active action", control.command, control.target_kind,
@@ -382,9 +385,9 @@ class RclCore:
     # -- Routes: what the collaborators ask of the core -----------------------------------
     def publish_status(self, action: Action, repeat: bool = False) -> None:
         """Publish an action's status (journaled already); a failure is logged."""
-        status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
+        status = ActionStatus(uuid=action.uuid, state=action.state, reason=action.reason,
                               progress=dict(action.progress), robot=action.robot,
-                              cause=action.cause, repeat=repeat, name=action.name,
+                              cause=FailureCause(action.cause), repeat=repeat, name=action.name,
                               goal=action.goal)
         try:
             self.publish(status)
