@@ -48,6 +48,7 @@ from mrss.bus import BusEndpoints
 from mrss.bus.component import endpoints_from_config
 from mrss.commands.supervise import run_dir_for
 from mrss.errors import ConfigError
+from mrss.interpreter import python_module
 from mrss.map_config import MapConfig
 from mrss.project_config import ProjectConfig
 from mrss.tui.app import MrssApp
@@ -228,8 +229,7 @@ def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, 
 
 def _start_system(args: argparse.Namespace, run_dir: Path,
                   log_path: Path) -> subprocess.Popen[bytes]:
-    argv = [sys.executable, "-m", "mrss", "supervise", args.project, "--no-tui",
-            "--run-dir", str(run_dir)]
+    argv = python_module("mrss", "supervise", args.project, "--no-tui", "--run-dir", str(run_dir))
     if args.launcher:
         argv += ["--launcher", args.launcher]
     if getattr(args, "node", None):
