@@ -114,6 +114,8 @@ CONTROL_TARGETS = tuple(t.value for t in ControlTarget)
 
 _ACTION_STATES = frozenset(ActionState)
 _FAILURE_CAUSES = frozenset(FailureCause)
+_LINK_STATES = frozenset(LinkState)
+_SUP_EVENTS = frozenset(SupEventKind)
 
 
 def _closed(msg: object, **fields: type[StrEnum]) -> None:
@@ -291,6 +293,10 @@ class RobotState(Message):
     def __post_init__(self) -> None:
         _closed(self, link=LinkState)
 
+    def validate(self) -> None:
+        if self.link not in _LINK_STATES:
+            raise DecodeError(f"unknown link state {self.link!r}")
+
     def topic(self) -> str:
         return f"robot.{self.robot}.state"
 
@@ -323,6 +329,10 @@ class SupEvent(Message):
 
     def __post_init__(self) -> None:
         _closed(self, event=SupEventKind)
+
+    def validate(self) -> None:
+        if self.event not in _SUP_EVENTS:
+            raise DecodeError(f"unknown supervision event {self.event!r}")
 
     def topic(self) -> str:
         return f"sup.{self.event}"
