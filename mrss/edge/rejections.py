@@ -7,6 +7,10 @@ once the interval is over the next refusal, `roll` (which the component's report
 every tick, `roll_all`) or `flush` logs one summary line of what was held back. No
 traceback is ever logged for bad data.
 
+A library that logs each refusal itself (amqtt: an ERROR and a WARNING per bare TCP
+connection) is brought under the same rule by a `LoggedRefusals` filter on its logger:
+the records it recognises become counted refusals of a `RejectionLog` instead.
+
 Every `RejectionLog` (and every other refusal counter that calls `register`, like the
 MAVLink signing checks) is known to its process: `process_counts()` adds them up for
 the component's periodic `Rejections` message on the bus (`mrss.edge.rejection_reports`),
@@ -16,11 +20,12 @@ which the dashboard shows.
 from __future__ import annotations
 
 import logging
+import re
 import threading
 import time
 import weakref
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 DEFAULT_INTERVAL = 60.0
@@ -153,3 +158,31 @@ class RejectionLog:
         return (f"refused {sum(self._held.values())} more {self.what}(s) "
                 f"(total {sum(self.counts.values())}): {parts}"
                 + (f" and {more} more kinds" if more > 0 else ""))
+
+
+class LoggedRefusals(logging.Filter):
+    """A filter for a library's logger: its records that tell of a refusal are counted in
+    `rejections` (and logged by it, once per source and reason per interval) instead.
+
+    `kinds`: (pattern, reason); a record whose message the pattern matches is one refusal
+    of that reason, its source the pattern's `source` group ("-" without one). `echoes`:
+    patterns of records that only repeat a refusal already counted (dropped, not counted).
+    Every other record passes unchanged.
+    """
+
+    def __init__(self, rejections: RejectionLog, kinds: Sequence[tuple[re.Pattern[str], str]],
+                 echoes: Sequence[re.Pattern[str]] = ()) -> None:
+        super().__init__()
+        self.rejections = rejections
+        self.kinds = tuple(kinds)
+        self.echoes = tuple(echoes)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        for pattern, reason in self.kinds:
+            match = pattern.search(message)
+            if match is not None:
+                source = match.group("source") if "source" in pattern.groupindex else "-"
+                self.rejections.reject(source, reason, message)
+                return False
+        return not any(pattern.search(message) for pattern in self.echoes)

@@ -3,8 +3,10 @@
 Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
 management through `control`, and statuses leave through the injected `publish` callable,
 so the same object runs in-process in tests and behind the bus (`RclService`). Rules:
-- a request is validated by the project's `action_cb`; a malformed one is FAILED at once,
-  its reason logged and in the status;
+- a request is validated by the project's `action_cb`; a malformed one (or one for a
+  robot it does not have) is FAILED at once, its reason in the status and counted in a
+  `RejectionLog` ("action request": logged once per requester and kind of reason per
+  interval, never once per request);
 - a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
 - every status is committed to the ActionJournal before it is published;
 - on `start`, every non-terminal action of the journal is resumed or explicitly failed;
@@ -29,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import logging
+import re
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -49,6 +52,7 @@ from mrss.actors.rcl.progress_feed import ProgressFeed
 from mrss.actors.rcl.requesters import Entry, RequesterDuties
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import Control, RobotActor, StartAction
+from mrss.edge.rejections import RejectionLog
 from mrss.errors import ActionError, DecodeError
 from mrss.messages import (
     ActionControl,
@@ -72,6 +76,12 @@ log = logging.getLogger("mrss.rcl")
 
 Publish = Callable[[Message], object]
 
+
+
+def reason_kind(reason: str) -> str:
+    """What a refusal is counted as: its reason up to the first quoted value or detail
+    ("unknown robot 'ghost7' (known: ...)" -> "unknown robot")."""
+    return re.split(r"[:'\"(]", reason, maxsplit=1)[0].strip() or reason[:40]
 
 
 class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
@@ -105,6 +115,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         self.stopping = False  # set by stop(): links closing then are no news of robots
         self.progress = ProgressFeed(progress_every, clock)
         self._plans = PlanBoard()  # skills' latest plans, for the snapshot
+        self.rejections = RejectionLog(log, "action request")
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -251,7 +262,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             if isinstance(uuid, str) and uuid:
                 self._reject(uuid, fields, exc.reason)
             else:
-                log.warning("dropped an action request without a uuid: %s", exc.reason)
+                self.rejections.reject("-", "without a uuid", exc.reason)
             return
         self.submit(request)
 
@@ -299,7 +310,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
                 cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
-        log.warning("rejected action request %s: %s", uuid, reason)
+        self.rejections.reject(requester.src or "-", reason_kind(reason), f"{uuid}: {reason}")
         with self._lock:
             if self.journal.get(uuid) is not None:
                 return
