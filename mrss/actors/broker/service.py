@@ -19,6 +19,12 @@ embedded broker loses them, with any message queued for an absent client or not 
 acknowledged by one. Use an external broker with persistence (Mosquitto
 `persistence true`) where that matters.
 
+Refused connections: amqtt logs an ERROR and a WARNING for every connection closed or
+garbled before its CONNECT (a port scan, a health check's bare TCP connect). The
+`connection_refusals` filter on its logger counts them instead, by client address, in
+a `RejectionLog` ("MQTT connection": in the component's Rejections reports, logged
+once per interval).
+
 project.toml:
     [broker]
     url = "mqtt://host:1883"        # or mqtts://; absent: the embedded broker
