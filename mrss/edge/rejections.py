@@ -5,7 +5,10 @@ A refused record is counted by (source, reason) — source: the robot or sender,
 interval is logged with its detail; the others in that interval are only counted, and
 once the interval is over the next refusal, `roll` (which the component's reporter calls
 every tick, `roll_all`) or `flush` logs one summary line of what was held back. No
-traceback is ever logged for bad data.
+traceback is ever logged for bad data. The work stays bounded however the refusals
+vary: at most `MAX_LOGGED_KINDS` first lines per interval (the other kinds go to the
+summary), and at most `MAX_COUNTED_KINDS` kinds counted apart (the rest as one,
+`OTHER`).
 
 A library that logs each refusal itself (amqtt: an ERROR and a WARNING per bare TCP
 connection) is brought under the same rule by a `LoggedRefusals` filter on its logger:
@@ -29,6 +32,9 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 DEFAULT_INTERVAL = 60.0
+MAX_LOGGED_KINDS = 10  # first lines of one interval; other kinds are summarised
+MAX_COUNTED_KINDS = 1000  # (source, reason) pairs counted apart; more count as OTHER
+OTHER = ("*", "other kinds")
 
 
 class Counted(Protocol):
@@ -101,9 +107,11 @@ class RejectionLog:
         its (source, reason) this interval); True: held back, summarised later."""
         key = (source[:64], reason[:120])
         with self._lock:
+            if key not in self.counts and len(self.counts) >= MAX_COUNTED_KINDS:
+                key = OTHER
             self.counts[key] += 1
             summary = self._roll()
-            held = key in self._logged
+            held = key in self._logged or len(self._logged) >= MAX_LOGGED_KINDS
             if held:
                 self._held[key] += 1
             else:

@@ -44,6 +44,12 @@ def log_lines(edge: SupervisedEdge, *needles: str) -> list[str]:
     return [line for line in text.splitlines() if all(n in line for n in needles)]
 
 
+def counted(edge: SupervisedEdge, component: str) -> dict[str, int]:
+    """The newest counts of refusals `component` reported on the bus."""
+    reports = [r for r in edge.bodies(Rejections) if r.component == component]
+    return dict(reports[-1].counts) if reports else {}
+
+
 def replies_on(edge: SupervisedEdge, topic: str) -> list[dict[str, object]]:
     with edge._lock:
         return [r for r in edge.replies if r["reply_topic"] == f"{topic}/reply"]
@@ -63,6 +69,9 @@ def test_teleop_for_robots_that_do_not_exist_is_refused_at_the_door_with_one_rep
         assert f"unknown robot 'ghost{n}' (known: uav1, ugv1)" in str(answer["reason"])
     assert not [e for e in edge.reliable if "ghost" in str(e.body)]  # no percept, no action
     assert len(edge.reports("rejected", topic="mrss/ui/teleop")) == FLOOD
+    wait_until(lambda: counted(edge, "events").get(
+        "event from mrss/ui/teleop: field 'robot'", 0) >= FLOOD, 30,
+        message="the refusals counted as one kind in the events manager's Rejections")
     # the first refusal is a line; the others are counted (summarised once a minute)
     refused = log_lines(edge, "mrss/ui/teleop", "WARNING")
     assert 1 <= len(refused) <= 3, refused
@@ -103,10 +112,9 @@ def test_bare_tcp_connections_to_the_broker_are_counted_not_logged_each(
     for _ in range(FLOOD):
         socket.create_connection((url.hostname, url.port), timeout=10).close()
 
-    def counted() -> int:
-        reports = [r for r in edge.bodies(Rejections) if r.component == "broker"]
-        return reports[-1].total if reports else 0
-    wait_until(lambda: counted() >= FLOOD, 60, message="every bare connection counted")
+    wait_until(lambda: counted(edge, "broker").get(
+        "MQTT connection from 127.0.0.1: closed before CONNECT", 0) >= FLOOD, 60,
+        message="every bare connection counted")
     refused = log_lines(edge, "refused", "MQTT connection")
     firsts = log_lines(edge, "refused MQTT connection from")
     assert len(log_lines(edge, "No data from")) == len(firsts)  # amqtt's, only in ours

@@ -42,8 +42,12 @@ LOG_LEVELS = {EventStatus.ACCEPTED: logging.DEBUG, EventStatus.DUPLICATE: loggin
 
 
 def refusal_kind(reason: str) -> str:
-    """What a refused event is counted as: its reason up to the first colon (the field
-    or check, e.g. "field 'robot'", "payload is not JSON"), not the values in it."""
+    """What a refused event is counted as: its reason up to the first colon, after the
+    "cannot decode message on topic ..." every payload error starts with (the field or
+    check, e.g. "field 'robot'", "payload is not JSON"), not the values in it."""
+    head, colon, rest = reason.partition(": ")
+    if colon and head.startswith("cannot decode message"):
+        reason = rest
     return reason.split(":", 1)[0]
 
 
