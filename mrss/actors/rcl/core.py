@@ -7,8 +7,10 @@ observers.py, open_actions.py) and the lifecycle rules in lifecycle.py.
 Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
 management through `control`, and statuses leave through the injected `publish` callable,
 so the same object runs in-process in tests and behind the bus (`RclService`). Rules:
-- a request is validated by the project's `action_cb`; a malformed one is FAILED at once,
-  its reason logged and in the status;
+- a request is validated by the project's `action_cb`; a malformed one (or one for a
+  robot it does not have) is FAILED at once, its reason in the status and counted in a
+  `RejectionLog` ("action request": logged once per requester and kind of reason per
+  interval, never once per request);
 - a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
 - every status is committed to the ActionJournal before it is published;
 - on `start`, every non-terminal action of the journal is resumed or explicitly failed;
@@ -33,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import logging
+import re
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -54,6 +57,7 @@ from mrss.actors.rcl.progress_feed import ProgressFeed
 from mrss.actors.rcl.requesters import Requesters
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import Control, RobotActor, StartAction
+from mrss.edge.rejections import RejectionLog
 from mrss.errors import ActionError, DecodeError
 from mrss.messages import (
     ActionControl,
@@ -79,6 +83,12 @@ log = logging.getLogger("mrss.rcl")
 
 Publish = Callable[[Message], object]
 
+
+
+def reason_kind(reason: str) -> str:
+    """What a refusal is counted as: its reason up to the first quoted value or detail
+    ("unknown robot 'ghost7' (known: ...)" -> "unknown robot")."""
+    return re.split(r"[:'\"(]", reason, maxsplit=1)[0].strip() or reason[:40]
 
 
 class RclCore:
@@ -122,6 +132,7 @@ class RclCore:
                                          ProgressFeed(progress_every, clock),
                                          self.availability.announce_robots,
                                          lambda: self.robots)
+        self.rejections = RejectionLog(log, "action request")
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -265,7 +276,7 @@ class RclCore:
             if isinstance(uuid, str) and uuid:
                 self._reject(uuid, fields, exc.reason)
             else:
-                log.warning("dropped an action request without a uuid: %s", exc.reason)
+                self.rejections.reject("-", "without a uuid", exc.reason)
             return
         self.submit(request)
 
@@ -313,7 +324,7 @@ class RclCore:
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
                 cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
-        log.warning("rejected action request %s: %s", uuid, reason)
+        self.rejections.reject(requester.src or "-", reason_kind(reason), f"{uuid}: {reason}")
         with self._lock:
             if self.journal.get(uuid) is not None:
                 return
