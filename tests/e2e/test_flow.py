@@ -79,7 +79,7 @@ def _raw_reliable(system: System, session: bytes, seq: int, payload: bytes) -> N
 def test_malformed_action_messages_are_rejected_with_a_logged_reason_and_the_rcl_serves_on(
         system: System) -> None:
     rcl_pid = system.pid("rcl")
-    tx = ReliableSender(system.endpoints, src="tester", inc=1, channel="action")
+    tx = ReliableSender(system.endpoints, src="tester", channel="action")  # unsupervised: inc 0
     try:
         # well-formed messages the RCL must refuse: each gets a FAILED status and a log line
         tx.send(ActionRequest(uuid="bad-robot", name="patrol", args=["tank9", "g", 3]))
