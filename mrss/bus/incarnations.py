@@ -43,6 +43,8 @@ log = logging.getLogger("mrss.bus")
 # The supervisor's announcement of a new incarnation (mrss.supervision.events.START).
 ANNOUNCEMENT = "sup.start"
 LOG_INTERVAL = 60.0  # seconds between two log lines of one (src, reason)
+MAX_COUNTED = 256  # (src, reason) pairs counted apart; the others together
+OTHER_SENDERS = "(other senders)"
 
 
 class Stale(enum.Enum):
@@ -156,6 +158,8 @@ class Incarnations:
         key = (env.src[:64], reason)
         now = time.monotonic()
         with self._lock:
+            if key not in self.refused and len(self.refused) >= MAX_COUNTED:
+                key = (OTHER_SENDERS, reason)  # bounded: a flood of made-up names
             self.dropped += 1
             self.refused[key] += 1
             count = self.refused[key]

@@ -16,7 +16,7 @@ from mrss.bus import (
     Stale,
     Subscriber,
 )
-from mrss.bus.incarnations import Refusal, refusal_counts
+from mrss.bus.incarnations import MAX_COUNTED, OTHER_SENDERS, Refusal, refusal_counts
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
@@ -24,6 +24,7 @@ from mrss.messages import (
     IncarnationKey,
     Percept,
     SupEvent,
+    decode,
     encode,
     mark_replayed,
 )
@@ -194,3 +195,12 @@ def test_a_replayed_message_reaches_observers_marked_and_no_component(
         assert [e.body.literal for e in _drain(component) if isinstance(e.body, Percept)
                 and not e.body.literal.startswith("sync")] == ["live"]
         assert component.stale == 1
+
+
+def test_refusals_of_made_up_senders_are_counted_in_bounded_memory() -> None:
+    live = Incarnations("rcl", IncarnationKey(b"k" * 32))
+    flood = MAX_COUNTED + 100
+    for n in range(flood):
+        assert not live.admit(decode(*encode(Percept(literal="x"), src=f"s{n}", inc=5)))
+    assert live.dropped == flood and len(live.refused) == MAX_COUNTED + 1
+    assert live.refused[(OTHER_SENDERS, Refusal.UNPROVEN)] == 100
