@@ -13,7 +13,7 @@ replayed messages never get here. A project without any robots table is not chec
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -75,3 +75,10 @@ class RobotOwners:
             reason = f"{owner} without a proven incarnation"
         self.refusals.reject(env.src, reason, env.topic)
         return False
+
+    def guard(self, handler: Callable[[Envelope], object]) -> Callable[[Envelope], None]:
+        """`handler`, called only with what `admits` lets through."""
+        def guarded(env: Envelope) -> None:
+            if self.admits(env):
+                handler(env)
+        return guarded

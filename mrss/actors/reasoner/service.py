@@ -42,9 +42,8 @@ from mrss.bus import (
     ReliableSender,
     Subscriber,
 )
-from mrss.edge.robot_owners import RobotOwners
 from mrss.errors import ConfigError
-from mrss.messages import Envelope, Heartbeat, MindSnapshot
+from mrss.messages import Heartbeat, MindSnapshot
 from mrss.options import Check, Option
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
@@ -147,13 +146,10 @@ class ReasonerComponent(Component):
                                                     "ctl.mind"], incarnations=live,
                               skip=_robot_data)
         # A robot's state is taken only from the component that owns its link.
+        from mrss.edge.robot_owners import RobotOwners
+
         owners = RobotOwners.of_project(ctx.project_dir, proven=bool(endpoints.key))
-
-        def on_message(env: Envelope) -> None:
-            if owners.admits(env):
-                reasoner.on_message(env)
-
-        self._sub.start(on_message)
+        self._sub.start(owners.guard(reasoner.on_message))
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
                                     incarnations=live)
