@@ -252,6 +252,8 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
         lines: list[LogEntry] = []
         mind: Envelope | None = None
         for env in envelopes:
+            if env.replayed:  # `mrss replay`: not the system now (the topic browser marks it)
+                continue
             body = env.body
             for alert in self.alerts.apply(env):
                 dirty.add("alerts")
