@@ -78,11 +78,13 @@ def _logs_to_devnull() -> Iterator[None]:
             root.setLevel(level)
 
 
-def percentile(samples: list[float], q: float) -> float:
-    """Nearest-rank percentile (q in 0..100)."""
+def percentile(samples: list[float], q: float, late: int = 0) -> float:
+    """Nearest-rank percentile (q in 0..100). `late` more samples never came in time:
+    they rank above every sample, so a percentile that falls on one is infinite (late),
+    not the largest sample that did come."""
     ordered = sorted(samples)
-    rank = max(1, math.ceil(q / 100 * len(ordered)))
-    return ordered[rank - 1]
+    rank = max(1, math.ceil(q / 100 * (len(ordered) + late)))
+    return ordered[rank - 1] if rank <= len(ordered) else math.inf
 
 
 class _Starts:
