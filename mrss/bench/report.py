@@ -35,8 +35,8 @@ class Relation(enum.Enum):
 class Target:
     """One target row: `figure RELATION bound`, the bound taken from `reference`.
 
-    A figure that was not measured (None) or is not a number (NaN; infinite where a
-    percentile fell on a late sample) meets nothing."""
+    A figure that was not measured (None) or is not a finite number (NaN; infinite where
+    a percentile fell on a late sample, or a rate over no time) meets nothing."""
 
     description: str
     figure: float | None
@@ -46,7 +46,7 @@ class Target:
 
     @property
     def met(self) -> bool:
-        if self.figure is None or math.isnan(self.figure) or math.isnan(self.bound):
+        if self.figure is None or not math.isfinite(self.figure) or math.isnan(self.bound):
             return False
         return self.relation.holds(self.figure, self.bound)
 
