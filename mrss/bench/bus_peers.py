@@ -204,6 +204,7 @@ def round_trips(link: AnyLink, pings: int) -> dict[str, Any]:
 def stream(link: AnyLink, count: int, stream_id: int) -> dict[str, Any]:
     """Send `count` messages as fast as possible, then an end marker until confirmed."""
     started = time.perf_counter()
+    sends0 = _sends(link)
     for i in range(count):
         link.publish(RobotData(robot="bench", data={"s": stream_id, "i": i, **PAYLOAD}))
         if isinstance(link, MqttLink) and i % 64 == 0:
@@ -211,11 +212,19 @@ def stream(link: AnyLink, count: int, stream_id: int) -> dict[str, Any]:
     if isinstance(link, MqttLink | RawLink):
         link.flush()
     sent_s = time.perf_counter() - started
+    sends = _sends(link) - sends0  # ZeroMQ messages the stream took (0: not ZeroMQ)
     for _ in range(300):
         link.publish(_ctl("end", stream_id))
         if _expect(link, "reply", "bye", stream_id, 0.1):
             break
-    return {"sent": count, "send_s": sent_s}
+    return {"sent": count, "send_s": sent_s, "zmq_messages": sends}
+
+
+def _sends(link: AnyLink) -> int:
+    """How many ZeroMQ messages `link` has sent (a batch counts once)."""
+    if isinstance(link, BusLink):
+        return link.pub.sends
+    return link.sends if isinstance(link, RawLink) else 0
 
 
 def drive(link: AnyLink) -> None:

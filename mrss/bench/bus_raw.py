@@ -34,6 +34,7 @@ class RawLink:
         self._batch_since = 0.0
         self._last_publish = 0.0
         self._pending: deque[Envelope] = deque()  # the rest of a received batch
+        self.sends = 0  # ZeroMQ messages sent (a batch counts once)
         ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self.pub = ctx.socket(zmq.PUB)
         self.pub.setsockopt(zmq.LINGER, 0)
@@ -55,6 +56,7 @@ class RawLink:
         if not self.batching:
             self.pub.send(topic, zmq.SNDMORE)
             self.pub.send(payload)
+            self.sends += 1
             return
         now = time.perf_counter()
         burst = now - self._last_publish < BURST_GAP
@@ -65,6 +67,7 @@ class RawLink:
         if not (burst or self._batch):
             self.pub.send(topic, zmq.SNDMORE)
             self.pub.send(payload)
+            self.sends += 1
             return
         if not self._batch:
             self._batch, self._batch_since = [topic], now
@@ -78,6 +81,7 @@ class RawLink:
         batch, self._batch, self._batch_bytes = self._batch, [], 0
         if batch:
             self.pub.send_multipart(batch)
+            self.sends += 1
 
     def recv(self, timeout: float) -> Envelope | None:
         if self._pending:
