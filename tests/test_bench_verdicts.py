@@ -67,7 +67,8 @@ def test_bus_ratios_and_targets_are_against_the_best_raw_row_of_the_rows_transpo
         f"raw zmq tcp{bus.BATCHED}": _result(150_000, 130, 280),
         "MQTT QoS 0": _result(30_000, 300, 600), "MQTT QoS 1": _result(9_000, 400, 900)}
     report = BenchReport("bus", ["transport", "messages", "delivered %", "msgs/s",
-                                 "/ best raw", "/ QoS 0", "p50", "p99", "rtt / raw", "q", "per msg"])
+                                 "/ best raw", "/ QoS 0", "p50", "p99", "rtt / raw", "q",
+                                 "per msg"])
     bus._fill(report, results, 100)
     ratio = {row[0]: row[4] for row in report.rows}
     assert ratio["bus ipc"] == pytest.approx(0.6)  # 120k / the batched raw ipc's 200k
