@@ -37,7 +37,8 @@ def test_e2e_under_load_reports_quiet_and_loaded_rows_of_one_run() -> None:
     report = json.loads(out.stdout)
     assert report["quick"] is True
     loads = [row[1] for row in report["rows"]]
-    assert loads == ["quiet", "2 CPU hogs", "quiet", "2 CPU hogs"]  # e2e, then restarts
+    assert loads == ["quiet", "2 CPU hogs"] * 4  # e2e, restarts: shipped, then tuned
+    assert [row[8] for row in report["rows"]] == ["shipped defaults"] * 4 + ["tuned (opt-in)"] * 4
     assert all(row[6] == 0 for row in report["rows"])  # nothing lost
     assert {t["target"] for t in report["targets"]} >= {
         "under load: e2e p99 within 2x the quiet p99",

@@ -6,8 +6,10 @@
 LINK_JSON is {"kind": "bus", "endpoints": {...}[, "batching": false]} (or, with no proxy,
 {"kind": "bus", "direct": {"driver": EP, "responder": EP}}: each side's Publisher binds
 its EP, its Subscriber connects to the other's),
-{"kind": "mqtt", "host", "port", "qos"}, {"kind": "raw", "driver": EP, "responder": EP}
-(plain pyzmq PUB/SUB between the two processes, each binding its own EP: the limit) or
+{"kind": "mqtt", "host", "port", "qos"}, {"kind": "raw", "driver": EP, "responder": EP
+[, "batching": true]} (plain pyzmq PUB/SUB between the two processes, each binding its
+own EP: the limit; batching as our publisher batches, received without a poll per
+message) or
 {"kind": "raw-proxy", "endpoints": {...}} (the same plain sockets through a bare
 `zmq.proxy`, started by `python -m mrss.bench.bus_peers bare-proxy LINK_JSON`).
 Both sides do the same application work on every transport: each message is a
@@ -32,15 +34,14 @@ import time
 from collections import deque
 from typing import Any, Protocol
 
-import msgpack
 import paho.mqtt.client as mqtt
 import zmq
 from paho.mqtt.enums import CallbackAPIVersion
 
+from mrss.bench.bus_raw import RawLink
 from mrss.bus import BusEndpoints, Publisher, ReliableReceiver, ReliableSender, Subscriber
 from mrss.errors import DecodeError
 from mrss.messages import (
-    SCHEMA_VERSION,
     Envelope,
     IdGenerator,
     Message,
@@ -141,61 +142,14 @@ class MqttLink:
         self.client.disconnect()
 
 
-class RawLink:
-    """The physical limit: a pyzmq PUB bound here, a SUB connected to the peer's PUB, no
-    proxy. The same envelope bytes go out (MRSS `encode`); the receiver only unpacks the
-    msgpack and fills the message objects, without the bus's validation."""
-
-    def __init__(self, bind: str | None, peer: str, topics: list[str], src: str,
-                 proxy_frontend: str | None = None) -> None:
-        self.src = src
-        self._ids = IdGenerator()
-        ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
-        self.pub = ctx.socket(zmq.PUB)
-        self.pub.setsockopt(zmq.LINGER, 0)
-        self.pub.setsockopt(zmq.SNDHWM, 100_000)
-        if proxy_frontend is not None:  # through a bare zmq.proxy: publish to its XSUB
-            self.pub.connect(proxy_frontend)
-        else:
-            assert bind is not None
-            self.pub.bind(bind)
-        self.sub = ctx.socket(zmq.SUB)
-        self.sub.setsockopt(zmq.LINGER, 0)
-        self.sub.setsockopt(zmq.RCVHWM, 100_000)
-        for topic in topics:
-            self.sub.setsockopt(zmq.SUBSCRIBE, topic.encode())
-        self.sub.connect(peer)
-
-    def publish(self, msg: Message) -> None:
-        topic, payload = encode(msg, src=self.src, msg_id=self._ids())
-        self.pub.send(topic, zmq.SNDMORE)
-        self.pub.send(payload)
-
-    def recv(self, timeout: float) -> Envelope | None:
-        sub = self.sub
-        if not sub.poll(int(timeout * 1000)):
-            return None
-        topic = sub.recv()
-        env = msgpack.unpackb(sub.recv(), raw=False)
-        body: RobotData = object.__new__(RobotData)
-        body.__dict__.update(env["body"])
-        result: Envelope = object.__new__(Envelope)
-        result.__dict__.update(topic=topic.decode(), id=env["id"], ts=env["ts"],
-                               src=env["src"], inc=env["inc"], body=body, v=SCHEMA_VERSION)
-        return result
-
-    def close(self) -> None:
-        self.sub.close(0)
-        self.pub.close(0)
-
-
 AnyLink = BusLink | MqttLink | RawLink
 
 
 def make_link(spec: dict[str, Any], topics: list[str], src: str, role: str) -> AnyLink:
     if spec["kind"] == "raw":
         other = "responder" if role == "driver" else "driver"
-        return RawLink(spec[role], spec[other], topics, src)
+        return RawLink(spec[role], spec[other], topics, src,
+                       batching=spec.get("batching", False))
     if spec["kind"] == "raw-proxy":
         ends = spec["endpoints"]
         return RawLink(None, ends["backend"], topics, src, proxy_frontend=ends["frontend"])
@@ -250,18 +204,27 @@ def round_trips(link: AnyLink, pings: int) -> dict[str, Any]:
 def stream(link: AnyLink, count: int, stream_id: int) -> dict[str, Any]:
     """Send `count` messages as fast as possible, then an end marker until confirmed."""
     started = time.perf_counter()
+    sends0 = _sends(link)
     for i in range(count):
         link.publish(RobotData(robot="bench", data={"s": stream_id, "i": i, **PAYLOAD}))
         if isinstance(link, MqttLink) and i % 64 == 0:
             link.client.loop(timeout=0)
-    if isinstance(link, MqttLink):
+    if isinstance(link, MqttLink | RawLink):
         link.flush()
     sent_s = time.perf_counter() - started
+    sends = _sends(link) - sends0  # ZeroMQ messages the stream took (0: not ZeroMQ)
     for _ in range(300):
         link.publish(_ctl("end", stream_id))
         if _expect(link, "reply", "bye", stream_id, 0.1):
             break
-    return {"sent": count, "send_s": sent_s}
+    return {"sent": count, "send_s": sent_s, "zmq_messages": sends}
+
+
+def _sends(link: AnyLink) -> int:
+    """How many ZeroMQ messages `link` has sent (a batch counts once)."""
+    if isinstance(link, BusLink):
+        return link.pub.sends
+    return link.sends if isinstance(link, RawLink) else 0
 
 
 def drive(link: AnyLink) -> None:

@@ -14,6 +14,8 @@ percepts/s is the last rate that did neither.
 
 from __future__ import annotations
 
+import enum
+import math
 import os
 import subprocess
 import sys
@@ -26,7 +28,7 @@ from typing import Any
 
 from mrss.api import Action, RobotCommLayer, Skill
 from mrss.bench.harness import SupervisedProject, favour
-from mrss.bench.report import BenchReport
+from mrss.bench.report import BenchReport, Relation
 from mrss.bench.restart import percentile
 from mrss.bench.restart_peers import bus_restarts
 from mrss.messages import ActionState, ActionStatus, Command, Envelope, MindSnapshot, Percept
@@ -107,13 +109,16 @@ class Step:
     sent_rate: float = 0.0
     missing: int = 0
 
+    # Events that never came (`missing`) rank above every latency: late, not left out.
     @property
     def p50(self) -> float:
-        return percentile(self.latencies_ms, 50) if self.latencies_ms else float("nan")
+        return percentile(self.latencies_ms, 50, self.missing) \
+            if self.latencies_ms or self.missing else float("nan")
 
     @property
     def p99(self) -> float:
-        return percentile(self.latencies_ms, 99) if self.latencies_ms else float("nan")
+        return percentile(self.latencies_ms, 99, self.missing) \
+            if self.latencies_ms or self.missing else float("nan")
 
 
 class Harness:
@@ -223,9 +228,9 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
         _row(report, f"baseline, {ROBOTS} robots, direct bus", direct_base)
     finally:
         direct.close()
-    report.check(f"p99 percept -> first skill start <= 5 ms ({base_count:,} events, "
-                 f"{ROBOTS} robots)",
-                 base.p99 <= 5.0 and base.missing == 0)
+    report.target(f"p99 percept -> first skill start <= 5 ms ({base_count:,} events, "
+                  f"{ROBOTS} robots)", base.p99 if base.missing == 0 else math.inf,
+                  Relation.AT_MOST, 5.0, "the baseline row; a lost event fails it")
     report.notes.append(
         f"sustained: {sustained or 'below ' + str(rates[0])} percepts/s with p99 <= 2x the "
         f"baseline p99 ({limit:.2f} ms) and nothing lost")
@@ -313,44 +318,77 @@ def _quiet_and_loaded(count: int, kills: int, nice: int | None, realtime: int | 
     return steps, restarts
 
 
+class Tuning(enum.Enum):
+    """How the --under-load system is scheduled: as shipped, or as docs/config.md advises."""
+
+    DEFAULTS = "shipped defaults"  # nothing set: nice 0, SCHED_OTHER, CPUs may sleep
+    TUNED = "tuned (opt-in)"  # SCHEDULING and CPU_LATENCY_US, which no shipped project sets
+
+
 def run_under_load(quick: bool) -> BenchReport:
-    """Quiet and loaded rows of the same system in one run: e2e baseline and restarts."""
+    """Quiet and loaded rows of the same system in one run: e2e baseline and restarts,
+    first at the shipped defaults, then tuned."""
     report = BenchReport("e2e --under-load", ["run", "load", "n", "p50 ms", "p99 ms",
-                                             "max ms", "lost", "p99 / quiet"], quick=quick)
+                                             "max ms", "lost", "p99 / quiet", "scheduling"],
+                         quick=quick)
     count = 100 if quick else 1000
     kills = 3 if quick else 40
     load_before = os.getloadavg()[0]
-    # The bench stands in for the events manager, a component on the action path: it
-    # runs at the same nice value (its hogs explicitly at 0).
-    nice, realtime = SCHEDULING
-    favour_this_process(nice, realtime)
-    with cpu_latency(CPU_LATENCY_US) as held:
-        steps, restarts = _quiet_and_loaded(count, kills, nice, realtime)
+    held = False
+    for tuning in (Tuning.DEFAULTS, Tuning.TUNED):
+        if tuning is Tuning.DEFAULTS:
+            steps, restarts = _quiet_and_loaded(count, kills, None, None)
+        else:
+            # The bench stands in for the events manager, a component on the action path:
+            # it runs at the same nice value (its hogs explicitly at 0).
+            nice, realtime = SCHEDULING
+            favour_this_process(nice, realtime)
+            with cpu_latency(CPU_LATENCY_US) as held:
+                steps, restarts = _quiet_and_loaded(count, kills, nice, realtime)
+        _under_load_rows(report, steps, restarts, tuning)
+    _under_load_notes(report, held, load_before)
+    return report
+
+
+def _under_load_rows(report: BenchReport, steps: dict[str, Step],
+                     restarts: dict[str, list[float]], tuning: Tuning) -> None:
     quiet_e2e, quiet_restart = steps["quiet"].p99, percentile(restarts["quiet"], 99)
     for label, step in steps.items():
         report.add_row(f"percept -> skill start, {ROBOTS} robots, 100/s", label, step.count,
-                       step.p50, step.p99, max(step.latencies_ms), step.missing,
-                       step.p99 / quiet_e2e)
+                       step.p50, step.p99, max(step.latencies_ms, default=None),
+                       step.missing, step.p99 / quiet_e2e, tuning.value)
     for label, ms in restarts.items():
         report.add_row("SIGKILL -> restarted component answering on the bus", label, len(ms),
                        percentile(ms, 50), percentile(ms, 99), max(ms), 0,
-                       percentile(ms, 99) / quiet_restart)
+                       percentile(ms, 99) / quiet_restart, tuning.value)
+    if tuning is not Tuning.TUNED:
+        return  # the targets are the tuned system's, as the performance issue set them
     loaded = f"{HOGS} CPU hogs"
-    report.check("quiet e2e p99 <= 2 ms", quiet_e2e <= 2.0 and steps["quiet"].missing == 0)
-    report.check("under load: e2e p99 within 2x the quiet p99",
-                 steps[loaded].p99 <= 2 * quiet_e2e and steps[loaded].missing == 0)
-    report.check("under load: restart p99 within 2x the quiet p99",
-                 percentile(restarts[loaded], 99) <= 2 * quiet_restart)
+    tuned = "the tuned (opt-in) rows"
+    report.target("quiet e2e p99 <= 2 ms", quiet_e2e if steps["quiet"].missing == 0
+                  else math.inf, Relation.AT_MOST, 2.0, f"{tuned}; a lost event fails it")
+    report.target("under load: e2e p99 within 2x the quiet p99",
+                  steps[loaded].p99 if steps[loaded].missing == 0 else math.inf,
+                  Relation.AT_MOST, 2 * quiet_e2e, f"2 x the quiet p99 of {tuned}")
+    report.target("under load: restart p99 within 2x the quiet p99",
+                  percentile(restarts[loaded], 99), Relation.AT_MOST, 2 * quiet_restart,
+                  f"2 x the quiet p99 of {tuned}")
+
+
+def _under_load_notes(report: BenchReport, held: bool, load_before: float) -> None:
+    nice, realtime = SCHEDULING
     report.notes.append(
-        f"scheduling (docs/config.md, 'CPU scheduling'): {_favoured(nice, realtime)} for "
+        f"scheduling: 'shipped defaults' sets nothing (nice 0, SCHED_OTHER, the CPUs free "
+        f"to sleep); 'tuned (opt-in)' (docs/config.md, 'CPU scheduling'), which no shipped "
+        f"project sets: {_favoured(nice, realtime)} for "
         "the root supervisor (its fork server and every component inherit it) and in the "
-        "tables of bus, rcl, reasoner (restart rows: bus, echo); the hogs are `python -c "
-        f"'while True: pass'` at nice 0, one per CPU ({os.cpu_count()} CPUs), started for the "
-        f"loaded rows only; the bench process (which publishes the percepts and pings, as "
-        f"the events manager would) likewise; CPUs held to wake within {CPU_LATENCY_US} us "
-        f"(`[supervisor] cpu_latency_us`) during both: "
-        f"{'held' if held else 'NOT held (no write access to /dev/cpu_dma_latency)'}")
+        "tables of bus, rcl, reasoner (restart rows: bus, echo), and the bench process (which "
+        "publishes the percepts and pings, as the events manager would) likewise; the hogs "
+        f"are `python -c 'while True: pass'` at nice 0, one per CPU ({os.cpu_count()} CPUs), "
+        f"started for the loaded rows only; tuned, the CPUs are held to wake within "
+        f"{CPU_LATENCY_US} us (`[supervisor] cpu_latency_us`): "
+        f"{'held' if held else 'NOT held (no write access to /dev/cpu_dma_latency)'}. "
+        "The targets are judged on the tuned rows, as the performance issue set them.")
     report.notes.append(
         f"load average {load_before:.2f} before the run, {os.getloadavg()[0]:.2f} after (the "
         "machine is shared with other work: its load adds to the hogs)")
-    return report

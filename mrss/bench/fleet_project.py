@@ -12,6 +12,7 @@ starts or stops moving (`moving(R)`), which the agent tracks as a belief.
 
 from __future__ import annotations
 
+import enum
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -48,9 +49,19 @@ FAVOURED = "realtime = 10"
 TELEMETRY = "nice = -10"
 
 
-def toml(uavs: int, ugvs: int, broker_url: str | None, rate: float) -> str:
+class Scheduling(enum.Enum):
+    """How the bench project's components are scheduled."""
+
+    DEFAULTS = "shipped defaults"  # no scheduling keys: what a project runs with
+    TUNED = "tuned (opt-in)"  # FAVOURED and TELEMETRY: realtime no shipped project sets
+
+
+def toml(uavs: int, ugvs: int, broker_url: str | None, rate: float,
+         scheduling: Scheduling = Scheduling.TUNED) -> str:
     """project.toml of a fleet of `uavs` + `ugvs` robots on the broker at `broker_url`
-    (None: the embedded broker, a component of the project)."""
+    (None: the embedded broker, a component of the project), scheduled as `scheduling`."""
+    tuned = scheduling is Scheduling.TUNED
+    favoured, telemetry = (FAVOURED, TELEMETRY) if tuned else ("", "")
     robots = [f"uav{k} = {{ link = \"mavlink\" }}" for k in range(1, uavs + 1)]
     robots += [f"ugv{k} = {{ link = \"mqtt\" }}" for k in range(1, ugvs + 1)]
     return f"""\
@@ -64,16 +75,16 @@ heartbeat_interval = 0.5
 
 [components.bus]
 kind = "bus"
-{FAVOURED}
+{favoured}
 {"" if broker_url else '[components.broker]' + chr(10) + 'kind = "broker"'}
 
 [components.worldmodel]
 kind = "worldmodel"
-{TELEMETRY}
+{telemetry}
 
 [components.datalayer]
 kind = "datalayer"
-{TELEMETRY}
+{telemetry}
 
 [components.fleet]
 kind = "sim_fleet"
@@ -86,12 +97,12 @@ speedup = 1.0
 [components.rcl]
 kind = "rcl"
 start_timeout = 120.0
-{FAVOURED}
+{favoured}
 robots = {{ {", ".join(robots)} }}
 
 [components.reasoner]
 kind = "reasoner"
-{FAVOURED}
+{favoured}
 """
 
 

@@ -1,5 +1,5 @@
 """`mrss bench journal`: action journal throughput (with and without fsync) and its size
-over a simulated 24-hour soak with compaction.
+over a simulated 24-hour soak with compaction (a stepped clock: minutes of wall time).
 
 Each action is journaled as the RCL does for a short one: PENDING, RUNNING, SUCCEEDED
 (three committed transitions). The soak runs 1M actions (quick: 5k) through a journal
@@ -17,9 +17,10 @@ from pathlib import Path
 
 from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Action, ActionState
-from mrss.bench.report import BenchReport
+from mrss.bench.report import BenchReport, Relation
 
 DAY = 86400.0
+SIMULATED = "simulated 24 h soak, clock stepped"
 KEEP_SECONDS = 3600.0
 KEEP_LAST = 1000
 COMPACT_EVERY = 600.0
@@ -85,12 +86,19 @@ def run(quick: bool = False) -> BenchReport:
         rate, size = _throughput(base / "durable.sqlite3", synced, durable=True)
         report.add_row("fsync every commit (durable=True)", synced, rate, size / mb)
         rate, two_hours, peak, final, dropped = _soak(base / "soak.sqlite3", soaked)
-        report.add_row("24 h soak, compacted: after 2 h", soaked, None, two_hours / mb)
-        report.add_row("24 h soak, compacted: peak", soaked, None, peak / mb)
-        report.add_row("24 h soak, compacted: at the end", soaked, rate, final / mb)
-    report.check("the journal stays bounded: size after 24 h <= 1.5x size after 2 h",
-                 final <= 1.5 * two_hours)
+        wall = soaked / rate
+        soak = f"{SIMULATED} ({wall:.0f} s of wall time)"
+        report.add_row(f"{soak}, compacted: after 2 simulated h", soaked, None, two_hours / mb)
+        report.add_row(f"{soak}, compacted: peak", soaked, None, peak / mb)
+        report.add_row(f"{soak}, compacted: at the end", soaked, rate, final / mb)
+    report.target("the journal stays bounded: size after 24 simulated h <= 1.5x size after "
+                  "2 simulated h", final / mb, Relation.AT_MOST, 1.5 * two_hours / mb,
+                  f"1.5 x the size after 2 simulated h ({two_hours / mb:.2f} MB)")
     report.notes.append(f"3 transitions per action; soak keeps ended actions {KEEP_SECONDS:.0f}"
                         f" s and the newest {KEEP_LAST}, compacts every {COMPACT_EVERY:.0f} "
                         f"simulated s; {dropped:,} actions compacted away")
+    report.notes.append(
+        f"the soak is not 24 hours long: its {soaked:,} actions run as fast as they can "
+        f"({wall:.0f} s of wall time) through a journal whose clock is stepped over 24 h, "
+        "so it shows the size compaction keeps, not a day of a real disk, WAL and process")
     return report

@@ -1,5 +1,8 @@
 """`mrss bench restart`: time from a failure to the replacement answering.
 
+The table opens with the shipped configuration (the repeated-fault rows below); the
+rest, and the targets, are the best case: backoff off and a component that loads
+nothing, labelled so.
 Bus rows (what the issue asks for): a generated project (the bus proxy, then a
 `BusEcho` component, mrss/bench/restart_peers.py) runs under a real `mrss supervise`
 process; the bench, a bus client like the TUI, SIGKILLs the echo process and publishes
@@ -32,7 +35,7 @@ from typing import Any
 
 import pykka
 
-from mrss.bench.report import BenchReport
+from mrss.bench.report import BenchReport, Relation
 from mrss.bench.restart_chaos import chaos_restarts
 from mrss.bench.restart_peers import PHASES, Answer, bus_restarts
 from mrss.messages import Message, SupEvent
@@ -78,11 +81,13 @@ def _logs_to_devnull() -> Iterator[None]:
             root.setLevel(level)
 
 
-def percentile(samples: list[float], q: float) -> float:
-    """Nearest-rank percentile (q in 0..100)."""
+def percentile(samples: list[float], q: float, late: int = 0) -> float:
+    """Nearest-rank percentile (q in 0..100). `late` more samples never came in time:
+    they rank above every sample, so a percentile that falls on one is infinite (late),
+    not the largest sample that did come."""
     ordered = sorted(samples)
-    rank = max(1, math.ceil(q / 100 * len(ordered)))
-    return ordered[rank - 1]
+    rank = max(1, math.ceil(q / 100 * (len(ordered) + late)))
+    return ordered[rank - 1] if rank <= len(ordered) else math.inf
 
 
 class _Starts:
@@ -176,9 +181,10 @@ def _phases(results: list[tuple[int, Answer]]) -> str:
     return "; ".join(parts) + f" [that first ping, bench publish -> echo handler: {transit:.2f}]"
 
 
+BEST_CASE = "best case (backoff off, a component that loads nothing)"
+
+
 def run(quick: bool) -> BenchReport:
-    report = BenchReport("restart", ["what", "n", "p50 ms", "p99 ms", "max ms", "mean ms"],
-                         quick=quick)
     load = os.getloadavg()
     bus_fork = bus_restarts(3 if quick else 100, "fork")
     bus_exec = bus_restarts(3 if quick else 30, "exec")
@@ -188,30 +194,10 @@ def run(quick: bool) -> BenchReport:
         fork = process_restarts(6 if quick else 100, "fork")
         exec_ = process_restarts(3 if quick else 30, "exec")
         actor = actor_restarts(200 if quick else 2000)
-    bus_fork_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_fork]
-    bus_exec_s = [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_exec]
-    for label, samples in (
-            ("process SIGKILL -> answering on the bus (fork server)", bus_fork_s),
-            ("process SIGKILL -> answering on the bus (exec, for comparison)", bus_exec_s),
-            ("process SIGKILL -> ready + control-channel ping (fork server)", fork),
-            ("process SIGKILL -> ready + control-channel ping (exec)", exec_),
-            ("actor handler raises -> answering a call", actor)):
-        ms = [s * 1000 for s in samples]
-        report.add_row(label, len(ms), percentile(ms, 50), percentile(ms, 99), max(ms),
-                       sum(ms) / len(ms))
-    every = [s * 1000 for samples in chaos.values() for s in samples]
-    report.add_row("wildfire, a random kill every 0.5-1.5 s: SIGKILL -> next start (all)",
-                   len(every), percentile(every, 50), percentile(every, 99), max(every),
-                   sum(every) / len(every))
-    for child in sorted(chaos):
-        ms = [s * 1000 for s in chaos[child]]
-        report.add_row(f"  ... {child}", len(ms), percentile(ms, 50), percentile(ms, 99),
-                       max(ms), sum(ms) / len(ms))
-    report.check("process restart p50 <= 150 ms (on the bus, fork server)",
-                 percentile(bus_fork_s, 50) <= 0.150)
-    report.check("process restart p99 <= 300 ms (on the bus, fork server)",
-                 percentile(bus_fork_s, 99) <= 0.300)
-    report.check("actor restart p99 <= 2 ms", percentile(actor, 99) <= 0.002)
+    report = table(quick, chaos, {
+        "bus fork": [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_fork],
+        "bus exec": [(a.marks["pong"] - killed) / 1e9 for killed, a in bus_exec],
+        "control fork": fork, "control exec": exec_, "actor": actor})
     report.notes.append(
         "on the bus: the project (proxy + echo component) runs under a real `mrss "
         "supervise` process; the bench, a separate bus client, SIGKILLs the echo and "
@@ -226,7 +212,8 @@ def run(quick: bool) -> BenchReport:
     report.notes.append(f"where the time goes, p50 ms (exec): {_phases(bus_exec)}")
     report.notes.append(
         "repeated faults: the shipped wildfire project (MRSS_SIM_SPEEDUP=20) under `mrss "
-        "supervise`, shipped flags; a seeded random running component SIGKILLed every "
+        "supervise`, shipped flags (backoff, healthy_after, each component loading what it "
+        "loads): the first rows; a seeded random running component SIGKILLed every "
         "0.5-1.5 s; SIGKILL -> the root's `start` log line of the next incarnation (ms "
         "clock), so the time includes exit detection, backoff, fork and the component's "
         "own start until ready (startup_ms in sup.start)")
@@ -235,7 +222,45 @@ def run(quick: bool) -> BenchReport:
         "a ping over its control socket (socketpair), no bus involved")
     report.notes.append(
         f"{os.cpu_count()} CPUs, load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at "
-        "the start; kills spaced as in production (healthy_after = 0: no backoff on an "
-        "isolated failure); supervision logs every event at INFO (to a file under `mrss "
+        "the start; best case: healthy_after = 0 (no backoff, each restart the immediate "
+        "first one) and an echo component that imports and loads nothing; supervision logs "
+        "every event at INFO (to a file under `mrss "
         "supervise`, to /dev/null in-process); GIL switch interval 1 ms as in components")
+    return report
+
+
+def table(quick: bool, chaos: dict[str, list[float]], best: dict[str, list[float]]
+          ) -> BenchReport:
+    """The rows, in seconds in: the shipped configuration's first (`chaos`, per
+    component), then the best cases (`best`: bus fork/exec, control fork/exec, actor)
+    with the targets, which the performance issue set on the best case."""
+    report = BenchReport("restart", ["what", "n", "p50 ms", "p99 ms", "max ms", "mean ms"],
+                         quick=quick)
+    every = [s * 1000 for samples in chaos.values() for s in samples]
+    report.add_row("shipped configuration: wildfire, a random kill every 0.5-1.5 s, "
+                   "SIGKILL -> next start (all)", len(every), percentile(every, 50),
+                   percentile(every, 99), max(every), sum(every) / len(every))
+    for child in sorted(chaos):
+        ms = [s * 1000 for s in chaos[child]]
+        report.add_row(f"  ... {child}", len(ms), percentile(ms, 50), percentile(ms, 99),
+                       max(ms), sum(ms) / len(ms))
+    for label, samples in (
+            ("process SIGKILL -> answering on the bus (fork server)", best["bus fork"]),
+            ("process SIGKILL -> answering on the bus (exec, for comparison)",
+             best["bus exec"]),
+            ("process SIGKILL -> ready + control-channel ping (fork server)",
+             best["control fork"]),
+            ("process SIGKILL -> ready + control-channel ping (exec)", best["control exec"]),
+            ("actor handler raises -> answering a call", best["actor"])):
+        ms = [s * 1000 for s in samples]
+        report.add_row(f"{BEST_CASE}: {label}", len(ms), percentile(ms, 50),
+                       percentile(ms, 99), max(ms), sum(ms) / len(ms))
+    bus_ms = [s * 1000 for s in best["bus fork"]]
+    for q, bound in ((50, 150.0), (99, 300.0)):
+        report.target(f"process restart p{q} <= {bound:g} ms (on the bus, fork server), "
+                      "best case", percentile(bus_ms, q), Relation.AT_MOST, bound,
+                      BEST_CASE)
+    report.target("actor restart p99 <= 2 ms, best case",
+                  percentile([s * 1000 for s in best["actor"]], 99), Relation.AT_MOST, 2.0,
+                  "healthy_after = 0: no backoff")
     return report

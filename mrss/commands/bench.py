@@ -1,5 +1,6 @@
 """`mrss bench NAME|all [--quick] [--json]`: run one benchmark (or each in turn) and print
-its table (`make bench` runs `mrss bench all` at full size)."""
+its table (`make bench` runs `mrss bench all` at full size). Exits 1 when a target row
+of a full-size run is not met (`BenchReport.exit_status`), 2 on a usage error."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import importlib
 import sys
 
 from mrss.bench import BENCHES
+from mrss.bench.report import BenchReport
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -52,7 +54,7 @@ def run_one(args: argparse.Namespace) -> int:
         if args.name != "e2e":
             print(f"mrss bench {args.name}: --under-load is for e2e only", file=sys.stderr)
             return 2
-        report = module.run(quick=args.quick, under_load=True)
+        report: BenchReport = module.run(quick=args.quick, under_load=True)
     elif getattr(args, "robots", None):
         if args.name != "fleet":
             print(f"mrss bench {args.name}: --robots is for fleet only", file=sys.stderr)
@@ -64,4 +66,9 @@ def run_one(args: argparse.Namespace) -> int:
     else:
         report = module.run(quick=args.quick)
     print(report.to_json() if args.json else report.to_text())
-    return 0
+    status = report.exit_status()
+    if status:
+        missed = [t.description for t in report.targets if not t.met]
+        print(f"mrss bench {args.name}: {len(missed)} target(s) not met: " + "; ".join(missed),
+              file=sys.stderr)
+    return status

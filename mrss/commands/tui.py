@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from mrss.errors import ConfigError, UnknownProjectError
+from mrss.tui.polls import DEFAULT_POLLS
 
 EXIT_NO_BUS = 2
 
@@ -25,14 +26,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="bus endpoints, e.g. tcp://127.0.0.1:5601 tcp://127.0.0.1:5602")
     parser.add_argument("--agent", default="",
                         help="the reasoner to inspect (default: any that answers)")
-    parser.add_argument("--mind-every", type=float, default=1.0, metavar="S",
+    parser.add_argument("--mind-every", type=float, default=DEFAULT_POLLS.mind_every,
+                        metavar="S",
                         help="ask for a mind snapshot every S seconds (0: only on m)")
-    parser.add_argument("--tree-every", type=float, default=2.0, metavar="S",
+    parser.add_argument("--tree-every", type=float, default=DEFAULT_POLLS.tree_every,
+                        metavar="S",
                         help="ask the supervisor for its tree every S seconds (0: only on F5)")
-    parser.add_argument("--world-every", type=float, default=2.0, metavar="S",
+    parser.add_argument("--world-every", type=float, default=DEFAULT_POLLS.world_every,
+                        metavar="S",
                         help="ask the world model for its objects (the map) every S seconds "
                              "(0: only on connecting and F5)")
-    parser.add_argument("--stale-after", type=float, default=5.0, metavar="S",
+    parser.add_argument("--stale-after", type=float, default=DEFAULT_POLLS.stale_after,
+                        metavar="S",
                         help="turn the header red when nothing came from the system for S "
                              "seconds (default 5)")
     parser.add_argument("--readonly", action="store_true",
