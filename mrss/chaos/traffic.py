@@ -20,7 +20,6 @@ again for up to `patience` seconds while the broker is down.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import random
@@ -33,6 +32,7 @@ from typing import Any
 
 from mrss.errors import ConfigError
 from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.runtime.loader import import_project_module
 
 CHAOS_FILE = "chaos.py"
 
@@ -82,14 +82,7 @@ def load_traffic(project_dir: Path) -> Traffic:
     path = project_dir / CHAOS_FILE
     if not path.is_file():
         return Traffic()
-    spec = importlib.util.spec_from_file_location(f"mrss_chaos_{project_dir.name}", path)
-    if spec is None or spec.loader is None:
-        raise ConfigError("cannot import", file=str(path))
-    module = importlib.util.module_from_spec(spec)
-    try:
-        spec.loader.exec_module(module)
-    except Exception as exc:
-        raise ConfigError(f"cannot import: {exc!r}", file=str(path)) from exc
+    module = import_project_module(project_dir, CHAOS_FILE)
     source = getattr(module, "operator_traffic", None)
     if source is not None and not callable(source):
         raise ConfigError("must be a function (rng, every) -> iterator of steps",

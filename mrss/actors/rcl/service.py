@@ -29,8 +29,6 @@ fails actions a previous run left in a kept journal; later ones resume them.
 
 from __future__ import annotations
 
-import importlib.util
-import inspect
 import logging
 import os
 import sqlite3
@@ -59,6 +57,7 @@ from mrss.options import Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
+from mrss.runtime.loader import load_project_class
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 log = logging.getLogger("mrss.rcl")
@@ -69,26 +68,11 @@ ACTION_CHANNEL = "action"
 def load_layer(project_dir: Path, spec: str = "") -> RobotCommLayer:
     """Instantiate the project's RobotCommLayer from "file.py:Class" (default rcl.py)."""
     file_name, _, class_name = (spec or "rcl.py").partition(":")
-    path = project_dir / file_name
-    if not path.is_file():
-        raise ConfigError("no such file", file=str(path), key="layer")
     if str(project_dir) not in sys.path:  # rcl.py may import its sibling skills.py
         sys.path.insert(0, str(project_dir))
-    module_name = f"mrss_project_{project_dir.name}_{path.stem}"
-    module_spec = importlib.util.spec_from_file_location(module_name, path)
-    if module_spec is None or module_spec.loader is None:
-        raise ConfigError("cannot import", file=str(path), key="layer")
-    module = importlib.util.module_from_spec(module_spec)
-    sys.modules[module_name] = module
-    module_spec.loader.exec_module(module)
-    classes = [c for _, c in inspect.getmembers(module, inspect.isclass)
-               if issubclass(c, RobotCommLayer) and c is not RobotCommLayer
-               and c.__module__ == module_name and (not class_name or c.__name__ == class_name)]
-    if len(classes) != 1:
-        what = f"class {class_name!r}" if class_name else "exactly one RobotCommLayer subclass"
-        raise ConfigError(f"expected {what}, found {[c.__name__ for c in classes]}",
-                          file=str(path), key="layer")
-    layer: RobotCommLayer = classes[0]()
+    cls = load_project_class(project_dir, file_name, RobotCommLayer,
+                             class_name=class_name or None, key="layer")
+    layer: RobotCommLayer = cls()
     return layer
 
 
