@@ -11,7 +11,7 @@ import pytest
 from mrss.links.failsafe import failsafe_reason
 from mrss.messages import FailureCause, RobotState
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, SimRobot, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, SimRobot, request_fields
 
 
 class WatchedRobot(SimRobot):

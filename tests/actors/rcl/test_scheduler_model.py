@@ -254,7 +254,7 @@ def test_the_resource_rule_is_stated_identically_in_the_docs_the_code_and_the_te
     from pathlib import Path
 
     from mrss.actors.rcl import resources
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     doc = (root / "docs" / "rcl.md").read_text(encoding="utf-8")
     found = re.search(r"<!-- resource-rule -->\n(.*?)<!-- /resource-rule -->", doc, re.S)
     assert found, "docs/rcl.md lacks the <!-- resource-rule --> block"

@@ -24,7 +24,7 @@ from mrss.errors import ActionError
 from mrss.messages import ActionState, FailureCause
 
 S = ActionState
-DOC = Path(__file__).resolve().parents[2] / "docs" / "rcl.md"
+DOC = Path(__file__).resolve().parents[3] / "docs" / "rcl.md"
 ENDS = (S.SUCCEEDED, S.FAILED, S.CANCELLED)
 
 

@@ -9,7 +9,7 @@ from typing import Any
 from mrss.api import Action, Skill
 from mrss.messages import ActionControl, RobotData
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import Patrol, RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import Patrol, RclEnv, request_fields
 
 POINTS = [[47.0, 15.0], [47.001, 15.0], [47.001, 15.001]]
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.actors.rcl_sim import RclEnv, SimRobot
+from tests.actors.rcl.rcl_sim import RclEnv, SimRobot
 
 
 @pytest.fixture()

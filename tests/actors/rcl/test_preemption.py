@@ -7,7 +7,7 @@ import time
 from mrss.actors.rcl.core import RclCore
 from mrss.messages import ActionControl, FailureCause
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
 
 def _hold(core: RclCore, uuid: str, robot: str, waypoint: str, priority: int) -> None:

@@ -7,7 +7,7 @@ from mrss.actors.rcl.journal import Requester
 from mrss.api import Action, CommandRejected, CommandTimeout, LinkDown, Skill, TransientError
 from mrss.messages import ActionInventory, ActionQuery, ActionRequest, FailureCause
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv
+from tests.actors.rcl.rcl_sim import RclEnv
 
 
 def _req(uuid: str, robot: str, goal: str = "g") -> ActionRequest:
@@ -36,7 +36,7 @@ def test_orphans_of_a_dead_incarnation_are_cancelled_once_the_grace_is_over(
     assert core.requesters.saw_incarnation("reasoner", 2) == []  # once per incarnation
     assert list(core.observers.active()) == ["other"]
     # (late requests of incarnation 1 never reach the core: the bus drops them, see
-    # tests/bus/test_bus_incarnations.py and tests/actors/test_rcl_bus.py)
+    # tests/bus/test_bus_incarnations.py and tests/actors/rcl/test_rcl_bus.py)
 
 
 def test_a_new_incarnation_adopts_an_orphan_by_asking_for_its_uuid(rcl_env: RclEnv) -> None:

@@ -24,7 +24,7 @@ from mrss.supervision.children import ComponentStart, ProcessSettings
 from mrss.supervision.process import ProcessSupervisor
 from mrss.supervision.spec import ChildSpec, SupervisorSpec
 from mrss.testing import wait_until
-from tests.actors.test_reasoner import env
+from tests.actors.reasoner.test_reasoner import env
 
 LEADER = """
 +fire(A)[source(percept)] <- .send(scout, achieve, look(A)).

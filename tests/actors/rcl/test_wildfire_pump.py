@@ -21,9 +21,9 @@ from mrss.links.mqtt import MqttLink
 from mrss.links.ugv_protocol import parse_command
 from mrss.sim.ugv import SimUgv
 from mrss.testing import BrokerInfo, wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
-WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
+WILDFIRE = Path(__file__).resolve().parents[3] / "projects" / "wildfire"
 skills = import_project_module(WILDFIRE, "skills.py")
 
 

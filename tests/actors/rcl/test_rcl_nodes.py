@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from mrss.messages import ActionStatus, RobotState
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
 
 def _last_state(rcl_env: RclEnv, robot: str) -> RobotState:

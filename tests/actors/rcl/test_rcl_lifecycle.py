@@ -11,7 +11,7 @@ from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Skill
 from mrss.messages import ActionRequest, FailureCause, SupEvent
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import Crash, RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import Crash, RclEnv, request_fields
 
 
 def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:

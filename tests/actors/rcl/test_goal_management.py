@@ -5,7 +5,7 @@ from __future__ import annotations
 from mrss.actors.rcl.core import RclCore
 from mrss.messages import ActionControl, ActionStatus, RobotState
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
 
 def _patrol(rcl_env: RclEnv, core: RclCore, uuid: str, robot: str = "ugv1",
@@ -135,7 +135,7 @@ def test_teleop_does_not_resume_an_action_suspended_by_goal_management(
 def test_skill_ignoring_its_interrupt_is_abandoned(rcl_env: RclEnv) -> None:
     import threading
 
-    from tests.actors.rcl_sim import Stubborn
+    from tests.actors.rcl.rcl_sim import Stubborn
 
     release = threading.Event()
     rcl_env.layer.interrupt_timeout = 0.3

@@ -15,7 +15,7 @@ from mrss.actors.rcl.journal import ActionJournal
 from mrss.errors import DecodeError
 from mrss.messages import ActionControl, ActionState, FailureCause
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
 
 class _StallThenFail(ActionJournal):

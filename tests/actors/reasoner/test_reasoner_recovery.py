@@ -24,7 +24,7 @@ from mrss.messages import (
 )
 from mrss.runtime.datalayer_client import DataLayerError, DataLayerUnavailable
 from mrss.testing import wait_until
-from tests.actors.test_reasoner import env
+from tests.actors.reasoner.test_reasoner import env
 
 AGENT = """
 +area(G, P)[source(percept)] <- !cover(uav1, G, P).

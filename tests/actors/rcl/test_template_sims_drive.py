@@ -13,9 +13,9 @@ from mrss.api import distance_m, import_project_module
 from mrss.links.mqtt import MqttLink
 from mrss.sim.ugv import DEFAULT_BASE, SimUgv
 from mrss.testing import BrokerInfo, wait_until
-from tests.actors.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, request_fields
 
-TEMPLATE = Path(__file__).resolve().parents[2] / "projects" / "template_sims"
+TEMPLATE = Path(__file__).resolve().parents[3] / "projects" / "template_sims"
 skills = import_project_module(TEMPLATE, "skills.py")
 TARGET = (DEFAULT_BASE[0] + 0.0001, DEFAULT_BASE[1])  # ~11 m north of the base
 

@@ -9,7 +9,7 @@ from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal
 from mrss.messages import ActionControl, ActionRequest
 from mrss.testing import wait_until
-from tests.actors.rcl_sim import RclEnv, SimRobot, request_fields
+from tests.actors.rcl.rcl_sim import RclEnv, SimRobot, request_fields
 
 
 def test_rcl_restart_resumes_or_fails_every_open_action(rcl_env: RclEnv) -> None:
