@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.terms import Struct, Term
@@ -10,13 +11,25 @@ if TYPE_CHECKING:
     from mrss.agentspeak.formulas import Query
     from mrss.agentspeak.plans import Plan
 
-# Intention states
-RUNNABLE = "running"
-PENDING_EVENT = "pending_event"   # a sub-goal or belief event it posted awaits a plan
-WAIT_ACTION = "waiting_action"    # an environment action is executing at the host
-WAITING = "waiting"               # a .wait (time, event or condition)
-FINISHED = "finished"
-DROPPED = "dropped"
+
+
+class IntentionState(StrEnum):
+    """Where an intention is (`.suspend` is orthogonal: a flag, as in Jason)."""
+
+    RUNNABLE = "running"
+    PENDING_EVENT = "pending_event"   # a sub-goal or belief event it posted awaits a plan
+    WAIT_ACTION = "waiting_action"    # an environment action is executing at the host
+    WAITING = "waiting"               # a .wait (time, event or condition)
+    FINISHED = "finished"
+    DROPPED = "dropped"
+
+
+RUNNABLE = IntentionState.RUNNABLE
+PENDING_EVENT = IntentionState.PENDING_EVENT
+WAIT_ACTION = IntentionState.WAIT_ACTION
+WAITING = IntentionState.WAITING
+FINISHED = IntentionState.FINISHED
+DROPPED = IntentionState.DROPPED
 
 
 class IntendedMeans:
@@ -63,7 +76,7 @@ class Intention:
     def __init__(self, ident: int) -> None:
         self.id = ident
         self.stack: list[IntendedMeans] = []
-        self.state = RUNNABLE
+        self.state: IntentionState = RUNNABLE
         self.suspended = False
         self.dropped = False
         self.in_queue = False

@@ -51,6 +51,7 @@ from mrss.agentspeak.intentions import (
     Event,
     IntendedMeans,
     Intention,
+    IntentionState,
 )
 from mrss.agentspeak.plans import PlanLibrary
 from mrss.agentspeak.registry import IAContext, InternalAction, Registry
@@ -125,7 +126,7 @@ class Runtime:
             it.in_queue = True
             self.runq.append(it)
 
-    def finish(self, it: Intention, state: str = FINISHED) -> None:
+    def finish(self, it: Intention, state: IntentionState = FINISHED) -> None:
         it.state = state
         self.intentions.pop(it.id, None)
         if self.atomic is it:
@@ -353,7 +354,7 @@ class Runtime:
                 out.append(resolve(a, frame))
         return out
 
-    def drop(self, it: Intention, state: str = DROPPED, meta: bool = True) -> None:
+    def drop(self, it: Intention, state: IntentionState = DROPPED, meta: bool = True) -> None:
         """Remove intention `it` wherever it is; its running action is cancelled. Its
         goals get the goal states dropped and finished (unless `meta` is False)."""
         if it.dropped:
