@@ -134,7 +134,7 @@ async def _measure(endpoints: BusEndpoints, seconds: float, go: Any, done: Any,
     ticks: list[tuple[float, float]] = []
     frames: list[tuple[float, float]] = []  # Textual's screen updates: layout, painting
     app.apply = _timed(drains, app.apply)  # type: ignore[method-assign]
-    app._tick = _timed(ticks, app._tick)  # type: ignore[method-assign]
+    app.tick = _timed(ticks, app.tick)  # type: ignore[method-assign]
     paint = Screen._on_timer_update
     Screen._on_timer_update = _timed(frames, paint)  # type: ignore[method-assign]
     try:
