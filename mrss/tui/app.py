@@ -158,9 +158,10 @@ class MrssApp(App[None]):
                                  project=project, mission=mission,
                                  supervision=self.supervision, robots=self.robots,
                                  actions=self.actions, goals=self.goals)
-        self.details = RowDetails(self, self.say, actions=self.actions, goals=self.goals,
-                                  robots=self.robots, supervision=self.supervision,
-                                  restart_budget=restart_budget, clock=clock)
+        self.row_details = RowDetails(self, self.say, actions=self.actions,
+                                      goals=self.goals, robots=self.robots,
+                                      supervision=self.supervision,
+                                      restart_budget=restart_budget, clock=clock)
         self.tools = OperatorTools(self, self.say, readonly=readonly, endpoints=endpoints,
                                    topics=self.topics, alerts=self.alerts, mission=mission,
                                    open_area_form=self.steering.open_area_form)
@@ -288,7 +289,7 @@ class MrssApp(App[None]):
         self.say(note.text, error=note.error)
 
     def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
-        self.details.open(event)
+        self.row_details.open_row(event)
 
     def on_resize(self, event: events.Resize) -> None:
         self.panel_layout.set_compact(is_compact(event.size.width, event.size.height))
@@ -306,7 +307,7 @@ class MrssApp(App[None]):
 
     def action_auto_mind(self) -> None:
         self.auto_mind = not self.auto_mind
-        self.say(f"mind snapshots every {self.picture.polls.mind:g} s" if self.auto_mind
+        self.say(f"mind snapshots every {self.picture.polls.mind_every:g} s" if self.auto_mind
                  else "mind snapshots only on m")
 
     def action_refresh_all(self) -> None:

@@ -38,7 +38,7 @@ class RowDetails:
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock
 
-    def open(self, event: StripTable.RowSelected) -> None:
+    def open_row(self, event: StripTable.RowSelected) -> None:
         """Enter on a row: the detail screen of that action, goal, component or robot."""
         key = event.row_key
         table = event.table

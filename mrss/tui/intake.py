@@ -56,7 +56,7 @@ class Mind(NamedTuple):
 
 @dataclass
 class Changes:
-    """What a batch changed: the panels to redraw (`redraws.PANELS`, and "alerts" for
+    """What a batch changed: the panels to redraw (`redraws.SCHEDULED`, and "alerts" for
     the strip), the log's new lines, the newest mind snapshot of the agent watched."""
 
     panels: set[str] = field(default_factory=set)

@@ -38,9 +38,9 @@ WATCH_LINK_EVERY = 0.25  # seconds between two looks for a new greeting of the p
 class Polls:
     """Seconds between two requests of each kind (0: never, but in a snapshot)."""
 
-    mind: float = 1.0
-    tree: float = 2.0
-    world: float = 2.0
+    mind_every: float = 1.0
+    tree_every: float = 2.0
+    world_every: float = 2.0
 
 
 class Picture:
@@ -61,7 +61,7 @@ class Picture:
         self.project = project
         self.agent = agent
         self.polls = polls
-        self.auto_mind = polls.mind > 0  # `a` turns the mind's polling off and on
+        self.auto_mind = polls.mind_every > 0  # `a` turns the mind's polling off and on
         self.snapshots_asked = 0
         self.world_asked = 0
         self._welcomes = 0  # the proxy's greetings seen: one more is a (re)connection
@@ -71,12 +71,12 @@ class Picture:
     def start(self) -> None:
         """Watch the link for greetings, and poll what has a period."""
         self.app.set_interval(WATCH_LINK_EVERY, self.watch_link)
-        if self.polls.mind > 0:
-            self.app.set_interval(self.polls.mind, self._poll_mind)
-        if self.polls.tree > 0:
-            self.app.set_interval(self.polls.tree, self._poll_tree)
-        if self.polls.world > 0:
-            self.app.set_interval(self.polls.world, self.ask_world)
+        if self.polls.mind_every > 0:
+            self.app.set_interval(self.polls.mind_every, self._poll_mind)
+        if self.polls.tree_every > 0:
+            self.app.set_interval(self.polls.tree_every, self._poll_tree)
+        if self.polls.world_every > 0:
+            self.app.set_interval(self.polls.world_every, self.ask_world)
 
     # -- requests ---------------------------------------------------------------------------
     def watch_link(self) -> None:

@@ -24,7 +24,7 @@ from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 TABLES = ("supervision", "robots", "actions", "mission")  # ticked: their ages move on
-PANELS = (*TABLES, "map")  # redrawn at most every table_every
+SCHEDULED = (*TABLES, "map")  # redrawn at most every table_every
 TICK_SKIP = 0.9  # the second's tick leaves a table redrawn this recently (x table_every)
 WIDGETS: dict[str, type[ActionsTable | RobotsTable | SupervisionTable | MissionPanel]] = {
     "actions": ActionsTable, "robots": RobotsTable, "supervision": SupervisionTable,
@@ -57,7 +57,7 @@ class Redraws:
     def changed(self, dirty: Collection[str]) -> None:
         """A drain changed what the panels in `dirty` show (other names are ignored)."""
         now = self.clock()
-        for table in PANELS:
+        for table in SCHEDULED:
             if table in dirty:
                 self._changed(table, now)
 
@@ -77,7 +77,7 @@ class Redraws:
         due, self._due = self._due, set()
         now = self.clock()
         with suppress(NoMatches):  # the panels are gone: the app is closing
-            for table in PANELS:
+            for table in SCHEDULED:
                 if table in due:
                     self._draw(table, now)
 
