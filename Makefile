@@ -14,13 +14,18 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# Said once, after an install: the command lives in the virtualenv, not on PATH.
+ON_PATH := "mrss is installed as $(BIN)/mrss; '. $(BIN)/activate' puts it on PATH for this shell"
+
 $(VENV)/.installed-run: $(BIN)/python setup.cfg pyproject.toml
 	$(BIN)/python -m pip install --quiet -e .
 	touch $@
+	@echo $(ON_PATH)
 
 $(VENV)/.installed-dev: $(BIN)/python setup.cfg pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $@ $(VENV)/.installed-run
+	@echo $(ON_PATH)
 
 install: $(VENV)/.installed-dev
 

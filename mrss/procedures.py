@@ -20,7 +20,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import threading
 import urllib.error
 import urllib.request
@@ -36,6 +35,7 @@ from mrss.bus import Publisher, Subscriber
 from mrss.bus.settings import endpoints_from_config
 from mrss.edge.http_token import project_token
 from mrss.errors import MrssError
+from mrss.interpreter import python_module
 from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, JsonValue, Percept, RobotData
@@ -72,9 +72,9 @@ class RunningProject:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         with self.output.open("wb") as sink:
             self.process = subprocess.Popen(
-                [sys.executable, "-m", "mrss", "supervise", self.project_dir.name,
-                 "--run-dir", str(self.run_dir)], stdout=sink, stderr=subprocess.STDOUT,
-                env=self.env)
+                python_module("mrss", "supervise", self.project_dir.name,
+                              "--run-dir", str(self.run_dir)),
+                stdout=sink, stderr=subprocess.STDOUT, env=self.env)
         self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), timeout,
                       "the bus proxy")
         self._sub = Subscriber(endpoints_from_config({}, self.run_dir),

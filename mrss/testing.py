@@ -7,7 +7,6 @@ import shutil
 import signal
 import socket
 import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -18,6 +17,7 @@ from typing import TypeVar
 
 import psutil
 
+from mrss.interpreter import python_module
 from mrss.ports import free_port as free_port
 from mrss.ports import free_udp_port as free_udp_port
 
@@ -103,7 +103,7 @@ def mosquitto_broker(
 def amqtt_broker(host: str = "127.0.0.1") -> Iterator[BrokerInfo]:
     """An embedded amqtt broker in a child process on a free loopback port."""
     port = free_port(host)
-    argv = [sys.executable, "-m", "mrss.actors.broker.service", "--host", host, "--port", str(port)]
+    argv = python_module("mrss.actors.broker.service", "--host", host, "--port", str(port))
     with _broker_process(argv, host, port, 20.0):
         yield BrokerInfo(host, port, "amqtt")
 

@@ -5,23 +5,36 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from mrss import ports
 from mrss.testing import BrokerInfo, amqtt_broker, find_mosquitto, mosquitto_broker
 
+REPO = Path(__file__).resolve().parent.parent
+
 
 def pytest_configure(config: pytest.Config) -> None:
     """Under pytest-xdist each worker runs its own systems at the same time as the
     others: give each worker (and the processes it starts) ports of its own, so two
     workers never choose the same port in the moment before it is bound."""
+    _children_import_the_tests()
     worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ...
     count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if worker.startswith("gw") and count > 1:
         shares = ports.shares(count)
         if shares:
             os.environ[ports.SHARE_VARIABLE] = shares[int(worker[2:])]
+
+
+def _children_import_the_tests() -> None:
+    """The test projects name components in tests/ (`module = "tests.projects.workers:
+    Worker"`), but the processes MRSS starts leave the working directory off `sys.path`
+    (`python -P`, mrss/interpreter.py): the repository goes on their PYTHONPATH."""
+    paths = os.environ.get("PYTHONPATH", "").split(os.pathsep)
+    if str(REPO) not in paths:
+        os.environ["PYTHONPATH"] = os.pathsep.join([str(REPO), *filter(None, paths)])
 
 
 def pytest_report_header(config: pytest.Config) -> str:

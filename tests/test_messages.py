@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import enum
 import typing
 from typing import Any
 
@@ -59,6 +60,8 @@ def _for_hint(hint: Any) -> st.SearchStrategy[Any]:
     }
     if hint in simple:
         return simple[hint]
+    if isinstance(hint, type) and issubclass(hint, enum.Enum):  # a closed set: its values
+        return st.sampled_from([member.value for member in hint])
     origin, args = typing.get_origin(hint), typing.get_args(hint)
     if origin is list:
         return st.lists(_for_hint(args[0]), max_size=4)

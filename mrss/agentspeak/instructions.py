@@ -1,5 +1,9 @@
 """Compiled plan-body formulas: one instruction object per formula, run one per step.
 
+One idea in one module (~430 lines): the instruction set, one small class per formula
+kind (as Jason's asSemantics keeps its body-literal cases together), so the
+interpreter's whole repertoire is read in one place.
+
 Each `run(rt, it, im)` executes the formula for intention `it` whose top intended
 means is `im`, advances `im.pc` (or jumps), and raises `AslRuntimeError` to fail the
 intention. `if`/`while`/`for` compile to conditional jumps; a `Jump` costs no step.

@@ -16,7 +16,6 @@ import os
 import queue
 import statistics
 import subprocess
-import sys
 import tempfile
 import threading
 from contextlib import ExitStack
@@ -24,6 +23,7 @@ from typing import Any
 
 from mrss.bench.report import BenchReport
 from mrss.bus import BusEndpoints
+from mrss.interpreter import python_module
 from mrss.testing import find_mosquitto, mosquitto_broker
 
 QOS0 = "MQTT QoS 0"
@@ -97,8 +97,8 @@ class _Child:
 
 
 def _spawn(stack: ExitStack, *args: str) -> _Child:
-    """Start `python -m ARGS`; it is stopped when `stack` closes. Not yet waited for."""
-    child = _Child([sys.executable, "-m", *args])
+    """Start `python -P -m ARGS`; it is stopped when `stack` closes. Not yet waited for."""
+    child = _Child(python_module(*args))
     stack.callback(child.stop)
     return child
 

@@ -29,7 +29,7 @@ from mrss.bench.harness import SupervisedProject, favour
 from mrss.bench.report import BenchReport
 from mrss.bench.restart import percentile
 from mrss.bench.restart_peers import bus_restarts
-from mrss.messages import ActionStatus, Command, Envelope, MindSnapshot, Percept
+from mrss.messages import ActionState, ActionStatus, Command, Envelope, MindSnapshot, Percept
 from mrss.supervision.cpu_latency import cpu_latency
 
 ROBOTS = 10
@@ -137,7 +137,7 @@ class Harness:
     def _on(self, env: Envelope) -> None:
         body = env.body
         with self._cond:
-            if isinstance(body, ActionStatus) and body.state == "succeeded":
+            if isinstance(body, ActionStatus) and body.state is ActionState.SUCCEEDED:
                 seq, t = body.progress.get("seq"), body.progress.get("t")
                 if isinstance(seq, int) and isinstance(t, int):
                     self.starts[seq] = t

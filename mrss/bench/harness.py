@@ -6,12 +6,12 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.interpreter import python_module
 from mrss.messages import Envelope
 
 
@@ -41,7 +41,7 @@ class SupervisedProject:
         self.log_path = self.tmp / "supervise.log"
         self.log = self.log_path.open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "mrss", "supervise", name, "--run-dir", str(self.run_dir)],
+            python_module("mrss", "supervise", name, "--run-dir", str(self.run_dir)),
             env={**os.environ, "MRSS_PROJECTS": str(self.tmp / "projects")},
             stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True,
             preexec_fn=lambda: favour(nice, realtime))

@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from mrss.interpreter import python_module
+
 # the issue's shapes: recursive sub-goals, and a belief added and removed per round
 # against three `+seen` plans with contexts and one `-seen` plan
 COUNT = """!rounds({rounds}).
@@ -56,7 +58,7 @@ def best_round_ms(program: str, n: int, rounds: int, timeout: float) -> float:
     with tempfile.TemporaryDirectory(prefix="mrss-bench-") as tmp:
         path = Path(tmp) / "bench.asl"
         path.write_text(program.format(n=n, rounds=rounds), encoding="utf-8")
-        proc = subprocess.run([sys.executable, "-m", "mrss", "agent", str(path)],
+        proc = subprocess.run(python_module("mrss", "agent", str(path)),
                               capture_output=True, text=True, timeout=timeout)
     times = [float(m.group(1)) for line in proc.stdout.splitlines()
              if (m := _ROUND.match(line.strip()))]
@@ -75,7 +77,7 @@ def startup_ms(runs: int, timeout: float) -> float:
         path.write_text("!hello.\n+!hello <- .print(hi).\n", encoding="utf-8")
         for _ in range(runs):
             t = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "mrss", "agent", str(path)],
+            proc = subprocess.run(python_module("mrss", "agent", str(path)),
                                   capture_output=True, text=True, timeout=timeout)
             elapsed = (time.perf_counter() - t) * 1000
             if proc.returncode != 0 or proc.stdout.strip() != "hi":
@@ -124,8 +126,8 @@ def memory_child(beliefs: int, blocked: int) -> dict[str, float]:
 
 def peak_rss_mb(beliefs: int, blocked: int, timeout: float) -> float:
     """The peak RSS (MB) of a fresh process running `memory_child`."""
-    proc = subprocess.run([sys.executable, "-m", "mrss.bench.reasoner_agent", "memory",
-                           str(beliefs), str(blocked)],
+    proc = subprocess.run(python_module("mrss.bench.reasoner_agent", "memory",
+                                        str(beliefs), str(blocked)),
                           capture_output=True, text=True, timeout=timeout)
     if proc.returncode != 0:
         raise RuntimeError(proc.stderr.strip()[-300:] or f"exit {proc.returncode}")

@@ -19,7 +19,6 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -29,6 +28,7 @@ from typing import Any
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.config.projects import project_path
+from mrss.interpreter import python_module
 from mrss.messages import Command, Envelope, SupEvent
 
 _START = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \S+ INFO start (\S+) pid=\d+ "
@@ -99,8 +99,8 @@ def chaos_restarts(kills: int, seed: int = 9, project: str = "wildfire",
     done: list[Kill] = []
     with (tmp / "supervise.log").open("w") as sink:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "mrss", "supervise", project, "--run-dir", str(run_dir),
-             "--no-tui"], env=env, stdout=sink, stderr=subprocess.STDOUT,
+            python_module("mrss", "supervise", project, "--run-dir", str(run_dir),
+                          "--no-tui"), env=env, stdout=sink, stderr=subprocess.STDOUT,
             start_new_session=True)
     try:
         tree.all_running(timeout=120)

@@ -34,7 +34,7 @@ from typing import Any
 
 from mrss.bench.report import BenchReport
 from mrss.bus import BusEndpoints, ProxyThread, Publisher
-from mrss.messages import ActionStatus, Heartbeat, LogRecord, Message, RobotData
+from mrss.messages import ActionState, ActionStatus, Heartbeat, LogRecord, Message, RobotData
 
 ROBOTS = 6
 RUNNING = 20  # actions in progress at any time
@@ -55,14 +55,15 @@ def stream() -> Iterator[Message]:
             yield RobotData(robot=robot, data={"type": "battery",
                                                "remaining": 100.0 - step % 100})
         for i, uuid in enumerate(running):
-            yield ActionStatus(uuid=uuid, state="running", robot=f"r{i % ROBOTS}", repeat=True,
+            yield ActionStatus(uuid=uuid, state=ActionState.RUNNING, robot=f"r{i % ROBOTS}",
+                               repeat=True,
                                progress={"waypoint": step % 12, "waypoints": 12},
                                name="cover", goal=f"g{i}")
         done = running.pop(0)
-        yield ActionStatus(uuid=done, state="succeeded", robot="r0")
+        yield ActionStatus(uuid=done, state=ActionState.SUCCEEDED, robot="r0")
         new = f"{next(serial):032x}"
         running.append(new)
-        yield ActionStatus(uuid=new, state="running", robot="r1", name="cover", goal="gx")
+        yield ActionStatus(uuid=new, state=ActionState.RUNNING, robot="r1", name="cover", goal="gx")
         yield LogRecord(component="rcl", level="INFO", message=f"step {step}")
         yield Heartbeat(component="rcl", pid=1)
 

@@ -1,5 +1,9 @@
 """Publishing messages on the bus: encode, then send through the proxy's frontend.
 
+One idea in one module, on purpose (~460 lines): batching, the flusher and the
+connection state share one lock and one send path on the hottest path of the system;
+splitting them would put a call or a lock between every publish and its socket.
+
 A message goes out at once unless it follows the previous one within `BURST_GAP`
 (20 us): then it joins a batch, a single ZeroMQ message `[topic, envelope, envelope,
 ...]` of consecutive messages on one topic, which every hop handles in one go. A batch

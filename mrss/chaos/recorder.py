@@ -36,7 +36,15 @@ from mrss.chaos.history import HistoryWriter, OpenAction
 from mrss.chaos.views import TERMINAL
 from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.logs import log_file
-from mrss.messages import Command, Envelope, Heartbeat, MindSnapshot, RobotData, SupEvent
+from mrss.messages import (
+    Command,
+    Envelope,
+    Heartbeat,
+    MindSnapshot,
+    RobotData,
+    SupEvent,
+    SupEventKind,
+)
 
 PREFIXES = ["action.", "rel.action.msg", "sup.", "robot.", "percept", "log.", "mind."]
 MODE_KEYS = ("teleop", "mode")
@@ -87,9 +95,9 @@ class Recorder:
                     return
                 self._incs.add((env.src, env.inc))
             elif isinstance(body, SupEvent):
-                if body.event == "start" and body.pid:
+                if body.event is SupEventKind.START and body.pid:
                     self._pids[body.child] = body.pid
-                elif body.event == "tree":
+                elif body.event is SupEventKind.TREE:
                     self._learn_tree(body.detail.get("tree"))
                 self._replies[f"sup.{body.event}"] = env
                 self._answer.notify_all()

@@ -19,7 +19,7 @@ from mrss.agentspeak import AslSyntaxError
 from mrss.agentspeak.agent import read_program
 from mrss.agentspeak.loadcheck import load_problems
 from mrss.agentspeak.parser import parse_program
-from mrss.agentspeak.syntax import BodyItem, BodyNode, IfItem, LoopItem, PlanSrc
+from mrss.agentspeak.syntax import BodyItem, BodyNode, IfItem, LoopItem, PlanSrc, Program
 from mrss.agentspeak.terms import Struct
 from mrss.check.findings import Report
 
@@ -49,12 +49,14 @@ class AgentUses:
     triggers: list[Use] = field(default_factory=list)
     beliefs: int = 0
     lines: int = 0
+    programs: list[Program] = field(default_factory=list)  # parsed, for the cross-file rules
 
     def merged(self, other: AgentUses) -> AgentUses:
         """What two agents of the project use together (this one's file named)."""
         return AgentUses(self.file, self.actions + other.actions,
                          self.queries + other.queries, self.triggers + other.triggers,
-                         self.beliefs + other.beliefs, self.lines + other.lines)
+                         self.beliefs + other.beliefs, self.lines + other.lines,
+                         self.programs + other.programs)
 
 
 def read_agent(path: Path, report: Report, beliefs: Sequence[str] = (),
@@ -79,7 +81,7 @@ def read_agent(path: Path, report: Report, beliefs: Sequence[str] = (),
                      detail=f"    {p.source_line}\n    {caret}")
     if problems:
         return None
-    uses = AgentUses(path, lines=len(text.splitlines()))
+    uses = AgentUses(path, lines=len(text.splitlines()), programs=[program])
     for statement in program.statements:
         if isinstance(statement, PlanSrc):
             if statement.op in (ADD_BELIEF, DEL_BELIEF):

@@ -19,10 +19,12 @@ from typing import Any
 
 from mrss.actors.datalayer.layer import DataLayer
 from mrss.actors.events.adapter import ExternalAdapter
+from mrss.agentspeak.literals import is_atom_name
 from mrss.api import RobotCommLayer, Skill
 from mrss.check.agent import AgentUses, read_agent
 from mrss.check.alerts import check_alerts
 from mrss.check.chaos_traffic import check_chaos_traffic
+from mrss.check.cross_file import ProjectFacts, check_cross_file
 from mrss.check.exposure import check_broker_login, check_exposure
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.map import check_map
@@ -66,8 +68,8 @@ def check_project(config: ProjectConfig) -> Report:
     classes = _component_classes(config, report)
     uses = _agent(config, report)
     skills = _skills(config, sources, report)
-    for comp in _running(config, RCL):
-        _rcl(config, comp, sources, skills, uses, report)
+    layers = [_rcl(config, comp, sources, skills, uses, report)
+              for comp in _running(config, RCL)]
     events = _edge(config, sources, report, classes, "events", EVENTS, ExternalAdapter,
                    "events.py")
     datalayer = _edge(config, sources, report, classes, "datalayer", DATALAYER, DataLayer,
@@ -85,11 +87,34 @@ def check_project(config: ProjectConfig) -> Report:
         if events is not None:
             check_percepts(config, uses, events[0], datalayer[0] if datalayer else None,
                            report)
+    check_cross_file(_facts(config, sources, uses, layers, datalayer), report)
     return report
 
 
 def _running(config: ProjectConfig, kind: ComponentKind) -> list[ComponentConfig]:
     return list(config.of_kind(kind))
+
+
+def _facts(config: ProjectConfig, sources: Sources, uses: AgentUses | None,
+           layers: list[type[RobotCommLayer] | None],
+           datalayer: tuple[PySource | None, type | None] | None) -> ProjectFacts:
+    """What the cross-file rules need from the checks above."""
+    robots: set[str] | None = set()
+    for comp in _running(config, RCL):
+        table = comp.options.get("robots")
+        robots |= set(table) if isinstance(table, dict) else set()  # type: ignore[operator]
+    if any(layer is None or layer.action_cb is not RobotCommLayer.action_cb
+           for layer in layers) or not all(map(is_atom_name, robots or ())):
+        robots = None  # unknown layer, its own action convention, or bad ids (reported)
+    functions = None
+    where = ""
+    if datalayer is not None and isinstance(datalayer[1], type) \
+            and issubclass(datalayer[1], DataLayer):
+        cls = datalayer[1]
+        functions = DataLayer.functions(cls.__new__(cls))
+        where = datalayer[0].path.name if datalayer[0] else "the default DataLayer"
+    return ProjectFacts(sources, uses, robots, f"{config.file.name} [components.<rcl>.robots]",
+                        functions, where)
 
 
 def _component_classes(config: ProjectConfig, report: Report) -> dict[str, type]:
@@ -178,7 +203,9 @@ def _skills(config: ProjectConfig, sources: Sources, report: Report) -> PySource
 
 
 def _rcl(config: ProjectConfig, comp: ComponentConfig, sources: Sources,
-         skills: PySource | None, uses: AgentUses | None, report: Report) -> None:
+         skills: PySource | None, uses: AgentUses | None,
+         report: Report) -> type[RobotCommLayer] | None:
+    """Check one RCL component; its layer class, if it loaded."""
     key = f"components.{comp.id}.layer"
     file_name, _, class_name = str(comp.options.get("layer", "") or "rcl.py").partition(":")
     line = key_line(config, key) if "layer" in comp.options else 0
@@ -194,10 +221,10 @@ def _rcl(config: ProjectConfig, comp: ComponentConfig, sources: Sources,
                           set(option_names(declared)), settings)
     if layer is None:
         if source.module is not None or not source.broken:
-            return
+            return None
         report.warning(str(source.path), "the agent's actions were not checked against the "
                        "RCL's recipes: fix the error above first", check="rcl")
-        return
+        return None
     handled = layer_actions(layer, source, report)
     if uses is not None:
         check_actions(uses, handled, layer.__name__, file_name, report)
@@ -209,6 +236,7 @@ def _rcl(config: ProjectConfig, comp: ComponentConfig, sources: Sources,
     report.summary.append(f"  rcl {file_name}: {layer.__name__}, actions {handled.describe()}"
                           f" (from {handled.how})")
     report.summary.append(f"  robots: {', '.join(robots)}")
+    return layer
 
 
 def _edge(config: ProjectConfig, sources: Sources, report: Report, classes: dict[str, type],
@@ -242,8 +270,10 @@ def _edge(config: ProjectConfig, sources: Sources, report: Report, classes: dict
         cls = DataLayer
     component = classes.get(comp_id or "")
     if source is not None and (source.broken or cls is None):
+        broken = path.name if source.broken else \
+            f"its class ({section_key(config, section, comp_id, 'class')} in {config.file.name})"
         report.warning(str(config.file), f"[{section}] options not checked: "
-                       f"{path.name} has an error reported above", check=section)
+                       f"{broken} has an error reported above", check=section)
     elif component is not None:
         check_values(config, report, table, declared_options(component, cls),
                      lambda n: section_key(config, section, comp_id, n),

@@ -50,6 +50,7 @@ from mrss.config.alerts import project_alert_rules
 from mrss.config.map import MapConfig
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
+from mrss.interpreter import python_module
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.mission import project_map, project_mission
@@ -228,8 +229,7 @@ def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, 
 
 def _start_system(args: argparse.Namespace, run_dir: Path,
                   log_path: Path) -> subprocess.Popen[bytes]:
-    argv = [sys.executable, "-m", "mrss", "supervise", args.project, "--no-tui",
-            "--run-dir", str(run_dir)]
+    argv = python_module("mrss", "supervise", args.project, "--no-tui", "--run-dir", str(run_dir))
     if args.launcher:
         argv += ["--launcher", args.launcher]
     if getattr(args, "node", None):

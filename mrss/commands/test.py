@@ -1,7 +1,7 @@
 """`mrss test PROJECT [PYTEST ARGS]`: run a project's test procedures with pytest.
 
 The procedures are the pytest files in `projects/<PROJECT>/procedures/`. pytest runs in
-a child process (`python -m pytest <procedures> PYTEST ARGS`, in the current
+a child process (`python -P -m pytest <procedures> PYTEST ARGS`, in the current
 directory), with `MRSS_PROJECT` (the name) and `MRSS_PROJECT_DIR` (the folder) in its
 environment so procedures can find their project. The exit code is pytest's (0 all
 passed, 1 some failed, 5 none collected, ...). An unknown project, or one without a
@@ -17,6 +17,7 @@ import sys
 
 from mrss.config.projects import project_path
 from mrss.errors import UnknownProjectError
+from mrss.interpreter import python_module
 
 EXIT_USAGE = 2
 PROCEDURES = "procedures"
@@ -44,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         extra = extra[1:]
     env = dict(os.environ, MRSS_PROJECT=args.project, MRSS_PROJECT_DIR=str(project))
     try:
-        done = subprocess.run([sys.executable, "-m", "pytest", str(procedures), *extra],
+        done = subprocess.run(python_module("pytest", str(procedures), *extra),
                               env=env, check=False)
     except KeyboardInterrupt:
         return 130

@@ -6,10 +6,13 @@ names the topic and the reason; it never writes parsing code for the common case
     AREA = JsonMapping("area_goal_received", Field("area", "atom"), Field("priority", "int"))
     AREA.literal(payload_bytes, topic="ui/area")  -> 'area_goal_received(a1,3)'
 
-Field kinds: `atom` (must be a lowercase identifier), `symbol` (atom if it can be, else a
-string), `string`, `int`, `number`, `lat`, `lon`, `bool`, `list` (of scalars or lists),
-`term` (any JSON scalar or list), or a callable that converts the value and raises
-ValueError for bad input. A field name may be a dotted path into nested objects.
+Field kinds: `atom` (must be a lowercase identifier), `robot` (an atom naming one of the
+project's robots: given the robots, `args(obj, robots=...)` refuses any other, so a
+message about a robot that does not exist is refused at the door), `symbol` (atom if it
+can be, else a string), `string`, `int`, `number`, `lat`, `lon`, `bool`, `list` (of
+scalars or lists), `term` (any JSON scalar or list), or a callable that converts the
+value and raises ValueError for bad input. A field name may be a dotted path into
+nested objects.
 
 Every value is also held to the bounds of plain data (`mrss.edge.record_declarations`,
 checked by `mrss.edge.validation`): strings of at most MAX_TEXT characters, integers
@@ -22,7 +25,8 @@ from __future__ import annotations
 import difflib
 import json
 import math
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -50,14 +54,38 @@ class _Required:
 
 REQUIRED: Final = _Required()
 MAX_PAYLOAD = 1 << 20
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")  # \ud800 to \udfff
 
 
 def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _lone_surrogate(value: Any) -> str | None:
+    """The first string of `value` (keys too) that is not Unicode text, or None."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            try:
+                item.encode("utf-8")
+            except UnicodeEncodeError:
+                return item
+        elif isinstance(item, list):
+            stack.extend(item)
+        elif isinstance(item, dict):
+            stack.extend(item.keys())
+            stack.extend(item.values())
+    return None
+
+
 def decode_json(payload: bytes, *, topic: str | None = None) -> Any:
-    """Parse a UTF-8 JSON payload (NaN/Infinity refused); PayloadError otherwise."""
+    """Parse a UTF-8 JSON payload (NaN/Infinity refused); PayloadError otherwise.
+
+    JSON may escape a lone UTF-16 surrogate ("\\ud800"), which is no Unicode text: no
+    log line, bus message or database can hold it, so such a payload is refused here
+    like any other that does not parse.
+    """
     if len(payload) > MAX_PAYLOAD:
         raise PayloadError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}", topic=topic)
     try:
@@ -65,9 +93,16 @@ def decode_json(payload: bytes, *, topic: str | None = None) -> Any:
     except UnicodeDecodeError:
         raise PayloadError("payload is not UTF-8", topic=topic) from None
     try:
-        return json.loads(text, parse_constant=_reject_constant)
+        value = json.loads(text, parse_constant=_reject_constant)
     except (ValueError, RecursionError) as exc:
         raise PayloadError(f"payload is not JSON: {exc}", topic=topic) from None
+    if _SURROGATE_ESCAPE.search(text):  # only an escape can make one: skip the walk
+        bad = _lone_surrogate(value)
+        if bad is not None:
+            shown = bad.encode("utf-8", "backslashreplace").decode("ascii", "replace")
+            raise PayloadError(f"payload is not Unicode text: a lone surrogate in "
+                               f"\"{shown[:40]}\"", topic=topic)
+    return value
 
 
 def decode_json_object(payload: bytes, *, topic: str | None = None) -> dict[str, Any]:
@@ -149,6 +184,7 @@ def _as_list(value: Any) -> Term:
 
 CONVERTERS: dict[str, Callable[[Any], Term]] = {
     "atom": _as_atom,
+    "robot": _as_atom,  # and one of the robots, when they are given (Field.extract)
     "symbol": lambda v: symbol(_as_str(v)),
     "string": _as_str,
     "int": _as_int,
@@ -176,8 +212,9 @@ class Field:
             raise ValueError(f"field {self.name!r}: unknown kind {self.kind!r}; {hint}"
                              f"known: {', '.join(CONVERTERS)}")
 
-    def extract(self, obj: dict[str, Any]) -> Term:
-        """The converted value of this field in `obj`; ValueError names the field."""
+    def extract(self, obj: dict[str, Any], robots: Collection[str] | None = None) -> Term:
+        """The converted value of this field in `obj`; ValueError names the field. A
+        `robot` field's value must be one of `robots` (None: any atom)."""
         value: Any = obj
         for part in self.name.split("."):
             if not isinstance(value, dict) or part not in value:
@@ -187,9 +224,14 @@ class Field:
             value = value[part]
         convert = CONVERTERS[self.kind] if isinstance(self.kind, str) else self.kind
         try:
-            return convert(value)
+            term = convert(value)
         except (ValueError, TypeError, PredicateError) as exc:
             raise ValueError(f"field {self.name!r}: {exc}") from None
+        if self.kind == "robot" and robots is not None and str(term) not in robots:
+            known = ", ".join(sorted(robots)[:20]) or "none"
+            raise ValueError(f"field {self.name!r}: unknown robot {str(term)!r} "
+                             f"(known: {known})")
+        return term
 
 
 class JsonMapping:
@@ -202,18 +244,21 @@ class JsonMapping:
         self.fields = fields
         self.annotations = annotations
 
-    def args(self, obj: dict[str, Any], *, topic: str | None = None) -> list[Term]:
-        """The converted field values of a decoded payload object."""
+    def args(self, obj: dict[str, Any], *, topic: str | None = None,
+             robots: Collection[str] | None = None) -> list[Term]:
+        """The converted field values of a decoded payload object (`robot` fields among
+        `robots`, when given: an adapter passes `self.robots`)."""
         try:
-            return [f.extract(obj) for f in self.fields]
+            return [f.extract(obj, robots) for f in self.fields]
         except ValueError as exc:
             raise PayloadError(str(exc), topic=topic) from None
 
-    def literal(self, payload: bytes, *, topic: str | None = None) -> str:
+    def literal(self, payload: bytes, *, topic: str | None = None,
+                robots: Collection[str] | None = None) -> str:
         """The literal for a raw payload; PayloadError for anything that does not fit."""
         obj = decode_json_object(payload, topic=topic)
         try:
-            return literal(self.functor, *self.args(obj, topic=topic),
+            return literal(self.functor, *self.args(obj, topic=topic, robots=robots),
                            annotations=self.annotations)
         except PredicateError as exc:
             raise PayloadError(str(exc), topic=topic) from None

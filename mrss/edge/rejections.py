@@ -5,7 +5,14 @@ A refused record is counted by (source, reason) — source: the robot or sender,
 interval is logged with its detail; the others in that interval are only counted, and
 once the interval is over the next refusal, `roll` (which the component's reporter calls
 every tick, `roll_all`) or `flush` logs one summary line of what was held back. No
-traceback is ever logged for bad data.
+traceback is ever logged for bad data. The work stays bounded however the refusals
+vary: at most `MAX_LOGGED_KINDS` first lines per interval (the other kinds go to the
+summary), and at most `MAX_COUNTED_KINDS` kinds counted apart (the rest as one,
+`OTHER`).
+
+A library that logs each refusal itself (amqtt: an ERROR and a WARNING per bare TCP
+connection) is brought under the same rule by a `LoggedRefusals` filter on its logger:
+the records it recognises become counted refusals of a `RejectionLog` instead.
 
 Every `RejectionLog` (and every other refusal counter that calls `register`, like the
 MAVLink signing checks) is known to its process: `process_counts()` adds them up for
@@ -16,14 +23,18 @@ which the dashboard shows.
 from __future__ import annotations
 
 import logging
+import re
 import threading
 import time
 import weakref
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 DEFAULT_INTERVAL = 60.0
+MAX_LOGGED_KINDS = 10  # first lines of one interval; other kinds are summarised
+MAX_COUNTED_KINDS = 1000  # (source, reason) pairs counted apart; more count as OTHER
+OTHER = ("*", "other kinds")
 
 
 class Counted(Protocol):
@@ -96,9 +107,11 @@ class RejectionLog:
         its (source, reason) this interval); True: held back, summarised later."""
         key = (source[:64], reason[:120])
         with self._lock:
+            if key not in self.counts and len(self.counts) >= MAX_COUNTED_KINDS:
+                key = OTHER
             self.counts[key] += 1
             summary = self._roll()
-            held = key in self._logged
+            held = key in self._logged or len(self._logged) >= MAX_LOGGED_KINDS
             if held:
                 self._held[key] += 1
             else:
@@ -153,3 +166,31 @@ class RejectionLog:
         return (f"refused {sum(self._held.values())} more {self.what}(s) "
                 f"(total {sum(self.counts.values())}): {parts}"
                 + (f" and {more} more kinds" if more > 0 else ""))
+
+
+class LoggedRefusals(logging.Filter):
+    """A filter for a library's logger: its records that tell of a refusal are counted in
+    `rejections` (and logged by it, once per source and reason per interval) instead.
+
+    `kinds`: (pattern, reason); a record whose message the pattern matches is one refusal
+    of that reason, its source the pattern's `source` group ("-" without one). `echoes`:
+    patterns of records that only repeat a refusal already counted (dropped, not counted).
+    Every other record passes unchanged.
+    """
+
+    def __init__(self, rejections: RejectionLog, kinds: Sequence[tuple[re.Pattern[str], str]],
+                 echoes: Sequence[re.Pattern[str]] = ()) -> None:
+        super().__init__()
+        self.rejections = rejections
+        self.kinds = tuple(kinds)
+        self.echoes = tuple(echoes)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        for pattern, reason in self.kinds:
+            match = pattern.search(message)
+            if match is not None:
+                source = match.group("source") if "source" in pattern.groupindex else "-"
+                self.rejections.reject(source, reason, message)
+                return False
+        return not any(pattern.search(message) for pattern in self.echoes)

@@ -153,8 +153,10 @@ class MavConnection:
             self.conn.last_address = sender
 
     def close(self) -> None:
-        """Close the socket or serial port."""
+        """Close the socket or serial port (and log the signing refusals held back)."""
         self.conn.close()
+        if self.signing is not None:
+            self.signing.close()
 
 
 def _bind_loopback_sender(conn: Any) -> None:

@@ -1,5 +1,9 @@
 """The MAVLink robot link: commands and telemetry of one ArduCopter-style vehicle.
 
+One idea in one module (~420 lines): the link's face, what a skill calls; the protocol's
+parts are modules of their own (mavlink_commands, _mission, _telemetry, _failsafe,
+_signing, mavconn).
+
 Blocking command helpers (`arm`, `set_mode`, `takeoff`, `goto`, `land`, ...) may be
 called from any thread; they retry unanswered commands (mrss.links.mavlink_commands)
 and raise LinkDown, CommandRejected or CommandTimeout (mrss.links.errors). The link is

@@ -9,8 +9,11 @@ Rules (the one place they are implemented):
   when it is signed with that key and its timestamp is newer than the last accepted one
   of the same stream (link id, system, component), or, for a new stream, at most one
   minute older than ours (the MAVLink signing rules). Unsigned, wrongly signed and
-  replayed messages are refused: counted per `Refusal`, logged at most once per
-  `LOG_INTERVAL_S` (never a traceback), and never seen by the link or the vehicle.
+  replayed messages are refused: counted per `Refusal` in a `RejectionLog` ("MAVLink
+  message", by connection and refusal: the first of each per `LOG_INTERVAL_S` logged,
+  the rest in a summary line with the total once the interval is over, so every
+  refusal counted is in the log; never a traceback), and never seen by the link or the
+  vehicle.
 - The signature is checked before the timestamp is remembered, so a forged message
   with a far-future timestamp cannot lock a stream out (pymavlink remembers it first).
 - Unknown message ids cannot be authenticated by pymavlink's decoder: with a key they
@@ -32,7 +35,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from mrss.edge.rejections import register
+from mrss.edge.rejections import RejectionLog
 from mrss.errors import ConfigError
 
 KEY_BYTES = 32
@@ -144,9 +147,8 @@ class Signing:
         self.log = log or logging.getLogger("mrss.links.signing")
         self.refused: Counter[Refusal] = Counter()
         self._lock = threading.Lock()
-        self._unlogged: Counter[Refusal] = Counter()
-        self._next_log = 0.0
-        register(self)  # in the component's Rejections reports
+        #: Counted in the component's Rejections reports, logged once per interval.
+        self.rejections = RejectionLog(self.log, "MAVLink message", interval=LOG_INTERVAL_S)
 
     def attach(self, mav: Any) -> None:
         """Make `mav` (a pymavlink codec) sign with and check against this state."""
@@ -171,29 +173,18 @@ class Signing:
             refusal = Refusal.UNSIGNED  # pymavlink skips the signature of unknown ids
         if refusal is None:
             return True
-        self._count(refusal)
+        self.count(refusal)
         return False
 
-    def _count(self, refusal: Refusal) -> None:
-        now = time.monotonic()
+    def count(self, refusal: Refusal) -> None:
+        """One message refused: counted by reason, and in the rejection log."""
         with self._lock:
             self.refused[refusal] += 1
-            self._unlogged[refusal] += 1
-            if now < self._next_log:
-                return
-            self._next_log = now + LOG_INTERVAL_S
-            summary = ", ".join(f"{n} {r.value}" for r, n in sorted(
-                self._unlogged.items(), key=lambda item: item[0].value))
-            self._unlogged.clear()
-        self.log.warning("%s: refused MAVLink messages (signing is on): %s; totals %s "
-                         "(next report in %.0f s at most)", self.name, summary,
-                         self.totals(), LOG_INTERVAL_S)
+        self.rejections.reject(self.name, refusal.value, "signing is on")
 
-    def rejection_counts(self) -> dict[str, int]:
-        """Refusals so far, as "MAVLink message from <name>: <reason>" -> count."""
-        with self._lock:
-            return {f"MAVLink message from {self.name}: {r.value}": n
-                    for r, n in self.refused.items() if n}
+    def close(self) -> None:
+        """Log the refusals held back so far (the connection closes)."""
+        self.rejections.flush()
 
     def totals(self) -> dict[str, int]:
         """Refusals so far by reason, e.g. {"unsigned": 3, "bad signature": 0, ...}."""

@@ -63,10 +63,69 @@ class FailureCause(StrEnum):
     ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
     PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+    UNSPECIFIED = ""  # no particular cause: the agent sees error(action_failed)
 
 
-CONTROL_COMMANDS = ("cancel", "suspend", "resume", "succeed", "fail")
-CONTROL_TARGETS = ("action", "goal", "robot")
+class ControlCommand(StrEnum):
+    """Goal management commands (rcl_goal_management, `mrss send control`)."""
+
+    CANCEL = "cancel"
+    SUSPEND = "suspend"
+    RESUME = "resume"
+    SUCCEED = "succeed"
+    FAIL = "fail"
+
+
+class ControlTarget(StrEnum):
+    """What a control command is for: one action, every action of a goal or of a robot."""
+
+    ACTION = "action"
+    GOAL = "goal"
+    ROBOT = "robot"
+
+
+class LinkState(StrEnum):
+    """A robot's link, as the RCL or a link sees it."""
+
+    UP = "up"
+    DOWN = "down"
+
+
+class SupEventKind(StrEnum):
+    """The supervision events on `sup.<event>` (mrss/supervision/events.py, nodes, trees)."""
+
+    START = "start"
+    EXIT = "exit"
+    RESTART = "restart"
+    ESCALATE = "escalate"
+    GIVE_UP = "give_up"
+    QUARANTINE = "quarantine"
+    RELEASE = "release"
+    HANG = "hang"
+    STOPPING = "stopping"  # the supervisor begins to stop every child (child: itself)
+    TREE = "tree"  # the live tree of a supervisor (detail["tree"])
+    NODE_DOWN = "node_down"  # a peer node is lost (mrss/supervision/nodes.py)
+    NODE_UP = "node_up"
+
+
+CONTROL_COMMANDS = tuple(c.value for c in ControlCommand)
+CONTROL_TARGETS = tuple(t.value for t in ControlTarget)
+
+
+_ACTION_STATES = frozenset(ActionState)
+_FAILURE_CAUSES = frozenset(FailureCause)
+_LINK_STATES = frozenset(LinkState)
+_SUP_EVENTS = frozenset(SupEventKind)
+
+
+def _closed(msg: object, **fields: type[StrEnum]) -> None:
+    """Hold each closed-set field as its enum, whoever built the message (the codec gives
+    the enum already; code and tests may pass the plain value). A value outside the set
+    is left for `validate` to refuse with its name."""
+    for name, closed_set in fields.items():
+        value = getattr(msg, name)
+        if type(value) is not closed_set and value in closed_set.__members__.values():
+            object.__setattr__(msg, name, closed_set(value))
 
 
 class Message:
@@ -128,20 +187,23 @@ class ActionStatus(Message):
 
     kind: ClassVar[str] = "action.status"
     uuid: str
-    state: str
+    state: ActionState
     reason: str = ""
     progress: dict[str, JsonValue] = field(default_factory=dict)
     robot: str = ""
-    cause: str = ""  # a FailureCause value for a failed action, else ""
+    cause: FailureCause = FailureCause.UNSPECIFIED  # why a failed action failed
     repeat: bool = False  # the last state sent again (a reconciliation), not a transition
     name: str = ""  # the action's name and goal, so an observer that attached late knows it
     goal: str = ""
 
+    def __post_init__(self) -> None:
+        _closed(self, state=ActionState, cause=FailureCause)
+
     def validate(self) -> None:
         _nonempty(self.uuid, "uuid")
-        if self.state not in {s.value for s in ActionState}:
+        if self.state not in _ACTION_STATES:
             raise DecodeError(f"unknown action state {self.state!r}")
-        if self.cause and self.cause not in {c.value for c in FailureCause}:
+        if self.cause not in _FAILURE_CAUSES:
             raise DecodeError(f"unknown failure cause {self.cause!r}")
 
 
@@ -175,9 +237,12 @@ class ActionControl(Message):
     """Goal management (rcl_goal_management): a command for an action, goal or robot."""
 
     kind: ClassVar[str] = "action.control"
-    command: str
+    command: ControlCommand
     target: str
-    target_kind: str = "action"
+    target_kind: ControlTarget = ControlTarget.ACTION
+
+    def __post_init__(self) -> None:
+        _closed(self, command=ControlCommand, target_kind=ControlTarget)
 
     def validate(self) -> None:
         if self.command not in CONTROL_COMMANDS:
@@ -221,9 +286,16 @@ class RobotState(Message):
     kind: ClassVar[str] = "robot.state"
     robot: str
     available: bool
-    link: str = "up"  # "up" | "down"
+    link: LinkState = LinkState.UP
     reason: str = ""
     attributes: dict[str, JsonValue] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _closed(self, link=LinkState)
+
+    def validate(self) -> None:
+        if self.link not in _LINK_STATES:
+            raise DecodeError(f"unknown link state {self.link!r}")
 
     def topic(self) -> str:
         return f"robot.{self.robot}.state"
@@ -246,7 +318,7 @@ class SupEvent(Message):
     """A supervision event: start, exit, restart, escalate, give_up, quarantine, release."""
 
     kind: ClassVar[str] = "sup.event"
-    event: str
+    event: SupEventKind
     child: str
     supervisor: str = ""
     pid: int = 0
@@ -254,6 +326,13 @@ class SupEvent(Message):
     count: int = 0
     detail: dict[str, JsonValue] = field(default_factory=dict)
     node: str = ""  # the node whose supervisor emitted it ("" on a single host)
+
+    def __post_init__(self) -> None:
+        _closed(self, event=SupEventKind)
+
+    def validate(self) -> None:
+        if self.event not in _SUP_EVENTS:
+            raise DecodeError(f"unknown supervision event {self.event!r}")
 
     def topic(self) -> str:
         return f"sup.{self.event}"

@@ -8,11 +8,13 @@ of project.toml) with the component's own free keys (`ctx.options`, from
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from mrss.config.broker import table
 from mrss.config.loader import load_file
 from mrss.config.projects import PROJECT_FILE
+from mrss.edge.record_declarations import configured_robots
 from mrss.runtime.component import ComponentContext
 
 EDGE_SECTIONS = ("broker", "events", "datalayer", "worldmodel")
@@ -27,3 +29,12 @@ def edge_config(ctx: ComponentContext, own_section: str) -> dict[str, Any]:
     config = {name: dict(table(sections, name)) for name in EDGE_SECTIONS}
     config[own_section].update(ctx.options)
     return config
+
+
+def project_robots(project_dir: Path) -> frozenset[str]:
+    """The robots of a project: those of its RCLs' robots tables (empty without any)."""
+    project_file = project_dir / PROJECT_FILE
+    if not project_file.is_file():
+        return frozenset()
+    components = {c.id: c.options for c in load_file(project_file).components}
+    return frozenset(configured_robots({"components": components}))

@@ -23,14 +23,14 @@ import os
 
 from mrss.bus import BusEndpoints, Subscriber
 from mrss.errors import MrssError
-from mrss.messages import Command, Envelope, LogRecord, SupEvent
+from mrss.messages import Command, Envelope, LogRecord, SupEvent, SupEventKind
 from mrss.supervision import faults
 from mrss.supervision.events import Publish
 from mrss.supervision.process import ProcessSupervisor
 
 log = logging.getLogger("mrss.runtime.remote")
 
-TREE_EVENT = "tree"
+TREE_EVENT = SupEventKind.TREE
 
 
 def tree_event(sup: ProcessSupervisor) -> SupEvent:

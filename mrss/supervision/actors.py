@@ -24,6 +24,7 @@ import pykka
 
 from mrss.errors import SupervisionError
 from mrss.supervision import events as ev
+from mrss.supervision.child_states import ChildCause, move
 from mrss.supervision.events import Publish, SupEvents
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
@@ -188,7 +189,7 @@ class ActorSupervisor(SupervisedActor):
     def _child_up(self, msg: ChildUp) -> None:
         c = self._children.get(msg.child)
         if c is not None and c.incarnation == msg.inc and c.state is ChildState.STARTING:
-            c.state, c.up_since = ChildState.RUNNING, self._clock()
+            c.state, c.up_since = move(c.state, ChildCause.READY, msg.child), self._clock()
             self._policy.child_started(msg.child)
             self.events.emit(ev.START, msg.child, pid=os.getpid(), inc=c.incarnation)
 
@@ -207,7 +208,7 @@ class ActorSupervisor(SupervisedActor):
                 and c.liveness.actor.actor_ref.is_alive():
             c.liveness.actor._abandon()  # hung: the thread lives on, the child does not
         c.ref = None
-        c.state = ChildState.STOPPED
+        c.state = move(c.state, ChildCause.EXITED, msg.child)
         c.last_reason = str(msg.reason)
         self.events.emit(ev.EXIT, msg.child, pid=os.getpid(), reason=str(msg.reason),
                          inc=msg.inc)
@@ -223,7 +224,7 @@ class ActorSupervisor(SupervisedActor):
             return
         if d.action is Action.QUARANTINE:
             c = self._children[d.child]
-            c.state = ChildState.QUARANTINED
+            c.state = move(c.state, ChildCause.GIVEN_UP, d.child)
             c.token = self._next_token()
             self.events.emit(ev.QUARANTINE, d.child, reason=str(d.reason), count=d.count,
                              robot=d.child, probation=d.delay, note=d.note)
@@ -233,8 +234,8 @@ class ActorSupervisor(SupervisedActor):
             self._stop_child(sid)
         token = self._next_token()
         for rid in d.restart:
-            self._children[rid].state = ChildState.WAITING
-            self._children[rid].token = token
+            c = self._children[rid]
+            c.state, c.token = move(c.state, ChildCause.RESTART_DUE, rid), token
         self.events.emit(ev.RESTART, d.child, reason=str(d.reason), count=d.count,
                          delay=round(d.delay, 3), group=list(d.restart))
         if d.delay <= 0:
@@ -245,8 +246,8 @@ class ActorSupervisor(SupervisedActor):
     def _escalate(self, d: Decision) -> None:
         for sid in d.stop:
             self._stop_child(sid)
-        for c in self._children.values():
-            c.state = ChildState.STOPPED
+        for cid, c in self._children.items():
+            c.state = move(c.state, ChildCause.ABANDONED, cid)
         why = f"child {d.child} ({d.reason}): {d.note}"
         self._given_up = True
         if self.ctx.supervisor is not None:
@@ -287,7 +288,7 @@ class ActorSupervisor(SupervisedActor):
         live = Liveness()
         ctx = ActorContext(child=child, incarnation=c.incarnation, supervisor=self.actor_ref,
                            events=self.events, liveness=live)
-        c.liveness, c.state = live, ChildState.STARTING
+        c.liveness, c.state = live, move(c.state, ChildCause.STARTED, child)
         try:
             c.ref = c.spec.start.factory(ctx)
             if live.actor is None:
@@ -311,11 +312,11 @@ class ActorSupervisor(SupervisedActor):
         c = self._children[child]
         live, ref = c.liveness, c.ref
         if c.state in (ChildState.WAITING, ChildState.QUARANTINED):
-            c.state = ChildState.STOPPED
+            c.state = move(c.state, ChildCause.STOP_ASKED, child)
         if ref is None or live is None or live.actor is None or \
                 c.state not in (ChildState.RUNNING, ChildState.STARTING):
             return
-        c.state = ChildState.STOPPING
+        c.state = move(c.state, ChildCause.STOP_ASKED, child)
         with live.lock:
             live.stopping = True
         reason = ExitReason(Cause.SHUTDOWN, "stopped by supervisor")
@@ -329,7 +330,7 @@ class ActorSupervisor(SupervisedActor):
                 live.actor._abandon()
                 reason = ExitReason(Cause.SHUTDOWN,
                                     f"killed after shutdown {c.spec.shutdown_timeout:g}s")
-        c.ref, c.state, c.last_reason = None, ChildState.STOPPED, str(reason)
+        c.ref, c.state, c.last_reason = None, move(c.state, ChildCause.STOPPED, child), str(reason)
         self._policy.child_stopped(child)
         self.events.emit(ev.EXIT, child, pid=os.getpid(), reason=str(reason),
                          inc=c.incarnation)

@@ -14,21 +14,21 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from mrss.messages import Message, SupEvent
+from mrss.messages import Message, SupEvent, SupEventKind
 
 Publish = Callable[[Message], object]
 NODE_ENV = "MRSS_NODE"
 
 # The event names a supervisor emits (SupEvent.event).
-START = "start"
-EXIT = "exit"
-RESTART = "restart"
-ESCALATE = "escalate"
-GIVE_UP = "give_up"
-QUARANTINE = "quarantine"
-RELEASE = "release"
-HANG = "hang"
-STOPPING = "stopping"  # the supervisor begins to stop every child (child: itself)
+START = SupEventKind.START
+EXIT = SupEventKind.EXIT
+RESTART = SupEventKind.RESTART
+ESCALATE = SupEventKind.ESCALATE
+GIVE_UP = SupEventKind.GIVE_UP
+QUARANTINE = SupEventKind.QUARANTINE
+RELEASE = SupEventKind.RELEASE
+HANG = SupEventKind.HANG
+STOPPING = SupEventKind.STOPPING  # the supervisor begins to stop every child (child: itself)
 
 
 class SupEvents:
@@ -50,7 +50,7 @@ class SupEvents:
         return SupEvents(f"{self.supervisor}/{name}", self._publish, self._log, self.node)
 
     def emit(
-        self, event: str, child: str, *, pid: int = 0, reason: str = "", count: int = 0,
+        self, event: SupEventKind, child: str, *, pid: int = 0, reason: str = "", count: int = 0,
         **detail: Any,
     ) -> SupEvent:
         msg = SupEvent(event=event, child=child, supervisor=self.supervisor, pid=pid,

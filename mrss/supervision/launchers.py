@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.errors import SupervisionError
+from mrss.interpreter import python_module
 from mrss.supervision.reason import Cause, ExitReason
 
 log = logging.getLogger("mrss.supervision.launchers")
@@ -52,7 +53,7 @@ class Launcher:
 
 
 class ExecLauncher(Launcher):
-    """`python -m mrss.runtime.main ...` per start; exits seen via pidfd."""
+    """`python -P -m mrss.runtime.main ...` per start; exits seen via pidfd."""
 
     def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
                  python: str = sys.executable) -> None:
@@ -63,8 +64,9 @@ class ExecLauncher(Launcher):
     def spawn(self, target: str, name: str, inc: int, context: str,
               control: socket.socket) -> int:
         fd = control.fileno()
-        argv = [self.python, "-m", "mrss.runtime.main", target, "--name", name,
-                "--inc", str(inc), "--context", context, "--control-fd", str(fd)]
+        argv = python_module("mrss.runtime.main", target, "--name", name,
+                             "--inc", str(inc), "--context", context, "--control-fd", str(fd),
+                             python=self.python)
         try:
             proc = subprocess.Popen(argv, pass_fds=(fd,), stdin=subprocess.DEVNULL,
                                     process_group=0)
@@ -141,8 +143,8 @@ class ForkLauncher(Launcher):
         if self._sock is not None:
             return
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        argv = [self.python, "-m", "mrss.runtime.forkserver", "--fd", str(theirs.fileno()),
-                "--preload", ",".join(self.preload)]
+        argv = python_module("mrss.runtime.forkserver", "--fd", str(theirs.fileno()),
+                             "--preload", ",".join(self.preload), python=self.python)
         for p in self.path:
             argv += ["--path", p]
         try:

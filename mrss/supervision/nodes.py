@@ -29,8 +29,10 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-NODE_DOWN = "node_down"  # SupEvent.event names
-NODE_UP = "node_up"
+from mrss.messages import SupEventKind
+
+NODE_DOWN = SupEventKind.NODE_DOWN  # SupEvent.event names
+NODE_UP = SupEventKind.NODE_UP
 
 
 class NodeState(StrEnum):
@@ -71,7 +73,7 @@ class Transition:
     reason: str
 
     @property
-    def event(self) -> str:
+    def event(self) -> SupEventKind:
         return NODE_DOWN if self.after.lost else NODE_UP
 
 

@@ -1,5 +1,9 @@
 """The root supervisor: component processes under the shared RestartPolicy.
 
+One idea in one module, on purpose (~480 lines): the loop owns every child's state and
+is the only writer of it, so starting, watching, stopping and deciding read as one
+sequence; the rules it applies live elsewhere (policy.py, child_states.py, children.py).
+
 One thread runs the loop and owns all child state; other threads (signal handlers, the
 TUI, tests) submit commands and read snapshots. The loop starts children one at a time
 in order and waits for each to report ready; detects exits (any reason, SIGKILL
@@ -28,6 +32,7 @@ from typing import Any
 from mrss.errors import SupervisionError
 from mrss.supervision import control
 from mrss.supervision import events as ev
+from mrss.supervision.child_states import ChildCause, move
 from mrss.supervision.children import ComponentStart, Proc, ProcessSettings
 from mrss.supervision.events import Publish, SupEvents
 from mrss.supervision.launchers import ExecLauncher, ForkLauncher, Launcher
@@ -255,7 +260,7 @@ class ProcessSupervisor:
                     and self._finishing is None:
                 self._policy.release(p.id)
                 self.events.emit(ev.RELEASE, p.id)
-                p.state = ChildState.WAITING
+                p.state = move(p.state, ChildCause.PROBATION_OVER, p.id)
 
     def _advance(self, now: float) -> None:
         """Stop what must stop (one at a time, in order), then start the next child."""
@@ -300,13 +305,14 @@ class ProcessSupervisor:
                                        theirs)
         except SupervisionError as exc:
             ours.close()
-            p.state, p.spawned_at = ChildState.STARTING, now
+            p.state, p.spawned_at = move(p.state, ChildCause.STARTED, p.id), now
             self._failed(p, ExitReason(Cause.CRASHED, str(exc)))
             return
         finally:
             theirs.close()
         ours.setblocking(False)
-        p.sock, p.pid, p.state, p.spawned_at = ours, pid, ChildState.STARTING, now
+        p.sock, p.pid, p.spawned_at = ours, pid, now
+        p.state = move(p.state, ChildCause.STARTED, p.id)
         try:
             p.pidfd = os.pidfd_open(pid)
         except OSError:
@@ -337,7 +343,7 @@ class ProcessSupervisor:
         if kind == control.HEARTBEAT:
             p.last_beat = now
         elif kind == control.READY and p.state is ChildState.STARTING:
-            p.state, p.up_since, p.last_beat = ChildState.RUNNING, now, now
+            p.state, p.up_since, p.last_beat = move(p.state, ChildCause.READY, p.id), now, now
             self._policy.child_started(p.id)
             self.events.emit(ev.START, p.id, pid=p.pid, inc=p.incarnation,
                              startup_ms=round((now - p.spawned_at) * 1000, 1))
@@ -350,7 +356,7 @@ class ProcessSupervisor:
 
     # -- stopping and exits ------------------------------------------------------------------
     def _begin_stop(self, p: Proc, now: float) -> None:
-        p.state = ChildState.STOPPING
+        p.state = move(p.state, ChildCause.STOP_ASKED, p.id)
         if p.spec.shutdown_timeout <= 0:
             p.verdict = ExitReason(Cause.SHUTDOWN, "killed (shutdown = kill)")
             p.signal(signal.SIGKILL)
@@ -384,17 +390,17 @@ class ProcessSupervisor:
         self._policy.child_stopped(p.id)
         self.events.emit(ev.EXIT, p.id, pid=p.pid, reason=str(reason), inc=p.incarnation)
         if self._finishing is None and p.then_restart:
-            p.state = ChildState.WAITING
+            p.state = move(p.state, ChildCause.STOPPED_TO_RESTART, p.id)
         elif self._finishing is None and p.then_quarantine:
-            p.state = ChildState.QUARANTINED
+            p.state = move(p.state, ChildCause.STOPPED_TO_QUARANTINE, p.id)
         else:
-            p.state = ChildState.STOPPED
+            p.state = move(p.state, ChildCause.STOPPED, p.id)
         p.then_restart = p.then_quarantine = False
 
     def _failed(self, p: Proc, reason: ExitReason) -> None:
         p.last_reason = str(reason)
         self.events.emit(ev.EXIT, p.id, pid=p.pid, reason=str(reason), inc=p.incarnation)
-        p.state = ChildState.STOPPED
+        p.state = move(p.state, ChildCause.EXITED, p.id)
         if self._finishing is not None:
             return
         running = {q.id for q in self._procs.values() if q.alive}
@@ -410,7 +416,7 @@ class ProcessSupervisor:
                 q = self._procs[rid]
                 q.not_before = now + d.delay
                 if not q.alive:
-                    q.state = ChildState.WAITING
+                    q.state = move(q.state, ChildCause.RESTART_DUE, q.id)
             extra: dict[str, Any] = {"subtree": d.group, "note": d.note} if d.group else {}
             self.events.emit(ev.RESTART, d.child, reason=str(d.reason), count=d.count,
                              delay=round(d.delay, 3), group=list(d.restart), **extra)
@@ -431,7 +437,7 @@ class ProcessSupervisor:
                 q.then_quarantine = True
                 self._stop_queue.append(cid)
             elif not q.alive:
-                q.state = ChildState.QUARANTINED
+                q.state = move(q.state, ChildCause.GIVEN_UP, q.id)
         self.events.emit(
             ev.GIVE_UP, d.child, reason=str(d.reason), count=d.count, note=d.note,
             stops="component", subtree=d.group, members=list(d.drop),
@@ -448,7 +454,7 @@ class ProcessSupervisor:
         self._begin_shutdown()
         for p in self._procs.values():
             if p.alive and not p.killed:
-                p.state = ChildState.STOPPING
+                p.state = move(p.state, ChildCause.STOP_ASKED, p.id)
                 p.verdict = ExitReason(Cause.SHUTDOWN, "killed (forced stop)")
                 p.signal(signal.SIGKILL)
 
@@ -457,7 +463,7 @@ class ProcessSupervisor:
         for p in self._procs.values():
             p.then_restart = p.then_quarantine = False
             if p.state in (ChildState.WAITING, ChildState.QUARANTINED):
-                p.state = ChildState.STOPPED
+                p.state = move(p.state, ChildCause.STOP_ASKED, p.id)
         self._stop_queue = [p.id for p in reversed(self._procs.values()) if p.alive]
 
     def _cleanup(self) -> None:
@@ -465,7 +471,7 @@ class ProcessSupervisor:
             for p in self._procs.values():
                 if p.alive:
                     p.signal(signal.SIGKILL)
-                    p.state = ChildState.STOPPED
+                    p.state = move(p.state, ChildCause.ABANDONED, p.id)
                 p.close()
             if self._launcher is not None:
                 self._launcher.close()

@@ -15,7 +15,15 @@ from __future__ import annotations
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct
-from mrss.messages import ActionControl, ActionQuery, Command, DataRequest, Percept
+from mrss.messages import (
+    ActionControl,
+    ActionQuery,
+    Command,
+    ControlCommand,
+    ControlTarget,
+    DataRequest,
+    Percept,
+)
 
 FAULTS = ("kill", "hang", "crash", "term")
 ACTION_COMMANDS = ("cancel", "suspend", "resume")
@@ -73,7 +81,8 @@ def action_control(command: str, uuid: str) -> ActionControl:
         raise OperatorError(f"unknown action command {command!r}")
     if not uuid:
         raise OperatorError("no action selected")
-    return ActionControl(command=command, target=uuid, target_kind="action")
+    return ActionControl(command=ControlCommand(command), target=uuid,
+                         target_kind=ControlTarget.ACTION)
 
 
 def teleop(robot: str, on: bool) -> Command:

@@ -22,7 +22,7 @@ from textual.app import App
 from textual.css.query import NoMatches
 from textual.widgets import Header, Static
 
-from mrss.messages import Message, SupEvent
+from mrss.messages import Message, SupEvent, SupEventKind
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
 from mrss.tui.models.actions import ActionsModel
@@ -131,14 +131,14 @@ class Picture:
         A component started by the root afterwards is a new run: the banner clears."""
         if src != ROOT_SRC:
             return
-        if event.event == "give_up" and event.detail.get("stops") == "system":
+        if event.event is SupEventKind.GIVE_UP and event.detail.get("stops") == "system":
             root = event.supervisor or self.supervision.root or self.project
             self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
             self.show()
-        elif event.event == "stopping" and event.child == (self.supervision.root
-                                                            or event.child):
+        elif (event.event is SupEventKind.STOPPING
+              and event.child == (self.supervision.root or event.child)):
             self._system_stopping = True  # its silence, once it falls, is the end
-        elif event.event == "start" and self.liveness.ended:
+        elif event.event is SupEventKind.START and self.liveness.ended:
             self.liveness.ended = ""
             self._system_stopping = False
 

@@ -2,15 +2,15 @@
 
 ADAPT: the operator's messages. `mrss/ui/goto` `{"goal": "g1", "robot": "ugv1", "lat":
 48.2, "lon": 16.37}` -> `goto_received(g1, ugv1, 48.2, 16.37)`; `mrss/ui/cancel`
-`{"goal": "g1"}` -> `goal_cancelled(g1)`. A payload that does not fit is reported back on
-`<topic>/reply`, never a percept.
+`{"goal": "g1"}` -> `goal_cancelled(g1)`. A payload that does not fit (a robot the RCL
+does not have, too) is reported back on `<topic>/reply`, never a percept.
 """
 
 from __future__ import annotations
 
 from mrss.api import ExternalAdapter, Field, JsonMapping, Option
 
-GOTO = JsonMapping("goto_received", Field("goal", "atom"), Field("robot", "atom"),
+GOTO = JsonMapping("goto_received", Field("goal", "atom"), Field("robot", "robot"),
                    Field("lat", "lat"), Field("lon", "lon"))
 CANCEL = JsonMapping("goal_cancelled", Field("goal", "atom"))
 

@@ -39,6 +39,11 @@ retryable(link_down).
 retryable(failsafe).
 retryable(quarantined).     // its actor kept crashing: retried after its probation
 max_tries(3).
+// Every retry loop has a budget: a teleop switch is tried at most max_switch_tries times
+// (2 s apart), a recharge or refill max_service_tries times (1 s apart). One given up
+// gets a new budget when its robot becomes available again (-robot_unavailable).
+max_switch_tries(30).
+max_service_tries(60).
 tries(G, N) :- tried(G, N).
 tries(G, 0) :- not tried(G, _).
 
@@ -113,31 +118,42 @@ tries(G, 0) :- not tried(G, _).
 // Teleoperation (paper VI): the operator's wish is the percept teleop(R, on|off). On:
 // suspend every goal of the robot and switch it to direct control with a skill; off:
 // switch it back, then resume. Every change of the wish starts its own switch. One that
-// fails (the link is down, the RCL restarted) is tried again every 2 s for as long as
-// the operator still wants that mode, and not once the wish has changed: "on" retried
-// after the operator said "off" would leave the robot teleoperated while the agent
-// believes it drives it (chaos seed 6).
+// fails for a cause worth a retry (the link is down, the RCL restarted) is tried again
+// every 2 s, at most max_switch_tries times, for as long as the operator still wants
+// that mode, and not once the wish has changed: "on" retried after the operator said
+// "off" would leave the robot teleoperated while the agent believes it drives it (chaos
+// seed 6). A refusal (`rejected`: the RCL has no such robot) is not tried again. A
+// switch given up is tried again when its robot becomes available again.
 +teleop(R, on)[source(percept)] : not paused(R, teleop)
    <- .print(R, " switched to teleoperation: its goals are suspended");
       +paused(R, teleop);
       !hold_task(R);
-      !switch_mode(R, on).
+      !switch_mode(R, on, 1).
 +teleop(R, on)[source(percept)]              // still paused: switching back was under way
-   <- !switch_mode(R, on).
+   <- !switch_mode(R, on, 1).
 +teleop(R, off)[source(percept)] : paused(R, teleop)
-   <- !switch_mode(R, off).
-+!switch_mode(R, Mode)
-   <- teleop_mode(R, Mode)[priority(1000)];
+   <- !switch_mode(R, off, 1).
++!switch_mode(R, Mode, N)
+   <- -switch_given_up(R, _);
+      teleop_mode(R, Mode)[priority(1000)];
       !switched(R, Mode).
--!switch_mode(R, Mode)[error(E)] : teleop(R, Mode)
-   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): again in 2 s");
+-!switch_mode(R, Mode, N)[error(E)]
+      : teleop(R, Mode) & retryable(E) & max_switch_tries(M) & N < M
+   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): try ", N + 1,
+             " of ", M, " in 2 s");
       .wait(2000);
-      !retry_switch(R, Mode).
--!switch_mode(R, Mode)[error(E)]             // the wish changed: its own switch follows it
+      !retry_switch(R, Mode, N + 1).
+-!switch_mode(R, Mode, N)[error(E)] : teleop(R, Mode) & retryable(E)
+   <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): given up after ",
+             N, " tries, until ", R, " is available again");
+      +switch_given_up(R, Mode).
+-!switch_mode(R, Mode, N)[error(E)] : teleop(R, Mode)
+   <- .print("switching ", R, " to teleop ", Mode, " refused (", E, "): not tried again").
+-!switch_mode(R, Mode, N)[error(E)]          // the wish changed: its own switch follows it
    <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): no longer wanted").
-+!retry_switch(R, Mode) : teleop(R, Mode)
-   <- !switch_mode(R, Mode).
-+!retry_switch(R, Mode).
++!retry_switch(R, Mode, N) : teleop(R, Mode)
+   <- !switch_mode(R, Mode, N).
++!retry_switch(R, Mode, N).
 // Switched back to autonomy, and still wanted so: resume the robot's goals.
 @switched_off[atomic]
 +!switched(R, off) : teleop(R, off) & paused(R, teleop)
@@ -165,7 +181,16 @@ tries(G, 0) :- not tried(G, _).
    <- .print(R, " is unavailable: its goals wait").
 -robot_unavailable(R)[source(percept)]
    <- .print(R, " is available again");
+      !retry_given_up(R);
       !schedule(R).
+// What was given up for lack of the robot gets a new budget now that it is back.
++!retry_given_up(R) : switch_given_up(R, Mode) & teleop(R, Mode)
+   <- -switch_given_up(R, Mode);
+      !!switch_mode(R, Mode, 1).
++!retry_given_up(R) : service_given_up(R, Why, Action)
+   <- -service_given_up(R, Why, Action);
+      !!service(R, Why, Action).
++!retry_given_up(R).
 
 /* ---------------------------------------------------------------- scheduling */
 // The scheduling plans are [atomic]: between a plan's context (`not task(R, _, _)`,
@@ -273,29 +298,34 @@ tries(G, 0) :- not tried(G, _).
 // Battery / water service: hold the goal, run the service action above every goal's
 // priority, then let the scheduler resume the best goal. A service that fails for a
 // cause worth a retry (the link was lost, the RCL restarted meanwhile) is tried again
-// every second: given up, it would leave the robot paused for good, its goals waiting
-// on a battery or a tank nobody fills (chaos, 10 kills of the reasoner and the RCL).
+// every second, max_service_tries times, and once more when the robot is available
+// again: given up for good, it would leave the robot paused, its goals waiting on a
+// battery or a tank nobody fills (chaos, 10 kills of the reasoner and the RCL).
 +!service(R, Why, Action)
    <- +paused(R, Why);
       !hold_task(R);
-      !serviced(R, Why, Action).
-+!serviced(R, Why, Action)
+      !serviced(R, Why, Action, 1).
++!serviced(R, Why, Action, N)
    <- !run_service(R, Action);
       -paused(R, Why);
       .print(R, " ", Action, " done");
       !schedule(R).
 +!run_service(R, recharge) <- recharge(R, recharge)[priority(1000)].
 +!run_service(R, refill) <- refill(R, refill)[priority(1000)].
--!serviced(R, Why, Action)[error(E)] : retryable(E)
-   <- .print(R, " ", Action, " failed (", E, "): again in 1 s");
+-!serviced(R, Why, Action, N)[error(E)] : retryable(E) & max_service_tries(M) & N < M
+   <- .print(R, " ", Action, " failed (", E, "): try ", N + 1, " of ", M, " in 1 s");
       .wait(1000);
-      !serviced(R, Why, Action).
--!serviced(R, Why, Action)[error(E)]
+      !serviced(R, Why, Action, N + 1).
+-!serviced(R, Why, Action, N)[error(E)] : retryable(E)
+   <- .print(R, " ", Action, " failed (", E, "): given up after ", N, " tries, until ",
+             R, " is available again");
+      +service_given_up(R, Why, Action).
+-!serviced(R, Why, Action, N)[error(E)]
    <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
 
 // a failed service leaves the robot paused: fixed by hand (the percept goes away), it
 // goes on with its goals
 -battery_low(R)[source(percept)] : paused(R, battery) & not .intend(service(R, battery, _))
-   <- -paused(R, battery); !schedule(R).
+   <- -paused(R, battery); -service_given_up(R, battery, _); !schedule(R).
 -water_low(R)[source(percept)] : paused(R, water) & not .intend(service(R, water, _))
-   <- -paused(R, water); !schedule(R).
+   <- -paused(R, water); -service_given_up(R, water, _); !schedule(R).

@@ -15,8 +15,9 @@ not a second event):
     <prefix>/hold      {"on": true}                    -> hold_all (all robots hold); false
                                                           removes it (they go on)
 
-Goal ids and robot ids are lowercase identifiers; a payload that does not fit is
-counted as bad and reported back at once on `<topic>/reply`, never a percept. An area
+Goal ids and robot ids are lowercase identifiers, and a robot is one of the project's
+(`self.robots`: the RCL's robots); a payload that does not fit is counted as bad and
+reported back at once on `<topic>/reply`, never a percept. An area
 waits for the world model while it is down (restarting, hung): the events manager tries
 again with backoff, and reports `failed` on `<topic>/reply` if it stays down past
 `[events] retry_budget`.
@@ -40,7 +41,7 @@ GOAL = Field("goal", "atom")
 PRIORITY = Field("priority", "int", default=1)
 CANCEL = JsonMapping("goal_cancelled", GOAL)
 PRIORITY_CHANGE = JsonMapping("prioritychange", GOAL, Field("priority", "int"))
-TELEOP = JsonMapping("teleop", Field("robot", "atom"), Field("on", "bool"))
+TELEOP = JsonMapping("teleop", Field("robot", "robot"), Field("on", "bool"))
 AREA = JsonMapping("area_goal_received", GOAL, PRIORITY)
 HOLD_ON = Field("on", "bool")  # ops/hold: hold_all added (true) or removed (false)
 MAX_VERTICES = 200
@@ -121,7 +122,7 @@ class WildfireEvents(ExternalAdapter):
 
     def on_teleop(self, topic: str, obj: dict[str, Any]) -> None:
         """Teleop on/off: the new state is perceived, the old one is not any more."""
-        robot, on = TELEOP.args(obj, topic=topic)
+        robot, on = TELEOP.args(obj, topic=topic, robots=self.robots)  # no unknown robot
         state, old = ("on", "off") if on else ("off", "on")
         self.percept("teleop", robot, Atom(old), op="remove")
         self.percept("teleop", robot, Atom(state))

@@ -46,7 +46,7 @@ def test_cancel_stops_the_robot_and_ends_the_action(rcl_env: RclEnv) -> None:
     wait_until(rcl_env.statuses.reached("a1", "cancelled"))
     assert robot.halts == 1 and robot.visited == []
     assert rcl_env.layer.ended[-1].uuid == "a1"
-    assert core.active() == {}
+    assert core.observers.active() == {}
 
 
 def test_succeed_and_fail_commands_end_actions_directly(rcl_env: RclEnv) -> None:
@@ -78,10 +78,10 @@ def test_goal_and_robot_targets_reach_every_matching_action(rcl_env: RclEnv) -> 
     assert sorted(core.control(ActionControl("suspend", "area", "goal"))) == ["a1", "a2"]
     wait_until(rcl_env.statuses.reached("a1", "suspended"))
     wait_until(rcl_env.statuses.reached("a2", "suspended"))
-    assert core.active()["a3"].value == "running"
+    assert core.observers.active()["a3"].value == "running"
     assert core.control(ActionControl("cancel", "ugv2", "robot")) == ["a3"]
     wait_until(rcl_env.statuses.reached("a3", "cancelled"))
-    assert sorted(core.active()) == ["a1", "a2"]
+    assert sorted(core.observers.active()) == ["a1", "a2"]
 
 
 def test_control_for_an_unknown_target_changes_nothing(rcl_env: RclEnv) -> None:
@@ -89,7 +89,7 @@ def test_control_for_an_unknown_target_changes_nothing(rcl_env: RclEnv) -> None:
     _patrol(rcl_env, core, "a1")
     assert core.control(ActionControl("cancel", "nope")) == []
     assert core.control(ActionControl("cancel", "ugv9", "robot")) == []
-    assert core.active()["a1"].value == "running"
+    assert core.observers.active()["a1"].value == "running"
 
 
 def test_teleop_suspends_every_action_and_resumes_them_from_progress(rcl_env: RclEnv) -> None:
@@ -98,7 +98,7 @@ def test_teleop_suspends_every_action_and_resumes_them_from_progress(rcl_env: Rc
     _patrol(rcl_env, core, "a1", waypoints=("p1", "p2", "p3"))
     robot.arrive(1)
     wait_until(lambda: robot.is_moving_to("p2"))
-    core.set_teleop("ugv1", True)
+    core.availability.set_teleop("ugv1", True)
     wait_until(rcl_env.statuses.reached("a1", "suspended"))
     # a resume from the reasoner does not override the operator's teleop
     core.control(ActionControl("resume", "a1"))
@@ -107,7 +107,7 @@ def test_teleop_suspends_every_action_and_resumes_them_from_progress(rcl_env: Rc
     wait_until(rcl_env.statuses.reached("a2", "suspended"))
     assert rcl_env.statuses.states("a1") == ["pending", "running", "suspended"]
 
-    core.set_teleop("ugv1", False)
+    core.availability.set_teleop("ugv1", False)
     wait_until(rcl_env.statuses.reached("a2", "succeeded"))
     wait_until(lambda: robot.is_moving_to("p2"), message="a1 resumed at p2")
     robot.arrive(2)
@@ -125,11 +125,11 @@ def test_teleop_does_not_resume_an_action_suspended_by_goal_management(
     _patrol(rcl_env, core, "a1")
     core.control(ActionControl("suspend", "a1"))
     wait_until(rcl_env.statuses.reached("a1", "suspended"))
-    core.set_teleop("ugv1", True)
-    core.set_teleop("ugv1", False)
+    core.availability.set_teleop("ugv1", True)
+    core.availability.set_teleop("ugv1", False)
     core.submit_fields(request_fields("a2", "noop", "ugv1", "g2"))  # flushes the inbox
     wait_until(rcl_env.statuses.reached("a2", "succeeded"))
-    assert {u: s.value for u, s in core.active().items()} == {"a1": "suspended"}
+    assert {u: s.value for u, s in core.observers.active().items()} == {"a1": "suspended"}
 
 
 def test_skill_ignoring_its_interrupt_is_abandoned(rcl_env: RclEnv) -> None:
@@ -154,7 +154,7 @@ def test_link_down_fails_the_robots_actions_and_marks_it_unavailable(rcl_env: Rc
     core = rcl_env.start()
     _patrol(rcl_env, core, "a1", robot="ugv1")
     _patrol(rcl_env, core, "a2", robot="uav1")
-    assert core.link_state("ugv1", False, "no heartbeat for 3.0 s") == ["a1"]
+    assert core.availability.link_state("ugv1", False, "no heartbeat for 3.0 s") == ["a1"]
     wait_until(rcl_env.statuses.reached("a1", "failed"))
     last = rcl_env.statuses.last("a1")
     assert last is not None and last.reason == "robot ugv1 unreachable: no heartbeat for 3.0 s"
@@ -169,7 +169,7 @@ def test_link_down_fails_the_robots_actions_and_marks_it_unavailable(rcl_env: Rc
     assert "link down: no heartbeat" in (rcl_env.statuses.last("a3") or ActionStatus(
         uuid="x", state="failed")).reason
 
-    core.link_state("ugv1", True)
+    core.availability.link_state("ugv1", True)
     wait_until(lambda: [m for m in rcl_env.statuses.others
                         if isinstance(m, RobotState)][-1].available, message="ugv1 back")
     core.submit_fields(request_fields("a4", "patrol", "ugv1", "g4", ["p1"]))

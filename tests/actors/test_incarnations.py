@@ -24,17 +24,17 @@ def test_orphans_of_a_dead_incarnation_are_cancelled_once_the_grace_is_over(
     wait_until(rcl_env.statuses.reached("old1", "running"))
     wait_until(rcl_env.statuses.reached("other", "running"))
 
-    assert core.saw_incarnation("reasoner", 2) == ["old1"]
-    assert core.cancel_orphans() == []  # within the grace: it keeps running
-    assert "old1" in core.active()
-    rcl_env.now += core.orphans.grace + 0.1
-    assert core.cancel_orphans() == ["old1"]
+    assert core.requesters.saw_incarnation("reasoner", 2) == ["old1"]
+    assert core.requesters.cancel_orphans() == []  # within the grace: it keeps running
+    assert "old1" in core.observers.active()
+    rcl_env.now += core.requesters.orphans.grace + 0.1
+    assert core.requesters.cancel_orphans() == ["old1"]
     wait_until(rcl_env.statuses.reached("old1", "cancelled"))
     last = rcl_env.statuses.last("old1")
     assert last is not None and "orphaned: reasoner incarnation 1 is gone" in last.reason
     assert last.cause == FailureCause.ORPHANED
-    assert core.saw_incarnation("reasoner", 2) == []  # once per incarnation
-    assert list(core.active()) == ["other"]
+    assert core.requesters.saw_incarnation("reasoner", 2) == []  # once per incarnation
+    assert list(core.observers.active()) == ["other"]
     # (late requests of incarnation 1 never reach the core: the bus drops them, see
     # tests/bus/test_bus_incarnations.py and tests/actors/test_rcl_bus.py)
 
@@ -43,9 +43,9 @@ def test_a_new_incarnation_adopts_an_orphan_by_asking_for_its_uuid(rcl_env: RclE
     core = rcl_env.start()
     core.submit(_req("old1", "ugv1", "a1"), Requester("reasoner", 1))
     wait_until(rcl_env.statuses.reached("old1", "running"))
-    core.saw_incarnation("reasoner", 2)
+    core.requesters.saw_incarnation("reasoner", 2)
 
-    core.answer_query(ActionQuery(requester="reasoner", inc=2), Requester("reasoner", 2))
+    core.requesters.answer_query(ActionQuery(requester="reasoner", inc=2), Requester("reasoner", 2))
     inventories = [m for m in rcl_env.statuses.others if isinstance(m, ActionInventory)]
     assert len(inventories) == 1 and inventories[0].inc == 2
     [item] = inventories[0].actions
@@ -58,9 +58,9 @@ def test_a_new_incarnation_adopts_an_orphan_by_asking_for_its_uuid(rcl_env: RclE
     assert rcl_env.journal is not None
     entry = rcl_env.journal.get("old1")
     assert entry is not None and entry.requester == Requester("reasoner", 2)
-    rcl_env.now += core.orphans.grace_suspended + 1
-    assert core.cancel_orphans() == []  # adopted: no orphan any more
-    assert "old1" in core.active()
+    rcl_env.now += core.requesters.orphans.grace_suspended + 1
+    assert core.requesters.cancel_orphans() == []  # adopted: no orphan any more
+    assert "old1" in core.observers.active()
     states = [state.value for state, _ in rcl_env.journal.transitions("old1")]
     assert states == ["pending", "running"]  # never cancelled and started again
 
@@ -70,7 +70,7 @@ def test_reconciliation_answers_each_known_uuid_from_the_journal(rcl_env: RclEnv
     core.submit(_req("a", "ugv1"), Requester("reasoner", 1))
     wait_until(rcl_env.statuses.reached("a", "running"))
     before = len(rcl_env.statuses.of("a"))
-    assert core.answer_query(ActionQuery(uuids=["a", "never-seen"])) == 1
+    assert core.requesters.answer_query(ActionQuery(uuids=["a", "never-seen"])) == 1
     assert len(rcl_env.statuses.of("a")) == before + 1
     assert rcl_env.statuses.last("a") is not None
     assert rcl_env.statuses.of("never-seen") == []
@@ -86,8 +86,8 @@ def test_first_request_of_a_new_incarnation_marks_orphans_even_after_restart(
     core = rcl_env.start()
     wait_until(lambda: any("RCL restart" in s.reason for s in rcl_env.statuses.of("old1")))
     core.submit(_req("new1", "ugv2"), Requester("reasoner", 5))
-    rcl_env.now += core.orphans.grace + 0.1
-    assert core.cancel_orphans() == ["old1"]
+    rcl_env.now += core.requesters.orphans.grace + 0.1
+    assert core.requesters.cancel_orphans() == ["old1"]
     wait_until(rcl_env.statuses.reached("old1", "cancelled"))
     wait_until(rcl_env.statuses.reached("new1", "running"))
     assert rcl_env.journal is not None
@@ -174,13 +174,13 @@ def test_a_skill_that_loses_its_robot_fails_with_a_cause_worth_a_retry(
 def test_a_request_for_an_unavailable_robot_is_refused_with_the_cause_of_it(
         rcl_env: RclEnv) -> None:
     core = rcl_env.start()
-    core.link_state("ugv1", False, "no heartbeat for 3.0 s")
+    core.availability.link_state("ugv1", False, "no heartbeat for 3.0 s")
     core.submit(ActionRequest(uuid="r1", name="patrol", args=["ugv1", "g1", ["p1"]]))
     wait_until(rcl_env.statuses.reached("r1", "failed"))
     last = rcl_env.statuses.last("r1")
     assert last is not None and last.cause == FailureCause.LINK_DOWN  # worth a retry later
     assert "unavailable" in last.reason
-    core.link_state("ugv1", True)
+    core.availability.link_state("ugv1", True)
     core.submit(ActionRequest(uuid="r2", name="patrol", args=["ugv1", "g1", ["p1"]]))
     wait_until(rcl_env.statuses.reached("r2", "running"))
     core.submit(ActionRequest(uuid="r3", name="patrol", args=[]))  # malformed: rejected

@@ -102,7 +102,7 @@ def test_preempted_action_suspended_by_control_stays_suspended(rcl_env: RclEnv) 
     wait_until(rcl_env.statuses.reached("high", "succeeded"))
     core.submit_fields(request_fields("flush", "noop", "ugv1", "g"))
     wait_until(rcl_env.statuses.reached("flush", "succeeded"))
-    assert core.active()["low"].value == "suspended"
+    assert core.observers.active()["low"].value == "suspended"
     core.control(ActionControl("resume", "low"))
     wait_until(lambda: ugv.is_moving_to("x"))
 

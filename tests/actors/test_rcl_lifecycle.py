@@ -25,7 +25,7 @@ def test_action_runs_its_skills_and_succeeds(rcl_env: RclEnv) -> None:
     assert last is not None and last.progress == {"waypoint": 3} and last.robot == "ugv1"
     assert [a.uuid for a in rcl_env.layer.ended] == ["a1"]
     assert rcl_env.layer.ended[0].state.value == "succeeded"
-    assert core.active() == {}
+    assert core.observers.active() == {}
 
 
 def test_every_status_is_journaled_before_it_is_published(rcl_env: RclEnv) -> None:
@@ -147,6 +147,25 @@ def test_malformed_request_is_failed_with_a_logged_reason(
     assert rcl_env.robots["ugv1"].visited == []
 
 
+def test_requests_for_robots_that_do_not_exist_fail_each_and_are_logged_once(
+    rcl_env: RclEnv, caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Issue 29: each rejected request was a WARNING line (21,206 in 90 s of a teleop
+    flood). Each still fails with its reason; the log tells of them once per interval."""
+    core = rcl_env.start()
+    with caplog.at_level(logging.WARNING, logger="mrss.rcl"):
+        for n in range(100):
+            core.submit_fields(request_fields(f"g{n}", "patrol", f"ghost{n}", "g", []))
+        wait_until(lambda: all(rcl_env.statuses.reached(f"g{n}", "failed")()
+                               for n in range(100)), message="every request failed")
+    for n in range(100):
+        last = rcl_env.statuses.last(f"g{n}")
+        assert last is not None and f"unknown robot 'ghost{n}'" in last.reason
+    assert core.rejections.stats() == {"-: unknown robot": 100}
+    lines = [r.getMessage() for r in caplog.records if "unknown robot" in r.getMessage()]
+    assert len(lines) == 1 and "refused action request from -: unknown robot" in lines[0]
+
+
 def test_request_without_uuid_is_dropped_and_logged(
     rcl_env: RclEnv, caplog: pytest.LogCaptureFixture,
 ) -> None:
@@ -183,12 +202,12 @@ def test_duplicate_of_a_running_action_does_not_start_it_again(rcl_env: RclEnv) 
 
 def test_unavailable_robot_rejects_new_actions(rcl_env: RclEnv) -> None:
     core = rcl_env.start()
-    core.set_available("uav1", False, "link down")
+    core.availability.set_available("uav1", False, "link down")
     core.submit_fields(request_fields("u1", "noop", "uav1", "g1"))
     wait_until(rcl_env.statuses.reached("u1", "failed"))
     last = rcl_env.statuses.last("u1")
     assert last is not None and "uav1 unavailable: link down" in last.reason
-    core.set_available("uav1", True)
+    core.availability.set_available("uav1", True)
     core.submit_fields(request_fields("u2", "noop", "uav1", "g1"))
     wait_until(rcl_env.statuses.reached("u2", "succeeded"))
 

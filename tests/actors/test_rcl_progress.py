@@ -31,13 +31,13 @@ def test_recorded_progress_goes_out_throttled_as_repeat_statuses_and_never_after
         return entry.action.progress.get("waypoint") if entry is not None else None
 
     wait_until(lambda: journaled() == 2, message="second progress journaled")
-    assert core.publish_progress() == 0 and _progress(rcl_env, "a1") == [1]
+    assert core.observers.publish_progress() == 0 and _progress(rcl_env, "a1") == [1]
     rcl_env.now += 1.0  # a second later the newest value goes out (the heartbeat's call)
-    assert core.publish_progress() == 1 and _progress(rcl_env, "a1") == [1, 2]
+    assert core.observers.publish_progress() == 1 and _progress(rcl_env, "a1") == [1, 2]
     robot.arrive(2)
     wait_until(rcl_env.statuses.reached("a1", "succeeded"), message="a1 succeeded")
     rcl_env.now += 5.0
-    assert core.publish_progress() == 0  # ended: nothing more of it
+    assert core.observers.publish_progress() == 0  # ended: nothing more of it
     statuses = rcl_env.statuses.of("a1")
     assert statuses[-1].state == "succeeded" and not statuses[-1].repeat
     assert [s.state for s in statuses if not s.repeat] == ["pending", "running", "succeeded"]
@@ -60,9 +60,9 @@ def test_snapshot_sends_every_robot_state_and_every_open_action_as_repeats(
     rcl_env.robots["ugv2"].arrive(1)
     wait_until(rcl_env.statuses.reached("a1", "running"), message="a1 running")
     wait_until(rcl_env.statuses.reached("a2", "succeeded"), message="a2 done")
-    core.set_teleop("uav1", True)
+    core.availability.set_teleop("uav1", True)
     before = len(rcl_env.statuses.others)
-    assert core.snapshot() == 1  # a1 only: a2 has ended
+    assert core.observers.snapshot() == 1  # a1 only: a2 has ended
     repeat = rcl_env.statuses.last("a1")
     assert repeat == ActionStatus(uuid="a1", state="running", robot="ugv1", repeat=True,
                                   name="patrol", goal="g1")

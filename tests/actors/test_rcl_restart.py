@@ -44,7 +44,7 @@ def test_rcl_restart_resumes_or_fails_every_open_action(rcl_env: RclEnv) -> None
     assert after["held"].state == "suspended" and "RCL restart" in after["held"].reason
     assert "'ugv2' is not configured" in after["gone"].reason
     assert "done" not in after
-    assert {u: s.value for u, s in core.active().items()} == {
+    assert {u: s.value for u, s in core.observers.active().items()} == {
         "run": "running", "held": "suspended"}
 
     # still idempotent across the restart, and still controllable
@@ -74,13 +74,13 @@ def test_teleop_survives_a_restart(rcl_env: RclEnv) -> None:
     core = rcl_env.start()
     core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1"]))
     wait_until(rcl_env.statuses.reached("a1", "running"))
-    core.set_teleop("ugv1", True)
+    core.availability.set_teleop("ugv1", True)
     wait_until(rcl_env.statuses.reached("a1", "suspended"))
     rcl_env.stop()
     core = rcl_env.start()
     wait_until(lambda: len(rcl_env.statuses.states("a1")) == 4)
     assert rcl_env.statuses.states("a1")[-1] == "suspended"
-    core.set_teleop("ugv1", False)
+    core.availability.set_teleop("ugv1", False)
     wait_until(lambda: rcl_env.robots["ugv1"].is_moving_to("p1"))
     rcl_env.robots["ugv1"].arrive()
     wait_until(rcl_env.statuses.reached("a1", "succeeded"))
@@ -170,11 +170,11 @@ def test_links_closing_while_the_rcl_stops_fail_nothing(rcl_env: RclEnv) -> None
     core.submit_fields(request_fields("run", "patrol", "ugv1", "g1", ["p1", "p2"]))
     wait_until(lambda: ugv.is_moving_to("p1"))
     core.stop()
-    assert core.link_state("ugv1", False, "link closed") == []
+    assert core.availability.link_state("ugv1", False, "link closed") == []
     rcl_env.stop()
     core = rcl_env.start(robots={"ugv1": ugv, "uav1": rcl_env.robots["uav1"]})
     wait_until(lambda: ugv.is_moving_to("p1"), message="'run' resumed")
     assert rcl_env.statuses.states("run")[-1] == "running"
-    assert {u: s.value for u, s in core.active().items()} == {"run": "running"}
-    assert core.link_state("ugv1", False, "no heartbeat") == ["run"]  # a live one does
+    assert {u: s.value for u, s in core.observers.active().items()} == {"run": "running"}
+    assert core.availability.link_state("ugv1", False, "no heartbeat") == ["run"]  # a live one does
     wait_until(rcl_env.statuses.reached("run", "failed"))

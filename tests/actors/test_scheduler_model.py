@@ -114,7 +114,7 @@ class SchedulerMachine(RuleBasedStateMachine):
                 else:
                     self.feed(a, lc.Stopped())
                     return
-            elif isinstance(effect, lc.Check):
+            elif isinstance(effect, lc.CheckStatus):
                 done = int(a.action.progress.get("done", 0)) >= a.work  # type: ignore[arg-type]
                 self.feed(a, lc.Verdict(ActionState.SUCCEEDED if done else None,
                                         all_ended=not a.skill))

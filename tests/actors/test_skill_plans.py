@@ -58,14 +58,14 @@ def test_a_plan_goes_out_as_waypoints_are_reached_and_is_cleared_when_the_action
     rcl_env.robots["ugv1"].arrive(1)
     wait_until(lambda: plans(rcl_env, "ugv1")[-1] == ("a1", 3, 1), message="one reached")
     # a dashboard that attaches late asks for a snapshot: the latest plan comes again
-    core.snapshot()
+    core.observers.snapshot()
     assert plans(rcl_env, "ugv1") == [("a1", 3, 0), ("a1", 3, 1), ("a1", 3, 1)]
     rcl_env.robots["ugv1"].arrive(2)
     wait_until(rcl_env.statuses.reached("a1", "succeeded"), message="a1 succeeded")
     wait_until(lambda: len(plans(rcl_env, "ugv1")) == 6, message="the plan cleared")
     assert plans(rcl_env, "ugv1") == [("a1", 3, 0), ("a1", 3, 1), ("a1", 3, 1), ("a1", 3, 2),
                                       ("a1", 3, 3), ("a1", 0, 0)]
-    core.snapshot()  # ended: its plan is not sent again
+    core.observers.snapshot()  # ended: its plan is not sent again
     assert len(plans(rcl_env, "ugv1")) == 6
     # an action whose skills publish no plan sends no clearing record
     rcl_env.robots["ugv2"].auto = True

@@ -99,6 +99,9 @@ def test_10000_reliable_messages_survive_two_proxy_kills_exactly_once(
     wait_until(lambda: len(sender.lines) > 2, 10, message="resend count")
     if not endpoints.direct:
         assert int(sender.lines[2].split()[1]) > 0, "the kills should have cost messages"
+    # Acked means handled; the receiver's report of it (its stdout) may still be on the
+    # way to us: wait for every line, then judge what arrived.
+    wait_until(lambda: len(handled()) >= count, 30, message="the receiver's report of all")
     uuids = handled()
     duplicates = [u for u, n in Counter(uuids).items() if n > 1]
     assert duplicates == []

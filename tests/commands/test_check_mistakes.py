@@ -25,6 +25,7 @@ from mrss.cli import main
 TEMPLATE = Path(__file__).resolve().parents[2] / "projects" / "template"
 SIM_UAV = '\n[components.sim_uav]\nkind = "sim_uav"\n'
 ROBOT2 = '\n[components.rcl.robots.robot2]\nlink = "mavlink"\n'
+REACHED = '      .print("goal ", G, " reached");'
 
 
 @dataclass(frozen=True)
@@ -156,7 +157,34 @@ MISTAKES = [
             "      -busy(R, G);\n      +free(R);\n      query(distanse_to, [R, Lat, Lon], D);\n"
             "      .print(\"goal \", G, \" reached\");", "distanse_to",
             r"defines no function 'distanse_to'; did you mean 'distance_to'\?"),
+    # agent.asl about project.toml's robots and datalayer.py's functions (cross-file)
+    Mistake("belief naming a robot no robot table has", "agent.asl", "free(robot1).",
+            "free(robot2).", "free(robot2)", r"'robot2' is not a robot: argument 1 of free/1 "
+            r"holds a robot id.*defines the robots robot1; did you mean 'robot1'\?"),
+    Mistake("action on a robot id no robot table has", "agent.asl",
+            "   <- move(R, G, Lat, Lon);", "   <- move(robot3, G, Lat, Lon);", "move(robot3",
+            r"'robot3' is not a robot: argument 1 of move/4"),
+    Mistake("query with an argument too few", "agent.asl", REACHED,
+            "      query(distance_to, [R, Lat], D);\n" + REACHED, "[R, Lat], D",
+            r"query\(distance_to, \.\.\.\): 2 argument\(s\) do not fit "
+            r"distance_to\(object_id, lat, lon\) \(datalayer.py:\d+\)"),
+    Mistake("query result matched as a list, the function returns a number", "agent.asl",
+            REACHED, "      query(distance_to, [R, Lat, Lon], [D]);\n" + REACHED, "[D]",
+            r"the agent expects a list, but distance_to\(.*\) returns a number \(float\)"),
+    Mistake("query result used as a list, the function returns a number", "agent.asl",
+            REACHED, "      query(distance_to, [R, Lat, Lon], D); .member(X, D);\n" + REACHED,
+            ".member(X, D)", r"expects a list \(used so at line \d+:\d+\), but distance_to"),
     # rcl.py
+    Mistake("recipe passing a keyword the skill's constructor does not take", "rcl.py",
+            "skills.MoveTo(float(lat), float(lon))",
+            "skills.MoveTo(float(lat), float(lon), speeed=2.0)", "speeed",
+            r"skills.MoveTo\(\.\.\.\) does not fit MoveTo\(lat, lon\) \(skills.py:\d+\): "
+            r"got an unexpected keyword argument 'speeed'"),
+    Mistake("skill constructor that needs more than the recipes pass", "skills.py",
+            "def __init__(self, lat: float, lon: float) -> None:",
+            "def __init__(self, lat: float, lon: float, alt: float) -> None:",
+            "skills.MoveTo(", r"does not fit MoveTo\(lat, lon, alt\).*missing a required "
+            r"argument: 'alt'", reported_in="rcl.py"),
     Mistake("recipe naming a skill skills.py lacks", "rcl.py", "skills.MoveTo(",
             "skills.MoveTwo(", "MoveTwo", r"uses skill 'MoveTwo', which skills.py does not "
             r"define; did you mean 'MoveTo'\?"),

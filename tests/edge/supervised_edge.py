@@ -72,16 +72,16 @@ topic_prefix = "mrss/ui"
 retry_budget = 300.0
 retry_max_delay = 0.5
 world_model_timeout = 0.5
-
+{events_extra}
 [worldmodel]
 seed = "world.json"
 {worldmodel_extra}"""
 
 
 def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str = "",
-                  files: dict[str, str] | None = None) -> Path:
+                  files: dict[str, str] | None = None, events_extra: str = "") -> Path:
     """The test project under `projects/edgefaults/`, with the wildfire adapter; more
-    `[worldmodel]` lines and project files (name -> text) when given."""
+    `[worldmodel]` and `[events]` lines and project files (name -> text) when given."""
     folder = projects / PROJECT
     folder.mkdir(parents=True)
     shutil.copy(WILDFIRE / "events.py", folder / "events.py")
@@ -94,7 +94,7 @@ def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str 
     (folder / "project.toml").write_text(PROJECT_TOML.format(
         name=PROJECT, broker_component=broker_component,
         broker_url=f'url = "{broker_url}"\n' if broker_url else "",
-        worldmodel_extra=worldmodel_extra))
+        worldmodel_extra=worldmodel_extra, events_extra=events_extra))
     return folder
 
 
@@ -103,11 +103,11 @@ class SupervisedEdge:
 
     def __init__(self, root: Path, broker_url: str | None = None, *,
                  worldmodel_extra: str = "", files: dict[str, str] | None = None,
-                 token: str | None = None) -> None:
+                 token: str | None = None, events_extra: str = "") -> None:
         self.root = root
         self.run_dir = root / "run"
         self.run_dir.mkdir()
-        write_project(root / "projects", broker_url, worldmodel_extra, files)
+        write_project(root / "projects", broker_url, worldmodel_extra, files, events_extra)
         self.endpoints = BusEndpoints.ipc(self.run_dir)
         self._lock = threading.Lock()
         self.seen: list[Envelope] = []

@@ -115,6 +115,8 @@ FIELD_VALID: dict[str, st.SearchStrategy[Any]] = {
     # reserved words (`if`, `not`, ...) are no atoms: refused, see the test below
     "atom": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True).filter(
         lambda text: text not in RESERVED),
+    "robot": st.from_regex(r"[a-z][a-zA-Z0-9_]{0,30}", fullmatch=True).filter(
+        lambda text: text not in RESERVED),           # no robots given: any atom
     "symbol": st.text(max_size=record_declarations.MAX_TEXT),
     "string": st.text(max_size=record_declarations.MAX_TEXT),
     "int": st.integers(-record_declarations.MAX_INT, record_declarations.MAX_INT),
@@ -146,7 +148,7 @@ def _within(kind: str, value: Any) -> bool:
         if isinstance(value, int):
             bound = min(bound, record_declarations.MAX_INT)
         return not isinstance(value, bool) and math.isfinite(value) and abs(value) <= bound
-    if kind in ("string", "symbol", "atom") or isinstance(value, str):
+    if kind in ("string", "symbol", "atom", "robot") or isinstance(value, str):
         return len(str(value)) <= record_declarations.MAX_TEXT
     if kind in ("list", "term") and isinstance(value, list):
         return len(value) <= record_declarations.MAX_ITEMS \
@@ -181,3 +183,27 @@ def test_a_field_takes_every_value_of_its_kind_and_bounds_the_rest(kind: str) ->
 
     valid()
     extreme()
+
+
+def test_a_robot_field_names_one_of_the_robots_given() -> None:
+    teleop = JsonMapping("teleop", Field("robot", "robot"), Field("on", "bool"))
+    robots = frozenset({"uav1", "ugv1"})
+    assert teleop.literal(b'{"robot": "ugv1", "on": true}', robots=robots) == "teleop(ugv1,true)"
+    with pytest.raises(PayloadError, match=r"field 'robot': unknown robot 'ghost7' "
+                                           r"\(known: uav1, ugv1\)"):
+        teleop.args({"robot": "ghost7", "on": True}, topic="t", robots=robots)
+    with pytest.raises(PayloadError, match="not a lowercase identifier"):
+        teleop.args({"robot": "Ghost", "on": True}, robots=robots)
+    assert teleop.args({"robot": "ghost7", "on": True}) == ["ghost7", True]  # none given
+
+
+@pytest.mark.parametrize("payload", [
+    b'{"goal": "\\ud800"}', b'{"\\udfff": 1}', b'[["x\\uDC00y"]]', b'"\\ud83d"',
+])
+def test_a_lone_surrogate_is_no_text_and_refused(payload: bytes) -> None:
+    with pytest.raises(PayloadError, match="not Unicode text: a lone surrogate"):
+        decode_json(payload, topic="t")
+
+
+def test_escaped_text_that_is_unicode_is_taken() -> None:
+    assert decode_json(b'{"a": "\\ud83d\\ude00 \\u00e9 \\\\ud800"}') == {"a": "😀 é \\ud800"}

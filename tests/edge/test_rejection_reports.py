@@ -55,8 +55,9 @@ def test_process_counts_add_up_every_live_counter_of_the_process() -> None:
     log.reject("fz9", "unknown robot")
     log.reject("fz9", "unknown robot")
     signing = Signing(b"\x01" * 32, link_id=1, name="uav7")
-    signing._count(Refusal.UNSIGNED)
+    signing.count(Refusal.UNSIGNED)
     after = process_counts()
     assert after.get("robot data from fz9: unknown robot", 0) \
         - before.get("robot data from fz9: unknown robot", 0) == 2
     assert after["MAVLink message from uav7: unsigned"] == 1
+    assert signing.totals()["unsigned"] == 1

@@ -28,7 +28,7 @@ from mrss.edge.record_declarations import (
     Spec,
     configured_robots,
 )
-from mrss.edge.rejections import RejectionLog
+from mrss.edge.rejections import MAX_COUNTED_KINDS, MAX_LOGGED_KINDS, RejectionLog
 from mrss.edge.validation import (
     RecordValidator,
     Rejected,
@@ -290,3 +290,25 @@ def test_refusals_are_logged_once_per_source_and_reason_then_summarised(
     lines = [r.getMessage() for r in caplog.records]
     assert len(lines) == 5 and "refused 2 more record(s) (total 54): fz9: unknown robot x2" \
         in lines[4], lines
+
+
+def test_refusals_of_ever_new_kinds_stay_a_few_lines_and_a_bounded_count(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A reason or source that differs in every message (a name in it, a new client)
+    must not make a line per message, nor a counter per message."""
+    now = [0.0]
+    rejections = RejectionLog(logging.getLogger("test.rejections"), "record", interval=60,
+                              clock=lambda: now[0])
+    with caplog.at_level(logging.WARNING, logger="test.rejections"):
+        for n in range(MAX_COUNTED_KINDS + 500):
+            rejections.reject(f"ghost{n}", "unknown robot")
+        assert len(caplog.records) == MAX_LOGGED_KINDS
+        now[0] = 61.0
+        rejections.roll()
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == MAX_LOGGED_KINDS + 1, lines
+    assert f"refused {MAX_COUNTED_KINDS + 500 - MAX_LOGGED_KINDS} more record(s)" in lines[-1]
+    assert "*: other kinds x500" in lines[-1] and "and 981 more kinds" in lines[-1]
+    assert rejections.total == MAX_COUNTED_KINDS + 500
+    assert len(rejections.stats()) == MAX_COUNTED_KINDS + 1
+    assert rejections.stats()["*: other kinds"] == 500

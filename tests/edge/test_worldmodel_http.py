@@ -97,7 +97,7 @@ def test_ids_with_reserved_url_characters_round_trip(served: Served) -> None:
     ("GET", "/robots", None, 404, "no such path"),
     ("GET", "/objects/a/b", None, 404, "no such path"),
     ("POST", "/objects", b"{not json", 400, "not JSON"),
-    ("POST", "/objects", b"\xff\xfe", 400, "not JSON"),
+    ("POST", "/objects", b"\xff\xfe", 400, "not UTF-8"),
     ("POST", "/objects", b'{"id": "x"}', 400, "missing 'kind'"),
     ("POST", "/objects", b'{"id": "x", "kind": "r", "position": {"lat": 1e9, "lon": 0}}',
      400, "outside"),

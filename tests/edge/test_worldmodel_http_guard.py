@@ -317,3 +317,55 @@ def test_refused_requests_are_counted_and_logged_once_per_client_and_status(
     assert "refused HTTP request from 127.0.0.1: 401 Unauthorized (GET /objects without a " \
         "valid token)" in lines[0]
     assert "95" in lines[1]  # the detail names what was wrong
+
+
+AUTH = b"Authorization: Bearer " + TOKEN.encode() + b"\r\n"
+BODY = json.dumps(HOTSPOT).encode()
+
+
+@pytest.mark.parametrize(("data", "says"), [
+    # HTTP/0.9: no version and no headers; its client waits for the answer (the server
+    # must not wait for headers until the connection times out)
+    (b"GET /objects\r\n", "request line must be METHOD PATH HTTP/1.x"),
+    (b"GET /objects HTTP/0.9\r\n\r\n", "Bad request version 'HTTP/0.9'"),
+    (b"GET /objects HTTP/01.1\r\n\r\n", "Bad request version 'HTTP/01.1'"),
+    # RFC 9112 6.3: a body's length must be one run of digits, or the request is refused
+    (b"POST /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: %d\r\nContent-Length: 5\r\n\r\n"
+     % len(BODY) + BODY, "conflicting Content-Length values"),
+    (b"POST /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: %d, 5\r\n\r\n" % len(BODY)
+     + BODY, "conflicting Content-Length values"),
+    (b"GET /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: 0\r\nContent-Length: 40\r\n\r\n",
+     "conflicting Content-Length values"),
+    (b"POST /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: +%d\r\n\r\n" % len(BODY) + BODY,
+     "bad Content-Length '+"),
+    (b"POST /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: 6_9\r\n\r\n" + BODY,
+     "bad Content-Length '6_9'"),
+    (b"POST /objects HTTP/1.1\r\n" + AUTH + b"Content-Length: %d\r\nTransfer-Encoding: "
+     b"chunked\r\n\r\n" % len(BODY) + BODY, "Content-Length and Transfer-Encoding"),
+])
+def test_ambiguous_requests_are_refused_400_and_closed(guarded: WorldModelHttp, data: bytes,
+                                                       says: str) -> None:
+    status, head, body = raw(guarded, data)
+    assert status == 400 and says in body["error"], body
+    assert head["connection"] == "close"            # raw() read to the end: one answer
+    assert guarded.rejections.stats() == {"127.0.0.1: 400 Bad Request": 1}
+    assert request(guarded, "GET", "/objects/h1", headers=bearer(TOKEN))[0] == 404  # unstored
+
+
+def test_a_repeated_equal_content_length_is_one_length(guarded: WorldModelHttp) -> None:
+    status, _, body = raw(guarded, b"POST /objects HTTP/1.1\r\nConnection: close\r\n" + AUTH
+                          + b"Content-Length: %d\r\nContent-Length: %d\r\n\r\n"
+                          % (len(BODY), len(BODY)) + BODY)
+    assert status == 201 and body["object"]["id"] == "h1"
+
+
+@pytest.mark.parametrize("body", [
+    b'{"id": "h\\ud800", "kind": "hotspot"}',
+    b'{"id": "h1", "kind": "hotspot", "attributes": {"\\udc00": 1}}',
+])
+def test_a_lone_surrogate_in_a_body_is_a_bad_body(guarded: WorldModelHttp,
+                                                  body: bytes) -> None:
+    status, _, answer = raw(guarded, b"POST /objects HTTP/1.1\r\nConnection: close\r\n" + AUTH
+                            + b"Content-Length: %d\r\n\r\n" % len(body) + body)
+    assert status == 400 and "not Unicode text: a lone surrogate" in answer["error"], answer
+    assert request(guarded, "GET", "/objects", headers=bearer(TOKEN))[2] == {"objects": []}

@@ -45,8 +45,9 @@ def test_failsafe_fails_running_actions_with_the_failsafe_reason(
     wait_until(rcl.statuses.reached("a1", "running"))
     why = failsafe_reason("uav1 lost its controller and took its failsafe (vehicle: "
                           "'GCS Failsafe')")
-    assert core.link_state("uav1", False, why) == ["a1"]
-    core.link_state("uav1", True, "control regained after a failsafe; vehicle in BRAKE")
+    assert core.availability.link_state("uav1", False, why) == ["a1"]
+    core.availability.link_state("uav1", True,
+                                 "control regained after a failsafe; vehicle in BRAKE")
     wait_until(rcl.statuses.reached("a1", "failed"))
     last = rcl.statuses.last("a1")
     assert last is not None and last.reason == why

@@ -19,6 +19,12 @@ embedded broker loses them, with any message queued for an absent client or not 
 acknowledged by one. Use an external broker with persistence (Mosquitto
 `persistence true`) where that matters.
 
+Refused connections: amqtt logs an ERROR and a WARNING for every connection closed or
+garbled before its CONNECT (a port scan, a health check's bare TCP connect). The
+`connection_refusals` filter on its logger counts them instead, by client address, in
+a `RejectionLog` ("MQTT connection": in the component's Rejections reports, logged
+once per interval).
+
 project.toml:
     [broker]
     url = "mqtt://host:1883"        # or mqtts://; absent: the embedded broker
@@ -36,6 +42,7 @@ import asyncio
 import contextlib
 import copy
 import logging
+import re
 import signal
 import sys
 import threading
@@ -45,6 +52,7 @@ from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
 from mrss.actors.broker.passwords import PASSWORD_FILE_KEY, password_file_problem
+from mrss.edge.rejections import LoggedRefusals, RejectionLog
 from mrss.errors import ConfigError, MrssError
 from mrss.options import Check, Option, OptionValues
 from mrss.ports import free_port
@@ -169,6 +177,21 @@ async def serve(host: str, port: int, stop: asyncio.Event,
         await broker.shutdown()
 
 
+AMQTT_BROKER_LOGGER = "amqtt.broker"
+_CLIENT = r"\(client @=(?P<source>.*):\d+\)"  # amqtt's format_client_message
+
+
+def connection_refusals() -> LoggedRefusals:
+    """The filter of amqtt's broker logger: a connection that closes or sends garbage
+    before its CONNECT is a refused "MQTT connection" (amqtt logs an ERROR and a WARNING
+    for each, a port scan or a health check's bare TCP connect among them)."""
+    return LoggedRefusals(RejectionLog(log, "MQTT connection"), [
+        (re.compile(rf"^No data from {_CLIENT}"), "closed before CONNECT"),
+        (re.compile(rf"^\[MQTT-3\.1\.0-1\] {_CLIENT}"), "first packet not CONNECT"),
+        (re.compile(rf"^Invalid connection from {_CLIENT}"), "invalid CONNECT"),
+    ], echoes=[re.compile(r"^Failed to initialize client session")])
+
+
 class EmbeddedBroker(Component):
     """Component: amqtt on its own event loop thread, when no `[broker] url` is configured.
 
@@ -185,6 +208,8 @@ class EmbeddedBroker(Component):
         self._stop: asyncio.Event | None = None
         self._error: BaseException | None = None
         self.url = ""
+        #: amqtt's per-connection refusals, counted and logged once per interval.
+        self.refusals = connection_refusals()
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: serve on loopback unless the project names a broker."""
@@ -216,6 +241,7 @@ class EmbeddedBroker(Component):
         host, port = parts.hostname, parts.port
         for name in ("amqtt", "transitions"):
             logging.getLogger(name).setLevel(logging.WARNING)
+        logging.getLogger(AMQTT_BROKER_LOGGER).addFilter(self.refusals)
         started = threading.Event()
         self._loop = asyncio.new_event_loop()
 
@@ -254,6 +280,8 @@ class EmbeddedBroker(Component):
                 loop.call_soon_threadsafe(stop.set)
         if self._thread is not None:
             self._thread.join(timeout=10)
+        logging.getLogger(AMQTT_BROKER_LOGGER).removeFilter(self.refusals)
+        self.refusals.rejections.flush()
 
 
 def main(argv: list[str] | None = None) -> int:

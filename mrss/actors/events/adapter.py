@@ -57,6 +57,7 @@ class EventsContext:
     run_dir: Path | None = None  # the run folder (worldmodel.url, ...), when supervised
     intake: EventIntake | None = None  # None: the adapter makes a plain one
     world_model_token: str | None = None  # [worldmodel] token: sent by world_model()
+    robots: frozenset[str] | None = None  # the project's robots (None: not known)
 
 
 class ExternalAdapter:
@@ -69,6 +70,12 @@ class ExternalAdapter:
         self.log = context.log
         self.counters: EventCounters = context.percept.counters
         self.intake = context.intake or EventIntake(context.percept, log=context.log)
+        #: The robots of the project (`[events] robots`, else the RCL's robots tables),
+        #: None when none is configured. A `Field(..., "robot")` of a mapping names one
+        #: of them: `map_json` checks it, a handler passes `robots=self.robots` to
+        #: `JsonMapping.args`. A message about any other robot is a bad payload, refused
+        #: with one reply, never a percept the agent would act on and retry.
+        self.robots: frozenset[str] | None = context.robots
 
     @property
     def mqtt(self) -> MqttClient:
@@ -129,12 +136,16 @@ class ExternalAdapter:
         declared = mapping
 
         def to_percept(topic: str, payload: bytes) -> None:
-            self.percept(declared.literal(payload, topic=topic), op=op)
+            self.percept(declared.literal(payload, topic=topic, robots=self.robots), op=op)
         self.on_message(topic_filter, to_percept)
         return declared
 
     def handle(self, topic: str, work: Callable[[], None]) -> bool:
-        """Run `work` once, now, for a message on `topic` (no retry, no report):
-        percepts only if it succeeds; True if it did."""
+        """Run `work` once, now, for a message on `topic` (no retry, no report; a bad
+        payload is counted and logged with the other refusals): percepts only if it
+        succeeds; True if it did."""
         self.counters.received += 1
-        return self.intake.run_once(topic, work)[0] is Attempt.ACCEPTED
+        attempt, reason = self.intake.run_once(topic, work)
+        if attempt is Attempt.BAD_INPUT:
+            self.intake.reporter.refused(topic, reason)
+        return attempt is Attempt.ACCEPTED

@@ -28,7 +28,6 @@ Rules, each in one place here:
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 import queue
 import threading
@@ -38,6 +37,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from mrss.actors.events.reports import EventReporter
+from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.retry import Attempt, RetryPolicy, classify
 from mrss.messages import EventStatus, JsonValue
 from mrss.runtime.percepts import EventCounters, PerceptPublisher
@@ -75,9 +75,9 @@ def identify(event: InboundEvent) -> Identity:
     """The identity of an event: by its payload's `"id"` if any, else by its content."""
     event_id = ""
     detail: dict[str, JsonValue] = {}
-    try:
-        obj = json.loads(event.payload.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError, RecursionError):
+    try:  # not Unicode text (a lone surrogate): no id or goal to show from it
+        obj = decode_json(event.payload)
+    except PayloadError:
         obj = None
     if isinstance(obj, dict):
         given = obj.get("id")
@@ -163,7 +163,9 @@ class EventIntake:
                  batch_id: str | None = None) -> tuple[Attempt, str]:
         """One attempt at `work` for an event on `topic`: how it ended, and why.
 
-        Counts bad payloads (by topic) and handler errors, and logs them.
+        Counts bad payloads (by topic) and handler errors. A handler error is logged
+        here; a bad payload is logged by whoever tells of it (`EventReporter`: once per
+        topic and kind of reason per interval), never once per message.
         """
         try:
             with self.percept.batch(batch_id):
@@ -182,8 +184,6 @@ class EventIntake:
                     if attempt is not Attempt.BAD_INPUT else f"{topic}: {exc}"
             if attempt is Attempt.HANDLER_ERROR:
                 self.log.exception("adapter handler failed on topic %r", topic)
-            elif attempt is Attempt.BAD_INPUT:
-                self.log.warning("bad payload on topic %r: %s", topic, exc)
             reason = str(exc) if attempt is Attempt.BAD_INPUT \
                 else f"{exc.__class__.__name__}: {exc}"
             return attempt, reason

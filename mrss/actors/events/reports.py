@@ -41,6 +41,16 @@ LOG_LEVELS = {EventStatus.ACCEPTED: logging.DEBUG, EventStatus.DUPLICATE: loggin
               EventStatus.REJECTED: logging.WARNING, EventStatus.FAILED: logging.ERROR}
 
 
+def refusal_kind(reason: str) -> str:
+    """What a refused event is counted as: its reason up to the first colon, after the
+    "cannot decode message on topic ..." every payload error starts with (the field or
+    check, e.g. "field 'robot'", "payload is not JSON"), not the values in it."""
+    head, colon, rest = reason.partition(": ")
+    if colon and head.startswith("cannot decode message"):
+        reason = rest
+    return reason.split(":", 1)[0]
+
+
 class ReplyPublisher(Protocol):
     """Publishes an MQTT message (`mrss.edge.mqtt_client.MqttClient` is one)."""
 
@@ -92,13 +102,17 @@ class EventReporter:
         return len(topic) > len(head) + len(tail) and topic.startswith(head) \
             and topic.endswith(tail)
 
+    def refused(self, topic: str, reason: str) -> None:
+        """Count (and log, once per topic and kind per interval) a bad payload that is
+        not reported otherwise."""
+        self.rejections.reject(topic, refusal_kind(reason), reason)
+
     def report(self, status: EventStatus, topic: str, *, event_id: str = "",
                reason: str = "", attempts: int = 0,
                detail: Mapping[str, JsonValue] | None = None) -> None:
         """Tell the bus, the log and (for the statuses replied to) the sender."""
         extra = dict(detail or {})
-        if status is EventStatus.REJECTED and self.rejections.seen(
-                topic, reason.split(":", 1)[0]):
+        if status is EventStatus.REJECTED and self.rejections.seen(topic, refusal_kind(reason)):
             pass  # counted; summarised by the rejection log
         else:
             self.log.log(LOG_LEVELS[status], "event_%s topic=%s id=%s attempts=%d%s%s",

@@ -28,6 +28,7 @@ project.toml:
               dedup_memory = 4096    # event identities remembered
               world_model = "http://..."      # for self.world_model(); default: the run's
               world_model_timeout = 2.0
+              robots = ["uav1"]      # robots events may name; default: the RCL's robots
               ...                    # every key but module/class is the adapter's `options`
 The `[components.<id>]` free keys of this component are laid over `[events]`.
 """
@@ -47,17 +48,28 @@ from mrss.config.broker import table, with_broker
 from mrss.edge.http_token import configured_token
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.edge.retry import RetryPolicy
+from mrss.errors import ConfigError
 from mrss.messages import Percept
 from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import BusPort, MessagePublisher, bus_port
 from mrss.runtime.component import Component, ComponentContext
-from mrss.runtime.edge import edge_config
+from mrss.runtime.edge import edge_config, project_robots
 from mrss.runtime.loader import load_project_class
 from mrss.runtime.percept_channel import PerceptChannel
 from mrss.runtime.percepts import EventCounters, PerceptPublisher, PerceptSink
 
 DEFAULT_MODULE = "events.py"
 PERCEPT_FLUSH = 1.0  # seconds a stopping manager gives its last percepts to be acknowledged
+
+
+def _robots(section: Mapping[str, Any], project_dir: Path) -> frozenset[str] | None:
+    """`[events] robots`, else the project's (the RCL's robots tables); None: none known."""
+    listed = section.get("robots")
+    if listed is None:
+        return project_robots(project_dir) or None
+    if not isinstance(listed, list) or not all(isinstance(r, str) for r in listed):
+        raise ConfigError("must be a list of robot ids", key="events.robots")
+    return frozenset(listed)
 
 
 class ExternalEventsManager(Component):
@@ -81,6 +93,7 @@ class ExternalEventsManager(Component):
         Option("dedup_memory", int, 4096, "event identities remembered", Check.POSITIVE),
         Option("world_model", str, None, "world model URL for self.world_model()", Check.URL),
         Option("world_model_timeout", float, 2.0, "seconds per world model call", Check.POSITIVE),
+        Option("robots", list, None, "robot ids events may name (default: the RCL's robots)"),
     )
 
     def __init__(self) -> None:
@@ -141,7 +154,8 @@ class ExternalEventsManager(Component):
         self.adapter = adapter_cls(EventsContext(
             percept=publish, mqtt=self.mqtt, options=options, project_dir=project_dir,
             broker_url=self.mqtt.settings.url if self.mqtt else None, log=self.log,
-            run_dir=run_dir, intake=self.intake, world_model_token=token))
+            run_dir=run_dir, intake=self.intake, world_model_token=token,
+            robots=_robots(events, project_dir)))
         self.intake.start()
         self.adapter.start()  # subscriptions first, so the first (re)connect sends them all
         if self.mqtt is not None:

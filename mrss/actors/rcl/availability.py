@@ -1,7 +1,8 @@
 """Where each robot stands for the RCL: available or not, and why; teleop; its link.
 
-Part of `RclCore` (mrss/actors/rcl/core.py), as a base class working on the core's state.
-Rules:
+One object of the RCL core (mrss/actors/rcl/core.py), holding what it knows of each
+robot's availability; it reaches robot actors and ends actions through the core's
+`Routes`, and reads the open actions under their lock. Rules:
 - a robot is unavailable for one cause at a time (`lifecycle.EndCause`): its link lost
   (`link_lost`), its failsafe taken (`failsafe`), or its actor quarantined
   (`quarantined`); new requests for it are refused with that cause, so the agent can
@@ -20,19 +21,17 @@ Rules:
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from mrss.actors.rcl import lifecycle as lc
-from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.journal import ActionJournal
-from mrss.actors.rcl.requesters import Entry
+from mrss.actors.rcl.open_actions import OpenActions, Routes
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import SetTeleop
 from mrss.errors import ActionError
 from mrss.links.failsafe import LinkDownCause, link_down_cause
-from mrss.messages import ActionState, Message, RobotState, SupEvent
+from mrss.messages import ActionState, LinkState, Message, RobotState, SupEvent
 from mrss.supervision import events as ev
 
 log = logging.getLogger("mrss.rcl")
@@ -45,26 +44,21 @@ LINK_CAUSES = (lc.EndCause.LINK_LOST, lc.EndCause.FAILSAFE)
 class RobotAvailability:
     """Availability, teleop and link state of the robots (the rules of the module)."""
 
-    links: dict[str, Any]
-    journal: ActionJournal
-    broker: ResourceBroker
-    publish: Callable[[Message], object]
-    _lock: threading.RLock
-    _index: dict[str, Entry]
-    _unavailable: dict[str, str]
-    _unavailable_cause: dict[str, lc.EndCause]
-    robot_nodes: dict[str, str]  # robot -> the node it is reached through (mrss.config.nodes)
-    stopping: bool  # RclCore.stop() was called
+    def __init__(self, links: dict[str, Any], journal: ActionJournal, broker: ResourceBroker,
+                 publish: Callable[[Message], object], actions: OpenActions,
+                 routes: Routes) -> None:
+        self.links, self.journal, self.broker, self.publish = links, journal, broker, publish
+        self.actions, self.routes = actions, routes
+        self.robot_nodes: dict[str, str] = {}  # robot -> the node it is reached through
+        self.stopping = False  # the RCL is stopping: its own links closing are no news
+        self._unavailable: dict[str, str] = {}
+        self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
 
-    if TYPE_CHECKING:  # provided by RclCore (no stub here: it would shadow them)
-        def _tell(self, robot: str, message: object) -> None:
-            ...
-
-        def _control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
-            ...
-
-        def _end_unrouted(self, action: Action, end: lc.End) -> None:
-            ...
+    def refusal(self, robot: str) -> tuple[str, lc.EndCause] | None:
+        """Why a new action for `robot` is refused now (reason, cause); None: it is not."""
+        with self.actions.lock:
+            reason = self._unavailable.get(robot)
+            return None if reason is None else (reason, self._unavailable_cause[robot])
 
     def announce_robots(self) -> None:
         """Publish every robot's state (availability, link, teleop): level-triggered, so a
@@ -78,14 +72,14 @@ class RobotAvailability:
         if robot not in self.links:
             raise ActionError(f"teleop for unknown robot {robot!r}")
         self.journal.set_teleop(robot, on)
-        self._tell(robot, SetTeleop(on))
+        self.routes.tell(robot, SetTeleop(on))
         self._robot_state(robot, teleop=on)
 
     def set_available(self, robot: str, available: bool, reason: str = "",
                       cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
         """Mark `robot` (un)available; new actions for an unavailable robot are refused,
         with `cause` (a lost link, a quarantine: the agent may try again later)."""
-        with self._lock:
+        with self.actions.lock:
             before = self._unavailable.get(robot)
             if available:
                 self._unavailable.pop(robot, None)
@@ -110,7 +104,7 @@ class RobotAvailability:
             log.info("link of %s %s while the RCL stops: nothing failed", robot,
                      "up" if up else f"down ({reason})")
             return []
-        with self._lock:
+        with self.actions.lock:
             current = self._unavailable_cause.get(robot)
         if up:
             if current in LINK_CAUSES:  # not when something else (a quarantine) holds it
@@ -121,13 +115,12 @@ class RobotAvailability:
         self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
                            lc.EndCause.FAILSAFE if link_down_cause(reason)
                            is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
-        with self._lock:
-            targets = [u for u, e in self._index.items() if e.robot == robot]
+        targets = self.actions.of_robot(robot)
         why, cause = f"robot {robot} unreachable: {reason or 'link down'}", lc.EndCause.LINK_LOST
         if link_down_cause(reason) is LinkDownCause.FAILSAFE:
             why, cause = reason, lc.EndCause.FAILSAFE  # the robot overtook the command
         for uuid in targets:
-            self._control_one(uuid, lc.End(ActionState.FAILED, cause, why))
+            self.routes.control_one(uuid, lc.End(ActionState.FAILED, cause, why))
         return targets
 
     def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:
@@ -139,7 +132,7 @@ class RobotAvailability:
         """
         failed: list[str] = []
         for robot in [r for r, n in self.robot_nodes.items() if n == node and r in self.links]:
-            with self._lock:
+            with self.actions.lock:
                 current = self._unavailable_cause.get(robot)
             if up:
                 if current is lc.EndCause.NODE_DOWN:
@@ -149,10 +142,9 @@ class RobotAvailability:
                 continue  # a repeat (sup.node_down is level-triggered)
             why = reason or f"node {node} lost"
             self.set_available(robot, False, f"{NODE_DOWN}: {why}", lc.EndCause.NODE_DOWN)
-            with self._lock:
-                targets = [u for u, e in self._index.items() if e.robot == robot]
+            targets = self.actions.of_robot(robot)
             for uuid in targets:
-                self._control_one(uuid, lc.End(
+                self.routes.control_one(uuid, lc.End(
                     ActionState.FAILED, lc.EndCause.NODE_DOWN,
                     f"robot {robot} is reached through node {node}, which is lost: {why}"))
             failed += targets
@@ -160,16 +152,17 @@ class RobotAvailability:
 
     def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
         attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
-        with self._lock:
+        with self.actions.lock:
             reason = self._unavailable.get(robot, "")
             link_down = self._unavailable_cause.get(robot) in LINK_CAUSES
         try:
             self.publish(RobotState(robot=robot, available=not reason, reason=reason,
-                                    link="down" if link_down else "up", attributes=attrs))
+                                    link=LinkState.DOWN if link_down else LinkState.UP,
+                                    attributes=attrs))
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)
 
-    def _publish_sup(self, event: Message) -> object:
+    def publish_sup(self, event: Message) -> object:
         """Supervision events go out; a quarantine also fails the robot's open actions."""
         if isinstance(event, SupEvent) and event.child in self.links:
             if event.event == ev.QUARANTINE:
@@ -185,6 +178,6 @@ class RobotAvailability:
         for entry in self.journal.open_actions():
             if entry.action.robot == robot:
                 self.broker.forget_action(entry.action.uuid)
-                self._end_unrouted(entry.action, lc.End(
+                self.routes.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.QUARANTINED,
                     f"robot {robot} quarantined: its actor keeps crashing ({reason})"))

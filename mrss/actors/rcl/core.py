@@ -1,10 +1,16 @@
 """The Robot Communication Layer core: accept actions, route them to robot actors, report.
 
+One idea in one module (~450 lines): accepting, journaling and routing an action under
+one lock; what is not that lives in its collaborators (requesters.py, availability.py,
+observers.py, open_actions.py) and the lifecycle rules in lifecycle.py.
+
 Transport-free on purpose: requests come in through `submit` / `submit_fields`, goal
 management through `control`, and statuses leave through the injected `publish` callable,
 so the same object runs in-process in tests and behind the bus (`RclService`). Rules:
-- a request is validated by the project's `action_cb`; a malformed one is FAILED at once,
-  its reason logged and in the status;
+- a request is validated by the project's `action_cb`; a malformed one (or one for a
+  robot it does not have) is FAILED at once, its reason in the status and counted in a
+  `RejectionLog` ("action request": logged once per requester and kind of reason per
+  interval, never once per request);
 - a uuid is accepted once (journal-backed): a duplicate only re-sends the last status;
 - every status is committed to the ActionJournal before it is published;
 - on `start`, every non-terminal action of the journal is resumed or explicitly failed;
@@ -29,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import logging
-import threading
+import re
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -44,18 +50,22 @@ from mrss.actors.rcl.held_goals import HeldGoals
 from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.observers import ObserverReports
+from mrss.actors.rcl.open_actions import OpenActions
 from mrss.actors.rcl.options import default
 from mrss.actors.rcl.orphans import Orphans
 from mrss.actors.rcl.progress_feed import ProgressFeed
-from mrss.actors.rcl.requesters import Entry, RequesterDuties
+from mrss.actors.rcl.requesters import Requesters
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import Control, RobotActor, StartAction
+from mrss.edge.rejections import RejectionLog
 from mrss.errors import ActionError, DecodeError
 from mrss.messages import (
     ActionControl,
     ActionRequest,
     ActionState,
     ActionStatus,
+    ControlCommand,
+    ControlTarget,
     FailureCause,
     Message,
     build,
@@ -75,8 +85,19 @@ Publish = Callable[[Message], object]
 
 
 
-class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
-    """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish."""
+def reason_kind(reason: str) -> str:
+    """What a refusal is counted as: its reason up to the first quoted value or detail
+    ("unknown robot 'ghost7' (known: ...)" -> "unknown robot")."""
+    return re.split(r"[:'\"(]", reason, maxsplit=1)[0].strip() or reason[:40]
+
+
+class RclCore:
+    """Accepts ActionRequests and ActionControls; emits ActionStatus via journal + publish.
+
+    Three collaborators hold the rest, each with its own state: `requesters`
+    (duplicates, adoption, orphans, reconciliation), `availability` (robots available or
+    not, teleop, links, nodes) and `observers` (progress, snapshots); they share the open
+    actions (`OpenActions`) and reach robot actors through the core (`Routes`)."""
 
     def __init__(self, layer: RobotCommLayer, journal: ActionJournal, publish: Publish,
                  robots: Mapping[str, Any], *,
@@ -98,18 +119,20 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         self.robot_watchdog = robot_watchdog
         self._preempted_timeout = preempted_timeout
         self.robots: pykka.ActorRef[ActorSupervisor] | None = None
-        self._lock = threading.RLock()
-        self._index: dict[str, Entry] = {}
+        self.actions = OpenActions()
+        self._lock = self.actions.lock
         self._held_goals = HeldGoals()
         self._refs: dict[str, pykka.ActorRef[Any]] = {}
-        self._unavailable: dict[str, str] = {}
-        self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
-        self.robot_nodes: dict[str, str] = {}  # robot -> the node it is reached through
-        self._incarnations: dict[str, int] = {}
-        self.orphans = Orphans(adopt_grace, adopt_grace_suspended, clock)
-        self.stopping = False  # set by stop(): links closing then are no news of robots
-        self.progress = ProgressFeed(progress_every, clock)
-        self._plans = PlanBoard()  # skills' latest plans, for the snapshot
+        self.availability = RobotAvailability(self.links, journal, self.broker, publish,
+                                              self.actions, self)
+        self.requesters = Requesters(journal, publish, self.actions, self,
+                                     Orphans(adopt_grace, adopt_grace_suspended, clock),
+                                     self.availability.announce_robots)
+        self.observers = ObserverReports(layer, journal, publish, self.actions, self,
+                                         ProgressFeed(progress_every, clock),
+                                         self.availability.announce_robots,
+                                         lambda: self.robots)
+        self.rejections = RejectionLog(log, "action request")
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -119,25 +142,24 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         `new_run`: the whole system (re)started, not just this RCL, so nobody waits for
         the actions left open: they are failed, and old incarnation numbers forgotten.
         """
-        self.stopping = False
-        with self._lock:
-            self._incarnations = {} if new_run else self.journal.incarnations()
+        self.availability.stopping = False
+        self.requesters.reset({} if new_run else self.journal.incarnations())
         if new_run:
             self.journal.drop_controls()  # nobody waits for what they would change
         for entry in self.journal.open_actions():
             if new_run:
-                self._end_unrouted(entry.action, lc.End(
+                self.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
                     "left over from a previous run of MRSS"))
             elif entry.action.robot not in self.links:
-                self._end_unrouted(entry.action, lc.End(
+                self.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
                     f"robot {entry.action.robot!r} is not configured after an RCL restart"))
         children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
                                 shutdown=self.layer.interrupt_timeout + 2.0)
                     for robot in self.links]
         self.robots = ActorSupervisor.start(
-            self.robot_spec, children, name="robots", publish=self._publish_sup,
+            self.robot_spec, children, name="robots", publish=self.availability.publish_sup,
             on_give_up=lambda why: log.error("robot supervisor gave up: %s", why))
         # answered after the supervisor's start hook, which sets every robot actor up
         self.robots.proxy().which_children().get(timeout=30.0)
@@ -145,7 +167,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             watch = getattr(link, "watch_controller", None)
             if callable(watch):
                 watch(functools.partial(self.controls, robot))
-        self.announce_robots()  # so the reasoner and the dashboard know each robot now
+        self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
 
     def controls(self, robot: str) -> bool:
         """Whether a live robot actor controls `robot` (its link heartbeats the robot only
@@ -158,7 +180,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         """Stop every robot actor (and its skills); open actions stay in the journal, for
         the next start to resume: the links that close after this (RclService
         disconnects them) report "link closed", which fails nothing."""
-        self.stopping = True
+        self.availability.stopping = True
         robots, self.robots = self.robots, None
         if robots is None:
             return
@@ -188,9 +210,9 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
 
     def save_progress(self, uuid: str, progress: dict[str, Any]) -> None:
         self.journal.save_progress(uuid, progress)
-        if self.progress.enabled:
-            self.progress.record(uuid, progress)
-            self.publish_progress()
+        if self.observers.progress.enabled:
+            self.observers.progress.record(uuid, progress)
+            self.observers.publish_progress()
 
     def register(self, robot: str, ref: pykka.ActorRef[Any]) -> None:
         with self._lock:
@@ -204,14 +226,12 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             if action.robot != robot:
                 continue
             if first and not self.layer.resume_after_restart(action.copy()):
-                self._end_unrouted(action, lc.End(
+                self.end_unrouted(action, lc.End(
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED, "RCL restarted; the project "
                     f"does not resume {action.name!r} actions", FailureCause.TRANSIENT))
                 continue
             self.broker.forget_action(action.uuid)  # holds of a dead incarnation
-            with self._lock:
-                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
-                                                  entry.requester)
+            self.actions.put(action, entry.requester)
             log.info("restoring action %s (%s) on %s", action.uuid, action.state.value, robot)
             entries.append(entry)
         return entries, robot in self.journal.teleop_robots()
@@ -236,7 +256,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
 
     @property
     def plans(self) -> PlanBoard:
-        return self._plans
+        return self.observers.plans
 
     def compact_journal(self, keep_seconds: float, keep_last: int) -> int:
         """Drop old terminal actions from the journal (ActionJournal.compact); how many."""
@@ -256,7 +276,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             if isinstance(uuid, str) and uuid:
                 self._reject(uuid, fields, exc.reason)
             else:
-                log.warning("dropped an action request without a uuid: %s", exc.reason)
+                self.rejections.reject("-", "without a uuid", exc.reason)
             return
         self.submit(request)
 
@@ -269,9 +289,9 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         """
         requester = requester or NOBODY
         if requester.src:
-            self.saw_incarnation(requester.src, requester.inc)
+            self.requesters.saw_incarnation(requester.src, requester.inc)
         with self._lock:
-            if self._repeat(request.uuid, requester):
+            if self.requesters.repeat(request.uuid, requester):
                 return
             try:
                 request.validate()
@@ -282,11 +302,11 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
                 if action.robot not in self.links:
                     raise ActionError(f"unknown robot {action.robot!r} (known: "
                                       f"{', '.join(sorted(self.links)) or 'none'})")
-                if action.robot in self._unavailable:
+                refusal = self.availability.refusal(action.robot)
+                if refusal is not None:
                     self._reject(request.uuid, _fields(request),
-                                 f"robot {action.robot} unavailable: "
-                                 f"{self._unavailable[action.robot]}", requester,
-                                 self._unavailable_cause[action.robot])
+                                 f"robot {action.robot} unavailable: {refusal[0]}", requester,
+                                 refusal[1])
                     return
             except Exception as exc:
                 reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
@@ -298,13 +318,13 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             # Journaled first, then the robot actor is told (it starts the skills while
             # PENDING goes out), all under the lock: a later control comes after the
             # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
-            self._emit(action.copy(), "", requester, new=True,  # `_repeat` read the journal
-                       before_publish=lambda: self._tell(action.robot, start))
+            self._emit(action.copy(), "", requester, new=True,  # `repeat` read the journal
+                       before_publish=lambda: self.tell(action.robot, start))
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
                 cause: lc.EndCause = lc.EndCause.REJECTED) -> None:
-        log.warning("rejected action request %s: %s", uuid, reason)
+        self.rejections.reject(requester.src or "-", reason_kind(reason), f"{uuid}: {reason}")
         with self._lock:
             if self.journal.get(uuid) is not None:
                 return
@@ -325,21 +345,23 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         any other (the dashboard, `mrss send`, a test) the operator's."""
         control.validate()
         with self._lock:
-            if control.target_kind == "goal":
+            if control.target_kind is ControlTarget.GOAL:
                 self._held_goals.control(control.command, control.target, src)
-            targets = [u for u, e in self._index.items()
-                       if (control.target_kind == "action" and u == control.target)
-                       or (control.target_kind == "goal" and e.goal == control.target)
-                       or (control.target_kind == "robot" and e.robot == control.target)]
-            robots = {u: self._index[u].robot for u in targets}
-            agent = {u for u in targets if src and self._index[u].requester.src == src}
-        if not targets and control.target_kind == "goal" and control.command == "suspend":
+            chosen = self.actions.matching(
+                lambda u, e: (control.target_kind is ControlTarget.ACTION and u == control.target)
+                or (control.target_kind is ControlTarget.GOAL and e.goal == control.target)
+                or (control.target_kind is ControlTarget.ROBOT and e.robot == control.target))
+            targets = list(chosen)
+            robots = {u: e.robot for u, e in chosen.items()}
+            agent = {u for u, e in chosen.items() if src and e.requester.src == src}
+        if not targets and control.target_kind is ControlTarget.GOAL \
+                and control.command is ControlCommand.SUSPEND:
             log.info("suspend goal %r: no action yet; held for its later ones", control.target)
         elif not targets:
             log.warning("%s %s %r: no active action", control.command, control.target_kind,
                         control.target)
         for uuid in targets:
-            self._tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
+            self.tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
         return targets
 
     # -- plumbing ---------------------------------------------------------------------------
@@ -351,8 +373,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         `new`: the caller found no journal entry for the uuid under the lock (an accepted
         request), so it is not looked up again (one read less on the action path).
         `before_publish` runs after the commit, under the lock, before the publication."""
-        with self._lock:
-            known = self._index.get(action.uuid)
+        known = self.actions.get(action.uuid)
         if known is None and not new:
             done = self.journal.get(action.uuid)
             if done is not None and done.action.terminal:
@@ -364,26 +385,27 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
         self.journal.record(action, suspended_by, requester)
         with self._lock:  # with the publication: see publish_progress
             if action.terminal:
-                self._index.pop(action.uuid, None)
-                self.progress.forget(action.uuid)
+                self.actions.drop(action.uuid)
+                self.observers.progress.forget(action.uuid)
             else:
-                self._index[action.uuid] = Entry(action.robot, action.goal, action.state,
-                                                  requester)
+                self.actions.put(action, requester)
             if before_publish is not None:
                 before_publish()
-            self._publish(action)
+            self.publish_status(action)
 
-    def _publish(self, action: Action, repeat: bool = False) -> None:
-        status = ActionStatus(uuid=action.uuid, state=action.state.value, reason=action.reason,
+    # -- Routes: what the collaborators ask of the core -----------------------------------
+    def publish_status(self, action: Action, repeat: bool = False) -> None:
+        """Publish an action's status (journaled already); a failure is logged."""
+        status = ActionStatus(uuid=action.uuid, state=action.state, reason=action.reason,
                               progress=dict(action.progress), robot=action.robot,
-                              cause=action.cause, repeat=repeat, name=action.name,
+                              cause=FailureCause(action.cause), repeat=repeat, name=action.name,
                               goal=action.goal)
         try:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks
             log.error("publishing status of %s failed: %r", action.uuid, exc)
 
-    def _end_unrouted(self, action: Action, end: lc.End) -> None:
+    def end_unrouted(self, action: Action, end: lc.End) -> None:
         """End an action no robot actor runs (lifecycle.end_unrouted)."""
         publish = lc.end_unrouted(action.state, end)
         log.warning("ending action %s (%s): %s", action.uuid, publish.state.value,
@@ -395,7 +417,7 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
             log.error("on_action_end(%s) raised %r", action.uuid, exc)
         self._emit(action, "")
 
-    def _tell(self, robot: str, message: object) -> None:
+    def tell(self, robot: str, message: object) -> None:
         """Send to the robot's current incarnation. Nothing is lost if it is down: a
         StartAction is journaled first (the next incarnation restores the action), a
         Control is journaled pending here (the next incarnation applies it)."""
@@ -417,17 +439,17 @@ class RclCore(RequesterDuties, RobotAvailability, ObserverReports):
                         robot, message)
 
     def _preempt(self, uuid: str, resource: str) -> None:
-        self._control_one(uuid, lc.Suspend(lc.SuspendCause.PREEMPTED, f"pre-empted: {resource} "
+        self.control_one(uuid, lc.Suspend(lc.SuspendCause.PREEMPTED, f"pre-empted: {resource} "
                                            "is needed by a higher-priority action"))
 
     def _resume_preempted(self, uuid: str, resource: str) -> None:
-        self._control_one(uuid, lc.Resume(lc.SuspendCause.PREEMPTED))
+        self.control_one(uuid, lc.Resume(lc.SuspendCause.PREEMPTED))
 
-    def _control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
-        with self._lock:
-            entry = self._index.get(uuid)
+    def control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None:
+        """Send a lifecycle event to the robot actor running `uuid` (if it is open)."""
+        entry = self.actions.get(uuid)
         if entry is not None:
-            self._tell(entry.robot, Control(uuid, event))
+            self.tell(entry.robot, Control(uuid, event))
 
 
 _END_OF = {"cancel": ActionState.CANCELLED, "succeed": ActionState.SUCCEEDED,

@@ -39,7 +39,7 @@ from mrss.actors.rcl.lifecycle_words import (
     Abandon,
     Accept,
     Announce,
-    Check,
+    CheckStatus,
     DeadlinePassed,
     Effect,
     End,
@@ -72,7 +72,7 @@ __all__ = [
     "Abandon",
     "Accept",
     "Announce",
-    "Check",
+    "CheckStatus",
     "DeadlinePassed",
     "Effect",
     "End",
@@ -125,7 +125,7 @@ def _refine_failed(lc: Lifecycle, ev: RefineFailed) -> Step:
 
 
 def _skill_ended_running(lc: Lifecycle, ev: SkillEnded) -> Step:
-    return lc, (Check(),)
+    return lc, (CheckStatus(),)
 
 
 def _skill_ended_stopping(lc: Lifecycle, ev: SkillEnded) -> Step:

@@ -253,7 +253,7 @@ class Interrupt:
 
 
 @dataclass(frozen=True)
-class Check:
+class CheckStatus:
     """Ask the project's `check_action_status`; feed its Verdict."""
 
 
@@ -286,7 +286,7 @@ class ReleaseResources:
     """Give back every resource the action holds or waits for, and drop its marks."""
 
 
-Effect = Run | Interrupt | Check | Abandon | Publish | Announce | ReleaseResources
+Effect = Run | Interrupt | CheckStatus | Abandon | Publish | Announce | ReleaseResources
 
 
 # -- the record ---------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """What the RCL tells those who watch it: progress, a full snapshot, its actor tree, and
 the state of an action.
 
-Part of `RclCore` (mrss/actors/rcl/core.py), as a base class working on the core's state.
+One object of the RCL core (mrss/actors/rcl/core.py), owning the progress feed and the
+board of the skills' latest plans; it re-sends statuses through the core's `Routes`.
 Rules:
 - progress goes out as repeat statuses (`ProgressFeed`: at most every `progress_every`
   seconds per action), under the lock that covers a transition's publication, and only
@@ -15,17 +16,14 @@ Rules:
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 import pykka
 
-from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.journal import ActionJournal
 from mrss.actors.rcl.layer import RobotCommLayer
+from mrss.actors.rcl.open_actions import OpenActions, Routes
 from mrss.actors.rcl.progress_feed import ProgressFeed
-from mrss.actors.rcl.requesters import Entry
 from mrss.messages import ActionState, Message, SupEvent
 from mrss.messages.plans import PlanBoard
 from mrss.runtime.remote import TREE_EVENT
@@ -35,19 +33,15 @@ from mrss.supervision import ActorSupervisor
 class ObserverReports:
     """Progress, snapshot and state queries (the rules of the module)."""
 
-    layer: RobotCommLayer
-    journal: ActionJournal
-    publish: Callable[[Message], object]
-    progress: ProgressFeed
-    robots: pykka.ActorRef[ActorSupervisor] | None
-    _lock: threading.RLock
-    _index: dict[str, Entry]
-    _plans: PlanBoard
-
-    if TYPE_CHECKING:  # provided by RclCore and RobotAvailability (no stubs at run time)
-        def announce_robots(self) -> None: ...
-
-        def _publish(self, action: Action, repeat: bool = False) -> None: ...
+    def __init__(self, layer: RobotCommLayer, journal: ActionJournal,
+                 publish: Callable[[Message], object], actions: OpenActions, routes: Routes,
+                 progress: ProgressFeed, announce_robots: Callable[[], None],
+                 robots: Callable[[], pykka.ActorRef[ActorSupervisor] | None]) -> None:
+        self.layer, self.journal, self.publish = layer, journal, publish
+        self.actions, self.routes, self.progress = actions, routes, progress
+        self.plans = PlanBoard()  # skills' latest plans, for the snapshot
+        self._announce_robots = announce_robots
+        self._robots = robots
 
     def publish_progress(self) -> int:
         """Publish the progress that is due (`ProgressFeed`) as repeat statuses; how many.
@@ -56,14 +50,14 @@ class ObserverReports:
         whose journaled state is the one last published: a progress status never goes out
         after its action's terminal status, nor before a transition already journaled."""
         sent = 0
-        with self._lock:
+        with self.actions.lock:
             for uuid, progress in self.progress.take_due().items():
-                known, entry = self._index.get(uuid), self.journal.get(uuid)
+                known, entry = self.actions.get(uuid), self.journal.get(uuid)
                 if known is None or entry is None or entry.action.state is not known.state:
                     continue
                 action = entry.action
                 action.progress = progress
-                self._publish(action, repeat=True)
+                self.routes.publish_status(action, repeat=True)
                 sent += 1
         return sent
 
@@ -72,18 +66,18 @@ class ObserverReports:
         action's current status (`repeat`, with name and goal), the latest plan its
         skills sent and the tree of its robot actors (`sup.tree`), so a dashboard that
         attaches late misses nothing. Returns how many statuses went out."""
-        self.announce_robots()
+        self._announce_robots()
         self._publish_actor_tree()
-        for robot, record in self._plans.current():
+        for robot, record in self.plans.current():
             self.layer.publish_data(robot, record)
-        with self._lock:
-            entries = [e for e in self.journal.open_actions() if e.action.uuid in self._index]
+        with self.actions.lock:
+            entries = [e for e in self.journal.open_actions() if e.action.uuid in self.actions]
             for entry in entries:
-                self._publish(entry.action, repeat=True)
+                self.routes.publish_status(entry.action, repeat=True)
         return len(entries)
 
     def _publish_actor_tree(self) -> None:
-        robots = self.robots
+        robots = self._robots()
         if robots is None:
             return
         try:
@@ -101,6 +95,5 @@ class ObserverReports:
 
     def active(self) -> dict[str, ActionState]:
         """Every non-terminal action and its state."""
-        with self._lock:
-            return {u: e.state for u, e in self._index.items()}
+        return self.actions.states()
 

@@ -1,7 +1,8 @@
 """What the RCL owes the components that request actions, across their restarts.
 
-Part of `RclCore` (mrss/actors/rcl/core.py), as a base class that works on the core's index,
-journal and lock. Rules:
+One object of the RCL core (mrss/actors/rcl/core.py), holding what it knows of the
+requesters (their incarnations, the orphans they left); it reaches robot actors and
+re-sends statuses through the core's `Routes`. Rules:
 - a uuid seen before is a duplicate: its last status is sent again (the sender may have
   missed it), and it is not run twice;
 - from a newer incarnation of its requester, a known uuid is an adoption: the new
@@ -18,13 +19,11 @@ journal and lock. Rules:
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple
 
 from mrss.actors.rcl import lifecycle as lc
-from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
+from mrss.actors.rcl.open_actions import OpenActions, Routes
 from mrss.actors.rcl.orphans import Orphans
 from mrss.actors.rcl.robot import Control
 from mrss.messages import ActionInventory, ActionQuery, ActionState, Message
@@ -32,36 +31,23 @@ from mrss.messages import ActionInventory, ActionQuery, ActionState, Message
 log = logging.getLogger("mrss.rcl")
 
 
-class Entry(NamedTuple):
-    """An open action as the core routes it."""
-
-    robot: str
-    goal: str
-    state: ActionState
-    requester: Requester
-
-
-class RequesterDuties:
+class Requesters:
     """Duplicates, adoption, orphans and reconciliation (the rules of the module)."""
 
-    journal: ActionJournal
-    orphans: Orphans
-    publish: Callable[[Message], object]
-    _lock: threading.RLock
-    _index: dict[str, Entry]
-    _incarnations: dict[str, int]
+    def __init__(self, journal: ActionJournal, publish: Callable[[Message], object],
+                 actions: OpenActions, routes: Routes, orphans: Orphans,
+                 announce_robots: Callable[[], None]) -> None:
+        self.journal, self.publish, self.actions, self.routes = journal, publish, actions, routes
+        self.orphans = orphans
+        self._announce_robots = announce_robots
+        self._incarnations: dict[str, int] = {}  # requester -> its newest incarnation
 
-    if TYPE_CHECKING:  # provided by RclCore (no stub here: it would shadow them)
-        def _publish(self, action: Action, repeat: bool = False) -> None:
-            ...
+    def reset(self, incarnations: dict[str, int]) -> None:
+        """What the journal says of the requesters' incarnations ({}: a new run)."""
+        with self.actions.lock:
+            self._incarnations = dict(incarnations)
 
-        def _tell(self, robot: str, message: object) -> None:
-            ...
-
-        def announce_robots(self) -> None:
-            ...
-
-    def _repeat(self, uuid: str, requester: Requester = NOBODY) -> bool:
+    def repeat(self, uuid: str, requester: Requester = NOBODY) -> bool:
         """A uuid seen before: re-send its last status (the sender may have missed it).
 
         From a newer incarnation of the action's requester it is an adoption: the new
@@ -76,7 +62,7 @@ class RequesterDuties:
         else:
             log.info("duplicate action request %s ignored (%s)", uuid,
                      entry.action.state.value)
-        self._publish(entry.action, repeat=True)
+        self.routes.publish_status(entry.action, repeat=True)
         return True
 
     def _adopt(self, entry: JournalEntry, requester: Requester) -> None:
@@ -86,12 +72,12 @@ class RequesterDuties:
                  entry.requester.inc, action.state.value)
         self.journal.adopt(action.uuid, requester)
         self.orphans.adopted(action.uuid)
-        known = self._index.get(action.uuid)
-        if known is not None:
-            self._index[action.uuid] = known._replace(requester=requester)
+        if action.uuid in self.actions:
+            self.actions.replace(action.uuid, requester)
             by = lc.SuspendCause.parse(entry.suspended_by)
             if action.state is ActionState.SUSPENDED and by is not None and by.goal_management:
-                self._tell(action.robot, Control(action.uuid, lc.Resume(lc.SuspendCause.AGENT)))
+                self.routes.tell(action.robot,
+                                 Control(action.uuid, lc.Resume(lc.SuspendCause.AGENT)))
 
     def saw_incarnation(self, src: str, inc: int) -> list[str]:
         """`src` now runs as incarnation `inc`: cancel what its older incarnations asked for.
@@ -99,33 +85,33 @@ class RequesterDuties:
         Nobody waits for those actions any more, so no robot should keep working on them.
         Returns the uuids being cancelled.
         """
-        with self._lock:
+        with self.actions.lock:
             if inc <= self._incarnations.get(src, -1):
                 return []
             first_seen = src not in self._incarnations
             self._incarnations[src] = inc
-            orphans = {u: e for u, e in self._index.items()
-                       if e.requester.src == src and e.requester.inc < inc}
+            orphans = self.actions.matching(
+                lambda _u, e: e.requester.src == src and e.requester.inc < inc)
             for uuid, entry in orphans.items():
                 grace = self.orphans.add(uuid, entry.state)
                 log.warning("action %s is an orphan of %s incarnation %d: cancelled in %.0fs "
                             "unless incarnation %d adopts it", uuid, src, entry.requester.inc,
                             grace, inc)
         if not first_seen:  # a restarted requester: tell it where every robot stands
-            self.announce_robots()
+            self._announce_robots()
         if self.orphans.grace <= 0:
             self.cancel_orphans()
         return sorted(orphans)
 
     def cancel_orphans(self) -> list[str]:
         """Cancel the orphans whose grace is over (called on a timer); their uuids."""
-        with self._lock:
-            due = self.orphans.take_due()
-            entries = {u: self._index[u] for u in due if u in self._index}
+        with self.actions.lock:
+            due = set(self.orphans.take_due())
+            entries = self.actions.matching(lambda u, _e: u in due)
         for uuid, entry in entries.items():
             log.warning("cancelling action %s: orphaned by %s incarnation %d, not adopted",
                         uuid, entry.requester.src, entry.requester.inc)
-            self._tell(entry.robot, Control(uuid, lc.End(
+            self.routes.tell(entry.robot, Control(uuid, lc.End(
                 ActionState.CANCELLED, lc.EndCause.ORPHANED,
                 f"orphaned: {entry.requester.src} incarnation {entry.requester.inc} is gone")))
         return sorted(entries)
@@ -140,7 +126,7 @@ class RequesterDuties:
         for uuid in query.uuids:
             entry = self.journal.get(uuid)
             if entry is not None:
-                self._publish(entry.action, repeat=True)
+                self.routes.publish_status(entry.action, repeat=True)
                 sent += 1
         if query.requester:
             items = self.orphans.inventory(self.journal, query.requester, query.inc)

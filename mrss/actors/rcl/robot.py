@@ -1,5 +1,8 @@
 """One supervised pykka actor per robot: its link, teleop flag, its actions, their skills.
 
+One idea in one module (~440 lines): the actor that performs the lifecycle's effects for
+one robot; the decisions are lifecycle.py's, the skills skill_actor.py's.
+
 The robot actor carries out the action lifecycle (mrss.actors.rcl.lifecycle): it feeds
 `lifecycle.step` what happens to an action (accepted, a skill ended, a control, a teleop,
 a stop completed or timed out) and performs the effects it returns: refine the action
@@ -29,11 +32,11 @@ from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.skill import Skill, SkillOutcome
 from mrss.actors.rcl.skill_actor import (
-    Interrupt,
     ProgressRecorded,
     SkillActor,
-    SkillEnded,
+    SkillReport,
     SkillRunner,
+    StopSkill,
 )
 from mrss.messages import ActionState, JsonValue, Message
 from mrss.messages.plans import PLAN_RECORD, PlanBoard, clear_record
@@ -173,7 +176,7 @@ class RobotActor(SupervisedActor):
 
     # -- dispatch ---------------------------------------------------------------------
     def on_receive(self, message: Any) -> Any:
-        if isinstance(message, SkillEnded):
+        if isinstance(message, SkillReport):
             self._skill_ended(message)
         elif isinstance(message, ProgressRecorded):
             self._progress(message)
@@ -200,7 +203,7 @@ class RobotActor(SupervisedActor):
                     timer.cancel()
         for ref in refs:
             try:
-                ref.tell(Interrupt())
+                ref.tell(StopSkill())
             except pykka.ActorDeadError:
                 pass  # that skill has just ended
         futures = [ref.stop(block=False) for ref in refs]
@@ -224,7 +227,7 @@ class RobotActor(SupervisedActor):
         t.action.progress.update(msg.values)
         self.save_progress(msg.uuid, dict(t.action.progress))
 
-    def _skill_ended(self, msg: SkillEnded) -> None:
+    def _skill_ended(self, msg: SkillReport) -> None:
         t = self.actions.get(msg.uuid)
         if t is None or msg.run != t.run or t.refs[msg.index] is None:
             return  # a skill of an earlier run, or one already abandoned
@@ -319,7 +322,7 @@ class RobotActor(SupervisedActor):
             return self._run(t, effect.reason)
         if isinstance(effect, lc.Interrupt):
             return self._interrupt(t)
-        if isinstance(effect, lc.Check):
+        if isinstance(effect, lc.CheckStatus):
             self._check(t)
             return False
         if isinstance(effect, lc.Abandon):
@@ -398,9 +401,9 @@ class RobotActor(SupervisedActor):
         t.timer.start()
         for ref in running:
             try:
-                ref.tell(Interrupt())
+                ref.tell(StopSkill())
             except pykka.ActorDeadError:
-                pass  # ended meanwhile: its SkillEnded is on the way
+                pass  # ended meanwhile: its SkillReport is on the way
         return True
 
     def _tell_deadline(self, uuid: str, run: int) -> None:

@@ -161,8 +161,8 @@ class RclService(Component):
                             adopt_grace_suspended=opts.number("adopt_grace_suspended"),
                             preempted_timeout=opts.number("preempted_timeout"),
                             progress_every=opts.number("progress_every"))
-        self.core.robot_nodes = robot_nodes
-        self.layer.bind_runtime(link_state=self.core.link_state)
+        self.core.availability.robot_nodes = robot_nodes
+        self.layer.bind_runtime(link_state=self.core.availability.link_state)
         self._compaction = (opts.number("journal_keep_seconds"),
                             opts.whole("journal_keep_last"),
                             opts.number("journal_compact_period"))
@@ -201,8 +201,8 @@ class RclService(Component):
                 try:
                     publisher.publish(beat)
                     if self.core is not None:
-                        self.core.cancel_orphans()
-                        self.core.publish_progress()
+                        self.core.requesters.cancel_orphans()
+                        self.core.observers.publish_progress()
                 except Exception as exc:
                     log.error("heartbeat not published: %r", exc)
             if time.monotonic() >= next_compaction:
@@ -241,7 +241,7 @@ class RclService(Component):
             if isinstance(body, ActionRequest):
                 core.submit(body, Requester(env.src, env.inc))
             elif isinstance(body, ActionControl):
-                core.saw_incarnation(env.src, env.inc)
+                core.requesters.saw_incarnation(env.src, env.inc)
                 core.control(body, env.src)
             else:
                 log.warning("dropped a %s on the action channel from %s", env.kind, env.src)
@@ -257,21 +257,21 @@ class RclService(Component):
         body = env.body
         try:
             if isinstance(body, ActionControl):
-                core.saw_incarnation(env.src, env.inc)
+                core.requesters.saw_incarnation(env.src, env.inc)
                 core.control(body, env.src)
             elif isinstance(body, ActionQuery):
-                core.answer_query(body, Requester(env.src, env.inc))
+                core.requesters.answer_query(body, Requester(env.src, env.inc))
             elif isinstance(body, Command) and body.command == "teleop":
                 on = body.args.get("on")
                 if not isinstance(on, bool):
                     raise MrssError(f"teleop command needs args.on true/false, not {on!r}")
-                core.set_teleop(body.target, on)
+                core.availability.set_teleop(body.target, on)
             elif isinstance(body, Command) and body.command == "snapshot":
-                core.snapshot()
+                core.observers.snapshot()
             elif isinstance(body, Heartbeat):
-                core.saw_incarnation(env.src, env.inc)
+                core.requesters.saw_incarnation(env.src, env.inc)
             elif isinstance(body, SupEvent) and body.event in (NODE_DOWN, NODE_UP):
-                core.node_state(body.child, body.event == NODE_UP, body.reason)
+                core.availability.node_state(body.child, body.event == NODE_UP, body.reason)
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 

@@ -2,7 +2,7 @@
 
 `run` may block on a robot link, so the actor never calls it on its own thread: the
 worker drives START -> RUN -> FINISH and reports, while the actor stays free to take an
-`Interrupt` (set the flag, move to INTERRUPT, call `terminate()`), even if `run` never
+`StopSkill` (set the flag, move to INTERRUPT, call `terminate()`), even if `run` never
 returns. Nothing a skill raises escapes to the robot actor.
 
 Skill restarts follow the supervision policy (mrss.supervision.policy.RestartPolicy),
@@ -33,7 +33,7 @@ from mrss.actors.rcl.resources import Holder, ResourceBroker
 from mrss.actors.rcl.skill import Skill, SkillInterrupted, SkillOutcome, SkillState
 from mrss.messages import JsonValue
 from mrss.supervision.events import ESCALATE, RESTART, SupEvents
-from mrss.supervision.policy import Action as Verdict
+from mrss.supervision.policy import Action as Choice
 from mrss.supervision.policy import RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import Backoff, ChildSpec, OnExceeded, SupervisorSpec
@@ -46,7 +46,7 @@ SKILL_BACKOFF = Backoff(initial=0.05, factor=2.0, cap=2.0, jitter=0.2)
 
 
 @dataclass(frozen=True)
-class SkillEnded:
+class SkillReport:
     """To the robot actor: skill `index` of run `run` of action `uuid` is over."""
 
     uuid: str
@@ -68,7 +68,7 @@ class ProgressRecorded:
 
 
 @dataclass(frozen=True)
-class Interrupt:
+class StopSkill:
     """To a skill actor: stop the skill now (suspend, cancel, pre-emption, shutdown)."""
 
 
@@ -130,7 +130,7 @@ class SkillRunner:
 
 
 class SkillActor(pykka.ThreadingActor):
-    """Owns one skill's worker thread; reports SkillEnded to its robot actor.
+    """Owns one skill's worker thread; reports SkillReport to its robot actor.
 
     The actor loop and the worker both run on pre-started pool threads, which an
     abandoned skill never keeps the process alive with: starting a thread waits until
@@ -151,11 +151,11 @@ class SkillActor(pykka.ThreadingActor):
         ACTOR_THREADS.submit(self._actor_loop)
 
     def on_receive(self, message: Any) -> Any:
-        if isinstance(message, Interrupt):
+        if isinstance(message, StopSkill):
             self._interrupt()
         elif isinstance(message, _WorkerDone):
             try:
-                self.report(SkillEnded(self.runner.action.uuid, self.runner.run,
+                self.report(SkillReport(self.runner.action.uuid, self.runner.run,
                                        self.runner.index, message.outcome, message.reason,
                                        self.runner.cause, message.escalated))
             except pykka.ActorDeadError:
@@ -219,7 +219,7 @@ def drive(skill: Skill, runner: SkillRunner) -> tuple[SkillOutcome, str, bool]:
             if skill.max_restarts <= 0:  # no budget: nothing to restart or escalate
                 return (*_finish(skill, runner, outcome, reason), False)
             decision = policy.child_exited(child, ExitReason(Cause.CRASHED, reason))
-            if decision.action is not Verdict.RESTART:
+            if decision.action is not Choice.RESTART:
                 events.emit(ESCALATE, child, reason=reason, count=decision.count,
                             note=decision.note, action=runner.action.uuid,
                             index=runner.index)

@@ -52,6 +52,7 @@ from mrss.messages import (
     Percept,
     RobotState,
     SupEvent,
+    SupEventKind,
 )
 
 log = logging.getLogger("mrss.reasoner")
@@ -243,9 +244,9 @@ class Reasoner:
         robot = event.detail.get("robot")
         if not isinstance(robot, str) or not robot:
             return
-        if event.event == "quarantine":
+        if event.event is SupEventKind.QUARANTINE:
             self._set_unavailable(robot, True)
-        elif event.event == "release":
+        elif event.event is SupEventKind.RELEASE:
             self._set_unavailable(robot, False)
 
     def _set_unavailable(self, robot: str, unavailable: bool) -> None:

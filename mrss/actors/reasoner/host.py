@@ -60,6 +60,8 @@ from mrss.messages import (
     ActionRequest,
     ActionState,
     ActionStatus,
+    ControlCommand,
+    ControlTarget,
     FailureCause,
 )
 from mrss.runtime.datalayer_client import DataLayerUnavailable
@@ -188,8 +190,8 @@ class ReasonerHost:
             held = [r for r in self._held if r.uuid == uuid]
             self._held = [r for r in self._held if r.uuid != uuid]
         if latch is not None and not held:
-            self._send_control(ActionControl(command="cancel", target=latch.uuid,
-                                             target_kind="action"))
+            self._send_control(ActionControl(command=ControlCommand.CANCEL, target=latch.uuid,
+                                             target_kind=ControlTarget.ACTION))
             log.info("action %s %s cancelled (intention dropped)", latch.uuid, latch.literal)
 
     def _goal_management(self, action: Struct) -> Hashable:
@@ -262,7 +264,7 @@ class ReasonerHost:
     # ------------------------------------------------------------ the RCL's side
     def on_status(self, status: ActionStatus, src_inc: int) -> None:
         """A status from the RCL: a terminal one releases its latch."""
-        terminal = ActionState(status.state).terminal
+        terminal = status.state.terminal
         abandoned = False
         with self._lock:  # a dead incarnation's statuses never get here (bus/incarnations.py)
             self.rcl_incarnation = src_inc
@@ -360,7 +362,8 @@ class ReasonerHost:
         return [latch.uuid for latch in expired]
 
     def _cancel_abandoned(self, uuid: str) -> None:
-        self._send_control(ActionControl(command="cancel", target=uuid, target_kind="action"))
+        self._send_control(ActionControl(command=ControlCommand.CANCEL, target=uuid,
+                                         target_kind=ControlTarget.ACTION))
         log.info("action %s cancelled: its intention failed on the RCL lease", uuid)
 
     def latches(self) -> list[Latch]:

@@ -24,6 +24,8 @@ from mrss.messages import (
     ActionRequest,
     ActionState,
     ActionStatus,
+    ControlCommand,
+    ControlTarget,
     FailureCause,
 )
 
@@ -95,4 +97,5 @@ def goal_management_control(action: Struct) -> ActionControl:
             target = plain_arg(target_term)
     if kind not in CONTROL_TARGETS:
         raise MrssError(f"{GOAL_MANAGEMENT}: unknown target kind {kind!r}")
-    return ActionControl(command=command, target=str(target), target_kind=kind)
+    return ActionControl(command=ControlCommand(command), target=str(target),
+                         target_kind=ControlTarget(kind))

@@ -5,8 +5,10 @@
     GET  /objects/<id>           -> 200 {...} | 404
     POST /objects  {id, kind, position?, attributes?}
                                  -> 201 {"op": "insert", "object": {...}} | 200 on update
-Every answer is JSON, errors `{"error": "..."}`: 400 (bad input, a malformed request
-line or header, a request without HTTP/1.x version), 401 (no or wrong bearer token),
+Every answer is JSON, errors `{"error": "..."}`: 400 (bad input, a body that is not
+JSON or not Unicode text, a malformed request line or header, a request without an
+HTTP/1.x version, HTTP/0.9, a Content-Length that is not digits, Content-Length values
+that disagree or come with Transfer-Encoding: RFC 9112 6.3), 401 (no or wrong bearer token),
 404 (no such object or path), 405 (method), 408 (the request did not arrive within the
 connection timeout), 411/413 (body length), 414 (request line over 64 KiB), 431 (a
 header line too long or too many headers), 501 (unknown method), 505 (HTTP/2 and up).
@@ -28,6 +30,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import socket
 import threading
 from http import HTTPStatus
@@ -37,6 +40,7 @@ from urllib.parse import parse_qs, unquote, urlsplit
 
 from mrss.actors.worldmodel.store import Change, Position, WorldObject, WorldStoreUnavailable
 from mrss.edge.http_token import authorized
+from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.rejections import RejectionLog
 
 log = logging.getLogger("mrss.worldmodel.http")
@@ -45,6 +49,7 @@ MAX_REQUEST_LINE = 65536
 DEFAULT_TIMEOUT = 10.0
 #: The answers that refuse a client's request (counted and logged at a limited rate).
 REFUSED = frozenset({400, 401, 405, 411, 413, 414, 431, 501, 505})
+HTTP_VERSION = re.compile(r"HTTP/(\d+)\.(\d+)")  # HTTP/1.1; RFC 9112: one digit each
 
 
 class ObjectService(Protocol):
@@ -123,13 +128,39 @@ class _Handler(BaseHTTPRequestHandler):
             log.debug("world model HTTP %d from %s: %s", code, self.address_string(), detail)
 
     def parse_request(self) -> bool:
+        """The stdlib's parse, with HTTP/0.9 refused before any header is read (its
+        client sends none and waits) and the body's length settled (`_body_length`)."""
+        line = str(self.raw_requestline, "iso-8859-1").rstrip("\r\n")
+        problem = _version_problem(line.split())
+        if problem:
+            self.requestline, self.request_version = line, "HTTP/1.1"
+            self.command = line.split()[0] if line.split() else ""
+            self.send_error(HTTPStatus.BAD_REQUEST, problem)
+            return False
         if not super().parse_request():
             return False
-        if len(self.requestline.split()) != 3:  # "GET /": an HTTP/0.9 request
-            self.send_error(HTTPStatus.BAD_REQUEST, "request line must be METHOD PATH "
-                            f"HTTP/1.x, not {self.requestline[:80]!r}")
+        problem = self._length_problem()
+        if problem:
+            self.send_error(HTTPStatus.BAD_REQUEST, problem)
             return False
         return True
+
+    def _length_problem(self) -> str:
+        """Why the body's length is ambiguous (RFC 9112 6.3), or ""; sets `_body_length`
+        (None: no Content-Length)."""
+        self._body_length: int | None = None
+        values = [v.strip() for field in self.headers.get_all("Content-Length") or []
+                  for v in field.split(",")]
+        if not values:
+            return ""
+        if not all(v.isascii() and v.isdigit() for v in values):
+            return f"bad Content-Length {', '.join(values)[:80]!r}: digits only"
+        if len({int(v) for v in values}) > 1:
+            return f"conflicting Content-Length values {', '.join(values)[:80]!r}"
+        if "Transfer-Encoding" in self.headers:
+            return "Content-Length and Transfer-Encoding together"
+        self._body_length = int(values[0])
+        return ""
 
     def handle_one_request(self) -> None:
         """One request; a read that times out is answered 408 and ends the connection."""
@@ -207,8 +238,7 @@ class _Handler(BaseHTTPRequestHandler):
         except Exception as exc:  # keep serving whatever the service did
             log.exception("world model HTTP %s %s failed", method, self.path)
             status, body = 500, {"error": f"internal error: {exc.__class__.__name__}"}
-        has_body = self.headers.get("Content-Length", "0").strip() != "0" \
-            or "Transfer-Encoding" in self.headers
+        has_body = bool(self._body_length) or "Transfer-Encoding" in self.headers
         unread = has_body and not self._body_read
         self._reply(status, body, close=unread)  # an unread body would be the next request
 
@@ -261,22 +291,18 @@ class _Handler(BaseHTTPRequestHandler):
                                                                           kind)]
 
     def _json_body(self) -> Any:
-        length_text = self.headers.get("Content-Length")
-        if length_text is None:
+        length = self._body_length  # digits, and one value (parse_request)
+        if length is None:
             raise _HttpError(411, "Content-Length required")
-        try:
-            length = int(length_text)
-        except ValueError:
-            raise _HttpError(400, "bad Content-Length") from None
-        if length < 0 or length > MAX_BODY:
+        if length > MAX_BODY:
             self.close_connection = True
             raise _HttpError(413, f"body must be at most {MAX_BODY} bytes")
         raw = self.rfile.read(length)
         self._body_read = True
-        try:
-            return json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
-        except (UnicodeDecodeError, ValueError, RecursionError) as exc:
-            raise _HttpError(400, f"body is not JSON: {exc}") from None
+        try:  # the edge's one JSON door: not UTF-8, not JSON, a lone surrogate, NaN
+            return decode_json(raw)
+        except PayloadError as exc:
+            raise _HttpError(400, f"body {exc.reason.removeprefix('payload ')}") from None
 
     def do_GET(self) -> None:  # noqa: N802 (stdlib naming)
         self._dispatch("GET")
@@ -291,8 +317,20 @@ class _Handler(BaseHTTPRequestHandler):
         self._dispatch("DELETE")
 
 
-def _no_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not allowed")
+def _version_problem(words: list[str]) -> str:
+    """Why a request line's HTTP version is refused with 400 (RFC 9112 2.3), or "".
+    HTTP/2 and up are left to the stdlib (505); other malformed lines too (400)."""
+    if len(words) == 2:  # "GET /path": HTTP/0.9, which has no version and no headers
+        return f"request line must be METHOD PATH HTTP/1.x, not {' '.join(words)[:80]!r}"
+    if len(words) != 3 or not words[2].startswith("HTTP/"):
+        return ""
+    match = HTTP_VERSION.fullmatch(words[2])
+    if match is not None and int(match[1]) >= 2:
+        return ""
+    if match is None or len(match[1]) != 1 or len(match[2]) != 1 or match[1] == "0":
+        return (f"Bad request version {words[2][:20]!r}: HTTP/1.0 or HTTP/1.1 "
+                "(HTTP/0.9 is not served)")
+    return ""
 
 
 class _Server(ThreadingHTTPServer):

@@ -22,7 +22,16 @@ from enum import StrEnum
 from typing import Any
 
 from mrss.config.alerts import AlertRule, Severity
-from mrss.messages import Envelope, Percept, Rejections, RobotData, RobotState, SupEvent
+from mrss.messages import (
+    Envelope,
+    LinkState,
+    Percept,
+    Rejections,
+    RobotData,
+    RobotState,
+    SupEvent,
+    SupEventKind,
+)
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 BATTERY_LOW = 20.0  # percent: below it a robot's battery is low
@@ -138,7 +147,7 @@ class AlertsModel:
             return raised + self._condition(AlertKind.BATTERY_LOW, body.robot,
                                             level < self.battery_low, f"{level:.0f}%", env.ts)
         if isinstance(body, RobotState):
-            raised = self._condition(AlertKind.LINK_DOWN, body.robot, body.link == "down",
+            raised = self._condition(AlertKind.LINK_DOWN, body.robot, body.link is LinkState.DOWN,
                                      body.reason, env.ts)
             raised += self._condition(AlertKind.UNAVAILABLE, body.robot,
                                       not body.available and body.link != "down",
@@ -155,7 +164,7 @@ class AlertsModel:
         if isinstance(body, Rejections):
             return self._condition(AlertKind.REFUSED, body.component, body.total > 0,
                                    refusal_text(body), env.ts)
-        if isinstance(body, SupEvent) and body.event == "tree":
+        if isinstance(body, SupEvent) and body.event is SupEventKind.TREE:
             tree = body.detail.get("tree")
             # a component's own tree (the RCL's robot actors) hangs under the component
             parent = env.src if body.detail.get("scope") == "component" else ""

@@ -306,3 +306,54 @@ def test_a_service_that_fails_for_a_transient_cause_is_tried_again(
     agent.run_until_idle()
     assert rcl.since(mark) == ["rcl_goal_management(resume,hs1)"]
     assert not agent.believes("paused(ugv1, water)")
+
+
+def test_a_refused_teleop_switch_is_not_tried_again(world: tuple[Agent, ScriptedHost]) -> None:
+    """Issue 29: teleop of a robot the RCL does not have was retried every 2 s forever
+    (500 such wishes: 250 rejected actions a second). A refusal ends the switch."""
+    agent, rcl = world
+    rcl.feed("teleop(ghost, on)")
+    rcl.finish("teleop_mode(ghost,on)", ok=False, error="rejected")
+    rcl.run_until(lambda: not agent.snapshot()["intentions"])  # a retry would be due in 2 s
+    assert rcl.log.count("teleop_mode(ghost,on)") == 1 and not rcl.open
+
+
+def retryable_failures(agent: Agent, rcl: ScriptedHost, action: str, error: str,
+                       given_up: str) -> int:
+    """Fail every try of `action` with `error` until the agent believes `given_up`; how
+    many tries it made."""
+    tries = 0
+    while True:
+        rcl.run_until(lambda: action in rcl.open.values() or agent.believes(given_up))
+        if agent.believes(given_up):
+            return tries
+        rcl.finish(action, ok=False, error=error)
+        tries += 1
+
+
+def test_a_failing_teleop_switch_stops_at_its_budget_and_starts_again_with_the_robot(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    agent, rcl = world
+    rcl.feed("teleop(ugv1, on)")
+    assert retryable_failures(agent, rcl, "teleop_mode(ugv1,on)", "link_down",
+                              "switch_given_up(ugv1, on)") == 30
+    assert agent.believes("paused(ugv1, teleop)") and not rcl.open
+    rcl.feed("robot_unavailable(ugv1)", "-robot_unavailable(ugv1)")   # the link is back
+    rcl.finish("teleop_mode(ugv1,on)")                                # a new budget
+    agent.run_until_idle()
+    assert not agent.believes("switch_given_up(ugv1, _)") and not rcl.open
+
+
+def test_a_failing_recharge_stops_at_its_budget_and_starts_again_with_the_robot(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    agent, rcl = world
+    rcl.feed("area_goal_received(a1, 2)", "battery_low(uav1)")
+    assert retryable_failures(agent, rcl, "recharge(uav1,recharge)", "transient",
+                              "service_given_up(uav1, battery, recharge)") == 60
+    assert agent.believes("paused(uav1, battery)") and not running(rcl)  # goals wait
+    rcl.feed("robot_unavailable(uav1)", "-robot_unavailable(uav1)")
+    mark = len(rcl.log)
+    rcl.finish("recharge(uav1,recharge)")
+    agent.run_until_idle()
+    assert rcl.since(mark) == ["rcl_goal_management(resume,a1)"]
+    assert not agent.believes("paused(uav1, _)")
