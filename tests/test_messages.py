@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import re
 import typing
 from typing import Any
 
@@ -231,3 +232,43 @@ def test_a_string_that_is_not_utf8_is_named_as_such() -> None:
                              "kind": "percept", "body": {"literal": "a"}}, use_bin_type=False)
     with pytest.raises(DecodeError, match="string is not UTF-8"):
         m.decode(b"percept", payload)
+
+
+def test_the_optional_envelope_keys_round_trip_and_are_absent_unless_set() -> None:
+    body = m.Percept(literal="fire(a)")
+    plain = m.decode(*m.encode(body, src="events", inc=1))
+    assert (plain.cred, plain.replayed) == (b"", False)
+    assert set(msgpack.unpackb(m.encode(body, src="events", inc=1)[1])) == {
+        "v", "id", "ts", "src", "inc", "kind", "body"}  # the old wire, byte for byte
+    topic, payload = m.encode(body, src="events", inc=1, cred=b"\x01" * 16)
+    proven = m.decode(topic, payload)
+    assert proven.cred == b"\x01" * 16 and not proven.replayed
+    replayed = m.decode(topic, m.mark_replayed(payload))
+    assert replayed.replayed and replayed.cred == proven.cred and replayed.body == body
+    assert m.mark_replayed(b"\xc1 not msgpack") == b"\xc1 not msgpack"
+
+
+@pytest.mark.parametrize(("extra", "reason"), [
+    ({"cred": "not bytes"}, "envelope 'cred' has type str"),
+    ({"replayed": 1}, "envelope 'replayed' has type int"),
+    ({"signed": True}, "envelope has unknown key(s) ['signed']"),
+])
+def test_a_bad_optional_envelope_key_is_named(extra: dict[str, Any], reason: str) -> None:
+    topic, payload = m.encode(m.Percept(literal="fire(a)"), src="events", inc=1)
+    env = {**msgpack.unpackb(payload), **extra}
+    with pytest.raises(DecodeError, match=re.escape(reason)):
+        m.decode(topic, msgpack.packb(env, use_bin_type=True))
+
+
+def test_a_credential_proves_one_incarnation_of_one_sender_under_one_key(
+        tmp_path: Any) -> None:
+    key = m.IncarnationKey.create(tmp_path)
+    assert (tmp_path / "incarnation.key").stat().st_mode & 0o777 == 0o600
+    assert m.load_key(str(tmp_path / "incarnation.key")) == key
+    cred = key.credential("rcl", 2)
+    assert key.vouches("rcl", 2, cred)
+    assert not key.vouches("rcl", 3, cred) and not key.vouches("reasoner", 2, cred)
+    assert not key.vouches("rcl", 2, b"") and not key.vouches("rcl", 2, cred[:-1] + b"x")
+    other = m.IncarnationKey.create(tmp_path)  # the next run: a new key
+    assert not other.vouches("rcl", 2, cred)
+    assert m.load_key(str(tmp_path / "incarnation.key")) == other

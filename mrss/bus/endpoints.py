@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.errors import ConfigError
+from mrss.messages import IncarnationKey, load_key
 from mrss.ports import free_ports
 
 # sockaddr_un.sun_path holds 108 bytes including the terminating NUL.
@@ -24,11 +25,28 @@ class BusEndpoints:
     `frontend` is where the proxy's XSUB binds and every publisher connects; `backend`
     is where its XPUB binds and every subscriber connects. Both are validated on
     construction: ipc paths must fit a unix socket address, tcp needs a host and port.
+    `key` is the path of the run's incarnation key (mrss/messages/credentials.py), set by
+    the root supervisor for the components it starts: their publishers then prove their
+    incarnation, and their receivers believe only proven ones ("": a bus without one).
     """
 
     frontend: str
     backend: str
     direct: bool = False  # deliver directly, the proxy only introducing (mrss/bus/direct.py)
+    key: str = ""
+
+    def authority(self) -> IncarnationKey | None:
+        """The run's incarnation key (None on a bus without one); BusError if unreadable."""
+        return load_key(self.key) if self.key else None
+
+    def credential(self, src: str, inc: int) -> bytes:
+        """The proof of incarnation `inc` of `src` its envelopes carry (b"": none)."""
+        key = self.authority()
+        return key.credential(src, inc) if key is not None and inc > 0 else b""
+
+    def keyed(self, key: str | os.PathLike[str]) -> BusEndpoints:
+        """These endpoints with the run's incarnation key at `key`."""
+        return BusEndpoints(self.frontend, self.backend, self.direct, str(key))
 
     def __post_init__(self) -> None:
         for key in ("frontend", "backend"):
@@ -62,6 +80,8 @@ class BusEndpoints:
         plain: dict[str, Any] = {"frontend": self.frontend, "backend": self.backend}
         if self.direct:
             plain["direct"] = True
+        if self.key:
+            plain["key"] = self.key
         return plain
 
     @classmethod
@@ -72,13 +92,16 @@ class BusEndpoints:
         for key in ("frontend", "backend"):
             if not isinstance(data.get(key), str):
                 raise ConfigError("missing or not a string", key=f"bus.{key}")
-        extra = sorted(set(data) - {"frontend", "backend", "direct"})
+        extra = sorted(set(data) - {"frontend", "backend", "direct", "key"})
         if extra:
             raise ConfigError(f"unknown key(s) {extra}", key="bus")
         direct = data.get("direct", False)
         if not isinstance(direct, bool):
             raise ConfigError("must be true or false", key="bus.direct")
-        return cls(data["frontend"], data["backend"], direct)
+        key = data.get("key", "")
+        if not isinstance(key, str):
+            raise ConfigError("must be the path of the incarnation key", key="bus.key")
+        return cls(data["frontend"], data["backend"], direct, key)
 
     def ipc_paths(self) -> list[Path]:
         """The socket files of ipc endpoints (empty for tcp)."""

@@ -60,9 +60,9 @@ class ReliableReceiver:
 
     The handler's exceptions are logged; the message still counts as handled (it is not
     run again) — except `NotHandled`, which leaves it unacknowledged, to be offered again
-    when its sender repeats it. A message of a dead incarnation is acknowledged and never
-    handled (mrss/bus/incarnations.py). `handled` counts handler calls; `close()` stops
-    the thread.
+    when its sender repeats it. A message the incarnation rule refuses (a dead or unproven
+    incarnation, a replay) is acknowledged and never handled (mrss/bus/incarnations.py).
+    `handled` counts handler calls; `close()` stops the thread.
     """
 
     def __init__(
@@ -81,6 +81,7 @@ class ReliableReceiver:
         self._recent_ids: OrderedDict[str, None] = OrderedDict()
         self._drops = sockets.DropLog(f"reliable receiver {channel!r}")
         self._incarnations = incarnations or Incarnations(f"reliable receiver {channel!r}")
+        self._incarnations.adopt(endpoints.authority())  # a keyed bus: proven ones only
         self.handled = 0
         self.held_back = 0  # NotHandled answers: messages left for their sender to repeat
         self._held_logged = 0.0
@@ -105,7 +106,7 @@ class ReliableReceiver:
 
     @property
     def stale(self) -> int:
-        """How many messages of dead incarnations were dropped (acknowledged, not handled)."""
+        """How many messages the incarnation rule refused (acknowledged, not handled)."""
         return self._incarnations.dropped
 
     def _serve(self) -> None:

@@ -77,7 +77,8 @@ class ReliableSender:
     def send(self, msg: Message, topic: str | None = None, msg_id: str | None = None) -> str:
         """Queue `msg` for delivery and return its id; it is repeated until acknowledged."""
         msg_id = msg_id or self._ids()
-        frames = encode(msg, src=self.src, inc=self.inc, msg_id=msg_id, topic=topic)
+        frames = encode(msg, src=self.src, inc=self.inc, msg_id=msg_id, topic=topic,
+                        cred=self._pub.cred)
         out = _Outgoing(*frames)
         with self._lock:
             if self._closed.is_set():

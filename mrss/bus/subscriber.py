@@ -39,9 +39,9 @@ class Subscriber:
     Malformed messages are logged with topic and reason and dropped (`dropped` counts
     them). Reliable-channel data is delivered like any other message; acks and the
     proxy's welcome are not. After a proxy restart ZeroMQ reconnects and re-sends the
-    subscriptions, so the subscriber carries on by itself. Messages of a dead incarnation
-    are dropped (`stale` counts them; mrss/bus/incarnations.py states the rule) unless
-    `stale=Stale.KEEP`.
+    subscriptions, so the subscriber carries on by itself. Messages of a dead or unproven
+    incarnation, and replayed ones, are refused (`stale` counts them;
+    mrss/bus/incarnations.py states the rule) unless `stale=Stale.KEEP`.
 
     `skip(topic)` refuses messages by topic before they are decoded, for a subscriber
     that needs some of a prefix's topics only (ZeroMQ filters by prefix alone): the
@@ -62,8 +62,10 @@ class Subscriber:
             raise TypeError("prefixes must be a list of strings, not one string")
         self.endpoints = endpoints
         self.prefixes = tuple(prefixes)
-        self._incarnations = (incarnations or Incarnations(name)) if stale is Stale.DROP \
-            else None
+        self._incarnations = None
+        if stale is Stale.DROP:  # on a keyed bus, only proven incarnations are believed
+            self._incarnations = incarnations or Incarnations(name)
+            self._incarnations.adopt(endpoints.authority())
         # The supervisor's announcements teach the filter; delivered only when asked for.
         self._listen_only = self._incarnations is not None and not self._wants(ANNOUNCEMENT)
         self._early: deque[Envelope] = deque()
@@ -124,7 +126,7 @@ class Subscriber:
 
     @property
     def stale(self) -> int:
-        """How many messages of dead incarnations were dropped."""
+        """How many messages the incarnation rule refused (dead, unproven, replayed)."""
         return 0 if self._incarnations is None else self._incarnations.dropped
 
     def recv(self, timeout: float | None = None) -> Envelope | None:

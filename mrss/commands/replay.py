@@ -11,7 +11,10 @@ not trusted: `--speed` outside [0.001, 1000] is rejected, a gap longer than `--m
 seconds (default 60, at most 3600) is replayed as that many, a time going backwards as
 no gap, and an entry whose time is not a finite number >= 0 is skipped as undecodable.
 Envelopes keep
-their original id, time, sender and incarnation. A reliable-channel message is
+their original id, time, sender and incarnation, and are marked as replayed
+(`replayed: true`): components never take them for live state or robot data (they are
+refused and counted, docs/bus.md); observers such as the dashboard and `mrss record` see
+them as replayed. A reliable-channel message is
 published as the plain message it carries (monitors see it; no reliable receiver
 takes it for a live sender's), so a replay never drives robots through the action
 channel. Messages recorded as malformed are skipped unless `--include-malformed`
@@ -40,6 +43,7 @@ from mrss.commands.busargs import (
     number_in,
 )
 from mrss.errors import MrssError
+from mrss.messages import mark_replayed
 from mrss.recording.format import RecordedMessage, RecordingError, RecordingReader
 
 EXIT_ERROR = 2
@@ -188,8 +192,9 @@ def topic_of(message: RecordedMessage) -> bytes:
 
 
 def sendable_frames(message: RecordedMessage) -> list[bytes]:
-    """The frames to publish: as recorded, but reliable data as its plain message."""
+    """The frames to publish: as recorded, but reliable data as its plain message, and
+    every envelope marked as replayed."""
     frames = message.frames
     if not message.malformed and len(frames) == 4 and frames[0].startswith(RELIABLE_PREFIX):
-        return [frames[1], frames[2]]
-    return list(frames)
+        return [frames[1], mark_replayed(frames[2])]
+    return [frames[0], *map(mark_replayed, frames[1:])]

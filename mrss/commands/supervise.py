@@ -40,6 +40,7 @@ from mrss.config.loader import load_project
 from mrss.config.nodes import keys_dir, node_children, node_plan
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
+from mrss.messages import IncarnationKey
 from mrss.runtime.remote import RemoteControl
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
@@ -92,17 +93,19 @@ def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
 def build_supervisor(
     config: ProjectConfig, run_dir: Path, *, launcher: str | None = None,
     publish: Publish | None = None, bus: dict[str, Any] | None = None, node: str = "",
+    key: IncarnationKey | None = None,
 ) -> ProcessSupervisor:
     """The root supervisor for a validated project (of one node's share, with `node`).
 
     `publish` receives every sup.* event (a bus Publisher's `publish`); `bus` is the
-    endpoints dict handed to every component as `ctx.bus`.
+    endpoints dict handed to every component as `ctx.bus`; `key` the run's incarnation
+    key (its path is in `bus`), which proves each start it announces.
     """
     s = config.supervisor
     settings = ProcessSettings(
         project_dir=config.directory, run_dir=run_dir, bus=dict(bus or {}),
         heartbeat_interval=s.heartbeat_interval, heartbeat_misses=s.heartbeat_misses,
-        launcher="exec" if (launcher or s.launcher) == "exec" else "fork",
+        launcher="exec" if (launcher or s.launcher) == "exec" else "fork", key=key,
     )
     children = node_children(config, node_plan(config), node) if node else \
         config.child_specs()
@@ -183,6 +186,11 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
                early: list[int], node: str = "") -> int:
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
+    # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
+    # may claim an incarnation"). Not with [nodes] yet: each node's root has its own.
+    key = None if node else IncarnationKey.create(run_dir)
+    if key is not None:
+        endpoints = endpoints.keyed(key.path)
     publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
     to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
     outbox = None
@@ -193,7 +201,7 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
         publish = outbox
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
-                               bus=endpoints.to_dict(), node=node)
+                               bus=endpoints.to_dict(), node=node, key=key)
         remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
         try:
             with cpu_latency(config.supervisor.cpu_latency_us):

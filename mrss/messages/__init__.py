@@ -12,8 +12,10 @@ from mrss.messages.codec import (
     build,
     decode,
     encode,
+    mark_replayed,
     new_id,
 )
+from mrss.messages.credentials import IncarnationKey, load_key
 from mrss.messages.kinds import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
@@ -72,6 +74,7 @@ __all__ = [
     "FailureCause",
     "Heartbeat",
     "IdGenerator",
+    "IncarnationKey",
     "JsonValue",
     "LinkState",
     "KINDS",
@@ -90,5 +93,7 @@ __all__ = [
     "build",
     "decode",
     "encode",
+    "load_key",
+    "mark_replayed",
     "new_id",
 ]

@@ -3,7 +3,10 @@
 A bus message is two frames, `[topic, msgpack(envelope)]`, where the envelope is
 `{v, id, ts, src, inc, kind, body}`: schema version, message id, send time, sending
 component, the sender's incarnation (so a dead incarnation's late messages can be
-dropped), message kind, and the kind's fields. `decode` validates all of it and raises
+dropped), message kind, and the kind's fields. Two keys are optional and absent unless
+set: `cred`, the sender's proof of its incarnation (mrss/messages/credentials.py), and
+`replayed: true`, set by `mrss replay` on everything it sends (`mark_replayed`), so that
+no component takes a recording for live traffic. `decode` validates all of it and raises
 `DecodeError` with the reason for anything else; it never raises anything but that.
 """
 
@@ -37,6 +40,8 @@ class Envelope:
     inc: int
     body: Message
     v: int = SCHEMA_VERSION
+    cred: bytes = b""  # the sender's proof of (src, inc); b"": none
+    replayed: bool = False  # sent by `mrss replay`: a recording, not live traffic
 
     @property
     def kind(self) -> str:
@@ -65,7 +70,7 @@ class IdGenerator:
 
 def encode(
     body: Message, *, src: str, inc: int = 0, msg_id: str | None = None,
-    topic: str | None = None,
+    topic: str | None = None, cred: bytes = b"",
 ) -> tuple[bytes, bytes]:
     """The two frames of `body` as sent on the bus: topic and msgpack envelope."""
     env = {
@@ -77,6 +82,8 @@ def encode(
         "kind": body.kind,
         "body": _body_dict(body),
     }
+    if cred:
+        env["cred"] = cred
     packer = getattr(_PACKERS, "packer", None)
     if packer is None:
         packer = _PACKERS.packer = msgpack.Packer(use_bin_type=True)
@@ -94,11 +101,27 @@ def _body_dict(body: Message) -> dict[str, Any]:
     return {name: getattr(body, name) for name in _schema(type(body)).names}
 
 
+def mark_replayed(payload: bytes) -> bytes:
+    """The envelope `payload` flagged as replayed (`replayed: true`); anything that is not
+    an envelope map is returned as it is (no receiver decodes it anyway)."""
+    try:
+        env = msgpack.unpackb(payload, raw=False, strict_map_key=False)
+    except Exception:  # garbage stays garbage
+        return payload
+    if type(env) is not dict:
+        return payload
+    env["replayed"] = True
+    return bytes(msgpack.packb(env, use_bin_type=True))
+
+
 # The envelope's keys and the exact types each may have (bool is not an int here).
 _ENVELOPE_FIELDS: dict[str, tuple[type, ...]] = {
     "v": (int,), "id": (str,), "ts": (float, int), "src": (str,), "inc": (int,),
     "kind": (str,), "body": (dict,),
 }
+# The optional keys, absent unless set, and their types.
+_OPTIONAL_FIELDS: dict[str, tuple[type, ...]] = {"cred": (bytes,), "replayed": (bool,)}
+_REQUIRED = len(_ENVELOPE_FIELDS)
 
 
 def decode(topic: bytes, payload: bytes | bytearray | memoryview) -> Envelope:
@@ -133,13 +156,18 @@ def _envelope(topic: str, env: Any) -> Envelope:
     try:
         version, kind, ts = env["v"], env["kind"], env["ts"]
         well_typed = (
-            len(env) == len(_ENVELOPE_FIELDS) and type(version) is int
+            type(version) is int
             and type(env["id"]) is str and (type(ts) is float or type(ts) is int)
             and type(env["src"]) is str and type(env["inc"]) is int and type(kind) is str
             and type(env["body"]) is dict
         )
     except KeyError:
         well_typed = False
+    cred, replayed = b"", False
+    if len(env) != _REQUIRED and well_typed:  # optional keys: checked only when present
+        cred, replayed = env.get("cred", b""), env.get("replayed", False)
+        well_typed = len(env) == _REQUIRED + ("cred" in env) + ("replayed" in env) \
+            and type(cred) is bytes and type(replayed) is bool
     if not well_typed:
         _envelope_fault(env)
     if version != SCHEMA_VERSION:
@@ -154,19 +182,23 @@ def _envelope(topic: str, env: Any) -> Envelope:
     # Validated above; fill the frozen dataclass directly (its __init__ costs twice as much).
     result: Envelope = object.__new__(Envelope)
     result.__dict__.update(topic=topic, id=env["id"], ts=float(env["ts"]), src=env["src"],
-                           inc=env["inc"], body=body, v=SCHEMA_VERSION)
+                           inc=env["inc"], body=body, v=SCHEMA_VERSION, cred=cred,
+                           replayed=replayed)
     return result
 
 
 def _envelope_fault(env: dict[Any, Any]) -> typing.NoReturn:
     """Raise DecodeError naming what is wrong with an envelope's keys or types."""
-    extra = sorted(map(str, set(env) - set(_ENVELOPE_FIELDS)))
+    extra = sorted(map(str, set(env) - set(_ENVELOPE_FIELDS) - set(_OPTIONAL_FIELDS)))
     if extra:
         raise DecodeError(f"envelope has unknown key(s) {extra}")
     for key, types_ in _ENVELOPE_FIELDS.items():
         if key not in env:
             raise DecodeError(f"envelope lacks {key!r}")
         if type(env[key]) not in types_:
+            raise DecodeError(f"envelope {key!r} has type {type(env[key]).__name__}")
+    for key, types_ in _OPTIONAL_FIELDS.items():
+        if key in env and type(env[key]) not in types_:
             raise DecodeError(f"envelope {key!r} has type {type(env[key]).__name__}")
     raise AssertionError("envelope fault not found")  # pragma: no cover
 

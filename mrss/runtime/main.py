@@ -14,7 +14,7 @@ as `LogRecord`s on `log.<name>` (bounded, never blocking the logging thread).
 With bus endpoints a thread of its own (never the heartbeat's: a first publish may wait
 for the bus) publishes the process's refusal counters when they move
 (`mrss.edge.rejection_reports`: `Rejections` on `edge.rejections.<name>`), for the
-dashboard.
+dashboard: what its edge refused, and the messages the bus's incarnation rule refused.
 """
 
 from __future__ import annotations
@@ -36,7 +36,9 @@ from types import FrameType
 from typing import Any
 
 from mrss import logs
+from mrss.bus.incarnations import refusal_counts
 from mrss.edge.rejection_reports import RejectionReporter
+from mrss.edge.rejections import process_counts
 from mrss.errors import ConfigError, SupervisionError
 from mrss.runtime.component import Component, ComponentContext
 from mrss.supervision import control
@@ -112,7 +114,8 @@ class _Runtime:
 
     def _report_rejections(self) -> None:
         ctx = self.ctx
-        reporter = RejectionReporter(ctx.name, lambda m: ctx.publisher.publish(m))
+        reporter = RejectionReporter(ctx.name, lambda m: ctx.publisher.publish(m),
+                                     counts=_refusals)
         while not ctx._stop.wait(REPORT_TICK):
             try:
                 reporter.tick()
@@ -165,6 +168,12 @@ class _Runtime:
                            "".join(traceback.format_exception(exc)).rstrip())
         self._send(control.FAIL, f"crashed: {type(exc).__name__} in {phase}: {exc}")
         return EXIT_FAILED
+
+
+def _refusals() -> dict[str, int]:
+    """What this process refused: at the edge, and at the bus's door (dead, unproven or
+    replayed senders: mrss/bus/incarnations.py)."""
+    return {**process_counts(), **refusal_counts()}
 
 
 def run_component(

@@ -40,6 +40,7 @@ class PerceptChannel:
     def __init__(self, endpoints: BusEndpoints, *, src: str, inc: int,
                  publisher: FramePublisher, reliable: ReliableSender | None = None) -> None:
         self.src, self.inc = src, inc
+        self._cred = endpoints.credential(src, inc)
         self._publisher = publisher
         self._ids = IdGenerator()
         self._reliable = reliable or ReliableSender(endpoints, src=src, inc=inc,
@@ -56,7 +57,7 @@ class PerceptChannel:
         msg_id = msg_id or self._ids()
         self._reliable.send(percept, msg_id=msg_id)
         self._publisher.send_frames(encode(percept, src=self.src, inc=self.inc,
-                                           msg_id=msg_id))
+                                           msg_id=msg_id, cred=self._cred))
         return msg_id
 
     def pending(self) -> int:

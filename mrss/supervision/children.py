@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from mrss.messages import IncarnationKey
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildSpec
 from mrss.supervision.status import ChildState
@@ -55,6 +56,9 @@ class ProcessSettings:
     heartbeat_interval: float = 0.5
     heartbeat_misses: int = 3
     launcher: Literal["fork", "exec"] = "fork"
+    # The run's incarnation key: each `sup.start` carries the started incarnation's
+    # credential (mrss/messages/credentials.py); None: a bus without one.
+    key: IncarnationKey | None = None
 
 
 @dataclass

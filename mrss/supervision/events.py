@@ -58,7 +58,8 @@ class SupEvents:
         level = logging.INFO if event in (START, RESTART, RELEASE) else logging.WARNING
         if event == EXIT and reason.startswith("shutdown"):
             level = logging.INFO
-        extras = " ".join(f"{k}={v}" for k, v in detail.items())
+        # (an incarnation's credential is for receivers, not for a reader of the log)
+        extras = " ".join(f"{k}={v}" for k, v in detail.items() if k != "cred")
         self._log.log(level, "%s %s%s%s%s%s", event, child, f" pid={pid}" if pid else "",
                       f" count={count}" if count else "", f" reason={reason!r}" if reason else "",
                       f" {extras}" if extras else "")

@@ -345,8 +345,11 @@ class ProcessSupervisor:
         elif kind == control.READY and p.state is ChildState.STARTING:
             p.state, p.up_since, p.last_beat = move(p.state, ChildCause.READY, p.id), now, now
             self._policy.child_started(p.id)
+            key = self.settings.key  # the proof of the new incarnation, for receivers
+            proof: dict[str, Any] = \
+                {"cred": key.credential(p.id, p.incarnation).hex()} if key else {}
             self.events.emit(ev.START, p.id, pid=p.pid, inc=p.incarnation,
-                             startup_ms=round((now - p.spawned_at) * 1000, 1))
+                             startup_ms=round((now - p.spawned_at) * 1000, 1), **proof)
         elif kind == control.FAIL:
             p.told = text
         elif kind == control.PONG:

@@ -5,6 +5,7 @@ or announced by its supervisor; on the subscriber and on the reliable channel al
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 from mrss.bus import (
     BusEndpoints,
@@ -15,7 +16,18 @@ from mrss.bus import (
     Stale,
     Subscriber,
 )
-from mrss.messages import ActionRequest, ActionStatus, Envelope, Percept, SupEvent
+from mrss.bus.incarnations import MAX_COUNTED, OTHER_SENDERS, Refusal, refusal_counts
+from mrss.messages import (
+    ActionRequest,
+    ActionStatus,
+    Envelope,
+    IncarnationKey,
+    Percept,
+    SupEvent,
+    decode,
+    encode,
+    mark_replayed,
+)
 from mrss.testing import wait_until
 from tests.bus.bus_helpers import sync
 
@@ -112,3 +124,83 @@ def test_the_reliable_channel_acknowledges_a_dead_incarnations_message_and_never
                    message="both acknowledged")
         assert handled == [("new", 2)]
         assert rx.stale == 1 and live.dropped == 1
+
+
+def test_on_a_keyed_bus_only_a_proven_incarnation_raises_the_bar(
+        proxy_thread: BusEndpoints, tmp_path: Path) -> None:
+    (tmp_path / "run").mkdir()
+    (tmp_path / "other").mkdir()
+    key = IncarnationKey.create(tmp_path / "run")
+    ep = proxy_thread.keyed(key.path)  # what the root hands its components
+    foreign = IncarnationKey.create(tmp_path / "other")  # another run's key
+    handled: list[tuple[str, int]] = []
+    lock = threading.Lock()
+
+    def handler(env: Envelope) -> None:
+        assert isinstance(env.body, ActionRequest)
+        with lock:
+            handled.append((env.body.uuid, env.inc))
+
+    def request(uuid: str) -> ActionRequest:
+        return ActionRequest(uuid=uuid, name="go", args=[])
+
+    live = Incarnations("rcl")
+    with ReliableReceiver(ep, src="rcl", channel="action", handler=handler,
+                          incarnations=live) as rx, \
+            ReliableSender(ep, src="reasoner", inc=1, channel="action") as alive, \
+            ReliableSender(proxy_thread, src="reasoner", inc=10**9, channel="action") as forged, \
+            ReliableSender(proxy_thread.keyed(foreign.path), src="reasoner", inc=2,
+                           channel="action") as replayed_elsewhere, \
+            Publisher(ep, src="supervisor", batching=False) as root, \
+            Subscriber(ep, prefixes=["action.control"], incarnations=live) as controls:
+        alive.send(request("a"))
+        wait_until(lambda: alive.pending() == 0, 10, message="a acknowledged")
+        forged.send(request("forged"))  # no credential
+        replayed_elsewhere.send(request("foreign"))  # another run's credential
+        wait_until(lambda: forged.pending() == 0 and replayed_elsewhere.pending() == 0, 10,
+                   message="both acknowledged (refused)")
+        alive.send(request("b"))  # the bar did not move: the live reasoner is heard
+        wait_until(lambda: alive.pending() == 0, 10, message="b acknowledged")
+        assert handled == [("a", 1), ("b", 1)]
+        assert live.refused[("reasoner", Refusal.UNPROVEN)] == 2 and rx.stale == 2
+        assert refusal_counts()[
+            "bus message from reasoner: an incarnation its supervisor did not start"] >= 2
+        # the root announces reasoner 2 with its credential: incarnation 1 is dead (the
+        # component's subscriber hears it for the filter it shares with the receiver)
+        announced = SupEvent(event="start", child="reasoner", supervisor="root",
+                             detail={"inc": 2, "cred": key.credential("reasoner", 2).hex()})
+        controls.start(lambda env: None)
+        wait_until(lambda: root.publish(announced) and live.live("reasoner") == 2, 10,
+                   interval=0.1, message="the announcement heard")
+        alive.send(request("late"))
+        wait_until(lambda: alive.pending() == 0, 10, message="late acknowledged")
+        assert handled == [("a", 1), ("b", 1)]
+        assert live.refused[("reasoner", Refusal.STALE)] == 1
+
+
+def test_a_replayed_message_reaches_observers_marked_and_no_component(
+        proxy_thread: BusEndpoints) -> None:
+    ep = proxy_thread
+    with Publisher(ep, src="tool", batching=False) as tool, \
+            Subscriber(ep, prefixes=["percept"]) as component, \
+            Subscriber(ep, prefixes=["percept"], stale=Stale.KEEP) as observer:
+        sync(tool, component, _sync)
+        sync(tool, observer, _sync)
+        topic, payload = encode(Percept(literal="hotspot(h1)"), src="events", inc=1)
+        tool.send_frames([topic, mark_replayed(payload)])
+        tool.publish(Percept(literal="live"))
+        seen = [(e.body.literal, e.replayed) for e in _drain(observer)
+                if isinstance(e.body, Percept) and not e.body.literal.startswith("sync")]
+        assert seen == [("hotspot(h1)", True), ("live", False)]
+        assert [e.body.literal for e in _drain(component) if isinstance(e.body, Percept)
+                and not e.body.literal.startswith("sync")] == ["live"]
+        assert component.stale == 1
+
+
+def test_refusals_of_made_up_senders_are_counted_in_bounded_memory() -> None:
+    live = Incarnations("rcl", IncarnationKey(b"k" * 32))
+    flood = MAX_COUNTED + 100
+    for n in range(flood):
+        assert not live.admit(decode(*encode(Percept(literal="x"), src=f"s{n}", inc=5)))
+    assert live.dropped == flood and len(live.refused) == MAX_COUNTED + 1
+    assert live.refused[(OTHER_SENDERS, Refusal.UNPROVEN)] == 100

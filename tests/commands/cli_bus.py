@@ -12,7 +12,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mrss.bus import BusEndpoints, ProxyThread, Subscriber
+from mrss.bus import BusEndpoints, ProxyThread, Stale, Subscriber
 from mrss.messages import Envelope
 from mrss.testing import wait_until
 
@@ -45,11 +45,14 @@ class Bus:
 
 @contextmanager
 def running_bus(prefixes: tuple[str, ...] = ("",)) -> Iterator[Bus]:
-    """A proxy thread on a fresh run dir and a connected subscriber; both stopped after."""
+    """A proxy thread on a fresh run dir and a connected subscriber; both stopped after.
+
+    The subscriber is an observer (`Stale.KEEP`): it sees replayed messages too, as the
+    dashboard does (a component refuses them)."""
     with short_dir() as run_dir:
         endpoints = BusEndpoints.ipc(run_dir)
         with ProxyThread(endpoints):
-            sub = Subscriber(endpoints, prefixes=prefixes)
+            sub = Subscriber(endpoints, prefixes=prefixes, stale=Stale.KEEP)
             try:
                 assert sub.wait_connected(10), "subscriber did not join the proxy"
                 yield Bus(run_dir, endpoints, sub)

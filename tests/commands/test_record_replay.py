@@ -67,7 +67,9 @@ def seen(entries: list[RecordedMessage]) -> list[Seen]:
 
 
 def received(bus: Bus, count: int) -> list[Seen]:
+    """The next `count` messages on `bus`, each of which must be marked as replayed."""
     envs: list[Envelope] = [bus.next() for _ in range(count)]
+    assert all(env.replayed for env in envs)
     return [(env.topic, env.id, env.src, env.body) for env in envs]
 
 

@@ -67,3 +67,46 @@ class Announcer(Worker):
 
         ctx.publisher.publish(LogRecord(component=ctx.name, level="INFO",
                                         message=f"started incarnation {ctx.incarnation}"))
+
+
+class Talker(Worker):
+    """A worker that says `tick N` on its log topic every `every` seconds (0.1)."""
+
+    def start(self, ctx: ComponentContext) -> None:
+        super().start(ctx)
+        self.ticks = threading.Thread(target=self._tick, args=(ctx,), daemon=True)
+        self.ticks.start()
+
+    def _tick(self, ctx: ComponentContext) -> None:
+        from mrss.messages import LogRecord
+
+        n = 0
+        while not ctx._stop.wait(float(ctx.options.get("every", 0.1))):
+            n += 1
+            ctx.publisher.publish(LogRecord(component=ctx.name, level="INFO",
+                                            message=f"tick {n}"))
+
+
+class Listener(Worker):
+    """A worker that repeats the ticks it takes from the topics `hears` (prefixes) as
+    `heard <src> <inc> <message>` on its own: what a component acts on, made visible."""
+
+    def start(self, ctx: ComponentContext) -> None:
+        super().start(ctx)
+        from mrss.bus import BusEndpoints, Subscriber
+        from mrss.messages import Envelope, LogRecord
+
+        def repeat(env: Envelope) -> None:
+            if isinstance(env.body, LogRecord) and env.body.message.startswith("tick"):
+                ctx.publisher.publish(LogRecord(
+                    component=ctx.name, level="INFO",
+                    message=f"heard {env.src} {env.inc} {env.body.message}"))
+
+        self.sub = Subscriber(BusEndpoints.from_dict(ctx.bus),
+                              prefixes=list(ctx.options["hears"]), name=ctx.name)
+        self.sub.start(repeat)
+        self.sub.wait_connected(5.0)
+
+    def stop(self) -> None:
+        self.sub.close()
+        super().stop()

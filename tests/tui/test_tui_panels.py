@@ -12,6 +12,8 @@ from mrss.messages import (
     RobotData,
     RobotState,
     SupEvent,
+    encode,
+    mark_replayed,
 )
 from mrss.tui.app import MrssApp
 from mrss.tui.models.alerts import AlertKind
@@ -116,6 +118,22 @@ def test_robots_table_shows_availability_link_and_latest_telemetry(
                 "47.10000, 15.40000 alt 30.0", "55%"]  # position, battery
             assert goal == ""  # no goal patterns declared: no goals known
             assert row_text(table, "uav1")[9] == "no heartbeat for 3.0 s"
+    run(body())
+
+
+def test_a_replayed_robots_data_is_not_taken_for_the_robot_now(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            table = app.query_one(RobotsTable)
+            topic, payload = encode(RobotData(robot="ugv1", data={"lat": 47.0, "lon": 15.0}),
+                                    src="rcl", inc=1)
+            peer.pub.send_frames([topic, mark_replayed(payload)])  # as `mrss replay` does
+            peer.publish(RobotData(robot="uav1", data={"lat": 47.1, "lon": 15.4}))
+            await until(pilot, lambda: has_row(table, "uav1"), message="the live robot")
+            assert not has_row(table, "ugv1")
     run(body())
 
 

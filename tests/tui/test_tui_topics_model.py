@@ -3,6 +3,7 @@ topic's ring of latest messages, the envelope as pretty JSON (no Textual, no bus
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -78,6 +79,15 @@ def test_the_latest_message_is_the_whole_envelope_as_pretty_json() -> None:
     line = summary(latest, width=40)
     assert line.split()[1] == "rcl#3" and '{"robot":"ugv1"' in line
     assert len(line) == 40 and line.endswith("…")
+
+
+def test_a_replayed_message_is_shown_as_replayed() -> None:
+    model = TopicsModel()
+    replayed = dataclasses.replace(env(data("ugv1", 60.0), src="rcl", inc=2), replayed=True)
+    model.count([replayed], now=1.0)
+    latest = model.latest("robot.ugv1.data")
+    assert latest is not None and json.loads(pretty_json(latest))["replayed"] is True
+    assert summary(latest).split()[1:3] == ["rcl#2", "(replayed)"]
 
 
 def test_topics_beyond_the_limit_are_counted_together(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -51,6 +51,7 @@ from mrss.edge.record_declarations import (
 )
 from mrss.edge.rejections import RejectionLog
 from mrss.edge.retry import DependencyUnavailable
+from mrss.edge.robot_owners import RobotOwners
 from mrss.edge.validation import RecordValidator, Rejected, limit_overrides
 from mrss.errors import ConfigError, TransientError
 from mrss.messages import DataReply, DataRequest, Envelope, Percept, RobotData, Topic
@@ -292,20 +293,22 @@ class DataLayerComponent(Component):
         self._telemetry: TelemetryQueue | None = None
         self._world: WorldModelAccess | None = None
         self._percepts: PerceptChannel | None = None
+        self._owners = RobotOwners({})
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus and percept channel from the context, then `run`."""
         bus = bus_port(ctx)
         self._percepts = PerceptChannel.for_component(ctx)
         self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus,
-                 percepts=self._percepts.send)
+                 percepts=self._percepts.send, proven=bool(ctx.bus.get("key")))
         bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort, *,
-            percepts: PerceptSink | None = None) -> None:
+            percepts: PerceptSink | None = None, proven: bool = False) -> None:
         """Load the project's data layer and serve requests on `bus`.
 
-        The project's percepts go to `percepts` (default: published on `bus`).
+        The project's percepts go to `percepts` (default: published on `bus`); `proven`:
+        the bus has the run's incarnation key (robot data needs a proven incarnation).
         """
         section = table(config, "datalayer")
         values = OptionValues(self.OPTIONS, section, section="datalayer")
@@ -332,6 +335,8 @@ class DataLayerComponent(Component):
         self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
                                             thread_name_prefix="dl-dispatch")
         self._telemetry = TelemetryQueue(self.service.telemetry)
+        # Robot data is taken only from the component that owns the robot's link.
+        self._owners = RobotOwners.of_project(project_dir, proven=proven)
         bus.subscribe([Topic.DL_REQUEST.value, Topic.ROBOT.value], self._on_message)
         log.info("data layer %s serving %d functions", cls.__name__,
                  len(self.service.functions))
@@ -341,7 +346,7 @@ class DataLayerComponent(Component):
         if isinstance(body, DataRequest) and env.topic == Topic.DL_REQUEST.value:
             assert self._dispatch is not None
             self._dispatch.submit(self._answer, body)
-        elif isinstance(body, RobotData):
+        elif isinstance(body, RobotData) and self._owners.admits(env):
             assert self._telemetry is not None and self.service is not None
             self._telemetry.put(body)
 

@@ -145,7 +145,11 @@ class ReasonerComponent(Component):
                                                     "action.inventory", "sup.", "robot.",
                                                     "ctl.mind"], incarnations=live,
                               skip=_robot_data)
-        self._sub.start(reasoner.on_message)
+        # A robot's state is taken only from the component that owns its link.
+        from mrss.edge.robot_owners import RobotOwners
+
+        owners = RobotOwners.of_project(ctx.project_dir, proven=bool(endpoints.key))
+        self._sub.start(owners.guard(reasoner.on_message))
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
                                     incarnations=live)

@@ -144,12 +144,16 @@ class TopicsModel:
 
 
 def envelope_dict(env: Envelope) -> dict[str, Any]:
-    """The decoded envelope as plain data: kind, src, inc, ts, id, body."""
+    """The decoded envelope as plain data: kind, src, inc, ts, id, body (and
+    `replayed: true` for a message of `mrss replay`)."""
     body = env.body
     fields = ({f.name: getattr(body, f.name) for f in dataclasses.fields(body)}
               if dataclasses.is_dataclass(body) else dict(vars(body)))
-    return {"topic": env.topic, "kind": env.kind, "src": env.src, "inc": env.inc,
-            "ts": env.ts, "id": env.id, "body": fields}
+    plain = {"topic": env.topic, "kind": env.kind, "src": env.src, "inc": env.inc,
+             "ts": env.ts, "id": env.id, "body": fields}
+    if env.replayed:
+        plain["replayed"] = True
+    return plain
 
 
 def pretty_json(env: Envelope) -> str:
@@ -176,5 +180,5 @@ def summary(env: Envelope, width: int = 100) -> str:
     stamp = time.strftime("%H:%M:%S", time.localtime(env.ts)) + f".{int(env.ts * 1000) % 1000:03d}"
     body = json.dumps(_plain(envelope_dict(env)["body"]), ensure_ascii=False,
                       separators=(",", ":"))
-    line = f"{stamp} {env.src}#{env.inc} {body}"
+    line = f"{stamp} {env.src}#{env.inc}{' (replayed)' if env.replayed else ''} {body}"
     return line if len(line) <= width else line[: width - 1] + "…"
