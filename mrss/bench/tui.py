@@ -50,6 +50,7 @@ from mrss.messages import (
     MindSnapshot,
     RobotData,
     SupEvent,
+    SupEventKind,
 )
 
 if TYPE_CHECKING:
@@ -158,7 +159,7 @@ def _counting(app: Any, apply: Callable[[list[Envelope]], None]
         for env in envelopes:
             body = env.body
             kind = ("mind" if isinstance(body, MindSnapshot) else
-                    "tree" if isinstance(body, SupEvent) and body.event == "tree" else
+                    "tree" if isinstance(body, SupEvent) and body.event is SupEventKind.TREE else
                     "world" if isinstance(body, DataReply) else None)
             if kind is not None:
                 app.bench_snapshots[kind] += 1
@@ -186,7 +187,7 @@ async def _measure(endpoints: BusEndpoints, seconds: float, go: Any, done: Any,
     ticks: list[tuple[float, float]] = []
     frames: list[tuple[float, float]] = []  # Textual's screen updates: layout, painting
     app.apply = _timed(drains, _counting(app, app.apply))  # type: ignore[method-assign]
-    app._tick = _timed(ticks, app._tick)  # type: ignore[method-assign]
+    app.tick = _timed(ticks, app.tick)  # type: ignore[method-assign]
     paint = Screen._on_timer_update
     Screen._on_timer_update = _timed(frames, paint)  # type: ignore[method-assign]
     try:

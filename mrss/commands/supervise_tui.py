@@ -87,7 +87,7 @@ class SupervisedApp(MrssApp):
             return
         last = _last_words(self.log_path) if self.log_path is not None else ""
         self.liveness.ended = f"system stopped (exit {code})" + (f": {last}" if last else "")
-        self._show_liveness()
+        self.picture.show()
 
     def stop_system(self) -> None:
         """Stop the system in order (SIGINT, as Ctrl-C); the dashboard closes when it ends."""
@@ -100,17 +100,17 @@ class SupervisedApp(MrssApp):
             super().action_stop_system()  # refused, with the notice
             return
         if self.system.poll() is not None:
-            self._say(f"{self.project} is not running", error=True)
+            self.say(f"{self.project} is not running", error=True)
             return
         self.push_screen(ConfirmScreen(f"Stop the whole system {self.project}?",
-                                       self.stop_details()), self._stop_answer)
+                                       self.steering.stop_details()), self._stop_answer)
 
     def _stop_answer(self, yes: bool | None) -> None:
         if yes:
-            self._say(f"stopping {self.project} ...")
+            self.say(f"stopping {self.project} ...")
             self.stop_system()
         else:
-            self._say(f"{self.project} keeps running")
+            self.say(f"{self.project} keeps running")
 
     def action_close(self) -> None:
         """`q`: this dashboard owns the system, so closing it stops the system: ask."""
@@ -119,7 +119,7 @@ class SupervisedApp(MrssApp):
             return
         self.push_screen(ConfirmScreen(
             f"Close the dashboard and stop {self.project}?",
-            [*self.stop_details(), "(`mrss supervise --no-tui` and `mrss tui` keep the "
+            [*self.steering.stop_details(), "(`mrss supervise --no-tui` and `mrss tui` keep the "
              "system running without this dashboard)"], yes="yes, stop everything"),
             self._close_answer)
 
@@ -128,7 +128,7 @@ class SupervisedApp(MrssApp):
             self.stop_requested = True
             self.exit()  # then run() stops the system with SIGINT
         else:
-            self._say(f"{self.project} keeps running")
+            self.say(f"{self.project} keeps running")
 
 
 # After the system ended on a closed terminal, how long the dashboard may take to close.

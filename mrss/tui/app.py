@@ -1,18 +1,20 @@
 """MrssApp: the monitoring and debug dashboard of a running MRSS system (`mrss tui PROJECT`).
 
 Panels: an alerts strip, the supervision tree, the robots, a map, the actions, the
-reasoner's mind and a log; under them the operator's percept line. The app owns the
-`BusLink` and the models: bus messages are drained from the link's inbox on the app's
-thread (at most every `min_refresh` seconds, so a burst becomes one redraw), applied
-to the models, and the panels that changed are redrawn. Widgets ask for bus messages
-with `SendRequested`; sending (read-only refusals, questions, reports) is `steering.py`.
+mission's goals, the reasoner's mind and a log; under them the operator's percept line.
+The app owns the `BusLink`, the models (`models/`) and the screen; each idea of the
+dashboard is an object of its own that the app creates and holds, and hands its keys
+and messages to:
 
-Safety: `q` only detaches this viewer (the system runs on); stopping the system is `X`
-and asks first, naming what stops; so do cancel and teleop. `readonly` refuses every
-control. A picture that never lies: on connecting (and after a proxy restart, and on
-F5) the app asks for a full snapshot (tree, robots, open actions, mind, world model),
-and a red banner says when the system has gone quiet or ended (`picture.py`). When
-tables are redrawn is `redraws.py`.
+- `BusIntake` (`intake.py`): when the bus is drained, and what its messages change;
+- `Redraws` (`redraws.py`): when the tables and the map are redrawn;
+- `Picture` (`picture.py`): the snapshots and polls asked for, and the banner;
+- `Steering` (`steering.py`): what the operator sends: refusals, questions, reports;
+- `RowDetails` (`detail_keys.py`): the detail screen Enter opens on a row;
+- `OperatorTools` (`ops.py`): the Messages, log-line and alerts screens, recording;
+- `PanelLayout` (`layout.py`): the compact mode and the panel keys.
+
+Their bindings and `action_*` methods stay here, where Textual looks for them.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from collections.abc import Callable
 from contextlib import suppress
 from typing import ClassVar
 
+from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal
@@ -31,52 +34,44 @@ from textual.widgets import Footer, Header, Input, Static
 from mrss.bus import BusEndpoints
 from mrss.config.alerts import AlertRule
 from mrss.config.map import MapConfig
-from mrss.config.operator import GoalState, OperatorConfig
-from mrss.messages import (
-    ActionRequest,
-    ActionStatus,
-    DataReply,
-    Envelope,
-    MindSnapshot,
-    Rejections,
-    RobotData,
-    RobotState,
-    SupEvent,
-)
-from mrss.tui import gc_tuning, operator
+from mrss.config.operator import OperatorConfig
+from mrss.messages import Envelope, Percept
+from mrss.tui import gc_tuning
 from mrss.tui.buslink import BusLink
-from mrss.tui.detail_keys import DetailKeys
-from mrss.tui.events import READONLY_NOTICE, BusActivity
+from mrss.tui.detail_keys import RowDetails
+from mrss.tui.events import READONLY_NOTICE, BusActivity, MissionRequested, Note, SendRequested
 from mrss.tui.help import HelpScreen, current_keys
+from mrss.tui.intake import BusIntake, Models
+from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
-from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
-from mrss.tui.picture import TruthfulPicture
-from mrss.tui.redraws import PANELS, TableRedraws
+from mrss.tui.picture import Picture, Polls
+from mrss.tui.recorder import DashboardRecording
+from mrss.tui.redraws import Redraws
 from mrss.tui.steering import Steering
 from mrss.tui.vocabulary import Vocabulary
 from mrss.tui.widgets.actions_table import ActionsTable
-from mrss.tui.widgets.alerts_strip import AlertsStrip, alert_line
-from mrss.tui.widgets.log_pane import LogPane, log_line
+from mrss.tui.widgets.alerts_strip import AlertsStrip
+from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
-from mrss.tui.widgets.mission_panel import MissionPanel, goal_line
+from mrss.tui.widgets.mission_panel import MissionPanel
 from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
+from mrss.tui.widgets.strip_table import StripTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
-from mrss.world.topics import WM_REQUEST_TOPIC
 
 
-class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools):
+class MrssApp(App[None]):
     """The dashboard; see the module docstring."""
 
     TITLE = "MRSS"
@@ -98,6 +93,7 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
     Header.-stale { background: $error; }
     """
     BINDINGS: ClassVar[list[BindingType]] = [
+        *LAYOUT_BINDINGS,  # 1..7, z: layout.py
         Binding("m", "mind", "Mind now"),
         Binding("a", "auto_mind", "Auto mind on/off"),
         Binding("p", "focus_percept", "Percept"),
@@ -130,19 +126,16 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
         super().__init__()
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
-        self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
         self.header_clock = header_clock
         self.operator_config = operator_config or (mission.config if mission else
                                                    OperatorConfig())
         self.mission = mission
-        self.goals = GoalsModel(self.operator_config.goals)
-        self.holding = False
-        self._system_stopping = False  # the root said it stops everything
         self.project = project
-        self.agent = agent
         self.readonly = readonly
         self.link = BusLink(endpoints)
+        # the models: plain Python, shown by the panels
+        self.goals = GoalsModel(self.operator_config.goals)
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()
         self.actions = ActionsModel()
@@ -150,21 +143,59 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
         self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel(rules=alert_rules)
         self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
-        self.world_every = world_every
-        self.world_asked = 0
-        self.auto_mind = mind_every > 0
-        self.mind_every = mind_every
-        self.tree_every = tree_every
-        self.min_refresh = min_refresh
-        self.flushes = 0  # drains that found messages (tests check batching with it)
-        self.snapshots_asked = 0
-        self._welcomes = 0
-        self._last_drain = 0.0
-        self._drain_pending = False
-        self._banner_shown: str | None = None
-        self.table_every = 2 * min_refresh  # seconds: a table is redrawn at most this often
-        self._drawn: dict[str, float] = {}  # table -> when it was last redrawn (monotonic)
-        self._table_due: set[str] = set()  # tables with a redraw scheduled
+        # the dashboard's ideas, each with its own state
+        self.picture = Picture(self, self.link, liveness=self.liveness,
+                               supervision=self.supervision, actions=self.actions,
+                               project=project, agent=agent,
+                               polls=Polls(mind_every, tree_every, world_every))
+        self.intake = BusIntake(
+            self, self.link, Models(self.actions, self.robots, self.supervision, self.goals,
+                                    self.alerts, self.map_model, self.topics, self.liveness),
+            agent=agent, min_refresh=min_refresh, deliver=self._deliver,
+            system_event=self.picture.system_event)
+        self.redraws = Redraws(self, table_every=2 * min_refresh, clock=clock)
+        self.steering = Steering(self, self.link, self.say, readonly=readonly,
+                                 project=project, mission=mission,
+                                 supervision=self.supervision, robots=self.robots,
+                                 actions=self.actions, goals=self.goals)
+        self.row_details = RowDetails(self, self.say, actions=self.actions,
+                                      goals=self.goals, robots=self.robots,
+                                      supervision=self.supervision,
+                                      restart_budget=restart_budget, clock=clock)
+        self.tools = OperatorTools(self, self.say, readonly=readonly, endpoints=endpoints,
+                                   topics=self.topics, alerts=self.alerts, mission=mission,
+                                   open_area_form=self.steering.open_area_form)
+        self.panel_layout = PanelLayout(self)
+
+    # -- what tests and the palette read -----------------------------------------------------
+    @property
+    def auto_mind(self) -> bool:
+        """Whether the mind is polled (`a` toggles it)."""
+        return self.picture.auto_mind
+
+    @auto_mind.setter
+    def auto_mind(self, on: bool) -> None:
+        self.picture.auto_mind = on
+
+    @property
+    def snapshots_asked(self) -> int:
+        return self.picture.snapshots_asked
+
+    @property
+    def flushes(self) -> int:
+        return self.intake.flushes
+
+    @property
+    def table_every(self) -> float:
+        return self.redraws.table_every
+
+    @property
+    def recording(self) -> DashboardRecording | None:
+        return self.tools.recording
+
+    def banner_text(self) -> str:
+        """What the red banner says ("" when the picture is current)."""
+        return self.picture.banner_text()
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -202,138 +233,132 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
         if self.readonly:
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
-        self._show_liveness()
+        self.picture.show()
         self.link.start(wake=lambda: self.post_message(BusActivity()))
-        self.set_interval(1.0, self._tick)
-        self.set_interval(0.25, self._watch_link)
-        if self.mind_every > 0:
-            self.set_interval(self.mind_every, self._poll_mind)
-        if self.tree_every > 0:
-            self.set_interval(self.tree_every, self._poll_tree)
-        if self.world_every > 0:
-            self.set_interval(self.world_every, self.ask_world)
+        self.set_interval(1.0, self.tick)
+        self.picture.start()
         self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
         if self.quiet_gc:
             self.call_after_refresh(gc_tuning.quiet_gc)  # once the screen is up
 
     def on_unmount(self) -> None:
-        self.stop_recording()
+        self.tools.stop_recording()
         self.link.close()
 
     # -- bus traffic ------------------------------------------------------------------------
     def on_bus_activity(self, _: BusActivity) -> None:
-        self._drain_bus()
+        self.intake.drain()
 
-    def _drain_bus(self) -> None:
-        wait = self._last_drain + self.min_refresh - time.monotonic()
-        if wait > 0:
-            if not self._drain_pending:
-                self._drain_pending = True
-                self.set_timer(wait, self._timed_drain)
-            return
-        self._last_drain = time.monotonic()
-        envelopes = self.link.drain()
-        if envelopes:
-            self.flushes += 1
-            self.topics.count(envelopes)
-            if any(env.src != self.link.src for env in envelopes):
-                self.liveness.heard()  # whatever applying them does: the system spoke
-            with suppress(NoMatches):  # the panels are gone: the app is closing
-                self.apply(envelopes)
-
-    def _timed_drain(self) -> None:
-        self._drain_pending = False
-        self._drain_bus()
+    def _deliver(self, envelopes: list[Envelope]) -> None:
+        with suppress(NoMatches):  # the panels are gone: the app is closing
+            self.apply(envelopes)
 
     def apply(self, envelopes: list[Envelope]) -> None:
         """Apply a batch of bus messages to the models, then redraw what changed."""
-        dirty: set[str] = set()
-        lines: list[LogEntry] = []
-        mind: Envelope | None = None
-        for env in envelopes:
-            if env.replayed:  # `mrss replay`: not the system now (the topic browser marks it)
-                continue
-            body = env.body
-            for alert in self.alerts.apply(env):
-                dirty.add("alerts")
-                lines.append(alert_line(alert, env.ts))
-            if isinstance(body, ActionStatus):
-                self.actions.apply_status(body, env.ts, env.src)
-                dirty.add("actions")
-                if self.map_model.apply_status(body):
-                    dirty.add("map")
-            elif isinstance(body, ActionRequest):
-                self.actions.apply_request(body, env.ts, env.src)
-                dirty.add("actions")
-            elif isinstance(body, RobotState):
-                self.robots.apply_state(body)
-                dirty.add("robots")
-            elif isinstance(body, RobotData):
-                self.robots.apply_data(body, env.ts)
-                dirty.add("robots")
-                if self.map_model.apply_data(body):
-                    dirty.add("map")
-            elif (isinstance(body, DataReply)
-                  and body.request_id.startswith(operator.WORLD_REQUEST_PREFIX)):
-                self._world_reply(body)
-                dirty.add("map")
-            elif isinstance(body, SupEvent):
-                self.supervision.apply_event(body, env.src, env.ts)
-                self._system_end(body, env.src)
-                dirty.add("supervision")
-            elif isinstance(body, Rejections):
-                self.supervision.apply_rejections(body)
-                dirty.update(("supervision", "alerts"))  # the counts, the alert's text
-            elif isinstance(body, MindSnapshot) and body.agent in ("", self.agent or body.agent):
-                mind = env
-            line = log_line(env)
-            if line is not None:
-                lines.append(line)
-        now = self.clock()
-        if mind is not None and isinstance(mind.body, MindSnapshot) and self.goals.declared \
-                and self.goals.apply_beliefs(mind.body.beliefs, mind.ts, self.actions):
-            dirty |= {"mission", "robots"}
-            for view in self.goals.take_ended():
-                lines.append(goal_line(view))
-                if view.state is GoalState.FAILED:
-                    lines.append(alert_line(self.alerts.goal_failed(view.goal, view.robot,
-                                                                    view.since), view.since))
-                    dirty.add("alerts")
-        if "actions" in dirty:
-            dirty.add("mission")  # its goals' actions
-        for table in PANELS:
-            if table in dirty:
-                self._table_changed(table, now)
-        if mind is not None and isinstance(mind.body, MindSnapshot):
-            self.query_one(MindInspector).show_snapshot(mind.body, mind.ts, mind.inc)
-        if "alerts" in dirty:
+        changes = self.intake.take(envelopes)
+        self.redraws.changed(changes.panels)
+        if changes.mind is not None:
+            snapshot, ts, inc = changes.mind
+            self.query_one(MindInspector).show_snapshot(snapshot, ts, inc)
+        if "alerts" in changes.panels:
             self.query_one(AlertsStrip).show_alerts()
-        if lines:
-            self.query_one(LogPane).add(lines)
+        if changes.lines:
+            self.query_one(LogPane).add(changes.lines)
 
-    def _world_reply(self, reply: DataReply) -> None:
-        if not reply.ok:
-            self.map_model.world_error = reply.error
-        elif not self.map_model.apply_world(reply.result):
-            self.map_model.world_error = "wm.list answered something other than a list"
+    def tick(self) -> None:
+        """Once a second: uptimes, ages and the connection state move on."""
+        with suppress(NoMatches):  # the panels are gone: the app is closing
+            self.redraws.tick()
+            self.picture.show()
 
+    def say(self, text: str, *, error: bool = False) -> None:
+        """Tell the operator: the status line and the log."""
+        with suppress(NoMatches):  # the panels are gone: the app is closing
+            self.query_one(OperatorBar).set_status(text, error=error)
+            self.query_one(LogPane).note(text, error=error)
+
+    # -- Textual's messages, handed over ----------------------------------------------------
+    def on_send_requested(self, request: SendRequested) -> None:
+        self.steering.send_requested(request)
+
+    def on_mission_requested(self, request: MissionRequested) -> None:
+        self.steering.mission_requested(request)
+
+    def on_note(self, note: Note) -> None:
+        self.say(note.text, error=note.error)
+
+    def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
+        self.row_details.open_row(event)
+
+    def on_resize(self, event: events.Resize) -> None:
+        self.panel_layout.set_compact(is_compact(event.size.width, event.size.height))
+
+    def on_descendant_focus(self, event: events.DescendantFocus) -> None:
+        self.panel_layout.focus_moved(event.widget)
+
+    # -- keys -------------------------------------------------------------------------------
     def action_close(self) -> None:
         """`q`: detach this viewer; the system keeps running."""
         self.exit()
 
-    def _poll_mind(self) -> None:
-        if self.auto_mind:
-            with suppress(Exception):
-                self.link.publish(operator.mind_request(self.agent))
+    def action_mind(self) -> None:
+        self.picture.ask_mind()
 
-    def ask_world(self) -> None:
-        """Ask the world model for its objects (the answer comes as a `DataReply`)."""
-        self.world_asked += 1
-        with suppress(Exception):  # not connected yet: the next ask will do
-            self.link.publish(operator.world_request(self.world_asked), WM_REQUEST_TOPIC)
+    def action_auto_mind(self) -> None:
+        self.auto_mind = not self.auto_mind
+        self.say(f"mind snapshots every {self.picture.polls.mind_every:g} s" if self.auto_mind
+                 else "mind snapshots only on m")
 
-    # -- map, alerts, help, palette ----------------------------------------------------------
+    def action_refresh_all(self) -> None:
+        self.picture.ask_snapshot()
+        self.say("asked for a full snapshot (tree, robots, actions, mind, world model)")
+
+    def action_focus_percept(self) -> None:
+        if self.readonly:
+            self.say(f"percept line: {READONLY_NOTICE}", error=True)
+            return
+        self.query_one("#percept", Input).focus()
+
+    def action_focus_actions(self) -> None:
+        self.query_one(ActionsTable).focus()
+
+    def action_log_filter(self) -> None:
+        self.query_one(LogPane).open_filter()
+
+    def action_ack_alerts(self) -> None:
+        count = self.alerts.acknowledge()
+        self.query_one(AlertsStrip).show_alerts()
+        self.say(f"acknowledged {count} alert{'s' if count != 1 else ''}" if count
+                 else "no new alerts")
+
+    def action_help(self) -> None:
+        focused = self.focused
+        name = "nothing" if focused is None else (focused.id or type(focused).__name__)
+        self.push_screen(HelpScreen(current_keys(self), name))
+
+    def action_hold_all(self) -> None:
+        self.steering.hold_all()
+
+    def action_stop_system(self) -> None:
+        self.steering.stop_system()
+
+    def action_messages(self) -> None:
+        self.tools.messages()
+
+    def action_log_lines(self) -> None:
+        self.tools.log_lines()
+
+    def action_alerts_list(self) -> None:
+        self.tools.alerts_list()
+
+    def action_show_panel(self, ident: str) -> None:
+        self.panel_layout.show_panel(ident)
+
+    def action_maximise(self) -> None:
+        self.panel_layout.maximise()
+
+    # -- what the widgets and the palette call ----------------------------------------------
     def map_follow(self, robot: str | None) -> bool:
         """Centre the map on `robot` and keep it there (None: stop); False if the map
         has no position for it."""
@@ -345,41 +370,17 @@ class MrssApp(TruthfulPicture, TableRedraws, Steering, DetailKeys, OperatorTools
     def map_fit(self) -> None:
         self.query_one(MapPanel).action_fit()
 
-    def action_ack_alerts(self) -> None:
-        count = self.alerts.acknowledge()
-        self.query_one(AlertsStrip).show_alerts()
-        self._say(f"acknowledged {count} alert{'s' if count != 1 else ''}" if count
-                  else "no new alerts")
+    def open_area_form(self) -> None:
+        self.steering.open_area_form()
 
-    def action_help(self) -> None:
-        focused = self.focused
-        name = "nothing" if focused is None else (focused.id or type(focused).__name__)
-        self.push_screen(HelpScreen(current_keys(self), name))
+    def open_actions_of(self, robot: str) -> list[str]:
+        return self.steering.open_actions_of(robot)
 
-    def _poll_tree(self) -> None:
-        with suppress(Exception):
-            self.link.publish(operator.tree_request())
+    def send_percept(self, percept: Percept) -> None:
+        self.steering.send_percept(percept)
 
-    def action_mind(self) -> None:
-        self.link.publish(operator.mind_request(self.agent))
+    def add_goal(self) -> None:
+        self.tools.add_goal()
 
-    def action_auto_mind(self) -> None:
-        self.auto_mind = not self.auto_mind
-        self._say(f"mind snapshots every {self.mind_every:g} s" if self.auto_mind
-                  else "mind snapshots only on m")
-
-    def action_refresh_all(self) -> None:
-        self.ask_snapshot()
-        self._say("asked for a full snapshot (tree, robots, actions, mind, world model)")
-
-    def action_focus_percept(self) -> None:
-        if self.readonly:
-            self._say(f"percept line: {READONLY_NOTICE}", error=True)
-            return
-        self.query_one("#percept", Input).focus()
-
-    def action_focus_actions(self) -> None:
-        self.query_one(ActionsTable).focus()
-
-    def action_log_filter(self) -> None:
-        self.query_one(LogPane).open_filter()
+    def toggle_recording(self) -> None:
+        self.tools.toggle_recording()

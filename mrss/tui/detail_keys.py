@@ -1,5 +1,5 @@
 """Enter on a row opens its detail screen (`mrss.tui.details`): an action (or, on the
-mission panel, the goal's latest action), a component, a robot. A base of `MrssApp`."""
+mission panel, the goal's latest action), a component, a robot."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from collections.abc import Callable
 from textual.app import App
 
 from mrss.tui.details import ActionDetail, ComponentDetail, DetailScreen, RobotDetail
+from mrss.tui.events import Say
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel
@@ -20,20 +21,24 @@ from mrss.tui.widgets.strip_table import StripTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 
 
-class DetailKeys(App[None]):
-    """Opens the detail screens; the models are the app's."""
+class RowDetails:
+    """Opens the detail screen of a selected row on `app`, from the models (and, for a
+    component, the app's `LogPane` lines); `say` reports a row with nothing to show."""
 
-    actions: ActionsModel
-    goals: GoalsModel
-    robots: RobotsModel
-    supervision: SupervisionModel
-    clock: Callable[[], float]
-    restart_budget: tuple[int, float] | None
+    def __init__(self, app: App[None], say: Say, *, actions: ActionsModel,
+                 goals: GoalsModel, robots: RobotsModel, supervision: SupervisionModel,
+                 restart_budget: tuple[int, float] | None,
+                 clock: Callable[[], float]) -> None:
+        self.app = app
+        self.say = say
+        self.actions = actions
+        self.goals = goals
+        self.robots = robots
+        self.supervision = supervision
+        self.restart_budget = restart_budget  # the root's (intensity, period), if known
+        self.clock = clock
 
-    def _say(self, text: str, *, error: bool = False) -> None:
-        raise NotImplementedError
-
-    def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
+    def open_row(self, event: StripTable.RowSelected) -> None:
         """Enter on a row: the detail screen of that action, goal, component or robot."""
         key = event.row_key
         table = event.table
@@ -43,15 +48,15 @@ class DetailKeys(App[None]):
         elif isinstance(table, MissionPanel):
             last = self.goals.last_action(key, self.actions)
             if last is None:
-                self._say(f"goal {key} has no action yet")
+                self.say(f"goal {key} has no action yet")
                 return
             screen = ActionDetail(self.actions, last.uuid, clock=self.clock)
         elif isinstance(table, SupervisionTable):
-            screen = ComponentDetail(self.supervision, key, self.query_one(LogPane).lines_text,
+            screen = ComponentDetail(self.supervision, key,
+                                     self.app.query_one(LogPane).lines_text,
                                      self.restart_budget, clock=self.clock)
         elif isinstance(table, RobotsTable):
             screen = RobotDetail(self.robots, key, clock=self.clock)
         if screen is not None:
             event.stop()
-            self.push_screen(screen)
-
+            self.app.push_screen(screen)

@@ -9,7 +9,7 @@ sent only once the operator said yes to it (`mrss.tui.confirm`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Protocol
 
 from textual.message import Message
 
@@ -28,6 +28,13 @@ class Note(Message):
         super().__init__()
         self.text = text
         self.error = error
+
+
+class Say(Protocol):
+    """How the app's parts report to the operator: a line on the status bar and in the
+    log (what a widget posts as a `Note`)."""
+
+    def __call__(self, text: str, *, error: bool = False) -> None: ...
 
 
 class SendRequested(Message):

@@ -5,15 +5,17 @@ shows at once, in three rows. Smaller (80 x 24) the dashboard is compact: one pa
 a time, under a tab line naming them all with their keys; `1`..`7` (or Tab, which
 moves the focus) switch panel. At any size `z` maximises the focused panel to the
 whole screen and back, so nothing is cut without a way to see it in full.
+
+`PanelLayout` is held by `MrssApp`, whose `BINDINGS` begin with `LAYOUT_BINDINGS` and
+whose `action_show_panel`, `action_maximise`, `on_resize` and `on_descendant_focus`
+hand over to it.
 """
 
 from __future__ import annotations
 
 from contextlib import suppress
-from typing import ClassVar
 
 from rich.text import Text
-from textual import events
 from textual.app import App
 from textual.binding import Binding, BindingType
 from textual.css.query import NoMatches
@@ -25,6 +27,11 @@ PANELS = (("supervision", "Supervision"), ("robots", "Robots"), ("map", "Map"),
           ("actions", "Actions"), ("mission", "Mission"), ("mind", "Mind"), ("log", "Log"))
 COMPACT_WIDTH = 120  # below either, one panel at a time
 COMPACT_HEIGHT = 35
+LAYOUT_BINDINGS: list[BindingType] = [
+    *(Binding(str(i), f"show_panel('{ident}')", name, show=False)
+      for i, (ident, name) in enumerate(PANELS, 1)),
+    Binding("z", "maximise", "Maximise / restore"),
+]
 
 
 def is_compact(width: int, height: int) -> bool:
@@ -40,38 +47,34 @@ def tab_line(current: str) -> Text:
     return text
 
 
-class PanelLayout(App[None]):
-    """The compact mode, the panel keys and the maximise key (a base of `MrssApp`)."""
+class PanelLayout:
+    """The compact mode and the panel shown in it, on the screen of `app` (the panels
+    are its widgets with the ids of `PANELS`, in the rows `#top`, `#middle`, `#bottom`,
+    under the tab line `#tabs`)."""
 
-    BINDINGS: ClassVar[list[BindingType]] = [
-        *(Binding(str(i), f"show_panel('{ident}')", name, show=False)
-          for i, (ident, name) in enumerate(PANELS, 1)),
-        Binding("z", "maximise", "Maximise / restore"),
-    ]
-    compact = False
-    current_panel = "actions"
+    def __init__(self, app: App[None]) -> None:
+        self.app = app
+        self.compact = False
+        self.current_panel = "actions"
 
     def panel(self, ident: str) -> Widget:
-        return self.query_one(f"#{ident}")
-
-    def on_resize(self, event: events.Resize) -> None:
-        self.set_compact(is_compact(event.size.width, event.size.height))
+        return self.app.query_one(f"#{ident}")
 
     def set_compact(self, compact: bool) -> None:
         self.compact = compact
         with suppress(NoMatches):
-            self.query_one("#tabs", Static).display = compact
+            self.app.query_one("#tabs", Static).display = compact
             self._show_current()
 
     def _show_current(self) -> None:
         for ident, _ in PANELS:
             self.panel(ident).display = not self.compact or ident == self.current_panel
         for row in ("top", "middle", "bottom"):
-            container = self.query_one(f"#{row}")
+            container = self.app.query_one(f"#{row}")
             container.display = any(child.display for child in container.children)
-        self.query_one("#tabs", Static).update(tab_line(self.current_panel))
+        self.app.query_one("#tabs", Static).update(tab_line(self.current_panel))
 
-    def action_show_panel(self, ident: str) -> None:
+    def show_panel(self, ident: str) -> None:
         """`1`..`7`: show (compact) and focus that panel."""
         self.current_panel = ident
         with suppress(NoMatches):
@@ -81,9 +84,9 @@ class PanelLayout(App[None]):
                 (w for w in widget.query("*") if w.can_focus and w.display), widget)
             target.focus()
 
-    def on_descendant_focus(self, event: events.DescendantFocus) -> None:
+    def focus_moved(self, focused: Widget) -> None:
         """Tab moves the focus; in compact mode the panel holding it is the one shown."""
-        node: Widget | None = event.widget
+        node: Widget | None = focused
         while node is not None and node.id not in dict(PANELS):
             parent = node.parent
             node = parent if isinstance(parent, Widget) else None
@@ -92,9 +95,9 @@ class PanelLayout(App[None]):
             with suppress(NoMatches):
                 self._show_current()
 
-    def action_maximise(self) -> None:
+    def maximise(self) -> None:
         """`z`: the focused panel fills the screen; `z` again (or Esc) restores."""
-        screen = self.screen
+        screen = self.app.screen
         if screen.maximized is not None:
             screen.minimize()
             return

@@ -1,17 +1,19 @@
 """How the dashboard steers: every bus message an operator asks for goes through here.
 
-Widgets post `SendRequested` (or `Note`); `Steering` refuses it when read-only, asks
-the question first when there is one (`ConfirmScreen`), publishes it, and says what
-happened on the status line and in the log. `X` (stop the system) and the palette's
-"Send percept" are built here too. `MrssApp` is a `Steering`.
+Widgets post `SendRequested` or `MissionRequested`; the app hands them to `Steering`,
+which refuses them when read-only, asks the question first when there is one
+(`ConfirmScreen`), publishes them (a project operator command through the
+`MissionChannel`, on a worker thread), and says what happened. `X` (stop the system),
+`H` (all robots hold), the area form and the palette's "Send percept" are built here
+too, as requests of the same kinds, so they pass the same checks.
 """
 
 from __future__ import annotations
 
 import time
-from contextlib import suppress
+from collections.abc import Callable
 
-from textual.css.query import NoMatches
+from textual.app import App
 
 from mrss.config.operator import OperatorCommand, PayloadError, hold_payload
 from mrss.messages import Percept
@@ -19,80 +21,88 @@ from mrss.tui import operator
 from mrss.tui.area_form import AreaForm
 from mrss.tui.buslink import BusLink
 from mrss.tui.confirm import ConfirmScreen
-from mrss.tui.events import READONLY_NOTICE, MissionRequested, Note, SendRequested
-from mrss.tui.layout import PanelLayout
+from mrss.tui.events import READONLY_NOTICE, MissionRequested, Say, SendRequested
 from mrss.tui.mission import Answer, MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
-from mrss.tui.widgets.log_pane import LogPane
-from mrss.tui.widgets.operator_bar import OperatorBar
 
 
-class Steering(PanelLayout):
-    """The operator's side of the app: sending, refusing, asking, reporting."""
+class Steering:
+    """The operator's side of the dashboard: sending, refusing, asking, reporting.
 
-    readonly: bool
-    project: str
-    link: BusLink
-    supervision: SupervisionModel
-    robots: RobotsModel
-    actions: ActionsModel
-    mission: MissionChannel | None
-    goals: GoalsModel
-    holding: bool
+    `app` shows the questions and forms, posts the requests built here back to itself
+    and runs the mission channel's worker; `say` reports. The models are read (the
+    actions' history and the goals cancelled from here are written)."""
 
-    def on_send_requested(self, request: SendRequested) -> None:
+    def __init__(self, app: App[None], link: BusLink, say: Say, *, readonly: bool,
+                 project: str, mission: MissionChannel | None,
+                 supervision: SupervisionModel, robots: RobotsModel,
+                 actions: ActionsModel, goals: GoalsModel) -> None:
+        self.app = app
+        self.link = link
+        self.say = say
+        self.readonly = readonly
+        self.project = project
+        self.mission = mission
+        self.supervision = supervision
+        self.robots = robots
+        self.actions = actions
+        self.goals = goals
+        self.holding = False  # the last hold sent was "all robots hold"
+
+    def _refused(self, what: str) -> bool:
+        """Read-only: say that `what` is refused (and notify); True then."""
         if self.readonly:
-            self._say(f"{request.what} refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
-            return
-        if not request.confirm:
-            self._send(request)
+            self.say(f"{what} refused: {READONLY_NOTICE}", error=True)
+            self.app.notify(READONLY_NOTICE, severity="warning")
+        return self.readonly
+
+    def _ask(self, confirm: str, details: tuple[str, ...], what: str,
+             send: Callable[[], None]) -> None:
+        """`send` at once, or once the operator said yes to `confirm`."""
+        if not confirm:
+            send()
             return
 
         def answered(yes: bool | None) -> None:
             if yes:
-                self._send(request)
+                send()
             else:
-                self._say(f"not sent (declined): {request.what}")
+                self.say(f"not sent (declined): {what}")
 
-        self.push_screen(ConfirmScreen(request.confirm, request.details), answered)
+        self.app.push_screen(ConfirmScreen(confirm, details), answered)
+
+    # -- bus messages (the debug keys, percepts, stop) -----------------------------------
+    def send_requested(self, request: SendRequested) -> None:
+        if self._refused(request.what):
+            return
+        self._ask(request.confirm, request.details, request.what,
+                  lambda: self._send(request))
 
     def _send(self, request: SendRequested) -> None:
         try:
             self.link.publish(request.body)
         except Exception as exc:  # the dashboard stays up whatever the bus does
-            self._say(f"not sent: {request.what}: {exc}", error=True)
+            self.say(f"not sent: {request.what}: {exc}", error=True)
             return
         if request.history is not None:
             uuid, note = request.history
             self.actions.note(uuid, time.time(), "operator (debug key)", note)
-        self._say(f"sent {request.what}")
+        self.say(f"sent {request.what}")
 
     # -- the project's operator commands: to the agent, as its events ------------------
-    def on_mission_requested(self, request: MissionRequested) -> None:
-        if self.readonly:
-            self._say(f"{request.what} refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
+    def mission_requested(self, request: MissionRequested) -> None:
+        if self._refused(request.what):
             return
         if self.mission is None or not self.mission.config.has(request.command):
-            self._say(f"{request.what} not sent: the project declares no "
-                      f"{request.command.value} command ([operator] in project.toml)",
-                      error=True)
+            self.say(f"{request.what} not sent: the project declares no "
+                     f"{request.command.value} command ([operator] in project.toml)",
+                     error=True)
             return
-        if not request.confirm:
-            self._send_mission(request)
-            return
-
-        def answered(yes: bool | None) -> None:
-            if yes:
-                self._send_mission(request)
-            else:
-                self._say(f"not sent (declined): {request.what}")
-
-        self.push_screen(ConfirmScreen(request.confirm, request.details), answered)
+        self._ask(request.confirm, request.details, request.what,
+                  lambda: self._send_mission(request))
 
     def _send_mission(self, request: MissionRequested) -> None:
         channel = self.mission
@@ -101,45 +111,45 @@ class Steering(PanelLayout):
             self.goals.cancelled_here.add(str(request.payload.get("goal", "")))
         if request.command is OperatorCommand.HOLD:
             self.holding = bool(request.payload.get("on"))
-        self._say(f"sending {request.what} to the agent ...")
+        self.say(f"sending {request.what} to the agent ...")
 
         def work() -> None:
             answer = channel.send(request.command, request.payload)
-            self.call_from_thread(self._mission_answer, request, answer)
+            self.app.call_from_thread(self._mission_answer, request, answer)
 
-        self.run_worker(work, thread=True, group="mission", exit_on_error=False)
+        self.app.run_worker(work, thread=True, group="mission", exit_on_error=False)
 
     def _mission_answer(self, request: MissionRequested, answer: Answer) -> None:
         if answer.ok:
-            self._say(f"sent {request.what} to the agent ({answer.text})")
+            self.say(f"sent {request.what} to the agent ({answer.text})")
         else:
             if request.command is OperatorCommand.CANCEL:
                 self.goals.cancelled_here.discard(str(request.payload.get("goal", "")))
-            self._say(f"{request.what} not done: {answer.text}", error=True)
+            self.say(f"{request.what} not done: {answer.text}", error=True)
 
     def open_area_form(self) -> None:
         """`n` on the mission panel: the form; its area goes to the agent."""
         if self.readonly:
-            self._say(f"add an area refused: {READONLY_NOTICE}", error=True)
+            self.say(f"add an area refused: {READONLY_NOTICE}", error=True)
             return
 
         def filled(payload: dict[str, object] | None) -> None:
             if payload is None:
-                self._say("area not sent (form closed)")
+                self.say("area not sent (form closed)")
                 return
-            self.post_message(MissionRequested(
+            self.app.post_message(MissionRequested(
                 OperatorCommand.AREA, dict(payload),
                 f"area {payload['goal']} (priority {payload['priority']})"))
 
-        self.push_screen(AreaForm(), filled)
+        self.app.push_screen(AreaForm(), filled)
 
-    def action_hold_all(self) -> None:
+    def hold_all(self) -> None:
         """`H`: all robots hold, or go on again (the agent suspends and resumes goals)."""
         on = not self.holding
         try:
             payload = hold_payload(on)
         except PayloadError as exc:
-            self._say(str(exc), error=True)
+            self.say(str(exc), error=True)
             return
         robots = ", ".join(self.robots.robots) or "none known"
         if on:
@@ -150,18 +160,11 @@ class Steering(PanelLayout):
             confirm, details = "Lift the hold: robots go on?", [
                 f"robots: {robots}", "The agent resumes the best goal of each robot; they "
                 "may start moving at once."]
-        self.post_message(MissionRequested(OperatorCommand.HOLD, payload,
-                                           "all robots hold" if on else "hold lifted",
-                                           confirm=confirm, details=details))
+        self.app.post_message(MissionRequested(OperatorCommand.HOLD, payload,
+                                               "all robots hold" if on else "hold lifted",
+                                               confirm=confirm, details=details))
 
-    def on_note(self, note: Note) -> None:
-        self._say(note.text, error=note.error)
-
-    def _say(self, text: str, *, error: bool = False) -> None:
-        with suppress(NoMatches):  # the panels are gone: the app is closing
-            self.query_one(OperatorBar).set_status(text, error=error)
-            self.query_one(LogPane).note(text, error=error)
-
+    # -- what a request would affect, for its question -----------------------------------
     def open_actions_of(self, robot: str) -> list[str]:
         """The names of the actions the dashboard knows open on `robot`."""
         return [view.name or view.uuid[:8] for view in self.actions.newest_first()
@@ -177,22 +180,21 @@ class Steering(PanelLayout):
                 f"robots: {', '.join(self.robots.robots) or 'none known'}",
                 f"open actions: {len(running)} (ended as the RCL stops)"]
 
-    def action_stop_system(self) -> None:
-        if self.readonly:
-            self._say(f"stop refused: {READONLY_NOTICE}", error=True)
-            self.notify(READONLY_NOTICE, severity="warning")
+    def stop_system(self) -> None:
+        """`X`: stop the whole system through its root supervisor (asks first)."""
+        if self._refused("stop"):
             return
         root = self.supervision.root or self.project
         try:
             request = operator.stop_request(root)
         except operator.OperatorError as exc:
-            self._say(f"stop not sent: {exc}", error=True)
+            self.say(f"stop not sent: {exc}", error=True)
             return
-        self.post_message(SendRequested(
+        self.app.post_message(SendRequested(
             request, f"stop {root}", confirm=f"Stop the whole system {root}?",
             details=self.stop_details()))
 
     def send_percept(self, percept: Percept) -> None:
         """Send a percept as the percept line would (the palette's "Send percept")."""
         verb = "remove" if percept.op == "remove" else "add"
-        self.post_message(SendRequested(percept, f"percept {verb} {percept.literal}"))
+        self.app.post_message(SendRequested(percept, f"percept {verb} {percept.literal}"))
