@@ -169,9 +169,11 @@ def test_tui_bench_runs_the_dashboard_with_the_polls_mrss_tui_runs_by_default() 
     configure(parser)
     defaults = parser.parse_args(["p"])
     app = dashboard(BusEndpoints.tcp_loopback())
-    assert (app.mind_every, app.tree_every, app.world_every) == (
+    assert (app.picture.polls.mind_every, app.picture.polls.tree_every,
+            app.picture.polls.world_every) == (
         defaults.mind_every, defaults.tree_every, defaults.world_every)
-    assert min(app.mind_every, app.tree_every, app.world_every) > 0  # all polls on
+    polls = app.picture.polls
+    assert min(polls.mind_every, polls.tree_every, polls.world_every) > 0  # all polls on
     assert app.auto_mind
 
 

@@ -54,7 +54,8 @@ from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
-from mrss.tui.picture import Picture, Polls
+from mrss.tui.picture import Picture
+from mrss.tui.polls import DEFAULT_POLLS, Polls
 from mrss.tui.recorder import DashboardRecording
 from mrss.tui.redraws import Redraws
 from mrss.tui.steering import Steering
@@ -112,9 +113,11 @@ class MrssApp(App[None]):
     ]
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
-                 mind_every: float = 1.0, tree_every: float = 2.0,
+                 mind_every: float = DEFAULT_POLLS.mind_every,
+                 tree_every: float = DEFAULT_POLLS.tree_every,
                  min_refresh: float = 0.5, readonly: bool = False,
-                 stale_after: float = 5.0, world_every: float = 2.0,
+                 stale_after: float = DEFAULT_POLLS.stale_after,
+                 world_every: float = DEFAULT_POLLS.world_every,
                  operator_config: OperatorConfig | None = None,
                  mission: MissionChannel | None = None,
                  clock: Callable[[], float] = time.time, header_clock: bool = True,
@@ -147,7 +150,7 @@ class MrssApp(App[None]):
         self.picture = Picture(self, self.link, liveness=self.liveness,
                                supervision=self.supervision, actions=self.actions,
                                project=project, agent=agent,
-                               polls=Polls(mind_every, tree_every, world_every))
+                               polls=Polls(mind_every, tree_every, world_every, stale_after))
         self.intake = BusIntake(
             self, self.link, Models(self.actions, self.robots, self.supervision, self.goals,
                                     self.alerts, self.map_model, self.topics, self.liveness),

@@ -16,7 +16,6 @@ component starts again (a new run).
 from __future__ import annotations
 
 from contextlib import suppress
-from dataclasses import dataclass
 
 from textual.app import App
 from textual.css.query import NoMatches
@@ -28,19 +27,11 @@ from mrss.tui.buslink import BusLink
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.supervision import ROOT_SRC, SupervisionModel
+from mrss.tui.polls import Polls
 from mrss.world.topics import WM_REQUEST_TOPIC
 
 SNAPSHOT_RETRIES = (1.0, 3.0)  # seconds after connecting: ask again (a request may be lost)
 WATCH_LINK_EVERY = 0.25  # seconds between two looks for a new greeting of the proxy
-
-
-@dataclass(frozen=True)
-class Polls:
-    """Seconds between two requests of each kind (0: never, but in a snapshot)."""
-
-    mind_every: float = 1.0
-    tree_every: float = 2.0
-    world_every: float = 2.0
 
 
 class Picture:
