@@ -12,8 +12,6 @@ import shutil
 
 import pytest
 
-from mrss.testing import find_mosquitto
-
 REQUIRE_ENV = "MRSS_REQUIRE_MOSQUITTO"
 
 
@@ -22,10 +20,9 @@ def required() -> bool:
     return os.environ.get(REQUIRE_ENV) == "1"
 
 
-def require_mosquitto(why: str, tools: tuple[str, ...] = ()) -> str:
-    """The mosquitto binary, with `tools` (other programs) on PATH; else skip the test,
-    or fail it when Mosquitto is required."""
-    binary = find_mosquitto()
+def require_mosquitto(binary: str | None, why: str, tools: tuple[str, ...] = ()) -> str:
+    """`binary` (find_mosquitto's answer), with `tools` (other programs) on PATH; else
+    skip the test, or fail it when Mosquitto is required."""
     missing = [name for name in tools if shutil.which(name) is None]
     if binary is None:
         missing.insert(0, "mosquitto")

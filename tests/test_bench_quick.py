@@ -11,6 +11,7 @@ from collections.abc import Callable
 import pytest
 
 from mrss.bench import BENCHES
+from mrss.testing import find_mosquitto
 from tests.mosquitto import require_mosquitto
 
 # The columns that compare us with another system, and the rows that must fill them:
@@ -27,7 +28,7 @@ def test_benchmark_runs_in_quick_mode(name: str) -> None:
     assert importlib.util.find_spec(f"mrss.bench.{name}") is not None, \
         f"{name} is listed in mrss.bench.BENCHES but has no module"
     if name == "bus":  # its MQTT rows need Mosquitto (skipped, or failed on CI, without)
-        require_mosquitto("the bus benchmark's MQTT comparison")
+        require_mosquitto(find_mosquitto(), "the bus benchmark's MQTT comparison")
     out = subprocess.run([sys.executable, "-m", "mrss", "bench", name, "--quick", "--json"],
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr

@@ -46,9 +46,10 @@ def test_embedded_amqtt_broker_delivers(amqtt: BrokerInfo) -> None:
 def test_missing_mosquitto_skips_or_fails_when_required(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv(mosquitto.REQUIRE_ENV, raising=False)
     with pytest.raises(pytest.skip.Exception, match="the TLS tests needs no-such-tool"):
-        mosquitto.require_mosquitto("the TLS tests", ("no-such-tool",))
+        mosquitto.require_mosquitto("/usr/sbin/mosquitto", "the TLS tests", ("no-such-tool",))
     monkeypatch.setenv(mosquitto.REQUIRE_ENV, "1")
     with pytest.raises(pytest.fail.Exception, match="no-such-tool.*MRSS_REQUIRE_MOSQUITTO=1"):
-        mosquitto.require_mosquitto("the TLS tests", ("no-such-tool",))
-    if mosquitto.find_mosquitto() is not None:  # the binary alone, as the fixtures ask
-        assert mosquitto.require_mosquitto("the redelivery test") == mosquitto.find_mosquitto()
+        mosquitto.require_mosquitto("/usr/sbin/mosquitto", "the TLS tests", ("no-such-tool",))
+    with pytest.raises(pytest.fail.Exception, match="the redelivery test needs mosquitto"):
+        mosquitto.require_mosquitto(None, "the redelivery test")
+    assert mosquitto.require_mosquitto("/usr/sbin/mosquitto", "it") == "/usr/sbin/mosquitto"

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from mrss.edge.worldmodel_store import SqliteWorldStore, WorldStore
-from mrss.testing import free_port, wait_until
+from mrss.testing import find_mosquitto, free_port, wait_until
 from tests.mosquitto import require_mosquitto
 
 from .pgcluster import PgCluster, started_cluster
@@ -53,7 +53,7 @@ class SecureBroker:
 
 @pytest.fixture(scope="session")
 def secure_mosquitto() -> Iterator[SecureBroker]:
-    binary = require_mosquitto("the password and TLS tests",
+    binary = require_mosquitto(find_mosquitto(), "the password and TLS tests",
                                ("mosquitto_passwd", "openssl"))
     with tempfile.TemporaryDirectory(prefix="mrss-secure-") as tmp:
         d = Path(tmp)

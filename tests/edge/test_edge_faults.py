@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from mrss.testing import free_port, wait_until
+from mrss.testing import find_mosquitto, free_port, wait_until
 from tests.mosquitto import require_mosquitto
 
 from .supervised_edge import SupervisedEdge
@@ -171,7 +171,7 @@ class PersistentMosquitto:
 
 @pytest.fixture()
 def mosquitto_edge() -> Iterator[tuple[SupervisedEdge, PersistentMosquitto]]:
-    binary = require_mosquitto("the redelivery test")
+    binary = require_mosquitto(find_mosquitto(), "the redelivery test")
     root = Path(tempfile.mkdtemp(prefix="mrss-edgem-"))
     (root / "broker").mkdir()
     broker = PersistentMosquitto(root / "broker", binary)

@@ -23,7 +23,7 @@ from mrss.links.ugv_protocol import UgvTelemetry, UgvTopics
 from mrss.sim.component import SimUgvComponent
 from mrss.sim.ugv import main as ugv_main
 from mrss.supervision.component import ComponentContext
-from mrss.testing import free_port, wait_until
+from mrss.testing import find_mosquitto, free_port, wait_until
 from tests.mosquitto import require_mosquitto
 
 from .test_mavlink_link import Recorder
@@ -56,7 +56,8 @@ def _ca(d: Path, name: str) -> None:
 
 @pytest.fixture(scope="module")
 def tls_broker() -> Iterator[TlsBroker]:
-    binary = require_mosquitto("the TLS tests", ("mosquitto_passwd", "openssl"))
+    binary = require_mosquitto(find_mosquitto(), "the TLS tests",
+                               ("mosquitto_passwd", "openssl"))
     with tempfile.TemporaryDirectory(prefix="mrss-tls-") as tmp:
         d = Path(tmp)
         _ca(d, "ca")
