@@ -11,6 +11,7 @@ import pytest
 
 from mrss import ports
 from mrss.testing import BrokerInfo, amqtt_broker, find_mosquitto, mosquitto_broker
+from tests import mosquitto
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -39,13 +40,32 @@ def _children_import_the_tests() -> None:
 
 def pytest_report_header(config: pytest.Config) -> str:
     binary = find_mosquitto()
-    return f"mqtt broker for tests: {'mosquitto at ' + binary if binary else 'embedded amqtt'}"
+    required = f" ({mosquitto.REQUIRE_ENV}=1)" if mosquitto.required() else ""
+    return f"mqtt broker for tests: {'mosquitto at ' + binary if binary else 'embedded amqtt'}" \
+        + required
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]
+                              ) -> Iterator[None]:
+    """Name the MQTT broker a test ran on in its report (shown with a failure, and in
+    junit's properties): Mosquitto and amqtt differ where it matters."""
+    outcome = yield
+    report = outcome.get_result()  # type: ignore[attr-defined]
+    broker = getattr(item, "funcargs", {}).get("mqtt_broker")
+    if report.when == "call" and isinstance(broker, BrokerInfo):
+        report.sections.append(("mqtt broker", f"{broker.kind} on {broker.url}"))
+        report.user_properties.append(("mqtt_broker", broker.kind))
 
 
 @pytest.fixture(scope="session")
 def mqtt_broker() -> Iterator[BrokerInfo]:
-    """A private broker on a free loopback port: Mosquitto if installed, else amqtt."""
+    """A private broker on a free loopback port: Mosquitto if installed, else amqtt
+    (never in place of a required Mosquitto: tests/mosquitto.py)."""
     binary = find_mosquitto()
+    if binary is None and mosquitto.required():
+        pytest.fail(f"no mosquitto for the mqtt_broker fixture ({mosquitto.REQUIRE_ENV}=1)",
+                    pytrace=False)
     if binary:
         with mosquitto_broker(binary) as info:
             yield info

@@ -5,8 +5,10 @@ from __future__ import annotations
 import threading
 
 import paho.mqtt.client as mqtt
+import pytest
 
 from mrss.testing import BrokerInfo, wait_until
+from tests import mosquitto
 
 
 def _roundtrip(info: BrokerInfo) -> bytes:
@@ -30,6 +32,8 @@ def _roundtrip(info: BrokerInfo) -> bytes:
 
 def test_private_broker_delivers(mqtt_broker: BrokerInfo) -> None:
     assert mqtt_broker.host == "127.0.0.1"
+    if mosquitto.required():  # CI: the broker under every MQTT test is Mosquitto
+        assert mqtt_broker.kind == "mosquitto"
     assert mqtt_broker.port != 1883
     assert _roundtrip(mqtt_broker) == b"hello"
 
@@ -37,3 +41,15 @@ def test_private_broker_delivers(mqtt_broker: BrokerInfo) -> None:
 def test_embedded_amqtt_broker_delivers(amqtt: BrokerInfo) -> None:
     assert amqtt.kind == "amqtt"
     assert _roundtrip(amqtt) == b"hello"
+
+
+def test_missing_mosquitto_skips_or_fails_when_required(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(mosquitto.REQUIRE_ENV, raising=False)
+    with pytest.raises(pytest.skip.Exception, match="the TLS tests needs no-such-tool"):
+        mosquitto.require_mosquitto("/usr/sbin/mosquitto", "the TLS tests", ("no-such-tool",))
+    monkeypatch.setenv(mosquitto.REQUIRE_ENV, "1")
+    with pytest.raises(pytest.fail.Exception, match="no-such-tool.*MRSS_REQUIRE_MOSQUITTO=1"):
+        mosquitto.require_mosquitto("/usr/sbin/mosquitto", "the TLS tests", ("no-such-tool",))
+    with pytest.raises(pytest.fail.Exception, match="the redelivery test needs mosquitto"):
+        mosquitto.require_mosquitto(None, "the redelivery test")
+    assert mosquitto.require_mosquitto("/usr/sbin/mosquitto", "it") == "/usr/sbin/mosquitto"

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from mrss.bus import Publisher, Subscriber
-from mrss.messages import Message
+from mrss.messages import Envelope, Message
 from mrss.testing import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -95,3 +95,41 @@ def sync(pub: Publisher, sub: Subscriber, make: Callable[[int], Message],
         return False
 
     wait_until(arrived, timeout, interval=0, message="publisher and subscriber joined")
+
+
+def receive_until(sub: Subscriber, done: Callable[[list[Envelope]], bool],
+                  timeout: float = 10.0, what: str = "the end of the stream") -> list[Envelope]:
+    """What `sub` receives until `done(received so far)` holds; fails after `timeout`.
+
+    Never a quiet spell taken for "everything arrived": a stalled machine makes this
+    wait, not truncate the list.
+    """
+    got: list[Envelope] = []
+    deadline = time.monotonic() + timeout
+    while not done(got):
+        left = deadline - time.monotonic()
+        env = sub.recv(timeout=max(0.0, min(left, 0.1)))
+        if env is not None:
+            got.append(env)
+        elif left <= 0:
+            raise AssertionError(f"{what} not seen within {timeout} s; received "
+                                 f"{[e.body for e in got][-5:]} (last 5 of {len(got)})")
+    return got
+
+
+def drain_until(sub: Subscriber, *ends: Message, timeout: float = 10.0) -> list[Envelope]:
+    """Everything `sub` receives up to and including each of `ends`, end markers its
+    publishers published last.
+
+    One publisher's messages arrive in the order it published them, so once its end
+    marker is in, so is everything it published before: the list is complete, and a
+    message lost before the marker shows as missing.
+    """
+    missing = list(ends)
+
+    def all_ends_in(got: list[Envelope]) -> bool:
+        if got and got[-1].body in missing:
+            missing.remove(got[-1].body)
+        return not missing
+
+    return receive_until(sub, all_ends_in, timeout, what=f"the end markers {ends}")

@@ -22,6 +22,7 @@ from mrss.bus.direct import forget_member, subscriber_socket
 from mrss.errors import BusError, ConfigError
 from mrss.messages import ActionControl, ActionRequest, Envelope, encode
 from mrss.testing import wait_until
+from tests.bus.bus_helpers import receive_until
 
 
 class Handled:
@@ -203,11 +204,16 @@ def test_a_monitor_sees_reliable_messages_as_ordinary_envelopes(ep: BusEndpoints
                 ReliableSender(ep, src="tx") as tx:
             msg_id = tx.send(_request("u1"))
             assert tx.flush(timeout=10)
-        seen = []
-        while (env := monitor.recv(timeout=0.3)) is not None:
-            seen.append(env)
-    assert msg_id in {env.id for env in seen}
-    assert all(env.topic == "action.request" and env.body == _request("u1") for env in seen)
+            # The sender's next message is the end marker: u1, repeats included, is in
+            # before it (u1's acks came back before it was sent).
+            end_id = tx.send(_request("end"))
+            assert tx.flush(timeout=10)
+        seen = receive_until(monitor, lambda got: end_id in {env.id for env in got},
+                             what="the end marker")
+    assert seen[-1].body == _request("end")
+    assert msg_id in {env.id for env in seen[:-1]}
+    assert all(env.topic == "action.request" and env.body == _request("u1")
+               for env in seen[:-1])
     assert monitor.dropped == 0  # acks and the channel's framing are not "malformed"
 
 

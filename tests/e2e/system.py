@@ -10,12 +10,17 @@ stderr) is kept in `<run_dir>/supervise.log`.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
+
+import psutil
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import (
@@ -207,3 +212,30 @@ def _find_pid(tree: Any, child: str) -> int:
         if found:
             return found
     return 0
+
+
+def _descendants() -> set[int]:
+    return {p.pid for p in psutil.Process().children(recursive=True)}
+
+
+@contextmanager
+def running_system(projects: Path = PROJECTS) -> Iterator[System]:
+    """`mrss supervise e2e` (from `projects`) in a fresh run dir (short ipc paths), ready
+    for percepts; torn down, and checked for processes left behind, even on failure."""
+    before = _descendants()
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-e2e-"))
+    sys_ = System(run_dir, projects=projects)
+    try:
+        sys_.wait_ready()
+        yield sys_
+    finally:
+        tree = psutil.Process(sys_.proc.pid).children(recursive=True) \
+            if sys_.proc.poll() is None else []
+        sys_.close()
+        left = [p for p in tree if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+        for p in left:
+            p.kill()
+        if not os.environ.get("MRSS_E2E_KEEP"):
+            shutil.rmtree(run_dir, ignore_errors=True)
+        assert not left, f"processes left behind: {[p.pid for p in left]}"
+        assert _descendants() <= before | {sys_.proc.pid}

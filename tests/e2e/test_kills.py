@@ -4,14 +4,17 @@ the reasoner's lease. Nothing waits forever, no robot works for a dead intention
 from __future__ import annotations
 
 import json
+import shutil
 import signal
 import sqlite3
+from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from mrss.messages import ActionStatus
 from mrss.testing import wait_until
-from tests.e2e.system import System, beliefs, waiting_on_actions
+from tests.e2e.system import PROJECTS, System, beliefs, running_system, waiting_on_actions
 
 pytestmark = pytest.mark.slow
 
@@ -44,8 +47,24 @@ def _journaled_waypoint(system: System, uuid: str) -> int:
     return int(json.loads(row[0]).get("waypoint", 0)) if row else 0
 
 
-def test_sigkilled_rcl_every_running_action_resumes_or_fails_and_no_intention_waits_forever(
-        system: System) -> None:
+@pytest.fixture()
+def long_lease_system(tmp_path: Path) -> Iterator[System]:
+    """The e2e project with a 600 s lease: whether an RCL restart beats the lease is a
+    matter of the machine's speed, and this test is about resuming, not the lease
+    (test_rcl_silent_past_the_lease_... is)."""
+    projects = tmp_path / "projects"
+    shutil.copytree(PROJECTS / "e2e", projects / "e2e")
+    toml = projects / "e2e" / "project.toml"
+    text = toml.read_text()
+    assert "\nlease = 2.0\n" in text
+    toml.write_text(text.replace("\nlease = 2.0\n", "\nlease = 600.0\n"))
+    with running_system(projects) as system:
+        yield system
+
+
+def test_sigkilled_rcl_resumes_every_running_action_from_its_journal_and_no_intention_waits(
+        long_lease_system: System) -> None:
+    system = long_lease_system
     uuids = _start_patrols(system)
     old_pid = system.signal("rcl", signal.SIGKILL)
     kept = {g: _journaled_waypoint(system, u) for g, u in uuids.items()}
@@ -57,30 +76,23 @@ def test_sigkilled_rcl_every_running_action_resumes_or_fails_and_no_intention_wa
         def after_restart(u: str = uuid) -> list[ActionStatus]:
             return [s for inc, s in system.statuses(u) if inc == 2]
         first = wait_until(after_restart, timeout=15, message=f"{goal} after the restart")[0]
-        if first.state == "running":  # resumed from its journaled progress ...
-            assert "resumed after an RCL restart" in first.reason
-            assert int(first.progress["waypoint"]) >= kept[goal]  # type: ignore[arg-type]
-        else:  # ... or explicitly failed
-            assert first.state == "failed" and first.reason
+        # resumed from its journaled progress, not started again
+        assert first.state == "running" and "resumed after an RCL restart" in first.reason, \
+            (goal, first)
+        assert int(first.progress["waypoint"]) >= kept[goal]  # type: ignore[arg-type]
 
-    # and every intention continues (patrolled) or fails (patrol_failed): none hangs
-    bound = 2 * WAYPOINTS * 0.05 + 10
-    snap = system.wait_mind(
-        lambda s: len(beliefs(s, "patrolled(") + beliefs(s, "patrol_failed(")) == 5,
-        timeout=bound, message="all five patrols concluded in the agent")
+    # and every intention continues to its end: none hangs, none is failed
+    snap = system.wait_mind(lambda s: len(beliefs(s, "patrolled(")) == 5, timeout=60,
+                            message="all five patrols concluded in the agent")
+    assert not beliefs(snap, "patrol_failed(")
     assert not waiting_on_actions(snap)
     assert not snap.intentions
     for goal, uuid in uuids.items():
         final = _latest(system, uuid)
-        assert final is not None
-        expected = "patrolled" if final.state == "succeeded" else "patrol_failed"
-        assert beliefs(snap, f"{expected}({goal}"), (goal, final)
-        if final.state == "succeeded":
-            starts = final.progress["starts"]
-            assert isinstance(starts, list) and starts[0] == 0 and len(starts) == 2
-            assert starts[1] >= kept[goal]  # the second run started where the first stopped
-    # with a 2 s lease and a sub-second restart, the resumed patrols all succeed
-    assert beliefs(snap, "patrolled(") and len(beliefs(snap, "patrolled(")) == 5
+        assert final is not None and final.state == "succeeded", (goal, final)
+        starts = final.progress["starts"]
+        assert isinstance(starts, list) and starts[0] == 0 and len(starts) == 2
+        assert starts[1] >= kept[goal]  # the second run started where the first stopped
 
 
 def test_sigkilled_reasoner_rcl_keeps_running_and_cancels_the_orphans_nobody_adopts(

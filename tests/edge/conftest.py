@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import getpass
-import shutil
 import socket
 import subprocess
 import sys
@@ -17,6 +16,7 @@ import pytest
 
 from mrss.actors.worldmodel.store import SqliteWorldStore, WorldStore
 from mrss.testing import find_mosquitto, free_port, wait_until
+from tests.mosquitto import require_mosquitto
 
 from .pgcluster import PgCluster, started_cluster
 
@@ -53,11 +53,8 @@ class SecureBroker:
 
 @pytest.fixture(scope="session")
 def secure_mosquitto() -> Iterator[SecureBroker]:
-    binary = find_mosquitto()
-    tools = [shutil.which("openssl"), shutil.which("mosquitto_passwd")]
-    if binary is None or None in tools:
-        pytest.skip("mosquitto, mosquitto_passwd and openssl are needed for the password "
-                    "and TLS tests")
+    binary = require_mosquitto(find_mosquitto(), "the password and TLS tests",
+                               ("mosquitto_passwd", "openssl"))
     with tempfile.TemporaryDirectory(prefix="mrss-secure-") as tmp:
         d = Path(tmp)
         subprocess.run(

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from mrss.testing import find_mosquitto, free_port, wait_until
+from tests.mosquitto import require_mosquitto
 
 from .supervised_edge import SupervisedEdge
 
@@ -170,9 +171,7 @@ class PersistentMosquitto:
 
 @pytest.fixture()
 def mosquitto_edge() -> Iterator[tuple[SupervisedEdge, PersistentMosquitto]]:
-    binary = find_mosquitto()
-    if binary is None:
-        pytest.skip("mosquitto is needed for the redelivery test")
+    binary = require_mosquitto(find_mosquitto(), "the redelivery test")
     root = Path(tempfile.mkdtemp(prefix="mrss-edgem-"))
     (root / "broker").mkdir()
     broker = PersistentMosquitto(root / "broker", binary)

@@ -49,6 +49,7 @@ def test_component_with_url_keeps_the_world_in_postgis(postgis_url: str) -> None
                 seeded = wait_until(lambda: _answer(bus, "lake"), timeout=15,
                                     message="world model answering on the bus")
                 assert seeded["kind"] == "water_source"
+                bus.client.default_timeout = 30.0  # short only while polling for the start
                 assert bus.upsert({"id": "z1", "kind": "zone", "geometry": ZONE})["op"] == \
                     "insert"
                 assert [o["id"] for o in bus.intersecting(ZONE)] == ["z1"]

@@ -184,7 +184,7 @@ def test_a_stalled_client_does_not_delay_another(guarded: WorldModelHttp) -> Non
 
 
 def test_a_stalled_client_is_answered_408_and_dropped_after_the_timeout() -> None:
-    server = serve(TOKEN, timeout=0.3)
+    server = serve(TOKEN, timeout=2.0)  # the request after it comes whole within 2 s
     try:
         with socket.create_connection(address(server), timeout=30) as stalled:
             stalled.sendall(b"POST /objects HTTP/1.1\r\nAuthorization: Bearer "
@@ -194,7 +194,7 @@ def test_a_stalled_client_is_answered_408_and_dropped_after_the_timeout() -> Non
                 received += chunk
         assert received.startswith(b"HTTP/1.1 408 ")
         body = json.loads(received.partition(b"\r\n\r\n")[2])
-        assert "no complete request within 0.3 s" in body["error"]
+        assert "no complete request within 2 s" in body["error"]
         status, _, _ = request(server, "GET", "/objects", headers=bearer(TOKEN))
         assert status == 200                      # and it keeps serving
     finally:

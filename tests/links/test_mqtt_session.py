@@ -21,6 +21,7 @@ from mrss.links.mqtt_session import MqttSession
 from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import ONLINE, UgvTelemetry, UgvTopics
 from mrss.testing import BrokerInfo, find_mosquitto, free_port, wait_until
+from tests.mosquitto import require_mosquitto
 
 from .sample_scopes import ScopeRecorder
 from .test_link_timers import mqtt_links
@@ -174,9 +175,7 @@ def test_a_link_failing_in_a_callback_does_not_reach_the_others(
 
 
 def _mosquitto(port: int, folder: Path) -> subprocess.Popen[bytes]:
-    binary = find_mosquitto()
-    if binary is None:  # CI installs Mosquitto (.ci/run)
-        pytest.fail("this test needs Mosquitto")
+    binary = require_mosquitto(find_mosquitto(), "the broker-kill test")
     conf = folder / "mosquitto.conf"
     conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\n"
                     "persistence false\nset_tcp_nodelay true\n")

@@ -6,7 +6,6 @@ made by openssl signs the broker's; a second CA plays the wrong one."""
 from __future__ import annotations
 
 import getpass
-import shutil
 import subprocess
 import tempfile
 from collections.abc import Iterator
@@ -25,6 +24,7 @@ from mrss.runtime.component import ComponentContext
 from mrss.sim.component import SimUgvComponent
 from mrss.sim.ugv import main as ugv_main
 from mrss.testing import find_mosquitto, free_port, wait_until
+from tests.mosquitto import require_mosquitto
 
 from .test_mavlink_link import Recorder
 
@@ -56,9 +56,8 @@ def _ca(d: Path, name: str) -> None:
 
 @pytest.fixture(scope="module")
 def tls_broker() -> Iterator[TlsBroker]:
-    binary = find_mosquitto()
-    if binary is None or not shutil.which("openssl") or not shutil.which("mosquitto_passwd"):
-        pytest.skip("mosquitto, mosquitto_passwd and openssl are needed for the TLS tests")
+    binary = require_mosquitto(find_mosquitto(), "the TLS tests",
+                               ("mosquitto_passwd", "openssl"))
     with tempfile.TemporaryDirectory(prefix="mrss-tls-") as tmp:
         d = Path(tmp)
         _ca(d, "ca")

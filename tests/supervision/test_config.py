@@ -29,7 +29,7 @@ def test_demo_project_loads_with_every_key() -> None:
     spec = cfg.supervisor.spec
     assert spec.strategy is Strategy.ONE_FOR_ONE and spec.intensity == 3 and spec.period == 10.0
     assert spec.backoff.initial == 0.05 and spec.backoff.cap == 0.5 and spec.backoff.jitter == 0.1
-    assert cfg.supervisor.heartbeat_interval == 0.1 and cfg.supervisor.heartbeat_misses == 3
+    assert cfg.supervisor.heartbeat_interval == 0.1 and cfg.supervisor.heartbeat_misses == 50
     assert [c.id for c in cfg.components] == ["alpha", "beta", "gamma", "off"]
     assert [s.id for s in cfg.child_specs()] == ["alpha", "beta", "gamma"]
     beta = cfg.components[1]

@@ -51,7 +51,8 @@ def test_a_world_model_that_is_down_is_waited_for_until_patience_runs_out(
         raise WorldModelUnavailable("the world model is not up")
 
     sent: list[str] = []
-    watch = watch_module.VerdictWatch(down, sent.append, interval=0.01, patience=0.2,
+    # 1 s of patience at 10 ms: several polls even when a loaded machine stalls the thread
+    watch = watch_module.VerdictWatch(down, sent.append, interval=0.01, patience=1.0,
                                       log=logging.getLogger("test.verdicts"))
     watch.start()
     try:

@@ -127,9 +127,11 @@ def test_with_preempted_timeout_an_action_preempted_too_long_fails_as_preempted(
 
 def test_a_preempted_action_resumed_in_time_is_not_failed_by_the_timeout(
         rcl_env: RclEnv) -> None:
-    core = rcl_env.start(preempted_timeout=0.5)
+    timeout = 3.0  # each episode below ends well within it, even on a loaded machine
+    core = rcl_env.start(preempted_timeout=timeout)
     ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
     _hold(core, "low", "ugv1", "x", priority=1)
+    first = time.monotonic()
     for n in range(2):  # pre-empted twice, resumed in time: each episode has its own timer
         wait_until(lambda: ugv.is_moving_to("x"), message="low running")
         _hold(core, f"high{n}", "uav1", "y", priority=5)
@@ -137,7 +139,8 @@ def test_a_preempted_action_resumed_in_time_is_not_failed_by_the_timeout(
         uav.arrive()
         wait_until(rcl_env.statuses.reached(f"high{n}", "succeeded"))
     wait_until(lambda: ugv.is_moving_to("x"), message="low resumed")
-    time.sleep(0.8)  # longer than the timeout: a timer left running would fail low now
+    # Not a synchronisation: a timer left running from either episode fires by then.
+    time.sleep(max(0.0, first + timeout + 0.5 - time.monotonic()))
     ugv.arrive()
     wait_until(rcl_env.statuses.reached("low", "succeeded"))
     assert rcl_env.statuses.states("low") == [

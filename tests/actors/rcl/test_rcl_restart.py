@@ -139,7 +139,7 @@ def test_robot_crashing_too_often_is_quarantined_and_released(rcl_env: RclEnv) -
     journal = AlwaysFails(rcl_env.journal_path)
     ugv = SimRobot("ugv1", auto=True)
     core = RclCore(rcl_env.layer, journal, rcl_env.statuses, {"ugv1": ugv},
-                   max_robot_restarts=2, probation=0.5)
+                   max_robot_restarts=2, probation=3.0)  # a2 comes within it
     core.start()
     try:
         core.submit_fields(request_fields("a1", "patrol", "ugv1", "g1", ["p1", "p2"]))
@@ -153,7 +153,8 @@ def test_robot_crashing_too_often_is_quarantined_and_released(rcl_env: RclEnv) -
         last = rcl_env.statuses.last("a2")
         assert last is not None and "ugv1 unavailable: quarantined" in last.reason
         wait_until(lambda: any(getattr(m, "event", "") == "release"
-                               for m in rcl_env.statuses.others), message="released")
+                               for m in rcl_env.statuses.others), timeout=30,
+                   message="released")
         core.submit_fields(request_fields("a3", "noop", "ugv1", "g3"))
         wait_until(rcl_env.statuses.reached("a3", "succeeded"))
     finally:
