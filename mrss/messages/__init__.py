@@ -5,6 +5,18 @@ and the wire (`codec.py`: the envelope, encode and decode). Import from here
 
 from __future__ import annotations
 
+from mrss.messages.closed_sets import (
+    CONTROL_COMMANDS,
+    CONTROL_TARGETS,
+    ActionState,
+    ControlCommand,
+    ControlTarget,
+    EventStatus,
+    FailureCause,
+    LinkState,
+    SupEventKind,
+    Topic,
+)
 from mrss.messages.codec import (
     Check,
     Envelope,
@@ -17,8 +29,6 @@ from mrss.messages.codec import (
 )
 from mrss.messages.credentials import IncarnationKey, load_key
 from mrss.messages.kinds import (
-    CONTROL_COMMANDS,
-    CONTROL_TARGETS,
     KINDS,
     SCHEMA_VERSION,
     ActionAck,
@@ -26,19 +36,13 @@ from mrss.messages.kinds import (
     ActionInventory,
     ActionQuery,
     ActionRequest,
-    ActionState,
     ActionStatus,
     Command,
-    ControlCommand,
-    ControlTarget,
     DataReply,
     DataRequest,
     EventReport,
-    EventStatus,
-    FailureCause,
     Heartbeat,
     JsonValue,
-    LinkState,
     LogRecord,
     Message,
     MindSnapshot,
@@ -48,8 +52,6 @@ from mrss.messages.kinds import (
     RobotData,
     RobotState,
     SupEvent,
-    SupEventKind,
-    Topic,
 )
 
 __all__ = [

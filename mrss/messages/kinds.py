@@ -1,4 +1,6 @@
-"""The kinds of bus message: one frozen dataclass per kind, their enums, and `KINDS`.
+"""The kinds of bus message: one frozen dataclass per kind, and `KINDS`.
+
+Their closed sets (action states, causes, commands, event names) are closed_sets.py.
 
 Each kind has its fields (type-checked on decode by `mrss.messages.codec`), the topic
 it is published on, and `validate` for checks beyond types.
@@ -11,105 +13,21 @@ from enum import StrEnum
 from typing import Any, ClassVar
 
 from mrss.errors import DecodeError
+from mrss.messages.closed_sets import (
+    CONTROL_COMMANDS,
+    CONTROL_TARGETS,
+    ActionState,
+    ControlCommand,
+    ControlTarget,
+    EventStatus,
+    FailureCause,
+    LinkState,
+    SupEventKind,
+)
 
 SCHEMA_VERSION = 1
 
 JsonValue = Any  # msgpack-able: None, bool, int, float, str, bytes, list, dict
-
-
-class Topic(StrEnum):
-    """Topic prefixes; subscribers filter by prefix."""
-
-    PERCEPT = "percept"
-    ACTION_REQUEST = "action.request"
-    ACTION_ACK = "action.ack"
-    ACTION_STATUS = "action.status"
-    ACTION_CONTROL = "action.control"
-    DL_REQUEST = "dl.request"
-    DL_REPLY = "dl.reply"
-    ROBOT = "robot."
-    SUP = "sup."
-    LOG = "log."
-    MIND = "mind."
-    CTL = "ctl."
-    EDGE = "edge."
-
-
-class ActionState(StrEnum):
-    """States of an action in the RCL (DESIGN.md, "Actions")."""
-
-    PENDING = "pending"
-    RUNNING = "running"
-    SUSPENDED = "suspended"
-    SUCCEEDED = "succeeded"
-    FAILED = "failed"
-    CANCELLED = "cancelled"
-
-    @property
-    def terminal(self) -> bool:
-        return self in (ActionState.SUCCEEDED, ActionState.FAILED, ActionState.CANCELLED)
-
-
-class FailureCause(StrEnum):
-    """Why an action failed, as the agent sees it: `-!g[error(Cause)]` (Jason's failure
-    reason). "" (no cause) reads `error(action_failed)`, as in Jason."""
-
-    TRANSIENT = "transient"  # a dependency was away (RCL restart, lease, data layer): retry
-    LINK_DOWN = "link_down"  # the robot's link was lost
-    FAILSAFE = "failsafe"  # the robot lost its controller and went to its safe state
-    CANCELLED = "cancelled"  # goal management (operator or agent) cancelled it
-    QUARANTINED = "quarantined"  # the robot's actor kept crashing
-    REJECTED = "rejected"  # the request was malformed or refused
-    ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
-    PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
-    NODE_DOWN = "node_down"  # the node the robot is reached through was lost
-    UNSPECIFIED = ""  # no particular cause: the agent sees error(action_failed)
-
-
-class ControlCommand(StrEnum):
-    """Goal management commands (rcl_goal_management, `mrss send control`)."""
-
-    CANCEL = "cancel"
-    SUSPEND = "suspend"
-    RESUME = "resume"
-    SUCCEED = "succeed"
-    FAIL = "fail"
-
-
-class ControlTarget(StrEnum):
-    """What a control command is for: one action, every action of a goal or of a robot."""
-
-    ACTION = "action"
-    GOAL = "goal"
-    ROBOT = "robot"
-
-
-class LinkState(StrEnum):
-    """A robot's link, as the RCL or a link sees it."""
-
-    UP = "up"
-    DOWN = "down"
-
-
-class SupEventKind(StrEnum):
-    """The supervision events on `sup.<event>` (mrss/supervision/events.py, nodes, trees)."""
-
-    START = "start"
-    EXIT = "exit"
-    RESTART = "restart"
-    ESCALATE = "escalate"
-    GIVE_UP = "give_up"
-    QUARANTINE = "quarantine"
-    RELEASE = "release"
-    HANG = "hang"
-    STOPPING = "stopping"  # the supervisor begins to stop every child (child: itself)
-    TREE = "tree"  # the live tree of a supervisor (detail["tree"])
-    NODE_DOWN = "node_down"  # a peer node is lost (mrss/supervision/nodes.py)
-    NODE_UP = "node_up"
-
-
-CONTROL_COMMANDS = tuple(c.value for c in ControlCommand)
-CONTROL_TARGETS = tuple(t.value for t in ControlTarget)
 
 
 _ACTION_STATES = frozenset(ActionState)
@@ -407,15 +325,6 @@ class Command(Message):
 
     def topic(self) -> str:
         return f"ctl.{self.command}"
-
-
-class EventStatus(StrEnum):
-    """What became of an external event at the edge."""
-
-    ACCEPTED = "accepted"    # its percepts went out
-    REJECTED = "rejected"    # bad payload: not retried
-    FAILED = "failed"        # a dependency stayed down past the retry budget, or a bug
-    DUPLICATE = "duplicate"  # a redelivery of an event already handled
 
 
 @dataclass(frozen=True)

@@ -191,10 +191,13 @@ def test_a_replayed_message_reaches_observers_marked_and_no_component(
         topic, payload = encode(Percept(literal="hotspot(h1)"), src="events", inc=1)
         tool.send_frames([topic, mark_replayed(payload)])
         tool.publish(Percept(literal="live"))
-        seen = [(e.body.literal, e.replayed) for e in _drain(observer)
+        end = Percept(literal="sync-end")  # the tool's last message: all before it is in
+        tool.publish(end)
+        seen = [(e.body.literal, e.replayed) for e in drain_until(observer, end)
                 if isinstance(e.body, Percept) and not e.body.literal.startswith("sync")]
         assert seen == [("hotspot(h1)", True), ("live", False)]
-        assert [e.body.literal for e in _drain(component) if isinstance(e.body, Percept)
+        assert [e.body.literal for e in drain_until(component, end)
+                if isinstance(e.body, Percept)
                 and not e.body.literal.startswith("sync")] == ["live"]
         assert component.stale == 1
 

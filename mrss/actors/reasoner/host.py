@@ -43,6 +43,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from mrss.actors.reasoner.adoption import adoptable
 from mrss.actors.reasoner.messages import (
     GOAL_MANAGEMENT,
     action_request,
@@ -373,29 +374,3 @@ class ReasonerHost:
     def close(self) -> None:
         if self._queries is not None:
             self._queries.shutdown(wait=False, cancel_futures=True)
-
-
-def adoptable(items: list[dict[str, Any]]) -> dict[str, list[str]]:
-    """What a new incarnation may adopt, by literal, from the RCL's inventory (oldest
-    first): the actions still open; for a literal with none open, the last one that
-    ended (its outcome may never have reached the dead incarnation). An older try that
-    ended before a newer one of the same literal was requested was seen to end (the
-    predecessor tried again): adopting it would fail the re-derived intention at once
-    and use up one of its retries while the newer try runs on as an orphan."""
-    open_: dict[str, list[str]] = {}
-    ended: dict[str, str] = {}
-    for item in items:
-        literal, uuid, state = item.get("literal"), item.get("uuid"), item.get("state")
-        if not (isinstance(literal, str) and isinstance(uuid, str) and literal):
-            continue
-        try:
-            terminal = ActionState(str(state)).terminal
-        except ValueError:
-            terminal = False  # unknown: as good as open
-        if terminal:
-            ended[literal] = uuid
-        else:
-            open_.setdefault(literal, []).append(uuid)
-    return {literal: open_.get(literal) or [ended[literal]]
-            for literal in {**ended, **open_}}
-
