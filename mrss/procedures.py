@@ -39,6 +39,7 @@ from mrss.interpreter import python_module
 from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, JsonValue, Percept, RobotData
+from mrss.messages.credentials import KEY_FILE
 from mrss.testing import WaitTimeout, wait_until
 
 T = TypeVar("T")
@@ -62,6 +63,7 @@ class RunningProject:
         self._lock = threading.Lock()
         self._sub: Subscriber | None = None
         self._pub: Publisher | None = None
+        self._owner_pub: tuple[tuple[str, int], Publisher] | None = None
         self._tree: list[psutil.Process] = []
         self._token: tuple[str | None] | None = None  # the world model token, once read
 
@@ -117,6 +119,9 @@ class RunningProject:
         if self._pub is not None:
             self._pub.close()
             self._pub = None
+        if self._owner_pub is not None:
+            self._owner_pub[1].close()
+            self._owner_pub = None
         if self.process is not None and self.process.poll() is None:
             tree = self._children()
             self.process.kill()
@@ -231,6 +236,24 @@ class RunningProject:
         if self._pub is None:
             self._pub = Publisher(endpoints_from_config({}, self.run_dir), src="procedure")
         self._pub.publish(RobotData(robot=robot, data=dict(data)))
+
+    def link_data(self, robot: str, data: Mapping[str, JsonValue], *, owner: str = "rcl"
+                  ) -> None:
+        """Put robot data on the bus as the robot's link would: from `owner` (the component
+        whose table lists the robot), its live incarnation, proven with the run's key. For
+        a broken record from a real link, to see what the validation layer makes of it
+        (`robot_data` is a stranger's, refused before it is read)."""
+        inc = self.incarnation(owner)
+        assert inc, f"no heartbeat from {owner} yet"
+        endpoints = endpoints_from_config({}, self.run_dir)
+        key = self.run_dir / KEY_FILE
+        if key.is_file():
+            endpoints = endpoints.keyed(key)
+        if self._owner_pub is None or self._owner_pub[0] != (owner, inc):
+            if self._owner_pub is not None:
+                self._owner_pub[1].close()
+            self._owner_pub = ((owner, inc), Publisher(endpoints, src=owner, inc=inc))
+        self._owner_pub[1].publish(RobotData(robot=robot, data=dict(data)))
 
     def publish(self, topic: str, payload: Mapping[str, Any]) -> None:
         """Publish a JSON message (QoS 1) on the system's broker, as an outside client

@@ -11,7 +11,7 @@ from pathlib import Path
 import psutil
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
-from mrss.messages import Envelope, LogRecord, SupEvent
+from mrss.messages import Envelope, LogRecord, SupEvent, SupEventKind
 from mrss.testing import wait_until
 
 PROJECTS = Path(__file__).resolve().parent.parent / "projects"
@@ -42,7 +42,8 @@ def test_supervised_components_speak_on_the_bus_and_restarts_are_published(
         # the welcome alone does not mean its subscriptions have reached the proxy
         assert sub.wait_connected(timeout=10)
         with Publisher(BusEndpoints.ipc(tmp_path), src="probe") as probe:
-            wait_until(lambda: probe.publish(SupEvent(event="probe", child="probe")) and any(
+            marker = SupEvent(event=SupEventKind.TREE, child="probe")
+            wait_until(lambda: probe.publish(marker) and any(
                 isinstance(e.body, SupEvent) and e.body.child == "probe" for e in seen),
                 timeout=10, interval=0.05, message="subscription in place at the proxy")
         pid = int((tmp_path / "announcer.1.started").read_text())

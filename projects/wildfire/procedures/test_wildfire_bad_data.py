@@ -1,11 +1,13 @@
 """Fault procedure (issue 15): bad robot data never moves a robot.
 
-`mrss supervise wildfire` as a real process. A forged `robot.fz9.data` from a robot that
-is not configured (a hotspot at 0,0 at 1e308 degrees, an empty tank), and out-of-range
-records from the configured robots (a hotspot at 1e308 degrees or at latitude 214.7, a
-battery at -128 %, a tank at -5 L, an altitude of 2.1e6 m) go on the bus. The data layer
-refuses each of them (counted, logged once per robot and reason): no world model object,
-no percept, and no action for ugv1; a valid hotspot sent after them is taken.
+`mrss supervise wildfire` as a real process. Records as a robot link would send them (from
+the RCL, which owns the links): a `robot.fz9.data` of a robot that is not configured (a
+hotspot at 0,0 at 1e308 degrees, an empty tank), and out-of-range records of the
+configured robots (a hotspot at 1e308 degrees or at latitude 214.7, a battery at -128 %,
+a tank at -5 L, an altitude of 2.1e6 m); and the same records from a stranger on the bus.
+The data layer refuses each of them (counted, logged once per source and reason): no
+world model object, no percept, and no action for ugv1; a valid hotspot the link sends
+after them is taken.
 """
 
 from __future__ import annotations
@@ -26,7 +28,9 @@ FORGED = [
     ("ugv1", {"type": "tank", "level": -5.0, "capacity": 200.0, "pumping": False}),
     ("ugv1", {"type": "position", "lat": 0.0, "lon": 0.0, "alt": 2.1e6, "heading": None}),
 ]
-REASONS = ["from fz9: unknown robot", "from uav1: hotspot.temperature out of range",
+REASONS = ["from rcl: robot 'fz9' is not in the project",
+           "from procedure: not from rcl, the owner of its link",
+           "from uav1: hotspot.temperature out of range",
            "from uav1: hotspot.lat out of range", "from uav1: battery.remaining out of range",
            "from ugv1: tank.level out of range", "from ugv1: position.alt out of range"]
 # by the pond: a hotspot the world model keeps without asking for water
@@ -45,8 +49,9 @@ def test_forged_and_out_of_range_robot_data_make_no_object_no_percept_no_action(
         def taken() -> dict[str, object] | None:
             for _ in range(2):  # twice: the second is only counted
                 for robot, data in FORGED:
-                    system.robot_data(robot, data)
-            system.robot_data("uav1", MARKER)
+                    system.link_data(robot, data)
+                    system.robot_data(robot, data)  # a stranger's: refused at the door
+            system.link_data("uav1", MARKER)
             return system.world("hs96")
         # (the first messages may go out before the proxy forwards this new publisher)
         system.wait_for(taken, 30, "the valid hotspot after the forged data")
