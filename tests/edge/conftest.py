@@ -1,4 +1,7 @@
-"""Fixtures for the edge tests: a Mosquitto with passwords and TLS, a restartable amqtt."""
+"""Fixtures for the edge tests: a Mosquitto with passwords and TLS, a restartable amqtt.
+
+The world model's (a private PostGIS server, a store of each backend) are
+tests/actors/worldmodel/conftest.py's."""
 
 from __future__ import annotations
 
@@ -7,20 +10,15 @@ import socket
 import subprocess
 import sys
 import tempfile
-import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-from mrss.actors.worldmodel.store import SqliteWorldStore, WorldStore
 from mrss.testing import find_mosquitto, free_port, wait_until
+from tests.edge.fixture_project import PROJECT_FIXTURE as PROJECT_FIXTURE
 from tests.mosquitto import require_mosquitto
-
-from .pgcluster import PgCluster, started_cluster
-
-PROJECT_FIXTURE = Path(__file__).parent / "project_fixture"
 
 
 def _accepting(host: str, port: int) -> bool:
@@ -117,49 +115,3 @@ def restartable_amqtt() -> Iterator[RestartableAmqtt]:
         yield broker
     finally:
         broker.stop()
-
-
-# --- world model backends -------------------------------------------------------------
-
-
-@pytest.fixture(scope="session")
-def postgis_cluster() -> Iterator[PgCluster]:
-    """One private PostgreSQL + PostGIS server for the session's tests (see pgcluster.py)."""
-    cluster = started_cluster()
-    try:
-        yield cluster
-    finally:
-        cluster.stop()
-
-
-@pytest.fixture
-def postgis_url(postgis_cluster: PgCluster) -> str:
-    """A fresh, empty database of the session's PostGIS server."""
-    return postgis_cluster.create_database("wm_" + uuid.uuid4().hex[:16])
-
-
-StoreFactory = Callable[[], WorldStore]
-
-
-@pytest.fixture(params=["sqlite", "postgis"])
-def open_store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[StoreFactory]:
-    """Opens the world store of one backend; every call opens the same database again."""
-    if request.param == "sqlite":
-        def factory() -> WorldStore:
-            return SqliteWorldStore(tmp_path / "wm.sqlite")
-    else:
-        url = request.getfixturevalue("postgis_url")
-
-        def factory() -> WorldStore:
-            from mrss.actors.worldmodel.postgis import PostgisWorldStore
-            return PostgisWorldStore(url)
-    opened: list[WorldStore] = []
-
-    def tracked() -> WorldStore:
-        opened.append(factory())
-        return opened[-1]
-    try:
-        yield tracked
-    finally:
-        for store in opened:
-            store.close()

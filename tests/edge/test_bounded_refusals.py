@@ -27,7 +27,7 @@ FLOOD = 200
 @pytest.fixture(scope="module")
 def edge() -> Iterator[SupervisedEdge]:
     """The wildfire edge; its robots are those of `[events] robots` (a project with an
-    RCL takes the RCL's robots tables: tests/edge/test_events_robots.py)."""
+    RCL takes the RCL's robots tables: tests/actors/events/test_events_robots.py)."""
     root = Path(tempfile.mkdtemp(prefix="mrss-bounded-"))
     run = SupervisedEdge(root, events_extra='robots = ["uav1", "ugv1"]\n')
     try:

@@ -30,8 +30,8 @@ from mrss.runtime.busport import ZmqBusPort
 from mrss.runtime.component import ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient, DataLayerError, DataLayerUnavailable
 from mrss.testing import BrokerInfo, wait_until
+from tests.edge.fixture_project import PROJECT_FIXTURE
 
-from .conftest import PROJECT_FIXTURE
 from .termcheck import read_literal
 
 # The fixture's project.toml gives [events], [datalayer] and [worldmodel]; the broker

@@ -28,8 +28,7 @@ from mrss.runtime.busport import ZmqBusPort
 from mrss.runtime.component import ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
 from mrss.testing import wait_until
-
-from .conftest import PROJECT_FIXTURE
+from tests.edge.fixture_project import PROJECT_FIXTURE
 
 COMPONENTS = {
     "broker": KINDS[ComponentKind.BROKER].target,

@@ -5,7 +5,8 @@
 - `PostgisWorldStore` (`mrss.actors.worldmodel.postgis`): PostgreSQL + PostGIS, selected by
   `[worldmodel] url = "postgresql://..."`; predicates computed in SQL.
 
-Both satisfy `WorldStore` and pass the same tests (tests/edge/test_worldmodel_backends.py).
+Both satisfy `WorldStore` and pass the same tests
+(tests/actors/worldmodel/test_worldmodel_backends.py).
 Distances are metres on a sphere of the mean Earth radius in both. A backend that lost its
 server raises `WorldStoreUnavailable` (a `DependencyUnavailable`) and reconnects later.
 """

@@ -20,9 +20,8 @@ from mrss.actors.events.service import ExternalEventsManager
 from mrss.edge.mqtt_client import MqttClient, MqttSettings
 from mrss.messages import Message, Percept
 from mrss.testing import BrokerInfo, wait_until
-
-from .conftest import PROJECT_FIXTURE
-from .termcheck import read_literal
+from tests.edge.fixture_project import PROJECT_FIXTURE
+from tests.edge.termcheck import read_literal
 
 
 class Recorder:

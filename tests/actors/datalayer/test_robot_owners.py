@@ -22,7 +22,7 @@ from mrss.recording.format import RecordedMessage, RecordingWriter
 from mrss.testing import stop_supervised, wait_until
 from tests.commands.cli_bus import short_dir
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 PROJECT_TOML = """\
 [project]
 name = "owners"

@@ -1,6 +1,6 @@
 """The world model component chooses its store from `[worldmodel] url`: PostGIS or SQLite.
 
-The PostGIS run uses the private server of tests/edge/pgcluster.py (skipped without
+The PostGIS run uses the private server of tests/actors/worldmodel/pgcluster.py (skipped without
 PostgreSQL 15 + postgresql-15-postgis-3; failing instead when MRSS_REQUIRE_POSTGIS=1).
 """
 
@@ -22,8 +22,7 @@ from mrss.runtime.busport import ZmqBusPort
 from mrss.runtime.datalayer_client import DataLayerUnavailable
 from mrss.testing import wait_until
 from mrss.world.access import BusWorldModel, WorldModelClient
-
-from .test_edge_bus import context
+from tests.edge.test_edge_bus import context
 
 ZONE = {"type": "Polygon", "coordinates": [[[1.0, 43.0], [1.1, 43.0], [1.1, 43.1],
                                             [1.0, 43.1], [1.0, 43.0]]]}

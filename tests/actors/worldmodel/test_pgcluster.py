@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from .pgcluster import REQUIRE_ENV, unavailable
+from tests.actors.worldmodel.pgcluster import REQUIRE_ENV, unavailable
 
 
 def test_missing_postgis_skips_or_fails_when_required(monkeypatch: pytest.MonkeyPatch) -> None:

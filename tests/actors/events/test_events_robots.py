@@ -16,7 +16,7 @@ from mrss.messages import Message, Percept
 from mrss.runtime.edge import project_robots
 from mrss.testing import BrokerInfo, wait_until
 
-WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
+WILDFIRE = Path(__file__).resolve().parents[3] / "projects" / "wildfire"
 
 
 class Recorder:

@@ -1,6 +1,6 @@
 """The PostGIS world model when its server crashes: errors, reconnection, no lost writes.
 
-A private PostgreSQL server (tests/edge/pgcluster.py) is killed with SIGKILL while a
+A private PostgreSQL server (tests/actors/worldmodel/pgcluster.py) is killed with SIGKILL while a
 writer thread upserts, then started again. Skipped without PostgreSQL 15 +
 postgresql-15-postgis-3; fails instead when MRSS_REQUIRE_POSTGIS=1 (CI).
 """
@@ -16,8 +16,7 @@ from mrss.actors.worldmodel.postgis import PostgisWorldStore
 from mrss.actors.worldmodel.store import Position, WorldObject, WorldStoreUnavailable
 from mrss.messages import DataRequest
 from mrss.testing import wait_until
-
-from .pgcluster import started_cluster
+from tests.actors.worldmodel.pgcluster import started_cluster
 
 
 @pytest.mark.slow

@@ -17,8 +17,7 @@ from mrss.config.kinds import KINDS, ComponentKind
 from mrss.runtime.component import ComponentContext
 from mrss.testing import wait_until
 from mrss.world.access import WorldModelClient, WorldModelRejected
-
-from .supervised_edge import SupervisedEdge
+from tests.edge.supervised_edge import SupervisedEdge
 
 TOKEN = "wildfire-ops-token-9f8e7d6c5b4a"
 CENTER = [-35.3625, 149.1650]

@@ -6,7 +6,7 @@ interpreter (a scripted host records every action it would send to the RCL), its
 `query(legal, [A], V)` answered by the project's real data layer (datalayer.py, whose
 rules ask the world model's spatial predicates), over a world model seeded with the
 project's world.json in embedded SQLite or in PostGIS (the private server of
-tests/edge/pgcluster.py; skipped without PostgreSQL 15 + PostGIS, failing instead when
+tests/actors/worldmodel/pgcluster.py; skipped without PostgreSQL 15 + PostGIS, failing instead when
 MRSS_REQUIRE_POSTGIS=1, as in CI). For each rule: the refusal names the rule and the
 geometry, the verdict is stored for the operator, and no action was sent; a legal
 request in between is sent, so a layer that refused everything would fail.
@@ -25,10 +25,9 @@ from mrss.actors.worldmodel.local import LocalWorldModel
 from mrss.actors.worldmodel.model import WorldModel
 from mrss.api.testing import ScriptedHost
 from mrss.runtime.loader import import_project_module
+from tests.actors.worldmodel.stores import StoreFactory
 
-from .conftest import StoreFactory
-
-PROJECT = Path(__file__).resolve().parents[2] / "projects" / "amadee"
+PROJECT = Path(__file__).resolve().parents[3] / "projects" / "amadee"
 HOME = (39.7700, 44.8000)
 
 

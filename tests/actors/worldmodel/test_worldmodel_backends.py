@@ -26,8 +26,7 @@ from mrss.actors.worldmodel.store import (
 )
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest
-
-from .conftest import StoreFactory
+from tests.actors.worldmodel.stores import StoreFactory
 
 BASE = Position(43.6045, 1.4440)
 M_PER_DEG = 6_371_008.8 * math.pi / 180  # metres per degree of latitude on the sphere

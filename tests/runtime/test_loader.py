@@ -11,8 +11,7 @@ from mrss.actors.datalayer.service import load_datalayer_class
 from mrss.actors.events.adapter import ExternalAdapter
 from mrss.errors import ConfigError
 from mrss.runtime.loader import import_project_module, load_project_class
-
-from .conftest import PROJECT_FIXTURE
+from tests.edge.fixture_project import PROJECT_FIXTURE
 
 ADAPTER = ("from mrss.api import ExternalAdapter\n"
            "class {name}(ExternalAdapter):\n    pass\n")

@@ -1,6 +1,6 @@
 """Several world models on one PostGIS database: merges from all of them are kept.
 
-Uses the private server of tests/edge/pgcluster.py (skipped without PostgreSQL 15 +
+Uses the private server of tests/actors/worldmodel/pgcluster.py (skipped without PostgreSQL 15 +
 postgresql-15-postgis-3; failing instead when MRSS_REQUIRE_POSTGIS=1).
 """
 

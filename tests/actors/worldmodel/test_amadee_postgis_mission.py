@@ -1,7 +1,7 @@
 """The AMADEE-24 mission with its world model in PostGIS, and the server killed mid-mission.
 
 `mrss supervise` runs a copy of projects/amadee whose `[worldmodel] url` names a
-database of a private PostgreSQL server (tests/edge/pgcluster.py; skipped without
+database of a private PostgreSQL server (tests/actors/worldmodel/pgcluster.py; skipped without
 PostgreSQL 15 + PostGIS, failing instead when MRSS_REQUIRE_POSTGIS=1, as in CI). A legal
 drive moves the rover; a drive across the salt marsh is refused with its rule and never
 reaches the robot. The server is then SIGKILLed: a request meanwhile cannot be checked,
@@ -22,10 +22,9 @@ import pytest
 from mrss.actors.worldmodel.postgis import PostgisWorldStore
 from mrss.api import distance_m
 from mrss.api.testing import RunningProject
+from tests.actors.worldmodel.pgcluster import started_cluster
 
-from .pgcluster import started_cluster
-
-PROJECT = Path(__file__).resolve().parents[2] / "projects" / "amadee"
+PROJECT = Path(__file__).resolve().parents[3] / "projects" / "amadee"
 SITE = (39.7705, 44.8000)
 BEYOND_MARSH = (39.7725, 44.8010)
 BACK = (39.7702, 44.7995)

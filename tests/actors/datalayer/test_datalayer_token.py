@@ -18,8 +18,7 @@ from mrss.runtime.busport import ZmqBusPort
 from mrss.runtime.component import ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient, DataLayerError
 from mrss.testing import wait_until
-
-from .conftest import PROJECT_FIXTURE
+from tests.edge.fixture_project import PROJECT_FIXTURE
 
 TOKEN = "datalayer-test-token-0123456789"
 

@@ -28,8 +28,7 @@ from mrss.errors import ConfigError
 from mrss.messages import DataRequest, RobotData
 from mrss.runtime.datalayer_client import DataLayerUnavailable
 from mrss.world.access import HttpWorldModel
-
-from .conftest import PROJECT_FIXTURE
+from tests.edge.fixture_project import PROJECT_FIXTURE
 
 # A call's time limit: long where the test is not about it (a loaded machine may take a
 # while over any call), short where a call hangs on purpose and must be given up.

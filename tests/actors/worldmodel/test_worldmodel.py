@@ -19,8 +19,7 @@ from mrss.actors.worldmodel.store import (
 from mrss.agentspeak.literals import literal, symbol
 from mrss.errors import ConfigError
 from mrss.messages import DataRequest
-
-from .termcheck import read_literal
+from tests.edge.termcheck import read_literal
 
 BASE = Position(43.6045, 1.4440)
 

@@ -1,6 +1,6 @@
 """Schema creation and migration of the world model backends: idempotent, concurrent-safe.
 
-The PostGIS tests use the private server of tests/edge/pgcluster.py (skipped without
+The PostGIS tests use the private server of tests/actors/worldmodel/pgcluster.py (skipped without
 PostgreSQL 15 + postgresql-15-postgis-3, failing instead when MRSS_REQUIRE_POSTGIS=1).
 """
 

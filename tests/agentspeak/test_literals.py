@@ -21,8 +21,7 @@ from mrss.agentspeak.literals import (
     symbol,
     term,
 )
-
-from .termcheck import read_literal
+from tests.edge.termcheck import read_literal
 
 atom_names = st.from_regex(r"[a-z][a-zA-Z0-9_]{0,12}", fullmatch=True).filter(is_atom_name)
 scalars = st.one_of(
