@@ -68,6 +68,9 @@ def test_teleop_for_robots_that_do_not_exist_is_refused_at_the_door_with_one_rep
         assert answer["status"] == "rejected", answer
         assert f"unknown robot 'ghost{n}' (known: uav1, ugv1)" in str(answer["reason"])
     assert not [e for e in edge.reliable if "ghost" in str(e.body)]  # no percept, no action
+    # the bus reports go their own way (not with the MQTT replies): wait for them too
+    wait_until(lambda: len(edge.reports("rejected", topic="mrss/ui/teleop")) >= FLOOD, 30,
+               message="a report on the bus of every refusal")
     assert len(edge.reports("rejected", topic="mrss/ui/teleop")) == FLOOD
     wait_until(lambda: counted(edge, "events").get(
         "event from mrss/ui/teleop: field 'robot'", 0) >= FLOOD, 30,
