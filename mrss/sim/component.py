@@ -62,6 +62,11 @@ SPEEDUP_ENV = "MRSS_SIM_SPEEDUP"
 HOME_RADIUS_M = 10.0
 
 
+def defaults_of(declared: Sequence[Option]) -> dict[str, Any]:
+    """Each declared option's default: the one place it is written."""
+    return {option.name: option.default for option in declared}
+
+
 def speedup_of(options: Mapping[str, Any]) -> float:
     """The simulated seconds per wall-clock second: $MRSS_SIM_SPEEDUP, else `speedup`."""
     raw: Any = os.environ.get(SPEEDUP_ENV) or options.get("speedup", 1.0)
@@ -171,17 +176,19 @@ class SimUavComponent(Component):
         self.address_file: Path | None = None
 
     def start(self, ctx: ComponentContext) -> None:
-        opts = ctx.options
-        robot = str(opts.get("id", "uav1"))
-        home = position(opts, "home", DEFAULT_HOME, 3)
+        opts, default = ctx.options, defaults_of(self.OPTIONS)
+        robot = str(opts.get("id", default["id"]))
+        home = position(opts, "home", default["home"], 3)
         self.address_file = ctx.run_dir / f"{robot}{ADDRESS_SUFFIX}"
-        port = int(number(opts, "port", 0)) or self._previous_port() or free_udp_port()
+        port = int(number(opts, "port", default["port"])) or self._previous_port() \
+            or free_udp_port()
         uav = GroundCrewUav(
-            f"udpin:127.0.0.1:{port}", sysid=int(number(opts, "sysid", 1, low=1)),
+            f"udpin:127.0.0.1:{port}", sysid=int(number(opts, "sysid", default["sysid"], low=1)),
             home=(home[0], home[1], home[2]), hotspots=hotspots_of(opts, ctx.project_dir),
-            speedup=speedup_of(opts), camera_radius_m=number(opts, "camera_radius", 25.0),
-            recharge_pct_per_s=number(opts, "recharge", 5.0), failsafe=policy_of(opts),
-            signing_key=signing_key_of(opts, ctx.project_dir))
+            speedup=speedup_of(opts),
+            camera_radius_m=number(opts, "camera_radius", default["camera_radius"]),
+            recharge_pct_per_s=number(opts, "recharge", default["recharge"]),
+            failsafe=policy_of(opts), signing_key=signing_key_of(opts, ctx.project_dir))
         uav.model.params.endurance_s = number(opts, "endurance", uav.model.params.endurance_s,
                                               low=1.0)
         uav.start()
@@ -256,9 +263,9 @@ class SimUgvComponent(Component):
         self.ugv: SimUgv | None = None
 
     def start(self, ctx: ComponentContext) -> None:
-        opts = ctx.options
-        robot = str(opts.get("id", "ugv1"))
-        base = position(opts, "base", DEFAULT_BASE, 2)
+        opts, default = ctx.options, defaults_of(self.OPTIONS)
+        robot = str(opts.get("id", default["id"]))
+        base = position(opts, "base", default["base"], 2)
         defaults = UgvParams()
         params = UgvParams(
             max_speed_mps=number(opts, "speed", defaults.max_speed_mps, low=0.1),
@@ -268,8 +275,8 @@ class SimUgvComponent(Component):
         prefix = opts.get("prefix")
         extra: dict[str, Any] = {"prefix": str(prefix)} if prefix else {}
         self.ugv = SimUgv(url, robot, base=(base[0], base[1]), params=params,
-                          speedup=speedup_of(opts), telemetry_hz=number(opts, "rate", 2.0,
-                                                                          low=0.1),
+                          speedup=speedup_of(opts),
+                          telemetry_hz=number(opts, "rate", default["rate"], low=0.1),
                           failsafe=policy_of(opts), login=self._login(ctx), **extra)
         self.ugv.start()
         ctx.log.info("simulated %s on %s, base %.6f,%.6f, tank %g l, speedup %g", robot, url,
