@@ -201,11 +201,8 @@ def dashboard(endpoints: BusEndpoints) -> MrssApp:
     and world model every 2 s) at the command's defaults, quiet_gc on (its process is
     the dashboard)."""
     from mrss.tui.app import MrssApp
-    from mrss.tui.polls import DEFAULT_POLLS as polls
 
-    return MrssApp(endpoints, project="bench", agent="", mind_every=polls.mind_every,
-                   tree_every=polls.tree_every, world_every=polls.world_every,
-                   stale_after=polls.stale_after, quiet_gc=True)
+    return MrssApp(endpoints, project="bench", quiet_gc=True)  # its polls: DEFAULT_POLLS
 
 
 Samples = list[tuple[float, float]]

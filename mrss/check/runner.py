@@ -58,10 +58,8 @@ def check_project(config: ProjectConfig) -> Report:
     report = Report(config.name)
     sources = Sources(config.directory, report)
     for former in config.warnings:  # an earlier release's spelling: it runs, and says so
-        file, _, line = former.where.rpartition(":")
-        report.warning(file if line.isdigit() else former.where,
-                       f"{former.key}: {former.what}; write {former.instead}",
-                       line=int(line) if line.isdigit() else 0, check="config", key=former.key)
+        report.warning(former.file, f"{former.key}: {former.what}; write {former.instead}",
+                       line=former.line, check="config", key=former.key)
     check_tables(config, report)
     check_nodes(config, report)
     check_broker_login(config, report)

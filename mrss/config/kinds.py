@@ -65,10 +65,7 @@ FORMER_TARGETS: Mapping[str, ComponentKind] = {
     "mrss.actors.events:ExternalEventsManager": ComponentKind.EVENTS,
     "mrss.actors.rcl_service:RclService": ComponentKind.RCL,
     "mrss.actors.reasoner:ReasonerComponent": ComponentKind.REASONER,
-    "mrss.sim.component:SimUavComponent": ComponentKind.SIM_UAV,
-    "mrss.sim.component:SimUgvComponent": ComponentKind.SIM_UGV,
-    "mrss.sim.fleet_component:SimFleetComponent": ComponentKind.SIM_FLEET,
-}
+}  # the simulators' paths are unchanged: KINDS has them
 
 
 def kind_of_target(target: str) -> ComponentKind | None:

@@ -303,9 +303,8 @@ class _Reader:
         return former, KINDS[former].target, KINDS[former].child
 
     def warn(self, key: str, what: str, instead: str) -> None:
-        line = self.line_of(key)
-        self.warnings.append(ConfigWarning(f"{self.path}:{line}" if line else str(self.path),
-                                           key, what, instead))
+        self.warnings.append(ConfigWarning(str(self.path), self.line_of(key) or 0, key, what,
+                                           instead))
 
     # -- typed getters ----------------------------------------------------------------------
     def table(self, data: dict[str, Any], name: str, keys: tuple[str, ...],

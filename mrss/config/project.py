@@ -31,13 +31,15 @@ DEFAULT_RETRY_AFTER = 60.0  # `[supervisor] retry_after`: seconds before a given
 class ConfigWarning:
     """A spelling of an earlier release that still works: where, and what to write now."""
 
-    where: str  # file:line
+    file: str
+    line: int  # 0: not found
     key: str
     what: str
     instead: str
 
     def __str__(self) -> str:
-        return f"{self.where}: {self.key}: {self.what}; write {self.instead}"
+        where = f"{self.file}:{self.line}" if self.line else self.file
+        return f"{where}: {self.key}: {self.what}; write {self.instead}"
 
 
 @dataclass(frozen=True)

@@ -219,10 +219,6 @@ def build(cls: type[_M], fields: dict[str, Any]) -> _M:
             raise DecodeError(f"{cls.kind}: unknown field(s) {extra}")
         if not check(value):
             raise DecodeError(f"{cls.kind}: field {name!r} has type {type(value).__name__}")
-    for name, closed_set in schema.enums:  # the wire carries the value; the message the enum
-        member = closed_set._value2member_map_.get(fields.get(name))
-        if member is not None:  # a value outside the set: the kind's validate names it
-            fields[name] = member
     if len(fields) == len(checks) and schema.plain_init:
         # Every field present and type-checked: fill the frozen instance directly.
         msg: _M = object.__new__(cls)
@@ -247,7 +243,6 @@ class _Schema:
     required: frozenset[str]
     checks: dict[str, Check]
     plain_init: bool  # __init__ only stores the fields (no __post_init__)
-    enums: tuple[tuple[str, type[enum.StrEnum]], ...]  # closed sets: value -> member
 
 
 _SCHEMAS: dict[type, _Schema] = {}
@@ -266,9 +261,6 @@ def _schema(cls: type) -> _Schema:
             ),
             checks={f.name: _checker(hints[f.name]) for f in fields},
             plain_init=not hasattr(cls, "__post_init__"),
-            enums=tuple((f.name, hints[f.name]) for f in fields
-                        if isinstance(hints[f.name], type)
-                        and issubclass(hints[f.name], enum.StrEnum)),
         )
         _SCHEMAS[cls] = schema
     return schema
@@ -287,7 +279,9 @@ def _checker(hint: Any) -> Check:
     if hint is str:
         return lambda v: type(v) is str
     if isinstance(hint, type) and issubclass(hint, enum.StrEnum):
-        return lambda v: isinstance(v, str)  # its kind's validate says which values
+        # any string: the kind's __post_init__ makes it the member, its validate refuses
+        # a value outside the set with the value named
+        return lambda v: isinstance(v, str)
     if hint is type(None):
         return lambda v: v is None
     origin = typing.get_origin(hint)

@@ -42,8 +42,9 @@ def _closed(msg: object, **fields: type[StrEnum]) -> None:
     is left for `validate` to refuse with its name."""
     for name, closed_set in fields.items():
         value = getattr(msg, name)
-        if type(value) is not closed_set and value in closed_set.__members__.values():
-            object.__setattr__(msg, name, closed_set(value))
+        member = closed_set._value2member_map_.get(value) if isinstance(value, str) else None
+        if member is not None and value is not member:
+            object.__setattr__(msg, name, member)
 
 
 class Message:
