@@ -30,9 +30,11 @@ class CommandRejected(LinkError):
 class CommandTimeout(LinkError):
     """The robot did not answer (or finish) a command in time, after all retries."""
 
-    def __init__(self, robot: str, command: str, timeout: float, attempts: int = 1) -> None:
+    def __init__(self, robot: str, command: str, timeout: float, attempts: int = 1,
+                 still: str = "") -> None:
         self.command = command
         self.timeout = timeout
         self.attempts = attempts
         tries = f" after {attempts} attempts" if attempts > 1 else ""
-        super().__init__(robot, f"command {command} timed out ({timeout:.1f} s){tries}")
+        state = f", {still}" if still else ""
+        super().__init__(robot, f"command {command} timed out ({timeout:.1f} s){tries}{state}")

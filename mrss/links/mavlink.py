@@ -33,7 +33,7 @@ from mrss.links.errors import CommandRejected, CommandTimeout, LinkError
 from mrss.links.failsafe import CONTROLLER_HEARTBEAT_S, FailsafeEvent, FailsafePolicy
 from mrss.links.geo import distance_m
 from mrss.links.mavconn import MAV, MavConnection, text_of
-from mrss.links.mavlink_commands import CommandExchange
+from mrss.links.mavlink_commands import DEFAULT_PROGRESS_TIMEOUT_S, CommandExchange
 from mrss.links.mavlink_failsafe import VehicleFailsafe
 from mrss.links.mavlink_mission import MISSION_REPLIES, MissionItem, MissionUpload
 from mrss.links.mavlink_signing import down_reason
@@ -57,6 +57,7 @@ class MavlinkLink(RobotLink):
         self, robot_id: str, url: str = "udpin:127.0.0.1:14550", *,
         target_system: int | None = None, heartbeat_timeout: float = 3.0,
         command_timeout: float = 1.0, retries: int = 3,
+        progress_timeout: float = DEFAULT_PROGRESS_TIMEOUT_S,
         on_link_state: LinkStateCallback | None = None,
         on_telemetry: TelemetryCallback | None = None,
         failsafe: FailsafePolicy | None = None, signing_key: bytes | None = None,
@@ -68,6 +69,7 @@ class MavlinkLink(RobotLink):
         self.heartbeat_timeout = heartbeat_timeout
         self.command_timeout = command_timeout
         self.retries = retries
+        self.progress_timeout = progress_timeout
         self.signing_key = signing_key
         self.mode: str | None = None
         self.armed = False
@@ -139,7 +141,8 @@ class MavlinkLink(RobotLink):
         """Send a COMMAND_LONG until acknowledged; return the MAV_RESULT if ACCEPTED."""
         timeout = self.command_timeout if timeout is None else timeout
         with self._command_lock:
-            return self._commands.run(command, params, timeout, self.retries)
+            return self._commands.run(command, params, timeout, self.retries,
+                                      self.progress_timeout)
 
     def arm(self) -> None:
         """Arm the motors (the vehicle must be in an armable mode, e.g. GUIDED)."""

@@ -2,7 +2,10 @@
 
 COMMAND_LONG -> COMMAND_ACK. A command is sent again (its confirmation field counting
 the attempts) when no ack comes within `timeout`, up to `retries` times; an ack of
-MAV_RESULT_IN_PROGRESS starts the wait again. ACCEPTED returns; any other result raises
+MAV_RESULT_IN_PROGRESS starts the wait again, within a budget: a command still in
+progress `progress_timeout` seconds after its first IN_PROGRESS raises CommandTimeout (a
+vehicle answering IN_PROGRESS for ever, or a forged stream of them, cannot hold the link's
+one command slot for ever). ACCEPTED returns; any other result raises
 CommandRejected with the result's name and, when the vehicle said why (a warning
 STATUSTEXT at most TEXT_REASON_WINDOW_S before the command went out), its words; no ack
 at all raises CommandTimeout, and the link going down meanwhile LinkDown.
@@ -18,6 +21,7 @@ from mrss.links.errors import CommandRejected, CommandTimeout
 from mrss.links.mavconn import MAV, enum_name
 
 TEXT_REASON_WINDOW_S = 1.0
+DEFAULT_PROGRESS_TIMEOUT_S = 30.0
 
 
 class _PendingCommand:
@@ -45,7 +49,8 @@ class CommandExchange:
         self._pending_lock = threading.Lock()
         self._last_warning: tuple[float, str] | None = None
 
-    def run(self, command: int, params: Sequence[float], timeout: float, retries: int) -> int:
+    def run(self, command: int, params: Sequence[float], timeout: float, retries: int,
+            progress_timeout: float = DEFAULT_PROGRESS_TIMEOUT_S) -> int:
         """Send `command` until acknowledged; return the MAV_RESULT if ACCEPTED."""
         name = enum_name("MAV_CMD", command)
         values = [float(p) for p in params] + [0.0] * (7 - len(params))
@@ -57,12 +62,15 @@ class CommandExchange:
             sent_at = time.monotonic()
             self._send(command, attempt, values)
             try:
-                result = self._await_ack(pending, timeout)
+                result = self._await_ack(pending, timeout, progress_timeout)
             finally:
                 with self._pending_lock:
                     self._pending.pop(command, None)
             if result is None:
                 continue
+            if result == MAV.MAV_RESULT_IN_PROGRESS:  # past its budget: not sent again
+                raise CommandTimeout(self.robot, name, progress_timeout, attempt + 1,
+                                     "still in progress")
             if result == MAV.MAV_RESULT_ACCEPTED:
                 return result
             raise CommandRejected(self.robot, name, self._describe(result, sent_at))
@@ -80,18 +88,27 @@ class CommandExchange:
         """The vehicle sent a warning (or worse): the reason of a refusal that follows."""
         self._last_warning = (time.monotonic(), text)
 
-    def _await_ack(self, pending: _PendingCommand, timeout: float) -> int | None:
+    def _await_ack(self, pending: _PendingCommand, timeout: float,
+                   progress_timeout: float) -> int | None:
         deadline = time.monotonic() + timeout
+        progress_deadline: float | None = None  # set by the first IN_PROGRESS
         while True:
             remaining = deadline - time.monotonic()
             if pending.event.wait(min(max(remaining, 0.0), 0.1)):
                 if pending.result == MAV.MAV_RESULT_IN_PROGRESS:
+                    now = time.monotonic()
+                    if progress_deadline is None:
+                        progress_deadline = now + progress_timeout
+                    if now >= progress_deadline:
+                        return pending.result
                     pending.event.clear()
-                    deadline = time.monotonic() + timeout
+                    deadline = min(now + timeout, progress_deadline)
                     continue
                 return pending.result
             self._require_up()
             if remaining <= 0:
+                if progress_deadline is not None and time.monotonic() >= progress_deadline:
+                    return int(MAV.MAV_RESULT_IN_PROGRESS)  # in progress past its budget
                 return None
 
     def _describe(self, result: int, sent_at: float) -> str:
