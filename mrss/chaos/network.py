@@ -162,8 +162,9 @@ def why_no_nft() -> str:
 class NodeFilter:
     """nftables rules that drop traffic to and from peer addresses (this namespace)."""
 
-    def __init__(self, table_name: str = NFT_TABLE) -> None:
+    def __init__(self, table_name: str = NFT_TABLE, prefix: tuple[str, ...] = ()) -> None:
         self.table = table_name
+        self.prefix = prefix  # e.g. ("ip", "netns", "exec", NAME): that namespace's rules
         self._lock = threading.Lock()
         self._made = False
 
@@ -209,7 +210,7 @@ class NodeFilter:
         raise NetworkError(f"nft gave no handle for rule {rule!r}: {out!r}")
 
     def _nft(self, command: str, check: bool = True) -> str:
-        done = subprocess.run(["nft", *command.split()], capture_output=True, text=True,
+        done = subprocess.run([*self.prefix, "nft", *command.split()], capture_output=True, text=True,
                               timeout=10, check=False)
         if check and done.returncode != 0:
             raise NetworkError(f"nft {command}: {done.stderr.strip()}")
