@@ -179,7 +179,7 @@ def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
                      "node's share" if not config.sections.get("nodes") else
                      why_no_nft() or "a campaign runs one host's system: it does not "
                      "start the project's other nodes")
-    if not config.supervisor.launcher == "fork":
+    if config.supervisor.launcher != "fork":
         why[FaultKind.FORKSERVER] = "the supervisor's launcher is not fork"
     return why
 

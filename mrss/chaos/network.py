@@ -210,8 +210,8 @@ class NodeFilter:
         raise NetworkError(f"nft gave no handle for rule {rule!r}: {out!r}")
 
     def _nft(self, command: str, check: bool = True) -> str:
-        done = subprocess.run([*self.prefix, "nft", *command.split()], capture_output=True, text=True,
-                              timeout=10, check=False)
+        done = subprocess.run([*self.prefix, "nft", *command.split()], capture_output=True,
+                              text=True, timeout=10, check=False)
         if check and done.returncode != 0:
             raise NetworkError(f"nft {command}: {done.stderr.strip()}")
         return done.stdout

@@ -65,20 +65,19 @@ def check_no_robot_stuck(h: History, b: object = None) -> Ruling:
         if not any(state == "running" for _, state in timeline):
             continue
         judged += 1
-        worst: tuple[float, float, str] | None = None  # (silence, since, until what)
+        silences: list[tuple[float, float, str]] = []  # (silence, since, until what)
         running_since: float | None = None
         for t, state in timeline:
-            if running_since is not None and t - running_since > bound:
-                if worst is None or t - running_since > worst[0]:
-                    worst = (t - running_since, running_since, f"{state} at {t:.1f}s")
+            if running_since is not None:
+                silences.append((t - running_since, running_since, f"{state} at {t:.1f}s"))
             running_since = t if state == "running" else None
             if state in TERMINAL:
                 break
-        if running_since is not None and end - running_since > bound:
-            if worst is None or end - running_since > worst[0]:
-                worst = (end - running_since, running_since,
-                         f"still running at the end ({end:.1f}s)")
-        if worst is not None:
+        if running_since is not None:
+            silences.append((end - running_since, running_since,
+                             f"still running at the end ({end:.1f}s)"))
+        worst = max(silences, default=None)
+        if worst is not None and worst[0] > bound:
             out.append(Violation(Invariant.NO_ROBOT_STUCK, uuid, (
                 f"robot {robots.get(uuid) or '?'}, skill {skill} (progress bound {bound:g}s)",
                 f"running without news from {worst[1]:.1f}s for {worst[0]:.1f}s: "

@@ -37,8 +37,8 @@ from mrss.chaos.faults import (
     targets,
     unavailable,
 )
-from mrss.chaos.network import Relays
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
+from mrss.chaos.network import Relays
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import Intent, OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config.kinds import ComponentKind

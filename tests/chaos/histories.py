@@ -6,7 +6,8 @@ a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reason
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
 teleop and back; after the faults a probe finds everything running and idle; the
 journal and the run's log are read; cover's skill declares a progress bound of 6 s and
-keeps it; uav1 is available before the fault and after. Each test changes one thing and expects one invariant to break.
+keeps it; uav1 is available before the fault and after. Each test changes one thing
+and expects one invariant to break.
 """
 
 from __future__ import annotations

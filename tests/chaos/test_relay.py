@@ -82,7 +82,7 @@ def test_udp_loss_drops_some_and_the_rest_arrive(udp_peer) -> None:  # type: ign
         wait_until(lambda: relay.counts["passed"] + relay.counts["dropped"]
                    == 200 + len(got), timeout=20, message="every datagram judged")
         assert 0 < len(got) < 200
-        assert 0 < relay.counts["dropped"]
+        assert relay.counts["dropped"] > 0
     finally:
         heal()
         relay.close()
