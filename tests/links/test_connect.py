@@ -9,8 +9,8 @@ from typing import Any, ClassVar
 import pytest
 
 from mrss.api import ConfigError, RobotCommLayer
-from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
 from mrss.config.detours import via_file
+from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
 from mrss.links.connect import connect_link, link_options, project_broker_url
 from mrss.messages import Message, RobotData
 from mrss.testing import BrokerInfo, free_udp_port, wait_until
