@@ -69,5 +69,5 @@ def plan(seed: int, count: int, kinds: Iterable[FaultKind],
         kind = rng.choice(usable)
         target = rng.choice(targets[kind])
         lasts = round(rng.uniform(*duration), 2) if kind.timed else 0.0
-        faults.append(Fault(round(at, 2), kind, target, lasts))
+        faults.append(Fault(round(at, 2), kind, target, lasts, kind.amount))
     return faults

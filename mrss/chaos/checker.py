@@ -38,6 +38,9 @@ them all. What each one relies on is stated here and in docs/chaos.md:
   running, every intention's action open in the journal and every open action waited
   on by an intention (`probe_problems`). Incomplete when no probe came after the faults;
   vacuous when no fault was injected (a system that is not running still fails it).
+- NO_ROBOT_STUCK and HEALED (mrss.chaos.recovery): no action of a skill with a progress
+  bound runs longer than it without news; after the faults the last probe finds the
+  robots as available as before the first fault, and the system whole.
 
 A rule that needs the journal (or the run's log) and finds it missing is incomplete; it
 still reports what it could see without it, when that is a violation whatever the rest
@@ -54,6 +57,7 @@ from typing import Any
 from mrss.chaos.convergence import converged_after, probe_problems
 from mrss.chaos.goals import GoalOutcome, goal_outcomes
 from mrss.chaos.history import History, JournalAction, OperatorEvent
+from mrss.chaos.recovery import check_healed, check_no_robot_stuck
 from mrss.chaos.verdict import (
     Invariant,
     Judgement,
@@ -107,7 +111,9 @@ def check(history: History, bounds: Bounds = Bounds()) -> Verdict:
                             (Invariant.GOAL_HANDLED, check_goal_handled),
                             (Invariant.NO_COMMAND_AFTER_CANCEL, check_no_command_after_cancel),
                             (Invariant.MODE_CONSISTENT, check_mode_consistent),
-                            (Invariant.CONVERGED, check_converged)):
+                            (Invariant.CONVERGED, check_converged),
+                            (Invariant.NO_ROBOT_STUCK, check_no_robot_stuck),
+                            (Invariant.HEALED, check_healed)):
         verdict.rulings[invariant] = rule(history, bounds)
     return verdict
 

@@ -13,6 +13,24 @@ under `mrss supervise`, the way an outside killer, a hung machine or a full disk
                 `duration` s: every write to a file (journal, log) fails with EFBIG, as on
                 a full disk; Python ignores SIGXFSZ, so the process lives on
 
+Network faults, for `duration` s, on a robot's link through the relay the campaign put
+in its path (mrss.chaos.network, mrss.chaos.relay; the kernel's netem is not in every
+kernel, and components of one node talk over unix sockets no packet filter sees):
+
+    delay           everything either way held 0.5 s (MAVLink UDP, MQTT TCP)
+    loss            each MAVLink datagram either way dropped with probability 0.3
+    reorder         each MAVLink datagram held 0.15 s more with probability 0.3: later
+                    ones overtake it
+    partition       nothing passes: a MAVLink robot out of reach, or the MQTT broker cut
+                    from one robot (its bytes wait; the RCL's own connection is not cut)
+
+and between nodes, by the kernel (nftables rules in the campaign's network namespace,
+needing root, `nft` and a project on [nodes]; without them the kinds have no target,
+and the reason is given):
+
+    node_partition  every packet to and from a peer node's address dropped
+    node_loss       30 % of the packets to and from it dropped at random
+
 Targets come from the project's components by module (`targets`). A pid is checked to be
 a descendant of the root supervisor before any signal, so a recycled pid is never hit.
 A timed fault returns its `heal`, which the campaign calls when the duration is over
@@ -34,6 +52,8 @@ from pathlib import Path
 
 import psutil
 
+from mrss.chaos.network import NetworkError, Relays, relayed_robots, why_no_nft
+from mrss.chaos.relay import Impairment
 from mrss.config.kinds import ComponentKind
 from mrss.config.project import ProjectConfig
 from mrss.errors import MrssError
@@ -52,12 +72,37 @@ class FaultKind(StrEnum):
     LINK = "link"
     FORKSERVER = "forkserver"
     DISK_FULL = "disk_full"
+    DELAY = "delay"
+    LOSS = "loss"
+    REORDER = "reorder"
+    PARTITION = "partition"
+    NODE_PARTITION = "node_partition"
+    NODE_LOSS = "node_loss"
 
     @property
     def timed(self) -> bool:
         """Whether the fault lasts (and is healed) rather than happening once."""
         return self in (FaultKind.HANG, FaultKind.BLACKOUT, FaultKind.LINK,
-                        FaultKind.DISK_FULL)
+                        FaultKind.DISK_FULL) or self.network
+
+    @property
+    def network(self) -> bool:
+        """Whether the fault is on the network (a relay or packet filter), not a process."""
+        return self in NETWORK_AMOUNTS
+
+    @property
+    def amount(self) -> float:
+        """How strong a network fault is (s of delay, probability, % of packets)."""
+        return NETWORK_AMOUNTS.get(self, 0.0)
+
+
+#: Each network kind's strength: the relay's impairment, or the % of packets dropped.
+NETWORK_AMOUNTS: dict[FaultKind, float] = {
+    FaultKind.DELAY: 0.5, FaultKind.LOSS: 0.3, FaultKind.REORDER: 0.3,
+    FaultKind.PARTITION: 0.0, FaultKind.NODE_PARTITION: 100.0, FaultKind.NODE_LOSS: 30.0}
+#: The relay's impairment for each network kind on a robot link.
+IMPAIRMENTS = {FaultKind.DELAY: Impairment.DELAY, FaultKind.LOSS: Impairment.LOSS,
+               FaultKind.REORDER: Impairment.REORDER, FaultKind.PARTITION: Impairment.PARTITION}
 
 
 class InjectionError(MrssError):
@@ -72,6 +117,7 @@ class Fault:
     kind: FaultKind
     target: str
     duration: float = 0.0
+    amount: float = 0.0  # a network fault's strength (FaultKind.amount)
 
 
 Heal = Callable[[], None]
@@ -85,11 +131,14 @@ class Effect(StrEnum):
 
 
 def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, list[str]]:
-    """The possible targets of each fault kind in this project (empty list: not possible).
+    """The possible targets of each fault kind in this project (empty list: not possible;
+    `unavailable` says why).
 
     `only` limits `kill` and `hang` to those components (targeted campaigns).
     """
     enabled = [c for c in config.components if c.enabled]
+    relayed = relayed_robots(config)
+    nodes: list[str] = []  # a campaign runs one host's system: no peer node (unavailable)
     names = [c.id for c in enabled]
     chosen = [n for n in names if n in set(only)] if only else names
 
@@ -104,7 +153,35 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
         FaultKind.LINK: by(*SIMULATORS),
         FaultKind.FORKSERVER: [FORKSERVER] if config.supervisor.launcher == "fork" else [],
         FaultKind.DISK_FULL: by(ComponentKind.RCL),
+        **{kind: sorted(r for r, link in relayed.items()
+                        if link == "mavlink" or kind in TCP_KINDS)
+           for kind in IMPAIRMENTS},
+        FaultKind.NODE_PARTITION: nodes,
+        FaultKind.NODE_LOSS: nodes,
     }
+
+
+TCP_KINDS = (FaultKind.DELAY, FaultKind.PARTITION)  # TCP loses and reorders nothing
+
+
+def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
+    """Why each kind with no target in this project has none (the report says it)."""
+    relayed = relayed_robots(config)
+    why: dict[FaultKind, str] = {}
+    for kind in IMPAIRMENTS:
+        if not any(link == "mavlink" or kind in TCP_KINDS for link in relayed.values()):
+            why[kind] = ("no simulated robot whose link MRSS finds itself (a relay is put "
+                         "in such a link's path)" if not relayed else
+                         f"{kind} applies to MAVLink (UDP) links only; this project's "
+                         "relayed links are MQTT (TCP)")
+    for kind in (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS):
+        why[kind] = ("the project runs on one host (no [nodes]); a campaign runs one "
+                     "node's share" if not config.sections.get("nodes") else
+                     why_no_nft() or "a campaign runs one host's system: it does not "
+                     "start the project's other nodes")
+    if config.supervisor.launcher != "fork":
+        why[FaultKind.FORKSERVER] = "the supervisor's launcher is not fork"
+    return why
 
 
 def components_of(config: ProjectConfig, kind: ComponentKind) -> list[str]:
@@ -114,9 +191,11 @@ def components_of(config: ProjectConfig, kind: ComponentKind) -> list[str]:
 class Injector:
     """Injects faults into the process tree of one root supervisor."""
 
-    def __init__(self, root_pid: int, pid_of: Callable[[str], int | None]) -> None:
+    def __init__(self, root_pid: int, pid_of: Callable[[str], int | None],
+                 relays: Relays | None = None) -> None:
         self.root_pid = root_pid
         self.pid_of = pid_of
+        self.relays = relays
         # (pid, effect) -> how many timed faults hold it now, and how to undo it (the
         # first fault's heal), run by the heal that brings the count back to 0.
         self._holding: dict[tuple[int, Effect], tuple[int, Heal]] = {}
@@ -124,6 +203,16 @@ class Injector:
     def inject(self, fault: Fault) -> tuple[int, Heal | None]:
         """Inject `fault` now; the pid hit and, for a timed fault, how to heal it."""
         kind = fault.kind
+        if kind in IMPAIRMENTS:
+            if self.relays is None:
+                raise InjectionError(f"{fault.target}: no relay in the path (the campaign "
+                                     "started none)")
+            try:
+                return 0, self.relays.impair(fault.target, IMPAIRMENTS[kind], fault.amount)
+            except NetworkError as exc:
+                raise InjectionError(str(exc)) from None
+        if kind.network:
+            raise InjectionError(f"{kind}: {unavailable_node_reason()}")
         if kind is FaultKind.FORKSERVER:
             pid = self._forkserver()
             self._signal(pid, signal.SIGKILL)
@@ -211,6 +300,10 @@ class Injector:
             except psutil.NoSuchProcess:
                 pass
         return heal
+
+
+def unavailable_node_reason() -> str:
+    return why_no_nft() or "a campaign runs one host's system: no peer node to cut off"
 
 
 def _resume(pid: int) -> None:

@@ -39,6 +39,8 @@ def summary(history: History, verdict: Verdict, source: str = "") -> dict[str, A
         "faults_injected": dict(sorted(injected.items())),
         "faults_not_injected": dict(sorted(failed.items())),
         "fault_errors": sorted({f.error for f in history.faults if not f.ok})[:10],
+        "faults_skipped": dict(sorted((c.get("skipped") or {}).items())),
+        "relays": dict(history.end.get("relays") or {}),
         "restarts": restarts,
         "gave_up": gave_up,
         "exit_code": history.end.get("exit_code"),
@@ -93,6 +95,10 @@ def text(s: dict[str, Any]) -> str:
     if s["faults_not_injected"]:
         lines.append(f"  not injected     {counts(s['faults_not_injected'])}: "
                      + "; ".join(s["fault_errors"][:3]))
+    for kind, why in s["faults_skipped"].items():
+        lines.append(f"  skipped          {kind}: {why}")
+    for robot, seen in s["relays"].items():
+        lines.append(f"  relay {robot:<10} {counts(seen)}")
     lines += [
         f"  restarts         {counts(s['restarts'])}"
         + (f"; gave up: {', '.join(s['gave_up'])}" if s["gave_up"] else ""),

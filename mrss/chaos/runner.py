@@ -2,6 +2,8 @@
 
 1. `mrss supervise PROJECT` starts as its own process (`mrss.procedures.RunningProject`)
    in the run folder; the recorder listens from the start.
+   With network faults in the plan, a relay is put in each simulated robot's link first
+   (mrss.chaos.network): the system finds it where it would find the robot.
 2. After `warmup` seconds the faults of the seeded plan are injected at their times
    while the project's operator traffic runs; timed faults are healed when they are over.
 3. Once the last fault is over the traffic stops and the system is probed every second
@@ -22,7 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mrss.chaos.campaign import Range, plan
+from mrss.chaos.campaign import CampaignError, Range, plan
 from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
@@ -33,8 +35,10 @@ from mrss.chaos.faults import (
     Injector,
     components_of,
     targets,
+    unavailable,
 )
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
+from mrss.chaos.network import Relays
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import Intent, OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config.kinds import ComponentKind
@@ -79,8 +83,11 @@ def run(options: Options, say: Say = print) -> Path:
     """Run the campaign; returns the history file (in the run folder)."""
     config = load_project(options.project)
     traffic = load_traffic(config.directory)
-    faults = plan(options.seed, options.faults, options.kinds,
-                  targets(config, options.only), options.interval, options.duration)
+    possible = targets(config, options.only)
+    skipped = skipped_kinds(options.kinds, possible, unavailable(config),
+                            explicit=set(options.kinds) != set(FaultKind))
+    faults = plan(options.seed, options.faults, options.kinds, possible, options.interval,
+                  options.duration)
     reasoners = components_of(config, ComponentKind.REASONER)
     rcls = components_of(config, ComponentKind.RCL)
     options.run_dir.mkdir(parents=True, exist_ok=True)
@@ -90,6 +97,9 @@ def run(options: Options, say: Say = print) -> Path:
     system.output = options.run_dir / SUPERVISE_LOG
     recorder: Recorder | None = None
     heals: list[tuple[float, Fault, int, Heal]] = []
+    # relays in the robots' paths before anything resolves their addresses (detours)
+    relays = Relays(config, options.run_dir, options.seed).start() \
+        if any(f.kind.network for f in faults) else None
     try:
         system.start(timeout=STARTUP)
         recorder = Recorder(options.run_dir, writer,
@@ -102,7 +112,9 @@ def run(options: Options, say: Say = print) -> Path:
                      pending_beliefs=list(traffic.pending_beliefs),
                      failed_beliefs=failed_goal_functors(config),
                      mode_beliefs=traffic.mode_beliefs,
-                     planned=[dataclasses.asdict(f) for f in faults])
+                     planned=[dataclasses.asdict(f) for f in faults],
+                     skipped={k.value: why for k, why in skipped.items()},
+                     relayed=relays.links if relays is not None else {})
         system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=STARTUP)
         say(f"chaos: {options.project} up in {options.run_dir}; "
             f"{len(faults)} faults, seed {options.seed}")
@@ -113,7 +125,7 @@ def run(options: Options, say: Say = print) -> Path:
             name="chaos-operator", daemon=True)
         operator.start()
         _sleep_until(recorder, options.warmup, system)
-        injector = Injector(_root_pid(system), recorder.pid_of)
+        injector = Injector(_root_pid(system), recorder.pid_of, relays)
         start = recorder.now()
         for number, fault in enumerate(faults, 1):
             _sleep_until(recorder, start + fault.at, system, heals, writer)
@@ -139,14 +151,28 @@ def run(options: Options, say: Say = print) -> Path:
         recorder.record_journal()
         recorder.record_log(set(reasoners + rcls))
         code = _stop(system)
-        writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code)
+        writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code,
+                     relays=relays.counts() if relays is not None else {})
     finally:
         if recorder is not None:
             _heal_all(heals, recorder, writer)
             recorder.close()
         system.close()
+        if relays is not None:
+            relays.close()
         writer.close()
     return path
+
+
+def skipped_kinds(kinds: tuple[FaultKind, ...], possible: dict[FaultKind, list[str]],
+                  why: dict[FaultKind, str], explicit: bool) -> dict[FaultKind, str]:
+    """The kinds asked for that have no target here, and why. Asked for by name, such a
+    kind is refused (CampaignError); drawn from all kinds, it is skipped and reported."""
+    skipped = {k: why.get(k, "no target in this project") for k in kinds if not possible.get(k)}
+    if explicit and skipped:
+        raise CampaignError("; ".join(f"--kinds {k}: cannot be injected here: {reason}"
+                                      for k, reason in skipped.items()))
+    return skipped
 
 
 def _plain_options(options: Options) -> dict[str, object]:

@@ -42,6 +42,8 @@ class Invariant(StrEnum):
     NO_COMMAND_AFTER_CANCEL = "no-command-after-cancel"
     MODE_CONSISTENT = "mode-consistent"
     CONVERGED = "converged"
+    NO_ROBOT_STUCK = "no-robot-stuck"
+    HEALED = "heals-to-same-state"
 
 
 #: What an invariant had none of when it is vacuous (the report says it).
@@ -53,6 +55,8 @@ NOTHING_TO_CHECK = {
     Invariant.NO_COMMAND_AFTER_CANCEL: "no action journaled",
     Invariant.MODE_CONSISTENT: "no mode switch accepted",
     Invariant.CONVERGED: "no fault injected, nothing to converge from",
+    Invariant.NO_ROBOT_STUCK: "no action of a skill with a progress bound ran",
+    Invariant.HEALED: "no fault injected, nothing to heal from",
 }
 
 

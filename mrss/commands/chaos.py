@@ -44,11 +44,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--interval", default="3..6", metavar="A..B",
                         help="seconds between two faults (default 3..6)")
     parser.add_argument("--duration", default="2..8", metavar="A..B",
-                        help="seconds a hang, blackout, link loss or full disk lasts "
-                             "(default 2..8)")
+                        help="seconds a hang, blackout, link loss, full disk or network "
+                             "fault lasts (default 2..8)")
     parser.add_argument("--kinds", default="all", metavar="K,K",
                         help="fault kinds: kill, hang, blackout, broker, link, forkserver, "
-                             "disk_full (default all)")
+                             "disk_full, delay, loss, reorder, partition, node_partition, "
+                             "node_loss (default all: those without a target here are "
+                             "skipped and reported; one named here is refused)")
     parser.add_argument("--targets", default="", metavar="C,C",
                         help="components that kill and hang may hit (default: all)")
     parser.add_argument("--operator-every", type=float, default=20.0, metavar="S",

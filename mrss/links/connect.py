@@ -11,6 +11,8 @@ Rules (the one place they are implemented):
 - The layer's own keys (`RobotCommLayer.robot_settings`) are set aside: never link options.
 - MAVLink without `url`: the address the simulated copter of the same id wrote to the run
   folder (`<run_dir>/<robot>.mavlink`); a real vehicle gives `url = "udpin:0.0.0.0:14550"`.
+  A fault campaign's relay (`<run_dir>/<robot>.mavlink.via`, mrss.config.detours) is
+  put in that found address's place.
 - MQTT without `broker_url`: the project's broker, `[broker] url` or the embedded
   broker's `<run_dir>/broker.url`.
 - MAVLink `signing_key` is a key file relative to the project folder
@@ -33,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.config.broker import resolved_broker_url, with_login
+from mrss.config.detours import detoured, via
 from mrss.config.loader import load_file
 from mrss.config.projects import PROJECT_FILE
 from mrss.edge.validation import Rejected, limit_overrides
@@ -60,14 +63,20 @@ def simulator_address(run_dir: Path | None, robot: str) -> str:
     return path.read_text(encoding="utf-8").strip()
 
 
-def project_broker_url(project_dir: Path | None, run_dir: Path | None) -> str | None:
-    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's,
+def project_broker_url(project_dir: Path | None, run_dir: Path | None,
+                       robot: str = "") -> str | None:
+    """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's
+    (through a fault campaign's relay for `robot`, if one is in its path: detours),
     with the project's login (`[broker] username`, `password`/`password_env`) if any."""
     sections: Mapping[str, Any] = {}
     if project_dir is not None and (project_dir / PROJECT_FILE).is_file():
         sections = load_file(project_dir / PROJECT_FILE).sections
     url = resolved_broker_url(sections, run_dir)
     broker = sections.get("broker", {})
+    configured = isinstance(broker, Mapping) and bool(broker.get("url"))
+    relay = via(run_dir, robot, "mqtt") if robot and url and not configured else None
+    if url and relay:
+        url = detoured(url, relay)
     return with_login(url, broker) if url and isinstance(broker, Mapping) else url
 
 
@@ -96,6 +105,9 @@ def link_options(robot: str, options: Mapping[str, Any], *, project_dir: Path | 
         raise ConfigError(f"link must be a string, not {kind!r}", key=f"robots.{robot}.link")
     if kind == "mavlink" and "url" not in opts:
         opts["url"] = simulator_address(run_dir, robot)
+        relay = via(run_dir, robot, "mavlink")  # a fault campaign's relay (detours)
+        if relay:
+            opts["url"] = detoured(opts["url"], relay)
     key_file = opts.get(SIGNING_KEY)
     if kind == "mavlink" and isinstance(key_file, str) and project_dir is not None:
         opts[SIGNING_KEY] = str(project_dir / key_file)

@@ -222,12 +222,13 @@ class SimUavComponent(Component):
             self.uav.stop()
 
 
-def project_broker_url(ctx: ComponentContext) -> str:
-    """`broker_url` of the component, else the project's broker (configured or embedded)."""
+def project_broker_url(ctx: ComponentContext, robot: str = "") -> str:
+    """`broker_url` of the component, else the project's broker (configured or embedded;
+    the embedded one through a fault campaign's relay for `robot`: mrss.config.detours)."""
     url = ctx.options.get("broker_url")
     if isinstance(url, str) and url:
         return url
-    resolved = links_broker_url(ctx.project_dir, ctx.run_dir)   # the links' own rule
+    resolved = links_broker_url(ctx.project_dir, ctx.run_dir, robot)   # the links' own rule
     if not resolved:
         raise ConfigError("no MQTT broker: set [broker] url, start the embedded broker "
                           "before this component, or give broker_url", key="broker_url")
@@ -271,7 +272,7 @@ class SimUgvComponent(Component):
             max_speed_mps=number(opts, "speed", defaults.max_speed_mps, low=0.1),
             tank_capacity_l=number(opts, "tank", defaults.tank_capacity_l, low=1.0),
             pump_rate_lps=number(opts, "pump_rate", defaults.pump_rate_lps, low=0.1))
-        url = project_broker_url(ctx)
+        url = project_broker_url(ctx, robot)
         prefix = opts.get("prefix")
         extra: dict[str, Any] = {"prefix": str(prefix)} if prefix else {}
         self.ugv = SimUgv(url, robot, base=(base[0], base[1]), params=params,

@@ -95,6 +95,8 @@ class UavSkill(RobotSkill):
 class CoverArea(UavSkill):
     """Fly lawnmower waypoints; progress `waypoint` = how many were reached."""
 
+    progress_bound = 120.0  # s from the start (take-off) or a waypoint to the next one
+
     def __init__(self, waypoints: list[list[float]], altitude: float, start: int = 0) -> None:
         self.waypoints = waypoints
         self.altitude = altitude
@@ -241,6 +243,7 @@ class GotoPoint(UgvSkill):
 
 
 class Pump(UgvSkill):
+    progress_bound = 30.0  # pumping records progress every 0.5 s; stale telemetry: 5 s
     def __init__(self, litres: float, stale_s: float = STALE_S) -> None:
         self.litres, self.stale_s = litres, stale_s
 

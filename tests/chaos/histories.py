@@ -5,7 +5,9 @@ vacuous: the operator sends goal
 a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
 teleop and back; after the faults a probe finds everything running and idle; the
-journal and the run's log are read. Each test changes one thing and expects one invariant to break.
+journal and the run's log are read; cover's skill declares a progress bound of 6 s and
+keeps it; uav1 is available before the fault and after. Each test changes one thing
+and expects one invariant to break.
 """
 
 from __future__ import annotations
@@ -72,6 +74,12 @@ def probe(t: float, waiting: list[str] = (), open_actions: list[Record] = (),  #
             "open_actions": list(open_actions)}
 
 
+def robot_state(t: float, robot: str, available: bool = True, link: str = "up") -> Record:
+    return bus(t, "robot.state", {"robot": robot, "available": available, "link": link,
+                                  "reason": "", "attributes": {}},
+               topic=f"robot.{robot}.state")
+
+
 def healthy() -> list[Record]:
     return [
         {"type": "campaign", "t": 0.0, "project": "test", "seed": 1, "planned": [{}],
@@ -79,9 +87,12 @@ def healthy() -> list[Record]:
          "pending_beliefs": ["queued", "waiting", "task"],
          "mode_beliefs": {"teleop": "paused({robot},teleop)"}},
         bus(0.5, "sup.heartbeat", {"component": "reasoner", "pid": 100}, src="reasoner"),
+        robot_state(0.6, "uav1"),
         operator(1.0, "goal", "a1"),
         request(2.0, U1, "a1"),
         status(2.1, U1, "pending"), status(2.2, U1, "running"),
+        log(2.2, "rcl", f"skill CoverArea of action {U1} runs with a progress bound of 6s"),
+        status(7.0, U1, "running"),  # a progress update (a repeat of the state)
         operator(3.0, "mode", robot="ugv1", mode="teleop", on=True),
         operator(4.0, "mode", robot="ugv1", mode="teleop", on=False),
         bus(4.5, "robot.data", {"robot": "ugv1", "data": {"type": "status", "teleop": False}}),

@@ -17,6 +17,7 @@ from tests.chaos.histories import (
     operator,
     probe,
     request,
+    robot_state,
     status,
     transitions,
 )
@@ -360,3 +361,58 @@ def test_a_probe_that_finds_the_system_stopped_is_not_converged() -> None:
                     "open_actions": None, "system_running": False})
     found = verdict(records).of(Invariant.CONVERGED)
     assert "mrss supervise is not running" in found[0].evidence
+
+
+# -- no robot stuck -----------------------------------------------------------------------
+def test_an_action_running_without_news_past_its_skills_bound_is_a_stuck_robot() -> None:
+    records = [r for r in healthy() if not (r["type"] == "bus" and r["t"] == 7.0)]
+    found = verdict(records).of(Invariant.NO_ROBOT_STUCK)  # 2.2 s -> 10.0 s: 7.8 s > 6 s
+    assert [v.subject for v in found] == [U1]
+    assert found[0].evidence[0] == "robot uav1, skill CoverArea (progress bound 6s)"
+    assert "from 2.2s for 7.8s: next succeeded at 10.0s" in found[0].evidence[1]
+
+
+def test_an_action_still_running_at_the_end_past_its_bound_is_stuck() -> None:
+    records = healthy()
+    records = [r for r in records if not (r["type"] == "bus" and r["t"] == 10.0)]
+    journal = edit(records, "journal")
+    journal["actions"] = [action(U1, "a1", "running", 2.1)]
+    journal["transitions"] = transitions(U1, ("pending", 2.1), ("running", 2.2))
+    found = verdict(records).of(Invariant.NO_ROBOT_STUCK)
+    assert [v.subject for v in found] == [U1]
+    assert "still running at the end (40.0s)" in found[0].evidence[1]
+
+
+def test_without_a_declared_bound_no_robot_stuck_has_nothing_to_check() -> None:
+    records = [r for r in healthy() if not (r["type"] == "logline"
+                                            and "progress bound" in r["message"])]
+    v = verdict(records)
+    assert v.judgement(Invariant.NO_ROBOT_STUCK) is Judgement.VACUOUS
+
+
+# -- heals to the same state --------------------------------------------------------------
+def test_a_robot_available_before_the_faults_and_not_after_breaks_healed() -> None:
+    records = healthy()
+    records.append(robot_state(20.0, "uav1", available=False, link="down"))
+    found = verdict(records).of(Invariant.HEALED)
+    assert [v.subject for v in found] == ["system"]
+    assert found[0].evidence == ("robot uav1: available, link up before the first fault "
+                                 "(5.0s); at the end unavailable, link down",)
+
+
+def test_a_robot_down_before_the_faults_need_not_come_up_for_healed() -> None:
+    records = healthy()
+    records.insert(3, robot_state(0.8, "ugv1", available=False, link="down"))
+    assert verdict(records).judgement(Invariant.HEALED) is Judgement.HOLDS
+
+
+def test_an_orphan_action_at_the_last_probe_breaks_healed() -> None:
+    records = healthy()
+    orphan = {"uuid": U2, "state": "running", "robot": "uav1", "goal": "a2",
+              "requester": "reasoner", "requester_inc": 1}
+    records.insert(records.index(edit(records, "journal")), probe(35.0, open_actions=[orphan]))
+    found = verdict(records).of(Invariant.HEALED)
+    assert [v.subject for v in found] == ["system"]
+    assert "is open but no intention waits on it" in found[0].evidence[0]
+    # it converged at 30 s all the same: healed judges the end, not the first calm probe
+    assert verdict(records).judgement(Invariant.CONVERGED) is Judgement.HOLDS

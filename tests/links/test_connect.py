@@ -9,8 +9,9 @@ from typing import Any, ClassVar
 import pytest
 
 from mrss.api import ConfigError, RobotCommLayer
+from mrss.config.detours import via_file
 from mrss.edge.record_declarations import DEFAULT_LIMITS, RobotType
-from mrss.links.connect import connect_link, link_options
+from mrss.links.connect import connect_link, link_options, project_broker_url
 from mrss.messages import Message, RobotData
 from mrss.testing import BrokerInfo, free_udp_port, wait_until
 
@@ -132,3 +133,19 @@ def test_a_link_applies_the_projects_limits_over_its_robot_types(tmp_path: Path)
         assert link.limits.speed == DEFAULT_LIMITS[RobotType.GROUND].speed  # the rest stays
     finally:
         link.close()
+
+
+def test_a_campaigns_via_file_detours_the_found_addresses_not_configured_ones(
+        tmp_path: Path) -> None:
+    (tmp_path / "uav1.mavlink").write_text("udpout:127.0.0.1:5760\n", encoding="utf-8")
+    (tmp_path / "broker.url").write_text("mqtt://127.0.0.1:1883\n", encoding="utf-8")
+    via_file(tmp_path, "uav1", "mavlink").write_text("127.0.0.1:9001\n", encoding="utf-8")
+    via_file(tmp_path, "ugv1", "mqtt").write_text("127.0.0.1:9002\n", encoding="utf-8")
+    _, found = link_options("uav1", {"link": "mavlink"}, project_dir=None, run_dir=tmp_path)
+    assert found["url"] == "udpout:127.0.0.1:9001"
+    _, given = link_options("uav1", {"link": "mavlink", "url": "udpin:0.0.0.0:14550"},
+                            project_dir=None, run_dir=tmp_path)
+    assert given["url"] == "udpin:0.0.0.0:14550"
+    assert project_broker_url(None, tmp_path, "ugv1") == "mqtt://127.0.0.1:9002"
+    assert project_broker_url(None, tmp_path) == "mqtt://127.0.0.1:1883"  # the RCL's own
+    assert project_broker_url(None, tmp_path, "ugv2") == "mqtt://127.0.0.1:1883"

@@ -102,6 +102,10 @@ class Skill:
     max_restarts: ClassVar[int] = 0
     #: ... within this many seconds (the restart intensity's window).
     restart_period: ClassVar[float] = 60.0
+    #: The longest a running skill goes without news (a recorded progress or a new state
+    #: of its action) while its robot is not stuck, in seconds; None: no promise. The RCL
+    #: logs it when the skill starts; `mrss chaos` holds the action to it (no-robot-stuck).
+    progress_bound: ClassVar[float | None] = None
 
     _runtime: SkillRuntime | None = None
     _progress: dict[str, JsonValue]
