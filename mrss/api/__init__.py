@@ -8,7 +8,8 @@ projects/ imports one (docs/projects.md, "What a project may import").
 
 By idea:
 - actions and skills: Action, ActionState, FailureCause, Resource, Skill, SkillInterrupted,
-  SkillOutcome, SkillState, RobotCommLayer; plan_record (the dashboard map's `plan`
+  SkillOutcome, SkillState, RobotCommLayer, CriticalSection (what `Skill.critical`
+  yields: a stretch of a skill no pre-emption, suspension or cancel cuts); plan_record (the dashboard map's `plan`
   robot data record, which `Skill.publish_plan` sends);
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
@@ -41,6 +42,7 @@ from mrss.actors.rcl.lifecycle import (
 )
 from mrss.actors.rcl.skill import (
     SKILL_TRANSITIONS,
+    CriticalSection,
     Resource,
     Skill,
     SkillInterrupted,
@@ -80,7 +82,7 @@ LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)
 
 __all__ = [
     # actions and skills
-    "Action", "ActionState", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
+    "Action", "ActionState", "CriticalSection", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
     "Skill", "SkillInterrupted", "SkillOutcome", "SkillState", "plan_record",
     # the edge
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
