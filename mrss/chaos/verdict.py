@@ -42,6 +42,7 @@ class Invariant(StrEnum):
     NO_COMMAND_AFTER_CANCEL = "no-command-after-cancel"
     MODE_CONSISTENT = "mode-consistent"
     CONVERGED = "converged"
+    CRITICAL_BOUNDED = "critical-bounded"
 
 
 #: What an invariant had none of when it is vacuous (the report says it).
@@ -53,6 +54,7 @@ NOTHING_TO_CHECK = {
     Invariant.NO_COMMAND_AFTER_CANCEL: "no action journaled",
     Invariant.MODE_CONSISTENT: "no mode switch accepted",
     Invariant.CONVERGED: "no fault injected, nothing to converge from",
+    Invariant.CRITICAL_BOUNDED: "no skill entered a critical section",
 }
 
 

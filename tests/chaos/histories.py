@@ -5,7 +5,8 @@ vacuous: the operator sends goal
 a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
 teleop and back; after the faults a probe finds everything running and idle; the
-journal and the run's log are read. Each test changes one thing and expects one invariant to break.
+journal and the run's log are read; the action's skill holds a critical section within
+its bound. Each test changes one thing and expects one invariant to break.
 """
 
 from __future__ import annotations
@@ -24,9 +25,12 @@ def bus(t: float, kind: str, body: dict[str, Any], src: str = "rcl", inc: int = 
             "kind": kind, "body": body}
 
 
-def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "") -> Record:
+def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "",
+           critical: str = "", bound: float = 0.0, deferring: bool = False) -> Record:
     return bus(t, "action.status", {"uuid": uuid, "state": state, "reason": reason,
-                                    "progress": {}, "robot": "uav1"}, inc=inc)
+                                    "progress": {}, "robot": "uav1", "critical": critical,
+                                    "critical_bound": bound, "deferring": deferring},
+               inc=inc)
 
 
 def request(t: float, uuid: str, goal: str, name: str = "cover", inc: int = 1) -> Record:
@@ -82,6 +86,8 @@ def healthy() -> list[Record]:
         operator(1.0, "goal", "a1"),
         request(2.0, U1, "a1"),
         status(2.1, U1, "pending"), status(2.2, U1, "running"),
+        status(2.3, U1, "running", critical="landing", bound=5.0),
+        status(6.0, U1, "running", reason="critical section 'landing' ended"),
         operator(3.0, "mode", robot="ugv1", mode="teleop", on=True),
         operator(4.0, "mode", robot="ugv1", mode="teleop", on=False),
         bus(4.5, "robot.data", {"robot": "ugv1", "data": {"type": "status", "teleop": False}}),
