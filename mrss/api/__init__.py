@@ -19,7 +19,8 @@ By idea:
   WorldStoreUnavailable;
 - robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
   CommandRejected, CommandTimeout, publish_json, request_json;
-- geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
+- geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M; shortest_exit,
+  Exit, NoExit (the shortest legal way out of a no-go zone, mrss.world.escape);
 - errors: MrssError, ActionError, ConfigError, TransientError;
 - options a project class declares for `mrss check`: Option, Check;
 - a project's own component process (`module = "beacon:Beacon"` in project.toml):
@@ -63,6 +64,7 @@ from mrss.links.connect import connect_link, project_broker_url, simulator_addre
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkDown, LinkError
 from mrss.links.factory import LINK_OPTIONS, create_link
 from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step_towards
+from mrss.world.escape import Exit, NoExit, shortest_exit
 from mrss.links.mqtt_publish import publish_json
 from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
@@ -95,6 +97,7 @@ __all__ = [
     "connect_link", "create_link", "publish_json", "request_json",
     # geography
     "EARTH_RADIUS_M", "bearing_deg", "distance_m", "offset", "step_towards",
+    "Exit", "NoExit", "shortest_exit",
     # errors
     "ActionError", "ConfigError", "MrssError", "TransientError",
     # the project folder and its run folder
