@@ -9,8 +9,8 @@ projects/ imports one (docs/projects.md, "What a project may import").
 By idea:
 - actions and skills: Action, ActionState, FailureCause, Resource, Skill, SkillInterrupted,
   SkillOutcome, SkillState, RobotCommLayer, CriticalSection (what `Skill.critical`
-  yields: a stretch of a skill no pre-emption, suspension or cancel cuts); plan_record (the dashboard map's `plan`
-  robot data record, which `Skill.publish_plan` sends);
+  yields: a stretch of a skill no pre-emption, suspension or cancel cuts); plan_record
+  (the dashboard map's `plan` robot data record, which `Skill.publish_plan` sends);
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
@@ -64,7 +64,6 @@ from mrss.links.connect import connect_link, project_broker_url, simulator_addre
 from mrss.links.errors import CommandRejected, CommandTimeout, LinkDown, LinkError
 from mrss.links.factory import LINK_OPTIONS, create_link
 from mrss.links.geo import EARTH_RADIUS_M, bearing_deg, distance_m, offset, step_towards
-from mrss.world.escape import Exit, NoExit, shortest_exit
 from mrss.links.mqtt_publish import publish_json
 from mrss.links.mqtt_request import request_json
 from mrss.messages import ActionState, FailureCause
@@ -78,13 +77,15 @@ from mrss.world.access import (
     WorldModelRejected,
     WorldModelUnavailable,
 )
+from mrss.world.escape import Exit, NoExit, shortest_exit
 
 #: The robot link kinds a robot's `link` key may name.
 LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)
 
 __all__ = [
     # actions and skills
-    "Action", "ActionState", "CriticalSection", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
+    "Action", "ActionState", "CriticalSection", "FailureCause", "Resource", "RobotCommLayer",
+    "SKILL_TRANSITIONS",
     "Skill", "SkillInterrupted", "SkillOutcome", "SkillState", "plan_record",
     # the edge
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from mrss.actors.rcl.lifecycle_words import (
     ACTION_TRANSITIONS,
     FAILURE_OF,
+    WAITS_FOR_CRITICAL,
     Abandon,
     Accept,
     Announce,
@@ -67,7 +68,6 @@ from mrss.actors.rcl.lifecycle_words import (
     Stop,
     Stopped,
     Suspend,
-    WAITS_FOR_CRITICAL,
     SuspendCause,
     Verdict,
     check_action_transition,
