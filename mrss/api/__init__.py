@@ -8,8 +8,9 @@ projects/ imports one (docs/projects.md, "What a project may import").
 
 By idea:
 - actions and skills: Action, ActionState, FailureCause, Resource, Skill, SkillInterrupted,
-  SkillOutcome, SkillState, RobotCommLayer; plan_record (the dashboard map's `plan`
-  robot data record, which `Skill.publish_plan` sends);
+  SkillOutcome, SkillState, RobotCommLayer, CriticalSection (what `Skill.critical`
+  yields: a stretch of a skill no pre-emption, suspension or cancel cuts); plan_record
+  (the dashboard map's `plan` robot data record, which `Skill.publish_plan` sends);
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
@@ -18,7 +19,8 @@ By idea:
   WorldStoreUnavailable;
 - robot links: RobotLink, create_link, connect_link, LINK_KINDS, LinkError, LinkDown,
   CommandRejected, CommandTimeout, publish_json, request_json;
-- geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M;
+- geography: distance_m, bearing_deg, offset, step_towards, EARTH_RADIUS_M; shortest_exit,
+  Exit, NoExit (the shortest legal way out of a no-go zone, mrss.world.escape);
 - errors: MrssError, ActionError, ConfigError, TransientError;
 - options a project class declares for `mrss check`: Option, Check;
 - a project's own component process (`module = "beacon:Beacon"` in project.toml):
@@ -41,6 +43,7 @@ from mrss.actors.rcl.lifecycle import (
 )
 from mrss.actors.rcl.skill import (
     SKILL_TRANSITIONS,
+    CriticalSection,
     Resource,
     Skill,
     SkillInterrupted,
@@ -74,13 +77,15 @@ from mrss.world.access import (
     WorldModelRejected,
     WorldModelUnavailable,
 )
+from mrss.world.escape import Exit, NoExit, shortest_exit
 
 #: The robot link kinds a robot's `link` key may name.
 LINK_KINDS: tuple[str, ...] = tuple(LINK_OPTIONS)
 
 __all__ = [
     # actions and skills
-    "Action", "ActionState", "FailureCause", "Resource", "RobotCommLayer", "SKILL_TRANSITIONS",
+    "Action", "ActionState", "CriticalSection", "FailureCause", "Resource", "RobotCommLayer",
+    "SKILL_TRANSITIONS",
     "Skill", "SkillInterrupted", "SkillOutcome", "SkillState", "plan_record",
     # the edge
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
@@ -93,6 +98,7 @@ __all__ = [
     "connect_link", "create_link", "publish_json", "request_json",
     # geography
     "EARTH_RADIUS_M", "bearing_deg", "distance_m", "offset", "step_towards",
+    "Exit", "NoExit", "shortest_exit",
     # errors
     "ActionError", "ConfigError", "MrssError", "TransientError",
     # the project folder and its run folder

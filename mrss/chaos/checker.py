@@ -28,12 +28,18 @@ them all. What each one relies on is stated here and in docs/chaos.md:
   action of a goal the operator cancelled is terminal within `cancel` s and none is
   requested after the cancel, and an action of a dead reasoner incarnation is terminal
   within `cancel` s of the death, or adopted (a newer incarnation asks for the same
-  name, robot and goal within that time).
+  name, robot and goal within that time). A cancel that arrives while a skill of the
+  action is inside a critical section (`Skill.critical`, shown by its statuses) is
+  deferred by design: its `cancel` s count from the section's end, or from its
+  declared bound when it was held longer (which critical-bounded reports).
 - MODE_CONSISTENT: for each robot mode the operator switched (teleop), once the faults
   are over, the last accepted switch, the reasoner's belief (project's `mode_beliefs`),
   the RCL journal's flag and the robot's last telemetry of it agree. Undetermined
   (incomplete) when the history ends less than `cancel` s after the later of the last
   fault and the last switch.
+- CRITICAL_BOUNDED: no critical section is held longer than its declared bound (plus
+  `critical_slack` s for the statuses' travel); one still open at the end counts until
+  then. A pre-emption or suspension waiting for a section is no violation.
 - CONVERGED: within `converge` s of the last fault a probe finds every component
   running, every intention's action open in the journal and every open action waited
   on by an intention (`probe_problems`). Incomplete when no probe came after the faults;
@@ -71,7 +77,9 @@ from mrss.chaos.verdict import (
 )
 from mrss.chaos.views import (
     TERMINAL,
+    Section,
     accepted,
+    critical_sections,
     death_times,
     end_of,
     last_mind,
@@ -97,6 +105,7 @@ class Bounds:
     latch: float = 15.0
     cancel: float = 15.0
     converge: float = 60.0
+    critical_slack: float = 1.0
 
 
 def check(history: History, bounds: Bounds = Bounds()) -> Verdict:
@@ -113,7 +122,8 @@ def check(history: History, bounds: Bounds = Bounds()) -> Verdict:
                             (Invariant.MODE_CONSISTENT, check_mode_consistent),
                             (Invariant.CONVERGED, check_converged),
                             (Invariant.NO_ROBOT_STUCK, check_no_robot_stuck),
-                            (Invariant.HEALED, check_healed)):
+                            (Invariant.HEALED, check_healed),
+                            (Invariant.CRITICAL_BOUNDED, check_critical_bounded)):
         verdict.rulings[invariant] = rule(history, bounds)
     return verdict
 
@@ -245,9 +255,18 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
     ends = terminal_at(h)
     end = end_of(h)
     by_uuid = {a.uuid: a for a in h.journal.actions}
+    sections: dict[str, list[Section]] = defaultdict(list)
+    for section in critical_sections(h):
+        sections[section.uuid].append(section)
 
     def late(a: JournalAction, since: float) -> str | None:
-        """Why `a` still ran `cancel` s after `since` (None if it did not)."""
+        """Why `a` still ran `cancel` s after `since` (None if it did not); a critical
+        section open at `since` defers it to the section's end (at most its bound)."""
+        for section in sections.get(a.uuid, []):
+            if section.covers(since):
+                limit = section.opened + section.bound
+                since = max(since, min(limit, section.closed if section.closed is not None
+                                       else limit))
         ended = ends.get(a.uuid)
         if ended is not None and ended[0] <= since + b.cancel:
             return None
@@ -345,6 +364,20 @@ def check_mode_consistent(h: History, b: Bounds) -> Ruling:
                 f"operator switched it {'on' if step.on else 'off'} at {step.t:.1f}s",
                 *(f"{k} sees it {'on' if val else 'off'}" for k, val in wrong.items()))))
     return Ruling(out, len(last))
+
+
+def check_critical_bounded(h: History, b: Bounds) -> Ruling:
+    found = critical_sections(h)
+    out = []
+    for s in found:
+        held = (s.closed if s.closed is not None else end_of(h)) - s.opened
+        if held > s.bound + b.critical_slack:
+            out.append(Violation(Invariant.CRITICAL_BOUNDED, s.uuid, (
+                f"critical section {s.name!r} opened at {s.opened:.1f}s, bound {s.bound:g}s",
+                f"closed at {s.closed:.1f}s" if s.closed is not None
+                else f"still open at the end ({end_of(h):.1f}s)",
+                f"held {held:.1f}s")))
+    return Ruling(out, len(found))
 
 
 def check_converged(h: History, b: Bounds) -> Ruling:

@@ -44,6 +44,7 @@ class Invariant(StrEnum):
     CONVERGED = "converged"
     NO_ROBOT_STUCK = "no-robot-stuck"
     HEALED = "heals-to-same-state"
+    CRITICAL_BOUNDED = "critical-bounded"
 
 
 #: What an invariant had none of when it is vacuous (the report says it).
@@ -57,6 +58,7 @@ NOTHING_TO_CHECK = {
     Invariant.CONVERGED: "no fault injected, nothing to converge from",
     Invariant.NO_ROBOT_STUCK: "no action of a skill with a progress bound ran",
     Invariant.HEALED: "no fault injected, nothing to heal from",
+    Invariant.CRITICAL_BOUNDED: "no skill entered a critical section",
 }
 
 

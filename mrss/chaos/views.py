@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import dataclass
 from typing import Any
 
 from mrss.chaos.history import BusEvent, History, OperatorEvent
@@ -77,3 +78,37 @@ def last_mind(h: History) -> dict[str, Any] | None:
 def end_of(h: History) -> float:
     """When the campaign stopped looking (the journal's read, else the end record)."""
     return h.journal.t if h.journal is not None else float(h.end.get("t", 0.0))
+
+
+@dataclass(frozen=True)
+class Section:
+    """A critical section of an action's skill as its statuses showed it (`critical`):
+    opened at `opened`, closed at `closed` (None: still open when the history ends)."""
+
+    uuid: str
+    name: str
+    bound: float
+    opened: float
+    closed: float | None
+
+    def covers(self, t: float) -> bool:
+        return self.opened <= t and (self.closed is None or t <= self.closed)
+
+
+def critical_sections(h: History) -> list[Section]:
+    """Every critical section the action statuses show, in order of opening: one opens
+    with a status naming it and closes with the next status naming none (or another),
+    a terminal one included."""
+    out: list[Section] = []
+    for uuid, seen in statuses(h).items():
+        current: tuple[str, float, float] | None = None
+        for e in seen:
+            name = str(e.body.get("critical") or "")
+            if current is not None and name != current[0]:
+                out.append(Section(uuid, current[0], current[1], current[2], e.t))
+                current = None
+            if name and current is None:
+                current = (name, float(e.body.get("critical_bound") or 0.0), e.t)
+        if current is not None:
+            out.append(Section(uuid, current[0], current[1], current[2], None))
+    return sorted(out, key=lambda s: s.opened)

@@ -114,6 +114,9 @@ class ActionStatus(Message):
     repeat: bool = False  # the last state sent again (a reconciliation), not a transition
     name: str = ""  # the action's name and goal, so an observer that attached late knows it
     goal: str = ""
+    critical: str = ""  # the critical section a skill of it is in (Skill.critical), or ""
+    critical_bound: float = 0.0  # its declared bound, seconds
+    deferring: bool = False  # a stop (suspend, cancel, pre-emption) waits for it to end
 
     def __post_init__(self) -> None:
         _closed(self, state=ActionState, cause=FailureCause)
@@ -124,6 +127,9 @@ class ActionStatus(Message):
             raise DecodeError(f"unknown action state {self.state!r}")
         if self.cause not in _FAILURE_CAUSES:
             raise DecodeError(f"unknown failure cause {self.cause!r}")
+        if self.critical_bound < 0 or (self.deferring and not self.critical):
+            raise DecodeError(f"critical section {self.critical!r}: bound "
+                              f"{self.critical_bound!r}, deferring {self.deferring!r}")
 
 
 @dataclass(frozen=True)

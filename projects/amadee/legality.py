@@ -34,7 +34,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, Protocol
 
-from mrss.api import distance_m, import_project_module
+from mrss.api import NoExit, distance_m, import_project_module, shortest_exit
 
 terrain = import_project_module(Path(__file__).resolve().parent, "terrain.py")
 
@@ -43,6 +43,7 @@ ARM_ACTIONS = frozenset({"spectrum", "sample"})
 SCIENCE_ACTIONS = frozenset({"image", "spectrum", "radar", "sample"})
 MOVE_ACTIONS = frozenset({"drive", "return_home"})
 STOPPED_MPS = 0.05
+ESCAPE_TOLERANCE_M = 3.0   # how near the shortest exit a drive out of a no-go zone ends
 _ACTION_RE = re.compile(r"^\s*([a-z][a-zA-Z0-9_]*)\s*(?:\((.*)\))?\s*$", re.DOTALL)
 
 
@@ -186,7 +187,30 @@ def _zones_crossed(kind: str, rule: str, why: str) -> Callable[[Request, Spatial
     return check
 
 
-no_go_path = _zones_crossed("no_go", "no_go_path", "crosses")
+_no_go_crossed = _zones_crossed("no_go", "no_go_path", "crosses")
+
+
+def no_go_path(request: Request, world: SpatialWorld) -> Verdict | None:
+    """No path through a no-go zone; a rover found inside one may only leave it, by the
+    shortest legal path (the nearest point of its outline outside every other zone,
+    ESCAPE_TOLERANCE_M given): any other move from inside is refused, naming the exit."""
+    zones = world.intersecting(request.here(), "no_go")
+    if not zones:
+        return _no_go_crossed(request, world)
+    try:
+        way_out = shortest_exit(request.rover.lat, request.rover.lon, world.objects("no_go"))
+    except NoExit as exc:
+        return Verdict(False, "no_go_path", f"the rover at {_rover(request)} is inside "
+                       f"no_go zone {zones[0]['id']!r}: {exc}", zones[0].get("geometry"))
+    if way_out is None or request.target is None:
+        return None
+    if distance_m(*request.target, way_out.lat, way_out.lon) <= ESCAPE_TOLERANCE_M:
+        return None   # the escape: it crosses no other zone (shortest_exit's promise)
+    return Verdict(False, "no_go_path",
+                   f"the rover at {_rover(request)} is inside no_go zone "
+                   f"{way_out.zone!r}; it may only leave it by the shortest legal path, to "
+                   f"{_point((way_out.lat, way_out.lon))} ({way_out.distance_m:.0f} m)",
+                   zones[0].get("geometry"))
 protected_path = _zones_crossed("protected", "protected_path", "crosses")
 
 

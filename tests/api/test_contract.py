@@ -66,6 +66,7 @@ def test_rcl_internals_are_not_part_of_the_contract() -> None:
 
 def test_what_a_project_needs_is_in_the_contract() -> None:
     needed = {"Action", "ActionState", "RobotCommLayer", "Skill", "SkillOutcome", "Resource",
+              "CriticalSection",
               "DataLayer", "external", "ExternalAdapter", "Field", "JsonMapping", "Atom",
               "create_link", "connect_link", "RobotLink", "LinkError", "distance_m", "offset",
               "step_towards", "ActionError", "ConfigError", "TransientError", "PROJECT_FILE",

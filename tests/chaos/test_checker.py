@@ -365,7 +365,8 @@ def test_a_probe_that_finds_the_system_stopped_is_not_converged() -> None:
 
 # -- no robot stuck -----------------------------------------------------------------------
 def test_an_action_running_without_news_past_its_skills_bound_is_a_stuck_robot() -> None:
-    records = [r for r in healthy() if not (r["type"] == "bus" and r["t"] == 7.0)]
+    records = [r for r in healthy()  # no news of U1 after it started running at 2.2 s
+               if not (r["type"] == "bus" and r["t"] in (2.3, 6.0, 7.0))]
     found = verdict(records).of(Invariant.NO_ROBOT_STUCK)  # 2.2 s -> 10.0 s: 7.8 s > 6 s
     assert [v.subject for v in found] == [U1]
     assert found[0].evidence[0] == "robot uav1, skill CoverArea (progress bound 6s)"
@@ -416,3 +417,42 @@ def test_an_orphan_action_at_the_last_probe_breaks_healed() -> None:
     assert "is open but no intention waits on it" in found[0].evidence[0]
     # it converged at 30 s all the same: healed judges the end, not the first calm probe
     assert verdict(records).judgement(Invariant.CONVERGED) is Judgement.HOLDS
+
+
+# -- critical sections ----------------------------------------------------------------------
+def _cancelled_inside_a_section(closed: float) -> list[Record]:
+    """U2 is in a critical section (bound 30 s) from 11.5 s to `closed` and is cancelled by
+    the reasoner at 12 s; it ends 1 s after the section."""
+    records = with_second_action(healthy(), "cancelled", 11.0, ended=closed + 1.0)
+    records += [status(11.5, U2, "running", critical="landing", bound=30.0),
+                bus(12.0, "action.control", {"command": "cancel", "target": U2,
+                                             "target_kind": "action"}, src="reasoner"),
+                status(12.1, U2, "running", critical="landing", bound=30.0, deferring=True),
+                status(closed, U2, "running", reason="critical section 'landing' ended"),
+                status(closed + 1.0, U2, "cancelled"),
+                log(closed + 1.1, "reasoner", f"action {U2} cover(uav1,a2) cancelled")]
+    edit(records, "journal")["t"] = 80.0
+    return records
+
+
+def test_a_cancel_deferred_by_a_critical_section_counts_from_its_end() -> None:
+    records = _cancelled_inside_a_section(closed=38.0)  # 26 s after the cancel, > 15 s
+    assert not {Invariant.NO_COMMAND_AFTER_CANCEL, Invariant.CRITICAL_BOUNDED} & broken(
+        records)
+
+
+def test_a_section_held_past_its_bound_is_caught_and_does_not_excuse_a_late_cancel() -> None:
+    records = _cancelled_inside_a_section(closed=60.0)  # held 48.5 s, bound 30 s
+    found = verdict(records)
+    bounded = found.of(Invariant.CRITICAL_BOUNDED)
+    assert [v.subject for v in bounded] == [U2]
+    assert "held 48.5s" in bounded[0].evidence[2]
+    late = found.of(Invariant.NO_COMMAND_AFTER_CANCEL)  # from the bound, 41.5 s: 61 > 56.5
+    assert [v.subject for v in late] == [U2]
+
+
+def test_a_section_still_open_at_the_end_counts_until_then() -> None:
+    records = healthy()
+    records.insert(6, status(2.4, U2, "running", critical="arm", bound=1.0))
+    found = verdict(records).of(Invariant.CRITICAL_BOUNDED)
+    assert [v.subject for v in found] == [U2] and "still open at the end" in found[0].evidence[1]

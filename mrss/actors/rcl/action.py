@@ -41,6 +41,11 @@ class Action:
     literal: str = ""
     reason: str = ""
     cause: str = ""  # a FailureCause value once failed for a known cause, else ""
+    # A skill's open critical section (Skill.critical): its name, bound, and whether a
+    # stop waits for it. Published with the status, never journaled (a restart ends it).
+    critical: str = ""
+    critical_bound: float = 0.0
+    deferring: bool = False
 
     @property
     def terminal(self) -> bool:

@@ -24,6 +24,12 @@ and it waits for them to end (at most the layer's `interrupt_timeout`) before it
   action ends at once;
 - the project's verdict (`check_action_status`) ends a RUNNING action; every skill ended
   without a verdict fails it;
+- a skill inside a critical section (`Skill.critical`) is interrupted when the section
+  ends: a suspension (by goal management or a pre-emption), an end by goal management,
+  an orphaning or a rejection, and a verdict wait for it (their `Interrupt` is not
+  urgent). A teleop (the operator's emergency stop: hands on the robot) and the ends
+  the robot cannot wait for (link lost, failsafe, node down, quarantine, RCL restart)
+  interrupt inside the section; one arriving during a deferred stop makes it urgent;
 - a terminal state is final: every event for it is an error.
 """
 
@@ -36,6 +42,7 @@ from dataclasses import dataclass
 from mrss.actors.rcl.lifecycle_words import (
     ACTION_TRANSITIONS,
     FAILURE_OF,
+    WAITS_FOR_CRITICAL,
     Abandon,
     Accept,
     Announce,
@@ -97,6 +104,7 @@ __all__ = [
     "Suspend",
     "SuspendCause",
     "Verdict",
+    "WAITS_FOR_CRITICAL",
     "check_action_transition",
 ]
 
@@ -146,19 +154,19 @@ def _verdict(lc: Lifecycle, ev: Verdict) -> Step:
 
 def _suspend_running(lc: Lifecycle, ev: Suspend) -> Step:
     return _stopping(Stop(ActionState.SUSPENDED, ev.reason or ev.by.imposed,
-                          by=ev.by))
+                          by=ev.by, urgent=not ev.by.waits_for_critical))
 
 
 def _suspend_stopping(lc: Lifecycle, ev: Suspend) -> Step:
     stop = lc.stop
     assert stop is not None
     if stop.target is not ActionState.SUSPENDED:
-        return lc, ()  # ending anyway
+        return _hurry(lc, stop, not ev.by.waits_for_critical)  # ending anyway
     stronger = stop.by is None or ev.by.rank > stop.by.rank
     new = dataclasses.replace(stop, resume_after=False, by=ev.by if stronger else stop.by,
                               reason=(ev.reason or ev.by.imposed) if stronger
                               else stop.reason)
-    return dataclasses.replace(lc, stop=new), ()
+    return _hurry(lc, new, not ev.by.waits_for_critical)
 
 
 def _suspend_suspended(lc: Lifecycle, ev: Suspend) -> Step:
@@ -192,15 +200,16 @@ def _ignore(lc: Lifecycle, ev: Event) -> Step:
 
 
 def _end_running(lc: Lifecycle, ev: End) -> Step:
-    return _stopping(Stop(ev.target, _end_reason(ev), ev.failure()))
+    return _stopping(Stop(ev.target, _end_reason(ev), ev.failure(), urgent=ev.urgent))
 
 
 def _end_stopping(lc: Lifecycle, ev: End) -> Step:
     stop = lc.stop
     assert stop is not None
     if stop.target is not ActionState.SUSPENDED:
-        return lc, ()  # already ending
-    return dataclasses.replace(lc, stop=Stop(ev.target, _end_reason(ev), ev.failure())), ()
+        return _hurry(lc, stop, ev.urgent)  # already ending
+    return _hurry(lc, Stop(ev.target, _end_reason(ev), ev.failure(), urgent=stop.urgent),
+                  ev.urgent)
 
 
 def _end_at_once(lc: Lifecycle, ev: End) -> Step:
@@ -224,7 +233,16 @@ def _end_reason(ev: End) -> str:
 
 
 def _stopping(stop: Stop) -> Step:
-    return Lifecycle(Phase.STOPPING, stop=stop), (Interrupt(),)
+    return Lifecycle(Phase.STOPPING, stop=stop), (Interrupt(stop.urgent),)
+
+
+def _hurry(lc: Lifecycle, stop: Stop, urgent: bool) -> Step:
+    """The stop in progress becomes `stop`; an urgent event makes a stop that waited for
+    a critical section urgent (the skills are interrupted again, inside it)."""
+    if urgent and not stop.urgent:
+        return (dataclasses.replace(lc, stop=dataclasses.replace(stop, urgent=True)),
+                (Interrupt(urgent=True),))
+    return dataclasses.replace(lc, stop=stop), ()
 
 
 def _finish(state: ActionState, reason: str, cause: str) -> Step:
@@ -283,9 +301,11 @@ RULES: Mapping[tuple[Phase, EventKind], Rule] = {
                                 "last skill ended", _skill_ended_stopping),
     (_RU, K.VERDICT): _rule({_RU, _ST}, "a terminal verdict (or none with every skill "
                             "ended: FAILED) interrupts the rest", _verdict),
-    (_RU, K.SUSPEND): _rule({_ST}, "interrupt skills, then SUSPENDED", _suspend_running),
+    (_RU, K.SUSPEND): _rule({_ST}, "interrupt skills (after a critical section, but for a "
+                            "teleop), then SUSPENDED", _suspend_running),
     (_ST, K.SUSPEND): _rule({_ST}, "a stronger cause takes over a stop toward SUSPENDED; "
-                            "cancels a pending resume", _suspend_stopping),
+                            "cancels a pending resume; a teleop interrupts inside a "
+                            "critical section", _suspend_stopping),
     (_SU, K.SUSPEND): _rule({_SU}, "a stronger cause takes over (re-announced; a "
                             "pre-emption's claim on its resource is given up)",
                             _suspend_suspended),
@@ -294,8 +314,11 @@ RULES: Mapping[tuple[Phase, EventKind], Rule] = {
                            "and no teleop holds", _resume_stopping),
     (_SU, K.RESUME): _rule({_SU, _RU}, "run from progress if it lifts the cause and no "
                            "teleop holds", _resume_suspended),
-    (_RU, K.END): _rule({_ST}, "interrupt skills, then the end", _end_running),
-    (_ST, K.END): _rule({_ST}, "an end replaces a stop toward SUSPENDED", _end_stopping),
+    (_RU, K.END): _rule({_ST}, "interrupt skills (after a critical section, unless the "
+                        "robot is lost), then the end", _end_running),
+    (_ST, K.END): _rule({_ST}, "an end replaces a stop toward SUSPENDED; one the robot "
+                        "cannot wait for interrupts inside a critical section",
+                        _end_stopping),
     (_SU, K.END): _rule(_ENDS, "publish the end at once", _end_at_once),
     (_ST, K.STOPPED): _rule({_SU, _RU} | _ENDS, "complete the stop", _stopped),
     (_ST, K.DEADLINE): _rule({_SU, _RU} | _ENDS, "abandon the skills, complete the stop",

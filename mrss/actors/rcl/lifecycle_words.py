@@ -70,6 +70,12 @@ class SuspendCause(StrEnum):
         return self in (SuspendCause.OPERATOR, SuspendCause.AGENT)
 
     @property
+    def waits_for_critical(self) -> bool:
+        """Whether a suspension for this cause waits for a skill's critical section to
+        end (`Skill.critical`); a teleop, the operator's hands on the robot, does not."""
+        return self is not SuspendCause.TELEOP
+
+    @property
     def lifted(self) -> str:
         """The reason of the RUNNING status when this cause is lifted."""
         return {SuspendCause.OPERATOR: "resumed by the operator",
@@ -111,6 +117,14 @@ class EndCause(StrEnum):
     REJECTED = "rejected"  # the request was malformed or refused
     PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+
+
+#: The end causes that wait for a skill's critical section to end (`Skill.critical`);
+#: the others (the robot lost, in its failsafe, behind a lost node, quarantined, an RCL
+#: restart) interrupt inside the section: there is nothing to wait for.
+WAITS_FOR_CRITICAL: frozenset[EndCause] = frozenset({
+    EndCause.OPERATOR, EndCause.AGENT, EndCause.ORPHANED, EndCause.REJECTED,
+    EndCause.PREEMPTED})
 
 
 #: The FailureCause the agent sees (`error(Cause)`) for each end cause; "" = by state.
@@ -207,6 +221,11 @@ class End:
     reason: str = ""
     cause: str = ""  # a FailureCause; default FAILURE_OF[by], cancelled for a cancel
 
+    @property
+    def urgent(self) -> bool:
+        """Whether it interrupts a skill inside a critical section (WAITS_FOR_CRITICAL)."""
+        return self.by not in WAITS_FOR_CRITICAL
+
     def failure(self) -> str:
         if self.cause:
             return self.cause
@@ -249,7 +268,10 @@ class Run:
 @dataclass(frozen=True)
 class Interrupt:
     """Interrupt the running skills and start the stop deadline; with none running,
-    feed Stopped."""
+    feed Stopped. Unless `urgent`, a skill inside a critical section (`Skill.critical`)
+    is interrupted when the section ends, and the deadline starts then."""
+
+    urgent: bool = False
 
 
 @dataclass(frozen=True)
@@ -299,6 +321,7 @@ class Stop:
     cause: str = ""
     by: SuspendCause | None = None  # for a suspension
     resume_after: bool = False  # a resume arrived meanwhile: run again instead
+    urgent: bool = False  # interrupts inside a critical section too (Interrupt.urgent)
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,10 @@ The one rule (docs/rcl.md and the template state it in the same words):
     actions waiting for it and those pre-empted from it, the oldest request first among
     equals.
 
+A holder whose skill is inside a critical section (`Skill.critical`) is pre-empted when
+the section ends (the lifecycle defers its suspension, skill_actor.py holds the
+interrupt): until then it keeps the resource and the request waits.
+
 `ResourceSchedule` applies the rule and nothing else: pure, no threads, no locks; each
 call returns a `Decision` (tokens granted, actions to pre-empt, pre-empted actions to
 resume). A pre-empted action chosen when its resource frees has the resource reserved

@@ -1,7 +1,8 @@
 """One supervised pykka actor per robot: its link, teleop flag, its actions, their skills.
 
-One idea in one module (~440 lines): the actor that performs the lifecycle's effects for
-one robot; the decisions are lifecycle.py's, the skills skill_actor.py's.
+One idea in one module (~500 lines): the actor that performs the lifecycle's effects for
+one robot, with the stop deadline its skills' critical sections hold off; the decisions
+are lifecycle.py's, the skills skill_actor.py's.
 
 The robot actor carries out the action lifecycle (mrss.actors.rcl.lifecycle): it feeds
 `lifecycle.step` what happens to an action (accepted, a skill ended, a control, a teleop,
@@ -30,8 +31,9 @@ from mrss.actors.rcl.failure_causes import failure_cause
 from mrss.actors.rcl.journal import JournalEntry
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.resources import ResourceBroker
-from mrss.actors.rcl.skill import Skill, SkillOutcome
+from mrss.actors.rcl.skill import CriticalSection, Skill, SkillOutcome
 from mrss.actors.rcl.skill_actor import (
+    CriticalChanged,
     ProgressRecorded,
     SkillActor,
     SkillReport,
@@ -105,6 +107,7 @@ class SetTeleop:
 class _StopDeadline:
     uuid: str
     run: int
+    gen: int = 0  # which arming of the deadline (a critical section holds it off)
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,8 @@ class _Tracked:
     timer: threading.Timer | None = None
     preempted_timer: threading.Timer | None = None
     preemptions: int = 0
+    sections: dict[int, CriticalSection] = field(default_factory=dict)  # skill -> open
+    deadlines: int = 0
 
 
 class RobotActor(SupervisedActor):
@@ -180,6 +185,8 @@ class RobotActor(SupervisedActor):
             self._skill_ended(message)
         elif isinstance(message, ProgressRecorded):
             self._progress(message)
+        elif isinstance(message, CriticalChanged):
+            self._critical(message)
         elif isinstance(message, StartAction):
             self._start(message)
         elif isinstance(message, Control):
@@ -203,7 +210,7 @@ class RobotActor(SupervisedActor):
                     timer.cancel()
         for ref in refs:
             try:
-                ref.tell(StopSkill())
+                ref.tell(StopSkill(urgent=True))
             except pykka.ActorDeadError:
                 pass  # that skill has just ended
         futures = [ref.stop(block=False) for ref in refs]
@@ -237,6 +244,44 @@ class RobotActor(SupervisedActor):
         self._feed(t, lc.SkillEnded(all_ended=all(r is None for r in t.refs)))
         if msg.escalated:  # its action has failed above; now this actor fails in turn
             raise Escalation(f"skill {msg.index} of action {msg.uuid} escalated: {msg.reason}")
+
+    def _critical(self, msg: CriticalChanged) -> None:
+        """A skill entered, left or outlasted a critical section: hold the stop deadline
+        while one is open (a deferred stop), arm it when none is; publish the state."""
+        t = self.actions.get(msg.uuid)
+        if t is None or msg.run != t.run:
+            return
+        before = t.sections.get(msg.index)
+        if msg.section is None or msg.overrun:
+            t.sections.pop(msg.index, None)
+        else:
+            t.sections[msg.index] = msg.section
+        stop = t.life.stop if t.life.phase is lc.Phase.STOPPING else None
+        if stop is not None and not stop.urgent:
+            if t.sections and t.timer is not None:  # it opened before the stop came
+                t.timer.cancel()
+                t.timer = None
+            elif not t.sections and t.timer is None:
+                self._arm_deadline(t)  # the deferred stop goes ahead now
+        section = msg.section or before
+        name = section.name if section else ""
+        bound = section.bound if section else 0.0
+        reason = (f"critical section {name!r} held past its bound {bound:g}s" if msg.overrun
+                  else f"critical section {name!r} ended" if msg.section is None
+                  else f"in critical section {name!r} (at most {bound:g}s)")
+        self._show_sections(t, reason)
+
+    def _show_sections(self, t: _Tracked, reason: str) -> None:
+        """Publish the action's critical section state (RUNNING, re-announced)."""
+        if t.action.state is not ActionState.RUNNING:
+            return
+        open_ = next(iter(t.sections.values()), None)
+        stop = t.life.stop if t.life.phase is lc.Phase.STOPPING else None
+        t.action.critical = open_.name if open_ else ""
+        t.action.critical_bound = open_.bound if open_ else 0.0
+        t.action.deferring = bool(open_ and stop is not None and not stop.urgent)
+        t.action.reason = reason
+        self.emit(t.action.copy(), "")
 
     def _preempted_too_long(self, msg: _PreemptedTooLong) -> None:
         t = self.actions.get(msg.uuid)
@@ -272,7 +317,8 @@ class RobotActor(SupervisedActor):
 
     def _deadline(self, msg: _StopDeadline) -> None:
         t = self.actions.get(msg.uuid)
-        if t is None or t.run != msg.run or t.life.phase is not lc.Phase.STOPPING:
+        if t is None or t.run != msg.run or t.life.phase is not lc.Phase.STOPPING \
+                or msg.gen != t.deadlines:
             return
         self._feed(t, lc.DeadlinePassed())
 
@@ -321,7 +367,7 @@ class RobotActor(SupervisedActor):
         if isinstance(effect, lc.Run):
             return self._run(t, effect.reason)
         if isinstance(effect, lc.Interrupt):
-            return self._interrupt(t)
+            return self._interrupt(t, effect.urgent)
         if isinstance(effect, lc.CheckStatus):
             self._check(t)
             return False
@@ -356,7 +402,8 @@ class RobotActor(SupervisedActor):
         # The skills start first (the robot moves sooner), RUNNING is journaled and
         # published right after: whatever they report is handled after this method, so
         # the statuses keep their order; a crash in between restores the action anyway.
-        t.refs, t.outcomes = [], [None] * len(skills)
+        t.refs, t.outcomes, t.sections = [], [None] * len(skills), {}
+        t.action.critical, t.action.critical_bound, t.action.deferring = "", 0.0, False
         t.reasons, t.causes = [""] * len(skills), [""] * len(skills)
         for index, skill in enumerate(skills):
             runner = SkillRunner(snapshot, t.run, index, self.link, self.broker,
@@ -389,28 +436,42 @@ class RobotActor(SupervisedActor):
         cause = next((c for c in t.causes if c), "")
         self._feed(t, lc.Verdict(verdict, why, cause, all_ended))
 
-    def _interrupt(self, t: _Tracked) -> bool:
-        """Interrupt the skills still running; with none, the stop is complete."""
+    def _interrupt(self, t: _Tracked, urgent: bool) -> bool:
+        """Interrupt the skills still running; with none, the stop is complete. A stop
+        that is not urgent waits for the skills' critical sections (skill_actor.py): its
+        deadline is armed when the last one ends."""
         running = [r for r in t.refs if r is not None]
         if not running:
             self._feed(t, lc.Stopped())
             return False
-        uuid, run = t.action.uuid, t.run
-        t.timer = threading.Timer(self.layer.interrupt_timeout, self._tell_deadline, (uuid, run))
-        t.timer.daemon = True
-        t.timer.start()
         for ref in running:
             try:
-                ref.tell(StopSkill())
+                ref.tell(StopSkill(urgent))
             except pykka.ActorDeadError:
                 pass  # ended meanwhile: its SkillReport is on the way
+        if urgent or not t.sections:
+            self._arm_deadline(t)
+        else:
+            if t.timer:
+                t.timer.cancel()
+                t.timer = None
+            stop = t.life.stop
+            what = stop.target.value if stop is not None else "stop"
+            names = ", ".join(repr(s.name) for s in t.sections.values())
+            self._show_sections(t, f"{what} deferred until critical section {names} ends")
+        if urgent and t.sections:
+            self._show_sections(t, "interrupted inside its critical section")
         return True
 
-    def _tell_deadline(self, uuid: str, run: int) -> None:
-        try:
-            self.actor_ref.tell(_StopDeadline(uuid, run))
-        except pykka.ActorDeadError:
-            pass
+    def _arm_deadline(self, t: _Tracked) -> None:
+        """(Re)start the stop deadline: the skills must end within interrupt_timeout."""
+        if t.timer:
+            t.timer.cancel()
+        t.deadlines += 1
+        t.timer = threading.Timer(self.layer.interrupt_timeout, self._tell, (
+            _StopDeadline(t.action.uuid, t.run, t.deadlines),))
+        t.timer.daemon = True
+        t.timer.start()
 
     def _abandon_skills(self, t: _Tracked) -> None:
         for index, ref in enumerate(t.refs):
@@ -427,6 +488,7 @@ class RobotActor(SupervisedActor):
             t.timer.cancel()
             t.timer = None
         t.action.transition(effect.state, effect.reason, effect.cause)
+        t.action.critical, t.action.critical_bound, t.action.deferring = "", 0.0, False
         if effect.state.terminal:
             try:
                 self.layer.on_action_end(t.action.copy())

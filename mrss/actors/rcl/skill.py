@@ -2,15 +2,18 @@
 
 A project's `skills.py` subclasses `Skill`; projects import these names from `mrss.api`.
 Here: the skill's states and the one table of their legal transitions, how a skill ends
-(`SkillOutcome`), the resources a skill holds one action at a time (`Resource`), and
+(`SkillOutcome`), the resources a skill holds one action at a time (`Resource`), a
+critical section it is never pre-empted in (`CriticalSection`, `Skill.critical`), and
 what the RCL gives a running skill (`SkillRuntime`, internal: not part of the contract;
 docs/rcl.md, "Skills").
 """
 
 from __future__ import annotations
 
+import math
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, ClassVar, Protocol
@@ -33,6 +36,24 @@ class Resource:
 
     def qualified(self, robot: str) -> str:
         return f"{robot}/{self.name}" if self.per_robot else self.name
+
+
+@dataclass(frozen=True)
+class CriticalSection:
+    """A stretch of a skill that must not be cut (a landing, an arm retracting): its name
+    and the most seconds it may last (`bound`). Past the bound it no longer defers a
+    stop, the RCL logs it and the chaos checker counts it as a violation."""
+
+    name: str
+    bound: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ActionError(f"a critical section needs a name, not {self.name!r}")
+        if isinstance(self.bound, bool) or not isinstance(self.bound, (int, float)) \
+                or not math.isfinite(self.bound) or self.bound <= 0:
+            raise ActionError(f"critical section {self.name!r}: bound must be a number "
+                              f"of seconds > 0, not {self.bound!r}")
 
 
 class SkillState(StrEnum):
@@ -80,6 +101,10 @@ class SkillRuntime(Protocol):
 
     def publish_data(self, data: Mapping[str, JsonValue]) -> bool: ...
 
+    def enter_critical(self, section: CriticalSection) -> None: ...
+
+    def leave_critical(self) -> None: ...
+
 
 class Skill:
     """Base of project skills: implement `run`, and `start`, `finish`, `terminate` as needed.
@@ -94,6 +119,12 @@ class Skill:
     robot there so `run` returns soon. Whatever `run` returns then, the outcome is
     INTERRUPTED. Progress recorded with `record_progress` is kept across suspension and
     restarts, and given back through `action.progress` when the action is refined again.
+
+    Inside `with self.critical("landing", bound=30.0):` the skill is not interrupted by a
+    pre-emption, a suspension, a cancel or a verdict: they wait until the section ends,
+    then apply. A teleop (the operator's emergency stop) and a robot lost (link down,
+    failsafe, node down) still interrupt inside it; so does anything once the section
+    has lasted longer than its bound.
     """
 
     #: Resources acquired before `start` and released after `finish`.
@@ -180,6 +211,20 @@ class Skill:
     def wait(self, seconds: float) -> bool:
         """Sleep up to `seconds`, waking early on interrupt; True when interrupted."""
         return self._rt().interrupt_event.wait(seconds)
+
+    @contextmanager
+    def critical(self, name: str, bound: float) -> Iterator[CriticalSection]:
+        """A critical section: until the block ends (at most `bound` seconds), stops that
+        can wait (pre-emption, suspension, cancel) wait for it; the action's status says so
+        (`critical`, `critical_bound`, `deferring`). Raises SkillInterrupted when the
+        skill is interrupted already (nothing of the block runs); sections do not nest."""
+        section = CriticalSection(name, bound)
+        runtime = self._rt()
+        runtime.enter_critical(section)
+        try:
+            yield section
+        finally:
+            runtime.leave_critical()
 
     def acquire(self, resource: Resource | str, timeout: float | None = None) -> None:
         """Wait until this action holds `resource` (pre-empting lower-priority holders).

@@ -15,6 +15,12 @@ taken back from the journal, and counted in `max_robot_restarts`: a robot whose 
 keep escalating is quarantined). Every restart is a `sup.restart` event, the escalation a
 `sup.escalate` event (detail: the action's uuid). A skill without a restart budget
 (`max_restarts = 0`, the default) only fails its action: it has nothing to escalate.
+
+A critical section (`Skill.critical`) is kept here, where the interrupt happens: under
+the runner's lock a skill enters one only if not interrupted yet, and a `StopSkill` that
+is not urgent, arriving inside it, is remembered and carried out when the section ends
+or outlasts its bound. The robot actor is told of every entry, exit and overrun
+(`CriticalChanged`): it holds the stop deadline meanwhile and publishes the state.
 """
 
 from __future__ import annotations
@@ -30,7 +36,14 @@ import pykka
 from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.failure_causes import failure_cause
 from mrss.actors.rcl.resources import Holder, ResourceBroker
-from mrss.actors.rcl.skill import Skill, SkillInterrupted, SkillOutcome, SkillState
+from mrss.actors.rcl.skill import (
+    CriticalSection,
+    Skill,
+    SkillInterrupted,
+    SkillOutcome,
+    SkillState,
+)
+from mrss.errors import ActionError
 from mrss.messages import JsonValue
 from mrss.supervision.events import ESCALATE, RESTART, SupEvents
 from mrss.supervision.policy import Action as Choice
@@ -68,8 +81,23 @@ class ProgressRecorded:
 
 
 @dataclass(frozen=True)
+class CriticalChanged:
+    """To the robot actor: skill `index` entered `section`, left it (None), or held it
+    past its bound (`overrun`: from now on it defers no stop)."""
+
+    uuid: str
+    run: int
+    index: int
+    section: CriticalSection | None
+    overrun: bool = False
+
+
+@dataclass(frozen=True)
 class StopSkill:
-    """To a skill actor: stop the skill now (suspend, cancel, pre-emption, shutdown)."""
+    """To a skill actor: stop the skill (suspend, cancel, pre-emption, shutdown); unless
+    `urgent`, a skill inside a critical section stops when the section ends."""
+
+    urgent: bool = False
 
 
 @dataclass(frozen=True)
@@ -101,6 +129,68 @@ class SkillRunner:
         self.cause = ""  # of the last attempt: the FailureCause of what it raised
         self._broker = broker
         self._report = report
+        self.section: CriticalSection | None = None  # the open critical section
+        self.overrun = False  # it outlasted its bound: it defers nothing any more
+        self.stop_deferred = False  # a stop arrived inside it
+        self.stop_now: Callable[[], None] = self.interrupt  # the skill actor's interrupt
+        self._section_timer: threading.Timer | None = None
+
+    def enter_critical(self, section: CriticalSection) -> None:
+        with self.lock:
+            if self.interrupt_event.is_set():
+                raise SkillInterrupted(f"interrupted before critical section "
+                                       f"{section.name!r}")
+            if self.section is not None:
+                raise ActionError(f"critical section {section.name!r} inside "
+                                  f"{self.section.name!r}: sections do not nest",
+                                  uuid=self.action.uuid)
+            self.section, self.overrun, self.stop_deferred = section, False, False
+            timer = threading.Timer(section.bound, self._overran, (section,))
+            timer.daemon = True
+            self._section_timer = timer
+        timer.start()
+        self._tell(CriticalChanged(self.action.uuid, self.run, self.index, section))
+
+    def leave_critical(self) -> None:
+        with self.lock:
+            section, self.section = self.section, None
+            if section is None:
+                return
+            if self._section_timer is not None:
+                self._section_timer.cancel()
+                self._section_timer = None
+            deferred, self.stop_deferred = self.stop_deferred, False
+        self._tell(CriticalChanged(self.action.uuid, self.run, self.index, None))
+        if deferred:
+            log.info("skill %s: critical section %r ended; the deferred stop applies",
+                     self.token, section.name)
+            self.stop_now()
+
+    def defers(self, urgent: bool) -> bool:
+        """Under `lock`: whether a stop waits for the open critical section (remembered)."""
+        if urgent or self.section is None or self.overrun:
+            return False
+        self.stop_deferred = True
+        return True
+
+    def _overran(self, section: CriticalSection) -> None:
+        with self.lock:
+            if self.section is not section:
+                return
+            self.overrun = True
+            deferred, self.stop_deferred = self.stop_deferred, False
+        log.error("skill %s: critical section %r held past its bound %gs; stops no longer "
+                  "wait for it", self.token, section.name, section.bound)
+        self._tell(CriticalChanged(self.action.uuid, self.run, self.index, section,
+                                   overrun=True))
+        if deferred:
+            self.stop_now()
+
+    def _tell(self, message: object) -> None:
+        try:
+            self._report(message)
+        except pykka.ActorDeadError:
+            log.info("skill %s: %r not told, robot actor stopped", self.token, message)
 
     def record_progress(self, values: Mapping[str, JsonValue]) -> None:
         try:
@@ -142,6 +232,7 @@ class SkillActor(pykka.ThreadingActor):
         self.skill = skill
         self.runner = runner
         self.report = report
+        runner.stop_now = lambda: self._interrupt(urgent=True)
         skill._bind(runner)
 
     def _start_actor_loop(self) -> None:
@@ -152,7 +243,7 @@ class SkillActor(pykka.ThreadingActor):
 
     def on_receive(self, message: Any) -> Any:
         if isinstance(message, StopSkill):
-            self._interrupt()
+            self._interrupt(message.urgent)
         elif isinstance(message, _WorkerDone):
             try:
                 self.report(SkillReport(self.runner.action.uuid, self.runner.run,
@@ -165,12 +256,18 @@ class SkillActor(pykka.ThreadingActor):
             log.warning("skill actor %s: unexpected message %r", self.runner.token, message)
         return None
 
-    def _interrupt(self) -> None:
+    def _interrupt(self, urgent: bool) -> None:
+        """Interrupt the skill (on the actor's thread, or the skill's own when a critical
+        section that deferred a stop ends)."""
         with self.runner.lock:
-            if self.skill.state in (SkillState.START, SkillState.RUN):
-                self.skill._set_state(SkillState.INTERRUPT)
-            else:
+            if self.skill.state not in (SkillState.START, SkillState.RUN):
                 return
+            section = self.runner.section
+            if self.runner.defers(urgent):
+                log.info("skill %s: stop deferred until critical section %r ends",
+                         self.runner.token, section.name if section else "")
+                return
+            self.skill._set_state(SkillState.INTERRUPT)
         self.runner.interrupt()
         try:
             self.skill.terminate()

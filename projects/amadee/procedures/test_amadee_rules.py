@@ -221,3 +221,24 @@ def test_an_action_that_cannot_be_checked_is_refused_with_the_reason(
     assert legality.judge("fly(rover1,g1)", world).rule == "unchecked"
     assert legality.goal_of("drive(rover1,g1,39.7705,44.8)") == "g1"
     assert legality.goal_of("Drive(") is None and legality.goal_of("image(rover1)") is None
+
+
+# -- a rover inside the no-go zone: only the shortest legal way out ----------------------------
+INSIDE = (39.7712, 44.8010)   # in the salt marsh, 22 m from its south edge (43+ m from others)
+
+
+def test_a_rover_inside_the_no_go_zone_may_only_leave_by_the_shortest_way(
+        world: LocalWorldModel) -> None:
+    place(world, *INSIDE)
+    zones = world.objects("no_go")
+    way_out = legality.shortest_exit(*INSIDE, zones)
+    assert way_out is not None and way_out.zone == "salt_marsh"
+    assert abs(way_out.lon - INSIDE[1]) < 1e-7 and way_out.lat < 39.7710  # south, outside
+    assert 22.0 < way_out.distance_m < 24.5   # the edge 22.2 m away, plus the 1 m margin
+    home = judge(world, "return_home(rover1,g1)")
+    assert not home.legal and home.rule == "no_go_path"
+    assert f"{way_out.lat:.6f},{way_out.lon:.6f}" in home.detail
+    out = judge(world, f"drive(rover1,g2,{way_out.lat:.7f},{way_out.lon:.7f})")
+    assert out.legal, out
+    far_edge = judge(world, "drive(rover1,g3,39.7721,44.8010)")   # out by the north edge
+    assert not far_edge.legal and far_edge.rule == "no_go_path"

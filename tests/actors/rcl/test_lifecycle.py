@@ -128,7 +128,8 @@ def test_restore_keeps_goal_management_and_live_teleop_suspensions(
 def test_suspend_interrupts_then_suspends_and_only_preemption_keeps_resources() -> None:
     for by in SuspendCause:
         stopping, effects = step(Lifecycle(Phase.RUNNING), lc.Suspend(by, "why"))
-        assert stopping.phase is Phase.STOPPING and effects == (lc.Interrupt(),)
+        assert stopping.phase is Phase.STOPPING
+        assert effects == (lc.Interrupt(urgent=by is SuspendCause.TELEOP),)
         after, effects = step(stopping, lc.Stopped())
         assert after == Lifecycle(Phase.SUSPENDED, by)
         released = lc.ReleaseResources() in effects
@@ -177,7 +178,7 @@ def test_an_end_wins_over_a_suspension_in_progress_and_ends_a_suspended_action_a
     stopping, _ = step(Lifecycle(Phase.RUNNING), lc.Suspend(SuspendCause.TELEOP))
     ending, effects = step(stopping, lc.End(S.CANCELLED, EndCause.OPERATOR))
     assert effects == () and ending.stop == Stop(S.CANCELLED, "cancelled by the operator",
-                                                 FailureCause.CANCELLED)
+                                                 FailureCause.CANCELLED, urgent=True)
     assert step(ending, lc.Suspend(SuspendCause.OPERATOR)) == (ending, ())
     after, effects = step(ending, lc.DeadlinePassed())
     assert after.phase is Phase.CANCELLED
@@ -238,3 +239,51 @@ def test_docs_rcl_md_carries_the_lifecycle_table_generated_from_the_module() -> 
     assert found, "docs/rcl.md lacks the <!-- lifecycle-table --> block"
     assert found.group(1) == lc.table_markdown(), (
         "docs/rcl.md's lifecycle table is out of date; paste lifecycle.table_markdown()")
+
+
+# -- critical sections: which stops wait for one (Skill.critical) -------------------------
+@pytest.mark.parametrize("by", list(SuspendCause))
+def test_only_a_teleop_suspension_interrupts_inside_a_critical_section(
+        by: SuspendCause) -> None:
+    stopping, effects = step(Lifecycle(Phase.RUNNING), lc.Suspend(by))
+    assert stopping.stop is not None and stopping.stop.urgent is (by is SuspendCause.TELEOP)
+    assert effects == (lc.Interrupt(urgent=by is SuspendCause.TELEOP),)
+
+
+@pytest.mark.parametrize("by", list(lc.EndCause))
+def test_ends_the_robot_cannot_wait_for_interrupt_inside_a_critical_section(
+        by: lc.EndCause) -> None:
+    waits = by in {lc.EndCause.OPERATOR, lc.EndCause.AGENT, lc.EndCause.ORPHANED,
+                   lc.EndCause.REJECTED, lc.EndCause.PREEMPTED}
+    assert (by in lc.WAITS_FOR_CRITICAL) is waits
+    _, effects = step(Lifecycle(Phase.RUNNING), lc.End(S.CANCELLED, by))
+    assert effects == (lc.Interrupt(urgent=not waits),)
+
+
+def test_a_teleop_makes_a_deferred_preemption_urgent_and_takes_it_over() -> None:
+    deferred, _ = step(Lifecycle(Phase.RUNNING), lc.Suspend(SuspendCause.PREEMPTED))
+    after, effects = step(deferred, lc.Suspend(SuspendCause.TELEOP, "robot in teleop"))
+    assert effects == (lc.Interrupt(urgent=True),)
+    assert after.stop is not None and after.stop.urgent and after.stop.by is SuspendCause.TELEOP
+    again, effects = step(after, lc.Suspend(SuspendCause.TELEOP))  # urgent already
+    assert effects == () and again == after
+
+
+def test_a_link_loss_makes_a_deferred_cancel_urgent_and_keeps_the_cancel() -> None:
+    deferred, _ = step(Lifecycle(Phase.RUNNING), lc.End(S.CANCELLED, lc.EndCause.OPERATOR))
+    after, effects = step(deferred, lc.End(S.FAILED, lc.EndCause.LINK_LOST))
+    assert effects == (lc.Interrupt(urgent=True),)
+    assert after.stop is not None and after.stop.target is S.CANCELLED and after.stop.urgent
+
+
+def test_a_cancel_replacing_a_deferred_suspension_still_waits_for_the_section() -> None:
+    deferred, _ = step(Lifecycle(Phase.RUNNING), lc.Suspend(SuspendCause.OPERATOR))
+    after, effects = step(deferred, lc.End(S.CANCELLED, lc.EndCause.OPERATOR))
+    assert effects == ()
+    assert after.stop is not None and after.stop.target is S.CANCELLED
+    assert not after.stop.urgent
+
+
+def test_a_verdict_waits_for_a_critical_section() -> None:
+    _, effects = step(Lifecycle(Phase.RUNNING), lc.Verdict(S.SUCCEEDED))
+    assert effects == (lc.Interrupt(urgent=False),)
