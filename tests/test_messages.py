@@ -41,6 +41,8 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.status", "uuid"): nonempty,
     ("action.status", "state"): st.sampled_from([s.value for s in m.ActionState]),
     ("action.status", "cause"): st.sampled_from(["", *(c.value for c in m.FailureCause)]),
+    ("action.status", "critical"): nonempty,  # deferring needs a section
+    ("action.status", "critical_bound"): st.floats(min_value=0, allow_nan=False),
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,
