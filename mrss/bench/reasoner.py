@@ -11,6 +11,7 @@ cache directory (never a dependency of MRSS) and run in a subprocess.
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import subprocess
@@ -151,22 +152,31 @@ def _cache_dir() -> Path:
 
 
 def peer_python(timeout: float) -> tuple[Path | None, str]:
-    """The venv python with python-agentspeak 0.2.2, installing it if needed."""
+    """The venv python with python-agentspeak 0.2.2, installing it if needed.
+
+    One process installs at a time (a lock file beside the venv): a second bench or test
+    waits for the first install and then uses it, rather than clearing the venv under it.
+    `timeout` bounds the install (a loaded machine's pip is slow: it is no speed target).
+    """
     venv = _cache_dir()
     python = venv / "bin" / "python"
     marker = venv / "installed.ok"
-    if marker.exists() and python.exists():
-        return python, "python-agentspeak 0.2.2 from the cached venv " + str(venv)
-    try:
-        t = time.monotonic()
-        subprocess.run([sys.executable, "-m", "venv", "--clear", str(venv)], check=True,
-                       capture_output=True, timeout=timeout)
-        left = max(timeout - (time.monotonic() - t), 1.0)
-        subprocess.run([str(python), "-m", "pip", "install", "-q", PEER], check=True,
-                       capture_output=True, timeout=left)
-    except (subprocess.SubprocessError, OSError) as exc:
-        return None, f"python-agentspeak 0.2.2 could not be installed ({type(exc).__name__})"
-    marker.write_text(PEER + "\n")
+    venv.parent.mkdir(parents=True, exist_ok=True)
+    with open(venv.with_name(venv.name + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if marker.exists() and python.exists():
+            return python, "python-agentspeak 0.2.2 from the cached venv " + str(venv)
+        try:
+            t = time.monotonic()
+            subprocess.run([sys.executable, "-m", "venv", "--clear", str(venv)], check=True,
+                           capture_output=True, timeout=timeout)
+            left = max(timeout - (time.monotonic() - t), 1.0)
+            subprocess.run([str(python), "-m", "pip", "install", "-q", PEER], check=True,
+                           capture_output=True, timeout=left)
+        except (subprocess.SubprocessError, OSError) as exc:
+            return None, (f"python-agentspeak 0.2.2 could not be installed "
+                          f"({type(exc).__name__})")
+        marker.write_text(PEER + "\n")
     return python, f"python-agentspeak 0.2.2 installed into {venv}"
 
 
@@ -191,7 +201,7 @@ def run(quick: bool) -> BenchReport:
     a = max(ours_a(n) for _ in range(repeats))
     b = max(ours_b(m) for _ in range(repeats))
     peer: dict[str, float] | None = None
-    python, note = peer_python(timeout=20 if quick else 300)
+    python, note = peer_python(timeout=300)
     if python is not None:
         try:
             peer = run_peer(python, n, m, 2 if quick else 3, timeout=60 if quick else 900)
