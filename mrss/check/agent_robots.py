@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mrss.agentspeak.terms import Slot, Struct
 from mrss.actors.reasoner.give_up import GIVE_UP
+from mrss.agentspeak.terms import Slot, Struct
 from mrss.check.agent import GOAL_MANAGEMENT, QUERY
 from mrss.check.agent_clauses import Clause, SourceLines, literals
 from mrss.check.findings import Report, did_you_mean

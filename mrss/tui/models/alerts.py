@@ -59,8 +59,8 @@ class AlertKind(StrEnum):
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
               AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET)
-SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG,
-          AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
+SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
+          AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
 
 
 @dataclass
