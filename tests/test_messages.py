@@ -51,6 +51,8 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("edge.report", "status"): st.sampled_from([s.value for s in m.EventStatus]),
     ("node.beat", "node"): nonempty,
     ("node.beat", "boot"): nonempty,
+    ("agent.gave_up", "agent"): nonempty,
+    ("agent.gave_up", "goal"): nonempty,
 }
 
 
@@ -208,6 +210,9 @@ def _payload(**changes: Any) -> bytes:
     (b"dl.reply", _payload(kind="dl.reply", body={"request_id": "r", "ok": True,
                                                    "result": {1: 2}}), "not msgpack"),
     (b"dl.reply", b"\x91" * 5000 + b"\x90", "not msgpack"),
+    (b"agent.gave_up.a", _payload(kind="agent.gave_up", body={
+        "agent": "a", "goal": "g1", "reason": "tired"}),
+     "unknown give-up reason 'tired' \\(one of budget_exhausted, no_applicable_plan"),
 ])
 def test_malformed_messages_name_their_reason(topic: bytes, payload: bytes, reason: str) -> None:
     with pytest.raises(DecodeError, match=reason) as info:

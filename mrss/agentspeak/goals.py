@@ -3,7 +3,8 @@
 Failure follows Jason: the nearest goal in the stack with a relevant `-!g` plan gets
 `-!g[error(E), error_msg(M), code_src(F), code_line(L)]`; that plan runs on top of
 the intention and, when it finishes, the stack unwinds through the failed goal and the
-caller continues after `!g`. No handler: the intention is dropped with a warning.
+caller continues after `!g`. No handler: the intention is dropped with a warning, and
+`Runtime.on_goal_dropped` is told of the goal that failed (`dropped_goal`).
 """
 
 from __future__ import annotations
@@ -88,7 +89,10 @@ def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str,
         failed = virtual if virtual is not None else (stack[-1].lit if stack else None)
         what = f" (+!{term_str(failed)})" if failed is not None else ""
         rt.warn(f"{where}: {message}; no -! plan handles it, intention {it.id} dropped{what}")
+        given_up = dropped_goal(it, virtual)
         rt.drop(it, meta=False)
+        if rt.on_goal_dropped is not None and given_up:
+            rt.on_goal_dropped(given_up, error, f"{where}: {message}")
         return
     extra: tuple[Term, ...] = ()
     if error is not None:
@@ -102,6 +106,24 @@ def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str,
     ev.error = (error, message, file, line, annots)
     it.state = PENDING_EVENT
     rt.post(ev)
+
+
+def dropped_goal(it: Intention, virtual: Struct | None) -> str:
+    """The goal an intention dropped for a failure is given up on: the one that found no
+    plan, else the innermost achievement goal of its stack, else its trigger (`+b`);
+    without annotations."""
+    if virtual is not None:
+        return bare_text(virtual)
+    for im in reversed(it.stack):
+        if im.op == ADD_ACH:
+            return bare_text(im.lit)
+    return OP_TEXT[it.stack[-1].op] + bare_text(it.stack[-1].lit) if it.stack else ""
+
+
+def bare_text(lit: Term) -> str:
+    """A literal's text without its annotations (`b(1)`, not `b(1)[source(self)]`)."""
+    g = value(lit)
+    return term_str(Struct(g.functor, g.args, (), g.neg) if type(g) is Struct else g)
 
 
 def _failed_states(rt: Runtime, it: Intention, error: str | None, virtual: Struct | None,
@@ -138,6 +160,9 @@ def no_applicable_plan(rt: Runtime, ev: Event, relevant: bool) -> None:
     if ev.op == ADD_ACH:
         if it is None:
             rt.warn(f"no {what} plan for {text}; the goal is dropped")
+            if rt.on_goal_dropped is not None:
+                rt.on_goal_dropped(bare_text(ev.lit), "no_applicable" if relevant
+                                   else "no_relevant", f"no {what} plan for {text}")
             return
         file = it.stack[-1].plan.file if it.stack else "<agent>"
         fail(rt, it, "no_applicable" if relevant else "no_relevant",

@@ -111,6 +111,10 @@ class Runtime:
         # told when a belief stops being perceived (its source(percept) is gone), by a
         # percept removal or by the agent's own plans: the reasoner's percept ledger
         self.on_percept_gone: Callable[[Struct], None] | None = None
+        # told when a goal fails and no -! plan handles it (its intention is dropped):
+        # the goal's text, the error (`no_applicable`, `action_failed`, ...; None when the
+        # failure named none) and the message with its file:line; the reasoner's alert
+        self.on_goal_dropped: Callable[[str, str | None, str], None] | None = None
         self._ids = itertools.count(1)
         self._seq = itertools.count()
 

@@ -3,8 +3,8 @@
 Rules:
 - every environment action is recorded (`log`, its text as `name(args)`) and numbered
   (the handle: 1, 2, ...);
-- actions named in `immediate` succeed at once (default: `rcl_goal_management`, as the
-  reasoner's host does); so do all others when `hold` is False;
+- actions named in `immediate` succeed at once (default: `rcl_goal_management` and
+  `give_up`, as the reasoner's host does); so do all others when `hold` is False;
 - `query(Function, Args, Result)` is an open action (its Result is bound by the answer):
   answered at once from `answers` when the function is there (a value, or a callable of
   the query's arguments), else it stays open until `answer(...)` (fails at once when
@@ -30,6 +30,7 @@ from mrss.agentspeak.terms import PList, Struct, term_str
 
 QUERY = "query"
 GOAL_MANAGEMENT = "rcl_goal_management"
+GIVE_UP = "give_up"  # the reasoner's give_up(Goal, Reason, Cause): an alert, done at once
 
 
 def _plain(t: Any) -> Any:
@@ -51,7 +52,7 @@ class ScriptedHost:
     open_actions = frozenset({QUERY})
 
     def __init__(self, *, answers: Mapping[str, Any] | None = None, hold: bool = True,
-                 immediate: Collection[str] = (GOAL_MANAGEMENT,),
+                 immediate: Collection[str] = (GOAL_MANAGEMENT, GIVE_UP),
                  on_action: Callable[[int, str], None] | None = None,
                  on_cancel: Callable[[int, str], None] | None = None,
                  virtual_time: bool = False) -> None:

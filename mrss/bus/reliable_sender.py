@@ -7,6 +7,9 @@ so one small ack covers a whole burst. When no ack has advanced for `resend_afte
 seconds, everything in flight that old is sent again, and the wait doubles up to
 `max_resend_after` until acks flow again. Nothing is ever given up on: `pending()`
 tells how many messages are not yet acknowledged, and `flush()` waits for none.
+`when_acked(callback)` calls back once everything sent before it is acknowledged (the
+events manager acknowledges an MQTT message to its broker so, once the reasoner has its
+percepts); callbacks still waiting when the sender closes are dropped, never called.
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections import deque
+from collections.abc import Callable
 from types import TracebackType
 
 import zmq
@@ -68,6 +73,8 @@ class ReliableSender:
         self._next_seq = 1
         self._base = 1  # lowest unacknowledged sequence number
         self._last_progress = time.monotonic()
+        # (highest sequence number it waits for, callback), in sending order
+        self._waiters: deque[tuple[int, Callable[[], object]]] = deque()
         self.resent = 0  # how many times a message went out again
         self._closed = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True,
@@ -91,6 +98,16 @@ class ReliableSender:
             if seq < self._base + self._window:
                 self._transmit(seq, out, time.monotonic())
         return msg_id
+
+    def when_acked(self, callback: Callable[[], object]) -> None:
+        """Call `callback()` once every message sent so far is acknowledged: now, on this
+        thread, when none is pending; else on the sender's thread, in the order asked.
+        Dropped (not called) if the sender closes first."""
+        with self._lock:
+            if self._pending or self._waiters:  # in order behind earlier waiters
+                self._waiters.append((self._next_seq - 1, callback))
+                return
+        callback()
 
     def pending(self) -> int:
         """How many sent messages are not acknowledged yet."""
@@ -116,15 +133,26 @@ class ReliableSender:
                 watermark = 0
                 if self._acks.poll(int(tick * 1000), zmq.POLLIN):
                     watermark = self._read_acks()
+                due: list[Callable[[], object]] = []
                 with self._lock:
                     now = time.monotonic()
                     if watermark >= self._base:
                         self._acknowledge(watermark, now)
                     elif self._pending and now - self._last_progress >= self._resend_after:
                         self._resend_overdue(now)
+                    while self._waiters and self._waiters[0][0] < self._base:
+                        due.append(self._waiters.popleft()[1])
+                for callback in due:
+                    self._call(callback)
         except Exception:
             log.exception("reliable sender on channel %r failed", self.channel)
             raise
+
+    def _call(self, callback: Callable[[], object]) -> None:
+        try:
+            callback()
+        except Exception:  # a waiter's bug must not stop the channel
+            log.exception("channel %r: a when_acked callback failed", self.channel)
 
     def _read_acks(self) -> int:
         best = 0
@@ -183,6 +211,7 @@ class ReliableSender:
                 return
             self._closed.set()
             left = len(self._pending)
+            self._waiters.clear()
         self._thread.join(timeout=5)
         self._acks.close(0)
         direct.forget_member(self._member)

@@ -1,8 +1,8 @@
 """What agent.asl asks of the rest of the project, read from its parsed program.
 
 - environment actions: every body formula `name(Args)` that is neither an internal action
-  (`.name`) nor one the reasoner handles itself (`query/3`, `rcl_goal_management`), by
-  name and arity, each with its first line and column;
+  (`.name`) nor one the reasoner handles itself (`query/3`, `rcl_goal_management`,
+  `give_up/3`), by name and arity, each with its first line and column;
 - queries: the function of every `query(Function, Args, Result)` whose Function is an atom;
 - triggers: the belief events (`+b`/`-b`) the agent's plans react to, by name and arity.
 Syntax errors are findings at their line and column, with a caret (the interpreter's own
@@ -15,6 +15,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mrss.actors.reasoner.give_up import is_give_up
 from mrss.agentspeak import AslSyntaxError
 from mrss.agentspeak.agent import read_program
 from mrss.agentspeak.loadcheck import load_problems
@@ -119,7 +120,7 @@ def _add_use(uses: AgentUses, item: BodyItem) -> None:
         elif isinstance(function, str):
             uses.queries.append(Use(function, 0, item.line, item.col))
         return
-    if term.functor == GOAL_MANAGEMENT:
+    if term.functor == GOAL_MANAGEMENT or is_give_up(term):
         return
     uses.actions.append(Use(term.functor, len(term.args), item.line, item.col))
 

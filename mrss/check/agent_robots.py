@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mrss.actors.reasoner.give_up import GIVE_UP
 from mrss.agentspeak.terms import Slot, Struct
 from mrss.check.agent import GOAL_MANAGEMENT, QUERY
 from mrss.check.agent_clauses import Clause, SourceLines, literals
@@ -21,7 +22,7 @@ from mrss.check.findings import Report, did_you_mean
 
 Position = tuple[str, int, int]  # functor, arity, argument index
 ROBOT_PERCEPTS: tuple[Position, ...] = (("robot_unavailable", 1, 0),)
-NOT_TYPED = frozenset({QUERY, GOAL_MANAGEMENT})  # their arguments are of many kinds
+NOT_TYPED = frozenset({QUERY, GOAL_MANAGEMENT, GIVE_UP})  # arguments of many kinds
 
 
 class _Kinds:

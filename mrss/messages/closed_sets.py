@@ -22,6 +22,7 @@ class Topic(StrEnum):
     MIND = "mind."
     CTL = "ctl."
     EDGE = "edge."
+    AGENT = "agent."
 
 
 class ActionState(StrEnum):
@@ -108,3 +109,11 @@ class EventStatus(StrEnum):
     REJECTED = "rejected"    # bad payload: not retried
     FAILED = "failed"        # a dependency stayed down past the retry budget, or a bug
     DUPLICATE = "duplicate"  # a redelivery of an event already handled
+
+
+class GiveUpReason(StrEnum):
+    """Why an agent gave a goal up for good (`GoalGaveUp`, the operator's alert)."""
+
+    BUDGET_EXHAUSTED = "budget_exhausted"  # its retries were used up (the program says so)
+    NO_APPLICABLE_PLAN = "no_applicable_plan"  # no plan (or none applicable), no -! plan
+    PLAN_FAILED = "plan_failed"  # its plan failed and no -! plan recovered it

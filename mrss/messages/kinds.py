@@ -4,6 +4,9 @@ Their closed sets (action states, causes, commands, event names) are closed_sets
 
 Each kind has its fields (type-checked on decode by `mrss.messages.codec`), the topic
 it is published on, and `validate` for checks beyond types.
+
+One idea in one module: the catalogue of what may travel on the bus, read as one list
+(`KINDS`), so it grows past 400 lines with the kinds rather than being cut by size.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from mrss.messages.closed_sets import (
     ControlTarget,
     EventStatus,
     FailureCause,
+    GiveUpReason,
     LinkState,
     SupEventKind,
 )
@@ -34,6 +38,7 @@ _ACTION_STATES = frozenset(ActionState)
 _FAILURE_CAUSES = frozenset(FailureCause)
 _LINK_STATES = frozenset(LinkState)
 _SUP_EVENTS = frozenset(SupEventKind)
+_GIVE_UP_REASONS = frozenset(GiveUpReason)
 
 
 def _closed(msg: object, **fields: type[StrEnum]) -> None:
@@ -322,6 +327,34 @@ class MindSnapshot(Message):
 
 
 @dataclass(frozen=True)
+class GoalGaveUp(Message):
+    """An agent gave a goal up for good: the operator's alert (docs/mission.md, "When the
+    agent gives up"). `goal` is the goal's text, `reason` why it was given up, `cause`
+    the last failure's cause (`error(E)`: link_down, action_failed, ...) and `message`
+    its text (file:line of the plan that failed, when known)."""
+
+    kind: ClassVar[str] = "agent.gave_up"
+    agent: str
+    goal: str
+    reason: GiveUpReason
+    cause: str = ""
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        _closed(self, reason=GiveUpReason)
+
+    def validate(self) -> None:
+        _nonempty(self.agent, "agent")
+        _nonempty(self.goal, "goal")
+        if self.reason not in _GIVE_UP_REASONS:
+            raise DecodeError(f"unknown give-up reason {self.reason!r} (one of "
+                              f"{', '.join(GiveUpReason)})")
+
+    def topic(self) -> str:
+        return f"agent.gave_up.{self.agent}"
+
+
+@dataclass(frozen=True)
 class Command(Message):
     """An operator command from the TUI or `mrss send` (e.g. inject a fault)."""
 
@@ -384,7 +417,7 @@ KINDS: dict[str, type[Message]] = {
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
-        Command, EventReport, Rejections,
+        Command, EventReport, Rejections, GoalGaveUp,
     )
 }
 

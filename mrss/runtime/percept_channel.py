@@ -14,12 +14,17 @@ plain one can be dropped by id. An edge event with an identity of its own gives 
 percepts ids derived from it (see `mrss.actors.events.intake`), so a redelivered event's percepts
 repeat the first delivery's ids.
 
-What is not acknowledged when the component stops is given up (the sender logs how
-many); the reliable channel keeps its messages in memory only.
+The reasoner acknowledges a percept only once its percept ledger holds it (on disk),
+so an acknowledged percept is durable. The channel keeps its messages in memory only:
+what is not acknowledged when the component stops is given up (the sender logs how
+many). So whoever must not lose a percept holds on to its own copy of the input until
+`when_durable` calls back: the events manager acknowledges an MQTT message to its
+broker only then, and the broker delivers it again to the next incarnation otherwise.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
 
 from mrss.bus import BusEndpoints, ReliableSender
@@ -59,6 +64,12 @@ class PerceptChannel:
         self._publisher.send_frames(encode(percept, src=self.src, inc=self.inc,
                                            msg_id=msg_id, cred=self._cred))
         return msg_id
+
+    def when_durable(self, callback: Callable[[], object]) -> None:
+        """Call `callback()` once every percept sent so far is in the reasoner's ledger
+        (acknowledged): now if none is pending, else on the channel's thread, in order;
+        never if the channel closes first."""
+        self._reliable.when_acked(callback)
 
     def pending(self) -> int:
         """How many percepts the reasoner has not acknowledged yet."""

@@ -19,11 +19,12 @@ from mrss.messages import Envelope, Message
 from mrss.world.topics import wm_reply_topic
 
 # Everything the dashboard shows; `rel.action.` carries the reliable channel's requests.
-# `percept` (hotspots found, for the alerts) and `edge.rejections` (the input each
-# component refused); and the world model's answers to the dashboard's own `wm.list`
-# (for the map), on `dl.reply.wm.<src>` (`wm_reply_topic`).
+# `percept` (hotspots found, for the alerts), `edge.rejections` (the input each
+# component refused) and `agent.` (goals the agent gave up: `GoalGaveUp`); and the
+# world model's answers to the dashboard's own `wm.list` (for the map), on
+# `dl.reply.wm.<src>` (`wm_reply_topic`).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "edge.rejections")
+            "edge.rejections", "agent.")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 BATCH = 2_000  # messages taken per turn of the loop
 

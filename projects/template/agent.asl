@@ -73,10 +73,19 @@ tries(G, 0) :- not tried(G, _).
       -tried(G, _); +tried(G, N + 1);
       .wait(1000);
       !drive(R, G, Lat, Lon).
+// Given up, a goal is told to the operator (give_up: an alert with its reason and the
+// last cause, on the dashboard).
+-!drive(R, G, Lat, Lon)[error(E)] : busy(R, G) & retryable(E)
+   <- -busy(R, G);
+      +free(R);
+      .print("goal ", G, " given up after its retries: ", E);
+      give_up(G, budget_exhausted, E);
+      !forget(G).
 -!drive(R, G, Lat, Lon)[error(E)] : busy(R, G)
    <- -busy(R, G);
       +free(R);
       .print("goal ", G, " failed: ", E);
+      give_up(G, plan_failed, E);
       !forget(G).
 
 // percepts stay beliefs until removed: forget a goal's, so it may be sent again

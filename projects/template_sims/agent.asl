@@ -48,8 +48,15 @@ tries(G, 0) :- not tried(G, _).
       -tried(G, _); +tried(G, N + 1);
       .wait(1000);
       !reach(R, G, Lat, Lon).
+// Given up, a goal is told to the operator (give_up: an alert with its reason and the
+// last cause, on the dashboard).
+-!reach(R, G, _, _)[error(E)] : retryable(E)
+   <- .print("goal ", G, " given up after its retries: ", E);
+      give_up(G, budget_exhausted, E);
+      !forget(G).
 -!reach(R, G, _, _)[error(E)]
    <- .print("goal ", G, " failed: ", E);
+      give_up(G, plan_failed, E);
       !forget(G).
 
 +!forget(G)

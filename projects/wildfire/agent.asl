@@ -146,7 +146,8 @@ tries(G, 0) :- not tried(G, _).
 -!switch_mode(R, Mode, N)[error(E)] : teleop(R, Mode) & retryable(E)
    <- .print("switching ", R, " to teleop ", Mode, " failed (", E, "): given up after ",
              N, " tries, until ", R, " is available again");
-      +switch_given_up(R, Mode).
+      +switch_given_up(R, Mode);
+      give_up(switch_mode(R, Mode), budget_exhausted, E).
 -!switch_mode(R, Mode, N)[error(E)] : teleop(R, Mode)
    <- .print("switching ", R, " to teleop ", Mode, " refused (", E, "): not tried again").
 -!switch_mode(R, Mode, N)[error(E)]          // the wish changed: its own switch follows it
@@ -270,9 +271,17 @@ tries(G, 0) :- not tried(G, _).
       +retrying(R, G, P, Job);
       .wait(1000);
       !requeue(R, G).
+// Given up, the goal is told to the operator (give_up: an alert with its reason and
+// the last cause): its retries used up, or a failure not worth a retry.
+-!perform(R, G, P, Job)[error(E)] : retryable(E)
+   <- .print("goal ", G, " of ", R, " failed (", E, "): given up, its retries used up");
+      +failed_goal(G);
+      give_up(G, budget_exhausted, E);
+      !finished(R, G).
 -!perform(R, G, P, Job)[error(E)]
    <- .print("goal ", G, " of ", R, " failed (", E, ")");
       +failed_goal(G);
+      give_up(G, plan_failed, E);
       !finished(R, G).
 
 @requeue[atomic]
@@ -319,7 +328,8 @@ tries(G, 0) :- not tried(G, _).
 -!serviced(R, Why, Action, N)[error(E)] : retryable(E)
    <- .print(R, " ", Action, " failed (", E, "): given up after ", N, " tries, until ",
              R, " is available again");
-      +service_given_up(R, Why, Action).
+      +service_given_up(R, Why, Action);
+      give_up(service(R, Action), budget_exhausted, E).
 -!serviced(R, Why, Action, N)[error(E)]
    <- .print(R, " ", Action, " failed (", E, "): its goals wait until ", Why, " is fixed").
 

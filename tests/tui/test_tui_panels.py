@@ -6,6 +6,8 @@ from mrss.bus import BusEndpoints
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
+    GiveUpReason,
+    GoalGaveUp,
     LogRecord,
     MindSnapshot,
     Rejections,
@@ -266,4 +268,32 @@ def test_refusal_counters_show_per_component_and_as_one_alert(
             await until(pilot, lambda: row_text(table, "demo/announcer")[5] == "2",
                         message="restarted")  # its incarnation
             assert row_text(table, "demo/announcer")[6] == ""
+    run(body())
+
+
+def test_a_goal_the_agent_gave_up_is_a_severe_alert_with_its_reason_and_cause(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            strip, log = app.query_one(AlertsStrip), app.query_one(LogPane)
+            peer.publish(GoalGaveUp(agent="wildfire", goal="perform(ugv1,h1)",
+                                    reason=GiveUpReason.BUDGET_EXHAUSTED, cause="link_down",
+                                    message="given up by the program"), src="reasoner")
+            await until(pilot, lambda: "goal given up: wildfire: perform(ugv1,h1)"
+                        in strip.plain, message="the alert on the strip")
+            assert "budget_exhausted (last cause: link_down)" in strip.plain
+            await until(pilot, lambda: any("goal given up: wildfire: perform(ugv1,h1)" in line
+                                           for line in log.lines_text()),
+                        message="the alert in the log")
+            [alert] = app.alerts.history()
+            assert alert.kind is AlertKind.GOAL_GAVE_UP and alert.severe
+            # the same goal given up again is the same alert, counted
+            peer.publish(GoalGaveUp(agent="wildfire", goal="perform(ugv1,h1)",
+                                    reason=GiveUpReason.PLAN_FAILED, cause="rejected"),
+                         src="reasoner")
+            await until(pilot, lambda: "plan_failed (last cause: rejected)" in strip.plain,
+                        message="the recurrence")
+            assert [a.count for a in app.alerts.history()] == [2]
     run(body())

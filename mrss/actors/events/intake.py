@@ -13,9 +13,13 @@ Rules, each in one place here:
   rejected, failed or duplicate, and is reported on the bus, in the log and (rejected,
   failed) back to the sender.
 - **Acknowledgement.** The event is acknowledged to the broker (`InboundEvent.acknowledge`,
-  the MQTT PUBACK) only once it has an outcome. An event still unfinished when the
-  component stops is not acknowledged, and the broker delivers it again to the next
-  incarnation (persistent session).
+  the MQTT PUBACK) only once it has an outcome and its percepts are durable: with
+  `durable` (the percept channel's `when_durable`), once the reasoner has written every
+  percept sent so far to its ledger, so acknowledgements leave in the order the events
+  came. An event unfinished, or whose percepts the reasoner has not yet taken, when
+  this process stops or dies is not acknowledged: the broker delivers it again to the
+  next incarnation (persistent session), whose percepts carry the same ids (an event
+  with an id), and the reasoner's ledger takes each id once.
 - **Identity and duplicates.** An event whose JSON payload has a string `"id"` is known
   by (topic, id): a second one is a duplicate while the first is in hand or accepted
   (the id of a rejected or failed event may be sent again). An event without an id is
@@ -99,8 +103,10 @@ class EventIntake:
 
     def __init__(self, percept: PerceptPublisher, *, policy: RetryPolicy | None = None,
                  reporter: EventReporter | None = None, log: logging.Logger | None = None,
-                 memory: int = DEFAULT_MEMORY) -> None:
+                 memory: int = DEFAULT_MEMORY,
+                 durable: Callable[[Callable[[], object]], object] | None = None) -> None:
         self.percept = percept
+        self._durable = durable
         self.counters: EventCounters = percept.counters
         self.policy = policy or RetryPolicy()
         self.log = log or logging.getLogger("mrss.events")
@@ -250,8 +256,17 @@ class EventIntake:
             self._seen.popitem(last=False)
 
     def _acknowledge(self, event: InboundEvent) -> None:
-        if event.acknowledge is not None:
-            try:
-                event.acknowledge()
-            except Exception as exc:  # the broker will deliver it again
-                self.log.warning("event on %r not acknowledged: %r", event.topic, exc)
+        """Acknowledge `event` once every percept sent so far is durable."""
+        if event.acknowledge is None:
+            return
+        if self._durable is None:
+            self._acknowledge_now(event)
+        else:
+            self._durable(lambda: self._acknowledge_now(event))
+
+    def _acknowledge_now(self, event: InboundEvent) -> None:
+        assert event.acknowledge is not None
+        try:
+            event.acknowledge()
+        except Exception as exc:  # the broker will deliver it again
+            self.log.warning("event on %r not acknowledged: %r", event.topic, exc)

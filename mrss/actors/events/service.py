@@ -8,7 +8,8 @@ business to reject; the manager counts them (`stats()`) and keeps serving.
 No silent drops (docs/edges.md, "Delivery guarantees"):
 - MQTT: QoS 1 subscriptions in a persistent session (clean_session false, client id
   `mrss-<project>-<component>`), each message acknowledged only once the intake has
-  an outcome for it, so nothing in hand is lost when this process dies;
+  an outcome for it and the reasoner has its percepts in its ledger, so nothing in hand
+  is lost when this process (or the reasoner) dies: the broker delivers it again;
 - the intake (`mrss.actors.events.intake`) handles events in order, de-duplicates
   redeliveries, retries those whose dependency is down, and reports every outcome
   on the bus and (rejected, failed) back to the sender on the reply topic;
@@ -37,7 +38,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -114,16 +115,20 @@ class ExternalEventsManager(Component):
         values = OptionValues(self.OPTIONS, table(config, "events"), section="events")
         client_id = values.text("client_id") or f"mrss-{ctx.project_dir.name}-{ctx.name}"
         self.run(ctx.project_dir, config, self._bus, client_id=client_id,
-                 run_dir=ctx.run_dir, percepts=self.percepts.send, component=ctx.name)
+                 run_dir=ctx.run_dir, percepts=self.percepts.send, component=ctx.name,
+                 durable=self.percepts.when_durable)
 
     def run(self, project_dir: Path, config: Mapping[str, Any], publisher: MessagePublisher,
             *, client_id: str | None = None, run_dir: Path | None = None,
-            percepts: PerceptSink | None = None, component: str = "events") -> None:
+            percepts: PerceptSink | None = None, component: str = "events",
+            durable: Callable[[Callable[[], object]], object] | None = None) -> None:
         """Load the adapter, connect MQTT (if a broker is configured), start the adapter.
 
         With a `client_id` the MQTT session is persistent (unless `[events]
         persistent_session = false`); without one it is a throwaway session. Percepts go
-        to `percepts` (default: published on `publisher`), event reports on `publisher`.
+        to `percepts` (default: published on `publisher`), event reports on `publisher`;
+        with `durable` (the percept channel's `when_durable`) an MQTT message is
+        acknowledged only once its percepts are in the reasoner's ledger.
         """
         events = table(config, "events")
         values = OptionValues(self.OPTIONS, events, section="events")
@@ -148,7 +153,7 @@ class ExternalEventsManager(Component):
                                  reply_topic=template, reply_accepted=reply_accepted,
                                  log=self.log)
         self.intake = EventIntake(publish, policy=policy, reporter=reporter, log=self.log,
-                                  memory=values.whole("dedup_memory"))
+                                  memory=values.whole("dedup_memory"), durable=durable)
         options = {k: v for k, v in events.items() if k not in ("module", "class")}
         token = configured_token(table(config, "worldmodel"), project_dir)
         self.adapter = adapter_cls(EventsContext(
@@ -176,10 +181,11 @@ class ExternalEventsManager(Component):
             if self.adapter is not None:
                 self.adapter.stop()
         finally:
+            if self.percepts is not None:  # its acknowledgements go out while MQTT is up
+                self.percepts.flush(PERCEPT_FLUSH)
             if self.mqtt is not None:
                 self.mqtt.stop()
             if self.percepts is not None:
-                self.percepts.flush(PERCEPT_FLUSH)
                 self.percepts.close()
             if self._bus is not None:
                 self._bus.close()

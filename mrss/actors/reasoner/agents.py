@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mrss.actors.reasoner.give_up import is_give_up
 from mrss.actors.reasoner.host import ReasonerHost
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
@@ -144,8 +145,9 @@ class AgentHost:
         self.agent: Agent | None = None
 
     def execute(self, action: Struct, intention_id: int) -> Hashable:
-        handle = self.shared.execute(action, intention_id)
         assert self.agent is not None
+        handle = self.shared.give_up(action, self.agent.name) if is_give_up(action) \
+            else self.shared.execute(action, intention_id)
         self.router.bind(handle, self.agent)
         return handle
 

@@ -7,8 +7,9 @@ it to the bus), `Reasoner` takes bus messages through `on_message`:
   `mrss.actors.reasoner.percept_guard` (ground, bounded, finite, no sender-set `source(...)`):
   others are refused, counted (`Reasoner.rejections`) and logged at a limited rate; they arrive on
   the reliable channel "percept" (acknowledged after the percept ledger has them) and,
-  from best-effort senders, on the plain `percept` topic; a message heard on both is
-  taken once (by envelope id). The ledger (`PerceptLedger`) is asserted again by every
+  from best-effort senders, on the plain `percept` topic; a message heard on both, or
+  sent again under its id (a redelivery, even to an earlier incarnation: the ledger
+  remembers the ids), is taken once. The ledger (`PerceptLedger`) is asserted again by every
   new incarnation, so the agent re-derives its goals after a restart;
   supervision's `sup.quarantine` / `sup.release` and `robot.<id>.state` availability
   become `robot_unavailable(R)` percepts;
@@ -16,7 +17,9 @@ it to the bus), `Reasoner` takes bus messages through `on_message`:
   until a terminal `action.status`; waiting actions are reconciled with the RCL, and a
   restarted reasoner adopts what its predecessor left running (see `ReasonerHost`);
 - `ctl.mind` (any target, or this reasoner's name) asks for a snapshot of each agent,
-  handed to `snapshot_sink`.
+  handed to `snapshot_sink`;
+- a goal an agent gives up for good (its retries used up, no plan, a failure no `-!g`
+  plan recovers) goes to `send_alert` as a `GoalGaveUp` (mrss.actors.reasoner.give_up).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.actors.reasoner.agents import ActionRouter, AgentHost, AgentSpec
+from mrss.actors.reasoner.give_up import GiveUps
 from mrss.actors.reasoner.host import ReasonerHost
 from mrss.actors.reasoner.percept_guard import checked_literal
 from mrss.actors.reasoner.percept_ledger import PerceptLedger
@@ -48,6 +52,7 @@ from mrss.messages import (
     ActionStatus,
     Command,
     Envelope,
+    GoalGaveUp,
     Heartbeat,
     Percept,
     RobotState,
@@ -77,7 +82,8 @@ class Reasoner:
                  send_query: Callable[[ActionQuery], object] | None = None,
                  reconcile: float = 1.0, adopt_wait: float = 3.0,
                  ledger: PerceptLedger | None = None,
-                 agents: list[AgentSpec] | None = None, base: Path | None = None) -> None:
+                 agents: list[AgentSpec] | None = None, base: Path | None = None,
+                 send_alert: Callable[[GoalGaveUp], object] | None = None) -> None:
         """One agent from `agent_file` named `name`, or, with `agents`, several (their
         files relative to `base`) in a society (see `reasoner_agents`)."""
         self.host = ReasonerHost(send_request, send_control, data_call, lease=lease,
@@ -105,6 +111,9 @@ class Reasoner:
                                          beliefs=beliefs or [], out=self._print)
             self.host.agent = self.agent
             self.agents = [self.agent]
+        self.host.give_ups = GiveUps(send_alert)
+        for agent in self.agents:
+            agent.on_goal_dropped = self.host.give_ups.dropped_handler(agent.name)
         self.ledger = ledger
         self.rejections = RejectionLog(log, "percept")
         self._seen: OrderedDict[str, None] = OrderedDict()
@@ -221,11 +230,9 @@ class Reasoner:
             self.rejections.reject(sender, exc.reason, exc.detail)
             return
         if self.ledger is not None:
-            try:
-                if percept.op == "add":
-                    self.ledger.add(percept.literal, literal)
-                else:
-                    self.ledger.remove(literal)
+            try:  # an id taken before (a redelivery, maybe to an earlier incarnation)
+                if not self.ledger.take(msg_id, percept.op, percept.literal, literal):
+                    return
             except (sqlite3.Error, OSError) as exc:
                 raise NotHandled(f"the percept ledger cannot be written: {exc}") from exc
         with self._seen_lock:

@@ -2,13 +2,15 @@
 
 Every environment action the agent executes gets a uuid and goes to the RCL as an
 `ActionRequest`; its intention stays blocked (the paper's latch) until a terminal
-`ActionStatus` for that uuid comes back. Two actions are special:
+`ActionStatus` for that uuid comes back. Three actions are special:
 
 - `rcl_goal_management(Command, Target)` sends an `ActionControl` and succeeds at once.
   Target is a goal id, `action(Uuid)` or `robot(R)`; `rcl_goal_management(C, Kind, T)`
   names the kind (`action`, `goal`, `robot`) explicitly.
 - `query(Function, Args, Result)` asks the data layer and binds `Result` from its reply;
   an error reply or a timeout fails the action.
+- `give_up(Goal, Reason, Cause)` tells the operator the goal is given up for good
+  (mrss.actors.reasoner.give_up) and succeeds at once.
 
 A blocked intention never waits forever:
 - reconciliation: every `reconcile` seconds while actions wait, the host asks the RCL for
@@ -44,6 +46,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from mrss.actors.reasoner.adoption import adoptable
+from mrss.actors.reasoner.give_up import GiveUps, is_give_up, of_action
 from mrss.actors.reasoner.messages import (
     GOAL_MANAGEMENT,
     action_request,
@@ -134,6 +137,7 @@ class ReasonerHost:
         self._held: list[ActionRequest] = []
         self._left: dict[str, list[str]] = {}  # literal -> uuids a predecessor left
         self.adopted = 0
+        self.give_ups = GiveUps(None)  # the reasoner sets one that publishes
 
     # ------------------------------------------------------------ the agent's side
     def execute(self, action: Struct, intention_id: int) -> Hashable:
@@ -141,6 +145,8 @@ class ReasonerHost:
             return self._goal_management(action)
         if action.functor == QUERY and len(action.args) == 3:
             return self._query(action)
+        if is_give_up(action):
+            return self.give_up(action, str(getattr(self.agent, "name", "")))
         request = action_request(action)
         now = self._clock()
         handle = request.uuid
@@ -199,6 +205,20 @@ class ReasonerHost:
         handle = f"gm-{uuidlib.uuid4().hex}"
         control = goal_management_control(action)
         self._send_control(control)
+        self._complete(handle, True)
+        return handle
+
+    def give_up(self, action: Struct, agent: str) -> Hashable:
+        """`give_up(Goal, Reason, Cause)` of the agent named `agent`: the alert goes out,
+        the action succeeds (fails with `error(rejected)` on a reason not of the set)."""
+        handle = f"gu-{uuidlib.uuid4().hex}"
+        try:
+            alert = of_action(agent, action)
+        except MrssError as exc:
+            log.warning("%s: %s", agent, exc)
+            self._complete(handle, False, str(exc), error=FailureCause.REJECTED.value)
+            return handle
+        self.give_ups.tell(alert)
         self._complete(handle, True)
         return handle
 

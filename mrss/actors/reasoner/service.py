@@ -12,7 +12,9 @@ to the bus:
   reliable `action` channel;
 - a heartbeat with this incarnation goes out every `heartbeat` seconds: the RCL cancels
   the actions of an incarnation that is gone, so no robot works for a dead intention;
-- `ctl.mind` (any target, or this reasoner's name) publishes a `mind.<name>` snapshot.
+- `ctl.mind` (any target, or this reasoner's name) publishes a `mind.<name>` snapshot;
+- a goal an agent gives up for good is published as `agent.gave_up.<agent>`
+  (`GoalGaveUp`: goal, reason, last cause), the operator's alert.
 
 Options (the component's table in project.toml): `agent` (file, default `agent.asl`),
 `beliefs` (extra initial beliefs), `lease` (seconds the RCL may be silent while actions
@@ -130,7 +132,8 @@ class ReasonerComponent(Component):
                 query_timeout=opts.number("query_timeout"), on_tick=tick,
                 tick=min(period, 0.5), send_query=lambda q: publisher.publish(q),
                 reconcile=opts.number("reconcile"),
-                adopt_wait=opts.number("adopt_wait"), ledger=self._ledger)
+                adopt_wait=opts.number("adopt_wait"), ledger=self._ledger,
+                send_alert=publisher.publish)
         except AslSyntaxError as exc:
             raise ConfigError(str(exc), file=str(agent_file),
                               key="agent" if specs is None else "agents") from exc

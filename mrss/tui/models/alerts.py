@@ -6,7 +6,8 @@ repeated; a component refusing input (its `Rejections` reports) is one such
 condition, its text the latest counts, and so is a component whose restart budget
 (as its supervisor reports it in the tree) leaves at most one more restart. Events
 (hotspot found, component restarted, hung, quarantined, gave up; a mission goal
-failed for good, as the goals model reads it from the agent) raise one alert per
+failed for good, as the goals model reads it from the agent; a goal the agent gave up,
+as the reasoner reports it, `GoalGaveUp`: its agent, reason and last cause) raise one alert per
 subject, counted when they recur: a recurrence of an acknowledged alert raises it
 again. Acknowledging clears the highlight; every alert stays in the history; one alert
 can be acknowledged by its key (`acknowledge_one`). A project's own rules (`[[alerts]]`,
@@ -24,6 +25,7 @@ from typing import Any
 from mrss.config.alerts import AlertRule, Severity
 from mrss.messages import (
     Envelope,
+    GoalGaveUp,
     LinkState,
     Percept,
     Rejections,
@@ -51,13 +53,14 @@ class AlertKind(StrEnum):
     REFUSED = "refused input"
     BUDGET = "restart budget nearly used"
     GOAL_FAILED = "goal failed"  # for good: the agent gave it up (its retries included)
+    GOAL_GAVE_UP = "goal given up"  # the reasoner's report (GoalGaveUp): reason, last cause
     RULE = "rule"  # a project's own rule (`[[alerts]]`): the alert carries the rule's name
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
               AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET)
-SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GAVE_UP, AlertKind.LINK_DOWN, AlertKind.HUNG,
-          AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
+SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
+          AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
 
 
 @dataclass
@@ -128,6 +131,11 @@ def refusal_text(report: Rejections) -> str:
     return text
 
 
+def gave_up_text(report: GoalGaveUp) -> str:
+    """`budget_exhausted (last cause: link_down)`."""
+    return f"{report.reason.value} (last cause: {report.cause or 'none'})"
+
+
 class AlertsModel:
     """Alerts by key, newest last; `apply` returns the alerts a message raised."""
 
@@ -158,6 +166,9 @@ class AlertsModel:
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []
+        if isinstance(body, GoalGaveUp):
+            return [self._event(AlertKind.GOAL_GAVE_UP, f"{body.agent}: {body.goal}",
+                                gave_up_text(body), env.ts)]
         if isinstance(body, SupEvent) and body.event in (NODE_DOWN, NODE_UP):
             return self._condition(AlertKind.NODE_DOWN, f"node {body.child}",
                                    body.event == NODE_DOWN, body.reason, env.ts)

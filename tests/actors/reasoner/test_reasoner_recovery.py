@@ -271,3 +271,30 @@ def test_a_data_layer_that_does_not_answer_fails_the_query_as_transient(tmp_path
         wait_until(lambda: reasoner.agent.believes("locate_failed(uav2, action_failed)"))
     finally:
         reasoner.stop()
+
+
+def test_a_percept_sent_again_under_its_id_to_a_new_incarnation_is_not_acted_on_again(
+    incarnations: Incarnations,
+) -> None:
+    """The events manager died after the reasoner had the goal but before the broker
+    heard so: the broker's redelivery repeats the percept's id, and the ledger, which
+    remembers the ids it took, takes it once, across a restart of the reasoner too."""
+    wire1 = Wire()
+    first = incarnations.start(1, wire1)
+    first.on_message(env(Percept(literal="area(g1, 3)"), src="events", msg_id="ev-k.0"))
+    action = wait_until(lambda: wire1.requests and wire1.requests[0])
+    first.on_message(env(ActionStatus(uuid=action.uuid, state="succeeded"), inc=1))
+    wait_until(lambda: first.ledger is not None and first.ledger.standing() == [],
+               message="the goal done, its percept consumed")
+    first.on_message(env(Percept(literal="area(g1, 3)"), src="events", msg_id="ev-k.0"))
+    incarnations.kill(first)
+
+    wire2 = Wire()
+    second = incarnations.start(2, wire2, adopt_wait=0.0)
+    second.on_message(env(Percept(literal="area(g1, 3)"), src="events", msg_id="ev-k.0"))
+    second.on_message(env(Percept(literal="area(g2, 1)"), src="events", msg_id="ev-n.0"))
+    later = wait_until(lambda: wire2.requests and wire2.requests[0], message="a new goal")
+    assert later.literal == "cover(uav1,g2)"
+    assert [r.literal for r in wire1.requests + wire2.requests] == [
+        "cover(uav1,g1)", "cover(uav1,g2)"]
+    assert second.ledger is not None and second.ledger.standing() == ["area(g2, 1)"]
