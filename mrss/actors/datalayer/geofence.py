@@ -34,6 +34,7 @@ from shapely.geometry import Point, shape
 from shapely.geometry.base import BaseGeometry
 
 from mrss.agentspeak.literals import literal, symbol
+from mrss.errors import ConfigError
 from mrss.links.geo import distance_m
 from mrss.options import Check, Option, OptionValues
 from mrss.runtime.percepts import PerceptPublisher
@@ -102,12 +103,21 @@ class Geofence:
         self.failing = False   # the last look could not read the world model
 
     @classmethod
+    def on(cls, section: Mapping[str, Any]) -> bool:
+        """Whether `[datalayer]` turns the geofence on (a bad value: off; `mrss check`
+        reports it)."""
+        try:
+            return bool(OptionValues(cls.OPTIONS, section, section="datalayer").flag("geofence"))
+        except ConfigError:
+            return False
+
+    @classmethod
     def configured(cls, section: Mapping[str, Any], world: WorldModelAccess | None,
                    percept: PerceptPublisher) -> Geofence | None:
         """The geofence `[datalayer]` asks for, or None when it is off (or there is no
         world model to hold the zones: logged)."""
         values = OptionValues(cls.OPTIONS, section, section="datalayer")
-        if not values.flag("geofence"):
+        if not values.flag("geofence"):   # a value not true or false: ConfigError
             return None
         if world is None:
             log.error("[datalayer] geofence is on but there is no world model to hold the "
