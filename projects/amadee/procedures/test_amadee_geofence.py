@@ -155,6 +155,9 @@ def test_the_rover_stopped_in_the_marsh_leaves_by_the_nearest_legal_exit_then_re
         way = sum(distance_m(a, o, a2, o2) for (a, o, _), (a2, o2, _) in
                   zip(path, path[1:reached_exit + 1], strict=False))
         assert way == pytest.approx(expected, abs=1.5), "the way out is not straight"
+        print(f"\nway out: exit {distance_m(*INSIDE, lat, lon):.2f} m away (nearest legal "
+              f"{expected:.2f} m), driven {way:.2f} m in {reached_exit} samples; g1 "
+              + ("waited for it" if "goal g1 waits" in system.log(60000) else "came after"))
         verdict = system.world("verdict_g1")
         assert verdict is not None and verdict["attributes"]["legal"] is True
         assert not system.perceived("geofence_trapped(")
