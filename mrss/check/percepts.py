@@ -2,12 +2,15 @@
 
 Produced: every `JsonMapping("functor", Field, ...)` and `self.percept("functor", ...)` of
 events.py (read with `ast`, arity from the fields or arguments), the world model rules'
-functors of project.toml, and MRSS's own `robot_unavailable/1`. Rules:
+functors of project.toml, MRSS's own `robot_unavailable/1`, and the geofence's
+`geofence_exit/4` and `geofence_trapped/2` when `[datalayer] geofence` is on. Rules:
 - a percept events.py declares that no `+functor(...)`/`-functor(...)` plan of the agent
   handles (same arity) is a warning at its line in events.py;
 - a `+b[source(percept)]` plan for a percept nothing produces is a warning at its line in
   agent.asl, unless the name is a string anywhere in events.py or datalayer.py (a
-  percept whose name is computed there; those cannot be told apart statically).
+  percept whose name is computed there; those cannot be told apart statically);
+- the geofence on without a `+geofence_exit(...)` plan is a warning: a robot found
+  inside a no-go zone would only be alerted, never driven out.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import ast
 from dataclasses import dataclass
 from pathlib import Path
 
+from mrss.actors.datalayer.geofence import EXIT, TRAPPED, Geofence
 from mrss.check.agent import AgentUses
 from mrss.check.findings import Report, did_you_mean
 from mrss.check.sources import PySource
@@ -71,6 +75,11 @@ def check_percepts(config: ProjectConfig, uses: AgentUses, events: PySource | No
     produced = produced_by(events) if events is not None else []
     handled = {(t.name, t.arity) for t in uses.triggers}
     handled_names = {t.name for t in uses.triggers}
+    fenced = Geofence.on(config.sections.get("datalayer") or {})
+    if fenced and (EXIT, 4) not in handled:
+        report.warning(str(uses.file), f"[datalayer] geofence is on but agent.asl has no "
+                       f"+{EXIT}(Robot, Zone, Lat, Lon) plan: a robot found stopped inside a "
+                       "no-go zone is only alerted, never driven out", check="percepts")
     for p in produced:
         if (p.name, p.arity) in handled or (p.arity is None and p.name in handled_names):
             continue
@@ -82,7 +91,7 @@ def check_percepts(config: ProjectConfig, uses: AgentUses, events: PySource | No
     if events is None or events.tree is None:
         return  # what events.py produces is unknown: no warning on the agent's side
     names = {p.name for p in produced} | rule_functors(config) | {b[0] for b in BUILTIN} \
-        | strings_in(events) | strings_in(datalayer)
+        | strings_in(events) | strings_in(datalayer) | ({EXIT, TRAPPED} if fenced else set())
     for trigger in uses.triggers:
         if trigger.name in names or not trigger.from_percept:
             continue

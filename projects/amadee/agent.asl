@@ -29,7 +29,24 @@ rover(rover1).
       .print("goal ", G, " cancelled");
       !forget(G).
 
+// The geofence ([datalayer] geofence = true): the data layer found the rover stopped
+// inside a no-go zone and names its shortest legal way out. The drive out is checked like
+// any other (no_go_path allows only it from inside); work that arrives meanwhile waits
+// until the rover is out, then goes on. Trapped (every way out crosses another zone),
+// the rover stays where it is and its moves are refused.
++geofence_exit(R, Z, Lat, Lon)[source(percept)] : rover(R)
+   <- .print(R, " is stopped inside no_go zone ", Z, ": leaving it by the shortest legal path");
+      !act(geofence, drive(R, geofence, Lat, Lon)).
++geofence_trapped(R, Z)[source(percept)] : rover(R)
+   <- .print(R, " is stopped inside no_go zone ", Z,
+             " and every way out crosses another zone: it stays where it is").
+
 // the legality check, then the action or its refusal
++!act(G, A) : rover(R) & G \== geofence & geofence_exit(R, Z, _, _)
+   <- .print("goal ", G, " waits until ", R, " is out of no_go zone ", Z);
+      .wait(not geofence_exit(R, _, _, _));
+      .print("goal ", G, " resumes: ", R, " is out of no_go zone ", Z);
+      !act(G, A).
 +!act(G, A)
    <- query(legal, [A], V);
       !decide(G, A, V).

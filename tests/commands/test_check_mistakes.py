@@ -351,3 +351,27 @@ def test_an_adapter_that_declares_options_still_has_unknown_keys_refused(
     assert code == 2
     (finding,) = [f for f in report["findings"] if f["key"] == "events.zone"]
     assert finding["severity"] == "error" and "unknown option of [events]" in finding["message"]
+
+
+def test_the_geofence_on_without_a_plan_for_its_percept_is_a_warning(
+        project: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    inject(project, Mistake("", "project.toml", "\n[datalayer]", "\n[datalayer]\ngeofence = true",
+                            "", ""))
+    code, report = run_check(capsys)
+    assert code == 0, report
+    messages = [f["message"] for f in report["findings"]]
+    assert any("geofence is on but agent.asl has no +geofence_exit(Robot, Zone, Lat, Lon) "
+               "plan" in m for m in messages), messages
+    inject(project, Mistake("", "project.toml", "geofence = true", 'geofence = "yes"', "", ""))
+    code, report = run_check(capsys)
+    assert code == 2 and any("datalayer.geofence" in f["message"] or "geofence" in f["message"]
+                             and "true or false" in f["message"]
+                             for f in report["findings"]), report
+
+
+def test_amadee_checks_clean_with_its_geofence(monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setenv("MRSS_PROJECTS", str(TEMPLATE.parent))
+    assert main(["check", "amadee", "--json"]) == 0
+    findings = json.loads(capsys.readouterr().out)["findings"]
+    assert not [f for f in findings if "geofence" in f["message"]], findings

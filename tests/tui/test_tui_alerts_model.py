@@ -127,3 +127,17 @@ def test_a_components_own_tree_names_its_actors_under_the_component() -> None:
         "scope": "component", "tree": {"id": "robots", "children": [
             {"id": "uav1", "budget": [2, 2, 10.0]}]}})))  # sent by the RCL (src rcl)
     assert [(a.kind, a.subject) for a in raised] == [(AlertKind.BUDGET, "rcl/robots/uav1")]
+
+
+def test_the_geofence_percepts_are_conditions_on_the_robot() -> None:
+    model = AlertsModel()
+    leaving = "geofence_exit(rover1,salt_marsh,39.7712,44.8015117)"
+    raised = model.apply(env(Percept(literal=leaving)))
+    assert [(a.kind, a.subject, a.text, a.severe) for a in raised] == [
+        (AlertKind.NO_GO, "rover1", "in salt_marsh: leaving by 39.7712,44.8015117", False)]
+    assert model.apply(env(Percept(literal=leaving, op="remove"))) == []
+    assert model.alerts[(AlertKind.NO_GO.value, "rover1")].resolved
+    trapped = model.apply(env(Percept(literal='geofence_trapped(rover1,"Salt Marsh")')))
+    assert [(a.kind, a.text, a.severe) for a in trapped] == [
+        (AlertKind.TRAPPED, "in Salt Marsh: every way out crosses another zone", True)]
+    assert model.apply(env(Percept(literal="geofence_exit(broken"))) == []

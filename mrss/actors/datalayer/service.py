@@ -18,6 +18,7 @@ project.toml:
     world_model = "bus"         # "bus" (embedded component), "http://host:port", or "none"
     robots = ["uav1", "ugv1"]   # who may send robot data (default: the RCL's robots table)
     alt_range = [-500, 12000]   # physical limits over the robot type's (record_declarations)
+    geofence = true             # a robot stopped inside a no-go zone is given its way out
 The `[components.<id>]` free keys of this component are laid over `[datalayer]`.
 
 Robot data is checked before the project sees it (`mrss.edge.validation`): a record from
@@ -38,6 +39,7 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from pathlib import Path
 from typing import Any, ClassVar
 
+from mrss.actors.datalayer.geofence import Geofence
 from mrss.actors.datalayer.layer import DataLayer, DataLayerContext
 from mrss.config.broker import table
 from mrss.config.loader import load_file
@@ -92,8 +94,9 @@ class DataLayerService:
 
     def __init__(self, datalayer: DataLayer, *, call_timeout: float = 5.0,
                  workers: int = 4, validator: RecordValidator | None = None,
-                 reject_interval: float = 60.0) -> None:
+                 reject_interval: float = 60.0, geofence: Geofence | None = None) -> None:
         self.datalayer = datalayer
+        self.geofence = geofence
         self.validator = validator or RecordValidator()
         self.rejections = RejectionLog(log, "robot data", interval=reject_interval)
         self.call_timeout = call_timeout
@@ -150,6 +153,8 @@ class DataLayerService:
         if self.telemetry_down:
             self.telemetry_down = False
             log.warning("telemetry stored again")
+        if self.geofence is not None:
+            self.geofence.observe(data.robot, record)
         return True
 
     def _error(self, request: DataRequest, text: str, transient: bool = False) -> DataReply:
@@ -283,6 +288,7 @@ class DataLayerComponent(Component):
         *(Option(f"{name}_range", list, None, f"[low, high] of {name.replace('_', ' ')} "
                  "over the robot type's default (mrss.edge.record_declarations)", Check.RANGE)
           for name in LIMIT_NAMES),
+        *Geofence.OPTIONS,
     )
 
     def __init__(self) -> None:
@@ -324,13 +330,16 @@ class DataLayerComponent(Component):
             bus.publish(percept)
 
         options = {k: v for k, v in section.items() if k not in ("module", "class")}
-        self.datalayer = cls(DataLayerContext(world=self._world, percept=PerceptPublisher(
-            percepts or to_bus), options=options, project_dir=project_dir, log=log))
+        publisher = PerceptPublisher(percepts or to_bus)
+        self.datalayer = cls(DataLayerContext(world=self._world, percept=publisher,
+                                              options=options, project_dir=project_dir,
+                                              log=log))
         self.datalayer.start()
         self.service = DataLayerService(
             self.datalayer, call_timeout=timeout, workers=workers,
             validator=robot_validator(project_dir, section),
-            reject_interval=values.number("reject_log_interval"))
+            reject_interval=values.number("reject_log_interval"),
+            geofence=Geofence.configured(section, self._world, publisher))
         # Dispatch threads wait on calls, so a slow call never holds up the others.
         self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
                                             thread_name_prefix="dl-dispatch")

@@ -1,6 +1,7 @@
 """The operator's alerts: rules over incoming bus messages, acknowledgement, history.
 
-Conditions (battery low, link down, robot unavailable) are raised when they begin and
+Conditions (battery low, link down, robot unavailable, a robot the geofence found
+stopped inside a no-go zone, or trapped there) are raised when they begin and
 resolved when they end; one alert per robot and kind, however often the condition is
 repeated; a component refusing input (its `Rejections` reports) is one such
 condition, its text the latest counts, and so is a component whose restart budget
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
+from mrss.actors.datalayer.geofence import EXIT, TRAPPED
 from mrss.config.alerts import AlertRule, Severity
 from mrss.messages import (
     Envelope,
@@ -55,12 +57,18 @@ class AlertKind(StrEnum):
     GOAL_FAILED = "goal failed"  # for good: the agent gave it up (its retries included)
     GOAL_GAVE_UP = "goal given up"  # the reasoner's report (GoalGaveUp): reason, last cause
     RULE = "rule"  # a project's own rule (`[[alerts]]`): the alert carries the rule's name
+    NO_GO = "inside a no-go zone"  # the geofence found the robot stopped there: leaving
+    TRAPPED = "trapped in a no-go zone"  # ... and every way out crosses another zone
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
-              AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET)
+              AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET, AlertKind.NO_GO,
+              AlertKind.TRAPPED)
 SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
-          AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN)
+          AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN,
+          AlertKind.TRAPPED)
+#: The geofence's percepts (mrss.actors.datalayer.geofence) and the alert each raises.
+GEOFENCE = {EXIT: AlertKind.NO_GO, TRAPPED: AlertKind.TRAPPED}
 
 
 @dataclass
@@ -122,6 +130,20 @@ def nearly_used(budget: Any) -> str | None:
     return ""
 
 
+def geofence_args(literal: str) -> tuple[AlertKind, str, str] | None:
+    """(kind, robot, text) of a geofence percept's literal, None for any other."""
+    functor, _, rest = literal.partition("(")
+    kind = GEOFENCE.get(functor)
+    if kind is None or not rest.endswith(")"):
+        return None
+    args = [a.strip().strip('"') for a in rest[:-1].split(",")]
+    if kind is AlertKind.NO_GO and len(args) == 4:
+        return kind, args[0], f"in {args[1]}: leaving by {args[2]},{args[3]}"
+    if kind is AlertKind.TRAPPED and len(args) == 2:
+        return kind, args[0], f"in {args[1]}: every way out crosses another zone"
+    return None
+
+
 def refusal_text(report: Rejections) -> str:
     """`12 in all; most: percept from tester: percept not ground ×9`."""
     text = f"{report.total} in all"
@@ -163,6 +185,9 @@ class AlertsModel:
             return raised
         if isinstance(body, Percept):
             literal = body.literal.strip()
+            fence = geofence_args(literal)
+            if fence is not None:
+                return self._condition(fence[0], fence[1], body.op == "add", fence[2], env.ts)
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []

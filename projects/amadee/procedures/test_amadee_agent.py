@@ -48,3 +48,24 @@ def test_home_and_every_science_task_are_checked() -> None:
                        "query(legal,[image(rover1,s2)],V)",
                        "query(legal,[spectrum(rover1,s3)],V)",
                        "query(legal,[radar(rover1,s4)],V)"]
+
+
+def test_the_rover_found_inside_a_no_go_zone_leaves_by_the_way_out_and_then_resumes() -> None:
+    host = ScriptedHost(answers={"legal": lambda action: ["legal"]})
+    agent = host.load(AGENT, name="amadee")
+    host.feed("geofence_exit(rover1, salt_marsh, 39.77099, 44.801)")
+    assert host.log == ["query(legal,[drive(rover1,geofence,39.77099,44.801)],V)",
+                        "drive(rover1,geofence,39.77099,44.801)"]
+    host.feed("drive_received(g1, 39.7705, 44.8)")      # work while it is still inside
+    assert len(host.log) == 2 and agent.believes("geofence_exit(rover1, salt_marsh, _, _)")
+    host.finish("drive(rover1,geofence,")
+    host.feed("-geofence_exit(rover1, salt_marsh, 39.77099, 44.801)")   # seen out
+    assert host.log[2:] == ["query(legal,[drive(rover1,g1,39.7705,44.8)],V)",
+                            "drive(rover1,g1,39.7705,44.8)"]
+
+
+def test_a_trapped_rover_is_not_moved() -> None:
+    host = ScriptedHost(answers={"legal": lambda action: ["legal"]})
+    host.load(AGENT, name="amadee")
+    host.feed("geofence_trapped(rover1, inner)")
+    assert host.log == [] and not host.open
