@@ -85,10 +85,15 @@ class WorldModel:
         """Objects within `distance_m` metres of `geometry`, nearest first."""
         return self.store.within_distance(geometry, distance_m, kind)
 
-    def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
-        """Store `obj`, then run the rules and emit what they produce."""
+    def upsert(self, obj: WorldObject, *, replace_attributes: bool = False,
+               deferred: bool = False) -> Change:
+        """Store `obj`, then run the rules and emit what they produce. `deferred`: a write
+        nobody waits for (telemetry), which a store that batches (PostGIS:
+        `upsert_deferred`) commits with others shortly after; otherwise committed first."""
         with self._write:
-            change = self.store.upsert(obj, replace_attributes=replace_attributes)
+            batched = getattr(self.store, "upsert_deferred", None) if deferred else None
+            change = batched(obj, replace_attributes=replace_attributes) if callable(batched) \
+                else self.store.upsert(obj, replace_attributes=replace_attributes)
             for text in self.rules.apply(change, self.store):
                 log.info("rule percept %s (on %s %r)", text, change.op, obj.id)
                 if self._emit is not None:
@@ -136,7 +141,7 @@ class WorldModel:
             return [o.to_json() for o in self.objects(_opt_string(kind[0] if kind else None))]
         if function == "wm.upsert":
             (entry,) = _arity(function, args, 1)
-            change = self.upsert(WorldObject.from_json(entry))
+            change = self.upsert(WorldObject.from_json(entry), deferred=not answer)
             if not answer:
                 return {"op": change.op}
             return {"op": change.op, "object": change.obj.to_json()}

@@ -18,6 +18,11 @@ WORLDMODEL_OPTIONS: tuple[Option, ...] = (
            "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
     Option("durable", bool, False, "SQLite: sync every write to disk (survives a power "
            "cut; several times fewer writes per second)"),
+    Option("batch_size", int, 200, "PostGIS: telemetry updates (writes nobody waits for) "
+           "committed together in one transaction (1: one transaction each)", Check.POSITIVE),
+    Option("batch_interval", float, 0.05, "PostGIS: seconds a telemetry update may wait "
+           "for its batch's commit (lost if the world model is killed meanwhile)",
+           Check.POSITIVE),
     Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
     Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
     Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),
