@@ -100,13 +100,17 @@ class WorldModel:
                     self._emit(text)
         return change
 
-    def upsert_many(self, objs: list[WorldObject]) -> list[Change]:
+    def upsert_many(self, objs: list[WorldObject], *, deferred: bool = False) -> list[Change]:
         """Store `objs` in order, in one transaction when the store can (SQLite), then
         run the rules on each change and emit what they produce. Returns once every
-        write is committed; a failure raises (with SQLite nothing of the batch is kept)."""
+        write is committed; a failure raises (with SQLite nothing of the batch is kept).
+        `deferred` (telemetry nobody waits for): a store that batches (PostGIS) queues
+        them to be committed with others shortly after (`upsert_deferred`)."""
         with self._write:
+            staged = getattr(self.store, "upsert_deferred", None) if deferred else None
             batch = getattr(self.store, "upsert_many", None)
-            changes: list[Change] = batch(objs) if callable(batch) else \
+            changes: list[Change] = [staged(obj) for obj in objs] if callable(staged) \
+                else batch(objs) if callable(batch) else \
                 [self.store.upsert(obj) for obj in objs]
             for change in changes:
                 for text in self.rules.apply(change, self.store):
@@ -182,7 +186,7 @@ class WorldModel:
                 results.append(None)
             except (ValueError, LookupError, TypeError) as exc:
                 results.append({"error": str(exc)})
-        changes = iter(self.upsert_many(objs))
+        changes = iter(self.upsert_many(objs, deferred=not answer))
         for index, result in enumerate(results):
             if result is None:
                 change = next(changes)

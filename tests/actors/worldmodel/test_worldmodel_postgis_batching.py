@@ -109,8 +109,11 @@ def test_the_world_model_batches_the_writes_nobody_waits_for(postgis_url: str,
         entry = {"id": "wm-1", "kind": "robot", "position": {"lat": 43.2, "lon": 1.2}}
         assert world.call("wm.upsert", [entry], answer=False) == {"op": "insert"}
         assert store.telemetry.pending == 1 and other.get("wm-1") is None
+        world.call("wm.upsert_many", [[{**entry, "attributes": {"y": 2}}]], answer=False)
+        assert store.telemetry.pending == 2 and other.get("wm-1") is None
         answered = world.call("wm.upsert", [{**entry, "attributes": {"x": 1}}])
         assert answered["op"] == "update" and store.telemetry.pending == 0
-        assert other.get("wm-1") is not None
+        stored = other.get("wm-1")
+        assert stored is not None and stored.attributes == {"x": 1, "y": 2}
     finally:
         store.close()
