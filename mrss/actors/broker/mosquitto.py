@@ -10,7 +10,7 @@ client), not every half hour. A restarted component starts Mosquitto on the same
 with the same file, so a persistent session (the events manager's QoS 1 subscription)
 and the messages queued in it survive a broker restart.
 
-What is durable when (Mosquitto 2.0, measured by `mrss bench broker`): Mosquitto saves
+What is durable when (Mosquitto 2.0; measurements in docs/edges.md): Mosquitto saves
 at the top of its event loop, after the iteration that acknowledged (PUBACK) a message;
 so a message is on disk by the time Mosquitto acknowledges anything received after it
 (a later PUBACK, a PINGRESP), in practice 1-20 ms after its own PUBACK. A SIGKILL inside

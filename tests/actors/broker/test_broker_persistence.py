@@ -9,7 +9,7 @@ operator's goal published after the restart while it was away.
 
 Durability point (docs/edges.md, `mrss.actors.broker.mosquitto`): Mosquitto has written a
 message by the time it acknowledges anything received after it, so each test waits for
-one more acknowledged publication before the kill (`mrss bench broker` measures the
+one more acknowledged publication before the kill (docs/edges.md gives the measured
 loss without it).
 """
 
