@@ -5,7 +5,8 @@ names a scratch database (postgresql://...): the benchmark's objects (ids `bench
 and `habitat`, `rover1`) are deleted afterwards. Objects are points and 550 m squares
 scattered over a 40 x 55 km area; queries are around its middle. Then, on a fresh
 world, the AMADEE-24 legality check (10,000 zones, 1,000 objects) and telemetry writes
-(5 Hz x 100 robots), with the issue's targets (`worldmodel_legality`).
+(5 Hz x 100 robots), with the issue's targets (`worldmodel_legality`); on PostGIS also
+the telemetry batched vs one transaction per update (`worldmodel_batching`).
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ def run(quick: bool) -> BenchReport:
     url = os.environ.get(URL_ENV)
     if url:
         from mrss.actors.worldmodel.postgis import PostgisWorldStore, safe_url
+        from mrss.bench.worldmodel_batching import telemetry_batching
         store = PostgisWorldStore(url)
         try:
             _measure(report, "postgis", store, n, queries)
@@ -103,6 +105,7 @@ def run(quick: bool) -> BenchReport:
                 store.delete(f"bench-{i}")
             made = legality_and_telemetry(report, "postgis", store, quick=quick,
                                           p99_target_ms=10.0)
+            made += telemetry_batching(report, url, quick=quick)
             for object_id in made:
                 store.delete(object_id)
         finally:

@@ -8,16 +8,22 @@ supervisor that prefers to decide up front can use `with_broker_url(config)` and
 every component the filled-in configuration. Also runnable on its own:
 `python -m mrss.actors.broker.service --host 127.0.0.1 --port N` serves until SIGTERM/SIGINT.
 
-Sessions: clients are accepted without credentials (the broker listens on loopback
-unless configured) unless `[broker.embedded] password_file` names a password file
-(`mrss.actors.broker.passwords`): then only its users get in. Either way not as amqtt's
-"anonymous" clients, whose sessions amqtt never
-keeps. So a client connecting with clean_session false (the events manager) keeps its
-session and its QoS 1 subscriptions while it is away, and messages published meanwhile
-wait for it. The limit: amqtt keeps sessions in memory only, so a restart of the
-embedded broker loses them, with any message queued for an absent client or not yet
-acknowledged by one. Use an external broker with persistence (Mosquitto
-`persistence true`) where that matters.
+Which broker serves (`[broker.embedded] engine`, a `BrokerEngine`): "auto" (the
+default) runs Mosquitto where it is installed (PATH, /usr/sbin) and no password file is
+set, with its sessions persisted in `<run_dir>/broker/` (`mrss.actors.broker.mosquitto`:
+what is durable when); otherwise amqtt in this process. "mosquitto" requires it (a
+ConfigError without it, or with a password file: Mosquitto cannot read amqtt's Argon2
+hashes), "amqtt" always uses amqtt.
+
+Sessions with amqtt: clients are accepted without credentials (the broker listens on
+loopback unless configured) unless `[broker.embedded] password_file` names a password
+file (`mrss.actors.broker.passwords`): then only its users get in. Either way not as
+amqtt's "anonymous" clients, whose sessions amqtt never keeps. So a client connecting
+with clean_session false (the events manager) keeps its session and its QoS 1
+subscriptions while it is away, and messages published meanwhile wait for it. The
+limit of this fallback: amqtt keeps sessions in memory only, so a restart of the
+embedded amqtt broker loses them, with any message queued for an absent client or not
+yet acknowledged by one (the component logs a WARNING saying so when it starts amqtt).
 
 Refused connections: amqtt logs an ERROR and a WARNING for every connection closed or
 garbled before its CONNECT (a port scan, a health check's bare TCP connect). The
@@ -33,6 +39,8 @@ project.toml:
     port = 0                        # 0: a free port
     password_file = "secrets/mqtt.passwd"   # only its users get in ([broker] username
                                     # and password / password_env are the project's login)
+    engine = "auto"                 # "mosquitto" | "amqtt": which broker serves
+    autosave_changes = 1            # Mosquitto: save its sessions after N changes
 """
 
 from __future__ import annotations
@@ -51,6 +59,8 @@ from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
+from mrss.actors.broker.engine import BrokerEngine, broker_engine, table_of
+from mrss.actors.broker.mosquitto import MosquittoProcess, find_mosquitto
 from mrss.actors.broker.passwords import PASSWORD_FILE_KEY, password_file_problem
 from mrss.edge.rejections import LoggedRefusals, RejectionLog
 from mrss.errors import ConfigError, MrssError
@@ -59,6 +69,9 @@ from mrss.ports import free_port
 from mrss.runtime.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")
+#: The embedded Mosquitto's folder under the run folder: its configuration, database, pid.
+STATE_DIR = "broker"
+
 
 
 class BrokerError(MrssError):
@@ -103,6 +116,11 @@ BROKER_EMBEDDED_OPTIONS: tuple[Option, ...] = (
     Option(PASSWORD_FILE_KEY, str, None, "user:argon2-hash lines (python -m "
            "mrss.actors.broker.passwords FILE USER); only those users may connect",
            Check.PASSWORD_FILE),
+    Option("engine", str, BrokerEngine.AUTO.value, "which broker serves: auto (Mosquitto "
+           "where installed and no password file, else amqtt), mosquitto or amqtt",
+           choices=tuple(e.value for e in BrokerEngine)),
+    Option("autosave_changes", int, 1, "Mosquitto: write its sessions to disk after this "
+           "many changes (1: after each queued message or subscription)", Check.POSITIVE),
 )
 
 
@@ -203,6 +221,7 @@ class EmbeddedBroker(Component):
     OPTIONS: ClassVar[tuple[Option, ...]] = ()
 
     def __init__(self) -> None:
+        self.mosquitto: MosquittoProcess | None = None
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
@@ -225,7 +244,28 @@ class EmbeddedBroker(Component):
         url_file = ctx.run_dir / BROKER_URL_FILE
         if url_file.is_file():  # a restart: same port, so clients reconnect to it
             url = url_file.read_text(encoding="utf-8").strip() or url
-        self.serve_at(url, password_file=password_file)
+        binary = find_mosquitto()
+        values = OptionValues(BROKER_EMBEDDED_OPTIONS, table_of(config, "broker", "embedded"),
+                              section="broker.embedded")
+        engine = broker_engine(values["engine"], password_file, binary)
+        if engine is BrokerEngine.MOSQUITTO:
+            assert binary is not None
+            autosave = values.whole("autosave_changes")
+            self.mosquitto = MosquittoProcess(binary, ctx.run_dir / STATE_DIR,
+                                              autosave_changes=autosave)
+            parts = urlsplit(url)
+            assert parts.hostname is not None and parts.port is not None
+            try:
+                self.mosquitto.start(parts.hostname, parts.port, on_exit=ctx.fail)
+            except (OSError, RuntimeError) as exc:
+                raise BrokerError(f"embedded MQTT broker did not start: {exc}") from None
+            self.url = url
+        else:
+            log.warning("embedded MQTT broker is amqtt (%s): its sessions live in memory "
+                        "only, so a broker restart loses the messages queued for absent "
+                        "clients", "a password file is set" if password_file else
+                        "no mosquitto installed" if binary is None else "engine = amqtt")
+            self.serve_at(url, password_file=password_file)
         partial = url_file.with_suffix(".tmp")
         partial.write_text(url + "\n", encoding="utf-8")
         partial.replace(url_file)
@@ -267,11 +307,15 @@ class EmbeddedBroker(Component):
 
     @property
     def running(self) -> bool:
-        """True while the broker thread serves."""
+        """True while the broker (Mosquitto, or amqtt's thread) serves."""
+        if self.mosquitto is not None:
+            return self.mosquitto.running
         return self._thread is not None and self._thread.is_alive()
 
     def stop(self) -> None:
-        """Shut the broker down and join its thread."""
+        """Shut the broker down (Mosquitto writes its sessions) and join its thread."""
+        if self.mosquitto is not None:
+            self.mosquitto.stop()
         loop, stop = self._loop, self._stop
         if loop is not None and stop is not None and self.running:
             # The loop may close between the check and the call (a broker that failed to

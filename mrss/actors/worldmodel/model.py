@@ -85,23 +85,32 @@ class WorldModel:
         """Objects within `distance_m` metres of `geometry`, nearest first."""
         return self.store.within_distance(geometry, distance_m, kind)
 
-    def upsert(self, obj: WorldObject, *, replace_attributes: bool = False) -> Change:
-        """Store `obj`, then run the rules and emit what they produce."""
+    def upsert(self, obj: WorldObject, *, replace_attributes: bool = False,
+               deferred: bool = False) -> Change:
+        """Store `obj`, then run the rules and emit what they produce. `deferred`: a write
+        nobody waits for (telemetry), which a store that batches (PostGIS:
+        `upsert_deferred`) commits with others shortly after; otherwise committed first."""
         with self._write:
-            change = self.store.upsert(obj, replace_attributes=replace_attributes)
+            batched = getattr(self.store, "upsert_deferred", None) if deferred else None
+            change = batched(obj, replace_attributes=replace_attributes) if callable(batched) \
+                else self.store.upsert(obj, replace_attributes=replace_attributes)
             for text in self.rules.apply(change, self.store):
                 log.info("rule percept %s (on %s %r)", text, change.op, obj.id)
                 if self._emit is not None:
                     self._emit(text)
         return change
 
-    def upsert_many(self, objs: list[WorldObject]) -> list[Change]:
+    def upsert_many(self, objs: list[WorldObject], *, deferred: bool = False) -> list[Change]:
         """Store `objs` in order, in one transaction when the store can (SQLite), then
         run the rules on each change and emit what they produce. Returns once every
-        write is committed; a failure raises (with SQLite nothing of the batch is kept)."""
+        write is committed; a failure raises (with SQLite nothing of the batch is kept).
+        `deferred` (telemetry nobody waits for): a store that batches (PostGIS) queues
+        them to be committed with others shortly after (`upsert_deferred`)."""
         with self._write:
+            staged = getattr(self.store, "upsert_deferred", None) if deferred else None
             batch = getattr(self.store, "upsert_many", None)
-            changes: list[Change] = batch(objs) if callable(batch) else \
+            changes: list[Change] = [staged(obj) for obj in objs] if callable(staged) \
+                else batch(objs) if callable(batch) else \
                 [self.store.upsert(obj) for obj in objs]
             for change in changes:
                 for text in self.rules.apply(change, self.store):
@@ -136,7 +145,7 @@ class WorldModel:
             return [o.to_json() for o in self.objects(_opt_string(kind[0] if kind else None))]
         if function == "wm.upsert":
             (entry,) = _arity(function, args, 1)
-            change = self.upsert(WorldObject.from_json(entry))
+            change = self.upsert(WorldObject.from_json(entry), deferred=not answer)
             if not answer:
                 return {"op": change.op}
             return {"op": change.op, "object": change.obj.to_json()}
@@ -177,7 +186,7 @@ class WorldModel:
                 results.append(None)
             except (ValueError, LookupError, TypeError) as exc:
                 results.append({"error": str(exc)})
-        changes = iter(self.upsert_many(objs))
+        changes = iter(self.upsert_many(objs, deferred=not answer))
         for index, result in enumerate(results):
             if result is None:
                 change = next(changes)

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from mrss.actors.worldmodel.http import DEFAULT_TIMEOUT
+from mrss.actors.worldmodel.writebehind import DEFAULT_INTERVAL, DEFAULT_SIZE
 from mrss.edge.http_token import TOKEN_ENV_KEY, TOKEN_FILE_KEY
 from mrss.options import Check, Option, OptionValues
 
@@ -18,6 +19,12 @@ WORLDMODEL_OPTIONS: tuple[Option, ...] = (
            "PostGIS instead of the embedded SQLite file", Check.POSTGRES_URL),
     Option("durable", bool, False, "SQLite: sync every write to disk (survives a power "
            "cut; several times fewer writes per second)"),
+    Option("batch_size", int, DEFAULT_SIZE, "PostGIS: telemetry updates (writes nobody "
+           "waits for) committed together in one transaction (1: one transaction each)",
+           Check.POSITIVE),
+    Option("batch_interval", float, DEFAULT_INTERVAL, "PostGIS: seconds a telemetry update "
+           "may wait for its batch's commit (lost if the world model is killed meanwhile)",
+           Check.POSITIVE),
     Option("seed", str, None, "objects to load at start (JSON)", Check.PROJECT_FILE),
     Option("rules", list, [], "built-in rules: [[worldmodel.rules]] tables"),
     Option("rules_module", str, "worldmodel.py", "defines rules(options) -> list[Rule]"),

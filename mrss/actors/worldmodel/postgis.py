@@ -25,8 +25,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
-import socket
 import threading
 import time
 from collections.abc import Callable
@@ -36,7 +34,9 @@ from urllib.parse import urlsplit
 import psycopg
 from psycopg.types.json import Jsonb
 
+from mrss.actors.worldmodel.pgwatchdog import Watchdog
 from mrss.actors.worldmodel.store import WorldStoreUnavailable
+from mrss.actors.worldmodel.writebehind import DEFAULT_INTERVAL, DEFAULT_SIZE, Update, WriteBehind
 from mrss.world.geometry import Geometry, GeometryType, geometry_from_text
 from mrss.world.objects import Change, Position, WorldObject, merge
 
@@ -84,12 +84,14 @@ class PostgisWorldStore:
     """World model objects in PostGIS at `url` (a libpq URL, postgresql://...)."""
 
     def __init__(self, url: str, *, connect_timeout: float = 3.0, request_timeout: float = 10.0,
-                 backoff_initial: float = 0.1, backoff_max: float = 5.0) -> None:
+                 backoff_initial: float = 0.1, backoff_max: float = 5.0,
+                 batch_size: int = DEFAULT_SIZE, batch_interval: float = DEFAULT_INTERVAL
+                 ) -> None:
         self.url = url
         self.where = safe_url(url)
         self.connect_timeout = connect_timeout
         self.request_timeout = request_timeout
-        self._watchdog = _Watchdog(request_timeout)
+        self._watchdog = Watchdog(request_timeout)
         self._backoff_initial, self._backoff_max = backoff_initial, backoff_max
         self._delay = backoff_initial
         self._next_attempt = 0.0
@@ -99,6 +101,9 @@ class PostgisWorldStore:
         self.failures = 0
         with self._lock:
             self._connection()
+        #: telemetry waiting to be committed together (`upsert_deferred`)
+        self.telemetry = WriteBehind(self._get_committed, self._commit_batch, size=batch_size,
+                                     interval=batch_interval)
 
     # --- connection ---------------------------------------------------------------
 
@@ -130,7 +135,10 @@ class PostgisWorldStore:
             log.warning("world model database %s reconnected", self.where)
         return conn
 
-    def _run(self, work: Callable[[psycopg.Connection[Any]], T]) -> T:
+    def _run(self, work: Callable[[psycopg.Connection[Any]], T], *, flush: bool = True) -> T:
+        """`work` on the connection, after the pending telemetry is committed (`flush`)."""
+        if flush:
+            self.telemetry.flush()
         with self._lock:
             conn = self._connection()
             watchdog = self._watchdog
@@ -159,7 +167,8 @@ class PostgisWorldStore:
                 pass
 
     def close(self) -> None:
-        """Close the connection."""
+        """Commit the pending telemetry, close the connection."""
+        self.telemetry.close()
         with self._lock:
             self._drop()
             self._next_attempt = float("inf")
@@ -179,9 +188,38 @@ class PostgisWorldStore:
             return change
         return self._run(work)
 
+    def upsert_deferred(self, obj: WorldObject, *, replace_attributes: bool = False
+                        ) -> Change:
+        """Queue `obj` (telemetry) to be committed with others in one transaction; its
+        Change as this process sees it. Not durable on return (`WriteBehind`)."""
+        return self.telemetry.stage(obj, replace_attributes=replace_attributes)
+
+    def _commit_batch(self, updates: list[Update]) -> None:
+        """Commit queued updates in one transaction, each object's in order."""
+        def work(conn: psycopg.Connection[Any]) -> None:
+            ids = sorted({obj.id for obj, _ in updates})
+            with conn.transaction(), conn.cursor() as cur:
+                cur.executemany("SELECT pg_advisory_xact_lock(hashtextextended(%s, 0))",
+                                [(i,) for i in ids])
+                rows = conn.execute(f"SELECT {_COLUMNS} FROM wm_objects WHERE id = ANY(%s)",
+                                    (ids,)).fetchall()
+                now: dict[str, WorldObject | None] = {i: None for i in ids}
+                now.update({r[0]: _row_object(r) for r in rows})
+                dirty: dict[str, WorldObject] = {}
+                for obj, replace in updates:
+                    change = merge(obj, now[obj.id], replace_attributes=replace)
+                    if change.op != "unchanged":
+                        now[obj.id] = dirty[obj.id] = change.obj
+                if dirty:
+                    cur.executemany(_WRITE, [_write_params(o) for o in dirty.values()])
+        self._run(work, flush=False)
+
     def get(self, object_id: str) -> WorldObject | None:
         """The object with this id, or None."""
         return self._run(lambda conn: _get(conn, object_id))
+
+    def _get_committed(self, object_id: str) -> WorldObject | None:
+        return self._run(lambda conn: _get(conn, object_id), flush=False)
 
     def delete(self, object_id: str) -> bool:
         """Remove an object; False when there was none."""
@@ -264,70 +302,6 @@ def line_pieces(geometry: Geometry) -> list[str] | None:
     return pieces
 
 
-class _Watchdog:
-    """One thread per store that cuts the connection of a request running past its
-    deadline (a frozen server or network): the blocked call then fails instead of
-    waiting for ever. `arm` before a request, `disarm` after it."""
-
-    def __init__(self, timeout: float) -> None:
-        self.timeout = timeout
-        self.fired = False
-        self._cond = threading.Condition()
-        self._conn: psycopg.Connection[Any] | None = None
-        self._deadline: float | None = None
-        self._idle = False
-        self._closed = False
-        self._thread: threading.Thread | None = None
-
-    def arm(self, conn: psycopg.Connection[Any]) -> None:
-        """A request on `conn` starts now."""
-        with self._cond:
-            self._conn, self.fired = conn, False
-            self._deadline = time.monotonic() + self.timeout
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._watch, daemon=True,
-                                                name="worldmodel-pg-watchdog")
-                self._thread.start()
-            elif self._idle:
-                self._cond.notify()
-
-    def disarm(self) -> None:
-        """The request is over."""
-        with self._cond:
-            self._conn, self._deadline = None, None
-
-    def close(self) -> None:
-        """Stop the thread."""
-        with self._cond:
-            self._closed = True
-            self._cond.notify()
-
-    def _watch(self) -> None:
-        with self._cond:
-            while not self._closed:
-                if self._deadline is None:
-                    self._idle = True
-                    self._cond.wait()
-                    self._idle = False
-                    continue
-                left = self._deadline - time.monotonic()
-                if left > 0:
-                    self._cond.wait(left)
-                    continue
-                self._deadline, self.fired = None, True
-                if self._conn is not None:
-                    _cut(self._conn)
-
-
-def _cut(conn: psycopg.Connection[Any]) -> None:
-    """Shut the connection's socket down under libpq: its blocked call returns an error."""
-    try:
-        with socket.socket(fileno=os.dup(conn.pgconn.socket)) as sock:
-            sock.shutdown(socket.SHUT_RDWR)
-    except (OSError, psycopg.Error):
-        pass
-
-
 def _migrate(conn: psycopg.Connection[Any]) -> None:
     """Create or bring the schema up to SCHEMA_VERSION (idempotent, concurrent-safe)."""
     with conn.transaction():
@@ -349,23 +323,29 @@ def _get(conn: psycopg.Connection[Any], object_id: str) -> WorldObject | None:
     return None if row is None else _row_object(row)
 
 
-def _write(conn: psycopg.Connection[Any], new: WorldObject) -> None:
+_WRITE = (
+    f"INSERT INTO wm_objects ({_COLUMNS}, geom) VALUES (%(id)s, %(kind)s, %(lat)s, "
+    "%(lon)s, %(alt)s, %(attributes)s, %(version)s, %(updated)s, %(geojson)s, "
+    "CASE WHEN %(shape)s::text IS NULL THEN NULL ELSE "
+    "ST_SetSRID(ST_Force2D(ST_GeomFromGeoJSON(%(shape)s::text)), 4326) END) "
+    "ON CONFLICT (id) DO UPDATE SET kind = EXCLUDED.kind, lat = EXCLUDED.lat, "
+    "lon = EXCLUDED.lon, alt = EXCLUDED.alt, attributes = EXCLUDED.attributes, "
+    "version = EXCLUDED.version, updated = EXCLUDED.updated, "
+    "geojson = EXCLUDED.geojson, geom = EXCLUDED.geom")
+
+
+def _write_params(new: WorldObject) -> dict[str, Any]:
     pos, shape = new.position, new.shape_geometry()
-    conn.execute(
-        f"INSERT INTO wm_objects ({_COLUMNS}, geom) VALUES (%(id)s, %(kind)s, %(lat)s, "
-        "%(lon)s, %(alt)s, %(attributes)s, %(version)s, %(updated)s, %(geojson)s, "
-        "CASE WHEN %(shape)s::text IS NULL THEN NULL ELSE "
-        "ST_SetSRID(ST_Force2D(ST_GeomFromGeoJSON(%(shape)s::text)), 4326) END) "
-        "ON CONFLICT (id) DO UPDATE SET kind = EXCLUDED.kind, lat = EXCLUDED.lat, "
-        "lon = EXCLUDED.lon, alt = EXCLUDED.alt, attributes = EXCLUDED.attributes, "
-        "version = EXCLUDED.version, updated = EXCLUDED.updated, "
-        "geojson = EXCLUDED.geojson, geom = EXCLUDED.geom",
-        {"id": new.id, "kind": new.kind, "lat": pos.lat if pos else None,
-         "lon": pos.lon if pos else None, "alt": pos.alt if pos else None,
-         "attributes": Jsonb(new.attributes), "version": new.version,
-         "updated": new.updated,
-         "geojson": None if new.geometry is None else new.geometry.to_text(),
-         "shape": None if shape is None else shape.to_text()})
+    return {"id": new.id, "kind": new.kind, "lat": pos.lat if pos else None,
+            "lon": pos.lon if pos else None, "alt": pos.alt if pos else None,
+            "attributes": Jsonb(new.attributes), "version": new.version,
+            "updated": new.updated,
+            "geojson": None if new.geometry is None else new.geometry.to_text(),
+            "shape": None if shape is None else shape.to_text()}
+
+
+def _write(conn: psycopg.Connection[Any], new: WorldObject) -> None:
+    conn.execute(_WRITE, _write_params(new))
 
 
 def _row_object(row: Any) -> WorldObject:

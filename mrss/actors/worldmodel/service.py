@@ -122,7 +122,8 @@ def open_store(run_dir: Path | None, section: Mapping[str, Any]) -> WorldStore:
     if problem:
         raise ConfigError(problem, key="worldmodel.url")
     from mrss.actors.worldmodel.postgis import PostgisWorldStore
-    return PostgisWorldStore(text)
+    return PostgisWorldStore(text, batch_size=values.whole("batch_size"),
+                             batch_interval=values.number("batch_interval"))
 
 
 def store_path(run_dir: Path | None, section: Mapping[str, Any]) -> str:
