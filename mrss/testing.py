@@ -20,6 +20,7 @@ import psutil
 from mrss.interpreter import python_module
 from mrss.ports import free_port as free_port
 from mrss.ports import free_udp_port as free_udp_port
+from mrss.programs import find_mosquitto
 
 T = TypeVar("T")
 
@@ -41,17 +42,6 @@ def wait_until(
         if time.monotonic() >= deadline:
             raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s")
         time.sleep(interval)
-
-
-def find_mosquitto() -> str | None:
-    """The mosquitto binary: on PATH, or in /usr/sbin where Debian installs it."""
-    found = shutil.which("mosquitto")
-    if found:
-        return found
-    for candidate in ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto"):
-        if os.access(candidate, os.X_OK):
-            return candidate
-    return None
 
 
 @dataclass(frozen=True)

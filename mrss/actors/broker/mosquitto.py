@@ -31,7 +31,6 @@ import ctypes
 import logging
 import os
 import pwd
-import shutil
 import signal
 import socket
 import subprocess
@@ -42,21 +41,12 @@ from pathlib import Path
 
 import psutil
 
+from mrss.programs import find_mosquitto
+
 log = logging.getLogger("mrss.broker.mosquitto")
 DB_FILE = "mosquitto.db"
 PID_FILE = "mosquitto.pid"
 _PR_SET_PDEATHSIG = 1
-
-
-def find_mosquitto() -> str | None:
-    """The mosquitto binary: on PATH, or in /usr/sbin where Debian installs it."""
-    found = shutil.which("mosquitto")
-    if found:
-        return found
-    for candidate in ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto"):
-        if os.access(candidate, os.X_OK):
-            return candidate
-    return None
 
 
 def mosquitto_config(host: str, port: int, state_dir: Path, autosave_changes: int) -> str:
