@@ -114,6 +114,9 @@ class ActionStatus(Message):
     repeat: bool = False  # the last state sent again (a reconciliation), not a transition
     name: str = ""  # the action's name and goal, so an observer that attached late knows it
     goal: str = ""
+    # RUNNING: the longest its skills go without news (Skill.progress_bound), seconds;
+    # 0: no promise. Absent in older recordings (decoded as 0).
+    progress_bound: float = 0.0
 
     def __post_init__(self) -> None:
         _closed(self, state=ActionState, cause=FailureCause)
@@ -124,6 +127,8 @@ class ActionStatus(Message):
             raise DecodeError(f"unknown action state {self.state!r}")
         if self.cause not in _FAILURE_CAUSES:
             raise DecodeError(f"unknown failure cause {self.cause!r}")
+        if not self.progress_bound >= 0:  # NaN too
+            raise DecodeError(f"progress bound {self.progress_bound!r} is not >= 0")
 
 
 @dataclass(frozen=True)

@@ -5,9 +5,9 @@ vacuous: the operator sends goal
 a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
 teleop and back; after the faults a probe finds everything running and idle; the
-journal and the run's log are read; cover's skill declares a progress bound of 6 s and
-keeps it; uav1 is available before the fault and after. Each test changes one thing
-and expects one invariant to break.
+journal and the run's log are read; cover's RUNNING status carries a progress bound of
+6 s (`progress_bound`) and it is kept; uav1 is available before the fault and after.
+Each test changes one thing and expects one invariant to break.
 """
 
 from __future__ import annotations
@@ -26,9 +26,10 @@ def bus(t: float, kind: str, body: dict[str, Any], src: str = "rcl", inc: int = 
             "kind": kind, "body": body}
 
 
-def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "") -> Record:
+def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "",
+           **extra: Any) -> Record:
     return bus(t, "action.status", {"uuid": uuid, "state": state, "reason": reason,
-                                    "progress": {}, "robot": "uav1"}, inc=inc)
+                                    "progress": {}, "robot": "uav1", **extra}, inc=inc)
 
 
 def request(t: float, uuid: str, goal: str, name: str = "cover", inc: int = 1) -> Record:
@@ -90,8 +91,8 @@ def healthy() -> list[Record]:
         robot_state(0.6, "uav1"),
         operator(1.0, "goal", "a1"),
         request(2.0, U1, "a1"),
-        status(2.1, U1, "pending"), status(2.2, U1, "running"),
-        log(2.2, "rcl", f"skill CoverArea of action {U1} runs with a progress bound of 6s"),
+        status(2.1, U1, "pending"),
+        status(2.2, U1, "running", name="cover", progress_bound=6.0),
         status(7.0, U1, "running"),  # a progress update (a repeat of the state)
         operator(3.0, "mode", robot="ugv1", mode="teleop", on=True),
         operator(4.0, "mode", robot="ugv1", mode="teleop", on=False),

@@ -41,6 +41,9 @@ class Action:
     literal: str = ""
     reason: str = ""
     cause: str = ""  # a FailureCause value once failed for a known cause, else ""
+    # The longest its skills go without news (`progress_bound_of` its skills), seconds;
+    # 0: no promise. Published with the status, never journaled (set again on each run).
+    progress_bound: float = 0.0
 
     @property
     def terminal(self) -> bool:

@@ -399,7 +399,7 @@ class RclCore:
         status = ActionStatus(uuid=action.uuid, state=action.state, reason=action.reason,
                               progress=dict(action.progress), robot=action.robot,
                               cause=FailureCause(action.cause), repeat=repeat, name=action.name,
-                              goal=action.goal)
+                              goal=action.goal, progress_bound=action.progress_bound)
         try:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks
