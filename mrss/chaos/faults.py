@@ -52,8 +52,8 @@ from pathlib import Path
 
 import psutil
 
-from mrss.chaos.network import NetworkError, Relays, relayed_robots, why_no_nft
 from mrss.chaos.netns import NodeNetwork, why_no_netns
+from mrss.chaos.network import NetworkError, Relays, relayed_robots, why_no_nft
 from mrss.chaos.relay import Impairment
 from mrss.config.kinds import ComponentKind
 from mrss.config.nodes import node_plan

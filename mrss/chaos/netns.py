@@ -14,9 +14,9 @@ Unix sockets are not bound to a network namespace: the recorder hears the home n
 bus as on one host. TCP on 127.0.0.1 is the namespace's own: the campaign's thread
 `enter`s the home node's namespace (setns(2) moves the calling thread only; the threads
 it starts then are born there), so the operator and the robot links' relays reach the
-home node's broker and simulators on its loopback; `leave` moves it back. It needs root and `ip` (iproute2), and an
-IPv4 address per node; `why_no_netns` says what is missing. `close` deletes the
-namespaces (and with them every veth end and the bridge).
+home node's broker and simulators on its loopback; `leave` moves it back. It needs
+root and `ip` (iproute2), and an IPv4 address per node; `why_no_netns` says what is
+missing. `close` deletes the namespaces (and with them every veth end and the bridge).
 """
 
 from __future__ import annotations

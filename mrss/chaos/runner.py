@@ -30,9 +30,9 @@ from mrss.chaos.campaign import CampaignError, Range, plan
 from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
+    IMPAIRMENTS,
     Fault,
     FaultKind,
-    IMPAIRMENTS,
     Heal,
     InjectionError,
     Injector,
