@@ -18,7 +18,10 @@ in its path (mrss.chaos.network, mrss.chaos.relay; the kernel's netem is not in 
 kernel, and components of one node talk over unix sockets no packet filter sees):
 
     delay           everything either way held 0.5 s (MAVLink UDP, MQTT TCP)
-    loss            each MAVLink datagram either way dropped with probability 0.3
+    loss            each MAVLink datagram either way dropped with probability 0.3; on
+                    MQTT (TCP), what TCP shows of such a link: each chunk of bytes
+                    stalled 1 s with probability 0.3, or (a tenth of those) its
+                    connection reset
     reorder         each MAVLink datagram held 0.15 s more with probability 0.3: later
                     ones overtake it
     partition       nothing passes: a MAVLink robot out of reach, or the MQTT broker cut
@@ -169,7 +172,9 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
     }
 
 
-TCP_KINDS = (FaultKind.DELAY, FaultKind.PARTITION)  # TCP loses and reorders nothing
+# On TCP (MQTT) a `loss` is what TCP shows above it: stalls and reset connections
+# (mrss.chaos.relay); it reorders nothing.
+TCP_KINDS = (FaultKind.DELAY, FaultKind.PARTITION, FaultKind.LOSS)
 
 
 def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
