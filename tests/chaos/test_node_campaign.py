@@ -56,6 +56,11 @@ def _project(root: Path) -> Path:
     return folder
 
 
+def test_the_documented_node_campaign_is_this_one() -> None:
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "chaos.md").read_text()
+    assert f"mrss chaos nodeschaos {' '.join(CAMPAIGN)}\n" in doc
+
+
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[int, History, dict]]:  # type: ignore[type-arg]
     root = tmp_path_factory.mktemp("nodechaos")
