@@ -49,9 +49,12 @@ class RunningProject:
     """`mrss supervise` of one project folder as a process, and views of its system."""
 
     def __init__(self, project_dir: Path, run_dir: Path,
-                 env: Mapping[str, str] | None = None) -> None:
+                 env: Mapping[str, str] | None = None, node: str = "",
+                 prefix: tuple[str, ...] = ()) -> None:
         self.project_dir = project_dir.resolve()
         self.run_dir = run_dir
+        self.node = node  # with [nodes]: the node this runs (`--node`)
+        self.prefix = prefix  # run under it, e.g. ("ip", "netns", "exec", NAME)
         self.output = run_dir.parent / f"{self.project_dir.name}-supervise.log"
         self.env = dict(os.environ, MRSS_PROJECTS=str(self.project_dir.parent), **(env or {}))
         self.process: subprocess.Popen[bytes] | None = None
@@ -74,8 +77,9 @@ class RunningProject:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         with self.output.open("wb") as sink:
             self.process = subprocess.Popen(
-                python_module("mrss", "supervise", self.project_dir.name,
-                              "--run-dir", str(self.run_dir)),
+                [*self.prefix, *python_module(
+                    "mrss", "supervise", self.project_dir.name, "--run-dir", str(self.run_dir),
+                    *(("--node", self.node) if self.node else ()))],
                 stdout=sink, stderr=subprocess.STDOUT, env=self.env)
         self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), timeout,
                       "the bus proxy")

@@ -43,6 +43,7 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.status", "cause"): st.sampled_from(["", *(c.value for c in m.FailureCause)]),
     ("action.status", "critical"): nonempty,  # deferring needs a section
     ("action.status", "critical_bound"): st.floats(min_value=0, allow_nan=False),
+    ("action.status", "progress_bound"): st.floats(min_value=0, allow_infinity=False),
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,
@@ -253,6 +254,26 @@ def test_the_optional_envelope_keys_round_trip_and_are_absent_unless_set() -> No
     replayed = m.decode(topic, m.mark_replayed(payload))
     assert replayed.replayed and replayed.cred == proven.cred and replayed.body == body
     assert m.mark_replayed(b"\xc1 not msgpack") == b"\xc1 not msgpack"
+
+
+def test_an_action_status_of_the_old_wire_without_progress_bound_still_decodes() -> None:
+    old_body = {"uuid": "u1", "state": "running", "reason": "", "progress": {"waypoint": 2},
+                "robot": "uav1", "cause": "", "repeat": False, "name": "cover", "goal": "a1"}
+    env = {"v": m.SCHEMA_VERSION, "id": "id-1", "ts": 1.0, "src": "rcl", "inc": 1,
+           "kind": "action.status", "body": old_body}  # as recorded before the field was
+    got = m.decode(b"action.status", msgpack.packb(env, use_bin_type=True)).body
+    assert isinstance(got, m.ActionStatus)
+    assert (got.state, got.progress, got.progress_bound) == (m.ActionState.RUNNING,
+                                                             {"waypoint": 2}, 0.0)
+    bounded = m.ActionStatus(uuid="u1", state=m.ActionState.RUNNING, progress_bound=120.0)
+    assert m.decode(*m.encode(bounded, src="rcl")).body.progress_bound == 120.0
+
+
+@pytest.mark.parametrize("bound", [-1.0, float("nan")])
+def test_a_negative_progress_bound_is_refused(bound: float) -> None:
+    body = {"uuid": "u1", "state": "running", "progress_bound": bound}
+    with pytest.raises(DecodeError, match="progress bound"):
+        m.build(m.ActionStatus, body)
 
 
 @pytest.mark.parametrize(("extra", "reason"), [

@@ -18,7 +18,10 @@ in its path (mrss.chaos.network, mrss.chaos.relay; the kernel's netem is not in 
 kernel, and components of one node talk over unix sockets no packet filter sees):
 
     delay           everything either way held 0.5 s (MAVLink UDP, MQTT TCP)
-    loss            each MAVLink datagram either way dropped with probability 0.3
+    loss            each MAVLink datagram either way dropped with probability 0.3; on
+                    MQTT (TCP), what TCP shows of such a link: each chunk of bytes
+                    stalled 1 s with probability 0.3, or (a tenth of those) its
+                    connection reset
     reorder         each MAVLink datagram held 0.15 s more with probability 0.3: later
                     ones overtake it
     partition       nothing passes: a MAVLink robot out of reach, or the MQTT broker cut
@@ -52,9 +55,11 @@ from pathlib import Path
 
 import psutil
 
+from mrss.chaos.netns import NodeNetwork, why_no_netns
 from mrss.chaos.network import NetworkError, Relays, relayed_robots, why_no_nft
 from mrss.chaos.relay import Impairment
 from mrss.config.kinds import ComponentKind
+from mrss.config.nodes import node_plan
 from mrss.config.project import ProjectConfig
 from mrss.errors import MrssError
 from mrss.runtime.forkserver import is_fork_server
@@ -134,11 +139,17 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
     """The possible targets of each fault kind in this project (empty list: not possible;
     `unavailable` says why).
 
-    `only` limits `kill` and `hang` to those components (targeted campaigns).
+    `only` limits `kill` and `hang` to those components (targeted campaigns). On
+    `[nodes]`, processes are hit on the campaign's own node (`home_node`) only, and the
+    node kinds hit its peers, when each node can have a namespace of its own here.
     """
-    enabled = [c for c in config.components if c.enabled]
+    home = home_node(config)
+    plan = node_plan(config)
+    enabled = [c for c in config.components if c.enabled
+               and plan.placement.get(c.id, "") in ("", home)]
     relayed = relayed_robots(config)
-    nodes: list[str] = []  # a campaign runs one host's system: no peer node (unavailable)
+    nodes = sorted(n for n in plan.nodes if n != home) \
+        if home and not why_no_nodes(config) else []
     names = [c.id for c in enabled]
     chosen = [n for n in names if n in set(only)] if only else names
 
@@ -161,7 +172,9 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
     }
 
 
-TCP_KINDS = (FaultKind.DELAY, FaultKind.PARTITION)  # TCP loses and reorders nothing
+# On TCP (MQTT) a `loss` is what TCP shows above it: stalls and reset connections
+# (mrss.chaos.relay); it reorders nothing.
+TCP_KINDS = (FaultKind.DELAY, FaultKind.PARTITION, FaultKind.LOSS)
 
 
 def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
@@ -175,13 +188,29 @@ def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
                          f"{kind} applies to MAVLink (UDP) links only; this project's "
                          "relayed links are MQTT (TCP)")
     for kind in (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS):
-        why[kind] = ("the project runs on one host (no [nodes]); a campaign runs one "
-                     "node's share" if not config.sections.get("nodes") else
-                     why_no_nft() or "a campaign runs one host's system: it does not "
-                     "start the project's other nodes")
+        why[kind] = why_no_nodes(config) or "the project has a single node"
     if config.supervisor.launcher != "fork":
         why[FaultKind.FORKSERVER] = "the supervisor's launcher is not fork"
     return why
+
+
+def home_node(config: ProjectConfig) -> str:
+    """The node a campaign records from (its RCL's: the journal and the bus it hears);
+    "" for a project on one host."""
+    plan = node_plan(config)
+    if not plan.nodes:
+        return ""
+    rcl = next(iter(config.of_kind(ComponentKind.RCL)), None)
+    return (plan.placement.get(rcl.id) if rcl is not None else None) or sorted(plan.nodes)[0]
+
+
+def why_no_nodes(config: ProjectConfig) -> str:
+    """Why a campaign cannot run this project's nodes in namespaces and cut them apart
+    ("" when it can)."""
+    plan = node_plan(config)
+    if not plan.nodes:
+        return "the project runs on one host (no [nodes])"
+    return why_no_netns(plan.nodes) or why_no_nft()
 
 
 def components_of(config: ProjectConfig, kind: ComponentKind) -> list[str]:
@@ -192,10 +221,11 @@ class Injector:
     """Injects faults into the process tree of one root supervisor."""
 
     def __init__(self, root_pid: int, pid_of: Callable[[str], int | None],
-                 relays: Relays | None = None) -> None:
+                 relays: Relays | None = None, network: NodeNetwork | None = None) -> None:
         self.root_pid = root_pid
         self.pid_of = pid_of
         self.relays = relays
+        self.network = network
         # (pid, effect) -> how many timed faults hold it now, and how to undo it (the
         # first fault's heal), run by the heal that brings the count back to 0.
         self._holding: dict[tuple[int, Effect], tuple[int, Heal]] = {}
@@ -211,8 +241,13 @@ class Injector:
                 return 0, self.relays.impair(fault.target, IMPAIRMENTS[kind], fault.amount)
             except NetworkError as exc:
                 raise InjectionError(str(exc)) from None
-        if kind.network:
-            raise InjectionError(f"{kind}: {unavailable_node_reason()}")
+        if kind in (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS):
+            if self.network is None:
+                raise InjectionError(f"{kind}: the campaign runs no node network")
+            try:
+                return 0, self.network.cut(fault.target, int(fault.amount))
+            except NetworkError as exc:
+                raise InjectionError(str(exc)) from None
         if kind is FaultKind.FORKSERVER:
             pid = self._forkserver()
             self._signal(pid, signal.SIGKILL)
@@ -300,10 +335,6 @@ class Injector:
             except psutil.NoSuchProcess:
                 pass
         return heal
-
-
-def unavailable_node_reason() -> str:
-    return why_no_nft() or "a campaign runs one host's system: no peer node to cut off"
 
 
 def _resume(pid: int) -> None:

@@ -100,7 +100,7 @@ class Relays:
     def impair(self, robot: str, kind: Impairment, amount: float) -> Heal:
         if robot not in self.impairments:
             raise NetworkError(f"{robot}: no relay in its link's path")
-        if self.links[robot] == "mqtt" and kind in (Impairment.LOSS, Impairment.REORDER):
+        if self.links[robot] == "mqtt" and kind is Impairment.REORDER:
             raise NetworkError(f"{robot}: {kind} does not apply to a TCP link (MQTT)")
         return self.impairments[robot].add(kind, amount)
 

@@ -1,8 +1,8 @@
 """The invariants of getting over faults: no robot stuck, and healed to the same state (pure).
 
-- NO_ROBOT_STUCK: an action whose skill declares a progress bound (`Skill.progress_bound`,
-  logged by the RCL when the skill starts: `skill <Name> of action <uuid> runs with a
-  progress bound of <B>s`) never stays RUNNING longer than B s without news: a status
+- NO_ROBOT_STUCK: an action whose skills declare a progress bound (`Skill.progress_bound`;
+  the RCL puts the action's bound B on its RUNNING status, field `progress_bound`, 0 or
+  absent: none) never stays RUNNING longer than B s without news: a status
   of it on the bus (a progress update is one) or a journal transition. Silence runs
   from the last news to the next one, or to the end of the history while it is still
   running. A violation names the action, its robot and the silence.
@@ -13,38 +13,36 @@
   running, every open action waited on by an intention, every waited-on action open:
   no orphan, every action has an outcome or an owner).
 
-Both need the run's log or the probes they read: a history without them is incomplete.
+HEALED needs a probe after the faults: a history without one is incomplete.
 """
 
 from __future__ import annotations
 
-import re
 from collections import defaultdict
 
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.history import History
-from mrss.chaos.verdict import Invariant, Ruling, Violation, log_gap
-from mrss.chaos.views import TERMINAL, end_of, messages, statuses
-
-PROGRESS_BOUND = re.compile(
-    r"skill (\w+) of action ([0-9a-f]{32}) runs with a progress bound of ([0-9.]+)s")
+from mrss.chaos.verdict import Invariant, Ruling, Violation
+from mrss.chaos.views import TERMINAL, end_of, statuses
 
 
 def progress_bounds(h: History) -> dict[str, tuple[str, float]]:
-    """uuid -> (skill, bound) for each action a bounded skill ran for (the tightest)."""
+    """uuid -> (action name, bound) for each action a RUNNING status gave a progress bound
+    (the tightest, if its runs gave several)."""
     out: dict[str, tuple[str, float]] = {}
-    for _, m in messages(h, set(h.campaign.get("rcls") or ["rcl"])):
-        found = PROGRESS_BOUND.search(m)
-        if found:
-            skill, uuid, bound = found.group(1), found.group(2), float(found.group(3))
+    for uuid, seen in statuses(h).items():
+        for e in seen:
+            bound = e.body.get("progress_bound") or 0
+            if e.body.get("state") != "running" or not isinstance(bound, int | float) \
+                    or bound <= 0:
+                continue
+            name = str(e.body.get("name") or "?")
             if uuid not in out or bound < out[uuid][1]:
-                out[uuid] = (skill, bound)
+                out[uuid] = (name, float(bound))
     return out
 
 
 def check_no_robot_stuck(h: History, b: object = None) -> Ruling:
-    if log_gap(h):
-        return Ruling(unknown=log_gap(h))  # the bounds are in the log
     bounds = progress_bounds(h)
     news: dict[str, list[tuple[float, str]]] = defaultdict(list)
     robots: dict[str, str] = {}
@@ -60,7 +58,7 @@ def check_no_robot_stuck(h: History, b: object = None) -> Ruling:
     end = end_of(h)
     out: list[Violation] = []
     judged = 0
-    for uuid, (skill, bound) in sorted(bounds.items()):
+    for uuid, (name, bound) in sorted(bounds.items()):
         timeline = sorted(news.get(uuid, []))
         if not any(state == "running" for _, state in timeline):
             continue
@@ -79,7 +77,7 @@ def check_no_robot_stuck(h: History, b: object = None) -> Ruling:
         worst = max(silences, default=None)
         if worst is not None and worst[0] > bound:
             out.append(Violation(Invariant.NO_ROBOT_STUCK, uuid, (
-                f"robot {robots.get(uuid) or '?'}, skill {skill} (progress bound {bound:g}s)",
+                f"robot {robots.get(uuid) or '?'}, action {name} (progress bound {bound:g}s)",
                 f"running without news from {worst[1]:.1f}s for {worst[0]:.1f}s: "
                 f"next {worst[2]}")))
     return Ruling(out, judged)

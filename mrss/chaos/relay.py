@@ -17,8 +17,14 @@ and real TCP bytes pass through it, and its `Impairments` decide what becomes of
   `partition` is on (they wait in the relay and the sockets' buffers, as segments a
   cut network makes the sender retransmit): once healed they flow again, unless an
   end gave up meanwhile (an MQTT keepalive expired) and closed its connection, which
-  the relay then closes on the other side too. TCP loses nothing by itself: `loss`
-  and `reorder` do not apply.
+  the relay then closes on the other side too. TCP hides packet loss from its ends:
+  what they see of a lossy link is stalls (a lost segment waits for its retransmission
+  timeout, doubled at each loss again) and, when retransmissions give up or a middlebox
+  resets, a dropped connection. So `loss` on a TCP relay is that, and not lost bytes:
+  each chunk of bytes either way is, with the loss probability, stalled `stall` s
+  (LOSS_STALL) before it passes, and with `reset_share` of that probability the
+  connection is reset instead (RST to both ends; the MQTT client reconnects, through
+  the relay again). Bytes that pass are intact and in order. `reorder` does not apply.
 
 Faults overlap: each one adds its impairment and its heal removes it again; what
 applies is the strongest of those on (any partition, the highest loss, the longest
@@ -31,6 +37,7 @@ import heapq
 import random
 import selectors
 import socket
+import struct
 import threading
 import time
 from collections import Counter
@@ -41,6 +48,8 @@ from enum import StrEnum
 Address = tuple[str, int]
 Upstream = Callable[[], Address | None]
 REORDER_HOLD = 0.15  # s a datagram picked for reordering is held back (others overtake)
+LOSS_STALL = 1.0  # s a TCP chunk hit by `loss` is stalled (an initial retransmission timeout)
+RESET_SHARE = 0.1  # of the chunks hit by `loss`, the share whose connection is reset
 DATAGRAM = 65535
 CHUNK = 65536
 TICK = 0.05
@@ -108,6 +117,24 @@ class Impairments:
         if lost:
             return None
         return (self.strongest(Impairment.DELAY) or 0.0) + (reorder_hold if held else 0.0)
+
+
+    def tcp_fate(self, reset_share: float = RESET_SHARE) -> TcpFate:
+        """For one chunk of TCP bytes under the `loss` on now: passes, stalled or reset."""
+        loss = self.strongest(Impairment.LOSS) or 0.0
+        if loss <= 0:
+            return TcpFate.PASS
+        with self._lock:
+            hit, reset = self._rng.random() < loss, self._rng.random() < reset_share
+        return TcpFate.PASS if not hit else TcpFate.RESET if reset else TcpFate.STALL
+
+
+class TcpFate(StrEnum):
+    """What a lossy link does to a chunk of TCP bytes, as its ends see it."""
+
+    PASS = "pass"
+    STALL = "stall"  # held for a retransmission timeout
+    RESET = "reset"  # the connection dropped
 
 
 class UdpRelay:
@@ -206,7 +233,9 @@ class TcpRelay:
         self.listener.listen(16)
         self.listener.settimeout(TICK * 4)
         self.address: Address = self.listener.getsockname()
-        self.counts: Counter[str] = Counter()  # connections, bytes, refused
+        self.counts: Counter[str] = Counter()  # connections, bytes, refused, stalled, reset
+        self.stall = LOSS_STALL  # s a chunk hit by loss waits
+        self.reset_share = RESET_SHARE  # ... or its connection is reset, this share of them
         self._lock = threading.Lock()
         self._sockets: set[socket.socket] = set()
         self._stop = threading.Event()
@@ -253,6 +282,7 @@ class TcpRelay:
                                  name="chaos-tcp-pump").start()
 
     def _pump(self, src: socket.socket, dst: socket.socket) -> None:
+        reset = False
         try:
             while not self._stop.is_set():
                 try:
@@ -262,13 +292,24 @@ class TcpRelay:
                 if not data:
                     break
                 self._hold(time.monotonic())
+                fate = self.impairments.tcp_fate(self.reset_share)
+                if fate is TcpFate.RESET:
+                    self.counts["reset"] += 1
+                    reset = True
+                    break
+                if fate is TcpFate.STALL:
+                    self.counts["stalled"] += 1
+                    self._stop.wait(self.stall)
                 dst.sendall(data)
                 self.counts["bytes"] += len(data)
         except OSError:
             pass
         finally:
             for s in (src, dst):
-                _close(s)
+                if reset:
+                    _abort(s)  # RST at once, no FIN first
+                else:
+                    _close(s)
                 with self._lock:
                     self._sockets.discard(s)
 
@@ -280,6 +321,15 @@ class TcpRelay:
             if not self.impairments.partitioned and left <= 0:
                 return
             time.sleep(min(TICK, max(left, 0.005)))
+
+
+def _abort(s: socket.socket) -> None:
+    """Close with RST, not FIN: a connection reset, as a lossy link's end sees it."""
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    except OSError:
+        pass
+    s.close()
 
 
 def _close(s: socket.socket) -> None:

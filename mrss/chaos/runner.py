@@ -3,7 +3,9 @@
 1. `mrss supervise PROJECT` starts as its own process (`mrss.procedures.RunningProject`)
    in the run folder; the recorder listens from the start.
    With network faults in the plan, a relay is put in each simulated robot's link first
-   (mrss.chaos.network): the system finds it where it would find the robot.
+   (mrss.chaos.network): the system finds it where it would find the robot. A project on
+   `[nodes]` runs each node in a network namespace of its own (mrss.chaos.netns): the
+   RCL's node in the run folder, each peer in `nodes/<name>/` of it, started after it.
 2. After `warmup` seconds the faults of the seeded plan are injected at their times
    while the project's operator traffic runs; timed faults are healed when they are over.
 3. Once the last fault is over the traffic stops and the system is probed every second
@@ -28,21 +30,26 @@ from mrss.chaos.campaign import CampaignError, Range, plan
 from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
+    IMPAIRMENTS,
     Fault,
     FaultKind,
     Heal,
     InjectionError,
     Injector,
     components_of,
+    home_node,
     targets,
     unavailable,
+    why_no_nodes,
 )
 from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
+from mrss.chaos.netns import NodeNetwork
 from mrss.chaos.network import Relays
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.traffic import Intent, OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
+from mrss.config.nodes import node_plan
 from mrss.config.operator import SECTION, GoalState, read_operator
 from mrss.config.project import ProjectConfig
 from mrss.procedures import RunningProject
@@ -91,17 +98,29 @@ def run(options: Options, say: Say = print) -> Path:
     reasoners = components_of(config, ComponentKind.REASONER)
     rcls = components_of(config, ComponentKind.RCL)
     options.run_dir.mkdir(parents=True, exist_ok=True)
+    home = home_node(config)
+    if home and why_no_nodes(config):
+        raise CampaignError(f"{options.project} runs on [nodes]: a campaign runs each node "
+                            f"in a network namespace of its own, which {why_no_nodes(config)}")
     path = options.run_dir / FILE_NAME
     writer = HistoryWriter(path)
-    system = RunningProject(config.directory, options.run_dir, env=options.env)
-    system.output = options.run_dir / SUPERVISE_LOG
+    network = NodeNetwork(node_plan(config).nodes, home) if home else None
+    system = _node_system(config.directory, options, network, home, options.run_dir)
+    peers = [_node_system(config.directory, options, network, peer,
+                          options.run_dir / "nodes" / peer)
+             for peer in (network.peers if network is not None else ())]
     recorder: Recorder | None = None
     heals: list[tuple[float, Fault, int, Heal]] = []
-    # relays in the robots' paths before anything resolves their addresses (detours)
-    relays = Relays(config, options.run_dir, options.seed).start() \
-        if any(f.kind.network for f in faults) else None
+    relays: Relays | None = None
     try:
+        if network is not None:  # this thread (and those it starts) on the home node
+            network.up().enter(home)
+        # relays in the robots' paths before anything resolves their addresses (detours)
+        if any(f.kind.network and f.kind in IMPAIRMENTS for f in faults):
+            relays = Relays(config, options.run_dir, options.seed).start()
         system.start(timeout=STARTUP)
+        for peer in peers:  # the home node's proxy first, as an operator starts them
+            peer.start(timeout=STARTUP)
         recorder = Recorder(options.run_dir, writer,
                             options.run_dir / f"{rcls[0] if rcls else 'rcl'}-journal.sqlite3",
                             traffic.reply_topics)
@@ -114,7 +133,8 @@ def run(options: Options, say: Say = print) -> Path:
                      mode_beliefs=traffic.mode_beliefs,
                      planned=[dataclasses.asdict(f) for f in faults],
                      skipped={k.value: why for k, why in skipped.items()},
-                     relayed=relays.links if relays is not None else {})
+                     relayed=relays.links if relays is not None else {},
+                     nodes={"home": home, "peers": [p.node for p in peers]} if home else {})
         system.wait_ready(tuple(reasoners + rcls) or ("rcl", "reasoner"), timeout=STARTUP)
         say(f"chaos: {options.project} up in {options.run_dir}; "
             f"{len(faults)} faults, seed {options.seed}")
@@ -125,7 +145,7 @@ def run(options: Options, say: Say = print) -> Path:
             name="chaos-operator", daemon=True)
         operator.start()
         _sleep_until(recorder, options.warmup, system)
-        injector = Injector(_root_pid(system), recorder.pid_of, relays)
+        injector = Injector(_root_pid(system), recorder.pid_of, relays, network)
         start = recorder.now()
         for number, fault in enumerate(faults, 1):
             _sleep_until(recorder, start + fault.at, system, heals, writer)
@@ -151,6 +171,8 @@ def run(options: Options, say: Say = print) -> Path:
         recorder.record_journal()
         recorder.record_log(set(reasoners + rcls))
         code = _stop(system)
+        for peer in peers:
+            _stop(peer)
         writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code,
                      relays=relays.counts() if relays is not None else {})
     finally:
@@ -158,10 +180,23 @@ def run(options: Options, say: Say = print) -> Path:
             _heal_all(heals, recorder, writer)
             recorder.close()
         system.close()
+        for peer in peers:
+            peer.close()
+        if network is not None:
+            network.close()
         if relays is not None:
             relays.close()
         writer.close()
     return path
+
+
+def _node_system(project_dir: Path, options: Options, network: NodeNetwork | None,
+                 node: str, run_dir: Path) -> RunningProject:
+    """`mrss supervise` of the project (of one node's share, in its namespace)."""
+    system = RunningProject(project_dir, run_dir, env=options.env, node=node,
+                            prefix=network.prefix(node) if network is not None else ())
+    system.output = run_dir / SUPERVISE_LOG
+    return system
 
 
 def skipped_kinds(kinds: tuple[FaultKind, ...], possible: dict[FaultKind, list[str]],

@@ -122,6 +122,9 @@ class ActionStatus(Message):
     critical: str = ""  # the critical section a skill of it is in (Skill.critical), or ""
     critical_bound: float = 0.0  # its declared bound, seconds
     deferring: bool = False  # a stop (suspend, cancel, pre-emption) waits for it to end
+    # RUNNING: the longest its skills go without news (Skill.progress_bound), seconds;
+    # 0: no promise. Absent in older recordings (decoded as 0).
+    progress_bound: float = 0.0
 
     def __post_init__(self) -> None:
         _closed(self, state=ActionState, cause=FailureCause)
@@ -135,6 +138,8 @@ class ActionStatus(Message):
         if self.critical_bound < 0 or (self.deferring and not self.critical):
             raise DecodeError(f"critical section {self.critical!r}: bound "
                               f"{self.critical_bound!r}, deferring {self.deferring!r}")
+        if not self.progress_bound >= 0:  # NaN too
+            raise DecodeError(f"progress bound {self.progress_bound!r} is not >= 0")
 
 
 @dataclass(frozen=True)

@@ -5,10 +5,10 @@ vacuous: the operator sends goal
 a1, the reasoner asks for cover(uav1,a1), the RCL runs it to success, the reasoner
 releases its latch; a reasoner is killed and restarts; the operator switches the UGV to
 teleop and back; after the faults a probe finds everything running and idle; the
-journal and the run's log are read; cover's skill declares a progress bound of 6 s and
-keeps it; uav1 is available before the fault and after; the action's skill holds a
-critical section within its bound. Each test changes one thing and expects one
-invariant to break.
+journal and the run's log are read; cover's RUNNING status carries a progress bound of
+6 s (`progress_bound`) and it is kept; uav1 is available before the fault and after;
+the action's skill holds a critical section within its bound. Each test changes one
+thing and expects one invariant to break.
 """
 
 from __future__ import annotations
@@ -28,11 +28,12 @@ def bus(t: float, kind: str, body: dict[str, Any], src: str = "rcl", inc: int = 
 
 
 def status(t: float, uuid: str, state: str, inc: int = 1, reason: str = "",
-           critical: str = "", bound: float = 0.0, deferring: bool = False) -> Record:
+           critical: str = "", bound: float = 0.0, deferring: bool = False,
+           **extra: Any) -> Record:
     return bus(t, "action.status", {"uuid": uuid, "state": state, "reason": reason,
                                     "progress": {}, "robot": "uav1", "critical": critical,
-                                    "critical_bound": bound, "deferring": deferring},
-               inc=inc)
+                                    "critical_bound": bound, "deferring": deferring,
+                                    **extra}, inc=inc)
 
 
 def request(t: float, uuid: str, goal: str, name: str = "cover", inc: int = 1) -> Record:
@@ -94,10 +95,11 @@ def healthy() -> list[Record]:
         robot_state(0.6, "uav1"),
         operator(1.0, "goal", "a1"),
         request(2.0, U1, "a1"),
-        status(2.1, U1, "pending"), status(2.2, U1, "running"),
-        log(2.2, "rcl", f"skill CoverArea of action {U1} runs with a progress bound of 6s"),
-        status(2.3, U1, "running", critical="landing", bound=5.0),
-        status(6.0, U1, "running", reason="critical section 'landing' ended"),
+        status(2.1, U1, "pending"),
+        status(2.2, U1, "running", name="cover", progress_bound=6.0),
+        status(2.3, U1, "running", critical="landing", bound=5.0, progress_bound=6.0),
+        status(6.0, U1, "running", reason="critical section 'landing' ended",
+               progress_bound=6.0),
         status(7.0, U1, "running"),  # a progress update (a repeat of the state)
         operator(3.0, "mode", robot="ugv1", mode="teleop", on=True),
         operator(4.0, "mode", robot="ugv1", mode="teleop", on=False),

@@ -369,7 +369,7 @@ def test_an_action_running_without_news_past_its_skills_bound_is_a_stuck_robot()
                if not (r["type"] == "bus" and r["t"] in (2.3, 6.0, 7.0))]
     found = verdict(records).of(Invariant.NO_ROBOT_STUCK)  # 2.2 s -> 10.0 s: 7.8 s > 6 s
     assert [v.subject for v in found] == [U1]
-    assert found[0].evidence[0] == "robot uav1, skill CoverArea (progress bound 6s)"
+    assert found[0].evidence[0] == "robot uav1, action cover (progress bound 6s)"
     assert "from 2.2s for 7.8s: next succeeded at 10.0s" in found[0].evidence[1]
 
 
@@ -385,10 +385,21 @@ def test_an_action_still_running_at_the_end_past_its_bound_is_stuck() -> None:
 
 
 def test_without_a_declared_bound_no_robot_stuck_has_nothing_to_check() -> None:
-    records = [r for r in healthy() if not (r["type"] == "logline"
-                                            and "progress bound" in r["message"])]
+    records = healthy()
+    for r in records:
+        if r["type"] == "bus" and r["kind"] == "action.status":
+            r["body"].pop("progress_bound", None)  # as a recording older than the field
     v = verdict(records)
     assert v.judgement(Invariant.NO_ROBOT_STUCK) is Judgement.VACUOUS
+
+
+def test_the_bound_is_read_from_the_status_field_not_from_the_log() -> None:
+    records = [r for r in healthy() if not (r["type"] == "bus" and r["t"] == 7.0)]
+    records.append(log(2.2, "rcl", f"skill CoverArea of action {U1} runs with a progress "
+                                   "bound of 60s"))  # the old log line says nothing now
+    found = verdict(records).of(Invariant.NO_ROBOT_STUCK)
+    assert [v.subject for v in found] == [U1]
+    assert "(progress bound 6s)" in found[0].evidence[0]
 
 
 # -- heals to the same state --------------------------------------------------------------

@@ -6,6 +6,7 @@ the client talks to the relay's address as the RCL's link (or the robot) would.
 
 from __future__ import annotations
 
+import contextlib
 import select
 import socket
 import threading
@@ -144,7 +145,7 @@ def tcp_peer() -> Iterator[socket.socket]:
 
 
 def _echo(conn: socket.socket) -> None:
-    with conn:
+    with conn, contextlib.suppress(ConnectionResetError):  # a relay's reset (loss)
         while data := conn.recv(4096):
             conn.sendall(data)
 
@@ -167,6 +168,58 @@ def test_tcp_partition_holds_bytes_until_healed_and_delay_passes_them(tcp_peer) 
         assert client.recv(100) == b"slow"
         heal_delay()
         assert relay.counts["connections"] == 1
+    finally:
+        client.close()
+        relay.close()
+
+
+def test_tcp_loss_stalls_chunks_and_passes_them_intact_in_order(tcp_peer) -> None:  # type: ignore[no-untyped-def]
+    impairments = Impairments(seed=5)
+    relay = TcpRelay(lambda: tcp_peer.getsockname(), impairments)
+    relay.stall, relay.reset_share = 0.05, 0.0  # every chunk hit stalls, none resets
+    relay.start()
+    client = socket.create_connection(relay.address, timeout=10)
+    try:
+        heal = impairments.add(Impairment.LOSS, 1.0)
+        got = b""
+        for n in range(5):
+            client.sendall(f"m{n};".encode())
+            while not got.endswith(f"m{n};".encode()):
+                got += client.recv(100)
+        assert got == b"m0;m1;m2;m3;m4;"  # nothing lost, nothing out of order
+        assert relay.counts["stalled"] >= 10  # each chunk, both ways
+        assert relay.counts["reset"] == 0 and relay.counts["connections"] == 1
+        heal()
+        before = relay.counts["stalled"]
+        client.sendall(b"clear")
+        assert client.recv(100) == b"clear"
+        assert relay.counts["stalled"] == before  # healed: no stall any more
+    finally:
+        client.close()
+        relay.close()
+
+
+def test_tcp_loss_may_reset_the_connection_and_a_new_one_passes(tcp_peer) -> None:  # type: ignore[no-untyped-def]
+    impairments = Impairments(seed=5)
+    relay = TcpRelay(lambda: tcp_peer.getsockname(), impairments)
+    relay.reset_share = 1.0  # every chunk hit resets its connection
+    relay.start()
+    client = socket.create_connection(relay.address, timeout=10)
+    try:
+        client.sendall(b"before")
+        assert client.recv(100) == b"before"
+        heal = impairments.add(Impairment.LOSS, 1.0)
+        client.sendall(b"lost")
+        with pytest.raises(ConnectionResetError):
+            while client.recv(100):  # the reset arrives (RST), the bytes never do
+                pass
+        assert relay.counts["reset"] == 1
+        heal()
+        again = socket.create_connection(relay.address, timeout=10)
+        with again:
+            again.sendall(b"after")
+            assert again.recv(100) == b"after"
+        assert relay.counts["connections"] == 2
     finally:
         client.close()
         relay.close()

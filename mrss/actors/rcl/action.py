@@ -46,6 +46,9 @@ class Action:
     critical: str = ""
     critical_bound: float = 0.0
     deferring: bool = False
+    # The longest its skills go without news (`progress_bound_of` its skills), seconds;
+    # 0: no promise. Published with the status, never journaled (set again on each run).
+    progress_bound: float = 0.0
 
     @property
     def terminal(self) -> bool:

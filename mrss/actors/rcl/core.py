@@ -401,7 +401,8 @@ class RclCore:
                               cause=FailureCause(action.cause), repeat=repeat, name=action.name,
                               goal=action.goal, critical=action.critical,
                               critical_bound=action.critical_bound,
-                              deferring=action.deferring)
+                              deferring=action.deferring,
+                              progress_bound=action.progress_bound)
         try:
             self.publish(status)
         except Exception as exc:  # the journal has it; a reconnecting sender re-asks

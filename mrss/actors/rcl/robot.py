@@ -31,7 +31,7 @@ from mrss.actors.rcl.failure_causes import failure_cause
 from mrss.actors.rcl.journal import JournalEntry
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.resources import ResourceBroker
-from mrss.actors.rcl.skill import CriticalSection, Skill, SkillOutcome
+from mrss.actors.rcl.skill import CriticalSection, Skill, SkillOutcome, progress_bound_of
 from mrss.actors.rcl.skill_actor import (
     CriticalChanged,
     ProgressRecorded,
@@ -410,6 +410,7 @@ class RobotActor(SupervisedActor):
                                  self.actor_ref.tell, self.host.publish_sup,
                                  self._skill_data_fn(snapshot.uuid))
             t.refs.append(SkillActor.start(skill, runner, self.actor_ref.tell))
+        t.action.progress_bound = progress_bound_of(skills)  # on the RUNNING status
         if t.action.state is not ActionState.RUNNING:
             t.action.transition(ActionState.RUNNING, reason)
             self.emit(t.action.copy(), "")

@@ -135,7 +135,8 @@ class Skill:
     restart_period: ClassVar[float] = 60.0
     #: The longest a running skill goes without news (a recorded progress or a new state
     #: of its action) while its robot is not stuck, in seconds; None: no promise. The RCL
-    #: logs it when the skill starts; `mrss chaos` holds the action to it (no-robot-stuck).
+    #: publishes its action's bound (`progress_bound_of`) with the RUNNING status;
+    #: `mrss chaos` holds the action to it (no-robot-stuck).
     progress_bound: ClassVar[float | None] = None
 
     _runtime: SkillRuntime | None = None
@@ -259,3 +260,15 @@ class Skill:
         if new not in SKILL_TRANSITIONS[self.state]:
             raise ActionError(f"skill {self.name}: illegal transition {self.state} -> {new}")
         self.state = new
+
+
+def progress_bound_of(skills: list[Skill]) -> float:
+    """The progress bound of an action run by `skills` (all at once), seconds; 0: none.
+
+    News of the action comes from whichever skill still runs, so only a promise every one
+    of them makes holds for the action: the loosest bound when each declares one, else
+    none (a skill without a bound may run on in silence after the bounded ones ended)."""
+    bounds = [s.progress_bound for s in skills]
+    if not bounds or any(b is None or not b > 0 for b in bounds):
+        return 0.0
+    return float(max(b for b in bounds if b is not None))

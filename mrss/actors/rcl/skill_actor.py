@@ -277,10 +277,6 @@ class SkillActor(pykka.ThreadingActor):
 
     def _work(self) -> None:
         escalated = False
-        bound = self.skill.progress_bound
-        if bound is not None:  # what `mrss chaos` holds the action to (no-robot-stuck)
-            log.info("skill %s of action %s runs with a progress bound of %gs",
-                     self.skill.name, self.runner.action.uuid, float(bound))
         try:
             outcome, reason, escalated = drive(self.skill, self.runner)
         except BaseException as exc:  # noqa: BLE001 - never lose the report

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from mrss.actors.rcl.skill import progress_bound_of
 from mrss.messages import ActionStatus, RobotState
 from mrss.testing import wait_until
-from tests.actors.rcl.rcl_sim import RclEnv, request_fields
+from tests.actors.rcl.rcl_sim import Patrol, RclEnv, request_fields
 
 
 def _progress(env: RclEnv, uuid: str) -> list[object]:
@@ -71,3 +72,36 @@ def test_snapshot_sends_every_robot_state_and_every_open_action_as_repeats(
     assert sorted(states) == ["uav1", "ugv1", "ugv2"]
     assert states["uav1"].attributes == {"teleop": True}
     assert states["ugv1"].available and states["ugv1"].link == "up"
+
+
+class _BoundedPatrol(Patrol):
+    progress_bound = 45.0
+
+
+def test_the_running_status_carries_the_progress_bound_of_the_actions_skills(
+        rcl_env: RclEnv) -> None:
+    rcl_env.layer.recipes["bounded"] = lambda a: [_BoundedPatrol(list(a.args[2]))]  # type: ignore[arg-type]
+    rcl_env.layer.recipes["mixed"] = lambda a: [_BoundedPatrol(list(a.args[2])),  # type: ignore[arg-type]
+                                                Patrol(["q"])]
+    core = rcl_env.start()
+    core.submit_fields(request_fields("a1", "bounded", "ugv1", "g1", ["p1"]))
+    core.submit_fields(request_fields("a2", "mixed", "ugv2", "g2", ["p2"]))
+    core.submit_fields(request_fields("a3", "patrol", "uav1", "g3", ["p3"]))
+    for uuid in ("a1", "a2", "a3"):
+        wait_until(rcl_env.statuses.reached(uuid, "running"), message=f"{uuid} running")
+    running = {u: next(s for s in rcl_env.statuses.of(u) if s.state == "running")
+               for u in ("a1", "a2", "a3")}
+    assert running["a1"].progress_bound == 45.0
+    assert running["a2"].progress_bound == 0.0  # a skill without a bound: no promise
+    assert running["a3"].progress_bound == 0.0
+    assert all(s.progress_bound == 0.0 for s in rcl_env.statuses.of("a1")
+               if s.state == "pending")
+
+
+def test_progress_bound_of_skills_is_the_loosest_when_all_declare_one() -> None:
+    class Fast(Patrol):
+        progress_bound = 5.0
+
+    assert progress_bound_of([Fast([]), _BoundedPatrol([])]) == 45.0
+    assert progress_bound_of([Fast([]), Patrol([])]) == 0.0
+    assert progress_bound_of([]) == 0.0

@@ -38,6 +38,8 @@ class TimedRobot:
 class Patrol(Skill):
     """Visit waypoints from the last one reached."""
 
+    progress_bound = 30.0  # a waypoint every `leg` s (0.05 s in the tests)
+
     def __init__(self, waypoints: list[Any]) -> None:
         self.waypoints = waypoints
 
