@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -20,7 +18,7 @@ import psutil
 from mrss.interpreter import python_module
 from mrss.ports import free_port as free_port
 from mrss.ports import free_udp_port as free_udp_port
-from mrss.programs import find_mosquitto
+from mrss.programs import find_mosquitto as find_mosquitto
 
 T = TypeVar("T")
 

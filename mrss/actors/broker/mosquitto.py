@@ -41,8 +41,6 @@ from pathlib import Path
 
 import psutil
 
-from mrss.programs import find_mosquitto
-
 log = logging.getLogger("mrss.broker.mosquitto")
 DB_FILE = "mosquitto.db"
 PID_FILE = "mosquitto.pid"

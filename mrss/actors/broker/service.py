@@ -60,12 +60,13 @@ from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
 from mrss.actors.broker.engine import BrokerEngine, broker_engine, table_of
-from mrss.actors.broker.mosquitto import MosquittoProcess, find_mosquitto
+from mrss.actors.broker.mosquitto import MosquittoProcess
 from mrss.actors.broker.passwords import PASSWORD_FILE_KEY, password_file_problem
 from mrss.edge.rejections import LoggedRefusals, RejectionLog
 from mrss.errors import ConfigError, MrssError
 from mrss.options import Check, Option, OptionValues
 from mrss.ports import free_port
+from mrss.programs import find_mosquitto
 from mrss.runtime.component import Component, ComponentContext
 
 log = logging.getLogger("mrss.broker")
