@@ -40,6 +40,7 @@ from mrss.links.connect import project_broker_url
 from mrss.links.mqtt_publish import publish_json
 from mrss.messages import ActionStatus, Envelope, Heartbeat, JsonValue, Percept, RobotData
 from mrss.messages.credentials import KEY_FILE
+from mrss.runtime.forkserver import COMPONENT_COMM_PREFIX
 from mrss.testing import WaitTimeout, wait_until
 
 T = TypeVar("T")
@@ -59,6 +60,7 @@ class RunningProject:
         self.env = dict(os.environ, MRSS_PROJECTS=str(self.project_dir.parent), **(env or {}))
         self.process: subprocess.Popen[bytes] | None = None
         self.percepts: list[str] = []
+        self.percept_log: list[tuple[str, str, str, int]] = []  # op, literal, src, inc
         self.status_log: list[ActionStatus] = []
         self.latest: dict[str, ActionStatus] = {}  # uuid -> newest status, repeats too
         self.heartbeats: set[str] = set()
@@ -162,8 +164,10 @@ class RunningProject:
     def _on_message(self, env: Envelope) -> None:
         body = env.body
         with self._lock:
-            if isinstance(body, Percept) and body.op == "add":
-                self.percepts.append(body.literal)
+            if isinstance(body, Percept):
+                self.percept_log.append((body.op, body.literal, env.src, env.inc))
+                if body.op == "add":
+                    self.percepts.append(body.literal)
             elif isinstance(body, ActionStatus):
                 self.latest[body.uuid] = body  # progress goes out as repeat statuses
                 if not body.repeat:  # the log: transitions only
@@ -192,18 +196,40 @@ class RunningProject:
             return self.incarnations.get(component, (0, 0))[0]
 
     def signal(self, component: str, sig: int = signal.SIGKILL) -> int:
-        """Send `sig` to a heartbeating component's current process (a fault, as the
-        dashboard's `k` sends); returns its pid."""
+        """Send `sig` to a component's current process (a fault, as the dashboard's `k`
+        sends): the one heartbeating, else the one in the supervisor's tree; its pid."""
         with self._lock:
             inc, pid = self.incarnations.get(component, (0, 0))
-        assert pid, f"no heartbeat from {component} yet"
+        pid = pid or self.component_pid(component)
+        assert pid, f"no heartbeat from {component} yet, nor a process of it"
         os.kill(pid, sig)
         return pid
+
+    def component_pid(self, component: str) -> int:
+        """The pid of the component's live process in the supervisor's tree (0: none):
+        forked, it is named `mrss:<component>`; started, its argv says `--name`."""
+        comm = f"{COMPONENT_COMM_PREFIX}{component}"[:15]
+        for child in self._children():
+            try:
+                argv = child.cmdline()
+                if child.status() != psutil.STATUS_ZOMBIE and (
+                        child.name() == comm or ("--name" in argv and argv[
+                            argv.index("--name") + 1:][:1] == [component])):
+                    return int(child.pid)
+            except (psutil.NoSuchProcess, psutil.AccessDenied):
+                continue
+        return 0
 
     def perceived(self, prefix: str) -> list[str]:
         """Percepts (added) whose literal starts with `prefix`."""
         with self._lock:
             return [p for p in self.percepts if p.startswith(prefix)]
+
+    def percept_events(self, prefix: str) -> list[tuple[str, str, str, int]]:
+        """Percepts added and removed whose literal starts with `prefix`, in the order
+        heard: (op, literal, sending component, its incarnation)."""
+        with self._lock:
+            return [e for e in self.percept_log if e[1].startswith(prefix)]
 
     def log(self, tail: int = 8000) -> str:
         """The end of the system's output."""

@@ -18,6 +18,14 @@ commands nothing: the agent drives (it knows the project's action for a drive, a
 checks it like any other), so a project whose agent has no plan for the percept still
 gets the alert. A look at one robot, and at the zones, happens at most every
 `geofence_interval` seconds.
+
+What it told survives a restart of the data layer (the agent keeps its percepts when the
+data layer dies, `mrss.actors.reasoner.percept_ledger`): each percept is written to
+`ToldPercepts` (`<run_dir>/<component>-geofence.sqlite3`) before it is sent. A new
+incarnation reads them at its start: the removals the previous one may not have got
+through are sent again, and the percepts it left standing are taken over, so the first
+look at the robot that tells removes them (the robot is out), replaces them (it stopped
+elsewhere) or tells them again (unchanged: the agent, which holds it, sees nothing new).
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from typing import Any, ClassVar
 from shapely.geometry import Point, shape
 from shapely.geometry.base import BaseGeometry
 
+from mrss.actors.datalayer.told_percepts import Told, ToldPercepts
 from mrss.agentspeak.literals import literal, symbol
 from mrss.errors import ConfigError
 from mrss.links.geo import distance_m
@@ -62,6 +71,7 @@ class _Robot:
     finding: Finding = Finding.OUTSIDE
     looked: float = -math.inf                   # monotonic time of the last look
     fix: tuple[float, float, float] | None = None   # lat, lon, monotonic time
+    stale: tuple[str, ...] = ()   # told by a previous incarnation: settled at the next tell
 
 
 @dataclass(frozen=True)
@@ -92,7 +102,9 @@ class Geofence:
     def __init__(self, world: WorldModelAccess, percept: PerceptPublisher, *,
                  kinds: tuple[str, ...] = ("no_go",), margin_m: float = 1.0,
                  interval: float = 1.0, stopped_mps: float = 0.05,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 told: ToldPercepts | None = None,
+                 settled: Callable[[], bool] = lambda: True) -> None:
         self.world, self.percept = world, percept
         self.kinds, self.margin_m = kinds, margin_m
         self.interval, self.stopped_mps = interval, stopped_mps
@@ -101,6 +113,28 @@ class Geofence:
         self._zones: list[_Zone] = []
         self._zones_read = -math.inf
         self.failing = False   # the last look could not read the world model
+        #: what it told, durable when the store is a file; `settled`: every percept sent
+        #: so far is acknowledged (withdrawn rows may then go)
+        self.told = told or ToldPercepts(":memory:")
+        self.settled = settled
+        self._unsettled = False
+        self._take_over()
+
+    def _take_over(self) -> None:
+        """Take over what a previous incarnation told (nothing in a fresh store)."""
+        withdrawn = self.told.rows(Told.WITHDRAWN)
+        for _robot, text in withdrawn:
+            self.percept(text, op="remove")
+        self._unsettled = bool(withdrawn)
+        held = self.told.rows(Told.HELD)
+        for robot, text in held:
+            state = self.robots.setdefault(robot, _Robot())
+            state.stale += (text,)
+            state.finding = Finding.TRAPPED if text.startswith(TRAPPED) else Finding.EXIT
+        if held or withdrawn:
+            log.warning("geofence: taking over what the previous incarnation told: %d "
+                        "percept(s) standing (%s), %d removal(s) sent again", len(held),
+                        ", ".join(text for _, text in held) or "none", len(withdrawn))
 
     @classmethod
     def on(cls, section: Mapping[str, Any]) -> bool:
@@ -113,9 +147,10 @@ class Geofence:
 
     @classmethod
     def configured(cls, section: Mapping[str, Any], world: WorldModelAccess | None,
-                   percept: PerceptPublisher) -> Geofence | None:
+                   percept: PerceptPublisher, *, told: ToldPercepts | None = None,
+                   settled: Callable[[], bool] = lambda: True) -> Geofence | None:
         """The geofence `[datalayer]` asks for, or None when it is off (or there is no
-        world model to hold the zones: logged)."""
+        world model to hold the zones: logged); `told`, `settled`: see `__init__`."""
         values = OptionValues(cls.OPTIONS, section, section="datalayer")
         if not values.flag("geofence"):   # a value not true or false: ConfigError
             return None
@@ -127,7 +162,8 @@ class Geofence:
         return cls(world, percept, kinds=tuple(str(k) for k in kinds),
                    margin_m=values.number("geofence_margin_m"),
                    interval=values.number("geofence_interval"),
-                   stopped_mps=values.number("geofence_stopped_mps"))
+                   stopped_mps=values.number("geofence_stopped_mps"), told=told,
+                   settled=settled)
 
     # -- one record ---------------------------------------------------------------------
     def observe(self, robot: str, record: Mapping[str, Any]) -> Finding | None:
@@ -145,6 +181,9 @@ class Geofence:
         if self.failing and found is not None:
             self.failing = False
             log.warning("geofence: robots checked again")
+        if self._unsettled and self.settled():   # the removals sent have arrived
+            self.told.forget_withdrawn()
+            self._unsettled = False
         return found
 
     def _look(self, robot: str, record: Mapping[str, Any]) -> Finding | None:
@@ -192,17 +231,23 @@ class Geofence:
         return Finding.EXIT
 
     def _tell(self, robot: str, state: _Robot, finding: Finding, text: str) -> None:
-        """Replace the percept the agent holds about `robot` by `text` ("" for none)."""
-        if text == state.percept:
+        """Replace the percept the agent holds about `robot` by `text` ("" for none), and
+        what a previous incarnation told about it. The store hears of each change first."""
+        if text == state.percept and not state.stale:
             state.finding = finding
             return
-        if state.percept:
-            self.percept(state.percept, op="remove")
         if text:
+            self.told.mark(robot, text, Told.HELD)
+        for old in (state.percept, *state.stale):
+            if old and old != text:
+                self.told.mark(robot, old, Told.WITHDRAWN)
+                self.percept(old, op="remove")
+                self._unsettled = True
+        if text and text != state.percept:   # told again when only stale: no news to it
             self.percept(text)
-        elif state.finding in (Finding.EXIT, Finding.TRAPPED):
+        elif not text and state.finding in (Finding.EXIT, Finding.TRAPPED):
             log.info("geofence: robot %s is out of every no-go zone", robot)
-        state.percept, state.finding = text, finding
+        state.percept, state.finding, state.stale = text, finding, ()
 
     # -- what it reads ------------------------------------------------------------------
     def _speed(self, state: _Robot, record: Mapping[str, Any], lat: float, lon: float,

@@ -31,8 +31,6 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
-from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
@@ -41,6 +39,8 @@ from typing import Any, ClassVar
 
 from mrss.actors.datalayer.geofence import Geofence
 from mrss.actors.datalayer.layer import DataLayer, DataLayerContext
+from mrss.actors.datalayer.telemetry_queue import TelemetryQueue
+from mrss.actors.datalayer.told_percepts import ToldPercepts
 from mrss.config.broker import table
 from mrss.config.loader import load_file
 from mrss.config.projects import PROJECT_FILE
@@ -67,7 +67,8 @@ from mrss.runtime.percept_channel import PerceptChannel
 from mrss.runtime.percepts import PerceptPublisher, PerceptSink
 from mrss.world.access import BusWorldModel, HttpWorldModel, WorldModelAccess
 
-__all__ = ["DataLayerClient", "DataLayerComponent", "DataLayerError", "DataLayerService"]
+__all__ = ["DataLayerClient", "DataLayerComponent", "DataLayerError", "DataLayerService",
+           "TelemetryQueue"]
 DEFAULT_MODULE = "datalayer.py"
 log = logging.getLogger("mrss.datalayer")
 
@@ -219,55 +220,6 @@ def robot_validator(project_dir: Path, section: Mapping[str, Any]) -> RecordVali
                            default=DEFAULT_LIMITS[RobotType.GROUND].overridden(overrides))
 
 
-class TelemetryQueue:
-    """Robot data handed to one thread of its own, in order, so the subscriber's thread
-    never waits for the project's `on_telemetry`. Cheaper per record than an executor: no
-    Future per record, and the thread is woken only when it waits (it then takes what
-    came meanwhile). `close` drops what is queued; a record being handled finishes."""
-
-    def __init__(self, handle: Callable[[RobotData], object]) -> None:
-        self._handle = handle
-        self._queue: deque[RobotData] = deque()
-        self._wake = threading.Condition(threading.Lock())
-        self._idle = False   # the thread waits (or is about to) for a record
-        self._closed = False
-        self._thread = threading.Thread(target=self._run, name="dl-telemetry", daemon=True)
-        self._thread.start()
-
-    def put(self, data: RobotData) -> None:
-        self._queue.append(data)
-        if self._idle:  # set before the thread last looked at the queue: it may sleep
-            with self._wake:
-                self._wake.notify()
-
-    def pending(self) -> int:
-        """Records queued and not yet taken."""
-        return len(self._queue)
-
-    def _run(self) -> None:
-        queue = self._queue
-        while True:
-            while queue and not self._closed:
-                data = queue.popleft()
-                try:
-                    self._handle(data)
-                except Exception:
-                    log.exception("telemetry of robot %s was not handled", data.robot)
-            with self._wake:
-                self._idle = True
-                if not queue and not self._closed:
-                    self._wake.wait()
-                self._idle = False
-                if self._closed:
-                    return
-
-    def close(self) -> None:
-        with self._wake:
-            self._closed = True
-            self._queue.clear()
-            self._wake.notify()
-
-
 class DataLayerComponent(Component):
     """Component: serves `dl.request` and forwards `robot.*.data` telemetry."""
 
@@ -300,21 +252,33 @@ class DataLayerComponent(Component):
         self._world: WorldModelAccess | None = None
         self._percepts: PerceptChannel | None = None
         self._owners = RobotOwners({})
+        self._told: ToldPercepts | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         """Component entry: bus and percept channel from the context, then `run`."""
         bus = bus_port(ctx)
         self._percepts = PerceptChannel.for_component(ctx)
-        self.run(ctx.project_dir, edge_config(ctx, "datalayer"), bus,
-                 percepts=self._percepts.send, proven=bool(ctx.bus.get("key")))
+        config = edge_config(ctx, "datalayer")
+        if Geofence.on(table(config, "datalayer")):
+            # what the geofence told outlives this incarnation, not the run
+            self._told = ToldPercepts(ctx.run_dir / f"{ctx.name}-geofence.sqlite3",
+                                      fresh=ctx.incarnation <= 1)
+        channel = self._percepts
+        self.run(ctx.project_dir, config, bus, percepts=channel.send,
+                 proven=bool(ctx.bus.get("key")), told=self._told,
+                 settled=lambda: channel.pending() == 0)
         bus.wait_connected(5.0)  # ready means requests are heard
 
     def run(self, project_dir: Path, config: Mapping[str, Any], bus: BusPort, *,
-            percepts: PerceptSink | None = None, proven: bool = False) -> None:
+            percepts: PerceptSink | None = None, proven: bool = False,
+            told: ToldPercepts | None = None,
+            settled: Callable[[], bool] = lambda: True) -> None:
         """Load the project's data layer and serve requests on `bus`.
 
         The project's percepts go to `percepts` (default: published on `bus`); `proven`:
-        the bus has the run's incarnation key (robot data needs a proven incarnation).
+        the bus has the run's incarnation key (robot data needs a proven incarnation);
+        `told`: where the geofence keeps what it told (default: in memory), `settled`:
+        whether every percept sent is acknowledged.
         """
         section = table(config, "datalayer")
         values = OptionValues(self.OPTIONS, section, section="datalayer")
@@ -339,7 +303,8 @@ class DataLayerComponent(Component):
             self.datalayer, call_timeout=timeout, workers=workers,
             validator=robot_validator(project_dir, section),
             reject_interval=values.number("reject_log_interval"),
-            geofence=Geofence.configured(section, self._world, publisher))
+            geofence=Geofence.configured(section, self._world, publisher, told=told,
+                                         settled=settled))
         # Dispatch threads wait on calls, so a slow call never holds up the others.
         self._dispatch = ThreadPoolExecutor(max_workers=workers * 2,
                                             thread_name_prefix="dl-dispatch")
@@ -396,3 +361,5 @@ class DataLayerComponent(Component):
             if self._percepts is not None:
                 self._percepts.flush(1.0)
                 self._percepts.close()
+            if self._told is not None:
+                self._told.close()

@@ -9,12 +9,18 @@ sampled all along: the exit is the nearest point of the marsh's outline that is 
 next to another zone (a dune is laid right behind its nearest edge), plus the 1 m
 margin, and the track never enters the dune. Boxed in by zones on every side, the rover
 is told it is trapped, its drives are refused, and it does not move.
+
+The way out outlives the data layer: the rover starts in the marsh, is told its way out,
+and while it drives there (work waiting meanwhile) the data layer process is SIGKILLed
+in the supervisor's tree. Its new incarnation takes back the percept its predecessor
+told once the rover is out, and the waiting work runs.
 """
 
 from __future__ import annotations
 
 import json
 import shutil
+import signal
 import threading
 from pathlib import Path
 from typing import Any
@@ -22,7 +28,8 @@ from typing import Any
 import pytest
 from paho.mqtt import client as mqtt
 from paho.mqtt.enums import CallbackAPIVersion
-from shapely.geometry import LineString, shape
+from shapely.geometry import LineString, Point, shape
+from shapely.ops import nearest_points
 
 from mrss.api import distance_m, project_broker_url
 from mrss.api.testing import RunningProject
@@ -49,15 +56,19 @@ BOX = [DUNE, zone("north", 39.7720, 44.8003, 39.7724, 44.8017),
        zone("east", SOUTH_EDGE, EAST_EDGE, 39.7720, 44.8017)]
 
 
-def project_with(tmp_path: Path, zones: list[dict[str, Any]]) -> Path:
-    """AMADEE with `zones` added to its world, the simulator reporting at 10 Hz."""
+def project_with(tmp_path: Path, zones: list[dict[str, Any]], *,
+                 start: tuple[float, float] | None = None, speedup: float = 4.0) -> Path:
+    """AMADEE with `zones` added to its world, the simulator reporting at 10 Hz (from
+    `start` instead of the habitat, at `speedup`)."""
     copy = tmp_path / "projects" / "amadee"
     shutil.copytree(PROJECT, copy, ignore=shutil.ignore_patterns("procedures", "__pycache__"))
     world = json.loads((copy / "world.json").read_text(encoding="utf-8"))
     (copy / "world.json").write_text(json.dumps(world + zones), encoding="utf-8")
     toml = (copy / "project.toml").read_text(encoding="utf-8")
-    (copy / "project.toml").write_text(toml.replace('speedup = 4.0', 'speedup = 4.0\nrate = 10.0'),
-                                       encoding="utf-8")
+    toml = toml.replace('speedup = 4.0', f'speedup = {speedup}\nrate = 10.0')
+    if start is not None:
+        toml = toml.replace('base = [39.7700, 44.8000]', f'base = [{start[0]}, {start[1]}]')
+    (copy / "project.toml").write_text(toml, encoding="utf-8")
     return copy
 
 
@@ -103,9 +114,10 @@ def drive_in_by_hand(system: RunningProject, track: Track) -> int:
     return len(track.samples) - 1
 
 
-def started(tmp_path: Path, zones: list[dict[str, Any]]) -> tuple[RunningProject, Track]:
-    project = project_with(tmp_path, zones)
-    system = RunningProject(project, tmp_path / "run").start()
+def started(tmp_path: Path, zones: list[dict[str, Any]],
+            **options: Any) -> tuple[RunningProject, Track]:
+    project = project_with(tmp_path, zones, **options)
+    system = RunningProject(project, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": ""}).start()
     system.wait_ready()
     system.wait_for(lambda: (system.world("rover1") or {}).get("position"), 20,
                     "the rover's telemetry in the world model")
@@ -189,6 +201,65 @@ def test_a_rover_boxed_in_is_told_it_is_trapped_and_does_not_move(tmp_path: Path
         moved = [s for s in track.samples[stop:] if distance_m(s[0], s[1], *INSIDE) > 0.5]
         assert not moved, moved[:5]
         assert not system.statuses("rover1")
+    finally:
+        track.close()
+        system.close()
+
+
+def marsh_outline(project: Path) -> Any:
+    world = json.loads((project / "world.json").read_text(encoding="utf-8"))
+    return shape(next(z for z in world if z.get("id") == "salt_marsh")["geometry"])
+
+
+@pytest.mark.slow
+def test_the_way_out_outlives_a_data_layer_killed_while_the_rover_leaves(
+        tmp_path: Path) -> None:
+    # 2x: the rover leaves the marsh (26.7 m) in about 4 s, time enough to kill the data
+    # layer on the way; it starts stopped in the marsh (a restart that found it there)
+    system, track = started(tmp_path, [DUNE], start=INSIDE, speedup=2.0)
+    marsh = marsh_outline(PROJECT)
+    try:
+        told = system.wait_for(lambda: system.perceived("geofence_exit(rover1,salt_marsh,"),
+                               30, "the geofence's way out")[0]
+        [(_, _, sender, first)] = system.percept_events("geofence_exit(")
+        system.wait_for(lambda: "leaving it by the shortest legal path" in system.log(20000),
+                        20, "the agent to take the way out")
+        # the agent holds the way out: a drive asked for now waits for the rover to be out
+        system.publish("mrss/ui/drive", {"goal": "g1", "lat": SITE[0], "lon": SITE[1]})
+        system.wait_for(lambda: "goal g1 waits until rover1 is out" in system.log(20000), 20,
+                        "g1 to wait for the way out")
+        system.wait_for(lambda: [s for s in system.statuses("rover1", "running")
+                                 if s.goal == "geofence"], 30, "the drive out to run")
+
+        killed = system.signal(sender, signal.SIGKILL)   # a real kill, in the tree
+        at_kill = track.last()
+        assert at_kill is not None
+        assert marsh.contains(Point(at_kill[1], at_kill[0])), at_kill   # still inside
+        assert [e for e in system.percept_events(told) if e[0] == "remove"] == []
+
+        reborn = system.wait_for(lambda: system.component_pid(sender) not in (0, killed), 30,
+                                 "a new data layer process")
+        assert reborn
+        removed = system.wait_for(lambda: [e for e in system.percept_events(told)
+                                           if e[0] == "remove"], 60,
+                                  "the way out taken back")
+        assert [(op, src) for op, _, src, _ in removed] == [("remove", sender)]
+        assert removed[0][3] > first, removed      # by the new incarnation
+        assert "taking over what the previous incarnation told: 1 percept(s) standing" \
+            in system.log(60000)
+        out = track.last()
+        assert out is not None and not marsh.covers(Point(out[1], out[0]))
+
+        system.wait_for(lambda: [s for s in system.statuses("rover1", "succeeded")
+                                 if s.goal == "g1"], 90, "the waiting work to run")
+        assert "goal g1 resumes: rover1 is out of no_go zone salt_marsh" in system.log(60000)
+        assert [s for s in system.statuses("rover1", "succeeded") if s.goal == "geofence"]
+        system.wait_for(lambda: track.stopped_at(*SITE, within_m=3.0), 10, "the rover at g1")
+        near = nearest_points(marsh.exterior, Point(at_kill[1], at_kill[0]))[0]
+        edge = distance_m(at_kill[0], at_kill[1], near.y, near.x)
+        print(f"\ndata layer {sender} killed (pid {killed}, incarnation {first}) with the rover "
+              f"{edge:.1f} m from the marsh's outline; incarnation {removed[0][3]} took back "
+              f"{told}; g1 then ran")
     finally:
         track.close()
         system.close()
