@@ -9,6 +9,7 @@ from mrss.messages.closed_sets import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
     ActionState,
+    AllocationState,
     ControlCommand,
     ControlTarget,
     EventStatus,
@@ -16,6 +17,7 @@ from mrss.messages.closed_sets import (
     LinkState,
     SupEventKind,
     Topic,
+    WaitReason,
 )
 from mrss.messages.codec import (
     Check,
@@ -52,6 +54,7 @@ from mrss.messages.kinds import (
     RobotData,
     RobotState,
     SupEvent,
+    TaskAllocation,
 )
 
 __all__ = [
@@ -62,6 +65,7 @@ __all__ = [
     "ActionRequest",
     "ActionState",
     "ActionStatus",
+    "AllocationState",
     "CONTROL_COMMANDS",
     "CONTROL_TARGETS",
     "Check",
@@ -91,7 +95,9 @@ __all__ = [
     "SCHEMA_VERSION",
     "SupEvent",
     "SupEventKind",
+    "TaskAllocation",
     "Topic",
+    "WaitReason",
     "build",
     "decode",
     "encode",

@@ -108,3 +108,20 @@ class EventStatus(StrEnum):
     REJECTED = "rejected"    # bad payload: not retried
     FAILED = "failed"        # a dependency stayed down past the retry budget, or a bug
     DUPLICATE = "duplicate"  # a redelivery of an event already handled
+
+
+class AllocationState(StrEnum):
+    """Where a task addressed to a role stands in the RCL's allocation."""
+
+    WAITING = "waiting"  # no capable robot can take it now: awarded once one can
+    AWARDED = "awarded"  # one robot won it; its action runs there
+
+
+class WaitReason(StrEnum):
+    """Why a task addressed to a role waits: the best excuse of the robots able to do it."""
+
+    BUSY = "busy"  # every capable robot works at an equal or higher priority
+    BATTERY = "battery"  # ... or could not do it and get home with its reserve
+    UNAVAILABLE = "unavailable"  # ... or is unavailable (link, quarantine, teleop, node)
+    NO_BID = "no_bid"  # ... or did not answer in time
+    NONE = ""  # not waiting

@@ -53,6 +53,7 @@ class RobotAvailability:
         self.stopping = False  # the RCL is stopping: its own links closing are no news
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
+        self.on_change: Callable[[], None] = lambda: None  # a robot's state changed
 
     def refusal(self, robot: str) -> tuple[str, lc.EndCause] | None:
         """Why a new action for `robot` is refused now (reason, cause); None: it is not."""
@@ -152,6 +153,7 @@ class RobotAvailability:
 
     def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
         attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
+        self.on_change()
         with self.actions.lock:
             reason = self._unavailable.get(robot, "")
             link_down = self._unavailable_cause.get(robot) in LINK_CAUSES

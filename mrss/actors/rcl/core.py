@@ -45,6 +45,9 @@ import pykka
 from mrss.actors.rcl import controls
 from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action, check_json
+from mrss.actors.rcl.allocation.allocator import Allocator
+from mrss.actors.rcl.allocation.evaluators import BidRanking
+from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.availability import RobotAvailability
 from mrss.actors.rcl.held_goals import HeldGoals
 from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
@@ -109,6 +112,9 @@ class RclCore:
                  adopt_grace_suspended: float = default("adopt_grace_suspended"),
                  preempted_timeout: float = default("preempted_timeout"),
                  progress_every: float = 0.0,
+                 profiles: Mapping[str, RobotProfile] | None = None,
+                 ranking: BidRanking | None = None,
+                 bid_timeout: float = default("bid_timeout"),
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
@@ -133,6 +139,12 @@ class RclCore:
                                          self.availability.announce_robots,
                                          lambda: self.robots)
         self.rejections = RejectionLog(log, "action request")
+        profiles = profiles or {}
+        self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
+            {r: profiles.get(r) or RobotProfile(r) for r in self.links},
+            ref=self._refs.get, refusal=lambda r: (self.availability.refusal(r) or (None,))[0],
+            award=self._awarded, publish=publish, ranking=ranking, bid_timeout=bid_timeout)
+        self.availability.on_change = self.allocator.kick
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -168,6 +180,7 @@ class RclCore:
             if callable(watch):
                 watch(functools.partial(self.controls, robot))
         self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
+        self.allocator.start()
 
     def controls(self, robot: str) -> bool:
         """Whether a live robot actor controls `robot` (its link heartbeats the robot only
@@ -181,6 +194,7 @@ class RclCore:
         the next start to resume: the links that close after this (RclService
         disconnects them) report "link closed", which fails nothing."""
         self.availability.stopping = True
+        self.allocator.stop()
         robots, self.robots = self.robots, None
         if robots is None:
             return
@@ -295,6 +309,9 @@ class RclCore:
                 return
             try:
                 request.validate()
+                if request.role and not request.robot:  # addressed to a role: bids decide
+                    self.allocator.submit(request, requester)
+                    return
                 action = self.layer.action_cb(request)
                 if action.uuid != request.uuid:
                     raise ActionError("action_cb changed the uuid", uuid=request.uuid)
@@ -320,6 +337,12 @@ class RclCore:
             # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
             self._emit(action.copy(), "", requester, new=True,  # `repeat` read the journal
                        before_publish=lambda: self.tell(action.robot, start))
+
+    def _awarded(self, request: ActionRequest, requester: Requester, robot: str) -> None:
+        """A role-addressed task was awarded: it goes on as a request addressed to `robot`
+        (its first argument the robot, as `name(Robot, Goal, ...)` has it)."""
+        args = [robot, *request.args[1:]] if request.args else [robot]
+        self.submit(dataclasses.replace(request, robot=robot, args=args, role={}), requester)
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
@@ -387,6 +410,7 @@ class RclCore:
             if action.terminal:
                 self.actions.drop(action.uuid)
                 self.observers.progress.forget(action.uuid)
+                self.allocator.kick()  # its robot may be free for a waiting task
             else:
                 self.actions.put(action, requester)
             if before_publish is not None:

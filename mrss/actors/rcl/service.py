@@ -38,6 +38,8 @@ import time
 from pathlib import Path
 from typing import Any, ClassVar
 
+from mrss.actors.rcl.allocation.evaluators import BidRanking, Evaluator
+from mrss.actors.rcl.allocation.profile import RobotProfile, split_table
 from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
@@ -116,6 +118,11 @@ class RclService(Component):
         # `node`: the node a robot is reached through (mrss.config.nodes), the RCL's, not the link's
         tables = {str(r): dict(o) if isinstance(o, dict) else {} for r, o in robots.items()}
         robot_nodes = {r: str(t.pop("node")) for r, t in tables.items() if "node" in t}
+        # what a robot can do, for tasks addressed to a role: the RCL's keys too
+        profiles = {}
+        for r in list(tables):
+            mine, tables[r] = split_table(tables[r])
+            profiles[r] = RobotProfile.read(r, mine, section=f"robots.{r}")
         self.links = {r: self.layer.connect_robot(r, t) for r, t in tables.items()}
         journal_path = Path(opts["journal"] or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
         self.journal = ActionJournal(journal_path, durable=opts.flag("durable"))
@@ -144,7 +151,10 @@ class RclService(Component):
                             adopt_grace=opts.number("adopt_grace"),
                             adopt_grace_suspended=opts.number("adopt_grace_suspended"),
                             preempted_timeout=opts.number("preempted_timeout"),
-                            progress_every=opts.number("progress_every"))
+                            progress_every=opts.number("progress_every"),
+                            profiles=profiles, bid_timeout=opts.number("bid_timeout"),
+                            ranking=BidRanking(self.layer.bid_score
+                                               or Evaluator(opts.text("evaluator"))))
         self.core.availability.robot_nodes = robot_nodes
         self.layer.bind_runtime(link_state=self.core.availability.link_state)
         self._compaction = (opts.number("journal_keep_seconds"),
