@@ -41,6 +41,7 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.status", "uuid"): nonempty,
     ("action.status", "state"): st.sampled_from([s.value for s in m.ActionState]),
     ("action.status", "cause"): st.sampled_from(["", *(c.value for c in m.FailureCause)]),
+    ("action.allocation", "uuid"): nonempty,
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,

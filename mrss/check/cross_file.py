@@ -27,8 +27,8 @@ from typing import Any
 from mrss.check.agent import AgentUses
 from mrss.check.agent_clauses import Clause, clauses
 from mrss.check.agent_queries import check_queries
-from mrss.check.agent_roles import check_roles
 from mrss.check.agent_robots import check_robot_ids
+from mrss.check.agent_roles import check_roles
 from mrss.check.findings import Report
 from mrss.check.python_refs import check_python_refs
 from mrss.check.sources import Sources

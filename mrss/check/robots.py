@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from mrss.actors.rcl.allocation.profile import ALLOCATION_KEYS, ROBOT_ALLOCATION_OPTIONS
 from mrss.agentspeak.literals import is_atom_name
 from mrss.check.exposure import warn_secret
 from mrss.check.findings import Report, did_you_mean
@@ -23,7 +24,6 @@ from mrss.links.connect import MQTT_FILES
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
 from mrss.links.http_protocol import http_url_problem
 from mrss.links.mavlink_signing import key_problem
-from mrss.actors.rcl.allocation.profile import ALLOCATION_KEYS, ROBOT_ALLOCATION_OPTIONS
 from mrss.options import Option
 
 # Keys of a robot's table that the RCL reads itself, whatever its link: the link kind, the

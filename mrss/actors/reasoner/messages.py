@@ -90,20 +90,21 @@ def role_of(term: Any) -> dict[str, Any]:
             and len(term.args) in (1, 2)):
         return {}
     caps = term.args[0]
-    names = [c.functor for c in caps] if isinstance(caps, tuple) \
-        and all(isinstance(c, Struct) and not c.args and not c.neg for c in caps) else None
+    names = [c.functor for c in caps if isinstance(c, Struct)] \
+        if isinstance(caps, tuple) and all(isinstance(c, Struct) and not c.args and not c.neg
+                                           for c in caps) else None
     if not names:
         raise MrssError(f"{term_str(term)}: a role's first argument is a non-empty list of "
                         "capability names, e.g. any([uav, camera])")
     role: dict[str, Any] = {CAPABILITIES: names}
     if len(term.args) == 2:
         place = term.args[1]
+        values = [v for v in place.args if isinstance(v, int | float)
+                  and not isinstance(v, bool)] if isinstance(place, Struct) else []
         if not (isinstance(place, Struct) and place.functor == PLACE_FUNCTOR
-                and len(place.args) == 2 and all(isinstance(v, int | float)
-                                                 and not isinstance(v, bool)
-                                                 for v in place.args)):
+                and len(place.args) == 2 and len(values) == 2):
             raise MrssError(f"{term_str(term)}: a role's place is at(Lat, Lon), numbers")
-        role[NEAR] = [float(place.args[0]), float(place.args[1])]
+        role[NEAR] = [float(values[0]), float(values[1])]
     return role
 
 

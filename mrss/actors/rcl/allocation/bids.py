@@ -144,18 +144,20 @@ def link_state(link: Any) -> tuple[Place | None, float | None]:
         if b and _number(b.get("remaining")):
             battery = float(b["remaining"])
     else:
-        lat, lon = getattr(link, "lat", None), getattr(link, "lon", None)
+        lat: Any = getattr(link, "lat", None)
+        lon: Any = getattr(link, "lon", None)
         if _number(lat) and _number(lon):
             position = (float(lat), float(lon))
-        if _number(getattr(link, "battery", None)):
-            battery = float(link.battery)
+        level: Any = getattr(link, "battery", None)
+        if _number(level):
+            battery = float(level)
     return position, battery
 
 
 def fraction_done(progress: Mapping[str, Any]) -> float:
     """How far an action is, from a progress pair such as waypoint/waypoints (0: unknown)."""
     for key, value in progress.items():
-        total = progress.get(key + "s")
+        total: Any = progress.get(key + "s")
         if _number(value) and _number(total) and total > 0:
             return max(0.0, min(1.0, float(value) / float(total)))
     return 0.0
