@@ -52,6 +52,7 @@ class FailureCause(StrEnum):
     ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
     PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+    DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
     UNSPECIFIED = ""  # no particular cause: the agent sees error(action_failed)
 
 

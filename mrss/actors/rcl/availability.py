@@ -14,6 +14,9 @@ robot's availability; it reaches robot actors and ends actions through the core'
   robot overtook the command); a link coming back makes it available again, unless
   something else (a quarantine) holds it; a quarantine fails its open actions, a
   release makes it available;
+- the operator decommissions a robot (`decommission`, the `ctl.decommission` command):
+  unavailable with cause `decommissioned`, its open actions failing with it (a task
+  addressed to a role goes to another robot); `ctl.recommission` makes it available;
 - every change, and every restart of a requester, is announced as a `RobotState`
   (level-triggered: availability, reason, link, teleop).
 """
@@ -122,6 +125,25 @@ class RobotAvailability:
             why, cause = reason, lc.EndCause.FAILSAFE  # the robot overtook the command
         for uuid in targets:
             self.routes.control_one(uuid, lc.End(ActionState.FAILED, cause, why))
+        return targets
+
+    def decommission(self, robot: str, out: bool) -> list[str]:
+        """The operator takes `robot` out of service (`out`) or back; the failed uuids."""
+        if robot not in self.links:
+            raise ActionError(f"decommission of unknown robot {robot!r} (known: "
+                              f"{', '.join(sorted(self.links))})")
+        with self.actions.lock:
+            current = self._unavailable_cause.get(robot)
+        if not out:
+            if current is lc.EndCause.DECOMMISSIONED:
+                self.set_available(robot, True)
+            return []
+        self.set_available(robot, False, "decommissioned by the operator",
+                           lc.EndCause.DECOMMISSIONED)
+        targets = self.actions.of_robot(robot)
+        for uuid in targets:
+            self.routes.control_one(uuid, lc.End(ActionState.FAILED, lc.EndCause.DECOMMISSIONED,
+                                                 f"robot {robot} decommissioned by the operator"))
         return targets
 
     def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:

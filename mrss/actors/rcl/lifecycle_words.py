@@ -111,6 +111,7 @@ class EndCause(StrEnum):
     REJECTED = "rejected"  # the request was malformed or refused
     PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+    DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
 
 
 #: The FailureCause the agent sees (`error(Cause)`) for each end cause; "" = by state.
@@ -120,6 +121,7 @@ FAILURE_OF: Mapping[EndCause, str] = {
     EndCause.ORPHANED: FailureCause.ORPHANED, EndCause.QUARANTINED: FailureCause.QUARANTINED,
     EndCause.RCL_RESTARTED: FailureCause.TRANSIENT, EndCause.REJECTED: FailureCause.REJECTED,
     EndCause.PREEMPTED: FailureCause.PREEMPTED, EndCause.NODE_DOWN: FailureCause.NODE_DOWN,
+    EndCause.DECOMMISSIONED: FailureCause.DECOMMISSIONED,
 }
 
 

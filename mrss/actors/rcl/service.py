@@ -8,6 +8,8 @@
   seconds for the new incarnation to adopt them, then are cancelled), and
   `action.query` (reconciliation: statuses from the journal, and the inventory of a
   restarted requester's predecessors);
+- `ctl.decommission` / `ctl.recommission` (Command, target = robot, from the operator)
+  take a robot out of service (its tasks addressed to a role go to others) and back;
 - `ctl.snapshot` (Command, from an observer such as the dashboard) is answered with
   every robot's state and every open action's status (`repeat`): `RclCore.snapshot`;
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
@@ -140,6 +142,7 @@ class RclService(Component):
                 self.incarnations.learn(src, inc)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
                                                     "ctl.teleop", "ctl.snapshot",
+                                                    "ctl.decommission", "ctl.recommission",
                                                     "sup.heartbeat.", "sup.node_"],
                                incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
@@ -260,6 +263,9 @@ class RclService(Component):
                 if not isinstance(on, bool):
                     raise MrssError(f"teleop command needs args.on true/false, not {on!r}")
                 core.availability.set_teleop(body.target, on)
+            elif isinstance(body, Command) and body.command in ("decommission",
+                                                                "recommission"):
+                core.availability.decommission(body.target, body.command == "decommission")
             elif isinstance(body, Command) and body.command == "snapshot":
                 core.observers.snapshot()
             elif isinstance(body, Heartbeat):

@@ -12,6 +12,11 @@ decision and two awards never race for a robot. Rules:
 - a winner: the task is awarded (a `TaskAllocation` AWARDED with why it won), and the
   request goes on as one addressed to that robot (`award`); no winner: the task waits
   (a `TaskAllocation` WAITING with the reason as an enum, sent when it changes);
+- re-allocation: a holder lost (`book.LOSSES`) gives its task back (`reopen`, with
+  its progress); it is bid for again, the robots that lost it being unavailable; the
+  next award goes out as an AWARDED naming both, and `reassigned` tells the core (the
+  agent's `reassigned(Task, From, To)` percept);
+- every open, award, loss and end is journaled first (`book.TaskBook`);
 - rounds run for every open task, highest priority and then oldest first, when a task
   arrives, whenever a robot's state changes or an action ends (`kick`), and every
   `retry_every` seconds (a robot's battery or position changes without an event).
@@ -30,6 +35,7 @@ from typing import Any
 import pykka
 
 from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, no_bid
+from mrss.actors.rcl.allocation.book import TaskBook
 from mrss.actors.rcl.allocation.evaluators import BidRanking, Choice
 from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.allocation.task import Task
@@ -37,6 +43,7 @@ from mrss.errors import ActionError
 from mrss.messages import (
     ActionRequest,
     AllocationState,
+    JsonValue,
     Message,
     TaskAllocation,
     WaitReason,
@@ -44,7 +51,10 @@ from mrss.messages import (
 
 log = logging.getLogger("mrss.rcl.allocation")
 
-Award = Callable[[ActionRequest, Any, str], None]
+#: (the request, its requester, the winner, the progress it resumes from)
+Award = Callable[[ActionRequest, Any, str, dict[str, JsonValue]], None]
+#: (the request, the robot that lost it, the robot it went to)
+Reassigned = Callable[[ActionRequest, str, str], None]
 
 
 @dataclass
@@ -58,6 +68,8 @@ class OpenTask:
     said: tuple[WaitReason, str] | None = None
     rounds: int = 0
     timings: list[float] = field(default_factory=list)
+    progress: dict[str, JsonValue] = field(default_factory=dict)  # from a lost holder
+    lost_from: str = ""  # the robot that lost it ("": a new task)
 
 
 class Allocator:
@@ -68,12 +80,15 @@ class Allocator:
                  refusal: Callable[[str], str | None],
                  award: Award, publish: Callable[[Message], object],
                  ranking: BidRanking | None = None, bid_timeout: float = 1.0,
-                 retry_every: float = 1.0, clock: Callable[[], float] = time.monotonic
-                 ) -> None:
+                 retry_every: float = 1.0, clock: Callable[[], float] = time.monotonic,
+                 book: TaskBook | None = None,
+                 reassigned: Reassigned = lambda _r, _f, _t: None) -> None:
         self.profiles = dict(profiles)
         self._ref, self._refusal, self._award, self._publish = ref, refusal, award, publish
         self.ranking = ranking or BidRanking()
         self.bid_timeout, self.retry_every, self.clock = bid_timeout, retry_every, clock
+        self.book = book or TaskBook(None)
+        self._reassigned = reassigned
         self._open: dict[str, OpenTask] = {}
         self._bases: dict[str, Place] = {}  # first-seen positions of robots without a base
         self._lock = threading.Lock()
@@ -107,10 +122,22 @@ class Allocator:
             return
         task = Task.of(request)
         self.check_capable(task)
+        self.book.opened(request, requester)  # journaled before anything is decided
+        self._open_task(OpenTask(request, requester, task, self.clock()))
+
+    def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
+               progress: dict[str, JsonValue]) -> None:
+        """A task whose holder was lost (the book has it waiting): bid for it again."""
+        self._open_task(OpenTask(request, requester, Task.of(request), self.clock(),
+                                 progress=dict(progress), lost_from=lost_from))
+
+    def _open_task(self, open_task: OpenTask) -> None:
         with self._lock:
-            self._open[request.uuid] = OpenTask(request, requester, task, self.clock())
-        log.info("task %s %s opened: %s", task.uuid, request.literal or request.name,
-                 task.describe())
+            self._open[open_task.task.uuid] = open_task
+        log.info("task %s %s opened%s: %s", open_task.task.uuid,
+                 open_task.request.literal or open_task.request.name,
+                 f" again ({open_task.lost_from} lost it)" if open_task.lost_from else "",
+                 open_task.task.describe())
         self._wake.set()
 
     def check_capable(self, task: Task) -> None:
@@ -215,10 +242,15 @@ class Allocator:
         del self.award_latencies[:-10000]
         log.info("task %s awarded to %s after %d round(s), %.1f ms: %s", task.uuid,
                  winner.robot, open_task.rounds, latency * 1000, choice.why)
+        self.book.awarded(task.uuid, winner.robot)  # committed before the action is
+        why = choice.why if not open_task.lost_from else \
+            f"reassigned from {open_task.lost_from} (lost): {choice.why}"
         self._send(TaskAllocation(uuid=task.uuid, state=AllocationState.AWARDED,
-                                  robot=winner.robot, why=choice.why, name=request.name,
+                                  robot=winner.robot, why=why, name=request.name,
                                   goal=request.goal))
-        self._award(request, open_task.requester, winner.robot)
+        self._award(request, open_task.requester, winner.robot, open_task.progress)
+        if open_task.lost_from:
+            self._reassigned(request, open_task.lost_from, winner.robot)
 
     def _say_waiting(self, open_task: OpenTask, wait: WaitReason, why: str) -> None:
         log.info("task %s waits (%s): %s", open_task.task.uuid, wait.value, why)
