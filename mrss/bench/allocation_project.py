@@ -64,7 +64,7 @@ class AllocationLayer(FleetLayer):
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "hold":
-            return [Hold(int(action.args[1]))]  # type: ignore[arg-type]
+            return [Hold(int(action.args[1]))]
         return super().refine_action(action)
 
 

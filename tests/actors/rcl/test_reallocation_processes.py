@@ -110,12 +110,14 @@ class System:
         self.sub.close()
 
     def sweep(self, uuid: str, steps: int, near: str | None = None,
-              robot: str = "") -> None:
+              robot: str = "", gate: Path | None = None) -> None:
         role: dict[str, Any] = {}
         if near is not None:
             role = {"capabilities": ["uav"], "near": list(HOMES[near])}
         first = f"any([uav], at({HOMES[near][0]}, {HOMES[near][1]}))" if near else robot
-        self.tx.send(ActionRequest(uuid=uuid, name="sweep", args=[first, f"g-{uuid}", steps],
+        extra = [str(gate)] if gate is not None else []
+        self.tx.send(ActionRequest(uuid=uuid, name="sweep",
+                                   args=[first, f"g-{uuid}", steps, *extra],
                                    robot=robot, goal=f"g-{uuid}", role=role,
                                    literal=f"sweep({first}, g_{uuid}, {steps})"))
 
@@ -215,3 +217,41 @@ def test_decommission_hands_role_tasks_to_others_and_fails_named_ones(
     done = system.ended("role")
     assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav1")
     assert int(done.progress["first"]) >= 2  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_an_rcl_killed_between_award_and_skill_start_keeps_one_holder_per_task(
+        system: System) -> None:
+    gate = system.run_dir / "gate"
+    system.sweep("k1", steps=3, near="uav1", gate=gate)  # its skill waits at the gate
+    wait_until(lambda: bool(system.awards("k1")), timeout=20, message="k1 awarded")
+    assert system.awards("k1")[0].robot == "uav1"
+    system.pub.publish(Command(command="decommission", target="uav2"))
+    wait_until(lambda: not system.available("uav2"), timeout=20, message="uav2 out")
+    system.sweep("k2", steps=3, near="uav2")  # uav1 busy, uav2 out of service: it waits
+    wait_until(lambda: any(a.state is AllocationState.WAITING
+                           for a in system.bodies(TaskAllocation, uuid="k2")),
+               timeout=20, message="k2 waits")
+    with sqlite3.connect(str(system.journal())) as db:
+        tasks = dict(db.execute("SELECT uuid, robot FROM tasks").fetchall())
+    assert tasks == {"k1": "uav1", "k2": ""}  # the award journaled, the waiting task too
+    assert "first" not in system.statuses("k1")[-1].progress  # the skill has not started
+
+    kill(system.sup, "rcl")  # SIGKILL; the root supervisor restarts it
+    wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
+               message="the restarted RCL speaks")
+    gate.touch()
+    k1, k2 = system.ended("k1"), None
+    wait_until(lambda: any(s.state.terminal for s in system.statuses("k2")), timeout=30,
+               message="k2 ended")
+    k2 = next(s for s in system.statuses("k2") if s.state.terminal)
+    # the decommission was the old incarnation's: after the restart uav2 takes k2
+    assert (k1.state, k1.robot, k1.progress["by"]) == (ActionState.SUCCEEDED, "uav1", "uav1")
+    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert [a.robot for a in system.awards("k1")] == ["uav1"]  # never awarded twice
+    assert [a.robot for a in system.awards("k2")] == ["uav2"]
+    for uuid in ("k1", "k2"):  # one holder: every status names the same robot (or none)
+        assert {s.robot for s in system.statuses(uuid)} - {""} == {k1.robot if uuid == "k1"
+                                                                   else k2.robot}
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
