@@ -68,10 +68,10 @@ def test_e2e_under_load_reports_quiet_and_loaded_rows_of_one_run() -> None:
     assert out.returncode == 2 and "for e2e only" in out.stderr
 
 
-def test_robots_option_is_for_the_fleet_bench_only_and_needs_two_robots() -> None:
+def test_robots_option_is_for_the_fleet_benches_only_and_needs_two_robots() -> None:
     out = subprocess.run([sys.executable, "-m", "mrss", "bench", "bus", "--robots", "4"],
                          capture_output=True, text=True, timeout=60)
-    assert out.returncode == 2 and "--robots is for fleet only" in out.stderr
+    assert out.returncode == 2 and "--robots is for fleet and allocation only" in out.stderr
     out = subprocess.run([sys.executable, "-m", "mrss", "bench", "fleet", "--robots", "1"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 2 and "at least 2" in out.stderr

@@ -10,6 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from mrss.actors.reasoner.messages import action_request
+from mrss.agentspeak.parser import parse_literal, parse_program
+from mrss.check.robots import ROBOT_KEYS
 from mrss.config.loader import load_file
 from mrss.config.nodes import read_nodes
 from mrss.links.factory import LINK_OPTIONS, option_value_problems
@@ -73,7 +76,7 @@ def test_every_toml_example_loads_as_a_project(where: str, block: str, tmp_path:
             if kind is None:
                 continue
             assert kind in LINK_OPTIONS, f"{where}: robot {robot}: link {kind!r}"
-            unknown = set(options) - set(LINK_OPTIONS[kind]) - {"link", "node"}
+            unknown = set(options) - set(LINK_OPTIONS[kind]) - set(ROBOT_KEYS)
             assert not unknown, f"{where}: robot {robot}: unknown link options {unknown}"
             assert not option_value_problems(options), f"{where}: robot {robot}"
 
@@ -141,3 +144,22 @@ def test_the_architecture_table_is_the_layer_contract() -> None:
         named = {m.strip("/").removesuffix(".py").replace("/", ".")
                  for m in re.findall(r"`(mrss/[\w/.]+)`", folders)}
         assert named == {m.strip() for m in re.split(r"[|:]", layer)}, folders
+
+
+ASL_BLOCK = re.compile(r"```agentspeak\n(.*?)```", re.S)
+
+
+def test_the_role_examples_parse_and_become_role_requests() -> None:
+    blocks = [m.group(1) for doc in ("agentspeak.md", "rcl.md")
+              for m in ASL_BLOCK.finditer((REPO / "docs" / doc).read_text(encoding="utf-8"))]
+    assert len(blocks) == 3  # two roles, one reassigned(Task, From, To) plan
+    roles = []
+    for block in blocks:
+        parse_program(block)  # the example is AgentSpeak
+        for line in block.splitlines():  # each action, its place's variables bound
+            if "<- " in line and "any(" in line:
+                text = line.split("<- ", 1)[1].rstrip(".").replace("Lat", "48.2")
+                roles.append(action_request(parse_literal(text.replace("Lon", "16.3"))).role)
+    assert {"capabilities": ["camera"]} in roles
+    assert [r for r in roles if r["capabilities"] == ["uav", "camera"]] == [
+        {"capabilities": ["uav", "camera"], "near": [48.2, 16.3]}] * 2

@@ -44,6 +44,7 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.status", "critical"): nonempty,  # deferring needs a section
     ("action.status", "critical_bound"): st.floats(min_value=0, allow_nan=False),
     ("action.status", "progress_bound"): st.floats(min_value=0, allow_infinity=False),
+    ("action.allocation", "uuid"): nonempty,
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,

@@ -11,6 +11,9 @@ By idea:
   SkillOutcome, SkillState, RobotCommLayer, CriticalSection (what `Skill.critical`
   yields: a stretch of a skill no pre-emption, suspension or cancel cuts); plan_record
   (the dashboard map's `plan` robot data record, which `Skill.publish_plan` sends);
+- tasks addressed to a role (docs/rcl.md, "Allocation"): Task (what it needs), Bid (what a
+  robot offers), Evaluator (the named rankings); a project's own ranking is a method
+  `RobotCommLayer.bid_score(task, bid)`;
 - the edge (data layer, events adapter, world model): DataLayer, external, ExternalAdapter,
   Field, JsonMapping, PayloadError, Atom, Struct, literal, symbol, PredicateError, rule,
   NoObjectWithin, WorldModelClient, WorldModelRejected, WorldModelUnavailable,
@@ -37,6 +40,9 @@ from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.action import (
     check_json as check_json,  # the RCL's; not part of the contract
 )
+from mrss.actors.rcl.allocation.bids import Bid
+from mrss.actors.rcl.allocation.evaluators import Evaluator
+from mrss.actors.rcl.allocation.task import Task
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.lifecycle import (
     ACTION_TRANSITIONS as ACTION_TRANSITIONS,  # the RCL's; not part of the contract
@@ -87,6 +93,8 @@ __all__ = [
     "Action", "ActionState", "CriticalSection", "FailureCause", "Resource", "RobotCommLayer",
     "SKILL_TRANSITIONS",
     "Skill", "SkillInterrupted", "SkillOutcome", "SkillState", "plan_record",
+    # tasks addressed to a role
+    "Bid", "Evaluator", "Task",
     # the edge
     "Atom", "DataLayer", "DependencyUnavailable", "ExternalAdapter", "Field", "JsonMapping",
     "NoObjectWithin", "PayloadError", "PredicateError", "Struct", "WorldModelClient",

@@ -156,7 +156,7 @@ class FleetRun:
             self.batches.clear()
             self.topics.clear()
         dropped0 = self.system.sub.dropped
-        procs = _components(self.system.proc.pid)
+        procs = components(self.system.proc.pid)
         procs["bench"] = psutil.Process()  # this process: goals out, the whole bus in
         for child in procs["bench"].children():
             try:
@@ -214,7 +214,7 @@ class FleetRun:
         self.system.close()
 
 
-def _components(root: int) -> dict[str, psutil.Process]:
+def components(root: int) -> dict[str, psutil.Process]:
     """The component processes under `mrss supervise` (by their process name), plus it."""
     found = {"supervisor": psutil.Process(root)}
     for child in found["supervisor"].children(recursive=True):

@@ -2,6 +2,8 @@
 
 - robot ids (`agent_robots`): an atom agent.asl puts where a robot goes is a robot of
   project.toml;
+- roles (`agent_roles`): a task agent.asl addresses to a role, `any([caps])`, is one
+  some robot of project.toml has every capability for;
 - query fit (`agent_queries`): `query(F, [Args], R)` in agent.asl fits datalayer.py's
   F: its parameters, and the shape of what it returns;
 - python refs (`python_refs`): `m = import_project_module(_, "f.py")` in any .py file
@@ -26,6 +28,7 @@ from mrss.check.agent import AgentUses
 from mrss.check.agent_clauses import Clause, clauses
 from mrss.check.agent_queries import check_queries
 from mrss.check.agent_robots import check_robot_ids
+from mrss.check.agent_roles import check_roles
 from mrss.check.findings import Report
 from mrss.check.python_refs import check_python_refs
 from mrss.check.sources import Sources
@@ -41,6 +44,7 @@ class ProjectFacts:
     robots_where: str  # where the robots are defined, for messages
     functions: dict[str, Callable[..., Any]] | None  # the data layer's, if known
     functions_where: str
+    capabilities: dict[str, frozenset[str]] | None = None  # robot -> what it can do
 
 
 Rule = Callable[[ProjectFacts, list[Clause], Report], None]
@@ -49,6 +53,11 @@ Rule = Callable[[ProjectFacts, list[Clause], Report], None]
 def _robot_ids(facts: ProjectFacts, agent: list[Clause], report: Report) -> None:
     if facts.uses is not None and facts.robots:
         check_robot_ids(agent, facts.robots, facts.robots_where, report)
+
+
+def _roles(facts: ProjectFacts, agent: list[Clause], report: Report) -> None:
+    if facts.uses is not None and facts.capabilities is not None:
+        check_roles(agent, facts.capabilities, facts.robots_where, report)
 
 
 def _query_fit(facts: ProjectFacts, agent: list[Clause], report: Report) -> None:
@@ -62,6 +71,7 @@ def _python_refs(facts: ProjectFacts, agent: list[Clause], report: Report) -> No
 
 RULES: tuple[tuple[str, Rule], ...] = (
     ("robot ids", _robot_ids),
+    ("roles", _roles),
     ("query fit", _query_fit),
     ("python refs and compiles", _python_refs),
 )

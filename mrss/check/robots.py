@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from mrss.actors.rcl.allocation.profile import ALLOCATION_KEYS, ROBOT_ALLOCATION_OPTIONS
 from mrss.agentspeak.literals import is_atom_name
 from mrss.check.exposure import warn_secret
 from mrss.check.findings import Report, did_you_mean
@@ -25,9 +26,10 @@ from mrss.links.http_protocol import http_url_problem
 from mrss.links.mavlink_signing import key_problem
 from mrss.options import Option
 
-# Keys of a robot's table that the RCL reads itself, whatever its link: the link kind, and
-# the node it is reached through (mrss.config.nodes; validated there).
-ROBOT_KEYS = ("link", "node")
+# Keys of a robot's table that the RCL reads itself, whatever its link: the link kind, the
+# node it is reached through (mrss.config.nodes; validated there), and what it declares
+# for tasks addressed to a role (mrss.actors.rcl.allocation.profile; validated here).
+ROBOT_KEYS = ("link", "node", *ALLOCATION_KEYS)
 URL_OPTIONS = {("mavlink", "url"): mavlink_url_problem, ("mqtt", "broker_url"): url_problem,
                ("http", "url"): http_url_problem}
 
@@ -52,6 +54,18 @@ def check_robots(config: ProjectConfig, report: Report, comp_id: str, robots: An
             report.error(str(config.file), "must be a table", line=key_line(config, rkey),
                          check="robots", key=rkey)
             continue
+        for option in ROBOT_ALLOCATION_OPTIONS:
+            if option.name in options and option.name not in (settings or {}):
+                problem = value_problem(option, options[option.name], config.directory)
+                caps = options[option.name]
+                if not problem and option.name == "capabilities" and not all(
+                        isinstance(c, str) and is_atom_name(c) for c in caps):
+                    problem = ("capabilities are lowercase names the agent writes as atoms "
+                               f"(any([uav, camera])), not {caps!r}")
+                if problem:
+                    report.error(str(config.file), f"{problem} ({option.doc})",
+                                 line=key_line(config, f"{rkey}.{option.name}"),
+                                 check="robots", key=f"{rkey}.{option.name}")
         for name, option in (settings or {}).items():
             if name in options:
                 problem = value_problem(option, options[name], config.directory)

@@ -98,9 +98,14 @@ def _facts(config: ProjectConfig, sources: Sources, uses: AgentUses | None,
            datalayer: tuple[PySource | None, type | None] | None) -> ProjectFacts:
     """What the cross-file rules need from the checks above."""
     robots: set[str] | None = set()
+    capabilities: dict[str, frozenset[str]] = {}
     for comp in _running(config, RCL):
         table = comp.options.get("robots")
         robots |= set(table) if isinstance(table, dict) else set()  # type: ignore[operator]
+        for robot, options in (table.items() if isinstance(table, dict) else ()):
+            caps = options.get("capabilities") if isinstance(options, dict) else None
+            capabilities[str(robot)] = frozenset(
+                str(c) for c in caps) if isinstance(caps, list) else frozenset()
     if any(layer is None or layer.action_cb is not RobotCommLayer.action_cb
            for layer in layers) or not all(map(is_atom_name, robots or ())):
         robots = None  # unknown layer, its own action convention, or bad ids (reported)
@@ -112,7 +117,7 @@ def _facts(config: ProjectConfig, sources: Sources, uses: AgentUses | None,
         functions = DataLayer.functions(cls.__new__(cls))
         where = datalayer[0].path.name if datalayer[0] else "the default DataLayer"
     return ProjectFacts(sources, uses, robots, f"{config.file.name} [components.<rcl>.robots]",
-                        functions, where)
+                        functions, where, capabilities)
 
 
 def _component_classes(config: ProjectConfig, report: Report) -> dict[str, type]:

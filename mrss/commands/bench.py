@@ -21,7 +21,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="e2e only: the same rows with two CPU hogs running, beside the "
                              "quiet ones")
     parser.add_argument("--robots", type=int, action="append", metavar="N",
-                        help="fleet only: measure this fleet size (repeatable) instead of "
+                        help="fleet, allocation: measure this fleet size (repeatable) instead of "
                              "the default sizes")
 
 
@@ -56,11 +56,12 @@ def run_one(args: argparse.Namespace) -> int:
             return 2
         report: BenchReport = module.run(quick=args.quick, under_load=True)
     elif getattr(args, "robots", None):
-        if args.name != "fleet":
-            print(f"mrss bench {args.name}: --robots is for fleet only", file=sys.stderr)
+        if args.name not in ("fleet", "allocation"):
+            print(f"mrss bench {args.name}: --robots is for fleet and allocation only",
+                  file=sys.stderr)
             return 2
         if min(args.robots) < 2:
-            print("mrss bench fleet: --robots must be at least 2", file=sys.stderr)
+            print(f"mrss bench {args.name}: --robots must be at least 2", file=sys.stderr)
             return 2
         report = module.run(quick=args.quick, sizes=args.robots)
     else:

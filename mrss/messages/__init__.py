@@ -9,6 +9,7 @@ from mrss.messages.closed_sets import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
     ActionState,
+    AllocationState,
     ControlCommand,
     ControlTarget,
     EventStatus,
@@ -17,6 +18,7 @@ from mrss.messages.closed_sets import (
     LinkState,
     SupEventKind,
     Topic,
+    WaitReason,
 )
 from mrss.messages.codec import (
     Check,
@@ -54,6 +56,7 @@ from mrss.messages.kinds import (
     RobotData,
     RobotState,
     SupEvent,
+    TaskAllocation,
 )
 
 __all__ = [
@@ -64,6 +67,7 @@ __all__ = [
     "ActionRequest",
     "ActionState",
     "ActionStatus",
+    "AllocationState",
     "CONTROL_COMMANDS",
     "CONTROL_TARGETS",
     "Check",
@@ -95,7 +99,9 @@ __all__ = [
     "SCHEMA_VERSION",
     "SupEvent",
     "SupEventKind",
+    "TaskAllocation",
     "Topic",
+    "WaitReason",
     "build",
     "decode",
     "encode",

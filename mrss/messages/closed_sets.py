@@ -53,6 +53,7 @@ class FailureCause(StrEnum):
     ORPHANED = "orphaned"  # its requester's incarnation died and nobody adopted it
     PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+    DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
     UNSPECIFIED = ""  # no particular cause: the agent sees error(action_failed)
 
 
@@ -117,3 +118,20 @@ class GiveUpReason(StrEnum):
     BUDGET_EXHAUSTED = "budget_exhausted"  # its retries were used up (the program says so)
     NO_APPLICABLE_PLAN = "no_applicable_plan"  # no plan (or none applicable), no -! plan
     PLAN_FAILED = "plan_failed"  # its plan failed and no -! plan recovered it
+
+
+class AllocationState(StrEnum):
+    """Where a task addressed to a role stands in the RCL's allocation."""
+
+    WAITING = "waiting"  # no capable robot can take it now: awarded once one can
+    AWARDED = "awarded"  # one robot won it; its action runs there
+
+
+class WaitReason(StrEnum):
+    """Why a task addressed to a role waits: the best excuse of the robots able to do it."""
+
+    BUSY = "busy"  # every capable robot works at an equal or higher priority
+    BATTERY = "battery"  # ... or could not do it and get home with its reserve
+    UNAVAILABLE = "unavailable"  # ... or is unavailable (link, quarantine, teleop, node)
+    NO_BID = "no_bid"  # ... or did not answer in time
+    NONE = ""  # not waiting

@@ -1,5 +1,8 @@
 """The kinds of bus message: one frozen dataclass per kind, and `KINDS`.
 
+One idea in one module (~420 lines): the list of what the bus carries, read as one
+table; each kind is a few lines.
+
 Their closed sets (action states, causes, commands, event names) are closed_sets.py.
 
 Each kind has its fields (type-checked on decode by `mrss.messages.codec`), the topic
@@ -20,6 +23,7 @@ from mrss.messages.closed_sets import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
     ActionState,
+    AllocationState,
     ControlCommand,
     ControlTarget,
     EventStatus,
@@ -27,6 +31,7 @@ from mrss.messages.closed_sets import (
     GiveUpReason,
     LinkState,
     SupEventKind,
+    WaitReason,
 )
 
 SCHEMA_VERSION = 1
@@ -91,6 +96,9 @@ class ActionRequest(Message):
     goal: str = ""
     priority: int = 0
     literal: str = ""
+    #: A task addressed to a role instead of a robot (robot ""): {"capabilities": [...],
+    #: "near": [lat, lon]} (mrss.actors.rcl.allocation.task); the RCL picks the robot.
+    role: dict[str, JsonValue] = field(default_factory=dict)
 
     def validate(self) -> None:
         _nonempty(self.uuid, "uuid")
@@ -416,13 +424,38 @@ class Rejections(Message):
         return f"edge.rejections.{self.component}"
 
 
+@dataclass(frozen=True)
+class TaskAllocation(Message):
+    """Where a task addressed to a role stands: waiting (why, as an enum, and in words)
+    or awarded (to whom, and why that robot won)."""
+
+    kind: ClassVar[str] = "action.allocation"
+    uuid: str
+    state: AllocationState
+    robot: str = ""
+    wait: WaitReason = WaitReason.NONE
+    why: str = ""
+    name: str = ""
+    goal: str = ""
+
+    def __post_init__(self) -> None:
+        _closed(self, state=AllocationState, wait=WaitReason)
+
+    def validate(self) -> None:
+        _nonempty(self.uuid, "uuid")
+        if self.state not in frozenset(AllocationState):
+            raise DecodeError(f"unknown allocation state {self.state!r}")
+        if self.wait not in frozenset(WaitReason):
+            raise DecodeError(f"unknown wait reason {self.wait!r}")
+
+
 KINDS: dict[str, type[Message]] = {
     cls.kind: cls
     for cls in (
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
-        Command, EventReport, Rejections, GoalGaveUp,
+        Command, EventReport, Rejections, GoalGaveUp, TaskAllocation,
     )
 }
 

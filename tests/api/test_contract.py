@@ -71,7 +71,7 @@ def test_what_a_project_needs_is_in_the_contract() -> None:
               "create_link", "connect_link", "RobotLink", "LinkError", "distance_m", "offset",
               "step_towards", "ActionError", "ConfigError", "TransientError", "PROJECT_FILE",
               "import_project_module", "project_broker_url", "BROKER_URL_FILE",
-              "publish_json"}
+              "publish_json", "Bid", "Evaluator", "Task"}
     assert needed <= set(mrss.api.__all__)
     assert {"ScriptedHost", "RunningProject", "wait_until"} <= set(mrss.api.testing.__all__)
 

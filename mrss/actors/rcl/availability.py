@@ -14,6 +14,9 @@ robot's availability; it reaches robot actors and ends actions through the core'
   robot overtook the command); a link coming back makes it available again, unless
   something else (a quarantine) holds it; a quarantine fails its open actions, a
   release makes it available;
+- the operator decommissions a robot (`decommission`, the `ctl.decommission` command):
+  unavailable with cause `decommissioned`, its open actions failing with it (a task
+  addressed to a role goes to another robot); `ctl.recommission` makes it available;
 - every change, and every restart of a requester, is announced as a `RobotState`
   (level-triggered: availability, reason, link, teleop).
 """
@@ -53,6 +56,7 @@ class RobotAvailability:
         self.stopping = False  # the RCL is stopping: its own links closing are no news
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
+        self.on_change: Callable[[], None] = lambda: None  # a robot's state changed
 
     def refusal(self, robot: str) -> tuple[str, lc.EndCause] | None:
         """Why a new action for `robot` is refused now (reason, cause); None: it is not."""
@@ -123,6 +127,25 @@ class RobotAvailability:
             self.routes.control_one(uuid, lc.End(ActionState.FAILED, cause, why))
         return targets
 
+    def decommission(self, robot: str, out: bool) -> list[str]:
+        """The operator takes `robot` out of service (`out`) or back; the failed uuids."""
+        if robot not in self.links:
+            raise ActionError(f"decommission of unknown robot {robot!r} (known: "
+                              f"{', '.join(sorted(self.links))})")
+        with self.actions.lock:
+            current = self._unavailable_cause.get(robot)
+        if not out:
+            if current is lc.EndCause.DECOMMISSIONED:
+                self.set_available(robot, True)
+            return []
+        self.set_available(robot, False, "decommissioned by the operator",
+                           lc.EndCause.DECOMMISSIONED)
+        targets = self.actions.of_robot(robot)
+        for uuid in targets:
+            self.routes.control_one(uuid, lc.End(ActionState.FAILED, lc.EndCause.DECOMMISSIONED,
+                                                 f"robot {robot} decommissioned by the operator"))
+        return targets
+
     def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:
         """The node some robots are reached through was lost (`sup.node_down`) or is back.
 
@@ -152,6 +175,7 @@ class RobotAvailability:
 
     def _robot_state(self, robot: str, teleop: bool | None = None) -> None:
         attrs: dict[str, Any] = {} if teleop is None else {"teleop": teleop}
+        self.on_change()
         with self.actions.lock:
             reason = self._unavailable.get(robot, "")
             link_down = self._unavailable_cause.get(robot) in LINK_CAUSES

@@ -45,6 +45,10 @@ import pykka
 from mrss.actors.rcl import controls
 from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action, check_json
+from mrss.actors.rcl.allocation.allocator import Allocator
+from mrss.actors.rcl.allocation.book import TaskBook
+from mrss.actors.rcl.allocation.evaluators import BidRanking
+from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.availability import RobotAvailability
 from mrss.actors.rcl.held_goals import HeldGoals
 from mrss.actors.rcl.journal import NOBODY, ActionJournal, JournalEntry, Requester
@@ -54,6 +58,7 @@ from mrss.actors.rcl.open_actions import OpenActions
 from mrss.actors.rcl.options import default
 from mrss.actors.rcl.orphans import Orphans
 from mrss.actors.rcl.progress_feed import ProgressFeed
+from mrss.actors.rcl.reallocation import Reallocation
 from mrss.actors.rcl.requesters import Requesters
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import Control, RobotActor, StartAction
@@ -67,6 +72,7 @@ from mrss.messages import (
     ControlCommand,
     ControlTarget,
     FailureCause,
+    JsonValue,
     Message,
     build,
 )
@@ -109,6 +115,9 @@ class RclCore:
                  adopt_grace_suspended: float = default("adopt_grace_suspended"),
                  preempted_timeout: float = default("preempted_timeout"),
                  progress_every: float = 0.0,
+                 profiles: Mapping[str, RobotProfile] | None = None,
+                 ranking: BidRanking | None = None,
+                 bid_timeout: float = default("bid_timeout"),
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
@@ -133,6 +142,15 @@ class RclCore:
                                          self.availability.announce_robots,
                                          lambda: self.robots)
         self.rejections = RejectionLog(log, "action request")
+        profiles = profiles or {}
+        self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
+            {r: profiles.get(r) or RobotProfile(r) for r in self.links},
+            ref=self._refs.get, refusal=lambda r: (self.availability.refusal(r) or (None,))[0],
+            award=self.award, publish=publish, ranking=ranking, bid_timeout=bid_timeout,
+            book=TaskBook(journal),
+            reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to))
+        self.reallocation = Reallocation(self.allocator, journal, self.actions, self, publish)
+        self.availability.on_change = self.allocator.kick
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:
@@ -146,7 +164,10 @@ class RclCore:
         self.requesters.reset({} if new_run else self.journal.incarnations())
         if new_run:
             self.journal.drop_controls()  # nobody waits for what they would change
+        tasks = self.reallocation.recover(new_run)  # no robot's: the allocator's
         for entry in self.journal.open_actions():
+            if entry.action.uuid in tasks:
+                continue
             if new_run:
                 self.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
@@ -168,6 +189,8 @@ class RclCore:
             if callable(watch):
                 watch(functools.partial(self.controls, robot))
         self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
+        self.reallocation.carry_out()  # awards recorded before a restart, not yet started
+        self.allocator.start()
 
     def controls(self, robot: str) -> bool:
         """Whether a live robot actor controls `robot` (its link heartbeats the robot only
@@ -181,6 +204,7 @@ class RclCore:
         the next start to resume: the links that close after this (RclService
         disconnects them) report "link closed", which fails nothing."""
         self.availability.stopping = True
+        self.allocator.stop()
         robots, self.robots = self.robots, None
         if robots is None:
             return
@@ -293,8 +317,17 @@ class RclCore:
         with self._lock:
             if self.requesters.repeat(request.uuid, requester):
                 return
+            self._accept(request, requester)
+
+    def _accept(self, request: ActionRequest, requester: Requester,
+                progress: Mapping[str, JsonValue] | None = None) -> None:
+        """A new request (or a task's award): refine it and run it on its robot."""
+        with self._lock:
             try:
                 request.validate()
+                if request.role and not request.robot:  # addressed to a role: bids decide
+                    self.allocator.submit(request, requester)
+                    return
                 action = self.layer.action_cb(request)
                 if action.uuid != request.uuid:
                     raise ActionError("action_cb changed the uuid", uuid=request.uuid)
@@ -310,9 +343,17 @@ class RclCore:
                     return
             except Exception as exc:
                 reason = exc.reason if isinstance(exc, ActionError | DecodeError) else repr(exc)
-                self._reject(request.uuid, _fields(request), reason, requester)
+                known = self.journal.get(request.uuid) if progress is not None else None
+                if known is not None and not known.action.terminal:  # a task given back
+                    self.end_unrouted(known.action, lc.End(ActionState.FAILED,
+                                                           lc.EndCause.REJECTED,
+                                                           f"rejected: {reason}"))
+                else:
+                    self._reject(request.uuid, _fields(request), reason, requester)
                 return
             action.state, action.reason = ActionState.PENDING, ""
+            if progress:
+                action.progress = dict(progress)  # from the robot that lost the task
             held = self._held_goals.cause_for(action.goal, requester.src)
             start = StartAction(action, held)
             # Journaled first, then the robot actor is told (it starts the skills while
@@ -320,6 +361,24 @@ class RclCore:
             # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
             self._emit(action.copy(), "", requester, new=True,  # `repeat` read the journal
                        before_publish=lambda: self.tell(action.robot, start))
+
+    def award(self, request: ActionRequest, requester: Requester, robot: str,
+              progress: dict[str, JsonValue]) -> None:
+        """A role-addressed task was awarded (the book has it): it goes on as a request
+        addressed to `robot` (its first argument the robot, as `name(Robot, Goal, ...)`
+        has it), from `progress`. A robot unavailable since its bid gives it back."""
+        args = [robot, *request.args[1:]] if request.args else [robot]
+        with self._lock:
+            if self.refused(robot):
+                if self.allocator.book.lost(request.uuid, robot) is not None:
+                    self.allocator.reopen(request, requester, robot, progress)
+                return
+            self._accept(dataclasses.replace(request, robot=robot, args=args, role={}),
+                         requester, progress)
+
+    def refused(self, robot: str) -> bool:
+        """Whether a new action for `robot` would be refused now."""
+        return self.availability.refusal(robot) is not None
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
@@ -373,6 +432,8 @@ class RclCore:
         `new`: the caller found no journal entry for the uuid under the lock (an accepted
         request), so it is not looked up again (one read less on the action path).
         `before_publish` runs after the commit, under the lock, before the publication."""
+        if action.terminal and self.reallocation.ending(action):
+            return  # its robot was lost: the task went back to allocation instead
         known = self.actions.get(action.uuid)
         if known is None and not new:
             done = self.journal.get(action.uuid)
@@ -383,10 +444,13 @@ class RclCore:
         if requester is None:
             requester = known.requester if known else NOBODY
         self.journal.record(action, suspended_by, requester)
+        if action.terminal:
+            self.reallocation.ended(action)
         with self._lock:  # with the publication: see publish_progress
             if action.terminal:
                 self.actions.drop(action.uuid)
                 self.observers.progress.forget(action.uuid)
+                self.allocator.kick()  # its robot may be free for a waiting task
             else:
                 self.actions.put(action, requester)
             if before_publish is not None:

@@ -7,7 +7,11 @@ failure we guard against) but not a power cut; `durable=True` syncs every commit
 checkpoints (which sync the file) run on a thread of their own (`mrss.sqlite_checkpoint`),
 not in whichever transition crosses SQLite's mark.
 
-It also holds the controls not yet applied by a robot actor (mrss.actors.rcl.controls).
+It also holds the tasks addressed to a role (mrss.actors.rcl.allocation.book): each
+one's request, who holds it now ("" while it waits) and the robots that lost it; an
+award is committed before the action on the winner is, so a restart carries out a
+recorded award instead of deciding again. And the controls not yet applied by a robot
+actor (mrss.actors.rcl.controls).
 It stays bounded: `compact` drops the terminal actions (and their transitions) last
 updated more than `keep_seconds` ago, except the newest `keep_last` of them, which the
 dashboard's history shows; and the pending controls of actions no longer open. The RCL
@@ -53,6 +57,11 @@ CREATE TABLE IF NOT EXISTS controls (
     event TEXT NOT NULL, ts REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS actions_updated ON actions(updated);
+CREATE TABLE IF NOT EXISTS tasks (
+    uuid TEXT PRIMARY KEY, request TEXT NOT NULL, requester TEXT NOT NULL,
+    requester_inc INTEGER NOT NULL, robot TEXT NOT NULL, lost TEXT NOT NULL,
+    updated REAL NOT NULL
+);
 """
 
 _TERMINAL = tuple(s.value for s in ActionState if s.terminal)
@@ -74,6 +83,17 @@ class JournalEntry(NamedTuple):
     action: Action
     suspended_by: str
     requester: Requester
+
+
+class TaskRow(NamedTuple):
+    """A task addressed to a role as journaled: its request (the wire fields), requester,
+    holder ("" while it waits) and the robots that lost it, oldest first."""
+
+    uuid: str
+    request: dict[str, Any]
+    requester: Requester
+    robot: str
+    lost: list[str]
 
 
 class ActionJournal:
@@ -106,7 +126,9 @@ class ActionJournal:
                requester: Requester = NOBODY) -> int:
         """Write the action's current state as a transition and commit; returns its seq.
 
-        `requester` is stored when the action is first recorded. A write the disk refuses
+        `requester` is stored when the action is first recorded; its robot (and its
+        arguments, the robot's id first) change when a task addressed to a role goes from
+        a lost robot to another (mrss.actors.rcl.reallocation). A write the disk refuses
         (full, a file size limit) is tried again with backoff for `write_patience`
         seconds before the error is raised: nothing is published before it is journaled,
         so the caller simply waits for the disk.
@@ -136,7 +158,7 @@ class ActionJournal:
                     "ON CONFLICT(uuid) DO UPDATE SET state=excluded.state, "
                     "reason=excluded.reason, progress=excluded.progress, "
                     "suspended_by=excluded.suspended_by, updated=excluded.updated, "
-                    "cause=excluded.cause",
+                    "cause=excluded.cause, robot=excluded.robot, args=excluded.args",
                     (action.uuid, action.name, json.dumps(action.args), action.robot,
                      action.goal, action.priority, action.literal, action.state.value,
                      action.reason, progress, suspended_by, now, now, requester.src,
@@ -214,6 +236,42 @@ class ActionJournal:
             rows = self._db.execute("SELECT robot FROM robots WHERE teleop=1").fetchall()
         return {r[0] for r in rows}
 
+
+    # -- tasks addressed to a role (mrss.actors.rcl.allocation.book) --------------------------
+    def open_task(self, uuid: str, request: dict[str, Any], requester: Requester) -> bool:
+        """Record a new task, waiting; False if its uuid is known already."""
+        with self._lock:
+            cur = self._db.execute("INSERT OR IGNORE INTO tasks VALUES (?,?,?,?,'','[]',?)",
+                                   (uuid, json.dumps(request), requester.src, requester.inc,
+                                    self.clock()))
+        return cur.rowcount > 0
+
+    def hold_task(self, uuid: str, robot: str) -> None:
+        """`robot` holds the task now ("": it waits again)."""
+        with self._lock:
+            self._db.execute("UPDATE tasks SET robot=?, updated=? WHERE uuid=?",
+                             (robot, self.clock(), uuid))
+
+    def lose_task(self, uuid: str, robot: str) -> None:
+        """`robot` lost the task: it waits, and `robot` is added to those that lost it."""
+        with self._lock:
+            row = self._db.execute("SELECT lost FROM tasks WHERE uuid=?", (uuid,)).fetchone()
+            lost = [*json.loads(row[0]), robot] if row else [robot]
+            self._db.execute("UPDATE tasks SET robot='', lost=?, updated=? WHERE uuid=?",
+                             (json.dumps(lost), self.clock(), uuid))
+
+    def close_task(self, uuid: str) -> None:
+        """The task's action ended (or it was rejected): it is no task any more."""
+        with self._lock:
+            self._db.execute("DELETE FROM tasks WHERE uuid=?", (uuid,))
+
+    def tasks(self) -> list[TaskRow]:
+        """Every task, oldest first."""
+        with self._lock:
+            rows = self._db.execute("SELECT uuid, request, requester, requester_inc, robot, "
+                                    "lost FROM tasks ORDER BY rowid").fetchall()
+        return [TaskRow(u, json.loads(r), Requester(s, i), robot, json.loads(lost))
+                for u, r, s, i, robot, lost in rows]
 
     # -- pending controls (mrss.actors.rcl.controls) -------------------------------------------
     def add_control(self, robot: str, uuid: str, event: str) -> int:

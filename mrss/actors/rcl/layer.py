@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from mrss.actors.rcl.action import Action, check_json
+from mrss.actors.rcl.allocation.bids import Bid
+from mrss.actors.rcl.allocation.task import Task
 from mrss.actors.rcl.skill import Skill, SkillOutcome
 from mrss.errors import ActionError
 from mrss.links.connect import connect_link
@@ -36,6 +38,10 @@ class RobotCommLayer:
     #: `Option`s that `mrss check` also type-checks; it validates the other keys against
     #: the robot's `link` kind.
     robot_settings: ClassVar[tuple[str | Option, ...]] = ()
+    #: A project's own ranking of bids for tasks addressed to a role: define a method
+    #: `bid_score(self, task, bid) -> float`, lower wins (None: the RCL option
+    #: `evaluator`; docs/rcl.md, "Allocation").
+    bid_score: Callable[[Task, Bid], float] | None = None
 
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
         """The link object skills of `robot` use (`Skill.link`), from its project.toml table.

@@ -117,6 +117,7 @@ class EndCause(StrEnum):
     REJECTED = "rejected"  # the request was malformed or refused
     PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
+    DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
 
 
 #: The end causes that wait for a skill's critical section to end (`Skill.critical`);
@@ -134,6 +135,7 @@ FAILURE_OF: Mapping[EndCause, str] = {
     EndCause.ORPHANED: FailureCause.ORPHANED, EndCause.QUARANTINED: FailureCause.QUARANTINED,
     EndCause.RCL_RESTARTED: FailureCause.TRANSIENT, EndCause.REJECTED: FailureCause.REJECTED,
     EndCause.PREEMPTED: FailureCause.PREEMPTED, EndCause.NODE_DOWN: FailureCause.NODE_DOWN,
+    EndCause.DECOMMISSIONED: FailureCause.DECOMMISSIONED,
 }
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from mrss.actors.rcl.allocation.evaluators import DEFAULT, Evaluator
 from mrss.options import Check, Option
 
 RCL_OPTIONS: tuple[Option, ...] = (
@@ -35,6 +36,12 @@ RCL_OPTIONS: tuple[Option, ...] = (
                "... except the newest this many (the dashboard's history)", Check.NON_NEGATIVE),
         Option("journal_compact_period", float, 600.0,
                "seconds between journal compactions (also done at start)", Check.POSITIVE),
+        Option("evaluator", str, DEFAULT.value,
+               "how bids for a task addressed to a role are ranked (docs/rcl.md, "
+               "\"Allocation\")", choices=tuple(e.value for e in Evaluator)),
+        Option("bid_timeout", float, 1.0,
+               "seconds a robot actor has to bid for a task before it counts as silent",
+               Check.POSITIVE),
     )
 _BY_NAME = {o.name: o for o in RCL_OPTIONS}
 

@@ -8,6 +8,8 @@
   seconds for the new incarnation to adopt them, then are cancelled), and
   `action.query` (reconciliation: statuses from the journal, and the inventory of a
   restarted requester's predecessors);
+- `ctl.decommission` / `ctl.recommission` (Command, target = robot, from the operator)
+  take a robot out of service (its tasks addressed to a role go to others) and back;
 - `ctl.snapshot` (Command, from an observer such as the dashboard) is answered with
   every robot's state and every open action's status (`repeat`): `RclCore.snapshot`;
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
@@ -38,6 +40,8 @@ import time
 from pathlib import Path
 from typing import Any, ClassVar
 
+from mrss.actors.rcl.allocation.evaluators import BidRanking, Evaluator
+from mrss.actors.rcl.allocation.profile import RobotProfile, split_table
 from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
@@ -116,6 +120,11 @@ class RclService(Component):
         # `node`: the node a robot is reached through (mrss.config.nodes), the RCL's, not the link's
         tables = {str(r): dict(o) if isinstance(o, dict) else {} for r, o in robots.items()}
         robot_nodes = {r: str(t.pop("node")) for r, t in tables.items() if "node" in t}
+        # what a robot can do, for tasks addressed to a role: the RCL's keys too
+        profiles = {}
+        for r in list(tables):
+            mine, tables[r] = split_table(tables[r])
+            profiles[r] = RobotProfile.read(r, mine, section=f"robots.{r}")
         self.links = {r: self.layer.connect_robot(r, t) for r, t in tables.items()}
         journal_path = Path(opts["journal"] or ctx.run_dir / f"{ctx.name}-journal.sqlite3")
         self.journal = ActionJournal(journal_path, durable=opts.flag("durable"))
@@ -133,6 +142,7 @@ class RclService(Component):
                 self.incarnations.learn(src, inc)
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
                                                     "ctl.teleop", "ctl.snapshot",
+                                                    "ctl.decommission", "ctl.recommission",
                                                     "sup.heartbeat.", "sup.node_"],
                                incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
@@ -144,7 +154,10 @@ class RclService(Component):
                             adopt_grace=opts.number("adopt_grace"),
                             adopt_grace_suspended=opts.number("adopt_grace_suspended"),
                             preempted_timeout=opts.number("preempted_timeout"),
-                            progress_every=opts.number("progress_every"))
+                            progress_every=opts.number("progress_every"),
+                            profiles=profiles, bid_timeout=opts.number("bid_timeout"),
+                            ranking=BidRanking(self.layer.bid_score
+                                               or Evaluator(opts.text("evaluator"))))
         self.core.availability.robot_nodes = robot_nodes
         self.layer.bind_runtime(link_state=self.core.availability.link_state)
         self._compaction = (opts.number("journal_keep_seconds"),
@@ -250,6 +263,9 @@ class RclService(Component):
                 if not isinstance(on, bool):
                     raise MrssError(f"teleop command needs args.on true/false, not {on!r}")
                 core.availability.set_teleop(body.target, on)
+            elif isinstance(body, Command) and body.command in ("decommission",
+                                                                "recommission"):
+                core.availability.decommission(body.target, body.command == "decommission")
             elif isinstance(body, Command) and body.command == "snapshot":
                 core.observers.snapshot()
             elif isinstance(body, Heartbeat):

@@ -35,6 +35,7 @@ error) are mrss.actors.reasoner.messages.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
@@ -185,9 +186,7 @@ class ReasonerHost:
         self._handles[latch.handle] = old
         self.adopted += 1
         log.info("action %s adopts %s, left by a previous incarnation", request.literal, old)
-        return ActionRequest(uuid=old, name=request.name, args=request.args,
-                             robot=request.robot, goal=request.goal,
-                             priority=request.priority, literal=request.literal)
+        return dataclasses.replace(request, uuid=old)
 
     def cancel(self, handle: Hashable) -> None:
         """The intention waiting on `handle` was dropped: the RCL cancels the action."""

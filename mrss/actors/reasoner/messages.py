@@ -3,6 +3,9 @@
 - an environment action literal becomes an `ActionRequest` (`action_request`): a new
   uuid, its arguments as plain JSON-like values (`plain_arg`: structures as their
   text), robot and goal its first two, its `priority(P)` annotation;
+- an action whose first argument is a role, `any(Capabilities)` or
+  `any(Capabilities, at(Lat, Lon))`, goes with no robot and that role
+  (`ActionRequest.role`, mrss.messages.roles): the RCL awards it to a robot;
 - `rcl_goal_management(Command, Target)` (or `(Command, Kind, Target)`) becomes an
   `ActionControl` (`goal_management_control`);
 - a failed or cancelled `ActionStatus` becomes the `error(E)` its plan sees
@@ -28,6 +31,7 @@ from mrss.messages import (
     ControlTarget,
     FailureCause,
 )
+from mrss.messages.roles import CAPABILITIES, NEAR, PLACE_FUNCTOR, ROLE_FUNCTOR
 
 GOAL_MANAGEMENT = "rcl_goal_management"
 ACTION_FAILED = "action_failed"  # Jason's error for a failed action of no known cause
@@ -65,15 +69,43 @@ def _annotation(action: Struct, name: str) -> Any:
 
 
 def action_request(action: Struct) -> ActionRequest:
-    """The ActionRequest of an environment action, under a new uuid."""
+    """The ActionRequest of an environment action, under a new uuid (MrssError: a
+    malformed role)."""
     args = [plain_arg(a) for a in action.args]
     priority = _annotation(action, "priority")
+    role = role_of(action.args[0]) if action.args else {}
     return ActionRequest(
         uuid=uuidlib.uuid4().hex, name=action.functor, args=args,
-        robot=str(args[0]) if args else "", goal=str(args[1]) if len(args) > 1 else "",
+        robot="" if role else str(args[0]) if args else "",
+        goal=str(args[1]) if len(args) > 1 else "",
         priority=priority if isinstance(priority, int) else 0,
-        literal=term_str(Struct(action.functor, action.args)),
+        literal=term_str(Struct(action.functor, action.args)), role=role,
     )
+
+
+def role_of(term: Any) -> dict[str, Any]:
+    """The wire form of a role term (`any([uav, camera])`, `any([camera], at(Lat, Lon))`);
+    {} for anything else (a robot id)."""
+    if not (isinstance(term, Struct) and term.functor == ROLE_FUNCTOR and not term.neg
+            and len(term.args) in (1, 2)):
+        return {}
+    caps = term.args[0]
+    names = [c.functor for c in caps if isinstance(c, Struct)] \
+        if isinstance(caps, tuple) and all(isinstance(c, Struct) and not c.args and not c.neg
+                                           for c in caps) else None
+    if not names:
+        raise MrssError(f"{term_str(term)}: a role's first argument is a non-empty list of "
+                        "capability names, e.g. any([uav, camera])")
+    role: dict[str, Any] = {CAPABILITIES: names}
+    if len(term.args) == 2:
+        place = term.args[1]
+        values = [v for v in place.args if isinstance(v, int | float)
+                  and not isinstance(v, bool)] if isinstance(place, Struct) else []
+        if not (isinstance(place, Struct) and place.functor == PLACE_FUNCTOR
+                and len(place.args) == 2 and len(values) == 2):
+            raise MrssError(f"{term_str(term)}: a role's place is at(Lat, Lon), numbers")
+        role[NEAR] = [float(values[0]), float(values[1])]
+    return role
 
 
 def goal_management_control(action: Struct) -> ActionControl:

@@ -1,0 +1,157 @@
+"""Tasks addressed to a role when their robot is lost, and after an RCL restart.
+
+One object of the RCL core, between its action path and the allocator
+(mrss.actors.rcl.allocation). Rules:
+- the action of a task addressed to a role ends with a cause that says its robot is
+  lost (`book.LOSSES`: link lost, failsafe, node down, quarantined, decommissioned):
+  instead of that end, the task goes back to allocation (`lost`). Journaled first: the
+  book has it waiting, then the action is PENDING on no robot (its progress kept, the
+  reason "reassigning: ..."), published so, and no longer open on the lost robot; the
+  allocator bids it out again and the next holder resumes from that progress. The
+  agent's intention keeps waiting on the same action; it sees `reassigned(Task, From,
+  To)` as a percept when the task has a new holder (`reassigned`);
+- any other end (done, failed for another cause, cancelled) closes the task;
+- a task addressed to a robot by name is no task of the book: it ends as before;
+- after a restart (`recover`, before the robot actors start) each journaled task has
+  one holder or none: a task the journal has waiting is bid for again (its action, if a
+  kill came between the book's write and the action's, is taken off the lost robot
+  first); a task held by a robot whose action is there stays with it (the actor
+  restores it); an award recorded without its action yet is carried out on that robot
+  (`carry_out`, after the actors start), or, the robot unavailable now, bid for again;
+  a task whose action ended is closed. After a restart of the whole system (a new
+  run) the tasks are dropped with their actions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from typing import Any, Protocol
+
+from mrss.actors.rcl.action import Action
+from mrss.actors.rcl.allocation.allocator import Allocator
+from mrss.actors.rcl.allocation.book import LOSSES
+from mrss.actors.rcl.journal import ActionJournal, Requester
+from mrss.actors.rcl.open_actions import OpenActions
+from mrss.agentspeak.literals import PredicateError, check_literal, quote, symbol, term
+from mrss.messages import ActionRequest, ActionState, FailureCause, JsonValue, Percept
+
+log = logging.getLogger("mrss.rcl.allocation")
+
+REASSIGNING = "reassigning"  # how the reason of a task given back starts
+
+
+class Host(Protocol):
+    """What the reallocation asks of the RCL core."""
+
+    def publish_status(self, action: Action, repeat: bool = False) -> None: ...
+
+    def award(self, request: ActionRequest, requester: Any, robot: str,
+              progress: dict[str, JsonValue]) -> None: ...
+
+    def refused(self, robot: str) -> bool: ...
+
+
+class Reallocation:
+    """Lost holders' tasks back to allocation; the book made whole after a restart."""
+
+    def __init__(self, allocator: Allocator, journal: ActionJournal, actions: OpenActions,
+                 host: Host, publish: Any) -> None:
+        self.allocator, self.journal, self.actions = allocator, journal, actions
+        self.host, self.publish = host, publish
+        self._pending: list[tuple[ActionRequest, Requester, str, dict[str, JsonValue]]] = []
+
+    # -- the action path ---------------------------------------------------------------------
+    def ending(self, action: Action) -> bool:
+        """`action` is about to end: True if its task went back to allocation instead (the
+        end is then not journaled nor published)."""
+        book = self.allocator.book
+        if not action.robot or book.holder(action.uuid) != action.robot:
+            return False
+        if FailureCause(action.cause) not in LOSSES or action.state is not ActionState.FAILED:
+            return False
+        held = book.lost(action.uuid, action.robot)
+        if held is None:
+            return False
+        with self.actions.lock:
+            known = self.actions.get(action.uuid)
+        requester = known.requester if known is not None else held.requester
+        waiting = self._waiting(action, f"{REASSIGNING}: {action.reason}")
+        self.journal.record(waiting, "", requester)
+        with self.actions.lock:
+            self.actions.drop(action.uuid)
+            self.host.publish_status(waiting)
+        log.warning("task %s: %s lost it (%s); bidding it out again from %s", action.uuid,
+                    action.robot, action.cause, dict(action.progress) or "the start")
+        self.allocator.reopen(held.request, requester, action.robot, dict(action.progress))
+        return True
+
+    def ended(self, action: Action) -> None:
+        """`action` ended (journaled): its task, if it is one, is closed."""
+        if action.terminal:
+            self.allocator.book.closed(action.uuid)
+
+    def reassigned(self, request: ActionRequest, lost_from: str, to: str) -> None:
+        """The agent's percept `reassigned(Task, From, To)`: Task is the action as the
+        agent wrote it (its role in place of the robot)."""
+        task = request.literal or quote(request.uuid)
+        try:
+            text = check_literal(f"reassigned({task}, {term(symbol(lost_from))}, "
+                                 f"{term(symbol(to))})")
+        except PredicateError as exc:
+            log.error("task %s: no reassigned percept: %s", request.uuid, exc)
+            return
+        try:
+            self.publish(Percept(literal=text))
+        except Exception as exc:
+            log.error("publishing %s failed: %r", text, exc)
+
+    # -- restart -------------------------------------------------------------------------------
+    def recover(self, new_run: bool) -> set[str]:
+        """Make the book whole from the journal (before the robot actors start); the uuids
+        of the tasks whose actions are not a robot's (the core leaves them alone)."""
+        book = self.allocator.book
+        rows = book.load()
+        mine: set[str] = set()
+        for row in rows:
+            entry = self.journal.get(row.uuid)
+            held = book.get(row.uuid)
+            if new_run or held is None or (entry is not None and entry.action.terminal):
+                book.closed(row.uuid)  # ended, or nobody waits for it any more
+                continue
+            progress = dict(entry.action.progress) if entry is not None else {}
+            requester = entry.requester if entry is not None else row.requester
+            if row.robot and entry is not None and entry.action.robot == row.robot:
+                continue  # held, and its action is there: the robot actor restores it
+            mine.add(row.uuid)
+            if row.robot:  # an award recorded, its action not yet: carried out below
+                log.info("task %s: its award to %s is carried out after the restart",
+                         row.uuid, row.robot)
+                self._pending.append((held.request, requester, row.robot, progress))
+                continue
+            if entry is not None and entry.action.robot:  # killed between book and action
+                self.journal.record(self._waiting(entry.action, f"{REASSIGNING}: "
+                                                  f"{entry.action.robot} lost it"),
+                                    "", requester)
+            log.info("task %s waits again after the restart", row.uuid)
+            self.allocator.reopen(held.request, requester, row.lost[-1] if row.lost else "",
+                                  progress)
+        return mine
+
+    def carry_out(self) -> None:
+        """The awards recorded before a restart whose actions were not started (after the
+        robot actors start): on their robot, or bid for again if it is unavailable now."""
+        pending, self._pending = self._pending, []
+        for request, requester, robot, progress in pending:
+            if self.host.refused(robot):
+                self.allocator.book.lost(request.uuid, robot)
+                self.allocator.reopen(request, requester, robot, progress)
+            else:
+                self.host.award(request, requester, robot, progress)
+
+    @staticmethod
+    def _waiting(action: Action, reason: str) -> Action:
+        return dataclasses.replace(action, state=ActionState.PENDING, robot="", reason=reason,
+                                   cause="", progress=dict(action.progress),
+                                   args=list(action.args))
+

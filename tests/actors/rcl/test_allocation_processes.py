@@ -1,0 +1,197 @@
+"""Tasks addressed to a role, through real processes: a bus proxy and the RCL component
+under the root supervisor, with several simulated robots (fakes of the physical robots
+standing where their tables say). The test plays the reasoner: it sends role-addressed
+`ActionRequest`s on the reliable action channel and watches `action.allocation` and
+`action.status` on the bus."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mrss.bus import BusEndpoints, ReliableSender, Subscriber
+from mrss.config.kinds import KINDS, ComponentKind
+from mrss.messages import (
+    ActionControl,
+    ActionRequest,
+    ActionState,
+    ActionStatus,
+    AllocationState,
+    ControlCommand,
+    ControlTarget,
+    Envelope,
+    TaskAllocation,
+    WaitReason,
+)
+from mrss.supervision import (
+    Backoff,
+    ChildSpec,
+    ComponentStart,
+    EventLog,
+    ProcessSettings,
+    ProcessSupervisor,
+    SupervisorSpec,
+)
+from mrss.testing import wait_until
+from tests.actors.rcl.test_rcl_processes import Procs
+
+PROJECT = Path(__file__).parent / "allocation_project"
+ROBOTS: dict[str, dict[str, Any]] = {
+    # two ground robots with cameras, 1.1 km apart; one UAV, low on battery
+    "ugv1": {"at": [48.00, 16.00], "capabilities": ["ugv", "camera"]},
+    "ugv2": {"at": [48.01, 16.00], "capabilities": ["ugv", "camera"]},
+    "uav1": {"at": [48.00, 16.00], "capabilities": ["uav", "camera"], "battery": 60.0},
+}
+
+
+@pytest.fixture()
+def procs() -> Iterator[Procs]:
+    p = Procs()
+    try:
+        yield p
+    finally:
+        p.close()
+
+
+@pytest.fixture()
+def run_dir() -> Iterator[Path]:
+    path = Path(tempfile.mkdtemp(prefix="mrss-alloc-"))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+class Rcl:
+    """The RCL process on its bus, and what the test heard."""
+
+    def __init__(self, procs: Procs, run_dir: Path) -> None:
+        self.endpoints = BusEndpoints.ipc(run_dir)
+        procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
+        self.seen: list[Envelope] = []
+        self.sub = Subscriber(self.endpoints, prefixes=["action."])
+        self.sub.start(self.seen.append)
+        assert self.sub.wait_connected(5)
+        self.tx = ReliableSender(self.endpoints, src="reasoner", inc=1, channel="action")
+        child = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target,
+                                                {"robots": ROBOTS, "heartbeat": 0.2}, 20.0),
+                          shutdown=5.0)
+        self.sup = ProcessSupervisor(
+            "root", SupervisorSpec(intensity=3, period=30.0,
+                                   backoff=Backoff(initial=0.02, jitter=0.0)), [child],
+            ProcessSettings(PROJECT, run_dir, bus=self.endpoints.to_dict(),
+                            heartbeat_interval=0.1, heartbeat_misses=20),
+            publish=EventLog())
+        self.sup.start()
+        assert self.sup.wait_started(30), "the RCL component did not start"
+
+    def close(self) -> None:
+        self.sup.stop(timeout=30)
+        self.tx.close()
+        self.sub.close()
+
+    def request(self, uuid: str, caps: list[str], near: list[float] | None = None,
+                seconds: float = 0.2, priority: int = 0) -> None:
+        role: dict[str, Any] = {"capabilities": caps}
+        if near is not None:
+            role["near"] = near
+        self.tx.send(ActionRequest(uuid=uuid, name="survey", args=["any", f"g-{uuid}",
+                                                                     seconds],
+                                   goal=f"g-{uuid}", priority=priority, role=role))
+
+    def allocations(self, uuid: str) -> list[TaskAllocation]:
+        return [e.body for e in list(self.seen)
+                if isinstance(e.body, TaskAllocation) and e.body.uuid == uuid]
+
+    def statuses(self, uuid: str) -> list[ActionStatus]:
+        return [e.body for e in list(self.seen)
+                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
+
+    def awarded(self, uuid: str) -> TaskAllocation:
+        wait_until(lambda: any(a.state is AllocationState.AWARDED
+                               for a in self.allocations(uuid)), timeout=20,
+                   message=f"{uuid} awarded")
+        return next(a for a in self.allocations(uuid) if a.state is AllocationState.AWARDED)
+
+    def ended(self, uuid: str) -> ActionStatus:
+        wait_until(lambda: any(s.state.terminal for s in self.statuses(uuid)), timeout=20,
+                   message=f"{uuid} ended")
+        return next(s for s in self.statuses(uuid) if s.state.terminal)
+
+
+@pytest.fixture()
+def rcl(procs: Procs, run_dir: Path) -> Iterator[Rcl]:
+    r = Rcl(procs, run_dir)
+    try:
+        yield r
+    finally:
+        r.close()
+
+
+@pytest.mark.slow
+def test_a_task_goes_to_the_robot_that_finishes_it_first(rcl: Rcl) -> None:
+    rcl.request("near-ugv2", ["ugv", "camera"], near=[48.0095, 16.0])
+    award = rcl.awarded("near-ugv2")
+    assert award.robot == "ugv2"
+    assert award.why.startswith("ugv2: finish in ") and "ugv1: finish in" in award.why
+    done = rcl.ended("near-ugv2")
+    assert (done.state, done.robot) == (ActionState.SUCCEEDED, "ugv2")
+    rcl.request("near-ugv1", ["camera"], near=[48.0005, 16.0])  # uav1 stands there too:
+    first = rcl.awarded("near-ugv1")  # equally quick: the robot id breaks the tie
+    assert first.robot == "uav1" and "ugv1: finish in 11 s" in first.why
+    rcl.ended("near-ugv1")
+    rcl.request("again", ["camera"], near=[48.0005, 16.0])
+    assert rcl.awarded("again").robot == "uav1"  # the same tie, the same robot
+
+
+@pytest.mark.slow
+def test_a_task_waits_while_every_capable_robot_is_busy_then_is_awarded(rcl: Rcl) -> None:
+    rcl.request("long", ["uav"], seconds=600)
+    assert rcl.awarded("long").robot == "uav1"
+    wait_until(lambda: any(s.state is ActionState.RUNNING for s in rcl.statuses("long")),
+               timeout=20, message="the long survey runs")
+    rcl.request("next", ["uav"], seconds=0.1)
+    wait_until(lambda: any(a.state is AllocationState.WAITING for a in rcl.allocations("next")),
+               timeout=20, message="the next task waits")
+    waiting = rcl.allocations("next")[0]
+    assert waiting.wait is WaitReason.BUSY and "uav1 busy with priority 0" in waiting.why
+    assert not rcl.statuses("next")  # no robot has it yet
+    rcl.tx.send(ActionControl(command=ControlCommand.CANCEL, target="long",
+                              target_kind=ControlTarget.ACTION))
+    assert rcl.awarded("next").robot == "uav1"
+    assert rcl.ended("long").state is ActionState.CANCELLED
+    assert rcl.ended("next").state is ActionState.SUCCEEDED
+
+
+@pytest.mark.slow
+def test_a_higher_priority_task_preempts_and_a_low_battery_robot_is_passed_over(
+        rcl: Rcl) -> None:
+    rcl.request("low", ["uav"], seconds=600, priority=1)
+    assert rcl.awarded("low").robot == "uav1"
+    rcl.request("urgent", ["uav"], seconds=0.1, priority=5)
+    award = rcl.awarded("urgent")
+    assert award.robot == "uav1" and "pre-empting priority 1" in award.why
+    assert rcl.ended("urgent").state is ActionState.SUCCEEDED
+    wait_until(lambda: any(s.state is ActionState.SUSPENDED for s in rcl.statuses("low")),
+               timeout=20, message="the low-priority survey suspended")
+    # uav1 has 60 %: 30 km away and back costs more than it may spend above its reserve
+    # (priority 9 would pre-empt anything: the battery is what stops it)
+    rcl.request("far", ["uav"], near=[48.30, 16.0], priority=9)
+    wait_until(lambda: any(a.state is AllocationState.WAITING for a in rcl.allocations("far")),
+               timeout=20, message="the far task waits")
+    far = rcl.allocations("far")[0]
+    assert far.wait is WaitReason.BATTERY and "below its reserve 20 %" in far.why
+
+
+@pytest.mark.slow
+def test_a_role_no_robot_has_is_rejected_with_a_did_you_mean(rcl: Rcl) -> None:
+    rcl.request("typo", ["camra"])
+    done = rcl.ended("typo")
+    assert done.state is ActionState.FAILED
+    assert "no configured robot has camra" in done.reason and "did you mean 'camera'" in \
+        done.reason

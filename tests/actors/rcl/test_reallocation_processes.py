@@ -1,0 +1,259 @@
+"""Re-allocation through real processes: two simulated UAVs (`mrss sim uav`, each a
+process speaking MAVLink over UDP), a bus proxy and the RCL under the root supervisor.
+The test plays the reasoner (role-addressed `ActionRequest`s on the reliable action
+channel) and the operator (`ctl.decommission`), and takes a robot away by freezing its
+simulator (SIGSTOP: its link hears nothing past its heartbeat timeout)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import sqlite3
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
+from mrss.config.kinds import KINDS, ComponentKind
+from mrss.links.geo import offset
+from mrss.messages import (
+    ActionRequest,
+    ActionState,
+    ActionStatus,
+    AllocationState,
+    Command,
+    Envelope,
+    FailureCause,
+    Percept,
+    RobotData,
+    RobotState,
+    TaskAllocation,
+)
+from mrss.sim.uav import DEFAULT_HOME
+from mrss.supervision import (
+    Backoff,
+    ChildSpec,
+    ComponentStart,
+    EventLog,
+    ProcessSettings,
+    ProcessSupervisor,
+    SupervisorSpec,
+)
+from mrss.supervision.faults import kill
+from mrss.testing import wait_until
+from tests.actors.rcl.test_rcl_processes import Procs
+
+PROJECT = Path(__file__).parent / "reallocation_project"
+HOMES = {"uav1": DEFAULT_HOME[:2], "uav2": offset(DEFAULT_HOME[0], DEFAULT_HOME[1], 400.0, 0)}
+
+
+@pytest.fixture()
+def procs() -> Iterator[Procs]:
+    p = Procs()
+    try:
+        yield p
+    finally:
+        p.close()
+
+
+@pytest.fixture()
+def run_dir() -> Iterator[Path]:
+    path = Path(tempfile.mkdtemp(prefix="mrss-realloc-"))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+class System:
+    """Two simulated UAVs and the RCL on a bus; what the test heard."""
+
+    def __init__(self, procs: Procs, run_dir: Path) -> None:
+        self.run_dir = run_dir
+        self.endpoints = BusEndpoints.ipc(run_dir)
+        procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
+        self.seen: list[Envelope] = []
+        self.sub = Subscriber(self.endpoints, prefixes=["action.", "percept", "robot.uav"])
+        self.sub.start(self.seen.append)
+        assert self.sub.wait_connected(5)
+        self.tx = ReliableSender(self.endpoints, src="reasoner", inc=1, channel="action")
+        self.pub = Publisher(self.endpoints, src="operator", batching=False)
+        robots = {r: {"link": "mavlink", "heartbeat_timeout": 3.0,  # a loaded CI host
+                      "capabilities": ["uav", "camera"], "cruise_speed": 10.0}
+                  for r in HOMES}
+        sims = [ChildSpec(r, ComponentStart(KINDS[ComponentKind.SIM_UAV].target,
+                                            {"id": r, "home": [*home, 584.0]}, 20.0),
+                          shutdown=5.0) for r, home in HOMES.items()]
+        rcl = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target,
+                                              {"robots": robots, "heartbeat": 0.2}, 20.0),
+                        shutdown=5.0)
+        self.sup = ProcessSupervisor(
+            "root", SupervisorSpec(intensity=10, period=30.0,
+                                   backoff=Backoff(initial=0.02, jitter=0.0)), [*sims, rcl],
+            ProcessSettings(PROJECT, run_dir, bus=self.endpoints.to_dict(),
+                            heartbeat_interval=0.1, heartbeat_misses=100),
+            publish=EventLog())
+        self.sup.start()
+        assert self.sup.wait_started(60), "the simulators and the RCL did not start"
+        for robot in HOMES:  # telemetry flows: its link is up, its position known
+            wait_until(lambda r=robot: bool(self.bodies(RobotData, robot=r)),  # type: ignore[misc]
+                       timeout=30, message=f"{robot}'s telemetry")
+
+    def close(self) -> None:
+        self.sup.stop(timeout=30)
+        self.tx.close()
+        self.pub.close()
+        self.sub.close()
+
+    def sweep(self, uuid: str, steps: int, near: str | None = None,
+              robot: str = "", gate: Path | None = None) -> None:
+        role: dict[str, Any] = {}
+        if near is not None:
+            role = {"capabilities": ["uav"], "near": list(HOMES[near])}
+        first = f"any([uav], at({HOMES[near][0]}, {HOMES[near][1]}))" if near else robot
+        extra = [str(gate)] if gate is not None else []
+        self.tx.send(ActionRequest(uuid=uuid, name="sweep",
+                                   args=[first, f"g-{uuid}", steps, *extra],
+                                   robot=robot, goal=f"g-{uuid}", role=role,
+                                   literal=f"sweep({first}, g_{uuid}, {steps})"))
+
+    def bodies(self, kind: type, **match: Any) -> list[Any]:
+        return [e.body for e in list(self.seen) if isinstance(e.body, kind)
+                and all(getattr(e.body, k) == v for k, v in match.items())]
+
+    def awards(self, uuid: str) -> list[TaskAllocation]:
+        return [a for a in self.bodies(TaskAllocation, uuid=uuid)
+                if a.state is AllocationState.AWARDED]
+
+    def statuses(self, uuid: str) -> list[ActionStatus]:
+        return self.bodies(ActionStatus, uuid=uuid)
+
+    def available(self, robot: str) -> bool:
+        states = self.bodies(RobotState, robot=robot)
+        return bool(states) and states[-1].available
+
+    def ended(self, uuid: str, timeout: float = 30) -> ActionStatus:
+        wait_until(lambda: any(s.state.terminal for s in self.statuses(uuid)),
+                   timeout=timeout, message=f"{uuid} ended")
+        return next(s for s in self.statuses(uuid) if s.state.terminal)
+
+    def journal(self) -> Path:
+        return self.run_dir / "rcl-journal.sqlite3"
+
+    def step(self, uuid: str) -> int:
+        with sqlite3.connect(str(self.journal())) as db:
+            row = db.execute("SELECT progress FROM actions WHERE uuid=?", (uuid,)).fetchone()
+        return int(json.loads(row[0]).get("step", 0)) if row else 0
+
+
+@pytest.fixture()
+def system(procs: Procs, run_dir: Path) -> Iterator[System]:
+    s = System(procs, run_dir)
+    try:
+        yield s
+    finally:
+        s.close()
+
+
+@pytest.mark.slow
+def test_a_lost_robots_task_goes_to_another_that_goes_on_from_its_progress(
+        system: System) -> None:
+    system.sweep("t1", steps=40, near="uav1")
+    wait_until(lambda: bool(system.awards("t1")), timeout=20, message="t1 awarded")
+    assert system.awards("t1")[0].robot == "uav1"  # the nearer
+    wait_until(lambda: system.step("t1") >= 3, timeout=20, message="uav1 swept 3 strips")
+
+    kill(system.sup, "uav1", signal.SIGSTOP)  # uav1's link hears nothing more
+    try:
+        wait_until(lambda: len(system.awards("t1")) > 1, timeout=30,
+                   message="t1 awarded again")
+        again = system.awards("t1")[1]
+        assert again.robot == "uav2" and again.why.startswith("reassigned from uav1 (lost)")
+        percept = f"reassigned(sweep(any([uav], at({HOMES['uav1'][0]}, {HOMES['uav1'][1]})), " \
+                  f"g_t1, 40), uav1, uav2)"  # after the award: the agent's event
+        wait_until(lambda: percept in [p.literal for p in system.bodies(Percept)],
+                   timeout=20, message="the reassigned percept")
+        done = system.ended("t1")
+        assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav2")
+        states = [(s.state, s.robot) for s in system.statuses("t1")]
+        assert (ActionState.FAILED, "uav1") not in states  # the agent never saw it fail
+        gone = next(s for s in system.statuses("t1") if s.state is ActionState.PENDING
+                    and not s.robot)
+        assert gone.reason.startswith("reassigning: robot uav1 unreachable")
+        kept = int(gone.progress["step"])  # type: ignore[arg-type]
+        assert kept >= 3  # where uav1 stopped ...
+        resumed = next(s for s in system.statuses("t1") if s.progress.get("by") == "uav2")
+        assert resumed.progress["first"] == kept  # ... uav2 went on from there
+    finally:
+        kill(system.sup, "uav1", signal.SIGCONT)
+    # uav1 is back: available, and holding nothing of t1
+    wait_until(lambda: system.available("uav1"), timeout=30, message="uav1 back")
+    system.sweep("t2", steps=2, near="uav1")
+    assert system.ended("t2").robot == "uav1"
+    after = system.statuses("t1")[-1]
+    assert (after.state, after.robot) == (ActionState.SUCCEEDED, "uav2")
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT robot FROM actions WHERE uuid='t1'").fetchone() == ("uav2",)
+        assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)  # all closed
+
+
+@pytest.mark.slow
+def test_decommission_hands_role_tasks_to_others_and_fails_named_ones(
+        system: System) -> None:
+    system.sweep("role", steps=40, near="uav2")
+    system.sweep("named", steps=40, robot="uav2")
+    wait_until(lambda: system.step("role") >= 2 and system.step("named") >= 1, timeout=20,
+               message="both sweeps under way on uav2")
+    assert system.awards("role")[0].robot == "uav2"
+    system.pub.publish(Command(command="decommission", target="uav2"))
+    named = system.ended("named")
+    assert (named.state, named.cause) == (ActionState.FAILED, FailureCause.DECOMMISSIONED)
+    wait_until(lambda: len(system.awards("role")) > 1, timeout=20, message="role re-awarded")
+    assert system.awards("role")[1].robot == "uav1"
+    system.pub.publish(Command(command="recommission", target="uav2"))
+    wait_until(lambda: system.available("uav2"), timeout=20, message="uav2 back in service")
+    done = system.ended("role")
+    assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav1")
+    assert int(done.progress["first"]) >= 2  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_an_rcl_killed_between_award_and_skill_start_keeps_one_holder_per_task(
+        system: System) -> None:
+    gate = system.run_dir / "gate"
+    system.sweep("k1", steps=3, near="uav1", gate=gate)  # its skill waits at the gate
+    wait_until(lambda: bool(system.awards("k1")), timeout=20, message="k1 awarded")
+    assert system.awards("k1")[0].robot == "uav1"
+    system.pub.publish(Command(command="decommission", target="uav2"))
+    wait_until(lambda: not system.available("uav2"), timeout=20, message="uav2 out")
+    system.sweep("k2", steps=3, near="uav2")  # uav1 busy, uav2 out of service: it waits
+    wait_until(lambda: any(a.state is AllocationState.WAITING
+                           for a in system.bodies(TaskAllocation, uuid="k2")),
+               timeout=20, message="k2 waits")
+    with sqlite3.connect(str(system.journal())) as db:
+        tasks = dict(db.execute("SELECT uuid, robot FROM tasks").fetchall())
+    assert tasks == {"k1": "uav1", "k2": ""}  # the award journaled, the waiting task too
+    assert "first" not in system.statuses("k1")[-1].progress  # the skill has not started
+
+    kill(system.sup, "rcl")  # SIGKILL; the root supervisor restarts it
+    wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
+               message="the restarted RCL speaks")
+    gate.touch()
+    k1, k2 = system.ended("k1"), None
+    wait_until(lambda: any(s.state.terminal for s in system.statuses("k2")), timeout=30,
+               message="k2 ended")
+    k2 = next(s for s in system.statuses("k2") if s.state.terminal)
+    # the decommission was the old incarnation's: after the restart uav2 takes k2
+    assert (k1.state, k1.robot, k1.progress["by"]) == (ActionState.SUCCEEDED, "uav1", "uav1")
+    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert [a.robot for a in system.awards("k1")] == ["uav1"]  # never awarded twice
+    assert [a.robot for a in system.awards("k2")] == ["uav2"]
+    for uuid in ("k1", "k2"):  # one holder: every status names the same robot (or none)
+        assert {s.robot for s in system.statuses(uuid)} - {""} == {k1.robot if uuid == "k1"
+                                                                   else k2.robot}
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
