@@ -147,4 +147,4 @@ def test_a_data_layer_function_whose_result_no_plan_takes(
 
 def test_the_cross_file_rules_are_one_table() -> None:
     names = [name for name, _ in RULES]
-    assert names == ["robot ids", "query fit", "python refs and compiles"]
+    assert names == ["robot ids", "roles", "query fit", "python refs and compiles"]
