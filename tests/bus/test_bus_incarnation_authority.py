@@ -170,7 +170,7 @@ def test_a_forged_heartbeat_with_a_huge_incarnation_silences_nobody(
     forge(system, forger, tick("forged"), src="talker", inc=HUGE)
     assert "forged" not in system.heard()
     kind = "bus message from talker: an incarnation its supervisor did not start"
-    wait_until(lambda: system.refused(kind) >= 2, 10, message="refusals in the report")
+    wait_until(lambda: system.refused(kind) >= 2, 30, message="refusals in the report")
 
 
 def test_a_sup_start_not_sent_by_the_supervisor_silences_nobody(
@@ -180,7 +180,7 @@ def test_a_sup_start_not_sent_by_the_supervisor_silences_nobody(
     forge(system, forger, forged, src="supervisor", inc=0)
     keeps_hearing_the_live_talker(system)
     kind = "bus message from supervisor: an incarnation its supervisor did not start"
-    wait_until(lambda: system.refused(kind) >= 1, 10, message="the refusal in the report")
+    wait_until(lambda: system.refused(kind) >= 1, 30, message="the refusal in the report")
 
 
 def test_a_replayed_recording_with_a_higher_incarnation_silences_nobody(
