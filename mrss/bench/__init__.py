@@ -14,4 +14,5 @@ BENCHES: dict[str, str] = {
     "worldmodel": "world model store operations, embedded SQLite and PostGIS",
     "nodes": "crossing to another node (tcp, CurveZMQ) and how fast a lost node is seen",
     "tui": "the dashboard's CPU at 20 and 1,000 msgs/s, and its panel refresh times",
+    "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

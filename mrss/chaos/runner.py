@@ -75,8 +75,11 @@ def failed_goal_functors(config: ProjectConfig) -> list[str]:
     return [pattern.functor] if pattern is not None else []
 
 
-def run(options: Options, say: Say = print) -> Path:
-    """Run the campaign; returns the history file (in the run folder)."""
+def run(options: Options, say: Say = print,
+        settled: Callable[[], None] = lambda: None) -> Path:
+    """Run the campaign; returns the history file (in the run folder). `settled` is
+    called once the system has settled after the faults, before it is recorded and
+    stopped (`mrss bench soak` stops sampling there)."""
     config = load_project(options.project)
     traffic = load_traffic(config.directory)
     faults = plan(options.seed, options.faults, options.kinds,
@@ -136,6 +139,7 @@ def run(options: Options, say: Say = print) -> Path:
         say(f"chaos: faults over at {faults_ended:.1f}s; "
             + (f"converged {converged:.1f}s later" if converged is not None
                else "did not converge"))
+        settled()
         recorder.record_journal()
         recorder.record_log(set(reasoners + rcls))
         code = _stop(system)
