@@ -21,6 +21,7 @@ Each resource is one pair of target rows: its worst component's figures.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -34,6 +35,7 @@ from mrss.chaos import runner
 from mrss.chaos.campaign import Range
 from mrss.chaos.checker import check
 from mrss.chaos.history import FILE_NAME
+from mrss.config.projects import PROJECT_FILE, project_path
 from mrss.sim.component import SPEEDUP_ENV
 
 PROJECT = "wildfire"
@@ -52,6 +54,8 @@ class Size:
     operator_every: float  # the operator's pace (chaos.py draws 0.5x..1.5x of it)
     warmup: float  # the first `warmup` s of samples are not judged
     settle: float  # nor the first `settle` s of each incarnation of a process
+    journal_keep_s: float  # the RCL's journal retention in this run (see `project`)
+    journal_compact_s: float  # ... and how often it compacts
 
     @property
     def sim_hours(self) -> float:
@@ -65,10 +69,14 @@ class Size:
 # 15 min of faults at 16x: 4 simulated hours, a fault every 2.7-5.3 simulated minutes
 # (10-20 s), an operator step every ~5 simulated minutes. About 17 min of wall clock.
 FULL = Size(wall_s=900.0, speedup=16.0, every=10.0, fault_interval=(10.0, 20.0),
-            fault_duration=(2.0, 8.0), operator_every=20.0, warmup=120.0, settle=60.0)
+            fault_duration=(2.0, 8.0), operator_every=20.0, warmup=120.0, settle=60.0,
+            journal_keep_s=180.0, journal_compact_s=30.0)
 QUICK = Size(wall_s=40.0, speedup=16.0, every=2.0, fault_interval=(8.0, 12.0),
-             fault_duration=(1.0, 3.0), operator_every=8.0, warmup=10.0, settle=8.0)
+             fault_duration=(1.0, 3.0), operator_every=8.0, warmup=10.0, settle=8.0,
+             journal_keep_s=20.0, journal_compact_s=5.0)
 
+JOURNAL_KEEP_LAST = 20  # the newest ended actions compaction always keeps, in this run
+RCL_TABLE = re.compile(r"^\[components\.rcl\][^\n]*\n", re.MULTILINE)
 DAY = "a simulated day's budget"
 BOUNDS: dict[Resource | FileKind, Bound] = {
     Resource.RSS: Bound("MB", per_hour=2.0, halves=16.0,
@@ -97,7 +105,7 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
     tmp = Path(tempfile.mkdtemp(prefix="mrss-bench-soak-"))
     run_dir = tmp / "run"
     options = runner.Options(
-        project=PROJECT, run_dir=run_dir, faults=size.faults, seed=seed,
+        project=PROJECT, projects=project(tmp / "projects", size), run_dir=run_dir, faults=size.faults, seed=seed,
         interval=size.fault_interval, duration=size.fault_duration,
         operator_every=size.operator_every, env={SPEEDUP_ENV: f"{size.speedup:g}"})
     sampler = Sampler(run_dir, size.every,
@@ -121,9 +129,32 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
         f"~{size.operator_every:g} s. Judged after {size.warmup:g} s and {size.settle:g} s "
         f"into each incarnation. Load average {load:.2f} before, {os.getloadavg()[0]:.2f} "
         "after.")
+    report.notes.append(
+        f"the RCL's journal retention in this run: {size.journal_keep_s:g} s, the newest "
+        f"{JOURNAL_KEEP_LAST} ended actions, compacted every {size.journal_compact_s:g} s "
+        "(shipped: a day, 1000, 600 s; `mrss bench journal` sizes that one)")
     report.notes.append(f"chaos verdict of the same run: {verdict.outcome.value}; "
                         + "; ".join(lines[-2:]))
     return report
+
+
+def project(projects: Path, size: Size) -> Path:
+    """A copy of the shipped project under `projects/`, its RCL compacting the journal
+    within the run: the shipped retention (a day of wall clock, the newest 1000 ended
+    actions) is longer than a soak, which would then only see the journal fill. The
+    folder holding it."""
+    copy = projects / PROJECT
+    shutil.copytree(project_path(PROJECT), copy)
+    toml = copy / PROJECT_FILE
+    text, found = RCL_TABLE.subn(
+        lambda m: m[0] + f"journal_keep_seconds = {size.journal_keep_s}\n"
+        f"journal_keep_last = {JOURNAL_KEEP_LAST}\n"
+        f"journal_compact_period = {size.journal_compact_s}\n",
+        toml.read_text(encoding="utf-8"), count=1)
+    if not found:
+        raise RuntimeError(f"{toml}: no [components.rcl] table to set the retention in")
+    toml.write_text(text, encoding="utf-8")
+    return projects
 
 
 def judge(report: BenchReport, sampler: Sampler, size: Size) -> None:

@@ -64,6 +64,7 @@ class Options:
     warmup: float = 5.0
     bounds: Bounds = field(default_factory=Bounds)
     env: dict[str, str] = field(default_factory=dict)
+    projects: Path | None = None  # the folder of projects/<name>/ (None: projects_dir())
 
 
 def failed_goal_functors(config: ProjectConfig) -> list[str]:
@@ -80,7 +81,7 @@ def run(options: Options, say: Say = print,
     """Run the campaign; returns the history file (in the run folder). `settled` is
     called once the system has settled after the faults, before it is recorded and
     stopped (`mrss bench soak` stops sampling there)."""
-    config = load_project(options.project)
+    config = load_project(options.project, options.projects)
     traffic = load_traffic(config.directory)
     faults = plan(options.seed, options.faults, options.kinds,
                   targets(config, options.only), options.interval, options.duration)
@@ -156,6 +157,7 @@ def run(options: Options, say: Say = print,
 def _plain_options(options: Options) -> dict[str, object]:
     out = dataclasses.asdict(options)
     out["run_dir"] = str(options.run_dir)
+    out["projects"] = None if options.projects is None else str(options.projects)
     out["kinds"] = [k.value for k in options.kinds]
     return out
 
