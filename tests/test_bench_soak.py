@@ -10,6 +10,8 @@ from mrss.bench import soak
 from mrss.bench.report import BenchReport
 from mrss.bench.soak_growth import Bound, Series, pooled_slope
 from mrss.bench.soak_sampler import FileKind, Resource, Sampler
+from mrss.config.kinds import ComponentKind
+from mrss.config.loader import load_project
 
 SPEEDUP = 16.0
 RSS = soak.BOUNDS[Resource.RSS]
@@ -115,3 +117,13 @@ def test_files_are_sized_by_kind_with_their_sqlite_side_files(tmp_path: Path) ->
                      "worldmodel.sqlite": 10, "mrss.log": 7}
     assert [FileKind.of(n) for n in sorted(sizes)] == [
         FileKind.LOG, FileKind.JOURNAL, FileKind.LEDGER, FileKind.WORLDMODEL]
+
+
+def test_the_soaks_project_compacts_its_journal_within_the_run(tmp_path: Path) -> None:
+    config = load_project(soak.PROJECT, soak.project(tmp_path, soak.FULL))
+    (rcl,) = config.of_kind(ComponentKind.RCL)
+    assert rcl.options["journal_keep_seconds"] == soak.FULL.journal_keep_s < soak.FULL.wall_s
+    assert rcl.options["journal_compact_period"] == soak.FULL.journal_compact_s
+    assert rcl.options["journal_keep_last"] == soak.JOURNAL_KEEP_LAST
+    assert rcl.options["robots"].keys() == {"uav1", "ugv1"}  # the rest of its table kept
+    assert soak.FULL.sim_hours >= soak.TARGET_SIM_HOURS

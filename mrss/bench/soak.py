@@ -105,7 +105,8 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
     tmp = Path(tempfile.mkdtemp(prefix="mrss-bench-soak-"))
     run_dir = tmp / "run"
     options = runner.Options(
-        project=PROJECT, projects=project(tmp / "projects", size), run_dir=run_dir, faults=size.faults, seed=seed,
+        project=PROJECT, projects=project(tmp / "projects", size), run_dir=run_dir,
+        faults=size.faults, seed=seed,
         interval=size.fault_interval, duration=size.fault_duration,
         operator_every=size.operator_every, env={SPEEDUP_ENV: f"{size.speedup:g}"})
     sampler = Sampler(run_dir, size.every,
@@ -123,7 +124,8 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
     report.notes.append(
         f"{PROJECT} under `mrss supervise`, simulators at {size.speedup:g}x: "
         f"{size.wall_s:g} s of faults = {size.sim_hours:.2f} simulated h; sampled "
-        f"{sampler.elapsed:.0f} s (from start-up until settled after the faults), {sampler.samples} samples "
+        f"{sampler.elapsed:.0f} s (from start-up until settled after the faults), "
+        f"{sampler.samples} samples "
         f"every {size.every:g} s; {size.faults} faults (seed {seed}, every "
         f"{size.fault_interval[0]:g}-{size.fault_interval[1]:g} s), an operator step every "
         f"~{size.operator_every:g} s. Judged after {size.warmup:g} s and {size.settle:g} s "
