@@ -135,8 +135,13 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
         f"the RCL's journal retention in this run: {size.journal_keep_s:g} s, the newest "
         f"{JOURNAL_KEEP_LAST} ended actions, compacted every {size.journal_compact_s:g} s "
         "(shipped: a day, 1000, 600 s; `mrss bench journal` sizes that one)")
-    report.notes.append(f"chaos verdict of the same run: {verdict.outcome.value}; "
-                        + "; ".join(lines[-2:]))
+    broken = [f"{v.invariant} {v.subject}" + (f" ({v.evidence[0]})" if v.evidence else "")
+              for v in verdict.violations]
+    report.notes.append(
+        f"chaos verdict of the same run (not a target of this bench; `mrss chaos` judges "
+        f"it): {verdict.outcome.value}" + "".join(f"; {x}" for x in broken[:5])
+        + "".join(f"; missing: {m}" for m in verdict.missing[:3]) + "; "
+        + "; ".join(lines[-2:]))
     return report
 
 
