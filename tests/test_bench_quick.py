@@ -21,9 +21,10 @@ COMPARISONS: dict[str, tuple[str, Callable[[str], bool]]] = {
     "reasoner": ("python-agentspeak 0.2.2", lambda row: row.startswith(("(a)", "(b)"))),
 }
 # what `mrss bench soak` must have sampled of the wildfire project
-SOAK_ROWS = {"supervisor", "forkserver", "bus", "broker", "worldmodel", "datalayer", "events",
-             "sim_uav", "sim_ugv", "rcl", "reasoner", "mrss.log", "rcl-journal.sqlite3",
-             "reasoner-percepts.sqlite3", "worldmodel.sqlite"}
+SOAK_PROCESSES = {"supervisor", "forkserver", "bus", "broker", "worldmodel", "datalayer",
+                  "events", "sim_uav", "sim_ugv", "rcl", "reasoner"}
+SOAK_FILES = {"mrss.log", "rcl-journal.sqlite3", "reasoner-percepts.sqlite3",
+              "worldmodel.sqlite"}
 
 
 @pytest.mark.slow
@@ -52,9 +53,11 @@ def test_benchmark_runs_in_quick_mode(name: str) -> None:
         assert {"MQTT QoS 0", "MQTT QoS 1"} <= {row[0] for row in report["rows"]}
     if name == "soak":  # every process under the root supervisor, and the run's files
         rows = {row[0]: row for row in report["rows"]}
-        assert rows.keys() >= SOAK_ROWS, sorted(rows)
+        assert rows.keys() >= SOAK_PROCESSES | SOAK_FILES, sorted(rows)
         fds = report["columns"].index("fds start-end")
-        assert all(rows[n][fds] for n in SOAK_ROWS if not n.endswith((".log", ".sqlite3")))
+        assert all(isinstance(rows[n][fds], str) for n in SOAK_PROCESSES)  # "20-20"
+        size = report["columns"].index("MB end")
+        assert all(isinstance(rows[n][size], float) for n in SOAK_PROCESSES | SOAK_FILES)
 
 
 @pytest.mark.slow
