@@ -20,6 +20,11 @@ COMPARISONS: dict[str, tuple[str, Callable[[str], bool]]] = {
     "bus": ("/ QoS 0", lambda row: not row.startswith("bus reliable")),  # vs MQTT QoS 0
     "reasoner": ("python-agentspeak 0.2.2", lambda row: row.startswith(("(a)", "(b)"))),
 }
+# what `mrss bench soak` must have sampled of the wildfire project
+SOAK_PROCESSES = {"supervisor", "forkserver", "bus", "broker", "worldmodel", "datalayer",
+                  "events", "sim_uav", "sim_ugv", "rcl", "reasoner"}
+SOAK_FILES = {"mrss.log", "rcl-journal.sqlite3", "reasoner-percepts.sqlite3",
+              "worldmodel.sqlite"}
 
 
 @pytest.mark.slow
@@ -46,6 +51,13 @@ def test_benchmark_runs_in_quick_mode(name: str) -> None:
             f"no {column!r} for {empty or 'any row'}; notes: {report['notes']}"
     if name == "bus":
         assert {"MQTT QoS 0", "MQTT QoS 1"} <= {row[0] for row in report["rows"]}
+    if name == "soak":  # every process under the root supervisor, and the run's files
+        rows = {row[0]: row for row in report["rows"]}
+        assert rows.keys() >= SOAK_PROCESSES | SOAK_FILES, sorted(rows)
+        fds = report["columns"].index("fds start-end")
+        assert all(isinstance(rows[n][fds], str) for n in SOAK_PROCESSES)  # "20-20"
+        size = report["columns"].index("MB end")
+        assert all(isinstance(rows[n][size], float) for n in SOAK_PROCESSES | SOAK_FILES)
 
 
 @pytest.mark.slow

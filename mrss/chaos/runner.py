@@ -75,6 +75,7 @@ class Options:
     warmup: float = 5.0
     bounds: Bounds = field(default_factory=Bounds)
     env: dict[str, str] = field(default_factory=dict)
+    projects: Path | None = None  # the folder of projects/<name>/ (None: projects_dir())
 
 
 def failed_goal_functors(config: ProjectConfig) -> list[str]:
@@ -86,9 +87,12 @@ def failed_goal_functors(config: ProjectConfig) -> list[str]:
     return [pattern.functor] if pattern is not None else []
 
 
-def run(options: Options, say: Say = print) -> Path:
-    """Run the campaign; returns the history file (in the run folder)."""
-    config = load_project(options.project)
+def run(options: Options, say: Say = print,
+        settled: Callable[[], None] = lambda: None) -> Path:
+    """Run the campaign; returns the history file (in the run folder). `settled` is
+    called once the system has settled after the faults, before it is recorded and
+    stopped (`mrss bench soak` stops sampling there)."""
+    config = load_project(options.project, options.projects)
     traffic = load_traffic(config.directory)
     possible = targets(config, options.only)
     skipped = skipped_kinds(options.kinds, possible, unavailable(config),
@@ -168,6 +172,7 @@ def run(options: Options, say: Say = print) -> Path:
         say(f"chaos: faults over at {faults_ended:.1f}s; "
             + (f"converged {converged:.1f}s later" if converged is not None
                else "did not converge"))
+        settled()
         recorder.record_journal()
         recorder.record_log(set(reasoners + rcls))
         code = _stop(system)
@@ -213,6 +218,7 @@ def skipped_kinds(kinds: tuple[FaultKind, ...], possible: dict[FaultKind, list[s
 def _plain_options(options: Options) -> dict[str, object]:
     out = dataclasses.asdict(options)
     out["run_dir"] = str(options.run_dir)
+    out["projects"] = None if options.projects is None else str(options.projects)
     out["kinds"] = [k.value for k in options.kinds]
     return out
 
