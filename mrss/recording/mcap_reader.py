@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import IO, Any
 
 import msgpack
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.records import Attachment, Channel, Chunk, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
@@ -94,6 +94,10 @@ class McapRecording:
             return next(self._records)
         except StopIteration:
             return None
+        except EndOfFile:
+            if self._in.offset == start:
+                return None  # the file ends between two records
+            raise RecordingError(_reason(EndOfFile(), start), offset=start) from None
         except (McapError, struct.error, ValueError, UnicodeDecodeError, MemoryError) as exc:
             raise RecordingError(_reason(exc, self._in.offset), offset=start) from None
 
