@@ -1,14 +1,16 @@
 """`mrss record`: write every message on a running system's bus to a file.
 
 ```
-mrss record --run-dir DIR [--prefix P ...] [--out FILE] [--duration S] [--project NAME]
+mrss record --run-dir DIR [--prefix P ...] [--out FILE] [--duration S]
+            [--project NAME]
 ```
 
 Records the messages the proxy delivers as an MCAP file (a channel per topic, each
 message its envelope in JSON against its kind's schema, robots' positions also as
 Foxglove LocationFix; layout in `mrss.recording.mcap_writer`), until SIGINT/SIGTERM or
 `--duration` seconds, then prints how many it recorded and exits 0. `--project` keeps
-the project's name, project.toml and AgentSpeak files in the recording. Messages that do not decode as
+the project's name, project.toml and AgentSpeak files in the recording.
+Messages that do not decode as
 bus messages are recorded too, with the reason, and counted as malformed. The proxy's
 welcome and reliable-channel acknowledgements are not bus traffic and are left out.
 No proxy within `--timeout` exits 2 without creating the file.
@@ -30,8 +32,8 @@ from mrss.commands.busargs import (
     no_bus_error,
     positive_float,
 )
-from mrss.errors import MrssError
 from mrss.config.projects import PROJECT_FILE, project_path
+from mrss.errors import MrssError
 from mrss.recording.mcap_writer import McapRecordingWriter, ProjectFiles
 from mrss.recording.recorder import BusRecorder
 

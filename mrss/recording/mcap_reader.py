@@ -71,7 +71,8 @@ class McapRecording:
             raise RecordingError("not an MCAP file (bad magic)", offset=0)
         self._in = _Counted(source)
         self._in.offset = len(MAGIC)
-        self._records = StreamReader(self._in, skip_magic=True, emit_chunks=True).records
+        stream: Any = self._in  # a file object as far as the reader goes: it only reads
+        self._records = StreamReader(stream, skip_magic=True, emit_chunks=True).records
         header = self._next()
         if not isinstance(header, Header):
             raise RecordingError("an MCAP file without its header", offset=len(MAGIC))

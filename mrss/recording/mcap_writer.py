@@ -168,7 +168,7 @@ class McapRecordingWriter:
         """Close the open chunk if it is `CHUNK_SECONDS` old (it then reaches the OS)."""
         opened = self._chunk_opened
         if opened is not None and time.monotonic() - opened >= CHUNK_SECONDS:
-            self._mcap.flush()
+            self._mcap.flush()  # type: ignore[no-untyped-call]
             self._chunk_opened = None
 
     def finish(self) -> None:
@@ -177,9 +177,10 @@ class McapRecordingWriter:
             return
         self._finished = True
         self._mcap.add_metadata("incarnations", {
-            src: ",".join(map(str, sorted(incs))) for src, incs in sorted(self._incarnations.items())
+            src: ",".join(map(str, sorted(incs)))
+            for src, incs in sorted(self._incarnations.items())
         })
-        self._mcap.finish()
+        self._mcap.finish()  # type: ignore[no-untyped-call]
         self._out.flush()
 
 

@@ -147,8 +147,9 @@ LOCATION_FIX_SCHEMA = {
 def location_fix(robot: str, ts: float, data: dict[str, Any]) -> dict[str, Any] | None:
     """A LocationFix of a robot's telemetry record, when it has a numeric lat and lon."""
     lat, lon, alt = data.get("lat"), data.get("lon"), data.get("alt", 0.0)
-    if not all(_finite(v) for v in (lat, lon, alt)):
+    if not (_finite(lat) and _finite(lon) and _finite(alt)):
         return None
+    assert lat is not None and lon is not None and alt is not None  # for mypy
     sec = int(ts)
     return {"timestamp": {"sec": sec, "nsec": min(int((ts - sec) * 1e9), 999_999_999)},
             "frame_id": robot, "latitude": float(lat), "longitude": float(lon),

@@ -126,7 +126,8 @@ def test_record_then_replay_preserves_topics_bodies_and_order(tmp_path: Path) ->
         *(Percept(literal=f"fire(z{i})") for i in range(5)), *telemetry,
         Percept(literal="done")]
     assert body_sequence(seen(entries), src="reasoner") == [action]
-    assert not [e for e in entries if e.frames[0].startswith(b"rel.")]  # data as its message, no acks
+    # reliable data is recorded as the message it carries; acks are not recorded
+    assert not [e for e in entries if e.frames[0].startswith(b"rel.")]
     assert [e.note for e in entries if e.malformed] == [
         "not msgpack: FormatError", "unexpected message of 1 frame(s)"]
     assert [e.t for e in entries] == sorted(e.t for e in entries)

@@ -14,7 +14,7 @@ from mrss import __version__ as mrss_version
 from mrss.api import distance_m
 from mrss.api.testing import RunningProject
 from mrss.bus import Publisher
-from mrss.messages import KINDS, Percept, RobotData, decode
+from mrss.messages import KINDS, Percept, decode
 from mrss.recording.mcap_reader import McapRecording
 from mrss.recording.schemas import LOCATION_FIX, all_kind_schemas
 from mrss.testing import wait_until
