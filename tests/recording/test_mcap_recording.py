@@ -140,7 +140,7 @@ def test_a_supervised_projects_recording_decodes_against_its_schemas(tmp_path: P
                 fixes.append((message.publish_time, value["latitude"], value["longitude"]))
         assert {"mrss.action.request", "mrss.action.status", "mrss.percept",
                 "mrss.sup.heartbeat", LOCATION_FIX} <= set(by_kind)
-        assert fixes == positions and len(fixes) > 5
+        assert fixes == positions and fixes[0][1:] != fixes[-1][1:]  # it moved
         assert distance_m(*fixes[-1][1:], *UGV_TARGET) < 10.0  # the drive's end is in it
 
         # Seeking: from a time in the middle, the index gives that message first.
