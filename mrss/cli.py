@@ -37,6 +37,7 @@ VERBS: tuple[Verb, ...] = (
     Verb("send", "publish a message (e.g. a percept) on a running system's bus"),
     Verb("record", "record a running system's bus traffic to a file"),
     Verb("replay", "replay a recorded bus session"),
+    Verb("recording", "look into a recording: info, export as csv or jsonl"),
     Verb("sim", "run a simulated robot (uav, ugv) or a fleet of them"),
     Verb("chaos", "run a fault campaign and check the mission's invariants", True),
     Verb("bench", f"run a benchmark ({', '.join(BENCHES)})", built=True),

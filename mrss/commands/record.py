@@ -2,11 +2,15 @@
 
 ```
 mrss record --run-dir DIR [--prefix P ...] [--out FILE] [--duration S]
+            [--project NAME]
 ```
 
-Records the ZeroMQ messages the proxy delivers, exactly as received (frames and
-receive time; format in `mrss.recording.format`), until SIGINT/SIGTERM or `--duration`
-seconds, then prints how many it recorded and exits 0. Messages that do not decode as
+Records the messages the proxy delivers as an MCAP file (a channel per topic, each
+message its envelope in JSON against its kind's schema, robots' positions also as
+Foxglove LocationFix; layout in `mrss.recording.mcap_writer`), until SIGINT/SIGTERM or
+`--duration` seconds, then prints how many it recorded and exits 0. `--project` keeps
+the project's name, project.toml and AgentSpeak files in the recording.
+Messages that do not decode as
 bus messages are recorded too, with the reason, and counted as malformed. The proxy's
 welcome and reliable-channel acknowledgements are not bus traffic and are left out.
 No proxy within `--timeout` exits 2 without creating the file.
@@ -28,8 +32,9 @@ from mrss.commands.busargs import (
     no_bus_error,
     positive_float,
 )
+from mrss.config.projects import PROJECT_FILE, project_path
 from mrss.errors import MrssError
-from mrss.recording.format import RecordingWriter
+from mrss.recording.mcap_writer import McapRecordingWriter, ProjectFiles
 from mrss.recording.recorder import BusRecorder
 
 EXIT_ERROR = 2
@@ -40,14 +45,28 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--prefix", action="append", default=None, metavar="P",
                         help="record only topics starting with P (repeatable; default all)")
     parser.add_argument("--out", type=Path, default=None, metavar="FILE",
-                        help="where to write (default mrss-YYYYmmdd-HHMMSS.mrssrec here)")
+                        help="where to write (default mrss-YYYYmmdd-HHMMSS.mcap here)")
     parser.add_argument("--duration", type=positive_float, default=None, metavar="S",
                         help="stop after S seconds (default: at SIGINT/SIGTERM)")
+    parser.add_argument("--project", default=None, metavar="NAME",
+                        help="keep this project's project.toml and agent files in the "
+                             "recording (a project name, or its folder)")
+
+
+def project_files(name: str) -> ProjectFiles:
+    """The project `--project` names: a folder holding project.toml, or a project name."""
+    folder = Path(name)
+    if not (folder / PROJECT_FILE).is_file():
+        folder = project_path(name)
+    try:
+        return ProjectFiles.read(folder)
+    except OSError as exc:
+        raise MrssError(f"cannot read project {name!r}: {exc.strerror or exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
     prefixes: list[str] = args.prefix if args.prefix else [""]
-    out: Path = args.out or Path(time.strftime("mrss-%Y%m%d-%H%M%S.mrssrec"))
+    out: Path = args.out or Path(time.strftime("mrss-%Y%m%d-%H%M%S.mcap"))
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -56,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     try:
+        project = project_files(args.project) if args.project else None
         endpoints = endpoints_from_args(args)
         recorder = BusRecorder(endpoints, prefixes)
     except MrssError as exc:
@@ -74,11 +94,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"mrss record: cannot write {out}: {exc.strerror or exc}", file=sys.stderr)
             return EXIT_ERROR
         with handle:
-            writer = RecordingWriter(handle, created=time.time(),
-                                     endpoints=endpoints.to_dict(), prefixes=prefixes)
+            writer = McapRecordingWriter(handle, created=time.time(),
+                                         endpoints=endpoints.to_dict(), prefixes=prefixes,
+                                         project=project)
             print(f"recording {endpoints.backend} to {out}", flush=True)
             deadline = None if args.duration is None else time.monotonic() + args.duration
             recorder.record(writer, stop, deadline)
+            writer.finish()
     finally:
         recorder.close()
     print(f"recorded {writer.count} messages ({writer.malformed} malformed) to {out}",

@@ -1,5 +1,7 @@
 """`mrss replay FILE`: publish a recording (see `mrss record`) on a running system's bus.
 
+FILE is an MCAP recording or one of the older MRSS format (`.mrssrec`); both are read.
+
 ```
 mrss replay FILE --run-dir DIR [--speed X | --as-fast-as-possible] [--max-gap S]
                  [--prefix P ...] [--include-malformed]
@@ -44,7 +46,8 @@ from mrss.commands.busargs import (
 )
 from mrss.errors import MrssError
 from mrss.messages import mark_replayed
-from mrss.recording.format import RecordedMessage, RecordingError, RecordingReader
+from mrss.recording.files import recorded_messages
+from mrss.recording.format import RecordedMessage, RecordingError
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130
@@ -78,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     skipped = _Skips()
     try:
         with path.open("rb") as handle:
-            reader = RecordingReader(handle, on_skip=skipped.undecodable)
+            reader = recorded_messages(handle, on_skip=skipped.undecodable)
             endpoints = endpoints_from_args(args)
             with connected_publisher(endpoints, "mrss-replay", args.timeout) as publisher:
                 player = Player(publisher,
@@ -102,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
-def _play(player: Player, reader: RecordingReader, path: Path) -> int:
+def _play(player: Player, reader: Iterable[RecordedMessage], path: Path) -> int:
     """Play `reader` to its end; the exit code (damage in the file is reported here)."""
     try:
         player.play(reader)

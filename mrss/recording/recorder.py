@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Protocol
 
 import zmq
 
@@ -16,7 +17,7 @@ from mrss.bus import BusEndpoints, direct, sockets
 from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
 from mrss.errors import DecodeError
 from mrss.messages import decode
-from mrss.recording.format import RecordedMessage, RecordingWriter
+from mrss.recording.format import RecordedMessage
 
 _POLL_MS = 100
 # The recorder's own queue, in ZeroMQ messages (a batch is one): ten times a component's,
@@ -25,8 +26,16 @@ RECORDER_HWM = 100_000
 _NOBLOCK = int(zmq.NOBLOCK)
 
 
+class Writer(Protocol):
+    """Where a recorder writes: the MCAP writer, or the older format's (tests)."""
+
+    def write(self, message: RecordedMessage) -> None: ...
+
+    def flush(self) -> None: ...
+
+
 class BusRecorder:
-    """A raw subscriber: hands every bus message, frames untouched, to a RecordingWriter."""
+    """A raw subscriber: hands every bus message, frames untouched, to a writer."""
 
     def __init__(self, endpoints: BusEndpoints, prefixes: list[str]) -> None:
         self._endpoints = endpoints
@@ -53,7 +62,7 @@ class BusRecorder:
                 return True  # the proxy's welcome; on a direct bus its answer to us
         return False
 
-    def record(self, writer: RecordingWriter, stop: threading.Event,
+    def record(self, writer: Writer, stop: threading.Event,
                deadline: float | None) -> None:
         """Record until `stop` is set or the monotonic `deadline` passes."""
         while not stop.is_set():
@@ -67,12 +76,11 @@ class BusRecorder:
                 ready = self._sock.poll(wait_ms, zmq.POLLIN)
             except zmq.ZMQError:  # EINTR when a signal arrives
                 continue
-            if not ready:
-                continue
-            self._drain(writer)
-            writer.flush()  # a recorder killed now loses nothing it has written
+            if ready:
+                self._drain(writer)
+            writer.flush()  # what it decides to write out, a recorder killed now keeps
 
-    def _drain(self, writer: RecordingWriter) -> None:
+    def _drain(self, writer: Writer) -> None:
         while True:
             try:
                 frames = self._sock.recv_multipart(_NOBLOCK)

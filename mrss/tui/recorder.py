@@ -1,7 +1,7 @@
 """The dashboard's bus recording (palette: "Start recording" / "Stop recording").
 
 What `mrss record` does, on a thread of the dashboard: every message on the bus, frames
-as received, into `<run dir>/recording-YYYYmmdd-HHMMSS.mrssrec` (the current folder when
+as received, into `<run dir>/recording-YYYYmmdd-HHMMSS.mcap` (the current folder when
 the bus is not in a run dir, e.g. tcp endpoints); `mrss replay FILE` plays it back. The
 recorder has its own subscriber socket (all topics, whatever the dashboard shows), so it
 costs the dashboard's thread nothing. `stop()` ends it and says how many it wrote.
@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from mrss.bus import BusEndpoints
-from mrss.recording.format import RecordingWriter
+from mrss.recording.mcap_writer import McapRecordingWriter
 from mrss.recording.recorder import BusRecorder
 from mrss.tui.mission import run_dir_of
 
@@ -25,7 +25,7 @@ def recording_path(endpoints: BusEndpoints, now: float | None = None) -> Path:
     """Where a recording started now goes."""
     folder = run_dir_of(endpoints.backend) or Path.cwd()
     stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now))
-    return folder / f"recording-{stamp}.mrssrec"
+    return folder / f"recording-{stamp}.mcap"
 
 
 class DashboardRecording:
@@ -35,7 +35,7 @@ class DashboardRecording:
         self.endpoints = endpoints
         self.path = path
         self.error = ""
-        self._writer: RecordingWriter | None = None
+        self._writer: McapRecordingWriter | None = None
         self.started = threading.Event()  # connected and writing (or failed: `error`)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="tui-recording", daemon=True)
@@ -70,12 +70,12 @@ class DashboardRecording:
                 self.error = f"cannot write {self.path}: {exc.strerror or exc}"
                 return
             with handle:
-                writer = RecordingWriter(handle, created=time.time(),
-                                         endpoints=self.endpoints.to_dict(), prefixes=[""])
+                writer = McapRecordingWriter(handle, created=time.time(),
+                                             endpoints=self.endpoints.to_dict(), prefixes=[""])
                 self._writer = writer
                 self.started.set()
                 recorder.record(writer, self._stop, None)
-                writer.flush()
+                writer.finish()
         except Exception as exc:  # the dashboard stays up whatever the disk does
             self.error = f"recording stopped: {exc}"
         finally:

@@ -16,7 +16,8 @@ from mrss.bus import BusEndpoints
 from mrss.bus.wire import message_frames
 from mrss.config.operator import read_operator
 from mrss.messages import LogRecord, RobotData, decode
-from mrss.recording.format import RecordingError, RecordingReader
+from mrss.recording.files import recorded_messages
+from mrss.recording.format import RecordingError
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
 from mrss.tui.mission import MissionChannel, run_dir_of
@@ -200,7 +201,7 @@ def recorded_topics(path: Path) -> list[str]:
     topics: list[str] = []
     with path.open("rb") as handle:
         try:
-            for message in RecordingReader(handle):
+            for message in recorded_messages(handle):
                 topics += [decode(t, p).topic for t, p in message_frames(list(message.frames))]
         except RecordingError:
             pass
@@ -259,7 +260,7 @@ def test_a_recording_that_cannot_start_says_why(tmp_path: Path,
             await until(pilot, lambda: "recording failed: no bus proxy answered" in
                         bar.status_text, message="the failure")
             assert bar.status_error and app.recording is None
-        assert not list(tmp_path.glob("*.mrssrec"))
+        assert not list(tmp_path.glob("*.mcap"))
     run(body())
 
 
@@ -273,7 +274,7 @@ def test_a_readonly_dashboard_refuses_to_record(endpoints: BusEndpoints) -> None
                         message="refused")
             assert app.recording is None
         run_dir = run_dir_of(endpoints.backend)
-        assert run_dir is not None and not list(Path(run_dir).glob("*.mrssrec"))
+        assert run_dir is not None and not list(Path(run_dir).glob("*.mcap"))
     run(body())
 
 
