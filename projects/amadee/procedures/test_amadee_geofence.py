@@ -192,6 +192,7 @@ def test_a_rover_boxed_in_is_told_it_is_trapped_and_does_not_move(tmp_path: Path
         system.publish("mrss/ui/drive", {"goal": "g2", "lat": SITE[0], "lon": SITE[1]})
         refused = system.wait_for(lambda: (system.world("verdict_g2") or {}).get("attributes"),
                                   30, "the verdict on g2")
+        assert refused is not None
         assert refused["legal"] is False and refused["rule"] == "no_go_path", refused
         assert "every way out" in refused["detail"]
         assert not system.perceived("geofence_exit(")
