@@ -112,6 +112,8 @@ class FieldSpec:
             return f"{value[0]},{value[1]},{value[2]}"
         if self.type is FieldType.POLYGON:
             return "; ".join(f"{p[0]},{p[1]}" for p in value)
+        if self.type is FieldType.NUMBER:
+            return f"{value:g}"
         return str(value)
 
     # -- the operator's text -> the JSON value --------------------------------------------

@@ -105,7 +105,7 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
                                            for line in log.lines_text()),
                         message="the agent's cancel plan ran")
             # the agent said how a1 ended (cancelled_goal), and the log has the line
-            assert any(line.endswith("goal a1 cancelled (uav1)") for line in log.lines_text())
+            assert any("goal a1 cancelled (uav1)" in line for line in log.lines_text())
             covers = [row_text(actions, k) for k in actions.shown_keys()]
             a1 = [r for r in covers if r[1:4] == ["cover", "uav1", "a1"]]
             assert a1 and a1[0][4] == "cancelled", covers

@@ -3,8 +3,8 @@ operator's goal commands, which go to the agent as the project's events.
 
 n opens a new command: the project's declared commands (`[operator.commands]`, each
 its own form: `mrss.tui.command_form`) and the area form; c cancels the selected goal
-(after a question), + / - raise or lower its priority by one. Each key becomes a `MissionRequested` (the app sends it with
-`mrss.tui.mission`); a command the project does not declare is refused with the reason.
+(after a question), + / - raise or lower its priority by one. Each key becomes a
+`MissionRequested` (the app sends it with `mrss.tui.mission`); a command the project does not declare is refused with the reason.
 """
 
 from __future__ import annotations
@@ -39,8 +39,8 @@ STATE_STYLES = {
 class MissionPanel(KeyedTable):
     """One row per goal: open goals first, newest first."""
 
-    COLUMNS = (("goal", "goal"), ("state", "state"), ("why", "why"), ("robot", "robot"),
-               ("priority", "prio"), ("since", "since"))
+    COLUMNS = (("goal", "goal"), ("state", "state"), ("robot", "robot"),
+               ("priority", "prio"), ("why", "why"), ("since", "since"))
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("n", "new_area", "New command"),
         Binding("c", "cancel_goal", "Cancel goal"),
@@ -68,7 +68,7 @@ class MissionPanel(KeyedTable):
         bad = view.state in (GoalState.FAILED, GoalState.REFUSED)
         return view.goal, (
             cell(view.goal, "bold"), cell(view.state.value, STATE_STYLES[view.state]),
-            cell(why, "red" if bad else "italic"), cell(view.robot), cell(prio),
+            cell(view.robot), cell(prio), cell(why, "red" if bad else "italic"),
             cell(age_text(max(0.0, now - view.since)) if view.since else "", "dim"))
 
     def selected_goal(self) -> GoalView | None:
