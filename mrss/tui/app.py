@@ -279,8 +279,7 @@ class MrssApp(App[None]):
             self.picture.show()
 
     def _system_ended(self) -> None:
-        """The system stopped (or gave up): its robots are unknown, its components
-        stopped, until a new run says otherwise."""
+        """The system ended: its robots are unknown, its components stopped."""
         self.robots.system_stopped()
         self.supervision.system_stopped()
         with suppress(NoMatches):
@@ -386,9 +385,6 @@ class MrssApp(App[None]):
 
     def open_area_form(self) -> None:
         self.steering.open_area_form()
-
-    def open_command_menu(self) -> None:
-        self.steering.open_command_menu()
 
     def open_actions_of(self, robot: str) -> list[str]:
         return self.steering.open_actions_of(robot)

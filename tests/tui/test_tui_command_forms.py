@@ -155,7 +155,7 @@ def test_a_declared_command_reaches_the_agent_and_its_refusal_shows_why(
             await until(pilot, lambda: "exclusion accepted" in bar.status_text, timeout=20,
                         message="the events manager accepted it")
             await until(pilot, lambda: "excluded(x1)" in " ".join(
-                getattr(mind, "snapshot").beliefs), timeout=20, message="the agent has it")
+                mind.snapshot.beliefs), timeout=20, message="the agent has it")
             # the same zone id again: the agent refuses it, with its reason, on the panel
             await exclusion("47,15; 47,15.02; 47.02,15.02; 47.02,15")
             await until(pilot, lambda: has_row(panel, "x1"), timeout=20,

@@ -4,7 +4,8 @@ operator's goal commands, which go to the agent as the project's events.
 n opens a new command: the project's declared commands (`[operator.commands]`, each
 its own form: `mrss.tui.command_form`) and the area form; c cancels the selected goal
 (after a question), + / - raise or lower its priority by one. Each key becomes a
-`MissionRequested` (the app sends it with `mrss.tui.mission`); a command the project does not declare is refused with the reason.
+`MissionRequested` (the app sends it with `mrss.tui.mission`); a command the project
+does not declare is refused with the reason.
 """
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ class MissionPanel(KeyedTable):
         return self.goals.goals.get(key) if key is not None else None
 
     def action_new_area(self) -> None:
-        opener = getattr(self.app, "open_command_menu", None)
+        opener = getattr(getattr(self.app, "steering", None), "open_command_menu", None)
         if callable(opener):
             opener()
 
