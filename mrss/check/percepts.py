@@ -71,7 +71,9 @@ def rule_functors(config: ProjectConfig) -> set[str]:
 
 
 def check_percepts(config: ProjectConfig, uses: AgentUses, events: PySource | None,
-                   datalayer: PySource | None, report: Report) -> None:
+                   datalayer: PySource | None, report: Report, *,
+                   also: set[str] | frozenset[str] = frozenset()) -> None:
+    """`also`: percepts produced elsewhere (the declared operator commands)."""
     produced = produced_by(events) if events is not None else []
     handled = {(t.name, t.arity) for t in uses.triggers}
     handled_names = {t.name for t in uses.triggers}
@@ -91,7 +93,8 @@ def check_percepts(config: ProjectConfig, uses: AgentUses, events: PySource | No
     if events is None or events.tree is None:
         return  # what events.py produces is unknown: no warning on the agent's side
     names = {p.name for p in produced} | rule_functors(config) | {b[0] for b in BUILTIN} \
-        | strings_in(events) | strings_in(datalayer) | ({EXIT, TRAPPED} if fenced else set())
+        | strings_in(events) | strings_in(datalayer) | set(also) \
+        | ({EXIT, TRAPPED} if fenced else set())
     for trigger in uses.triggers:
         if trigger.name in names or not trigger.from_percept:
             continue

@@ -30,6 +30,7 @@ from mrss.check.findings import Report, did_you_mean
 from mrss.check.map import check_map
 from mrss.check.nodes import check_nodes
 from mrss.check.operator import check_operator
+from mrss.check.operator_commands import check_commands, command_functors
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
 from mrss.check.reasoner_agents import check_agents
@@ -75,8 +76,11 @@ def check_project(config: ProjectConfig) -> Report:
     _worldmodel(config, report, classes)
     agents = sorted({config.directory / str(c.options.get("agent", "agent.asl"))
                      for c in _running(config, REASONER)})
-    check_operator(config, report, events_running=bool(_running(config, EVENTS)),
-                   agent_files=[a for a in agents if a.is_file()])
+    operator = check_operator(config, report, events_running=bool(_running(config, EVENTS)),
+                              agent_files=[a for a in agents if a.is_file()])
+    if operator is not None:
+        check_commands(config, report, operator, uses,
+                       events_running=bool(_running(config, EVENTS)))
     check_chaos_traffic(config, report, agent_files=[a for a in agents if a.is_file()])
     check_alerts(config, report)
     check_map(config, report)
@@ -84,7 +88,7 @@ def check_project(config: ProjectConfig) -> Report:
         _queries(uses, datalayer, report)
         if events is not None:
             check_percepts(config, uses, events[0], datalayer[0] if datalayer else None,
-                           report)
+                           report, also=command_functors(operator))
     check_cross_file(_facts(config, sources, uses, layers, datalayer), report)
     return report
 

@@ -86,7 +86,10 @@ class SupervisedApp(MrssApp):
             self.exit()
             return
         last = _last_words(self.log_path) if self.log_path is not None else ""
+        was_ended = bool(self.liveness.ended)
         self.liveness.ended = f"system stopped (exit {code})" + (f": {last}" if last else "")
+        if not was_ended:
+            self._system_ended()  # robots unknown, components stopped: not as last heard
         self.picture.show()
 
     def stop_system(self) -> None:

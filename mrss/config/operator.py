@@ -22,6 +22,13 @@ commands it has and on which topic, and how its agent's beliefs name its goals:
     failed = "failed_goal(Goal)"
     done = "done_goal(Goal)"         # optional: said by the agent rather than inferred
     cancelled = "cancelled_goal(Goal)"
+    refused = "refused(Goal, Why)"   # optional: the agent would not take it on, and why
+
+    [operator.commands.NAME]         # the project's own commands with forms
+                                     # (mrss.config.operator_declarations)
+
+A pattern may name `Why` (the reason the agent gives): the mission panel shows it, and
+a failed goal's alert says it.
 
 `mrss check` validates the table (`mrss.check.operator`). Nothing here knows Textual.
 """
@@ -36,6 +43,8 @@ from typing import Any
 
 from mrss.agentspeak import AslSyntaxError, parse_literal
 from mrss.agentspeak.terms import Struct, Var
+from mrss.config.operator_commands import CommandSpec
+from mrss.config.operator_declarations import COMMANDS_KEY, read_commands
 from mrss.errors import ConfigError
 
 SECTION = "operator"
@@ -60,10 +69,12 @@ class GoalState(StrEnum):
     FAILED = "failed"
     DONE = "done"
     CANCELLED = "cancelled"
+    REFUSED = "refused"
 
     @property
     def ended(self) -> bool:
-        return self in (GoalState.FAILED, GoalState.DONE, GoalState.CANCELLED)
+        return self in (GoalState.FAILED, GoalState.DONE, GoalState.CANCELLED,
+                        GoalState.REFUSED)
 
 
 #: The states a project reads from its agent's beliefs (the keys of `[operator.goals]`).
@@ -71,8 +82,8 @@ class GoalState(StrEnum):
 #: (`mrss.tui.models.goals`), so a project that wants "done" and "cancelled" said, not
 #: guessed, declares those two patterns as well.
 BELIEF_STATES = (GoalState.QUEUED, GoalState.RUNNING, GoalState.SUSPENDED, GoalState.FAILED,
-                 GoalState.DONE, GoalState.CANCELLED)
-GOAL_VARS = ("Goal", "Robot", "Priority")
+                 GoalState.DONE, GoalState.CANCELLED, GoalState.REFUSED)
+GOAL_VARS = ("Goal", "Robot", "Priority", "Why")
 
 
 @dataclass(frozen=True)
@@ -82,7 +93,7 @@ class GoalPattern:
     text: str
     functor: str
     arity: int
-    positions: dict[str, int]  # "Goal" / "Robot" / "Priority" -> argument index
+    positions: dict[str, int]  # "Goal" / "Robot" / "Priority" / "Why" -> argument index
 
     def match(self, belief: Struct) -> dict[str, Any] | None:
         """The named arguments of a belief of this pattern's predicate, else None."""
@@ -113,6 +124,7 @@ class OperatorConfig:
 
     topics: dict[OperatorCommand, str] = field(default_factory=dict)
     goals: dict[GoalState, GoalPattern] = field(default_factory=dict)
+    commands: dict[str, CommandSpec] = field(default_factory=dict)  # the project's own
 
     def has(self, command: OperatorCommand) -> bool:
         return command in self.topics
@@ -126,18 +138,21 @@ def read_operator(section: Any, *, file: str = "") -> OperatorConfig:
         raise ConfigError("must be a table", file=file, key=SECTION)
     topics: dict[OperatorCommand, str] = {}
     goals: dict[GoalState, GoalPattern] = {}
-    known = [c.value for c in OperatorCommand] + ["goals"]
+    commands: dict[str, CommandSpec] = {}
+    known = [c.value for c in OperatorCommand] + ["goals", COMMANDS_KEY]
     for key, value in section.items():
         where = f"{SECTION}.{key}"
         if key == "goals":
             goals = _goals(value, file)
+        elif key == COMMANDS_KEY:
+            commands = read_commands(value, file=file, section=SECTION)
         elif key in OperatorCommand.__members__.values():
             if not isinstance(value, str) or not value.strip() or any(c in value for c in "#+"):
                 raise ConfigError("must be an MQTT topic (no wildcards)", file=file, key=where)
             topics[OperatorCommand(key)] = value.strip()
         else:
             raise ConfigError(f"unknown key{_hint(key, known)}", file=file, key=where)
-    return OperatorConfig(topics, goals)
+    return OperatorConfig(topics, goals, commands)
 
 
 def _goals(value: Any, file: str) -> dict[GoalState, GoalPattern]:

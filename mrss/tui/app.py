@@ -150,7 +150,8 @@ class MrssApp(App[None]):
         self.picture = Picture(self, self.link, liveness=self.liveness,
                                supervision=self.supervision, actions=self.actions,
                                project=project, agent=agent,
-                               polls=Polls(mind_every, tree_every, world_every, stale_after))
+                               polls=Polls(mind_every, tree_every, world_every, stale_after),
+                               on_end=self._system_ended)
         self.intake = BusIntake(
             self, self.link, Models(self.actions, self.robots, self.supervision, self.goals,
                                     self.alerts, self.map_model, self.topics, self.liveness),
@@ -225,7 +226,7 @@ class MrssApp(App[None]):
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
                   "robots": "Robots (t teleop, g map)",
                   "actions": "Actions (debug, around the agent: c cancel, s suspend, r resume)",
-                  "mission": "Mission (n area, c cancel, +/- priority, H all hold)",
+                  "mission": "Mission (n new, c cancel, +/- priority, H all hold)",
                   "mind": "Mind (m refresh, a auto)",
                   "log": "Log (/ filter, End follow)"}
         titles["map"] = "Map"
@@ -268,12 +269,21 @@ class MrssApp(App[None]):
             self.query_one(AlertsStrip).show_alerts()
         if changes.lines:
             self.query_one(LogPane).add(changes.lines)
+        if "mission" in changes.panels and self.steering.awaiting:
+            self.steering.follow_answers()
 
     def tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
         with suppress(NoMatches):  # the panels are gone: the app is closing
             self.redraws.tick()
             self.picture.show()
+
+    def _system_ended(self) -> None:
+        """The system ended: its robots are unknown, its components stopped."""
+        self.robots.system_stopped()
+        self.supervision.system_stopped()
+        with suppress(NoMatches):
+            self.redraws.changed(("robots", "supervision"))
 
     def say(self, text: str, *, error: bool = False) -> None:
         """Tell the operator: the status line and the log."""

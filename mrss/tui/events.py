@@ -14,6 +14,7 @@ from typing import Any, Protocol
 from textual.message import Message
 
 from mrss.config.operator import OperatorCommand
+from mrss.config.operator_commands import CommandSpec
 from mrss.messages import Message as BusMessage
 
 
@@ -60,9 +61,11 @@ def readonly(widget: object) -> bool:
 
 class MissionRequested(Message):
     """A widget wants a project operator command sent to the agent (`mrss.tui.mission`):
-    `command` with its JSON `payload`; `what` describes it for the operator."""
+    `command` (the fixed vocabulary's, or one the project declares) with its JSON
+    `payload`; `what` describes it for the operator."""
 
-    def __init__(self, command: OperatorCommand, payload: dict[str, Any], what: str, *,
+    def __init__(self, command: OperatorCommand | CommandSpec, payload: dict[str, Any],
+                 what: str, *,
                  confirm: str = "", details: Sequence[str] = ()) -> None:
         super().__init__()
         self.command = command

@@ -168,10 +168,11 @@ class BusIntake:
                 and m.goals.apply_beliefs(mind.snapshot.beliefs, mind.ts, m.actions):
             dirty |= {"mission", "robots"}
             for view in m.goals.take_ended():
-                lines.append(goal_line(view))
+                why = m.goals.reason(view, m.actions)
+                lines.append(goal_line(view, why))
                 if view.state is GoalState.FAILED:
                     lines.append(alert_line(m.alerts.goal_failed(view.goal, view.robot,
-                                                                 view.since), view.since))
+                                                                 view.since, why), view.since))
                     dirty.add("alerts")
         if "actions" in dirty:
             dirty.add("mission")  # its goals' actions

@@ -20,6 +20,7 @@ from typing import Any
 from mrss.config.map import SECTION as MAP_SECTION
 from mrss.config.map import MapConfig, read_map
 from mrss.config.operator import SECTION, OperatorCommand, OperatorConfig, read_operator
+from mrss.config.operator_commands import CommandSpec
 from mrss.errors import MrssError
 
 ACCEPTED = ("accepted", "duplicate")
@@ -53,15 +54,19 @@ class MissionChannel:
 
         return cls(config, lambda: project_broker_url(project_dir, run_dir), **kwargs)
 
-    def topic(self, command: OperatorCommand) -> str | None:
+    def topic(self, command: OperatorCommand | CommandSpec) -> str | None:
+        if isinstance(command, CommandSpec):
+            return command.topic
         return self.config.topics.get(command)
 
-    def send(self, command: OperatorCommand, payload: dict[str, Any]) -> Answer:
-        """Publish one command until it is answered; never raises."""
+    def send(self, command: OperatorCommand | CommandSpec, payload: dict[str, Any]) -> Answer:
+        """Publish one command (the fixed vocabulary's, or one the project declares in
+        `[operator.commands]`) until it is answered; never raises."""
         topic = self.topic(command)
         if topic is None:
-            return Answer(False, f"this project declares no {command.value} command "
-                                 f"([operator] {command.value} in project.toml)")
+            name = command.name if isinstance(command, CommandSpec) else command.value
+            return Answer(False, f"this project declares no {name} command "
+                                 f"([operator] {name} in project.toml)")
         broker = self._broker()
         if not broker:
             return Answer(False, "no MQTT broker known ([broker] url, or the embedded "

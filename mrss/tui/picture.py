@@ -15,6 +15,7 @@ component starts again (a new run).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from contextlib import suppress
 
 from textual.app import App
@@ -43,8 +44,9 @@ class Picture:
 
     def __init__(self, app: App[None], link: BusLink, *, liveness: Liveness,
                  supervision: SupervisionModel, actions: ActionsModel, project: str,
-                 agent: str, polls: Polls) -> None:
+                 agent: str, polls: Polls, on_end: Callable[[], None] | None = None) -> None:
         self.app = app
+        self.on_end = on_end  # the system ended: what was last heard is no longer so
         self.link = link
         self.liveness = liveness
         self.supervision = supervision
@@ -124,7 +126,7 @@ class Picture:
             return
         if event.event is SupEventKind.GIVE_UP and event.detail.get("stops") == "system":
             root = event.supervisor or self.supervision.root or self.project
-            self.liveness.end(f"{root} gave up: {event.child}: {event.reason}")
+            self._end(f"{root} gave up: {event.child}: {event.reason}")
             self.show()
         elif (event.event is SupEventKind.STOPPING
               and event.child == (self.supervision.root or event.child)):
@@ -150,8 +152,17 @@ class Picture:
         """What the red banner says ("" when the picture is current)."""
         if not self.liveness.ended and self._stopped_quietly():
             root = self.supervision.root or self.project
-            self.liveness.end(f"system stopped: every component of {root} stopped")
+            self._end(f"system stopped: every component of {root} stopped")
         return self.liveness.banner(self.link.connected)
+
+    def _end(self, why: str) -> None:
+        """The system ended: the banner says why, and every robot and component is shown
+        as unknown or stopped, not as last heard (`on_end`)."""
+        if self.liveness.ended:
+            return
+        self.liveness.end(why)
+        if self.on_end is not None:
+            self.on_end()
 
     def show(self) -> None:
         """Bring the banner, the header's colour and the subtitle up to date."""

@@ -4,7 +4,8 @@ Widgets post `SendRequested` or `MissionRequested`; the app hands them to `Steer
 which refuses them when read-only, asks the question first when there is one
 (`ConfirmScreen`), publishes them (a project operator command through the
 `MissionChannel`, on a worker thread), and says what happened. `X` (stop the system),
-`H` (all robots hold), the area form and the palette's "Send percept" are built here
+`H` (all robots hold), the command menu and forms (the project's declared
+commands, `mrss.tui.command_form`), the area form and the palette's "Send percept" are built here
 too, as requests of the same kinds, so they pass the same checks.
 """
 
@@ -15,11 +16,13 @@ from collections.abc import Callable
 
 from textual.app import App
 
-from mrss.config.operator import OperatorCommand, PayloadError, hold_payload
+from mrss.config.operator import GoalState, OperatorCommand, PayloadError, hold_payload
+from mrss.config.operator_commands import CommandSpec
 from mrss.messages import Percept
 from mrss.tui import operator
 from mrss.tui.area_form import AreaForm
 from mrss.tui.buslink import BusLink
+from mrss.tui.command_form import AREA_CHOICE, CommandForm, CommandMenu
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.events import READONLY_NOTICE, MissionRequested, Say, SendRequested
 from mrss.tui.mission import Answer, MissionChannel
@@ -51,6 +54,7 @@ class Steering:
         self.actions = actions
         self.goals = goals
         self.holding = False  # the last hold sent was "all robots hold"
+        self.awaiting: dict[str, str] = {}  # goal -> the command sent for it, unanswered
 
     def _refused(self, what: str) -> bool:
         """Read-only: say that `what` is refused (and notify); True then."""
@@ -96,10 +100,14 @@ class Steering:
     def mission_requested(self, request: MissionRequested) -> None:
         if self._refused(request.what):
             return
-        if self.mission is None or not self.mission.config.has(request.command):
+        command = request.command
+        declared = (self.mission is not None and (
+            self.mission.config.commands.get(command.name) == command
+            if isinstance(command, CommandSpec) else self.mission.config.has(command)))
+        if not declared:
+            name = command.name if isinstance(command, CommandSpec) else command.value
             self.say(f"{request.what} not sent: the project declares no "
-                     f"{request.command.value} command ([operator] in project.toml)",
-                     error=True)
+                     f"{name} command ([operator] in project.toml)", error=True)
             return
         self._ask(request.confirm, request.details, request.what,
                   lambda: self._send_mission(request))
@@ -122,13 +130,69 @@ class Steering:
     def _mission_answer(self, request: MissionRequested, answer: Answer) -> None:
         if answer.ok:
             self.say(f"sent {request.what} to the agent ({answer.text})")
+            command = request.command
+            goal = command.goal_of(request.payload) if isinstance(command, CommandSpec) else ""
+            if goal:  # the agent's own answer comes in its beliefs: `follow_answers`
+                self.awaiting[goal] = request.what
         else:
             if request.command is OperatorCommand.CANCEL:
                 self.goals.cancelled_here.discard(str(request.payload.get("goal", "")))
             self.say(f"{request.what} not done: {answer.text}", error=True)
 
+    def follow_answers(self) -> None:
+        """Say the agent's answer to a command sent from here, once its beliefs show the
+        goal the command named: queued, running, refused (with why), ..."""
+        for goal, what in list(self.awaiting.items()):
+            view = self.goals.goals.get(goal)
+            if view is None:
+                continue
+            del self.awaiting[goal]
+            why = self.goals.reason(view, self.actions)
+            bad = view.state in (GoalState.FAILED, GoalState.REFUSED)
+            self.say(f"agent: {goal} {view.state.value}" + (f": {why}" if why else "")
+                     + f" ({what})", error=bad)
+
+    def open_command_menu(self) -> None:
+        """`n` on the mission panel: the project's declared commands (and the area form
+        of the fixed vocabulary); a project that declares none gets the area form."""
+        commands = self.mission.config.commands if self.mission is not None else {}
+        if not commands:
+            self.open_area_form()
+            return
+        if self.readonly:
+            self.say(f"new command refused: {READONLY_NOTICE}", error=True)
+            return
+        choices = [(name, f"{name}: {spec.label}" if spec.label else name)
+                   for name, spec in commands.items()]
+        if self.mission is not None and self.mission.config.has(OperatorCommand.AREA):
+            choices.append((AREA_CHOICE, "area: add an area (centre and radius)"))
+
+        def chosen(name: str | None) -> None:
+            if name is None:
+                self.say("no command sent (menu closed)")
+            elif name == AREA_CHOICE and name not in commands:
+                self.open_area_form()
+            else:
+                self.open_command_form(commands[name])
+
+        self.app.push_screen(CommandMenu(choices), chosen)
+
+    def open_command_form(self, spec: CommandSpec) -> None:
+        """The form of one declared command; a good form goes to the agent."""
+        if self.readonly:
+            self.say(f"{spec.name} refused: {READONLY_NOTICE}", error=True)
+            return
+
+        def filled(payload: dict[str, object] | None) -> None:
+            if payload is None:
+                self.say(f"{spec.name} not sent (form closed)")
+                return
+            self.app.post_message(MissionRequested(spec, dict(payload), spec.summary(payload)))
+
+        self.app.push_screen(CommandForm(spec), filled)
+
     def open_area_form(self) -> None:
-        """`n` on the mission panel: the form; its area goes to the agent."""
+        """The area form of the fixed vocabulary; its area goes to the agent."""
         if self.readonly:
             self.say(f"add an area refused: {READONLY_NOTICE}", error=True)
             return

@@ -24,6 +24,16 @@ rover(rover1).
 +science_received(G, sample)[source(percept)] : rover(R)
    <- !act(G, sample(R, G)).
 
+// the dashboard's forms ([operator.commands] in project.toml): a point, a kind of science
++drive_point(G, [Lat, Lon])[source(percept)] : rover(R)
+   <- !act(G, drive(R, G, Lat, Lon)).
++science_request(G, Kind)[source(percept)] : rover(R)
+   <- !science(R, G, Kind).
++!science(R, G, image) <- !act(G, image(R, G)).
++!science(R, G, spectrum) <- !act(G, spectrum(R, G)).
++!science(R, G, radar) <- !act(G, radar(R, G)).
++!science(R, G, sample) <- !act(G, sample(R, G)).
+
 +goal_cancelled(G)[source(percept)]
    <- .drop_intention(act(G, _));
       .print("goal ", G, " cancelled");
@@ -48,7 +58,8 @@ rover(rover1).
       .print("goal ", G, " resumes: ", R, " is out of no_go zone ", Z);
       !act(G, A).
 +!act(G, A)
-   <- query(legal, [A], V);
+   <- -refused(G, _); +acting(G);
+      query(legal, [A], V);
       !decide(G, A, V).
 -!act(G, A)[error(E)]
    <- .print("goal ", G, " failed: ", E);
@@ -75,6 +86,9 @@ rover(rover1).
    <- -drive_received(G, _, _)[source(percept)];
       -home_received(G)[source(percept)];
       -science_received(G, _)[source(percept)];
+      -drive_point(G, _)[source(percept)];
+      -science_request(G, _)[source(percept)];
+      -acting(G);
       -goal_cancelled(G)[source(percept)].
 
 +robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").

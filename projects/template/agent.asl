@@ -34,6 +34,10 @@ tries(G, 0) :- not tried(G, _).
    <- .print("goal ", G, ": ", R, " drives to ", Lat, ",", Lon);
       !reach(R, G, Lat, Lon).
 
+// the dashboard's form ([operator.commands.goto] in project.toml)
++goto_point(G, [Lat, Lon])[source(percept)] : robot(R)
+   <- !reach(R, G, Lat, Lon).
+
 // the operator cancels a goal: dropping its intention cancels its action in the RCL
 +goal_cancelled(G)[source(percept)] : busy(R, G)
    <- .drop_intention(drive(R, G, _, _));

@@ -52,6 +52,14 @@ tries(G, 0) :- not tried(G, _).
    <- .print("area goal ", G, " with priority ", P, " for ", R);
       !admit(R, G, P, cover).
 
+// the operator's forms ([operator.commands] in project.toml)
+// (a zone id already in use is refused, with why: the mission panel shows it)
++exclusion_zone(Z, _)[source(percept)] : excluded(Z)
+   <- +refused(Z, already_excluded).
++exclusion_zone(Z, Shape)[source(percept)] : .length(Shape, N)
+   <- .print("exclusion zone ", Z, " with ", N, " vertices: robots keep out");
+      +excluded(Z).
+
 +goal_cancelled(G)[source(percept)] : task(R, G, _)
    <- .print("cancelling running goal ", G);
       +cancelled_goal(G);

@@ -12,6 +12,7 @@ from mrss.bus import BusEndpoints
 from mrss.config.loader import load_project
 from mrss.tui.app import MrssApp
 from mrss.tui.area_form import AreaForm
+from mrss.tui.command_form import CommandMenu
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.details import ActionDetail
 from mrss.tui.mission import project_mission
@@ -41,21 +42,25 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
             def goal(name: str) -> list[str]:
                 return row_text(panel, name) if has_row(panel, name) else []
 
-            async def add_area(name: str, priority: str) -> None:
+            async def open_area() -> AreaForm:
+                # the project declares its own commands too: n opens their menu
                 panel.focus()
                 await pilot.press("n")
-                form = await until(pilot, lambda: isinstance(app.screen, AreaForm)
+                await until(pilot, lambda: isinstance(app.screen, CommandMenu),
+                            message="the command menu")
+                await pilot.press("end", "enter")  # area: last on the menu
+                return await until(pilot, lambda: isinstance(app.screen, AreaForm)
                                    and app.screen, message="the area form")
+
+            async def add_area(name: str, priority: str) -> None:
+                form = await open_area()
                 for key, value in (("name", name), ("center", "47.07,15.43"),
                                    ("radius", "80"), ("priority", priority)):
                     form.query_one(f"#area-{key}", Input).value = value
                 await pilot.press("ctrl+s")
 
             # a mistake stays in the form, nothing is sent
-            panel.focus()
-            await pilot.press("n")
-            form = await until(pilot, lambda: isinstance(app.screen, AreaForm)
-                               and app.screen, message="the area form")
+            form = await open_area()
             form.query_one("#area-name", Input).value = "a1"
             form.query_one("#area-center", Input).value = "north"
             await pilot.press("ctrl+s")
@@ -105,7 +110,7 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
                                            for line in log.lines_text()),
                         message="the agent's cancel plan ran")
             # the agent said how a1 ended (cancelled_goal), and the log has the line
-            assert any(line.endswith("goal a1 cancelled (uav1)") for line in log.lines_text())
+            assert any("goal a1 cancelled (uav1)" in line for line in log.lines_text())
             covers = [row_text(actions, k) for k in actions.shown_keys()]
             a1 = [r for r in covers if r[1:4] == ["cover", "uav1", "a1"]]
             assert a1 and a1[0][4] == "cancelled", covers

@@ -44,6 +44,7 @@ from typing import Any, ClassVar
 
 from mrss.actors.events.adapter import EventsContext, ExternalAdapter
 from mrss.actors.events.intake import EventIntake
+from mrss.actors.events.operator_commands import declared_commands, serve_commands
 from mrss.actors.events.reports import EventReporter, reply_template
 from mrss.config.broker import table, with_broker
 from mrss.edge.http_token import configured_token
@@ -163,6 +164,12 @@ class ExternalEventsManager(Component):
             robots=_robots(events, project_dir)))
         self.intake.start()
         self.adapter.start()  # subscriptions first, so the first (re)connect sends them all
+        commands = declared_commands(project_dir)  # [operator.commands]: checked percepts
+        if commands and self.mqtt is not None:
+            serve_commands(self.adapter, commands)
+        elif commands:
+            self.log.warning("[operator.commands] declared but no MQTT broker: the "
+                             "dashboard's forms cannot reach the agent")
         if self.mqtt is not None:
             self.mqtt.start()
         self.log.info("external adapter %s running (broker %s)", adapter_cls.__name__,

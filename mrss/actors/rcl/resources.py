@@ -209,20 +209,32 @@ class ResourceBroker:
         self._wake: dict[str, threading.Event] = {}
 
     def acquire(self, resource: str, holder: Holder, interrupt: threading.Event,
-                timeout: float | None = None) -> None:
-        """Block until `holder` holds `resource`; SkillInterrupted / ActionError (timeout)."""
+                timeout: float | None = None,
+                on_wait: Callable[[list[str]], None] | None = None) -> None:
+        """Block until `holder` holds `resource`; SkillInterrupted / ActionError (timeout).
+
+        When it has to wait, `on_wait` is called first (outside the lock) with the uuids
+        of the actions it waits behind: those holding the resource, then those ahead of
+        it in the queue (so an observer can say "queued for uav1.motion behind ...")."""
         with self._lock:
             decision = self._schedule.request(resource, holder)
             granted = holder.token in decision.granted
             if granted:
                 decision.granted.remove(holder.token)
             wake = threading.Event()
+            behind: list[str] = []
             if not granted:
                 self._wake[holder.token] = wake
+                queue = self._schedule.waiting(resource)
+                ahead = queue[:queue.index(holder.uuid)] if holder.uuid in queue else queue
+                behind = [u for u in (*sorted(self._schedule.holders(resource)), *ahead)
+                          if u != holder.uuid]
             self._apply_locked(decision)
         self._callbacks(decision)
         if granted:
             return
+        if on_wait is not None:
+            on_wait(behind)
         log.info("action %s waits for %s (priority %d)", holder.uuid, resource,
                  holder.priority)
         deadline = None if timeout is None else time.monotonic() + timeout

@@ -108,6 +108,9 @@ class _WorkerDone:
 
 
 Report = Callable[[object], None]
+#: The progress keys of an action whose skill waits for a resource (cleared to "" once
+#: granted): the resource, and the uuids of the actions it waits behind, comma-separated.
+QUEUED_FOR, BEHIND = "queued_for", "behind"
 
 
 class SkillRunner:
@@ -205,8 +208,18 @@ class SkillRunner:
         return self._data(data)
 
     def acquire(self, resource: str, timeout: float | None) -> None:
+        """Take `resource`; while waiting for it the action's progress says so
+        (`queued_for`, `behind`): it is not running yet, and observers must not say it is."""
         holder = Holder(self.token, self.action.uuid, self.action.priority)
-        self._broker.acquire(resource, holder, self.interrupt_event, timeout)
+        waited = []
+
+        def waiting(behind: list[str]) -> None:
+            waited.append(True)
+            self.record_progress({QUEUED_FOR: resource, BEHIND: ",".join(behind)})
+
+        self._broker.acquire(resource, holder, self.interrupt_event, timeout, on_wait=waiting)
+        if waited:
+            self.record_progress({QUEUED_FOR: "", BEHIND: ""})
 
     def release(self, resource: str) -> None:
         self._broker.release(resource, self.token)

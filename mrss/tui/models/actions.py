@@ -39,6 +39,7 @@ class ActionView:
     goal: str = ""
     state: str = ""
     reason: str = ""
+    cause: str = ""  # the failure cause of its latest status (FailureCause), if any
     progress: dict[str, Any] = field(default_factory=dict)
     updated: float = 0.0
     requester: str = ""
@@ -50,6 +51,23 @@ class ActionView:
         self.history.append(entry)
         del self.history[:-HISTORY_LIMIT]
 
+    def waiting_for(self) -> str:
+        """The resource a running action's skill waits for ("" : none); the RCL says it
+        in the action's progress (`queued_for`) until the resource is granted."""
+        value = self.progress.get(QUEUED_FOR)
+        return value if self.state == ActionState.RUNNING and isinstance(value, str) else ""
+
+    def behind(self) -> list[str]:
+        """The uuids of the actions it waits behind (holders first)."""
+        value = self.progress.get(BEHIND)
+        return [u for u in value.split(",") if u] if isinstance(value, str) else []
+
+    @property
+    def shown_state(self) -> str:
+        """Its state for the operator: "queued" while it waits for its resource (the
+        RCL's state is running, but nothing moves yet), else the RCL's state."""
+        return "queued" if self.waiting_for() else self.state
+
     @property
     def terminal(self) -> bool:
         return self.state in {s.value for s in ActionState if s.terminal}
@@ -58,7 +76,7 @@ class ActionView:
         """`4/12 ███░░░░░░░` when the progress has a known count (`waypoint`/`waypoints`,
         `leg`/`of`, `done`/`total`, `step`/`steps`), then the other `key=value` pairs;
         cut to `width` characters."""
-        parts, used = [], set()
+        parts, used = [], {QUEUED_FOR, BEHIND}
         for done_key, total_key in COUNTS:
             done, total = self.progress.get(done_key), self.progress.get(total_key)
             if isinstance(done, int) and isinstance(total, int) and _count(done) \
@@ -75,6 +93,9 @@ class ActionView:
         return max(0.0, now - self.updated) if self.updated else None
 
 
+# the progress keys the RCL sets while an action waits for a resource
+# (mrss.actors.rcl.skill_actor: the dashboard does not import the components)
+QUEUED_FOR, BEHIND = "queued_for", "behind"
 # (done, total) progress keys the table draws as a bar, the first pair present wins
 COUNTS = (("waypoint", "waypoints"), ("leg", "of"), ("done", "total"), ("step", "steps"))
 BAR_WIDTH = 10
@@ -123,6 +144,7 @@ class ActionsModel:
             why = status.reason + (f" (cause {status.cause})" if status.cause else "")
             view.add_history(Transition(ts, status.state, src, why))
         view.state, view.reason = status.state, status.reason
+        view.cause = str(status.cause or "")
         view.progress = dict(status.progress)
         view.robot = status.robot or view.robot
         view.name = view.name or status.name

@@ -215,9 +215,11 @@ class AlertsModel:
             return [self._event(kind, subject, body.reason, env.ts)]
         return []
 
-    def goal_failed(self, goal: str, robot: str, ts: float) -> Alert:
-        """A mission goal ended failed (from the agent's beliefs, `mrss.tui.models.goals`)."""
-        return self._event(AlertKind.GOAL_FAILED, goal, f"({robot})" if robot else "", ts)
+    def goal_failed(self, goal: str, robot: str, ts: float, why: str = "") -> Alert:
+        """A mission goal ended failed (from the agent's beliefs, `mrss.tui.models.goals`),
+        with the reason: the agent's, else its last action's."""
+        text = " ".join(p for p in (f"({robot})" if robot else "", why) if p)
+        return self._event(AlertKind.GOAL_FAILED, goal, text, ts)
 
     def _budgets(self, tree: dict[str, Any], parent: str, ts: float) -> list[Alert]:
         """Each child whose next restart or the one after would exceed its budget (the

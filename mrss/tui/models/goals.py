@@ -23,8 +23,8 @@ from mrss.tui.models.actions import ActionsModel, ActionView
 
 # a goal seen in several patterns at once is in the first of these (an open state
 # first: a goal sent again after it ended is open again)
-PRECEDENCE = (GoalState.RUNNING, GoalState.SUSPENDED, GoalState.QUEUED, GoalState.FAILED,
-              GoalState.CANCELLED, GoalState.DONE)
+PRECEDENCE = (GoalState.RUNNING, GoalState.SUSPENDED, GoalState.QUEUED, GoalState.REFUSED,
+              GoalState.FAILED, GoalState.CANCELLED, GoalState.DONE)
 ENDED_KEEP = 100  # ended goals remembered
 
 
@@ -38,6 +38,7 @@ class GoalView:
     robot: str = ""
     priority: int | None = None
     since: float = 0.0  # when it entered its state (a snapshot's time)
+    why: str = ""  # the reason the agent gives (a pattern's `Why`), if it gives one
 
 
 class GoalsModel:
@@ -82,6 +83,9 @@ class GoalsModel:
             robot = _text(named["Robot"]) if "Robot" in named else view.robot
             priority = named.get("Priority")
             prio = priority if isinstance(priority, int) else view.priority
+            if "Why" in named and _text(named["Why"]) != view.why:
+                view.why = _text(named["Why"])
+                changed = True
             if (view.state, view.robot, view.priority) != (state, robot, prio):
                 if view.state != state:
                     view.since = when
@@ -115,6 +119,38 @@ class GoalsModel:
             return None
         mine = [v for v in actions.actions.values() if v.goal == goal]
         return max(mine, key=lambda v: v.seq) if mine else None
+
+    def reason(self, view: GoalView, actions: ActionsModel | None) -> str:
+        """Why the goal stands where it does, for the operator.
+
+        Queued: for which robot, behind which goal; running: its action (queued for a
+        resource, behind which action, when it waits for one); failed, cancelled or
+        refused: the reason the agent gives, else its last action's reason and cause."""
+        last = self.last_action(view.goal, actions)
+        if view.state is GoalState.QUEUED:
+            ahead = self.current_goal(view.robot) if view.robot else None
+            where = f"for {view.robot}" if view.robot else "for a robot"
+            return where + (f" behind {ahead.goal}" if ahead is not None else "")
+        if view.state.ended or view.state is GoalState.SUSPENDED:
+            if view.why:
+                return view.why
+            if last is not None and view.state is not GoalState.DONE and last.reason:
+                cause = last.cause
+                return last.reason + (f" ({cause})" if cause and cause not in last.reason
+                                      else "")
+            return ""
+        if last is None:
+            return ""
+        waiting = last.waiting_for()
+        if waiting:
+            behind = ", ".join(self._names(last.behind(), actions))
+            return f"{last.name} queued for {waiting}" + (f" behind {behind}" if behind else "")
+        return f"{last.name} {last.shown_state}"
+
+    @staticmethod
+    def _names(uuids: list[str], actions: ActionsModel | None) -> list[str]:
+        known = actions.actions if actions is not None else {}
+        return [known[u].goal or known[u].name if u in known else u[:8] for u in uuids]
 
     def take_ended(self) -> list[GoalView]:
         """The goals that ended since the last call, in the order they ended."""

@@ -17,6 +17,7 @@ from mrss.messages import RobotData, RobotState
 
 HISTORY_SECONDS = 300.0  # the sparklines' span: the last five minutes
 SERIES_POINTS = 600
+STOPPED_LINK = "unknown"  # a robot's link once the system that reached it stopped
 LONG_LIST = 4  # a longer list in the robot detail is shown as its length
 
 
@@ -120,6 +121,13 @@ class RobotsModel:
         if view is None:
             view = self.robots[robot] = RobotView(robot)
         return view
+
+    def system_stopped(self) -> None:
+        """The system stopped: nothing is known of any robot now (its last state and
+        telemetry are kept for the detail screen, but not shown as current)."""
+        for view in self.robots.values():
+            view.available, view.link, view.teleop = None, STOPPED_LINK, None
+            view.reason = "system stopped: not known"
 
     def apply_state(self, state: RobotState) -> None:
         view = self._robot(state.robot)

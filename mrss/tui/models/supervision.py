@@ -31,6 +31,9 @@ NODE_KIND = "node"  # the kind of a node's level in the tree
 NODE_DOWN_STATE = "node down"
 
 
+ENDED_STATES = ("stopped", "exited", "gave up")  # a node in one of these is not running
+
+
 @dataclass
 class SupNode:
     """One supervised child (or supervisor) and what was last heard of it."""
@@ -233,6 +236,13 @@ class SupervisionModel:
         level = self.nodes.get(node.parent)
         return node.parent == self.root or (level is not None and level.kind == NODE_KIND
                                             and level.parent == self.root)
+
+    def system_stopped(self) -> None:
+        """The whole system stopped: every component (and supervisor) is shown stopped,
+        not in the state last heard; one that had ended otherwise keeps how it ended."""
+        for node in self.nodes.values():
+            if node.state not in ENDED_STATES:
+                node.state, node.pid, node.up_since = "stopped", 0, None
 
     def _node_state(self, event: SupEvent) -> None:
         """This node's proxy saw a peer node lost or back: its level and components."""

@@ -58,7 +58,9 @@ class ActionsTable(KeyedTable):
         """The row's cells; rebuilt only when what they show changed (making `Text`
         cells is most of a redraw at 1,000 msgs/s: `mrss bench tui`)."""
         age = view.age(now)
-        shown = (view.name or "?", view.robot, view.goal, view.state, view.reason,
+        waits = view.waiting_for()
+        reason = f"waits for {waits}" if waits else view.reason
+        shown = (view.name or "?", view.robot, view.goal, view.shown_state, reason,
                  view.progress_text(), "" if age is None else age_text(age))
         cached = self._cells.get(view.uuid)
         if cached is not None and cached[0] == shown:

@@ -1,9 +1,11 @@
 """MissionPanel: the mission's goals (state, robot, priority, its action) and the
 operator's goal commands, which go to the agent as the project's events.
 
-n adds an area (a form), c cancels the selected goal (after a question), + / - raise or
-lower its priority by one. Each key becomes a `MissionRequested` (the app sends it with
-`mrss.tui.mission`); a command the project does not declare is refused with the reason.
+n opens a new command: the project's declared commands (`[operator.commands]`, each
+its own form: `mrss.tui.command_form`) and the area form; c cancels the selected goal
+(after a question), + / - raise or lower its priority by one. Each key becomes a
+`MissionRequested` (the app sends it with `mrss.tui.mission`); a command the project
+does not declare is refused with the reason.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 STATE_STYLES = {
     GoalState.QUEUED: "yellow", GoalState.RUNNING: "bold green",
     GoalState.SUSPENDED: "magenta", GoalState.FAILED: "bold red", GoalState.DONE: "green",
-    GoalState.CANCELLED: "red",
+    GoalState.CANCELLED: "red", GoalState.REFUSED: "bold red",
 }
 
 
@@ -39,9 +41,9 @@ class MissionPanel(KeyedTable):
     """One row per goal: open goals first, newest first."""
 
     COLUMNS = (("goal", "goal"), ("state", "state"), ("robot", "robot"),
-               ("priority", "prio"), ("action", "action"), ("since", "since"))
+               ("priority", "prio"), ("why", "why"), ("since", "since"))
     BINDINGS: ClassVar[list[BindingType]] = [
-        Binding("n", "new_area", "New area"),
+        Binding("n", "new_area", "New command"),
         Binding("c", "cancel_goal", "Cancel goal"),
         Binding("plus,equals_sign", "priority(1)", "Priority +1"),
         Binding("minus", "priority(-1)", "Priority -1"),
@@ -58,14 +60,16 @@ class MissionPanel(KeyedTable):
         self.show([self._row(view, now) for view in self.goals.newest_first()])
 
     def _row(self, view: GoalView, now: float) -> Row:
+        why = self.goals.reason(view, self.actions)
         last = self.goals.last_action(view.goal, self.actions)
-        action = f"{last.name} {last.state}" if last is not None else ""
-        if last is not None and last.progress and not last.terminal:
-            action += " " + last.progress_text(24)
+        if view.state is GoalState.RUNNING and last is not None and last.progress \
+                and not last.terminal and not last.waiting_for():
+            why += " " + last.progress_text(24)
         prio = "" if view.priority is None else str(view.priority)
+        bad = view.state in (GoalState.FAILED, GoalState.REFUSED)
         return view.goal, (
             cell(view.goal, "bold"), cell(view.state.value, STATE_STYLES[view.state]),
-            cell(view.robot), cell(prio), cell(action),
+            cell(view.robot), cell(prio), cell(why, "red" if bad else "italic"),
             cell(age_text(max(0.0, now - view.since)) if view.since else "", "dim"))
 
     def selected_goal(self) -> GoalView | None:
@@ -73,7 +77,7 @@ class MissionPanel(KeyedTable):
         return self.goals.goals.get(key) if key is not None else None
 
     def action_new_area(self) -> None:
-        opener = getattr(self.app, "open_area_form", None)
+        opener = getattr(getattr(self.app, "steering", None), "open_command_menu", None)
         if callable(opener):
             opener()
 
@@ -113,11 +117,13 @@ class MissionPanel(KeyedTable):
             f"priority of {view.goal} {view.priority} -> {new}"))
 
 
-def goal_line(view: GoalView) -> LogEntry:
-    """The log pane's line for a goal that ended: `goal a1 done (uav1)`."""
+def goal_line(view: GoalView, why: str = "") -> LogEntry:
+    """The log pane's line for a goal that ended: `goal a1 failed (uav1): link lost`."""
     stamp = time.strftime("%H:%M:%S", time.localtime(view.since))
     robot = f" ({view.robot})" if view.robot else ""
-    level = logging.WARNING if view.state is GoalState.FAILED else logging.INFO
+    bad = view.state in (GoalState.FAILED, GoalState.REFUSED)
+    level = logging.WARNING if bad else logging.INFO
     return LogEntry(Text.assemble((f"{stamp} ", "dim"), ("goal ", "bold"), view.goal, " ",
-                                  (view.state.value, STATE_STYLES[view.state]), robot),
+                                  (view.state.value, STATE_STYLES[view.state]), robot,
+                                  f": {why}" if why else ""),
                     level, "mission")

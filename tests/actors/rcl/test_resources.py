@@ -99,3 +99,31 @@ def test_forgetting_an_action_drops_its_preemption_mark() -> None:
     thread.join(5)
     broker.forget_action("high")
     assert result == ["granted"] and calls.resumed == []
+
+
+def test_a_waiting_acquire_says_behind_whom_it_waits_and_nothing_when_granted() -> None:
+    """What the dashboard shows as "queued for R behind X": the holder, then those ahead."""
+    import threading
+
+    from mrss.actors.rcl.resources import Holder, ResourceBroker
+
+    broker = ResourceBroker(preempt=lambda *_: None, resume=lambda *_: None)
+    told: list[tuple[str, list[str]]] = []
+    broker.acquire("arm", Holder("a/0/0", "a", 1), threading.Event(),
+                   on_wait=lambda behind: told.append(("a", behind)))
+    assert told == []  # granted at once: no wait to tell
+    waiters = []
+    for uuid in ("b", "c"):
+        t = threading.Thread(target=broker.acquire, args=(
+            "arm", Holder(f"{uuid}/0/0", uuid, 1), threading.Event()),
+            kwargs={"on_wait": lambda behind, u=uuid: told.append((u, behind))})
+        t.start()
+        waiters.append(t)
+        from mrss.testing import wait_until
+        wait_until(lambda u=uuid: any(w == u for w, _ in told), timeout=10)
+    assert told == [("b", ["a"]), ("c", ["a", "b"])]
+    broker.release("arm", "a/0/0")
+    broker.release_token("b/0/0")  # b got it and gives it back: c gets it
+    for t in waiters:
+        t.join(timeout=10)
+        assert not t.is_alive()
