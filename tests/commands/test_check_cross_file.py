@@ -140,7 +140,7 @@ def test_a_data_layer_function_whose_result_no_plan_takes(
          "def legal(self, action: str) -> str:")
     error = one_error("amadee", capsys)
     agent = amadee / "agent.asl"
-    assert (error["file"], error["line"]) == (str(agent), line_of(agent, "<- query(legal,"))
+    assert (error["file"], error["line"]) == (str(agent), line_of(agent, "query(legal, [A], V);"))
     assert "expects a list (passed to !decide/3, whose plans" in error["message"]
     assert "returns a string (str)" in error["message"]
 
