@@ -8,13 +8,14 @@ returns. Nothing a skill raises escapes to the robot actor.
 Skill restarts (`drive`, mrss/actors/rcl/skill_drive.py) follow the supervision policy
 (mrss.supervision.policy.RestartPolicy), with the skill as the one child of a supervisor
 `robots/<robot>`: a skill that raises is started again from START after the policy's
-backoff (with jitter), at most `max_restarts` times within `restart_period` seconds; one more crash escalates: the
-skill fails with the exception's message, and so its action, and the escalation goes on
-to the robot's supervisor as a crash of the robot actor (restarted, its other actions
-taken back from the journal, and counted in `max_robot_restarts`: a robot whose skills
-keep escalating is quarantined). Every restart is a `sup.restart` event, the escalation a
-`sup.escalate` event (detail: the action's uuid). A skill without a restart budget
-(`max_restarts = 0`, the default) only fails its action: it has nothing to escalate.
+backoff (with jitter), at most `max_restarts` times within `restart_period` seconds; one
+more crash escalates: the skill fails with the exception's message, and so its action,
+and the escalation goes on to the robot's supervisor as a crash of the robot actor
+(restarted, its other actions taken back from the journal, and counted in
+`max_robot_restarts`: a robot whose skills keep escalating is quarantined). Every
+restart is a `sup.restart` event, the escalation a `sup.escalate` event (detail: the
+action's uuid). A skill without a restart budget (`max_restarts = 0`, the default) only
+fails its action: it has nothing to escalate.
 
 A critical section (`Skill.critical`) is kept here, where the interrupt happens: under
 the runner's lock a skill enters one only if not interrupted yet, and a `StopSkill` that
