@@ -3,7 +3,9 @@
 Per fleet size N (10, 100, 200; `--quick`: 10), `mrss supervise` runs a generated
 project (`mrss.bench.allocation_project`): the simulated fleet (real MAVLink and MQTT
 links, one per robot, every robot with a camera), two scouts in processes of their own,
-the RCL and the reasoner. Every robot bids for every task (all N have the capability).
+the RCL and the reasoner. Every robot bids for every task (all N have the capability):
+the RCL computes each bid from what the robot's actor published, and asks the winner's
+actor alone to confirm it.
 It measures:
 
 * goal -> award p50/p99: the bench publishes a percept `task(N, Lat, Lon)` (a place on
@@ -241,7 +243,8 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
                       f"the link's heartbeat_timeout ({project.LINK_TIMEOUT_S:g} s) + "
                       f"{REAWARD_SLACK_MS:g} ms")
     report.notes.append(
-        "award: bench percept -> reasoner -> RCL -> every capable robot actor bids -> "
+        "award: bench percept -> reasoner -> RCL -> every capable robot's bid (from "
+        "what its actor published) ranked, the winner's actor confirms -> "
         "action.allocation AWARDED seen by the bench; start: ... -> the skill's start(). "
         f"{count} goals per size, {1 / TASK_GAP_S:g}/s, each at a random robot's place "
         "(every robot of the fleet bids; half UAVs over MAVLink/UDP, half UGVs over MQTT, "

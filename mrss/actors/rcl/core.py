@@ -46,6 +46,9 @@ from mrss.actors.rcl import controls
 from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action, check_json
 from mrss.actors.rcl.allocation.allocator import Allocator
+from mrss.actors.rcl.allocation.bids import Work
+from mrss.actors.rcl.allocation.bids import link_state as bid_link_state
+from mrss.actors.rcl.allocation.board import BidBoard
 from mrss.actors.rcl.allocation.book import TaskBook
 from mrss.actors.rcl.allocation.evaluators import BidRanking
 from mrss.actors.rcl.allocation.profile import RobotProfile
@@ -143,9 +146,12 @@ class RclCore:
                                          lambda: self.robots)
         self.rejections = RejectionLog(log, "action request")
         profiles = profiles or {}
+        self.bid_board = BidBoard()  # what robot actors publish for bids
         self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
             {r: profiles.get(r) or RobotProfile(r) for r in self.links},
-            ref=self._refs.get, refusal=lambda r: (self.availability.refusal(r) or (None,))[0],
+            ref=self._refs.get, board=self.bid_board,
+            where=lambda r: bid_link_state(self.links[r]),
+            refusal=lambda r: (self.availability.refusal(r) or (None,))[0],
             award=self.award, publish=publish, ranking=ranking, bid_timeout=bid_timeout,
             book=TaskBook(journal),
             reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to))
@@ -360,7 +366,12 @@ class RclCore:
             # PENDING goes out), all under the lock: a later control comes after the
             # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
             self._emit(action.copy(), "", requester, new=True,  # `repeat` read the journal
-                       before_publish=lambda: self.tell(action.robot, start))
+                       before_publish=lambda: self._start(action, start))
+
+    def _start(self, action: Action, start: StartAction) -> None:
+        """Tell the robot actor; the action is its work for bids from now on."""
+        self.bid_board.started(action.robot, Work(action.uuid, action.priority, 0.0))
+        self.tell(action.robot, start)
 
     def award(self, request: ActionRequest, requester: Requester, robot: str,
               progress: dict[str, JsonValue]) -> None:
@@ -450,6 +461,7 @@ class RclCore:
             if action.terminal:
                 self.actions.drop(action.uuid)
                 self.observers.progress.forget(action.uuid)
+                self.bid_board.ended(action.uuid)
                 self.allocator.kick()  # its robot may be free for a waiting task
             else:
                 self.actions.put(action, requester)

@@ -29,6 +29,7 @@ from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Work, compute_bid, fraction_done
 from mrss.actors.rcl.allocation.bids import link_state as bid_link_state
+from mrss.actors.rcl.allocation.board import BidBoard, BidState
 from mrss.actors.rcl.failure_causes import failure_cause
 from mrss.actors.rcl.journal import JournalEntry
 from mrss.actors.rcl.layer import RobotCommLayer
@@ -80,6 +81,10 @@ class RobotHost(Protocol):
     @property
     def plans(self) -> PlanBoard:
         """The latest plan of each open action (sent again with the RCL's snapshot)."""
+
+    @property
+    def bid_board(self) -> BidBoard:
+        """Where the robot's state for bids goes (read by the allocator, no round trip)."""
 
 
 @dataclass(frozen=True)
@@ -146,6 +151,7 @@ class RobotActor(SupervisedActor):
         self.teleop = False
         self.actions: dict[str, _Tracked] = {}
         self._replayed: set[int] = set()  # pending controls applied by `setup`
+        self._published: BidState | None = None  # on the bid board
 
     def _skill_data_fn(self, uuid: str) -> Callable[[Mapping[str, JsonValue]], bool]:
         """A skill's robot data goes out as the robot's (on the skill's thread); a plan
@@ -180,9 +186,16 @@ class RobotActor(SupervisedActor):
                      control.seq, control.event.kind.value, control.uuid)
             self._control(control)
             self._replayed.add(control.seq)
+        self._publish_bid_state()
 
     # -- dispatch ---------------------------------------------------------------------
     def on_receive(self, message: Any) -> Any:
+        try:
+            return self._dispatch(message)
+        finally:
+            self._publish_bid_state()
+
+    def _dispatch(self, message: Any) -> Any:
         if isinstance(message, SkillReport):
             self._skill_ended(message)
         elif isinstance(message, ProgressRecorded):
@@ -207,15 +220,27 @@ class RobotActor(SupervisedActor):
 
     def _bid(self, request: BidRequest) -> Bid:
         """This robot's bid for a task addressed to a role, from its own state
-        (mrss.actors.rcl.allocation.bids)."""
+        (mrss.actors.rcl.allocation.bids): the award's re-validation."""
         position, battery = bid_link_state(self.link)
-        work = [Work(u, t.action.priority, fraction_done(t.action.progress))
-                for u, t in self.actions.items() if not t.action.terminal]
         return compute_bid(request, position=position, battery=battery, teleop=self.teleop,
-                           work=work)
+                           work=self._work())
+
+    def _work(self) -> tuple[Work, ...]:
+        return tuple(Work(u, t.action.priority, fraction_done(t.action.progress))
+                     for u, t in self.actions.items() if not t.action.terminal)
+
+    def _publish_bid_state(self) -> None:
+        """What the allocator computes this robot's bids from (mrss.actors.rcl.allocation
+        .board), replaced when it changed."""
+        state = BidState(self.teleop, self._work())
+        if state != self._published:
+            self._published = state
+            self.host.bid_board.publish(self.robot, state)
 
     def teardown(self) -> None:
         """Stop or crash: stop every skill, change no state (the journal has them)."""
+        if self._published is not None:
+            self.host.bid_board.withdraw(self.robot, self._published)
         refs = [r for t in self.actions.values() for r in t.refs if r is not None]
         for t in self.actions.values():
             for timer in (t.timer, t.preempted_timer):

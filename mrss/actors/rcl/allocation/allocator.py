@@ -5,10 +5,12 @@ decision and two awards never race for a robot. Rules:
 - a role-addressed request is checked (`Task.of`; some configured robot must have every
   capability it asks for, else it is rejected with a "did you mean") and becomes an
   open task; a duplicate of its uuid re-sends its allocation status;
-- a round: the robots with the capabilities that are available (`refusal`) are asked
-  for a bid, all at once (each robot actor computes its own, `bids.BidRequest`); those
-  silent past `bid_timeout` count as `no_bid`; the ranking (`evaluators.BidRanking`)
-  picks the winner, deterministically;
+- a round: the bid of every robot with the capabilities that is available (`refusal`)
+  is computed here, from what its actor published (`board.BidBoard`) and its link's
+  position and battery, without a round trip; the ranking (`evaluators.BidRanking`)
+  picks the winner, deterministically; the winner's actor then bids itself
+  (`bids.BidRequest`, after whatever is in its mailbox): unfit now, or silent past
+  `bid_timeout`, its own bid replaces the board's and the next-ranked is asked;
 - a winner: the task is awarded (a `TaskAllocation` AWARDED with why it won), and the
   request goes on as one addressed to that robot (`award`); no winner: the task waits
   (a `TaskAllocation` WAITING with the reason as an enum, sent when it changes);
@@ -34,7 +36,8 @@ from typing import Any
 
 import pykka
 
-from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, no_bid
+from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, compute_bid, no_bid
+from mrss.actors.rcl.allocation.board import BidBoard
 from mrss.actors.rcl.allocation.book import TaskBook
 from mrss.actors.rcl.allocation.evaluators import BidRanking, Choice
 from mrss.actors.rcl.allocation.profile import RobotProfile
@@ -77,6 +80,7 @@ class Allocator:
 
     def __init__(self, profiles: Mapping[str, RobotProfile], *,
                  ref: Callable[[str], pykka.ActorRef[Any] | None],
+                 board: BidBoard, where: Callable[[str], tuple[Place | None, float | None]],
                  refusal: Callable[[str], str | None],
                  award: Award, publish: Callable[[Message], object],
                  ranking: BidRanking | None = None, bid_timeout: float = 1.0,
@@ -85,6 +89,7 @@ class Allocator:
                  reassigned: Reassigned = lambda _r, _f, _t: None) -> None:
         self.profiles = dict(profiles)
         self._ref, self._refusal, self._award, self._publish = ref, refusal, award, publish
+        self.board, self._where = board, where
         self.ranking = ranking or BidRanking()
         self.bid_timeout, self.retry_every, self.clock = bid_timeout, retry_every, clock
         self.book = book or TaskBook(None)
@@ -185,53 +190,71 @@ class Allocator:
     def _round(self, open_task: OpenTask) -> None:
         task = open_task.task
         bids = self._bids(task)
-        choice = self.ranking.choose(task, bids)
         open_task.rounds += 1
-        winner = choice.winner
-        if winner is not None and self._refusal(winner.robot) is None:
-            self._awarded(open_task, winner, choice)
-            return
-        if winner is not None:  # became unavailable between its bid and now: next round
-            self._wake.set()
-            return
+        confirmed: set[str] = set()
+        while True:
+            choice = self.ranking.choose(task, bids)
+            winner = choice.winner
+            if winner is None:
+                break
+            if self._refusal(winner.robot) is not None:  # unavailable since: next round
+                self._wake.set()
+                return
+            if winner.robot in confirmed:
+                self._awarded(open_task, winner, choice)
+                return
+            fresh = self._confirm(task, winner.robot)
+            confirmed.add(winner.robot)
+            if fresh.fit and fresh.preempts <= winner.preempts:
+                self._awarded(open_task, winner, choice)
+                return
+            log.info("task %s: %s's own bid differs from its board's (%s): ranked again",
+                     task.uuid, winner.robot, fresh.describe())
+            bids = [fresh if b.robot == winner.robot else b for b in bids]
         if open_task.said != (choice.wait, choice.why):
             open_task.said = (choice.wait, choice.why)
             self._say_waiting(open_task, choice.wait, choice.why)
 
     def _bids(self, task: Task) -> list[Bid]:
-        asked: dict[str, pykka.Future[Any]] = {}
+        """Every capable robot's bid, computed here from the board (no round trip)."""
         bids: list[Bid] = []
         for robot, profile in sorted(self.profiles.items()):
             if not profile.can(task.capabilities):
                 continue
             refusal = self._refusal(robot)
-            ref = self._ref(robot)
-            if refusal is not None or ref is None:
+            state = self.board.state(robot)
+            if refusal is not None or state is None:
                 bids.append(no_bid(robot, WaitReason.UNAVAILABLE,
                                    f"unavailable: {refusal or 'its actor is down'}"))
                 continue
+            position, battery = self._where(robot)
+            if position is not None and robot not in self._bases:
+                self._bases[robot] = position
             request = BidRequest(task, profile, profile.base or self._bases.get(robot))
-            try:
-                asked[robot] = ref.ask(request, block=False)
-            except pykka.ActorDeadError:
-                bids.append(no_bid(robot, WaitReason.UNAVAILABLE, "unavailable: actor down"))
-        deadline = time.monotonic() + self.bid_timeout
-        for robot, future in asked.items():
-            try:
-                bid = future.get(timeout=max(0.0, deadline - time.monotonic()))
-            except pykka.Timeout:
-                bids.append(no_bid(robot, WaitReason.NO_BID,
-                                   f"did not bid within {self.bid_timeout:g} s"))
-                continue
-            except Exception as exc:
-                log.warning("robot %s could not bid for %s: %r", robot, task.uuid, exc)
-                bids.append(no_bid(robot, WaitReason.NO_BID, f"could not bid: {exc!r}"))
-                continue
-            if isinstance(bid, Bid):
-                if bid.position is not None and robot not in self._bases:
-                    self._bases[robot] = bid.position
-                bids.append(bid)
+            bids.append(compute_bid(request, position=position, battery=battery,
+                                    teleop=state.teleop, work=state.work))
         return bids
+
+    def _confirm(self, task: Task, robot: str) -> Bid:
+        """The winner's bid from its actor (after whatever is in its mailbox): the
+        award's re-validation, one round trip."""
+        profile = self.profiles[robot]
+        ref = self._ref(robot)
+        if ref is None:
+            return no_bid(robot, WaitReason.UNAVAILABLE, "unavailable: its actor is down")
+        try:
+            bid = ref.ask(BidRequest(task, profile, profile.base or self._bases.get(robot)),
+                          timeout=self.bid_timeout)
+        except pykka.Timeout:
+            return no_bid(robot, WaitReason.NO_BID, f"did not bid within {self.bid_timeout:g} s")
+        except pykka.ActorDeadError:
+            return no_bid(robot, WaitReason.UNAVAILABLE, "unavailable: actor down")
+        except Exception as exc:
+            log.warning("robot %s could not bid for %s: %r", robot, task.uuid, exc)
+            return no_bid(robot, WaitReason.NO_BID, f"could not bid: {exc!r}")
+        if not isinstance(bid, Bid):
+            return no_bid(robot, WaitReason.NO_BID, f"answered {bid!r}, not a bid")
+        return bid
 
     def _awarded(self, open_task: OpenTask, winner: Bid, choice: Choice) -> None:
         task, request = open_task.task, open_task.request
