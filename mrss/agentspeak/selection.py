@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.closures import MAX_NODES, _conjuncts, _Gen, _TooBig
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.terms import OP_TEXT
 from mrss.agentspeak.unify import undo, unify
 
 if TYPE_CHECKING:
@@ -139,7 +140,9 @@ def selector(plans: list[Plan], arity: int) -> Selector:
                       "    if len(trail) != mark0:",  # what this plan bound, undone
                       "        _undo(trail, mark0)"]
         lines.append("    return relevant")
-        code = compile("\n".join(lines) + "\n", "<asl select>", "exec")
+        first = plans[0]  # named for its key: profiles tell the keys apart
+        name = f"<asl select {OP_TEXT[first.op]}{first.trigger.functor}/{arity}>"
+        code = compile("\n".join(lines) + "\n", name, "exec")
     except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: blocks nested too deep
         return select_general(plans)
     exec(code, g.env)  # noqa: S102 -- our own generated code

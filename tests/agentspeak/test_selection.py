@@ -58,7 +58,7 @@ def test_the_generated_selection_picks_what_the_general_loop_picks(
         caplog: pytest.LogCaptureFixture) -> None:
     plans = agent.plans.index[key]
     generated, general = selector(plans, key[2]), select_general(plans)
-    assert generated.__code__.co_filename == "<asl select>"  # not the fallback
+    assert generated.__code__.co_filename.startswith("<asl select ")  # not the fallback
     checked = 0
     annots: list[tuple[Any, ...]] = [(), (Struct("x"),)]
     n = len(_values())
