@@ -220,3 +220,28 @@ def test_journal_soak_says_its_24_hours_are_a_simulated_clock() -> None:
     soak = [str(row[0]) for row in report.rows if "soak" in str(row[0])]
     assert soak and all(label.startswith(journal.SIMULATED) for label in soak)
     assert any("not 24 hours long" in note for note in report.notes)
+
+
+def test_the_jason_rows_say_why_they_are_skipped(monkeypatch: pytest.MonkeyPatch,
+                                                 tmp_path: Path) -> None:
+    from mrss.bench import reasoner_jason
+
+    monkeypatch.delenv(reasoner_jason.JAR_ENV, raising=False)
+    java, cp, why = reasoner_jason.jason_classpath()
+    assert (java, cp) == (None, None) and reasoner_jason.JAR_ENV in why
+    monkeypatch.setenv(reasoner_jason.JAR_ENV, str(tmp_path / "absent.jar"))
+    java, cp, why = reasoner_jason.jason_classpath()
+    assert cp is None and "does not exist" in why
+
+
+def test_a_classpath_without_jason_is_a_clear_error_not_a_hang(tmp_path: Path) -> None:
+    import shutil
+
+    from mrss.bench import reasoner_agent, reasoner_jason
+
+    java = shutil.which("java")
+    if java is None:
+        pytest.skip("no java on this machine")
+    with pytest.raises(RuntimeError, match="printed 0 of 2 rounds"):
+        reasoner_jason.best_round_ms(reasoner_agent.COUNT, 10, 2, java, str(tmp_path),
+                                     timeout=60)

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.arith import BINARY
 from mrss.agentspeak.formulas import AndQuery, FalseQuery, NotQuery, Query, RelQuery, TrueQuery
-from mrss.agentspeak.terms import Expr, Slot, Struct, Term, fresh_var, value
+from mrss.agentspeak.terms import Expr, Slot, Struct, Term, _all_ground, fresh_var, value
 from mrss.agentspeak.unify import evaluate, resolve
 
 if TYPE_CHECKING:
@@ -107,15 +107,44 @@ class _Gen:
         slow = f"_eval({self.const(e)}, f)"
         if len(e.args) == 1 and e.op == "neg":
             a = self.temp()
-            return f"(-{a} if type({a} := {self.term(e.args[0])}) in _NUM else {slow})"
+            return f"(-{a} if type({a} := {self.operand(e.args[0])}) in _NUM else {slow})"
         if len(e.args) == 2 and e.op in BINARY:
-            a, b = self.temp(), self.temp()
-            test = (f"type({a} := {self.term(e.args[0])}) in _NUM and "
-                    f"type({b} := {self.term(e.args[1])}) in _NUM")
+            left, right = e.args
+            if e.op in ("mod", "div") and type(right) is int and right > 0:
+                # Java's integer `%` and `/` (the sign of the dividend) on an int
+                a = self.temp()
+                r = str(right)
+                done = (f"({a} % {r} if {a} >= 0 else -(-{a} % {r}))" if e.op == "mod" else
+                        f"({a} // {r} if {a} >= 0 else -(-{a} // {r}))")
+                return f"({done} if type({a} := {self.operand(left)}) is int else {slow})"
+            a, b, test = self.numbers(left, right)
             op = _INLINE_OPS.get(e.op)
             done = f"{a} {op} {b}" if op else f"{self.const(BINARY[e.op])}({a}, {b})"
             return f"({done} if {test} else {slow})"
         return slow
+
+    def numbers(self, left: Term, right: Term) -> tuple[str, str, str]:
+        """Names for two operands and the test that both are numbers (a number
+        constant needs none)."""
+        names: list[str] = []
+        tests: list[str] = []
+        for t in (left, right):
+            if type(t) is int or type(t) is float:
+                names.append(repr(t) if type(t) is int else self.const(t))
+                continue
+            v = self.temp()
+            names.append(v)
+            tests.append(f"type({v} := {self.operand(t)}) in _NUM")
+        return names[0], names[1], " and ".join(tests) or "True"
+
+    def operand(self, t: Term) -> str:
+        """An expression for an arithmetic operand that the caller tests for a number
+        (falling back to the general function): a slot is read from the frame as it is
+        (a variable or an unbound slot is no number: the general path deals with it)."""
+        if type(t) is Slot:
+            self.nodes += 1
+            return f"f[{t.index}]"
+        return self.term(t)
 
     def condition(self, q: Query) -> str | None:
         """A Python boolean expression (over `rt`, `f`) for a query with one solution at
@@ -133,33 +162,34 @@ class _Gen:
             slow = f"_first({self.const(q)}, rt, f)"
             if op is None:  # `=`: one solution at most
                 return slow
-            a1, b1 = self.temp(), self.temp()
-            return (f"(({a1} {op} {b1}) if type({a1} := {self.term(r.left)}) in _NUM and "
-                    f"type({b1} := {self.term(r.right)}) in _NUM else {slow})")
+            a1, b1, test = self.numbers(r.left, r.right)
+            return f"(({a1} {op} {b1}) if {test} else {slow})"
         return None
 
-    def conjunction(self, parts: list[Query]) -> list[str]:
-        """The body of a function returning whether conjunction `q` has a solution: the
-        conditions as `if`s, each query with several solutions as a `for` over its
-        solutions (a later condition that fails tries the next one: backtracking; each
-        query's solutions undo the bindings made after it before the next)."""
+    def conjunction(self, parts: list[Query], depth: int = 1, fail: str = "return False",
+                    success: tuple[str, ...] = ("return True",)) -> tuple[list[str], int]:
+        """Lines (indented from `depth`) running conjunction `parts`: the conditions as
+        `if`s, each query with several solutions as a `for` over its solutions (a later
+        condition that fails tries the next one: backtracking; each query's solutions
+        undo the bindings made after it before the next). On the first solution the
+        `success` lines run (they must leave the block: `return`); a failure outside
+        every loop runs `fail`; when the loops are exhausted control falls through.
+        Returns the lines and the depth of the innermost block."""
         lines: list[str] = []
-        depth = 1
+        first = depth
         for part in parts:
             pad = "    " * depth
             cond = self.condition(part)
             if cond is None:
-                if depth > MAX_LOOPS:
+                if depth - first >= MAX_LOOPS:
                     raise _TooBig  # Python allows 20 nested blocks
                 lines.append(f"{pad}for _ in {self.const(part)}.solve(rt, f):")
                 depth += 1
             else:
                 lines.append(f"{pad}if not {cond}:")
-                lines.append(f"{pad}    {'return False' if depth == 1 else 'continue'}")
-        lines.append("    " * depth + "return True")
-        if depth > 1:
-            lines.append("    return False")
-        return lines
+                lines.append(f"{pad}    {fail if depth == first else 'continue'}")
+        lines.extend("    " * depth + line for line in success)
+        return lines, depth
 
 
 def _conjuncts(q: Query) -> list[Query]:
@@ -195,13 +225,44 @@ def _build(name: str, params: str, body: str, env: dict[str, Any]) -> Any:
     return env[name]
 
 
+def _struct_lines(g: _Gen, st: Struct) -> list[str]:
+    """The body of a function building `st` (not ground, its annotations ground
+    constants) without `Struct.__init__`: the arguments into locals, the object's
+    fields set, and `ground` from the arguments' types (the general test only when an
+    argument is not a plain number or string)."""
+    names: list[str] = []
+    lines: list[str] = []
+    plain: list[str] = []
+    for a in st.args:
+        if type(a) in _PLAIN or _is_ground_const(a):
+            names.append(g.const(a))
+            continue
+        x = g.temp()
+        lines.append(f"    {x} = {g.term(a)}")
+        names.append(x)
+        plain.append(f"type({x}) in _PLAIN")
+    args = "(" + "".join(n + ", " for n in names) + ")"
+    lines += ["    s = _new(Struct)", f"    s.functor = {g.const(st.functor)}",
+              f"    s.args = a = {args}", f"    s.annots = {g.const(st.annots)}",
+              f"    s.neg = {st.neg!r}",
+              f"    s.ground = True if {' and '.join(plain) or 'True'} else _all_ground(a)",
+              "    return s"]
+    return lines
+
+
 def resolver(t: Term) -> Resolver:
     """A function `frame -> term` computing `resolve(t, frame)`."""
     if type(t) is Struct and t.ground:
         return lambda frame: t
     g = _Gen()
     try:
-        fn: Resolver = _build("resolve_template", "f", g.term(t), g.env)
+        if type(t) is Struct and all(_is_ground_const(a) for a in t.annots):
+            g.env.update(_new=object.__new__, _all_ground=_all_ground)
+            src = "def resolve_template(f):\n" + "\n".join(_struct_lines(g, t)) + "\n"
+            exec(compile(src, "<asl resolve_template>", "exec"), g.env)  # noqa: S102
+            fn: Resolver = g.env["resolve_template"]
+        else:
+            fn = _build("resolve_template", "f", g.term(t), g.env)
     except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: nested too deeply
         return lambda frame: resolve(t, frame)
     return fn
@@ -219,7 +280,9 @@ def tester(q: Query | None) -> Tester | None:
             return None  # a single general query: its own generator is as fast
         if len(parts) > MAX_NODES:
             raise _TooBig
-        lines = g.conjunction(parts)
+        lines, depth = g.conjunction(parts)
+        if depth > 1:
+            lines.append("    return False")
         src = "def test_context(rt, f):\n" + "\n".join(lines) + "\n"
         code = compile(src, "<asl test_context>", "exec")
     except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: loops nested too deep

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
+from mrss.agentspeak.intentions import PENDING_EVENT, Event
 from mrss.agentspeak.terms import (
     ADD_ACH,
     ADD_BEL,
@@ -68,9 +69,15 @@ class Achieve(Instr):
         self.res = resolver(lit)
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
-        lit = self.res(im.frame)
-        im.pc = len(im.code) if self.tail else im.pc + 1
-        rt.post_subgoal(it, lit, self.tail, self.line)  # type: ignore[arg-type]
+        lit: Any = self.res(im.frame)
+        tail = self.tail
+        im.pc = len(im.code) if tail else im.pc + 1
+        if rt.event_waiters or rt.atomic is not None or rt.plans.meta:
+            rt.post_subgoal(it, lit, tail, self.line)
+            return
+        it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
+        it.line = self.line
+        rt.events.append(Event(ADD_ACH, lit, it, tail))
 
 
 class AchieveNew(Instr):

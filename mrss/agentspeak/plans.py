@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.closures import tester
+from mrss.agentspeak.selection import Selector, selector
 from mrss.agentspeak.terms import GOAL_STATE, OP_TEXT, Slot, Struct, Term, term_str
 
 if TYPE_CHECKING:
@@ -80,6 +81,9 @@ class PlanLibrary:
     def __init__(self) -> None:
         self.plans: list[Plan] = []
         self.index: dict[PlanKey, list[Plan]] = {}
+        # per key, its plans' selection compiled (`selection`); built on first use,
+        # forgotten whenever a plan is added or removed
+        self.selectors: dict[PlanKey, Selector | None] = {}
         self.labels: dict[str, Plan] = {}  # by the label's functor, as in Jason
         self._auto = 0
         self.meta = 0  # how many plans handle goal-state meta-events (`^!g`)
@@ -100,6 +104,7 @@ class PlanLibrary:
     def add(self, plan: Plan, begin: bool = False, source: Term = SELF) -> None:
         """Add `plan` after all others (or, with `begin`, before all others)."""
         self._label(plan, source)
+        self.selectors.clear()
         if plan.op == GOAL_STATE:
             self.meta += 1
         if begin:
@@ -116,6 +121,7 @@ class PlanLibrary:
         if plan.plabel is not None and self.labels.get(plan.plabel.functor) is plan:
             del self.labels[plan.plabel.functor]
         self.plans.remove(plan)
+        self.selectors.clear()
         if plan.op == GOAL_STATE:
             self.meta -= 1
         same = [p for p in self.index[plan.key] if p is not plan]
@@ -129,6 +135,12 @@ class PlanLibrary:
     def labelled(self, label: Struct) -> Plan | None:
         """The plan whose label has the functor of `label` (as in Jason)."""
         return self.labels.get(label.functor)
+
+    def selector(self, key: PlanKey) -> Selector | None:
+        """The compiled selection among the plans of `key`; None when it has none."""
+        plans = self.index.get(key)
+        sel = self.selectors[key] = selector(plans, key[2]) if plans else None
+        return sel
 
     def relevant(self, op: int, lit: Struct) -> list[Plan] | None:
         return self.index.get((op, lit.functor, len(lit.args), lit.neg))

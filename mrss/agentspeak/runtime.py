@@ -12,11 +12,11 @@ AgentSpeak using Jason", formal semantics) and where each one is:
 - SelEv (select an event): `Agent.step` takes the oldest event (`events`, FIFO; while
   an `[atomic]` intention runs, its own `atomic_events`; goal-state meta-events
   `^!g[state(S)]` are put at the front of `events`: see `goalstates`).
-- RelPl (relevant plans): `PlanLibrary.relevant` (plans indexed by trigger operator,
-  functor, arity and negation), then trigger unification in `Runtime.handle_event`.
-- ApplPl (applicable plans) and SelAppl (select one): `Runtime.handle_event`, fused
-  and lazy: contexts are tried in source order (`Plan.test`, a compiled function, or
-  `Plan.context.solve`) and the first applicable plan is taken.
+- RelPl (relevant plans): `PlanLibrary.index` (plans indexed by trigger operator,
+  functor, arity and negation), then trigger unification, ApplPl (applicable plans)
+  and SelAppl (select one), fused and lazy in one function per key compiled by
+  `selection` (`PlanLibrary.selector`): contexts are tried in source order and the
+  first applicable plan is taken; `Runtime.handle_event` calls it.
 - AddIM (add the intended means): the end of `Runtime.handle_event`: pushed on the
   intention that posted the event, or on a new intention for an external event
   (with tail-recursion optimisation).
@@ -53,7 +53,7 @@ from mrss.agentspeak.intentions import (
     Intention,
     IntentionState,
 )
-from mrss.agentspeak.plans import PlanLibrary
+from mrss.agentspeak.plans import Plan, PlanLibrary
 from mrss.agentspeak.registry import IAContext, InternalAction, Registry
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -63,7 +63,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
 )
-from mrss.agentspeak.unify import resolve, undo, unify
+from mrss.agentspeak.unify import resolve
 
 log = logging.getLogger("mrss.agentspeak")
 
@@ -142,6 +142,19 @@ class Runtime:
         if it is not None and it.state is RUNNABLE and not it.dropped:
             self.make_runnable(it)
 
+    def context_error(self, plan: Plan, exc: BaseException) -> None:
+        """A plan's context raised `exc` while selecting: warn; the next plan is tried."""
+        if isinstance(exc, AslRuntimeError):
+            what = exc.message
+        elif isinstance(exc, RecursionError):
+            self.warn(f"{plan.file}:{plan.line}: "
+                      + depth_message(f"the context of {plan.trigger_text()}"))
+            return
+        else:
+            what = str(exc)
+        self.warn(f"{plan.file}:{plan.line}: error in the context of "
+                  f"{plan.trigger_text()}: {what}")
+
     def warn(self, message: str) -> None:
         log.warning("[%s] %s", self.name, message)
 
@@ -188,82 +201,46 @@ class Runtime:
         if it is not None and (it.dropped or it.gen != ev.gen):
             return
         lit = ev.lit
-        plans = self.plans.index.get((ev.op, lit.functor, len(lit.args), lit.neg))  # RelPl
-        chosen = None
-        frame: list[Any] = []
-        relevant = False
-        if plans:
-            trail = self.trail
-            mark0 = len(trail)
-            for plan in plans:
-                pad = plan.pad
-                if pad is not None:  # the trigger's arguments are the first slots
-                    frame = [*lit.args, *pad]
-                elif plan.const_args is not None and lit.ground:  # e.g. +!count(0)
-                    if lit.args != plan.const_args:
-                        continue
-                    frame = [None] * plan.nslots
-                else:
-                    frame = [None] * plan.nslots
-                    slots = plan.arg_slots
-                    if slots is not None:
-                        args = lit.args
-                        for i in range(len(slots)):
-                            frame[slots[i]] = args[i]
-                    elif not unify(plan.trigger, frame, lit, trail):
-                        undo(trail, mark0)
-                        continue
-                relevant = True
-                if plan.context is None:
-                    chosen = plan
-                    break
-                try:
-                    test = plan.test
-                    if test is not None:
-                        if test(self, frame):
-                            chosen = plan
-                    else:
-                        for _ in plan.context.solve(self, frame):
-                            chosen = plan
-                            break
-                except AslRuntimeError as exc:
-                    self.warn(f"{plan.file}:{plan.line}: error in the context of "
-                              f"{plan.trigger_text()}: {exc.message}")
-                except RecursionError:
-                    self.warn(f"{plan.file}:{plan.line}: "
-                              + depth_message(f"the context of {plan.trigger_text()}"))
-                except (ArithmeticError, ValueError) as exc:
-                    self.warn(f"{plan.file}:{plan.line}: error in the context of "
-                              f"{plan.trigger_text()}: {exc}")
-                if chosen is not None:
-                    break
-                undo(trail, mark0)
-            del trail[mark0:]
-        if chosen is None:
-            goals.no_applicable_plan(self, ev, relevant)
+        key = (ev.op, lit.functor, len(lit.args), lit.neg)
+        plans = self.plans
+        try:
+            select = plans.selectors[key]
+        except KeyError:
+            select = plans.selector(key)
+        # RelPl, ApplPl, SelAppl: the key's plans tried in order (`selection`)
+        found = select(self, lit) if select is not None else False
+        if type(found) is not tuple:
+            goals.no_applicable_plan(self, ev, found)  # type: ignore[arg-type]
             return
-        im = IntendedMeans(chosen, frame, lit, ev.op)
-        if self.plans.meta and ev.op == ADD_ACH:
+        chosen, frame = found
+        op = key[0]
+        im = IntendedMeans(chosen, frame, lit, op)
+        meta = plans.meta
+        if meta and op == ADD_ACH:
             goalstates.emit(self, lit, goalstates.GoalState.EXECUTING)
         if it is None:
             it = self.new_intention()
-        else:
+        elif ev.tail:
             stack = it.stack
-            if ev.op == DEL_ACH:
-                im.fail_target = ev.target
-            elif ev.tail and stack:
+            if stack:
                 top = stack[-1]
                 tl = top.lit
-                if (top.op == ADD_ACH and top.fail_target is None and top.pc >= len(top.code)
-                        and tl.functor == lit.functor and len(tl.args) == len(lit.args)
-                        and (DEL_ACH, tl.functor, len(tl.args), tl.neg) not in self.plans.index):
-                    if self.plans.meta:
+                if (top.op == ADD_ACH and tl.functor == key[1] and len(tl.args) == key[2]
+                        and top.fail_target is None and top.pc >= len(top.code)
+                        and (DEL_ACH, tl.functor, key[2], tl.neg) not in plans.index):
+                    if meta:
                         goalstates.emit_stack(self, it, goalstates.DONE, len(stack) - 1)
                     stack.pop()  # tail-recursion optimisation: replace, don't stack
+        elif op == DEL_ACH:
+            im.fail_target = ev.target
         it.stack.append(im)
         if chosen.atomic and self.atomic is None:
             self.atomic = it
-        self.make_runnable(it)
+        # make_runnable, inline
+        it.state = RUNNABLE
+        if not it.in_queue and not it.suspended and not it.dropped and it is not self.atomic:
+            it.in_queue = True
+            self.runq.append(it)
 
     # ------------------------------------------------------------------ acting
     def run_step(self, it: Intention) -> None:
@@ -322,7 +299,11 @@ class Runtime:
             return
         if atomic_gone and self.atomic is it and not any(m.plan.atomic for m in stack):
             self._clear_atomic()
-        self.make_runnable(it)
+        # make_runnable, inline
+        it.state = RUNNABLE
+        if not it.in_queue and not it.suspended and not it.dropped and it is not self.atomic:
+            it.in_queue = True
+            self.runq.append(it)
 
     # environment actions (`hostactions`): out to the host and back
     start_action = hostactions.start_action

@@ -6,7 +6,9 @@ reasoning cycle while many intentions are blocked on environment actions, and of
 releasing them; (d), (e), (f) and (g) are issue 12's programs through `mrss agent`,
 the start-up of `mrss agent` and issue 12's memory figure (`reasoner_agent`).
 python-agentspeak is installed by this benchmark into a throwaway venv under the user
-cache directory (never a dependency of MRSS) and run in a subprocess.
+cache directory (never a dependency of MRSS) and run in a subprocess. With
+MRSS_BENCH_JASON_JAR naming Jason's classes, (d) and (e) also run on Jason in the same
+run (`reasoner_jason`), with our speed relative to Jason's; never downloaded.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pathlib import Path
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
 from mrss.bench import reasoner_agent as ia
+from mrss.bench import reasoner_jason as jason
 from mrss.bench.report import BenchReport
 
 PEER = "agentspeak==0.2.2"
@@ -244,9 +247,29 @@ def run(quick: bool) -> BenchReport:
     return report
 
 
+def _jason_rows(report: BenchReport, label: str, program: str, n: int, rounds: int,
+                ours_ms: float, java: str, classpath: str, quick: bool) -> None:
+    """The same program on Jason (best round, as ours), and our speed relative to it."""
+    try:
+        theirs = jason.best_round_ms(program, n, rounds, java, classpath,
+                                     timeout=120 if quick else 600)
+    except (RuntimeError, OSError) as exc:
+        report.notes.append(f"{label} on Jason did not run: {exc}")
+        return
+    report.add_row(label.replace("via mrss agent", "on Jason"), n, theirs, None, None,
+                   "ms/round")
+    ratio = theirs / ours_ms
+    report.add_row(label.replace("via mrss agent", "speed vs Jason"), n, ratio, None, None,
+                   "x Jason")
+    if not quick:
+        report.check(f"{label}: >= 1.0x Jason's speed (got {ratio:.2f}x)", ratio >= 1.0)
+
+
 def _through_mrss_agent(report: BenchReport, quick: bool) -> None:
     """Issue 12's two programs through `mrss agent`, its start-up, the memory figure."""
     rounds = 3 if quick else 5
+    java, classpath, why = jason.jason_classpath()
+    report.notes.append(why)
     for key, label, program in (
             ("count", "(d) recursive sub-goals via mrss agent", ia.COUNT),
             ("seen", "(e) +seen/-seen vs 3 plans via mrss agent", ia.SEEN)):
@@ -257,6 +280,8 @@ def _through_mrss_agent(report: BenchReport, quick: bool) -> None:
             report.notes.append(f"{label} did not run: {exc}")
             continue
         report.add_row(label, n, ms, None, None, "ms/round")
+        if java is not None and classpath is not None:
+            _jason_rows(report, label, program, n, rounds, ms, java, classpath, quick)
         if not quick:
             limit = ia.ISSUE_MS[key] / ia.SPEEDUP
             report.check(f"{label}: <= {limit:.0f} ms ({ia.SPEEDUP:g}x faster than issue 12's "

@@ -139,3 +139,15 @@ def test_deeply_nested_templates_still_load_and_resolve() -> None:
         lines.clear()
         Agent(program, name="deep", out=lines.append).run_until_idle()
         assert lines == [str(1 + depth), "f(" * depth + "1" + ")" * depth]
+
+
+def test_mod_and_div_by_a_constant_keep_javas_sign_rule() -> None:
+    lines: list[str] = []
+    program = """
+!go.
++!go <- for (.member(X, [7, -7, 6, -6, 0, 7.9, -7.9])) { !show(X mod 3, X div 3, X mod 1) }.
++!show(M, D, One) <- .print(M, " ", D, " ", One).
+"""
+    Agent(program, name="mod", out=lines.append).run_until_idle()
+    # Java: the remainder has the sign of the dividend; the quotient truncates
+    assert lines == ["1 2 0", "-1 -2 0", "0 2 0", "0 -2 0", "0 0 0", "1 2 0", "-1 -2 0"]
