@@ -79,9 +79,11 @@ seed = "world.json"
 
 
 def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str = "",
-                  files: dict[str, str] | None = None, events_extra: str = "") -> Path:
+                  files: dict[str, str] | None = None, events_extra: str = "",
+                  tables: str = "") -> Path:
     """The test project under `projects/edgefaults/`, with the wildfire adapter; more
-    `[worldmodel]` and `[events]` lines and project files (name -> text) when given."""
+    `[worldmodel]` and `[events]` lines, more tables at the end (`tables`) and project
+    files (name -> text) when given."""
     folder = projects / PROJECT
     folder.mkdir(parents=True)
     shutil.copy(WILDFIRE / "events.py", folder / "events.py")
@@ -94,7 +96,7 @@ def write_project(projects: Path, broker_url: str | None, worldmodel_extra: str 
     (folder / "project.toml").write_text(PROJECT_TOML.format(
         name=PROJECT, broker_component=broker_component,
         broker_url=f'url = "{broker_url}"\n' if broker_url else "",
-        worldmodel_extra=worldmodel_extra, events_extra=events_extra))
+        worldmodel_extra=worldmodel_extra, events_extra=events_extra) + tables)
     return folder
 
 
@@ -103,11 +105,13 @@ class SupervisedEdge:
 
     def __init__(self, root: Path, broker_url: str | None = None, *,
                  worldmodel_extra: str = "", files: dict[str, str] | None = None,
-                 token: str | None = None, events_extra: str = "") -> None:
+                 token: str | None = None, events_extra: str = "",
+                 tables: str = "") -> None:
         self.root = root
         self.run_dir = root / "run"
         self.run_dir.mkdir()
-        write_project(root / "projects", broker_url, worldmodel_extra, files, events_extra)
+        write_project(root / "projects", broker_url, worldmodel_extra, files, events_extra,
+                      tables)
         self.endpoints = BusEndpoints.ipc(self.run_dir)
         self._lock = threading.Lock()
         self.seen: list[Envelope] = []

@@ -24,18 +24,29 @@ pytestmark = pytest.mark.slow
 FLOOD = 200
 
 
-@pytest.fixture(scope="module")
-def edge() -> Iterator[SupervisedEdge]:
-    """The wildfire edge; its robots are those of `[events] robots` (a project with an
-    RCL takes the RCL's robots tables: tests/actors/events/test_events_robots.py)."""
+def _edge(tables: str = "") -> Iterator[SupervisedEdge]:
     root = Path(tempfile.mkdtemp(prefix="mrss-bounded-"))
-    run = SupervisedEdge(root, events_extra='robots = ["uav1", "ugv1"]\n')
+    run = SupervisedEdge(root, events_extra='robots = ["uav1", "ugv1"]\n', tables=tables)
     try:
         run.wait_ready()
         yield run
     finally:
         run.close()
         shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def edge() -> Iterator[SupervisedEdge]:
+    """The wildfire edge; its robots are those of `[events] robots` (a project with an
+    RCL takes the RCL's robots tables: tests/actors/events/test_events_robots.py). Its
+    embedded broker is whichever `engine = "auto"` picks (Mosquitto where installed)."""
+    yield from _edge()
+
+
+@pytest.fixture(scope="module")
+def amqtt_edge() -> Iterator[SupervisedEdge]:
+    """The same edge with the embedded broker amqtt (`[broker.embedded] engine`)."""
+    yield from _edge('\n[broker.embedded]\nengine = "amqtt"\n')
 
 
 def log_lines(edge: SupervisedEdge, *needles: str) -> list[str]:
@@ -107,10 +118,11 @@ def test_a_lone_surrogate_gets_a_reply_like_any_bad_payload(edge: SupervisedEdge
     assert "Logging error" not in edge.log_text() and not log_lines(edge, "not published")
 
 
-def test_bare_tcp_connections_to_the_broker_are_counted_not_logged_each(
-        edge: SupervisedEdge) -> None:
+def test_bare_tcp_connections_to_the_amqtt_broker_are_counted_not_logged_each(
+        amqtt_edge: SupervisedEdge) -> None:
     """amqtt logged an ERROR and a WARNING per connection closed before its CONNECT (a
     port scan, a health check). Counted now, in the broker's Rejections on the bus."""
+    edge = amqtt_edge
     url = urlsplit(edge.broker_url())
     for _ in range(FLOOD):
         socket.create_connection((url.hostname, url.port), timeout=10).close()
@@ -125,3 +137,26 @@ def test_bare_tcp_connections_to_the_broker_are_counted_not_logged_each(
     assert 1 <= len(refused) <= 3, refused
     edge.publish("mrss/ui/cancel", {"goal": "after", "id": "after-scan"})  # still serving
     wait_until(lambda: edge.percepts("goal_cancelled(after)"), 60, message="a good event")
+
+
+def test_bare_tcp_connections_to_the_embedded_mosquitto_cost_no_log_line_each(
+        edge: SupervisedEdge) -> None:
+    """With Mosquitto as the embedded broker (where installed), a flood of connections
+    closed before CONNECT logs nothing per connection (Mosquitto's own log keeps errors
+    and warnings only), and the broker still serves a client after it."""
+    from mrss.programs import find_mosquitto
+    if find_mosquitto() is None:
+        pytest.skip("Mosquitto is not installed: the embedded broker is amqtt here")
+    url = urlsplit(edge.broker_url())
+
+    def lines() -> list[str]:
+        return log_file(edge.run_dir).read_text(encoding="utf-8",
+                                                errors="replace").splitlines()
+    before = len(lines())
+    for _ in range(FLOOD):
+        socket.create_connection((url.hostname, url.port), timeout=10).close()
+    edge.publish("mrss/ui/hold", {"on": True, "id": "after-flood"})
+    wait_until(lambda: edge.percepts("hold_all"), 60,
+               message="the events manager's percept of an event sent after the flood")
+    grown = lines()[before:]
+    assert len(grown) < FLOOD // 10, grown[-10:]

@@ -73,8 +73,10 @@ class Supervised:
             return [e for e in self.events
                     if e.event == event and (child is None or e.child == child)]
 
-    def tree(self, timeout: float = 5.0) -> dict[str, Any]:
-        """The root's tree, asked for over the bus now (a fresh answer)."""
+    def tree(self, timeout: float = 20.0) -> dict[str, Any]:
+        """The root's tree, asked for over the bus now (a fresh answer). Asked while a
+        chaos test kills components, the bus proxy among them, on a loaded machine: the
+        answer may wait for the proxy's restart, hence the long `timeout`."""
         with self._lock:
             seen = len(self._trees)
 

@@ -205,10 +205,13 @@ def test_a_lost_robots_task_goes_to_another_that_goes_on_from_its_progress(
 def test_decommission_hands_role_tasks_to_others_and_fails_named_ones(
         system: System) -> None:
     system.sweep("role", steps=40, near="uav2")
+    # awarded before the named sweep is sent: sent at once, the named sweep could reach
+    # uav2 first and make it busy, and the role task rightly go to idle uav1
+    wait_until(lambda: bool(system.awards("role")), timeout=20, message="role awarded")
+    assert system.awards("role")[0].robot == "uav2"
     system.sweep("named", steps=40, robot="uav2")
     wait_until(lambda: system.step("role") >= 2 and system.step("named") >= 1, timeout=20,
                message="both sweeps under way on uav2")
-    assert system.awards("role")[0].robot == "uav2"
     system.pub.publish(Command(command="decommission", target="uav2"))
     named = system.ended("named")
     assert (named.state, named.cause) == (ActionState.FAILED, FailureCause.DECOMMISSIONED)
