@@ -12,10 +12,14 @@ record), so rotation must not lose another process's lines:
   process, its next line goes to the new file;
 - a line written in the instant between that look and a rotation lands at the end of
   `mrss.log.1`: kept, not lost (readers take every file, `history_files`);
-- rotating takes an exclusive `flock` on the log's lock file (`mrss.log.lock`) without
-  waiting (a process that does not get it leaves the rotation to the holder) and looks
-  again at the size under it, so two processes that both see a full file rotate once.
-  Writing takes no lock: a frozen process (SIGSTOP) can hold up nobody.
+- a writer that finds the file full rotates it before writing, under an exclusive
+  `flock` of the log's lock file (`mrss.log.lock`), and looks again at the size under
+  the lock, so two processes that both see a full file rotate once. It does not wait for
+  the lock (the holder is rotating) unless the file has grown to `OVERFULL` times
+  `max_bytes` meanwhile (the holder is slow, the machine busy): so no file passes twice
+  `max_bytes` by more than the records in flight. Writing itself takes no lock; only a
+  process frozen (SIGSTOP) in the middle of a rotation, while the file doubles, holds up
+  the others until it runs again.
 
 The root supervisor hands its settings to every process of its tree in `$MRSS_LOG_ROTATION`
 (`Rotation.to_env`); a process without it uses the declared defaults.
@@ -38,6 +42,9 @@ from mrss.options import Check, Option
 MB = 2**20
 ENV = "MRSS_LOG_ROTATION"  # "<max bytes>:<keep>", set by the root for its tree
 LOCK_SUFFIX = ".lock"
+# A file this many times `max_bytes` is not written on while another process rotates it:
+# the writer waits for that rotation (it is being slow: the machine is busy).
+OVERFULL = 2
 
 #: The keys of `[logs]` (read by `Rotation.of_table`; `mrss check` validates them).
 LOG_OPTIONS: tuple[Option, ...] = (
@@ -93,14 +100,16 @@ class LogFile:
 
     def write(self, data: bytes) -> None:
         """Append `data` in one `write` (a regular file takes it whole; a full disk
-        raises OSError), to the file the name points to now; rotate when it is full."""
+        raises OSError) to the file the name points to now, rotated first if it is full."""
         if self._fd < 0:
             raise ValueError(f"{self.path}: closed")
         self._follow()
+        size = os.fstat(self._fd).st_size
+        if size >= self.rotation.max_bytes:
+            self._rotate(wait=size >= OVERFULL * self.rotation.max_bytes)
+            self._follow()
         while data:
             data = data[os.write(self._fd, data):]
-        if os.fstat(self._fd).st_size >= self.rotation.max_bytes:
-            self._rotate()
 
     def _follow(self) -> None:
         """Reopen the name if another process rotated the file we hold."""
@@ -114,12 +123,14 @@ class LogFile:
             os.close(self._fd)
             self._fd = fd
 
-    def _rotate(self) -> None:
+    def _rotate(self, wait: bool) -> None:
+        """Rotate the file unless another process is at it; with `wait`, wait for that
+        one instead of writing on into a file already `OVERFULL` times too large."""
         if self._lock_fd < 0:
             self._lock_fd = os.open(f"{self.path}{LOCK_SUFFIX}",
                                     os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
         try:
-            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
         except BlockingIOError:
             return  # another process is rotating it
         try:
@@ -156,7 +167,9 @@ class LogPump:
     """Copies what a pipe carries (a process tree's stdout and stderr) into a `LogFile`,
     whole lines at a time, on a thread of its own, until the pipe's writers are gone."""
 
-    CHUNK = 65536
+    CHUNK = 65536  # read at once
+    PIECE = 4096  # written at once (whole lines, or one longer line): a file passes
+    # max_bytes by no more
 
     def __init__(self, read_fd: int, file: LogFile) -> None:
         self.file = file
@@ -170,11 +183,21 @@ class LogPump:
             while chunk := os.read(self._fd, self.CHUNK):
                 whole, newline, pending = (pending + chunk).rpartition(b"\n")
                 if newline:
-                    self._write(whole + newline)
+                    self._write_lines((whole + newline).splitlines(keepends=True))
             if pending:
                 self._write(pending + b"\n")
         finally:
             os.close(self._fd)
+
+    def _write_lines(self, lines: list[bytes]) -> None:
+        piece = b""
+        for line in lines:
+            if piece and len(piece) + len(line) > self.PIECE:
+                self._write(piece)
+                piece = b""
+            piece += line
+        if piece:
+            self._write(piece)
 
     def _write(self, data: bytes) -> None:
         try:
