@@ -8,8 +8,10 @@ handlers of one process, all with the same `LineFormatter` line:
 - the console (stderr), unless asked not to;
 - the run's log file `<run_dir>/mrss.log` (`AppendFileHandler`): every process of a run
   appends to it directly (O_APPEND, one `write` per record, so lines of different
-  processes never mix). When stderr already *is* that file (`mrss supervise` with the
-  dashboard sends its children's stderr there) the console handler writes it, once.
+  processes never mix), and rotates it by size (`mrss.logfile`: `[logs] max_mb`,
+  `keep`, handed down in `$MRSS_LOG_ROTATION`). When stderr already goes to that file
+  (it *is* the file, or `$MRSS_STDERR_LOG` names it: the dashboard mode pipes the
+  system's stderr into it) the file handler writes each record, once, and not the console.
 
 `BusLogHandler` puts each record at INFO and above on the bus as a
 `mrss.messages.LogRecord(component, level, message)` on `log.<component>`, for the
@@ -35,9 +37,11 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from mrss.logfile import LogFile, Rotation
 from mrss.messages import LogRecord, Message
 
 LOG_FILE = "mrss.log"
+STDERR_LOG_ENV = "MRSS_STDERR_LOG"  # the log file this process's stderr is piped into
 LINE_FORMAT = "%(asctime)s {component}[%(process)d] %(levelname)s %(message)s"
 # Loggers (and their children) whose records never go on the bus.
 NOT_PUBLISHED = ("mrss.bus", "mrss.logs", "mrss.runtime.remote")
@@ -66,35 +70,35 @@ class LineFormatter(logging.Formatter):
 
 
 class AppendFileHandler(logging.Handler):
-    """Appends each record to a file shared by many processes, in one `write` call."""
+    """Appends each record to a file shared by many processes, in one `write` call,
+    rotating it by `rotation` (`mrss.logfile.LogFile`; default: `$MRSS_LOG_ROTATION`)."""
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str], rotation: Rotation | None = None) -> None:
         super().__init__()
         self.path = Path(path)
-        self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC,
-                           0o644)
+        self.file = LogFile(self.path, rotation or Rotation.from_env())
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            data = (self.format(record) + "\n").encode("utf-8", "replace")
-            while data:  # a regular file takes it all at once; a full disk raises
-                data = data[os.write(self._fd, data):]
+            self.file.write((self.format(record) + "\n").encode("utf-8", "replace"))
         except Exception:
             self.handleError(record)
 
     def close(self) -> None:
         self.acquire()
         try:
-            if self._fd >= 0:
-                os.close(self._fd)
-                self._fd = -1
+            self.file.close()
         finally:
             self.release()
         super().close()
 
 
 def stderr_is(path: str | os.PathLike[str]) -> bool:
-    """Whether file descriptor 2 is the file at `path` (the dashboard mode's children)."""
+    """Whether file descriptor 2 goes to the log file at `path`: it is that file, or
+    `$MRSS_STDERR_LOG` names it (a pipe the dashboard's process writes into it)."""
+    piped = os.environ.get(STDERR_LOG_ENV)
+    if piped and Path(piped).resolve() == Path(path).resolve():
+        return True
     try:
         return os.path.samestat(os.fstat(2), os.stat(path))
     except (OSError, ValueError):
@@ -105,7 +109,8 @@ def configure(component: str, *, level: int = logging.INFO, console: bool = True
               file: str | os.PathLike[str] | None = None) -> None:
     """Give this process's root logger its console and file handlers (replacing others).
 
-    The file is skipped when the console is on and stderr already is that file.
+    When stderr already goes to that file, the file handler writes each record (it
+    rotates the file) and the console handler is left out.
     """
     root = logging.getLogger()
     for handler in root.handlers[:]:
@@ -113,18 +118,21 @@ def configure(component: str, *, level: int = logging.INFO, console: bool = True
         handler.close()  # a StreamHandler leaves its stream open
     root.setLevel(level)
     formatter = LineFormatter(component)
-    if console:
-        stream = logging.StreamHandler(sys.stderr)
-        stream.setFormatter(formatter)
-        root.addHandler(stream)
-    if file is not None and not (console and stderr_is(file)):
+    appender, problem = None, None
+    if file is not None:
         try:
             appender = AppendFileHandler(file)
         except OSError as exc:
-            log.warning("cannot write the log file %s: %s", file, exc)
+            problem = exc
         else:
             appender.setFormatter(formatter)
             root.addHandler(appender)
+    if console and not (appender is not None and stderr_is(appender.path)):
+        stream = logging.StreamHandler(sys.stderr)
+        stream.setFormatter(formatter)
+        root.addHandler(stream)
+    if problem is not None:
+        log.warning("cannot write the log file %s: %s", file, problem)
 
 
 def is_sup_event(record: logging.LogRecord) -> bool:

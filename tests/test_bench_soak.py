@@ -106,15 +106,16 @@ def test_a_full_size_report_of_flat_series_exits_0() -> None:
     assert all(row[-1] == "yes" for row in report.rows)
 
 
-def test_files_are_sized_by_kind_with_their_sqlite_side_files(tmp_path: Path) -> None:
+def test_files_are_sized_by_kind_with_their_side_and_rotated_files(tmp_path: Path) -> None:
     for name, size in (("rcl-journal.sqlite3", 4096), ("rcl-journal.sqlite3-wal", 1000),
                        ("reasoner-percepts.sqlite3", 2048), ("worldmodel.sqlite", 10),
-                       ("mrss.log", 7), ("chaos-history.jsonl", 99), ("broker.url", 5)):
+                       ("mrss.log", 7), ("mrss.log.1", 30), ("mrss.log.2", 40),
+                       ("mrss.log.lock", 0), ("chaos-history.jsonl", 99), ("broker.url", 5)):
         (tmp_path / name).write_bytes(b"x" * size)
     sampler = Sampler(tmp_path, every=1.0, ignore=("chaos-history.jsonl",))
     sizes = sampler._file_sizes()
     assert sizes == {"rcl-journal.sqlite3": 5096, "reasoner-percepts.sqlite3": 2048,
-                     "worldmodel.sqlite": 10, "mrss.log": 7}
+                     "worldmodel.sqlite": 10, "mrss.log": 77}  # with its rotated files
     assert [FileKind.of(n) for n in sorted(sizes)] == [
         FileKind.LOG, FileKind.JOURNAL, FileKind.LEDGER, FileKind.WORLDMODEL]
 

@@ -29,6 +29,8 @@ from typing import Any
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.config.projects import project_path
 from mrss.interpreter import python_module
+from mrss.logfile import read_history
+from mrss.logs import log_file
 from mrss.messages import Command, Envelope, SupEvent
 
 _START = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \S+ INFO start (\S+) pid=\d+ "
@@ -117,7 +119,7 @@ def chaos_restarts(kills: int, seed: int = 9, project: str = "wildfire",
             os.kill(running[child]["pid"], signal.SIGKILL)
             time.sleep(rng.uniform(0.5, 1.5))  # the fault schedule
         tree.all_running(timeout=120)
-        return _latencies(done, (run_dir / "mrss.log").read_text(errors="replace"))
+        return _latencies(done, read_history(log_file(run_dir)))
     finally:
         tree.close()
         if proc.poll() is None:

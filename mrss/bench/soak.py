@@ -15,7 +15,9 @@ their wall-clock rates, docs/robots.md).
 Growth is judged per component and resource, on the steady part of the run
 (`mrss.bench.soak_growth`: slope per simulated hour with a line per incarnation, and the
 second half's largest value against the first half's), against the bounds of `BOUNDS`.
-Each resource is one pair of target rows: its worst component's figures.
+Each resource is one pair of target rows: its worst component's figures. One more
+target: the chaos verdict of the same campaign holds (`mrss.chaos.checker`, which knows
+the actions the journal's compaction dropped by their terminal status on the bus).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from mrss.bench.soak_sampler import FileKind, Resource, Sampler
 from mrss.chaos import history as chaos_history
 from mrss.chaos import runner
 from mrss.chaos.campaign import Range
-from mrss.chaos.checker import check
+from mrss.chaos.checker import Outcome, check
 from mrss.chaos.history import FILE_NAME
 from mrss.config.projects import PROJECT_FILE, project_path
 from mrss.sim.component import SPEEDUP_ENV
@@ -135,13 +137,14 @@ def run(quick: bool, size: Size | None = None, seed: int = 29) -> BenchReport:
         f"the RCL's journal retention in this run: {size.journal_keep_s:g} s, the newest "
         f"{JOURNAL_KEEP_LAST} ended actions, compacted every {size.journal_compact_s:g} s "
         "(shipped: a day, 1000, 600 s; `mrss bench journal` sizes that one)")
-    broken = [f"{v.invariant} {v.subject}" + (f" ({v.evidence[0]})" if v.evidence else "")
+    broken = [f"{v.invariant} {v.subject}" + (" (" + "; ".join(v.evidence) + ")"
+                                               if v.evidence else "")
               for v in verdict.violations]
-    report.notes.append(
-        f"chaos verdict of the same run (not a target of this bench; `mrss chaos` judges "
-        f"it): {verdict.outcome.value}" + "".join(f"; {x}" for x in broken[:5])
-        + "".join(f"; missing: {m}" for m in verdict.missing[:3]) + "; "
-        + "; ".join(lines[-2:]))
+    report.check(f"chaos verdict of the same run holds ({verdict.outcome.value})",
+                 verdict.outcome is Outcome.HOLDS)
+    if broken or verdict.missing:
+        report.notes.append("chaos verdict: " + "; ".join(
+            broken[:5] + [f"missing: {m}" for m in verdict.missing[:3]] + lines[-2:]))
     return report
 
 

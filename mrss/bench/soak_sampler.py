@@ -6,12 +6,14 @@ Every `every` seconds (wall clock) the sampler finds the root `mrss supervise` o
 psutil, each of its descendants: the components by their process name (`mrss:<id>`),
 the fork server, and the root itself; their RSS (MB), open file descriptors and
 threads. It also sizes the files the components keep in the run folder, by what they
-are (`FileKind`): a SQLite file counts with its -wal and -shm files.
+are (`FileKind`): a SQLite file counts with its -wal and -shm files, a log with its
+rotated files (`mrss.log.1`, ...: `mrss.logfile`) and its lock file.
 """
 
 from __future__ import annotations
 
 import enum
+import re
 import threading
 import time
 from collections import defaultdict
@@ -57,6 +59,7 @@ class FileKind(enum.StrEnum):
 
 
 SIDE_FILES = ("-wal", "-shm")
+ROTATED = re.compile(r"^(.+\.log)\.(\d+|lock)$")  # mrss.log.3, mrss.log.lock: mrss.log
 
 
 class Sampler:
@@ -135,6 +138,8 @@ class Sampler:
             name = path.name
             for side in SIDE_FILES:
                 name = name.removesuffix(side)
+            if rotated := ROTATED.match(name):
+                name = rotated[1]
             if name in self.ignore or FileKind.of(name) is None:
                 continue
             try:

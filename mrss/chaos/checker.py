@@ -57,14 +57,15 @@ from __future__ import annotations
 
 import re
 from collections import defaultdict
-from dataclasses import dataclass
 from typing import Any
 
 from mrss.chaos.convergence import converged_after, probe_problems
 from mrss.chaos.goals import GoalOutcome, goal_outcomes
-from mrss.chaos.history import History, JournalAction, OperatorEvent
+from mrss.chaos.history import History, JournalAction
+from mrss.chaos.modes import check_mode_consistent
 from mrss.chaos.recovery import check_healed, check_no_robot_stuck
 from mrss.chaos.verdict import (
+    Bounds,
     Invariant,
     Judgement,
     Outcome,
@@ -79,11 +80,13 @@ from mrss.chaos.views import (
     TERMINAL,
     Section,
     accepted,
+    actions,
+    compacted,
     critical_sections,
     death_times,
     end_of,
-    last_mind,
     messages,
+    not_compacted,
     reasoners,
     requests,
     statuses,
@@ -98,17 +101,10 @@ STARTED_AFTER_TERMINAL = re.compile(
 ABANDONED_SKILL = re.compile(r"skill \d+ of action ([0-9a-f]{32}) ignored its interrupt")
 
 
-@dataclass(frozen=True)
-class Bounds:
-    """Seconds: latch release, cancel/orphan stop, convergence after the last fault."""
-
-    latch: float = 15.0
-    cancel: float = 15.0
-    converge: float = 60.0
-    critical_slack: float = 1.0
+DEFAULT_BOUNDS = Bounds()
 
 
-def check(history: History, bounds: Bounds = Bounds()) -> Verdict:
+def check(history: History, bounds: Bounds = DEFAULT_BOUNDS) -> Verdict:
     """Every invariant over `history`, and what the history lacks to be complete."""
     verdict = Verdict(missing=missing(history))
     verdict.goals, verdict.acted_on = goal_outcomes(history)
@@ -150,7 +146,8 @@ def check_one_terminal(h: History, b: Bounds) -> Ruling:
                 f"bus at {e.t:.1f}s from {e.src} inc {e.inc}: {e.body['state']}"
                 for e in finals)))
     if h.journal is not None and not h.journal.error:
-        known = {a.uuid for a in h.journal.actions}
+        # those compacted away are judged by their terminal status on the bus
+        known = {a.uuid for a in h.journal.actions} | set(compacted(h))
         deaths = death_times(h)
         for uuid, req in requests(h).items():
             if uuid in known or req.src not in reasoners(h) or req.t > h.journal.t - b.latch:
@@ -160,7 +157,7 @@ def check_one_terminal(h: History, b: Bounds) -> Ruling:
                 continue
             out.append(Violation(Invariant.ONE_TERMINAL, uuid, (
                 f"requested at {req.t:.1f}s by {req.src} inc {req.inc}: "
-                f"{req.body.get('literal')}", "never in the RCL journal")))
+                f"{req.body.get('literal')}", "never in the RCL journal", *not_compacted(h))))
     return Ruling(out, len(subjects), journal_gap(h))
 
 
@@ -204,7 +201,8 @@ def check_latch_released(h: History, b: Bounds) -> Ruling:
     ends = terminal_at(h)
     out: list[Violation] = []
     judged = 0
-    for action in h.journal.actions:
+    gone, where = compacted(h), ("journal", "bus (compacted away)")  # judged by the bus
+    for action in actions(h):
         ended = ends.get(action.uuid)
         if ended is None or action.requester not in names or ended[0] + b.latch > end_of(h):
             continue
@@ -217,7 +215,8 @@ def check_latch_released(h: History, b: Bounds) -> Ruling:
             continue
         out.append(Violation(Invariant.LATCH_RELEASED, action.uuid, (
             f"{action.name}({action.robot},{action.goal}) of {action.requester} "
-            f"inc {action.requester_inc}", f"journal {ended[1]} at {ended[0]:.1f}s",
+            f"inc {action.requester_inc}", f"{where[action.uuid in gone]} {ended[1]} at "
+            f"{ended[0]:.1f}s",
             f"release seen at {released[0]:.1f}s" if released else
             f"no release by {end_of(h):.1f}s, requester still alive")))
     return Ruling(out, judged)
@@ -232,7 +231,7 @@ def check_goal_handled(h: History, b: Bounds) -> Ruling:
     for step in goals:
         if outcomes.get(step.goal) is not GoalOutcome.DROPPED:
             continue
-        mine = [a for a in (h.journal.actions if h.journal else []) if a.goal == step.goal]
+        mine = [a for a in actions(h) if a.goal == step.goal]
         out.append(Violation(Invariant.GOAL_HANDLED, step.goal, (
             f"accepted by the broker at {step.t:.1f}s",
             "actions: " + (", ".join(f"{a.name} {a.state} ({a.reason})" for a in mine)
@@ -254,7 +253,8 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
         return Ruling(out, 0, journal_gap(h))
     ends = terminal_at(h)
     end = end_of(h)
-    by_uuid = {a.uuid: a for a in h.journal.actions}
+    known = actions(h)  # with those compacted away, as the bus showed them
+    by_uuid = {a.uuid: a for a in known}
     sections: dict[str, list[Section]] = defaultdict(list)
     for section in critical_sections(h):
         sections[section.uuid].append(section)
@@ -290,7 +290,7 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
     for c in accepted(h, "cancel"):
         resent = min((g.t for g in goals if g.goal == c.goal and g.t > c.t),
                      default=float("inf"))
-        for action in (a for a in h.journal.actions if a.goal == c.goal):
+        for action in (a for a in known if a.goal == c.goal):
             if action.created > c.t + 1e-9:
                 if action.created < resent:
                     out.append(Violation(v, action.uuid, (
@@ -303,7 +303,7 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
                     f"operator cancelled goal {c.goal} at {c.t:.1f}s",
                     f"{action.name}({action.robot},{c.goal}) {why}")))
     deaths = death_times(h)
-    for action in h.journal.actions:
+    for action in known:
         died = deaths.get((action.requester, action.requester_inc))
         if action.requester not in names or died is None or action.created > died:
             continue
@@ -321,49 +321,7 @@ def check_no_command_after_cancel(h: History, b: Bounds) -> Ruling:
                 f"{action.name}({action.robot},{action.goal}) of {action.requester} inc "
                 f"{action.requester_inc}, which died at {died:.1f}s", f"orphan {why}, "
                 "not adopted by a newer incarnation")))
-    return Ruling(out, len(h.journal.actions), log_gap(h))  # the log: skills after the end
-
-
-def mode_views(h: History, robot: str, mode: str) -> dict[str, bool | None]:
-    """Whether `mode` is on for `robot` as the reasoner, the RCL and the robot see it."""
-    pattern = str((h.campaign.get("mode_beliefs") or {}).get(mode, "")).format(robot=robot)
-    mind = last_mind(h)
-    reasoner = None if mind is None or not pattern else any(
-        str(x).startswith(pattern) for x in mind.get("beliefs", []))
-    rcl = None  # a robot the RCL was never switched for has no flag: not counted (the
-    if h.journal is not None and not h.journal.error and mode == "teleop":  # wildfire
-        rcl = h.journal.teleop.get(robot)  # agent switches with a skill, not ctl.teleop)
-    robot_view = None
-    for e in h.of_kind("robot.data"):
-        data = e.body.get("data") or {}
-        if e.body.get("robot") == robot and isinstance(data.get(mode), bool):
-            robot_view = bool(data[mode])
-    return {"reasoner": reasoner, "rcl": rcl, "robot": robot_view}
-
-
-def check_mode_consistent(h: History, b: Bounds) -> Ruling:
-    last: dict[tuple[str, str], OperatorEvent] = {}
-    for step in accepted(h, "mode"):
-        last[(step.robot, step.mode)] = step
-    out = []
-    if not last:
-        return Ruling()
-    settled = max(h.faults_ended_at, max(s.t for s in last.values()))
-    if end_of(h) < settled + b.cancel:
-        return Ruling(checked=len(last), unknown=(
-            f"undetermined: the history ends at {end_of(h):.1f}s, "
-            f"{max(0.0, end_of(h) - settled):.1f}s after the last fault or switch "
-            f"({settled:.1f}s); judging needs {b.cancel:g}s of calm"))
-    if journal_gap(h):
-        return Ruling(checked=len(last), unknown=journal_gap(h))  # the RCL's view
-    for (robot, mode), step in sorted(last.items()):
-        views = mode_views(h, robot, mode)
-        wrong = {k: v for k, v in views.items() if v is not None and v != step.on}
-        if wrong:
-            out.append(Violation(Invariant.MODE_CONSISTENT, f"{robot} {mode}", (
-                f"operator switched it {'on' if step.on else 'off'} at {step.t:.1f}s",
-                *(f"{k} sees it {'on' if val else 'off'}" for k, val in wrong.items()))))
-    return Ruling(out, len(last))
+    return Ruling(out, len(known), log_gap(h))  # the log: skills after the end
 
 
 def check_critical_bounded(h: History, b: Bounds) -> Ruling:

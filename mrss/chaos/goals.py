@@ -21,6 +21,7 @@ from typing import Any
 
 from mrss.chaos.history import History
 from mrss.chaos.views import TERMINAL, accepted, last_mind, requests
+from mrss.chaos.views import actions as known_actions
 from mrss.messages import EventStatus
 
 
@@ -35,7 +36,7 @@ class GoalOutcome(StrEnum):
 
 def goal_outcomes(h: History) -> tuple[dict[str, GoalOutcome], set[str]]:
     """Each accepted operator goal's outcome, and the goals some action was requested for."""
-    actions = h.journal.actions if h.journal is not None else []
+    actions = known_actions(h)  # with those compacted away, as the bus showed them
     reqs = list(requests(h).values())
     outcomes: dict[str, GoalOutcome] = {}
     acted: set[str] = set()

@@ -13,7 +13,9 @@ start wall time). Record types:
     reply      an MQTT message the system sent the operator (on the project's reply topics)
     probe      a look at the system after the faults: mind snapshot, open journal actions,
                the supervision tree (any may be null when it did not answer)
-    journal    the RCL journal at the end: actions, transitions, robots' teleop flags
+    journal    the RCL journal at the end: actions, transitions, robots' teleop flags, and
+               what its compaction dropped: `compacted` actions, every terminal action
+               last updated before `compacted_before` (campaign time)
     logline    a line of the run's log file (`<run_dir>/mrss.log`), with its creation time
     log        the run's log file was read: how many lines were kept, or why it could not be
     end        last line: when the faults ended, the system's exit code
@@ -142,6 +144,8 @@ class Journal:
     transitions: list[JournalTransition] = field(default_factory=list)
     teleop: dict[str, bool] = field(default_factory=dict)
     error: str = ""
+    compacted: int = 0  # actions the journal's compaction dropped (their rows are gone)
+    compacted_before: float | None = None  # ... every terminal one updated before this
 
 
 @dataclass(frozen=True)
@@ -290,7 +294,8 @@ def _add(h: History, r: dict[str, Any]) -> None:
                                str(x["reason"]), float(x["t"]))
              for x in r.get("transitions", [])],
             {str(k): bool(v) for k, v in dict(r.get("teleop", {})).items()},
-            str(r.get("error", "")))
+            str(r.get("error", "")), int(r.get("compacted", 0)),
+            None if r.get("compacted_before") is None else float(r["compacted_before"]))
     elif kind == "logline":
         h.loglines.append(LogLine(float(r["t"]), str(r["component"]), int(r["pid"]),
                                   str(r["level"]), str(r["message"])))

@@ -8,10 +8,12 @@
   the broker named in `broker.url` whenever it restarts).
 - Probes: the supervision tree (`ctl.tree`), a mind snapshot (`ctl.mind`) and the open
   actions of the RCL journal, asked for at one moment.
-- At the end: the whole RCL journal (SQLite, opened read-only) and the run's log lines
-  of the reasoner and RCL (and every warning or error), with their creation times. A
-  journal or log that cannot be read is recorded with its error, never skipped quietly:
-  the checker calls such a history incomplete.
+- At the end: the whole RCL journal (SQLite, opened read-only; with what its compaction
+  dropped: how many actions, and the watermark before which none is left) and the run's
+  log lines (`mrss.log` with its rotated files, oldest first) of the reasoner and RCL
+  (and every warning or error), with their creation times. A journal or log that cannot be read is
+  recorded with its error, never skipped quietly: the checker calls such a history
+  incomplete.
 
 Wall-clock times (journal, log) are moved onto the campaign's time line by its start.
 """
@@ -35,6 +37,7 @@ from mrss.bus import BusEndpoints, Publisher, Stale, Subscriber
 from mrss.chaos.history import HistoryWriter, OpenAction
 from mrss.chaos.views import TERMINAL
 from mrss.links.mqtt_url import new_client, parse_broker_url
+from mrss.logfile import read_history
 from mrss.logs import log_file
 from mrss.messages import (
     Command,
@@ -212,6 +215,11 @@ class Recorder:
                         "SELECT seq, uuid, state, reason, ts FROM transitions ORDER BY seq")]
                 record["teleop"] = {r: bool(on) for r, on in db.execute(
                     "SELECT robot, teleop FROM robots")}
+                if db.execute("SELECT 1 FROM sqlite_master WHERE type='table' AND "
+                              "name='compaction'").fetchone():  # a journal of before it
+                    for dropped, before in db.execute("SELECT dropped, before FROM compaction"):
+                        record["compacted"] = int(dropped)
+                        record["compacted_before"] = self.since_start(before)
         except sqlite3.Error as exc:
             record["error"] = f"{self.journal_path}: {exc}"
         self.writer.write("journal", **record)
@@ -222,7 +230,7 @@ class Recorder:
         count = 0
         path = log_file(self.run_dir)
         try:
-            lines = path.read_text(encoding="utf-8", errors="replace")
+            lines = read_history(path)  # its rotated files too: the whole run
         except OSError as exc:
             self.writer.write("log", t=self.now(), file=str(path), lines=0,
                               error=f"{path}: {exc.strerror or exc}")

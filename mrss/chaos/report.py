@@ -46,6 +46,7 @@ def summary(history: History, verdict: Verdict, source: str = "") -> dict[str, A
         "exit_code": history.end.get("exit_code"),
         "actions": dict(sorted(actions.items())),
         "journal_error": history.journal.error if history.journal else "no journal record",
+        "journal_compacted": history.journal.compacted if history.journal else 0,
         "goals_sent": len(goals),
         "goals_accepted": sum(1 for g in goals if g.ok),
         "goals_acted_on": len(verdict.acted_on),
@@ -103,6 +104,7 @@ def text(s: dict[str, Any]) -> str:
         f"  restarts         {counts(s['restarts'])}"
         + (f"; gave up: {', '.join(s['gave_up'])}" if s["gave_up"] else ""),
         f"  actions          {counts(s['actions'])}"
+        + (f"; {s['journal_compacted']} compacted away" if s["journal_compacted"] else "")
         + (f" ({s['journal_error']})" if s["journal_error"] else ""),
         f"  operator goals   {s['goals_accepted']} accepted of {s['goals_sent']} sent, "
         f"{s['goals_acted_on']} acted on, {s['goals_reported_failed']} reported failed",

@@ -52,10 +52,11 @@ from mrss.config.loader import load_project
 from mrss.config.nodes import node_plan
 from mrss.config.operator import SECTION, GoalState, read_operator
 from mrss.config.project import ProjectConfig
+from mrss.logs import STDERR_LOG_ENV, log_file
 from mrss.procedures import RunningProject
 
 Say = Callable[[str], None]
-SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise`, in the run folder
+SUPERVISE_LOG = "supervise.log"  # the output of `mrss supervise` beside its log records
 STARTUP = 60.0  # seconds the system may take to start: a loaded machine is no fault
 
 
@@ -198,7 +199,9 @@ def run(options: Options, say: Say = print,
 def _node_system(project_dir: Path, options: Options, network: NodeNetwork | None,
                  node: str, run_dir: Path) -> RunningProject:
     """`mrss supervise` of the project (of one node's share, in its namespace)."""
-    system = RunningProject(project_dir, run_dir, env=options.env, node=node,
+    # Log records go to the run's rotating log only, not twice (the output keeps the rest)
+    env = {**options.env, STDERR_LOG_ENV: str(log_file(run_dir))}
+    system = RunningProject(project_dir, run_dir, env=env, node=node,
                             prefix=network.prefix(node) if network is not None else ())
     system.output = run_dir / SUPERVISE_LOG
     return system

@@ -34,6 +34,16 @@ from mrss.chaos.history import History
 from mrss.chaos.views import accepted
 
 
+@dataclass(frozen=True)
+class Bounds:
+    """Seconds: latch release, cancel/orphan stop, convergence after the last fault."""
+
+    latch: float = 15.0
+    cancel: float = 15.0
+    converge: float = 60.0
+    critical_slack: float = 1.0
+
+
 class Invariant(StrEnum):
     ONE_TERMINAL = "one-terminal-state"
     NO_TRANSITION_AFTER_TERMINAL = "no-transition-after-terminal"

@@ -6,9 +6,13 @@ from collections import defaultdict
 from dataclasses import dataclass
 from typing import Any
 
-from mrss.chaos.history import BusEvent, History, OperatorEvent
+from mrss.chaos.history import BusEvent, History, JournalAction, OperatorEvent
 
 TERMINAL = ("succeeded", "failed", "cancelled")
+# How late a terminal status may reach the recorder after its journal commit (a bus
+# proxy restarting, a frozen RCL between commit and publish): what the compaction
+# watermark is stretched by when an action's bus status tells it was compacted.
+STATUS_TRAVEL = 15.0
 
 
 def reasoners(h: History) -> set[str]:
@@ -32,12 +36,75 @@ def requests(h: History) -> dict[str, BusEvent]:
 
 
 def terminal_at(h: History) -> dict[str, tuple[float, str]]:
-    """uuid -> (time, state) of its first terminal transition in the journal."""
+    """uuid -> (time, state) of its first terminal transition in the journal; of an
+    action compacted away (`compacted`), its first terminal status on the bus."""
     out: dict[str, tuple[float, str]] = {}
     if h.journal is not None:
         for x in sorted(h.journal.transitions, key=lambda x: x.seq):
             if x.state in TERMINAL:
                 out.setdefault(x.uuid, (x.t, x.state))
+    for uuid, ended in compacted(h).items():
+        out.setdefault(uuid, ended)
+    return out
+
+
+def bus_terminal(h: History) -> dict[str, tuple[float, str]]:
+    """uuid -> (time, state) of the first terminal status the bus showed of it."""
+    out: dict[str, tuple[float, str]] = {}
+    for uuid, seen in statuses(h).items():
+        final = next((e for e in seen if e.body.get("state") in TERMINAL), None)
+        if final is not None:
+            out[uuid] = (final.t, str(final.body["state"]))
+    return out
+
+
+def compacted(h: History) -> dict[str, tuple[float, str]]:
+    """The actions the journal's compaction dropped, judged by what the bus showed:
+    uuid -> (time, state) of its first terminal status on the bus.
+
+    An action is taken as compacted when the journal lacks it, the journal says its
+    compaction dropped actions, and the bus showed it terminal by the watermark (no
+    terminal action last updated before it is left; plus `STATUS_TRAVEL`), the
+    earliest-ended first and no more of them than compaction dropped. Any other action
+    the journal lacks was never journaled.
+    """
+    j = h.journal
+    if j is None or j.error or j.compacted <= 0 or j.compacted_before is None:
+        return {}
+    known = {a.uuid for a in j.actions}
+    ended = sorted((t, uuid, state) for uuid, (t, state) in bus_terminal(h).items()
+                   if uuid not in known and t <= j.compacted_before + STATUS_TRAVEL)
+    return {uuid: (t, state) for t, uuid, state in ended[:j.compacted]}
+
+
+def not_compacted(h: History) -> tuple[str, ...]:
+    """Why an action the journal lacks was not compacted away either (evidence; none when
+    the journal never compacted)."""
+    j = h.journal
+    if j is None or j.compacted_before is None:
+        return ()
+    return (f"not compacted either: the journal's compaction dropped {j.compacted} actions "
+            f"ended before {j.compacted_before:.1f}s, and {len(compacted(h))} the bus "
+            "showed ended by then",)
+
+
+def actions(h: History) -> list[JournalAction]:
+    """The journal's actions, and those its compaction dropped as the bus showed them
+    (`compacted`: their terminal state; name, robot, goal and requester from their
+    request, or their status; created when first seen)."""
+    out = list(h.journal.actions) if h.journal is not None else []
+    gone = compacted(h)
+    if not gone:
+        return out
+    reqs = requests(h)
+    seen = statuses(h)
+    for uuid, (_t, state) in gone.items():
+        first = reqs.get(uuid) or seen[uuid][0]
+        body = first.body
+        out.append(JournalAction(
+            uuid, str(body.get("name", "")), str(body.get("robot", "")),
+            str(body.get("goal", "")), state, "compacted away (the bus showed it)",
+            first.src if uuid in reqs else "", first.inc if uuid in reqs else 0, first.t))
     return out
 
 

@@ -11,8 +11,9 @@ Rules:
 - a value outside an option's `choices` is an error ("did you mean");
 - a component class that declares no `OPTIONS` (a project's own component) is not checked,
   but a key of its table close to a supervision key (`restarts`) is a warning;
-- a top-level table no layer owns is an error ("did you mean"); `[bus]` and `[broker]`
-  (with `[broker.embedded]`) are checked against `BUS_OPTIONS` and `BROKER_OPTIONS`.
+- a top-level table no layer owns is an error ("did you mean"); `[bus]`, `[broker]`
+  (with `[broker.embedded]`) and `[logs]` are checked against `BUS_OPTIONS`,
+  `BROKER_OPTIONS` and `LOG_OPTIONS`.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from mrss.config.loader import COMPONENT_KEYS, OTHER_SECTIONS
 from mrss.config.project import ProjectConfig
 from mrss.edge.http_token import token_file_problem
 from mrss.links.mavlink_signing import key_problem
+from mrss.logfile import LOG_OPTIONS
 from mrss.options import Check, Option
 
 MAVLINK_URL = re.compile(r"^(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:]+):(.+)$")
@@ -183,7 +185,7 @@ def check_tables(config: ProjectConfig, report: Report) -> None:
                          + did_you_mean(name, OTHER_SECTIONS, what="known tables"),
                          line=key_line(config, name), check="options", key=name)
     for name, declared in (("bus", BUS_OPTIONS), ("broker", BROKER_OPTIONS),
-                           ("broker.embedded", BROKER_EMBEDDED_OPTIONS)):
+                           ("broker.embedded", BROKER_EMBEDDED_OPTIONS), ("logs", LOG_OPTIONS)):
         table: Any = config.sections
         for part in name.split("."):
             table = table.get(part, {}) if isinstance(table, Mapping) else {}

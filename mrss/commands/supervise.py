@@ -11,10 +11,12 @@ commands from the bus (`mrss.runtime.remote`, for the TUI). Its `sup.*` events g
 through an `EventOutbox`, which holds them while the bus proxy is down.
 
 Every record of the run (the root's and every component's) is written to stderr and to
-`<run_dir>/mrss.log` in one line format, and those at INFO and above go on the bus as
-`LogRecord`s on `log.<component>` (`mrss.logs`). In an interactive terminal (stdin,
-stdout and stderr are TTYs) and without `--no-tui`, the dashboard opens instead of the
-log lines (`mrss.commands.supervise_tui`); quitting it stops the system.
+`<run_dir>/mrss.log` in one line format (rotated by size, `[logs]`: `mrss.logfile`;
+the root hands the settings to its tree in `$MRSS_LOG_ROTATION`), and those at INFO and
+above go on the bus as `LogRecord`s on `log.<component>` (`mrss.logs`). In an
+interactive terminal (stdin, stdout and stderr are TTYs) and without `--no-tui`, the
+dashboard opens instead of the log lines (`mrss.commands.supervise_tui`); quitting it
+stops the system.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from mrss import logs
+from mrss import logfile, logs
 from mrss.bus import Publisher
 from mrss.bus.curve import load_keys, load_public
 from mrss.bus.settings import endpoints_from_config
@@ -138,6 +140,14 @@ def pick_node(config: ProjectConfig, wanted: str | None) -> str:
     return name
 
 
+def log_rotation(config: ProjectConfig) -> logfile.Rotation:
+    """The project's `[logs]`: when the run's log file is rotated, how many are kept."""
+    table = config.sections.get("logs", {})
+    if not isinstance(table, dict):
+        raise ConfigError("must be a table", file=str(config.file), key="logs")
+    return logfile.Rotation.of_table(table, file=str(config.file))
+
+
 def run(args: argparse.Namespace) -> int:
     level = logging.DEBUG if args.verbose else logging.INFO
     logs.configure(args.project, level=level)
@@ -152,9 +162,11 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_CONFIG
     try:
         node = pick_node(config, args.node)
+        rotation = log_rotation(config)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
+    os.environ[logfile.ENV] = rotation.to_env()  # every process of the tree rotates alike
     if wants_tui(args):
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 

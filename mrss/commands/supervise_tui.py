@@ -1,10 +1,13 @@
 """`mrss supervise PROJECT` in a terminal: the system in a child process, the dashboard here.
 
 The root supervisor runs exactly as with `--no-tui`, in a child process (its own process
-group, stdin from /dev/null), with stdout and stderr appended to `<run_dir>/mrss.log`:
+group, stdin from /dev/null), with stdout and stderr a pipe that this process copies
+into `<run_dir>/mrss.log` (`mrss.logfile.LogPump`, rotating it like every writer):
 its components inherit them, so every line of the run lands in the log file and none
-on the screen. This process owns the terminal and runs the dashboard (`MrssApp`) on the
-system's bus. A crash of either side cannot take the other down.
+on the screen (their log records they write to the file themselves: `$MRSS_STDERR_LOG`
+tells them where their stderr goes). This process owns the terminal and runs the
+dashboard (`MrssApp`) on the system's bus. A crash of either side cannot take the
+other down.
 
 - `q` (or Ctrl-Q) asks first, naming what stops; on yes the dashboard closes, then the
   system is stopped with SIGINT, the same path as Ctrl-C without the dashboard; its
@@ -21,7 +24,8 @@ system's bus. A crash of either side cannot take the other down.
   no question then); the last words are printed too. If this process is killed, the
   system gets SIGTERM (PDEATHSIG).
 
-A temporary run dir is kept (emptied but for the log) so the log outlives the run.
+A temporary run dir is kept (emptied but for the log and its rotated files) so the log
+outlives the run.
 """
 
 from __future__ import annotations
@@ -42,10 +46,10 @@ from typing import Any, ClassVar
 
 from textual.binding import Binding, BindingType
 
-from mrss import logs
+from mrss import logfile, logs
 from mrss.bus import BusEndpoints
 from mrss.bus.settings import endpoints_from_config
-from mrss.commands.supervise import run_dir_for
+from mrss.commands.supervise import log_rotation, run_dir_for
 from mrss.config.alerts import project_alert_rules
 from mrss.config.map import MapConfig
 from mrss.config.project import ProjectConfig
@@ -136,6 +140,8 @@ class SupervisedApp(MrssApp):
 
 # After the system ended on a closed terminal, how long the dashboard may take to close.
 HANGUP_GRACE = 3.0
+# After the system ended, how long its last output may take to reach the log.
+PUMP_DRAIN = 5.0
 
 
 def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
@@ -147,11 +153,13 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
         endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                           file=str(config.file))
         map_config = project_map(config.file, config.sections)
+        rotation = log_rotation(config)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         if temporary:
             shutil.rmtree(run_dir, ignore_errors=True)
         return EXIT_CONFIG
+    os.environ[logfile.ENV] = rotation.to_env()  # this process, and the system's tree
     logs.configure("tui", level=logging.DEBUG if args.verbose else logging.INFO,
                    console=False, file=log_path)
     try:
@@ -169,7 +177,7 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
 def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
          endpoints: BusEndpoints, log_path: Path, map_config: MapConfig,
          temporary: bool) -> int:
-    system = _start_system(args, run_dir, log_path)
+    system, pump = _start_system(args, run_dir, log_path)
     log.info("system of %s started (pid %d), run dir %s", config.name, system.pid, run_dir)
 
     mission = project_mission(config.directory, config.file, config.sections, run_dir)
@@ -187,8 +195,9 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
         app.stop_requested = True  # asked for: the dashboard closes when it is done
         if signum == signal.SIGHUP and not hung_up.is_set():
             hung_up.set()
-            threading.Thread(target=_end_after_hangup, args=(system, closed, config.name,
-                                                             run_dir, log_path, temporary),
+            threading.Thread(target=_end_after_hangup, args=(system, pump, closed,
+                                                             config.name, run_dir, log_path,
+                                                             temporary),
                              name="mrss-hangup", daemon=True).start()
         with contextlib.suppress(ProcessLookupError):
             system.send_signal(signal.SIGINT if signum == signal.SIGINT else signal.SIGTERM)
@@ -207,12 +216,14 @@ def _run(args: argparse.Namespace, config: ProjectConfig, run_dir: Path,
         print(f"mrss supervise: stopping {config.name} ...", file=sys.stderr, flush=True)
         forward(signal.SIGINT, None)
     code = system.wait()
+    pump.join(PUMP_DRAIN)
     log.info("system of %s ended with exit code %d", config.name, code)
     return code
 
 
-def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, name: str,
-                      run_dir: Path, log_path: Path, temporary: bool) -> None:
+def _end_after_hangup(system: subprocess.Popen[bytes], pump: logfile.LogPump,
+                      closed: threading.Event, name: str, run_dir: Path, log_path: Path,
+                      temporary: bool) -> None:
     """The terminal is gone: once the system has stopped, end this process.
 
     The dashboard normally closes by itself when the system ends; on a terminal that is
@@ -220,6 +231,7 @@ def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, 
     to see them. So after the system's end the dashboard gets `HANGUP_GRACE` seconds.
     """
     code = system.wait()
+    pump.join(PUMP_DRAIN)
     log.info("terminal closed: the system of %s ended with exit code %d", name, code)
     if closed.wait(HANGUP_GRACE):
         return
@@ -230,8 +242,9 @@ def _end_after_hangup(system: subprocess.Popen[bytes], closed: threading.Event, 
     os._exit(code)
 
 
-def _start_system(args: argparse.Namespace, run_dir: Path,
-                  log_path: Path) -> subprocess.Popen[bytes]:
+def _start_system(args: argparse.Namespace, run_dir: Path, log_path: Path
+                  ) -> tuple[subprocess.Popen[bytes], logfile.LogPump]:
+    """The system, its stdout and stderr piped through a `LogPump` into the log."""
     argv = python_module("mrss", "supervise", args.project, "--no-tui", "--run-dir", str(run_dir))
     if args.launcher:
         argv += ["--launcher", args.launcher]
@@ -239,12 +252,19 @@ def _start_system(args: argparse.Namespace, run_dir: Path,
         argv += ["--node", args.node]
     if args.verbose:
         argv.append("-v")
-    out = os.open(log_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    read_end, out = os.pipe2(os.O_CLOEXEC)
+    env = {**os.environ, logs.STDERR_LOG_ENV: str(log_path)}
     try:
-        return subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=out,
-                                process_group=0, preexec_fn=_dies_with(os.getpid()))
+        system = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=out,
+                                  env=env, process_group=0,
+                                  preexec_fn=_dies_with(os.getpid()))
+    except BaseException:
+        os.close(read_end)
+        raise
     finally:
         os.close(out)
+    return system, logfile.LogPump(read_end, logfile.LogFile(log_path,
+                                                             logfile.Rotation.from_env()))
 
 
 def _dies_with(parent: int) -> Any:
@@ -263,9 +283,10 @@ def _dies_with(parent: int) -> Any:
 
 
 def _keep_only(run_dir: Path, keep: Path) -> None:
-    """Empty a temporary run dir but for the log file."""
+    """Empty a temporary run dir but for the log file and its rotated files."""
+    kept = set(logfile.history_files(keep))
     for entry in run_dir.iterdir():
-        if entry == keep:
+        if entry in kept:
             continue
         if entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry, ignore_errors=True)
@@ -276,10 +297,5 @@ def _keep_only(run_dir: Path, keep: Path) -> None:
 
 def _last_words(log_path: Path, tail: int = 65536) -> str:
     """The root's final message (`mrss supervise: ...`) from the end of the log."""
-    try:
-        with log_path.open("rb") as f:
-            f.seek(max(0, f.seek(0, os.SEEK_END) - tail))
-            lines = f.read().decode("utf-8", "replace").splitlines()
-    except OSError:
-        return ""
+    lines = logfile.read_tail(log_path, tail).splitlines()
     return next((line for line in reversed(lines) if line.startswith("mrss supervise: ")), "")

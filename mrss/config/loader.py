@@ -72,7 +72,7 @@ class OnGiveUp(StrEnum):
 # Tables owned by other layers: kept raw here; `mrss check` checks their keys.
 OTHER_SECTIONS = ("nodes", "bus", "broker", "operator", "robots", "links", "reasoner", "rcl",
                   "events", "datalayer", "worldmodel", "tui", "sim", "skills", "alerts",
-                  "map")
+                  "map", "logs")
 
 
 def load_project(name: str, base: Path | None = None) -> ProjectConfig:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Judgement, Verdict, check
 from mrss.chaos.history import parse
+from mrss.chaos.views import STATUS_TRAVEL
 from tests.chaos.histories import (
     TREE,
     U1,
@@ -83,6 +84,59 @@ def test_a_request_of_an_incarnation_that_died_right_after_may_be_lost() -> None
                            bus(13.0, "sup.heartbeat", {"component": "reasoner", "pid": 101},
                                src="reasoner", inc=2)]
     assert Invariant.ONE_TERMINAL not in broken(records)
+
+
+def compacted_away(records: list[Record], dropped: int = 1, before: float = 20.0
+                   ) -> list[Record]:
+    """The journal without U1, as its compaction leaves it: `dropped` actions gone, none
+    ended before `before` left."""
+    journal = edit(records, "journal")
+    journal["actions"] = [a for a in journal["actions"] if a["uuid"] != U1]
+    journal["transitions"] = [x for x in journal["transitions"] if x["uuid"] != U1]
+    journal.update(compacted=dropped, compacted_before=before)
+    return records
+
+
+def test_an_action_compacted_away_is_judged_by_its_terminal_status_on_the_bus() -> None:
+    v = verdict(compacted_away(healthy()))
+    assert v.violations == []
+    assert v.goals == {"a1": GoalOutcome.SUCCEEDED}  # its success, as the bus showed it
+    assert v.rulings[Invariant.LATCH_RELEASED].checked == 1  # judged, by the bus's time
+
+
+def test_an_action_missing_without_compaction_is_still_never_journaled() -> None:
+    records = compacted_away(healthy(), dropped=0)
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U1]
+    assert found[0].evidence[1] == "never in the RCL journal"
+    assert Invariant.GOAL_HANDLED in broken(records)  # its success is not taken on trust
+
+
+def test_an_action_that_ended_after_the_compaction_watermark_was_never_journaled() -> None:
+    records = compacted_away(healthy(), before=10.0 - STATUS_TRAVEL - 0.5)
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U1]
+    assert "not compacted either: the journal's compaction dropped 1" in found[0].evidence[2]
+
+
+def test_compaction_excuses_no_more_actions_than_it_dropped() -> None:
+    records = compacted_away(healthy()) + [request(12.0, U2, "a1"),
+                                           status(12.5, U2, "succeeded")]
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U2]  # the later-ended one: compaction drops
+    records = compacted_away(healthy(), dropped=2) + [request(12.0, U2, "a1"),  # oldest
+                                                      status(12.5, U2, "succeeded")]
+    assert broken(records) == {Invariant.LATCH_RELEASED}  # judged too, by the bus
+    found = verdict(records).of(Invariant.LATCH_RELEASED)
+    assert found[0].evidence[1] == "bus (compacted away) succeeded at 12.5s"
+    records.append(log(12.6, "reasoner", f"action {U2} cover(uav1,a1) succeeded"))
+    assert verdict(records).violations == []
+
+
+def test_a_request_never_shown_terminal_is_not_excused_by_compaction() -> None:
+    records = compacted_away(healthy()) + [request(12.0, U2, "a1")]
+    found = verdict(records).of(Invariant.ONE_TERMINAL)
+    assert [v.subject for v in found] == [U2]
 
 
 # -- no transition after a terminal one -----------------------------------------------------

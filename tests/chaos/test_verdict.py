@@ -4,17 +4,21 @@ vacuous, and `mrss chaos --check` exits 0 / 1 / 4 for holds / fails / incomplete
 from __future__ import annotations
 
 import json
+import sqlite3
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
+from mrss.actors.rcl.action import Action
+from mrss.actors.rcl.journal import ActionJournal
 from mrss.chaos.checker import Bounds, GoalOutcome, Invariant, Judgement, Outcome, Verdict, check
 from mrss.chaos.history import FILE_NAME, HistoryWriter, load, parse
 from mrss.chaos.recorder import Recorder
 from mrss.chaos.report import summary, text
 from mrss.chaos.runner import settled
 from mrss.cli import main
+from mrss.messages import ActionState
 from tests.chaos.histories import U1, Record, edit, healthy, operator, probe, status
 
 NEEDS_JOURNAL = {Invariant.LATCH_RELEASED, Invariant.GOAL_HANDLED,
@@ -214,6 +218,55 @@ def test_the_recorder_counts_the_log_lines_it_kept(tmp_path: Path) -> None:
     history = load(tmp_path / FILE_NAME)
     assert len(history.loglines) == 2
     assert history.log is not None and (history.log.lines, history.log.error) == (2, "")
+
+
+def test_the_recorder_records_what_the_journals_compaction_dropped(tmp_path: Path) -> None:
+    journal = ActionJournal(tmp_path / "journal.sqlite3")
+    try:
+        for uuid in ("a" * 32, "b" * 32, "c" * 32):
+            action = Action(uuid=uuid, name="noop", robot="ugv1")
+            journal.record(action)
+            if uuid != "c" * 32:
+                action.transition(ActionState.SUCCEEDED)
+                journal.record(action)
+        assert journal.compact(keep_seconds=0.0, keep_last=0) == 2
+        dropped, before = journal.compaction()
+    finally:
+        journal.close()
+    writer = HistoryWriter(tmp_path / FILE_NAME)
+    writer.write("campaign", t=0.0, project="test", seed=1, planned=[])
+    recorder = Recorder(tmp_path, writer, tmp_path / "journal.sqlite3")
+    try:
+        recorder.record_journal()
+    finally:
+        recorder.close()
+        writer.close()
+    history = load(tmp_path / FILE_NAME)
+    assert history.journal is not None and not history.journal.error
+    assert [a.uuid for a in history.journal.actions] == ["c" * 32]
+    assert dropped == 2 and before is not None
+    assert history.journal.compacted == 2
+    assert history.journal.compacted_before == recorder.since_start(before)
+
+
+def test_a_journal_from_before_compaction_was_recorded_reads_as_none_dropped(
+        tmp_path: Path) -> None:
+    with sqlite3.connect(tmp_path / "journal.sqlite3") as db:  # the tables of an old journal
+        db.executescript("CREATE TABLE actions (uuid, name, robot, goal, state, reason, "
+                         "requester, requester_inc, created);"
+                         "CREATE TABLE transitions (seq, uuid, state, reason, ts);"
+                         "CREATE TABLE robots (robot, teleop);")
+    writer = HistoryWriter(tmp_path / FILE_NAME)
+    writer.write("campaign", t=0.0, project="test", seed=1, planned=[])
+    recorder = Recorder(tmp_path, writer, tmp_path / "journal.sqlite3")
+    try:
+        recorder.record_journal()
+    finally:
+        recorder.close()
+        writer.close()
+    journal = load(tmp_path / FILE_NAME).journal
+    assert journal is not None and not journal.error
+    assert (journal.compacted, journal.compacted_before) == (0, None)
 
 
 def test_the_verdict_and_exit_codes_are_one_closed_set() -> None:

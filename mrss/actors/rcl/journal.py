@@ -16,7 +16,10 @@ It stays bounded: `compact` drops the terminal actions (and their transitions) l
 updated more than `keep_seconds` ago, except the newest `keep_last` of them, which the
 dashboard's history shows; and the pending controls of actions no longer open. The RCL
 compacts at start and on a timer. A uuid compacted away is forgotten: a request
-repeating it after that is a new action.
+repeating it after that is a new action. What compaction removed is kept in one row
+(`compaction`: how many actions in all, and the watermark `before`, the latest cutoff:
+no terminal action last updated before it is left), so a reader of the journal (the
+chaos checker) can tell an action compacted away from one never journaled.
 """
 
 from __future__ import annotations
@@ -57,6 +60,9 @@ CREATE TABLE IF NOT EXISTS controls (
     event TEXT NOT NULL, ts REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS actions_updated ON actions(updated);
+CREATE TABLE IF NOT EXISTS compaction (
+    id INTEGER PRIMARY KEY CHECK (id = 1), dropped INTEGER NOT NULL, before REAL NOT NULL
+);
 CREATE TABLE IF NOT EXISTS tasks (
     uuid TEXT PRIMARY KEY, request TEXT NOT NULL, requester TEXT NOT NULL,
     requester_inc INTEGER NOT NULL, robot TEXT NOT NULL, lost TEXT NOT NULL,
@@ -333,6 +339,11 @@ class ActionJournal:
                 cur = self._db.execute("DELETE FROM actions WHERE uuid IN "
                                        "(SELECT uuid FROM doomed)")
                 dropped = cur.rowcount
+                if dropped > 0:  # the watermark: every terminal action before it is gone
+                    self._db.execute(
+                        "INSERT INTO compaction VALUES (1, ?, ?) ON CONFLICT(id) DO UPDATE "
+                        "SET dropped=dropped+excluded.dropped, "
+                        "before=MAX(before, excluded.before)", (dropped, cutoff))
                 self._db.execute(
                     f"DELETE FROM controls WHERE uuid NOT IN (SELECT uuid FROM actions "
                     f"WHERE state NOT IN ({marks}))", _TERMINAL)
@@ -343,6 +354,13 @@ class ActionJournal:
                 raise
             self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
         return dropped
+
+    def compaction(self) -> tuple[int, float | None]:
+        """How many actions compaction dropped in all, and its watermark (wall-clock
+        seconds; None if it never dropped one)."""
+        with self._lock:
+            row = self._db.execute("SELECT dropped, before FROM compaction").fetchone()
+        return (0, None) if row is None else (int(row[0]), float(row[1]))
 
     def size(self) -> int:
         """Bytes on disk: the database and its write-ahead log."""

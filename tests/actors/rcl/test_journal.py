@@ -83,7 +83,9 @@ def test_compaction_drops_old_terminal_actions_but_keeps_the_newest_and_open_one
         journal.add_control("ugv1", "open", "{}")
         journal.add_control("ugv1", "old0", "{}")  # for an action that ended
         now[0] = 100.0
+        assert journal.compaction() == (0, None)  # nothing dropped yet
         assert journal.compact(keep_seconds=95.0, keep_last=3) == 5  # t < 5 are too old
+        assert journal.compaction() == (5, 5.0)  # what went, and the watermark
         assert journal.get("old4") is None and journal.transitions("old4") == []
         assert journal.get("old5") is not None  # younger than 95 s
         assert [e.action.uuid for e in journal.open_actions()] == ["open"]
@@ -92,10 +94,18 @@ def test_compaction_drops_old_terminal_actions_but_keeps_the_newest_and_open_one
         assert journal.compact(keep_seconds=95.0, keep_last=3) == 2
         kept = [f"old{i}" for i in range(10) if journal.get(f"old{i}") is not None]
         assert kept == ["old7", "old8", "old9"]
+        assert journal.compaction() == (7, 7.0)  # the newest kept one's time: none older
         assert journal.transitions("old9") == [(ActionState.PENDING, ""),
                                                (ActionState.SUCCEEDED, "")]
         assert journal.get("open") is not None
         assert journal.compact(keep_seconds=0.0, keep_last=0) == 3
+        assert journal.compact(keep_seconds=0.0, keep_last=0) == 0  # dropped nothing:
+        assert journal.compaction() == (10, 1000.0)  # the record stays as it was
+    finally:
+        journal.close()
+    reopened = ActionJournal(tmp_path / "j.sqlite3")
+    try:
+        assert reopened.compaction() == (10, 1000.0)  # kept across a restart
     finally:
         journal.close()
 
