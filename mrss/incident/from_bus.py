@@ -9,6 +9,7 @@ outcome.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Collection
 from typing import Any
 
@@ -31,8 +32,9 @@ from mrss.messages import (
 )
 
 #: The bus topics a recorder subscribes to: everything `Classifier` may record.
-TOPICS = ("action.request", "action.status", "action.allocation", "percept", "ctl.",
-          "edge.", "agent.gave_up", "robot.", "sup.")
+TOPICS = ("action.request", "action.status", "action.allocation", "rel.action.", "percept",
+          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.")
+SEEN = 10_000  # envelope ids remembered: the reliable channel may deliver one again
 QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot"})  # a dashboard's polling
 ENDED = {ActionState.SUCCEEDED: Level.INFO, ActionState.FAILED: Level.WARNING,
          ActionState.CANCELLED: Level.INFO}
@@ -53,8 +55,16 @@ class Classifier:
         self.operator_topics = frozenset(operator_topics)
         self.components = frozenset(components)
         self._available: dict[str, tuple[bool, str]] = {}
+        self._seen: OrderedDict[tuple[str, str], None] = OrderedDict()
 
     def entry(self, env: Envelope) -> Entry | None:
+        """The row for one envelope; None for a repeat of one already seen."""
+        key = (env.src, env.id)
+        if key in self._seen:
+            return None
+        self._seen[key] = None
+        if len(self._seen) > SEEN:
+            self._seen.popitem(last=False)
         return self.of(env.body, ts=env.ts, src=env.src)
 
     def of(self, body: Message, *, ts: float, src: str) -> Entry | None:

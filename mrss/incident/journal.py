@@ -76,7 +76,7 @@ class IncidentReader:
         except (ValueError, UnicodeDecodeError) as exc:
             why = exc.msg if isinstance(exc, json.JSONDecodeError) else str(exc)
             if isinstance(exc, json.JSONDecodeError):
-                why = f"not JSON: {why} at column {exc.colno}"
+                why = f"not JSON: {why} (column {exc.colno})"
             self.problems.append(IncidentFileError(str(self.path), self.line, offset, why))
             return None
 
@@ -93,8 +93,8 @@ def read_incident(path: Path) -> tuple[list[Entry], list[IncidentFileError]]:
         with open(path, "rb") as f:
             f.seek(reader.offset)
             tail = f.read()
-        entry = reader._decode(tail, reader.offset)  # a complete row lacking its newline
         reader.line += 1
+        entry = reader._decode(tail, reader.offset)  # a complete row lacking its newline
         if entry is not None:
             entries.append(entry)
         else:
