@@ -49,7 +49,7 @@ def locate(source: Path) -> Path:
     if incident_file(source).exists():
         return incident_file(source)
     if (source / "project.toml").exists():
-        config = load_project(source)
+        config = load_project(str(source))
         if not config.supervisor.run_dir:
             raise FileNotFoundError(f"{source}: the project keeps no run dir ([supervisor] "
                                     "run_dir): name the run dir `mrss supervise --run-dir` "
