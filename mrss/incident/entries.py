@@ -47,6 +47,9 @@ class Level(StrEnum):
 
 
 FIELDS = ("seq", "ts", "kind", "level", "source", "who", "subject", "text", "detail")
+_FIELD_SET = frozenset(FIELDS)
+_KINDS = {k.value: k for k in IncidentKind}
+_LEVELS = {v.value: v for v in Level}
 
 
 class IncidentFileError(MrssError):
@@ -86,7 +89,7 @@ class Entry:
         """A row decoded from JSON; ValueError naming the field that is wrong."""
         if not isinstance(row, dict):
             raise ValueError(f"expected a JSON object, got {type(row).__name__}")
-        unknown = sorted(set(row) - set(FIELDS))
+        unknown = [] if row.keys() <= _FIELD_SET else sorted(set(row) - _FIELD_SET)
         if unknown:
             raise ValueError(f"unknown field {unknown[0]!r} (fields: {', '.join(FIELDS)})")
         for name in ("seq", "ts", "kind", "text"):
@@ -96,16 +99,14 @@ class Entry:
             raise ValueError(f"field 'seq': expected an integer, got {row['seq']!r}")
         if not isinstance(row["ts"], (int, float)) or isinstance(row["ts"], bool):
             raise ValueError(f"field 'ts': expected a number, got {row['ts']!r}")
-        try:
-            kind = IncidentKind(row["kind"])
-        except ValueError:
+        kind = _KINDS.get(row["kind"]) if isinstance(row["kind"], str) else None
+        if kind is None:
             raise ValueError(f"field 'kind': {row['kind']!r} is not one of "
-                             f"{', '.join(IncidentKind)}") from None
-        try:
-            level = Level(row.get("level", Level.INFO))
-        except ValueError:
+                             f"{', '.join(IncidentKind)}")
+        level = _LEVELS.get(row.get("level", "info"))
+        if level is None:
             raise ValueError(f"field 'level': {row['level']!r} is not one of "
-                             f"{', '.join(Level)}") from None
+                             f"{', '.join(Level)}")
         for name in ("text", "subject", "source", "who"):
             if not isinstance(row.get(name, ""), str):
                 raise ValueError(f"field {name!r}: expected a string, got {row[name]!r}")
