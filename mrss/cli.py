@@ -38,6 +38,7 @@ VERBS: tuple[Verb, ...] = (
     Verb("record", "record a running system's bus traffic to a file"),
     Verb("replay", "replay a recorded bus session"),
     Verb("recording", "look into a recording: info, export as csv or jsonl"),
+    Verb("incident", "export a run's incident record (md, html, jsonl, csv)"),
     Verb("sim", "run a simulated robot (uav, ugv) or a fleet of them"),
     Verb("chaos", "run a fault campaign and check the mission's invariants", True),
     Verb("bench", f"run a benchmark ({', '.join(BENCHES)})", built=True),

@@ -16,5 +16,6 @@ BENCHES: dict[str, str] = {
     "tui": "the dashboard's CPU at 20 and 1,000 msgs/s, and its panel refresh times",
     "allocation": "tasks addressed to a role among 10..200 robots: goal -> award, re-award "
                   "after a robot is lost",
+    "incident": "a dashboard attaching late to a 4-hour incident record",
     "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

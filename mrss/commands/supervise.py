@@ -33,16 +33,19 @@ from types import FrameType
 from typing import Any
 
 from mrss import logfile, logs
-from mrss.bus import Publisher
+from mrss.bus import BusEndpoints, Publisher
 from mrss.bus.curve import load_keys, load_public
 from mrss.bus.settings import endpoints_from_config
 from mrss.commands import check
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
 from mrss.config.nodes import keys_dir, node_children, node_plan
+from mrss.config.operator import SECTION as OPERATOR_SECTION
+from mrss.config.operator import read_operator
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.messages import IncarnationKey
+from mrss.runtime.incident_recorder import IncidentRecorder
 from mrss.runtime.remote import RemoteControl
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
@@ -211,6 +214,8 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
     if bus_child:
         outbox = EventOutbox(publisher.publish, bus_child, publisher.subscriptions)
         publish = outbox
+    incident = incident_recorder(config, run_dir, endpoints)
+    publish = incident.publishing(publish)
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
                                bus=endpoints.to_dict(), node=node, key=key)
@@ -221,10 +226,20 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
         finally:
             remote.close()
     finally:
+        incident.close()
         if outbox is not None:
             outbox.close()
         logs.remove_bus_handler(to_bus)
         publisher.close()
+
+
+def incident_recorder(config: ProjectConfig, run_dir: Path,
+                      endpoints: BusEndpoints) -> IncidentRecorder:
+    """The run's incident recorder, started (docs/mission.md, "The incident record")."""
+    operator = read_operator(config.sections.get(OPERATOR_SECTION), file=str(config.file))
+    topics = [*operator.topics.values(), *(c.topic for c in operator.commands.values())]
+    return IncidentRecorder(run_dir, endpoints, project=config.name, operator_topics=topics,
+                            components=[c.id for c in config.components]).start()
 
 
 def proxy_child(config: ProjectConfig) -> str:

@@ -12,8 +12,8 @@ and messages to:
 - `Steering` (`steering.py`): what the operator sends: refusals, questions, reports;
 - `RowDetails` (`detail_keys.py`): the detail screen Enter opens on a row;
 - `OperatorTools` (`ops.py`): the Messages, log-line and alerts screens, recording;
-- `PanelLayout` (`layout.py`): the compact mode and the panel keys.
-
+- `PanelLayout` (`layout.py`): the compact mode and the panel keys;
+- `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach.
 Their bindings and `action_*` methods stay here, where Textual looks for them.
 """
 
@@ -41,6 +41,7 @@ from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import RowDetails
 from mrss.tui.events import READONLY_NOTICE, BusActivity, MissionRequested, Note, SendRequested
 from mrss.tui.help import HelpScreen, current_keys
+from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
 from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
 from mrss.tui.mission import MissionChannel
@@ -137,8 +138,7 @@ class MrssApp(App[None]):
         self.project = project
         self.readonly = readonly
         self.link = BusLink(endpoints)
-        # the models: plain Python, shown by the panels
-        self.goals = GoalsModel(self.operator_config.goals)
+        self.goals = GoalsModel(self.operator_config.goals)  # the models: plain Python
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()
         self.actions = ActionsModel()
@@ -146,7 +146,8 @@ class MrssApp(App[None]):
         self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel(rules=alert_rules)
         self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
-        # the dashboard's ideas, each with its own state
+        self.incident = IncidentFeed.for_endpoints(endpoints)  # the run's record, on attach
+        # the dashboard's ideas, each with its own state (above: the models)
         self.picture = Picture(self, self.link, liveness=self.liveness,
                                supervision=self.supervision, actions=self.actions,
                                project=project, agent=agent,
@@ -224,12 +225,10 @@ class MrssApp(App[None]):
 
     def on_mount(self) -> None:
         titles = {"supervision": "Supervision (k kill, h hang, x crash: press twice)",
-                  "robots": "Robots (t teleop, g map)",
+                  "robots": "Robots (t teleop, g map)", "map": "Map",
                   "actions": "Actions (debug, around the agent: c cancel, s suspend, r resume)",
                   "mission": "Mission (n new, c cancel, +/- priority, H all hold)",
-                  "mind": "Mind (m refresh, a auto)",
-                  "log": "Log (/ filter, End follow)"}
-        titles["map"] = "Map"
+                  "mind": "Mind (m refresh, a auto)", "log": "Log (/ filter, End follow)"}
         for ident, title in titles.items():
             widget = self.query_one(f"#{ident}")
             widget.add_class("panel")
@@ -238,6 +237,7 @@ class MrssApp(App[None]):
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
         self.picture.show()
+        self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))
         self.set_interval(1.0, self.tick)
         self.picture.start()
@@ -274,6 +274,7 @@ class MrssApp(App[None]):
 
     def tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
+        self.incident.poll()  # the record's rows since: `incident.entries` is all of it
         with suppress(NoMatches):  # the panels are gone: the app is closing
             self.redraws.tick()
             self.picture.show()
