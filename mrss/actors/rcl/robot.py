@@ -270,6 +270,8 @@ class RobotActor(SupervisedActor):
         if t is None or msg.run != t.run:
             return
         t.action.progress.update(msg.values)
+        for key in msg.forget:
+            t.action.progress.pop(key, None)
         self.save_progress(msg.uuid, dict(t.action.progress))
 
     def _skill_ended(self, msg: SkillReport) -> None:

@@ -72,6 +72,7 @@ class ProgressRecorded:
     uuid: str
     run: int
     values: dict[str, JsonValue]
+    forget: tuple[str, ...] = ()  # keys to take out of the progress (a wait that is over)
 
 
 @dataclass(frozen=True)
@@ -189,9 +190,10 @@ class SkillRunner:
         except pykka.ActorDeadError:
             log.info("skill %s: %r not told, robot actor stopped", self.token, message)
 
-    def record_progress(self, values: Mapping[str, JsonValue]) -> None:
+    def record_progress(self, values: Mapping[str, JsonValue],
+                        forget: tuple[str, ...] = ()) -> None:
         try:
-            self._report(ProgressRecorded(self.action.uuid, self.run, dict(values)))
+            self._report(ProgressRecorded(self.action.uuid, self.run, dict(values), forget))
         except pykka.ActorDeadError:
             log.warning("skill %s: progress %r lost, robot actor stopped", self.token, values)
 
@@ -212,8 +214,8 @@ class SkillRunner:
             self.record_progress({QUEUED_FOR: resource, BEHIND: ",".join(behind)})
 
         self._broker.acquire(resource, holder, self.interrupt_event, timeout, on_wait=waiting)
-        if waited:
-            self.record_progress({QUEUED_FOR: "", BEHIND: ""})
+        if waited:  # granted: the wait leaves no trace in the action's progress
+            self.record_progress({}, forget=(QUEUED_FOR, BEHIND))
 
     def release(self, resource: str) -> None:
         self._broker.release(resource, self.token)
