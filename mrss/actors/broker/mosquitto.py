@@ -135,7 +135,10 @@ class MosquittoProcess:
 
     def _wait_for_previous(self, timeout: float) -> None:
         """A Mosquitto of an earlier incarnation may still be saving (its parent died and
-        it got SIGTERM): wait for it to end, so two never write the file at once."""
+        it got SIGTERM): wait for it to end, so two never write the file at once. Ended
+        means gone or a zombie: orphaned, it is the root supervisor's child (a subreaper)
+        now, which reaps it in its own time; waiting for the pid to vanish would wait for
+        the supervisor, itself waiting for this start."""
         with contextlib.suppress(OSError, ValueError):
             pid = int((self.state_dir / PID_FILE).read_text(encoding="utf-8").strip())
             try:
@@ -144,11 +147,19 @@ class MosquittoProcess:
                     return
             except (psutil.Error, OSError):
                 return
-            try:
-                old.wait(timeout)
-            except psutil.TimeoutExpired:
-                log.warning("mosquitto pid %d of an earlier incarnation still runs after "
-                            "%.0f s; killing it", pid, timeout)
+            log.info("waiting for mosquitto pid %d of an earlier incarnation to end "
+                     "(it saves its sessions)", pid)
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                try:
+                    if old.status() == psutil.STATUS_ZOMBIE:
+                        return
+                except psutil.NoSuchProcess:
+                    return
+                time.sleep(0.02)
+            log.warning("mosquitto pid %d of an earlier incarnation still runs after "
+                        "%.0f s; killing it", pid, timeout)
+            with contextlib.suppress(psutil.Error):
                 old.kill()
 
     def _read_stderr(self, proc: subprocess.Popen[bytes]) -> None:
