@@ -124,8 +124,8 @@ class Agent(Runtime):
                 else:
                     later.append(c)
             else:
-                h = c.head
-                self.bb.add_rule((h.functor, len(h.args), h.neg), c)
+                h = c.head  # type: ignore[union-attr]
+                self.bb.add_rule((h.functor, len(h.args), h.neg), c)  # type: ignore[arg-type]
         for c in later:  # an earlier copy adds its annotations only
             self.bb.add(c, front=False)
         return new

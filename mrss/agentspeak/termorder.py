@@ -75,7 +75,7 @@ def _compare_lists(a: Term, b: Term) -> int:
         ia = a if type(a) is tuple else a.items  # type: ignore[union-attr]
         ib = b if type(b) is tuple else b.items  # type: ignore[union-attr]
         n = min(len(ia), len(ib))
-        c = _compare_seq(ia[:n], ib[:n])  # type: ignore[index]
+        c = _compare_seq(ia[:n], ib[:n])
         if c:
             return c
         ra = _rest(a, n)

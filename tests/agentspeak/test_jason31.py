@@ -77,6 +77,24 @@ c(2)[source(self)].
    .remove_plan([l4]); .relevant_plans({+!d}, L5); .print(L5).
 """, ["a", "b", "c", "d", '[p__1[atomic,source(self),test,url("file:plan_labels.asl")]]',
       '[p__2[source(self),test,url("file:plan_labels.asl")]]', "[]", "[]", "[]"]),
+    # Jason: stdlib/substring.java (four arguments: a text from Start to End) and
+    # `.member(Label[test], Labels)` over the labels of `.relevant_plans({+!_}, _, L)`
+    "substring_and_member": ("""\
+!g.
+@[test] +!t1 <- true.
+@lab2[test] +!t2 <- true.
++!g <- .substring(X8_1,a(10,20),5); .print(X8_1);
+   .substring(X9_1,a(10,20),5,7); .print(X9_1);
+   if (.substring("20)",a(10,20),5,7)) { .print(yes) } else { .print(no) };
+   .findall(P, .substring("a","abbacca",P), L); .print(L);
+   .substring(S, "hello world", 2, 5); .print(S);
+   .relevant_plans({+!_},_,LL);
+   for (.member(Label[test],LL)) { .print(m1(Label)) };
+   for (.member(Label2,LL) & _[test] = Label2) { .print(m2(Label2)) };
+   for (.member(b[x], [a, b[x,y], b, b[x]])) { .print(m3) }.
+""", ["20)", "20", "yes", "[0,3,6]", "llo", "m1(p__1)", "m1(lab2)",
+      'm2(p__1[source(self),test,url("file:substring_and_member.asl")])',
+      'm2(lab2[source(self),test,url("file:substring_and_member.asl")])', "m3", "m3"]),
 }
 
 
@@ -94,7 +112,8 @@ def test_program_prints_what_jason_printed(name: str) -> None:
     assert out == expected
 
 
-@pytest.mark.parametrize("name", ["sources_and_annotations", "plan_labels"])
+@pytest.mark.parametrize("name", ["sources_and_annotations", "plan_labels",
+                                  "substring_and_member"])
 def test_mrss_agent_prints_what_jason_printed(name: str, tmp_path: Path) -> None:
     source = PROGRAMS[name][0]
     expected = _expected(name)

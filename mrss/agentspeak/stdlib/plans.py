@@ -25,6 +25,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Trigger,
+    Var,
     VarAnnot,
     deref,
     fresh_var,
@@ -128,13 +129,15 @@ def relevant_plans(ctx: IAContext, args: list[Any]) -> bool:
     """`.relevant_plans({+!g}, Plans)` and `.relevant_plans({+!g}, Plans, Labels)`: the
     plans whose trigger unifies with the event, in library order."""
     ev = deref(args[0])
-    if type(ev) is not Trigger or type(deref(ev.lit)) is not Struct:
+    if type(ev) is not Trigger or type(deref(ev.lit)) not in (Struct, Var):
         raise ctx.error(f"expected a triggering event such as {{+!g}}, not {term_str(ev)}")
     lit = deref(ev.lit)
     rt = ctx.runtime
     trail = rt.trail
     found: list[Plan] = []
-    for plan in rt.plans.relevant(ev.op, lit) or []:  # type: ignore[arg-type]
+    if type(lit) is Var:  # `{+!_}`: every plan of that kind of event, as Jason's
+        found = [p for p in rt.plans.plans if p.op == ev.op]
+    for plan in rt.plans.relevant(ev.op, lit) or [] if type(lit) is Struct else []:
         mark = len(trail)
         if unify(plan.trigger, [None] * plan.nslots, lit, trail):
             found.append(plan)
