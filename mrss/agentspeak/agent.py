@@ -25,6 +25,7 @@ from mrss.agentspeak.parser import parse_literal, parse_program
 from mrss.agentspeak.registry import Registry
 from mrss.agentspeak.runtime import Runtime
 from mrss.agentspeak.snapshot import take_snapshot
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_BEL,
     DEL_BEL,
@@ -72,12 +73,7 @@ class Agent(Runtime):
         program = parse_program(source, self.file, collect=problems)
         compiled = compile_program(program, self.registry, source, problems)
         compiled.functions.rt = self
-        for clause in compiled.clauses:  # facts and rules in program order
-            if type(clause) is Struct:
-                self.bb.add(clause, front=False)
-            else:
-                h = clause.head  # type: ignore[union-attr]
-                self.bb.add_rule((h.functor, len(h.args), h.neg), clause)  # type: ignore
+        initial = self._add_initial(compiled.clauses)
         bad: list[SyntaxProblem] = []
         for number, extra in enumerate(beliefs, start=1):
             from mrss.agentspeak.compile import with_self_source
@@ -94,12 +90,45 @@ class Agent(Runtime):
             raise AslSyntaxError(bad)
         for plan in compiled.plans:
             self.plans.add(plan)
+        for lit in initial:
+            self.belief_changed(ADD_BEL, lit, None)
         for goal in compiled.goals:
             self.post_goal(goal, None)
         self._cond = threading.Condition()
         self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
         self._woken = False
         self.society: Any = None  # the `society.Society` this agent talks in, if any
+
+    def _add_initial(self, clauses: list[Struct | Any]) -> list[Struct]:
+        """Add the program's facts and rules as Jason's `Agent.addInitialBelsInBB` does:
+        from the last to the first, each put before the others, so a fact written twice
+        takes the place of its last copy; returns the facts that were new (or brought
+        new annotations), in that order: each gets its `+b` event, as in Jason."""
+        last: dict[tuple[Any, ...], int] = {}
+        for i, c in enumerate(clauses):
+            if type(c) is Struct:
+                last[(c.functor, c.neg, c.args)] = i
+        new: list[Struct] = []
+        seen: dict[tuple[Any, ...], set[Any]] = {}
+        for c in reversed(clauses):
+            if type(c) is Struct:
+                annots = seen.setdefault((c.functor, c.neg, c.args), set())
+                if not annots or not annots.issuperset(c.annots):
+                    new.append(c)
+                annots.update(c.annots)
+        later: list[Struct] = []
+        for i, c in enumerate(clauses):  # in the order they end up in
+            if type(c) is Struct:
+                if last[(c.functor, c.neg, c.args)] == i:
+                    self.bb.add(c, front=False)
+                else:
+                    later.append(c)
+            else:
+                h = c.head  # type: ignore[union-attr]
+                self.bb.add_rule((h.functor, len(h.args), h.neg), c)  # type: ignore[arg-type]
+        for c in later:  # an earlier copy adds its annotations only
+            self.bb.add(c, front=False)
+        return new
 
     @classmethod
     def from_file(cls, path: str | Path, **kwargs: Any) -> Agent:
@@ -148,7 +177,7 @@ class Agent(Runtime):
                 self.completed.append((a, b, c[0], c[1], c[2]))
             elif kind == "+":
                 lit = a if SOURCE_PERCEPT in a.annots else \
-                    Struct(a.functor, a.args, a.annots + (SOURCE_PERCEPT,), a.neg)
+                    Struct(a.functor, a.args, add_annot(a.annots, SOURCE_PERCEPT), a.neg)
                 if self.bb.add(lit, front=True):
                     self.belief_changed(ADD_BEL, lit, None)
             elif kind == "-":

@@ -23,6 +23,7 @@ from mrss.agentspeak.syntax import (
     Statement,
     number_value,
 )
+from mrss.agentspeak.termorder import sort_annots
 from mrss.agentspeak.terms import (
     ADD_ACH,
     ADD_BEL,
@@ -144,7 +145,7 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
                 annots = x[1]
         if not neg and not annots and is_function(name, len(args)):
             return Expr(name, tuple(args))
-        return Struct(name, tuple(args), tuple(annots), neg)
+        return Struct(name, tuple(args), sort_annots(tuple(annots)), neg)
 
     def var_annots(self, c: list[Any]) -> Term:
         return VarAnnot(self._slot(str(c[0])), tuple(c[1][1]))

@@ -49,6 +49,7 @@ from mrss.agentspeak.syntax import (
     RuleSrc,
     Statement,
 )
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     OP_TEXT,
     SOURCE_SELF,
@@ -80,7 +81,7 @@ def with_self_source(lit: Struct) -> Struct:
     """`lit` annotated `source(self)` unless it names a source already."""
     if has_source(lit.annots):
         return lit
-    return Struct(lit.functor, lit.args, lit.annots + (SOURCE_SELF,), lit.neg)
+    return Struct(lit.functor, lit.args, add_annot(lit.annots, SOURCE_SELF), lit.neg)
 
 
 class _Compiler:

@@ -24,6 +24,7 @@ from mrss.agentspeak.intentions import (
     IntendedMeans,
     Intention,
 )
+from mrss.agentspeak.termorder import sort_annots
 from mrss.agentspeak.terms import (
     ADD_ACH,
     ADD_TEST,
@@ -99,7 +100,8 @@ def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str,
         extra = (Struct("error", (Struct(error),)), Struct("error_msg", (f"{where}: {message}",)),
                  Struct("code_src", (file,)), Struct("code_line", (line,)))
     g: Any = value(goal)
-    lit = Struct(g.functor, g.args, tuple(g.annots) + extra + tuple(annots), g.neg)
+    lit = Struct(g.functor, g.args, sort_annots(tuple(g.annots) + extra + tuple(annots)),
+                 g.neg)
     it.gen += 1
     ev = Event(DEL_ACH, lit, it)
     ev.target = target

@@ -28,6 +28,7 @@ import enum
 from typing import TYPE_CHECKING
 
 from mrss.agentspeak.intentions import Event
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import ADD_ACH, GOAL_STATE, Struct, Term, value
 
 if TYPE_CHECKING:
@@ -60,7 +61,7 @@ def emit(rt: Runtime, goal: Struct, state: GoalState, reason: Term = "") -> None
     if (GOAL_STATE, g.functor, len(g.args), g.neg) not in rt.plans.index:
         return
     annot = Struct("state", (_STATES[state],), (Struct("reason", (value(reason),)),))
-    lit = Struct(g.functor, g.args, tuple(g.annots) + (annot,), g.neg)
+    lit = Struct(g.functor, g.args, add_annot(tuple(g.annots), annot), g.neg)
     events = rt.events  # before the other events, after the meta-events already there
     i = 0
     while i < len(events) and events[i].op == GOAL_STATE:

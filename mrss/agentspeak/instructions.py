@@ -17,6 +17,7 @@ from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
 from mrss.agentspeak.intentions import PENDING_EVENT, Event
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_ACH,
     ADD_BEL,
@@ -104,7 +105,7 @@ def goal_literal(t: Term, frame: Any) -> Struct:
                               if type(lit) is not Var and type(lit) is not VarAnnot else
                               f"unbound variable {term_str(t)} used as a goal")
     if not any(type(a) is Struct and a.functor == "source" for a in lit.annots):
-        lit = Struct(lit.functor, lit.args, lit.annots + (SOURCE_SELF,), lit.neg)
+        lit = Struct(lit.functor, lit.args, add_annot(lit.annots, SOURCE_SELF), lit.neg)
     return lit
 
 

@@ -27,7 +27,7 @@ class Plan:
                  annots: tuple[Term, ...] = (), varnames: list[str] | None = None) -> None:
         self.label = label
         self.src: Any = None  # the PlanSrc, for plan terms (`.relevant_plans`)
-        # the label in the library (`l__N` when the source gives none) and its sources
+        # the label in the library (`p__N` when the source gives none) and its sources
         self.plabel: Struct | None = None
         self.sources: list[Term] = []
         self.varnames = varnames or []
@@ -91,10 +91,10 @@ class PlanLibrary:
     def _label(self, plan: Plan, source: Term) -> None:
         if plan.label is not None:
             plan.plabel = Struct(plan.label.functor, plan.label.args)
-        else:  # Jason's automatic labels: l__1, l__2, ... skipping those in use
+        else:  # Jason 3.1 automatic labels (PlanLibrary.getUniqueLabel): p__1, p__2, ...
             while True:
                 self._auto += 1
-                name = f"l__{self._auto}"
+                name = f"p__{self._auto}"
                 if name not in self.labels:
                     break
             plan.plabel = Struct(name)

@@ -23,6 +23,7 @@ from mrss.agentspeak.directory import DF_NAME, Directory
 from mrss.agentspeak.formulas import compile_query
 from mrss.agentspeak.host import ConsoleHost
 from mrss.agentspeak.registry import IAContext, Registry
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_BEL,
     DEL_BEL,
@@ -49,7 +50,7 @@ class Performative(enum.Enum):
 def _source(lit: Struct, sender: str) -> Struct:
     src = Struct("source", (Struct(sender),))
     annots = tuple(a for a in lit.annots if not (type(a) is Struct and a.functor == "source"))
-    return Struct(lit.functor, lit.args, annots + (src,), lit.neg)
+    return Struct(lit.functor, lit.args, add_annot(annots, src), lit.neg)
 
 
 def _answers(agent: Agent, content: Struct, limit: int | None) -> list[Struct]:

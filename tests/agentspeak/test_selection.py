@@ -96,7 +96,7 @@ def test_a_plan_added_at_run_time_is_selected_by_the_next_event() -> None:
 !a. !b.
 +!a <- !p(1); .add_plan({+!p(X) : X > 0 <- .print(added(X))}, self, begin); !p(2).
 +!p(X) <- .print(old(X)).
-+!b <- .remove_plan(l__3); !p(3).
++!b <- .remove_plan(p__3); !p(3).
 """
     agent = Agent(program, name="dyn", out=lines.append)
     agent.run_until_idle()

@@ -6,6 +6,7 @@ from typing import Any
 
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
+from mrss.agentspeak.termorder import add_annot as put_annot
 from mrss.agentspeak.terms import Struct, Term, term_str, value
 
 
@@ -16,7 +17,7 @@ def _annotate(ctx: IAContext, t: Term, annot: Term) -> Term:
         raise ctx.error(f"expected a literal or a list of literals, not {term_str(t)}")
     if annot in t.annots:
         return t
-    return Struct(t.functor, t.args, t.annots + (annot,), t.neg)
+    return Struct(t.functor, t.args, put_annot(t.annots, annot), t.neg)
 
 
 @STDLIB.action(".add_annot", min_args=3, max_args=3)
@@ -33,7 +34,7 @@ def _nest(ctx: IAContext, t: Term, source: Term) -> Term:
     inner = tuple(a for a in t.annots if type(a) is Struct and a.functor == "source")
     rest = tuple(a for a in t.annots if a not in inner)
     src = Struct("source", (source,), inner)
-    return Struct(t.functor, t.args, rest + (src,), t.neg)
+    return Struct(t.functor, t.args, put_annot(rest, src), t.neg)
 
 
 @STDLIB.action(".add_nested_source", min_args=3, max_args=3)

@@ -39,7 +39,7 @@ def state_term(it: Intention) -> Term:
 
 def _im_term(im: IntendedMeans) -> Term:
     plan = im.plan
-    label = plan.plabel or Struct("l__0")
+    label = plan.plabel or Struct("p__0")
     annots = (Struct("code_line", (plan.line,)), Struct("code_src", (plan.file,)),
               *(Struct("source", (s,)) for s in plan.sources))
     body = _body_text(plan.src.body) if plan.src is not None else ""

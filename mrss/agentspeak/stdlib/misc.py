@@ -195,9 +195,26 @@ def concat(ctx: IAContext, args: list[Any]) -> bool:
     return ctx.unify(args[-1], "".join(string_arg(ctx, p) for p in parts))
 
 
-@STDLIB.action(".substring", min_args=2, max_args=3)
+@STDLIB.action(".substring", min_args=2, max_args=4)
 def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """`.substring(S, T[, Pos])`: S occurs in T (at each position Pos, on backtracking)."""
+    """`.substring(S, T[, Pos])`: S occurs in T (at each position Pos, on backtracking).
+    As Jason 3.1 (stdlib/substring.java): `.substring(X, T, Start[, End])` with X free
+    gives X the text of T from Start to End (T's end by default), and with T free
+    (`.substring("a(10,20)", X, 5, 7)`, kept by Jason for compatibility) the other way
+    round; with neither free, End is ignored."""
+    first, second = deref(args[0]), deref(args[1])
+    start_at = deref(args[2]) if len(args) > 2 else None
+    if type(start_at) in (int, float) and (type(first) is Var or type(second) is Var):
+        out, text = (args[0], string_arg(ctx, second)) if type(first) is Var else \
+            (args[1], string_arg(ctx, first))
+        end = deref(args[3]) if len(args) > 3 else None
+        begin = int(start_at)  # type: ignore[arg-type]
+        stop = int(end) if type(end) in (int, float) else len(text)  # type: ignore[arg-type]
+        if not 0 <= begin <= stop <= len(text):
+            raise ctx.error(f"no text from {begin} to {stop} in {text!r}")
+        if ctx.unify(out, text[begin:stop]):
+            yield
+        return
     sub = string_arg(ctx, args[0])
     whole = string_arg(ctx, args[1])
     start = whole.find(sub)

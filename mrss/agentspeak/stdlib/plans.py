@@ -15,6 +15,7 @@ from mrss.agentspeak.planterms import plan_term_text
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
 from mrss.agentspeak.syntax import PlanSrc
+from mrss.agentspeak.termorder import sort_annots
 from mrss.agentspeak.terms import (
     AnnotTail,
     Expr,
@@ -24,6 +25,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Trigger,
+    Var,
     VarAnnot,
     deref,
     fresh_var,
@@ -68,7 +70,7 @@ def add_plan(ctx: IAContext, args: list[Any]) -> bool:
     plans: list[Plan] = []
     for item in _items(args[0]):
         src = _source_of(ctx, item)
-        if src.label is not None and src.label.functor.startswith("l__"):
+        if src.label is not None and src.label.functor.startswith("p__"):
             src = replace(src, label=None)  # an automatic label: the library gives a new one
         old = rt.plans.labelled(src.label) if src.label is not None else None
         if old is not None:
@@ -111,8 +113,15 @@ def plan_term(plan: Plan, sources: bool) -> PlanTerm:
     when `sources`)."""
     annots = tuple(plan.src.annots)
     if sources:
-        annots += tuple(Struct("source", (s,)) for s in plan.sources)
+        annots = sort_annots(annots + tuple(Struct("source", (s,)) for s in plan.sources))
     return PlanTerm(replace(plan.src, label=plan.plabel, annots=annots), True)
+
+
+def full_label(plan: Plan) -> Struct:
+    """The plan's label as Jason gives it: its annotations and sources, sorted."""
+    label: Struct = plan.plabel  # type: ignore[assignment]
+    annots = tuple(plan.src.annots) + tuple(Struct("source", (s,)) for s in plan.sources)
+    return Struct(label.functor, label.args, sort_annots(annots), label.neg)
 
 
 @STDLIB.action(".relevant_plans", min_args=2, max_args=3)
@@ -120,21 +129,23 @@ def relevant_plans(ctx: IAContext, args: list[Any]) -> bool:
     """`.relevant_plans({+!g}, Plans)` and `.relevant_plans({+!g}, Plans, Labels)`: the
     plans whose trigger unifies with the event, in library order."""
     ev = deref(args[0])
-    if type(ev) is not Trigger or type(deref(ev.lit)) is not Struct:
+    if type(ev) is not Trigger or type(deref(ev.lit)) not in (Struct, Var):
         raise ctx.error(f"expected a triggering event such as {{+!g}}, not {term_str(ev)}")
     lit = deref(ev.lit)
     rt = ctx.runtime
     trail = rt.trail
     found: list[Plan] = []
-    for plan in rt.plans.relevant(ev.op, lit) or []:  # type: ignore[arg-type]
+    if type(lit) is Var:  # `{+!_}`: every plan of that kind of event, as Jason's
+        found = [p for p in rt.plans.plans if p.op == ev.op]
+    for plan in rt.plans.relevant(ev.op, lit) or [] if type(lit) is Struct else []:
         mark = len(trail)
         if unify(plan.trigger, [None] * plan.nslots, lit, trail):
             found.append(plan)
         undo(trail, mark)
-    if not ctx.unify(args[1], tuple(plan_term(p, False) for p in found)):
+    if not ctx.unify(args[1], tuple(plan_term(p, True) for p in found)):
         return False
     if len(args) > 2:
-        labels = tuple(p.plabel for p in found if p.plabel is not None)
+        labels = tuple(full_label(p) for p in found if p.plabel is not None)
         return ctx.unify(args[2], labels)
     return True
 
@@ -153,8 +164,9 @@ def relevant_plan(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         mark = len(trail)
         ok = unify(plan.trigger, [None] * plan.nslots, lit, trail)
         undo(trail, mark)
-        if ok and ctx.unify(args[1], plan_term(plan, False)) and (
-                len(args) < 3 or (plan.plabel is not None and ctx.unify(args[2], plan.plabel))):
+        if ok and ctx.unify(args[1], plan_term(plan, True)) and (
+                len(args) < 3 or (plan.plabel is not None
+                                  and ctx.unify(args[2], full_label(plan)))):
             yield
         undo(trail, mark)
 

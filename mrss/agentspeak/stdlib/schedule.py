@@ -8,6 +8,7 @@ from typing import Any
 from mrss.agentspeak.intentions import Event
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
+from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import ADD_ACH, Struct, Trigger, deref, is_number, term_str, value
 
 # Jason's time units in `.at("now +3 minutes", ...)`, in seconds
@@ -47,7 +48,7 @@ def at(ctx: IAContext, args: list[Any]) -> bool:
     lit = ev.lit
     if ev.op == ADD_ACH and not any(type(a) is Struct and a.functor == "source"
                                     for a in lit.annots):
-        lit = Struct(lit.functor, lit.args, lit.annots + (Struct("source",
-                                                                 (Struct("self"),)),), lit.neg)
+        lit = Struct(lit.functor, lit.args,
+                     add_annot(lit.annots, Struct("source", (Struct("self"),))), lit.neg)
     rt.add_event_at(rt.clock() + delay, Event(ev.op, lit, None))
     return True
