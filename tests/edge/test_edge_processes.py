@@ -138,8 +138,13 @@ def test_edge_processes_with_embedded_broker_survive_a_broker_kill(
         wait_until(lambda: delivered("a1"), timeout=30, interval=0.3,
                    message=f"MQTT -> percept\n{processes.logs()}")
 
+        written = url_file.stat().st_ino
         processes.kill("broker")
         processes.start("broker")  # incarnation 2: same URL from the run folder
+        # its start is over when it writes the URL file again (a new file, replaced in):
+        # only then is it the one serving, and ready for the SIGTERM of the teardown
+        wait_until(lambda: url_file.is_file() and url_file.stat().st_ino != written,
+                   timeout=40, message=f"broker incarnation 2 started\n{processes.logs()}")
         wait_until(lambda: delivered("a2"), timeout=40, interval=0.3,
                    message=f"MQTT -> percept after broker restart\n{processes.logs()}")
         assert url_file.read_text().strip() == url

@@ -73,6 +73,11 @@ class Supervised:
             return [e for e in self.events
                     if e.event == event and (child is None or e.child == child)]
 
+    def of_child(self, child: str) -> list[SupEvent]:
+        """Every supervision event about `child`, in the order heard."""
+        with self._lock:
+            return [e for e in self.events if e.child == child]
+
     def tree(self, timeout: float = 20.0) -> dict[str, Any]:
         """The root's tree, asked for over the bus now (a fresh answer). Asked while a
         chaos test kills components, the bus proxy among them, on a loaded machine: the
