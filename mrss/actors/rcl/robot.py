@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -251,11 +252,16 @@ class RobotActor(SupervisedActor):
                 ref.tell(StopSkill(urgent=True))
             except pykka.ActorDeadError:
                 pass  # that skill has just ended
-        futures = [ref.stop(block=False) for ref in refs]
-        try:
-            pykka.get_all(futures, timeout=self.layer.interrupt_timeout)
-        except pykka.Timeout:
+        # A skill actor stops itself once its worker has returned (_WorkerDone): wait for
+        # that, not for the actor alone, so that no worker of this incarnation is still
+        # between two link commands when the next one resumes the action from the journal.
+        deadline = time.monotonic() + self.layer.interrupt_timeout
+        busy = [ref for ref in refs
+                if not ref.actor_stopped.wait(max(0.0, deadline - time.monotonic()))]
+        if busy:
             log.error("robot %s: skills still busy at shutdown; abandoned", self.robot)
+            for ref in busy:
+                ref.stop(block=False)
 
     # -- events in ------------------------------------------------------------------------
     def _start(self, msg: StartAction) -> None:
