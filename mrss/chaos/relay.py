@@ -44,6 +44,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Self
 
 Address = tuple[str, int]
 Upstream = Callable[[], Address | None]
@@ -118,7 +119,6 @@ class Impairments:
             return None
         return (self.strongest(Impairment.DELAY) or 0.0) + (reorder_hold if held else 0.0)
 
-
     def tcp_fate(self, reset_share: float = RESET_SHARE) -> TcpFate:
         """For one chunk of TCP bytes under the `loss` on now: passes, stalled or reset."""
         loss = self.strongest(Impairment.LOSS) or 0.0
@@ -137,9 +137,38 @@ class TcpFate(StrEnum):
     RESET = "reset"  # the connection dropped
 
 
-class UdpRelay:
+class _Relay:
+    """What both relays share: a daemon thread running `_run` until `close`, which then
+    closes the relay's sockets (`_close_sockets`)."""
+
+    name = "chaos-relay"
+
+    def __init__(self) -> None:
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=self.name, daemon=True)
+
+    def start(self) -> Self:
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5)
+        self._close_sockets()
+
+    def _run(self) -> None:
+        raise NotImplementedError
+
+    def _close_sockets(self) -> None:
+        raise NotImplementedError
+
+
+class UdpRelay(_Relay):
     """A UDP relay: a client (the RCL's link) sends to `address`; datagrams go to the
     upstream (the simulator) and its answers back to the last client heard."""
+
+    name = "chaos-udp-relay"
 
     def __init__(self, upstream: Upstream, impairments: Impairments,
                  host: str = "127.0.0.1") -> None:
@@ -154,18 +183,9 @@ class UdpRelay:
         self._client: Address | None = None
         self._queue: list[tuple[float, int, socket.socket, bytes, Address]] = []
         self._seq = 0
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="chaos-udp-relay",
-                                        daemon=True)
+        super().__init__()
 
-    def start(self) -> UdpRelay:
-        self._thread.start()
-        return self
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5)
+    def _close_sockets(self) -> None:
         self.front.close()
         self.back.close()
 
@@ -221,8 +241,10 @@ class UdpRelay:
             self.counts["send_failed"] += 1
 
 
-class TcpRelay:
+class TcpRelay(_Relay):
     """A TCP relay: each connection to `address` is joined to a new one to the upstream."""
+
+    name = "chaos-tcp-relay"
 
     def __init__(self, upstream: Upstream, impairments: Impairments,
                  host: str = "127.0.0.1") -> None:
@@ -238,24 +260,15 @@ class TcpRelay:
         self.reset_share = RESET_SHARE  # ... or its connection is reset, this share of them
         self._lock = threading.Lock()
         self._sockets: set[socket.socket] = set()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._accept, name="chaos-tcp-relay",
-                                        daemon=True)
+        super().__init__()
 
-    def start(self) -> TcpRelay:
-        self._thread.start()
-        return self
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5)
+    def _close_sockets(self) -> None:
         self.listener.close()
         with self._lock:
             for s in list(self._sockets):
                 _close(s)
 
-    def _accept(self) -> None:
+    def _run(self) -> None:  # accept connections until closed
         while not self._stop.is_set():
             try:
                 client, _ = self.listener.accept()
