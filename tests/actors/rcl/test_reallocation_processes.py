@@ -24,6 +24,7 @@ from mrss.messages import (
     FailureCause,
     Percept,
     RobotData,
+    RobotState,
     TaskAllocation,
 )
 from mrss.sim.uav import DEFAULT_HOME
@@ -171,17 +172,52 @@ def test_an_rcl_killed_between_award_and_skill_start_keeps_one_holder_per_task(
     wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
                message="the restarted RCL speaks")
     gate.touch()
-    k1, k2 = system.ended("k1"), None
-    wait_until(lambda: any(s.state.terminal for s in system.statuses("k2")), timeout=30,
-               message="k2 ended")
-    k2 = next(s for s in system.statuses("k2") if s.state.terminal)
-    # the decommission was the old incarnation's: after the restart uav2 takes k2
+    k1, k2 = system.ended("k1"), system.ended("k2")
+    # the decommission is journaled: uav2 stays out after the restart, so k2 (nearer
+    # uav2) waits for uav1 to finish k1
+    assert any(e.inc == 2 and isinstance(e.body, RobotState) and e.body.robot == "uav2"
+               and not e.body.available for e in list(system.seen))
     assert (k1.state, k1.robot, k1.progress["by"]) == (ActionState.SUCCEEDED, "uav1", "uav1")
-    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav1")
     assert [a.robot for a in system.awards("k1")] == ["uav1"]  # never awarded twice
-    assert [a.robot for a in system.awards("k2")] == ["uav2"]
+    assert [a.robot for a in system.awards("k2")] == ["uav1"]
     for uuid in ("k1", "k2"):  # one holder: every status names the same robot (or none)
-        assert {s.robot for s in system.statuses(uuid)} - {""} == {k1.robot if uuid == "k1"
-                                                                   else k2.robot}
+        assert {s.robot for s in system.statuses(uuid)} - {""} == {"uav1"}
     with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
+
+
+@pytest.mark.slow
+def test_an_rcl_killed_between_a_robots_loss_and_the_reaward_keeps_one_holder(
+        system: System) -> None:
+    system.pub.publish(Command(command="decommission", target="uav2"))
+    wait_until(lambda: not system.available("uav2"), timeout=20, message="uav2 out")
+    system.sweep("l1", steps=40, near="uav1")
+    assert system.awarded("l1").robot == "uav1"
+    wait_until(lambda: system.step("l1") >= 2, timeout=20, message="uav1 swept 2 strips")
+    # uav1 lost too (the operator's decommission, a loss that outlives the restart):
+    # no robot can take l1, it waits
+    system.pub.publish(Command(command="decommission", target="uav1"))
+    wait_until(lambda: any(s.state is ActionState.PENDING and not s.robot
+                           for s in system.statuses("l1")), timeout=30,
+               message="l1 given back by uav1")
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT robot, lost FROM tasks").fetchall() == [("", '["uav1"]')]
+    kept = system.step("l1")
+
+    kill(system.sup, "rcl")  # SIGKILL between the loss and the re-award
+    wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
+               message="the restarted RCL speaks")
+    system.pub.publish(Command(command="recommission", target="uav2"))
+    done = system.ended("l1", timeout=60)
+    assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert [a.robot for a in system.awards("l1")] == ["uav1", "uav2"]  # once each
+    assert system.awards("l1")[1].why.startswith("reassigned from uav1 (lost)")
+    resumed = next(s for s in system.statuses("l1") if s.progress.get("by") == "uav2")
+    assert resumed.progress["first"] == kept  # from where uav1 stopped
+    holders = [s.robot for s in system.statuses("l1")]  # never two: a change goes via ""
+    changes = [(a, b) for a, b in zip(holders, holders[1:], strict=False) if a != b]
+    assert all("" in pair for pair in changes), changes
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT robot FROM actions WHERE uuid='l1'").fetchone() == ("uav2",)
         assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
