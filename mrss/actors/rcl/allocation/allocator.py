@@ -127,7 +127,8 @@ class Allocator:
             return
         task = Task.of(request)
         self.check_capable(task)
-        self.book.opened(request, requester)  # journaled before anything is decided
+        self.book.opened(request, requester,  # journaled before anything is decided
+                         f"waiting for {task.describe()}")
         self._open_task(OpenTask(request, requester, task, self.clock()))
 
     def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
@@ -144,6 +145,11 @@ class Allocator:
                  f" again ({open_task.lost_from} lost it)" if open_task.lost_from else "",
                  open_task.task.describe())
         self._wake.set()
+
+    def withdraw(self, uuid: str) -> bool:
+        """The task's action ended while it waited (cancelled, failed): no more rounds."""
+        with self._lock:
+            return self._open.pop(uuid, None) is not None
 
     def check_capable(self, task: Task) -> None:
         """ActionError unless some configured robot has every capability `task` asks."""
