@@ -41,6 +41,9 @@ from mrss.errors import BusError
 from mrss.messages import Envelope, IncarnationKey, SupEvent
 
 log = logging.getLogger("mrss.bus.mesh")
+# The envelope's `cred` as msgpack writes it: the key, then bin 8 of 16 bytes.
+CRED_FIELD = b"\xa4cred\xc4\x10"
+MAX_PROVEN = 4096  # (peer, src, inc, cred) proofs remembered; then start over
 
 
 class Border:
@@ -51,6 +54,8 @@ class Border:
         self.own = own
         self._peers: dict[str, IncarnationKey] = {}
         self._counts: dict[str, Incarnations] = {}  # per peer: counted in refusal_counts
+        # (peer, src, inc, its cred) -> our cred: each proof checked and minted once
+        self._proven: dict[tuple[str, str, int, bytes], bytes] = {}
 
     def learn(self, peer: str, key_hex: str) -> None:
         """Peer `peer` (authenticated as it) runs with the incarnation key `key_hex`."""
@@ -67,6 +72,7 @@ class Border:
                 log.info("node %s: node %s runs with a new incarnation key (its root "
                          "supervisor restarted)", self.me, peer)
             self._peers[peer] = key
+            self._proven = {k: v for k, v in self._proven.items() if k[0] != peer}
 
     def knows(self, peer: str) -> bool:
         return peer in self._peers
@@ -85,13 +91,21 @@ class Border:
             self._refuse(peer, env, f"inc {env.inc}, before node {peer}'s incarnation "
                                     "key was heard")
             return None
-        if env.inc > 0 and not key.vouches(env.src, env.inc, env.cred):
-            self._refuse(peer, env, f"inc {env.inc}, {'a wrong' if env.cred else 'no'} "
-                                    f"credential from node {peer}")
-            return None
+        ours = b""
+        if env.inc > 0:
+            ours = self._prove(peer, key, own, env)
+            if not ours:
+                self._refuse(peer, env, f"inc {env.inc}, {'a wrong' if env.cred else 'no'} "
+                                        f"credential from node {peer}")
+                return None
+            if announced is None:  # the common case: swap the 16 bytes in place
+                at = payload.rfind(CRED_FIELD + env.cred)
+                if at >= 0:
+                    start = at + len(CRED_FIELD)
+                    return payload[:start] + ours + payload[start + len(ours):]
         message: dict[str, Any] = msgpack.unpackb(payload, raw=False)
         if env.inc > 0:
-            message["cred"] = own.credential(env.src, env.inc)
+            message["cred"] = ours
         if announced is not None:
             child, inc, cred = announced
             detail = message["body"]["detail"]
@@ -100,6 +114,19 @@ class Border:
             else:  # the local rule refuses it as unproven (and counts it)
                 detail.pop("cred", None)
         return bytes(msgpack.packb(message, use_bin_type=True))
+
+    def _prove(self, peer: str, key: IncarnationKey, own: IncarnationKey,
+               env: Envelope) -> bytes:
+        """Our credential for env's (src, inc) if `key` proves its own; else b""."""
+        seen = (peer, env.src, env.inc, env.cred)
+        ours = self._proven.get(seen)
+        if ours is None:
+            if not key.vouches(env.src, env.inc, env.cred):
+                return b""
+            if len(self._proven) >= MAX_PROVEN:
+                self._proven.clear()
+            ours = self._proven[seen] = own.credential(env.src, env.inc)
+        return ours
 
     def _refuse(self, peer: str, env: Envelope, detail: str) -> None:
         counter = self._counts.get(peer)
