@@ -17,7 +17,8 @@ Between nodes the bus proxies translate at the border (mrss.bus.mesh):
 * a claim the peer's key does not prove (or any claim before the peer's key is known)
   is refused at the border and counted, like any refusal, in this process's
   `refusal_counts` (the proxy's `Rejections` report); an announcement it does not prove
-  passes without its credential, so the local rule refuses (and counts) it as unproven.
+  passes without its credential, so the local rule refuses (and counts) it as unproven;
+  a peer whose beats carry no key (an older release) is warned of once.
 
 So a forged heartbeat with a huge `inc`, sent to any node's local bus, is refused on
 every node; a recording of another run (another key on every node) proves nothing; and
@@ -56,10 +57,18 @@ class Border:
         self._counts: dict[str, Incarnations] = {}  # per peer: counted in refusal_counts
         # (peer, src, inc, its cred) -> our cred: each proof checked and minted once
         self._proven: dict[tuple[str, str, int, bytes], bytes] = {}
+        self._keyless: set[str] = set()
 
     def learn(self, peer: str, key_hex: str) -> None:
         """Peer `peer` (authenticated as it) runs with the incarnation key `key_hex`."""
-        if self.own is None or not key_hex:
+        if self.own is None:
+            return
+        if not key_hex:
+            if peer not in self._keyless:  # once: a node of an older release
+                self._keyless.add(peer)
+                log.warning("node %s: node %s sends no incarnation key (an older release "
+                            "of mrss?): what its components claim is refused here until "
+                            "it runs this release too", self.me, peer)
             return
         try:
             key = IncarnationKey(bytes.fromhex(key_hex), f"node {peer}")

@@ -7,6 +7,7 @@ field's key was heard, is refused and counted; a claim of nobody passes as it ca
 
 from __future__ import annotations
 
+import logging
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -35,7 +36,9 @@ def folder() -> Iterator[Path]:
         shutil.rmtree(path, ignore_errors=True)
 
 
-def test_a_peers_proofs_enter_re_minted_and_its_forgeries_are_refused(folder: Path) -> None:
+def test_a_peers_proofs_enter_re_minted_and_its_forgeries_are_refused(
+        folder: Path, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.WARNING, logger="mrss.bus.mesh")
     keys = folder / "keys"
     for node in ("base", "field"):
         generate(keys, node)
@@ -82,6 +85,10 @@ def test_a_peers_proofs_enter_re_minted_and_its_forgeries_are_refused(folder: Pa
                percept("nobody(1)", "mrss-send", 0, b"")],
               lambda: taken("nobody(1)"), "an unclaimed percept")
         assert not taken("early(1)")
+        keyless = NodeBeat(node="field", boot="b1", components=["beacon"])  # older release
+        until([list(encode(keyless, src="node.field"))],
+              lambda: "sends no incarnation key" in caplog.text, "a keyless peer warned of")
+        assert not mesh.proxy.border.knows("field")
         beat = NodeBeat(node="field", boot="b1", components=["beacon"],
                         key=theirs.export())
         until([list(encode(beat, src="node.field"))],
