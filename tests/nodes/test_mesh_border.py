@@ -3,7 +3,9 @@ MeshThread with base's incarnation key, and field as a raw CurveZMQ peer holding
 field's node key and an incarnation key of its own. What field proves with its key
 enters base re-minted with base's key (a keyed subscriber on base believes it, and its
 `sup.start` announcement); a claim field's key does not prove, or any claim before
-field's key was heard, is refused and counted; a claim of nobody passes as it came."""
+field's key was heard, is refused and counted; a claim of nobody passes as it came; a
+peer without a key (an older release) is warned of; when field's root runs again with a
+new key, a proof of its last run (a recording of another run) is refused."""
 
 from __future__ import annotations
 
@@ -116,6 +118,19 @@ def test_a_peers_proofs_enter_re_minted_and_its_forgeries_are_refused(
         assert door.live("beacon") == 2
         assert refusal_counts()[UNPROVEN.format("beacon")] >= 3  # early(1), forged(1, 2)
         assert mesh.proxy.border.refused >= 3
+
+        # field's root runs again with a new key: what its last run proved proves nothing
+        again = IncarnationKey(b"g" * 32)
+        refused = mesh.proxy.border.refused
+        until([list(encode(NodeBeat(node="field", boot="b2", components=["beacon"],
+                                    key=again.export()), src="node.field")),
+               percept("old(3)", "beacon", 3, theirs.credential("beacon", 3)),
+               percept("nobody(3)", "mrss-send", 0, b"")],
+              lambda: taken("nobody(3)") and mesh.proxy.border.refused > refused,
+              "the last run's proof refused")
+        until([percept("new(3)", "beacon", 3, again.credential("beacon", 3))],
+              lambda: taken("new(3)"), "the new run's proof believed")
+        assert not taken("old(3)")
     finally:
         peer.close(0)
         ctx.term()
