@@ -5,7 +5,8 @@
    With network faults in the plan, a relay is put in each simulated robot's link first
    (mrss.chaos.network): the system finds it where it would find the robot. A project on
    `[nodes]` runs each node in a network namespace of its own (mrss.chaos.netns): the
-   RCL's node in the run folder, each peer in `nodes/<name>/` of it, started after it.
+   RCL's node in the run folder, each peer in `nodes/<name>/` of it, started after it;
+   with `node_delay` in the plan, relays between the nodes first (mrss.chaos.node_relays).
 2. After `warmup` seconds the faults of the seeded plan are injected at their times
    while the project's operator traffic runs; timed faults are healed when they are over.
 3. Once the last fault is over the traffic stops and the system is probed every second
