@@ -202,10 +202,10 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
-    # may claim an incarnation"). Not with [nodes] yet: each node's root has its own.
-    key = None if node else IncarnationKey.create(run_dir)
-    if key is not None:
-        endpoints = endpoints.keyed(key.path)
+    # may claim an incarnation"). With [nodes], each node's root has its own, and the
+    # nodes' proxies translate proofs at the border (mrss/bus/border.py).
+    key = IncarnationKey.create(run_dir)
+    endpoints = endpoints.keyed(key.path)
     publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
     to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
     outbox = None

@@ -285,12 +285,15 @@ class SupEvent(Message):
 class NodeBeat(Message):
     """A node is alive: sent by its bus proxy to every peer node (never to local
     subscribers). `boot` is random per proxy start, so two processes running as one node
-    are told apart; `components` are the node's component ids."""
+    are told apart; `components` are the node's component ids; `key` is the hex of the
+    node's incarnation key, for the peer's border (mrss/bus/border.py; "": none). Beats
+    travel only on the CurveZMQ links between nodes, encrypted."""
 
     kind: ClassVar[str] = "node.beat"
     node: str
     boot: str
     components: list[str] = field(default_factory=list)
+    key: str = field(default="", repr=False)
 
     def topic(self) -> str:
         return f"node.beat.{self.node}"
