@@ -11,6 +11,9 @@ Every environment action the agent executes gets a uuid and goes to the RCL as a
   an error reply or a timeout fails the action.
 - `give_up(Goal, Reason, Cause)` tells the operator the goal is given up for good
   (mrss.actors.reasoner.give_up) and succeeds at once.
+- `ask_operator(Question, Choices, Answer, Timeout, Default)` (what `.ask_operator`
+  hands over) asks the operator (mrss.actors.reasoner.questions): it waits for the
+  answer, journaled, not for the RCL.
 
 A blocked intention never waits forever:
 - reconciliation: every `reconcile` seconds while actions wait, the host asks the RCL for
@@ -55,6 +58,7 @@ from mrss.actors.reasoner.messages import (
     goal_management_control,
     plain_arg,
 )
+from mrss.actors.reasoner.questions import OperatorQuestions, is_question
 from mrss.agentspeak import Struct, term_str
 from mrss.agentspeak.literals import term as term_text
 from mrss.errors import MrssError
@@ -139,6 +143,7 @@ class ReasonerHost:
         self._left: dict[str, list[str]] = {}  # literal -> uuids a predecessor left
         self.adopted = 0
         self.give_ups = GiveUps(None)  # the reasoner sets one that publishes
+        self.questions: OperatorQuestions | None = None  # the reasoner sets them
 
     # ------------------------------------------------------------ the agent's side
     def execute(self, action: Struct, intention_id: int) -> Hashable:
@@ -148,6 +153,8 @@ class ReasonerHost:
             return self._query(action)
         if is_give_up(action):
             return self.give_up(action, str(getattr(self.agent, "name", "")))
+        if is_question(action):
+            return self.ask(action, str(getattr(self.agent, "name", "")))
         request = action_request(action)
         now = self._clock()
         handle = request.uuid
@@ -188,8 +195,17 @@ class ReasonerHost:
         log.info("action %s adopts %s, left by a previous incarnation", request.literal, old)
         return dataclasses.replace(request, uuid=old)
 
+    def ask(self, action: Struct, agent: str) -> Hashable:
+        """`ask_operator(...)` of the agent named `agent`: the intention waits for the
+        operator's answer."""
+        if self.questions is None:
+            raise MrssError("ask_operator: this reasoner has no question journal")
+        return self.questions.ask(action, agent)
+
     def cancel(self, handle: Hashable) -> None:
         """The intention waiting on `handle` was dropped: the RCL cancels the action."""
+        if self.questions is not None and self.questions.withdraw(handle):
+            return
         with self._lock:
             uuid = self._handles.pop(str(handle), None)
             latch = self._latches.pop(uuid, None) if uuid is not None else None
@@ -246,6 +262,12 @@ class ReasonerHost:
                            error=FailureCause.TRANSIENT.value if transient else None)
             return
         self._complete(handle, True, result=text)
+
+    def complete(self, handle: Hashable, ok: bool, reason: str | None = None,
+                 result: str | Struct | None = None) -> None:
+        """Release the intention waiting on `handle` (any thread)."""
+        if self.agent is not None:
+            self.agent.complete_action(handle, ok, reason, result=result)
 
     def _complete(self, handle: str, ok: bool, reason: str | None = None,
                   result: str | None = None, error: str | None = None) -> None:
