@@ -313,6 +313,9 @@ class MrssApp(App[None]):
     def on_note(self, note: Note) -> None:
         self.say(note.text, error=note.error)
 
+    def on_map_panel_shape_drawn(self, event: MapPanel.ShapeDrawn) -> None:
+        self.steering.open_command_with(event.kind, event.text)
+
     def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
         self.row_details.open_row(event)
 
