@@ -16,6 +16,10 @@ and messages to:
 - `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach;
 - `AnswerDesk` (`answers.py`): the agent's questions (`O`) and the operator's answers.
 Their bindings and `action_*` methods stay here, where Textual looks for them.
+
+One idea in one module: the app is the hub Textual reads (bindings, message handlers,
+actions), each a line or two handing over to the idea that does the work; cutting it
+would scatter the keys a reader looks for in one place.
 """
 
 from __future__ import annotations
