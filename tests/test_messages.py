@@ -55,6 +55,11 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("node.beat", "boot"): nonempty,
     ("agent.gave_up", "agent"): nonempty,
     ("agent.gave_up", "goal"): nonempty,
+    ("question", "id"): nonempty,
+    ("question.answer", "id"): nonempty,
+    ("question.answer", "answer"): nonempty,
+    ("question.answer", "by"): nonempty,
+    ("question.answer", "request"): nonempty,
 }
 
 

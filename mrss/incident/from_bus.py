@@ -24,7 +24,9 @@ from mrss.messages import (
     EventReport,
     GoalGaveUp,
     Message,
+    OperatorQuestion,
     Percept,
+    QuestionState,
     RobotState,
     SupEvent,
     SupEventKind,
@@ -33,9 +35,9 @@ from mrss.messages import (
 
 #: The bus topics a recorder subscribes to: everything `Classifier` may record.
 TOPICS = ("action.request", "action.status", "action.allocation", "rel.action.", "percept",
-          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.")
+          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.", "question.")
 SEEN = 10_000  # envelope ids remembered: the reliable channel may deliver one again
-QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot"})  # a dashboard's polling
+QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot", "questions"})  # a dashboard's polling
 ENDED = {ActionState.SUCCEEDED: Level.INFO, ActionState.FAILED: Level.WARNING,
          ActionState.CANCELLED: Level.INFO}
 SUP_LEVELS = {SupEventKind.RESTART: Level.WARNING, SupEventKind.EXIT: Level.WARNING,
@@ -92,6 +94,8 @@ class Classifier:
                                              "message": body.message})
         if isinstance(body, RobotState):
             return self._robot(body, ts, src)
+        if isinstance(body, OperatorQuestion):
+            return self._question(body, ts, src)
         if isinstance(body, SupEvent):
             return self.supervision(body, ts, src)
         return None
@@ -182,3 +186,23 @@ class Classifier:
         return Entry(ts, IncidentKind.ROBOT, f"{body.robot} lost: {why}", subject=body.robot,
                      level=Level.ALERT, source=src,
                      detail={"link": body.link.value, "available": body.available})
+
+    def _question(self, body: OperatorQuestion, ts: float, src: str) -> Entry | None:
+        if body.repeat:
+            return None  # asked again for a late dashboard, or adopted after a restart
+        detail = {"id": body.id, "state": body.state.value, "choices": body.choices,
+                  "answer": body.answer, "deadline": body.deadline}
+        if body.state is QuestionState.PENDING:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.agent} asks {body.question!r} "
+                         f"({' / '.join(body.choices)})", subject=body.id,
+                         level=Level.ALERT, source=src, detail=detail)
+        if body.state is QuestionState.ANSWERED:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} answered "
+                         f"{body.answer!r} by {body.by}", subject=body.id, source=src,
+                         who=body.by, detail=detail)
+        if body.state is QuestionState.TIMED_OUT:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} timed out: default "
+                         f"answer {body.answer!r}", subject=body.id, level=Level.WARNING,
+                         source=src, detail=detail)
+        return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} withdrawn by the agent",
+                     subject=body.id, source=src, detail=detail)

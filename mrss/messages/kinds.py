@@ -24,12 +24,14 @@ from mrss.messages.closed_sets import (
     CONTROL_TARGETS,
     ActionState,
     AllocationState,
+    AnswerVerdict,
     ControlCommand,
     ControlTarget,
     EventStatus,
     FailureCause,
     GiveUpReason,
     LinkState,
+    QuestionState,
     SupEventKind,
     WaitReason,
 )
@@ -452,13 +454,81 @@ class TaskAllocation(Message):
             raise DecodeError(f"unknown wait reason {self.wait!r}")
 
 
+@dataclass(frozen=True)
+class OperatorQuestion(Message):
+    """A question an agent asks the operator (`.ask_operator`), as it stands now: sent on
+    each transition and again (`repeat`) when a dashboard asks (`ctl.questions`).
+    `deadline` is wall-clock time (0: none); `answer` and `by` once it is not pending."""
+
+    kind: ClassVar[str] = "question"
+    id: str
+    agent: str
+    question: str
+    choices: list[str]
+    state: QuestionState
+    default: str = ""
+    deadline: float = 0.0
+    asked_at: float = 0.0
+    answer: str = ""
+    by: str = ""
+    answered_at: float = 0.0
+    repeat: bool = False
+
+    def __post_init__(self) -> None:
+        _closed(self, state=QuestionState)
+
+    def validate(self) -> None:
+        _nonempty(self.id, "id")
+        if self.state not in frozenset(QuestionState):
+            raise DecodeError(f"unknown question state {self.state!r} (one of "
+                              f"{', '.join(QuestionState)})")
+
+    def topic(self) -> str:
+        return f"question.{self.agent}"
+
+
+@dataclass(frozen=True)
+class QuestionAnswer(Message):
+    """An operator's answer to a question: sent again until an `AnswerReply` with its
+    `request` comes (the reasoner answers a repeat as it answered the first)."""
+
+    kind: ClassVar[str] = "question.answer"
+    id: str
+    answer: str
+    by: str
+    request: str
+
+    def validate(self) -> None:
+        for name in ("id", "answer", "by", "request"):
+            _nonempty(getattr(self, name), name)
+
+
+@dataclass(frozen=True)
+class AnswerReply(Message):
+    """The reasoner's word on an answer: taken, or why not (in `message`)."""
+
+    kind: ClassVar[str] = "question.reply"
+    request: str
+    id: str
+    verdict: AnswerVerdict
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        _closed(self, verdict=AnswerVerdict)
+
+    def validate(self) -> None:
+        if self.verdict not in frozenset(AnswerVerdict):
+            raise DecodeError(f"unknown answer verdict {self.verdict!r}")
+
+
 KINDS: dict[str, type[Message]] = {
     cls.kind: cls
     for cls in (
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
-        Command, EventReport, Rejections, GoalGaveUp, TaskAllocation,
+        Command, EventReport, Rejections, GoalGaveUp, TaskAllocation, OperatorQuestion,
+        QuestionAnswer, AnswerReply,
     )
 }
 

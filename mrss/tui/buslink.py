@@ -22,9 +22,10 @@ from mrss.world.topics import wm_reply_topic
 # `percept` (hotspots found, for the alerts), `edge.rejections` (the input each
 # component refused) and `agent.` (goals the agent gave up: `GoalGaveUp`); and the
 # world model's answers to the dashboard's own `wm.list` (for the map), on
-# `dl.reply.wm.<src>` (`wm_reply_topic`).
+# `dl.reply.wm.<src>` (`wm_reply_topic`); the agent's questions and the replies to
+# answers (`question.`).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "edge.rejections", "agent.")
+            "edge.rejections", "agent.", "question.")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 BATCH = 2_000  # messages taken per turn of the loop
 

@@ -22,9 +22,11 @@ from mrss.config.operator import GoalState
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
+    AnswerReply,
     DataReply,
     Envelope,
     MindSnapshot,
+    OperatorQuestion,
     Rejections,
     RobotData,
     RobotState,
@@ -38,6 +40,7 @@ from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
+from mrss.tui.models.questions import QuestionsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
@@ -62,6 +65,7 @@ class Changes:
     panels: set[str] = field(default_factory=set)
     lines: list[LogEntry] = field(default_factory=list)
     mind: Mind | None = None
+    replies: list[AnswerReply] = field(default_factory=list)  # to this dashboard's answers
 
 
 @dataclass(frozen=True)
@@ -76,6 +80,7 @@ class Models:
     map_model: MapModel
     topics: TopicsModel
     liveness: Liveness
+    questions: QuestionsModel
 
 
 class BusIntake:
@@ -158,6 +163,10 @@ class BusIntake:
             elif isinstance(body, Rejections):
                 m.supervision.apply_rejections(body)
                 dirty.update(("supervision", "alerts"))  # the counts, the alert's text
+            elif isinstance(body, OperatorQuestion):
+                m.questions.apply(body)
+            elif isinstance(body, AnswerReply):
+                changes.replies.append(body)
             elif isinstance(body, MindSnapshot) and body.agent in ("", self.agent or body.agent):
                 changes.mind = Mind(body, env.ts, env.inc)
             line = log_line(env)

@@ -90,7 +90,8 @@ class Picture:
         and the status of every action shown open (it may have ended unseen)."""
         self.snapshots_asked += 1
         requests: list[Message] = [operator.tree_request(), operator.snapshot_request(),
-                                   operator.mind_request(self.agent)]
+                                   operator.mind_request(self.agent),
+                                   operator.questions_request()]
         shown_open = [v.uuid for v in self.actions.newest_first() if not v.terminal]
         if shown_open:
             requests.append(operator.status_query(shown_open))

@@ -20,7 +20,8 @@ from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 
 def commands(peer: Peer) -> list[Command]:
     """The operator commands the TUI sent (not its periodic tree and mind requests)."""
-    return [c for c in peer.received(Command) if c.command not in ("tree", "mind", "snapshot")]
+    return [c for c in peer.received(Command)
+            if c.command not in ("tree", "mind", "snapshot", "questions")]
 
 
 def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(

@@ -29,7 +29,9 @@ from mrss.messages import (
     Envelope,
     GoalGaveUp,
     LinkState,
+    OperatorQuestion,
     Percept,
+    QuestionState,
     Rejections,
     RobotData,
     RobotState,
@@ -59,12 +61,13 @@ class AlertKind(StrEnum):
     RULE = "rule"  # a project's own rule (`[[alerts]]`): the alert carries the rule's name
     NO_GO = "inside a no-go zone"  # the geofence found the robot stopped there: leaving
     TRAPPED = "trapped in a no-go zone"  # ... and every way out crosses another zone
+    QUESTION = "question"  # the agent waits for the operator's answer (`.ask_operator`)
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
               AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET, AlertKind.NO_GO,
-              AlertKind.TRAPPED)
-SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
+              AlertKind.TRAPPED, AlertKind.QUESTION)
+SEVERE = (AlertKind.QUESTION, AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
           AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN,
           AlertKind.TRAPPED)
 #: The geofence's percepts (mrss.actors.datalayer.geofence) and the alert each raises.
@@ -153,6 +156,11 @@ def refusal_text(report: Rejections) -> str:
     return text
 
 
+def question_text(q: OperatorQuestion) -> str:
+    """A pending question on the strip: what is asked, the choices, the key to answer."""
+    return f"{q.agent} asks {q.question!r} ({' / '.join(q.choices)}): O to answer"
+
+
 def gave_up_text(report: GoalGaveUp) -> str:
     """`budget_exhausted (last cause: link_down)`."""
     return f"{report.reason.value} (last cause: {report.cause or 'none'})"
@@ -191,6 +199,9 @@ class AlertsModel:
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []
+        if isinstance(body, OperatorQuestion):
+            return self._condition(AlertKind.QUESTION, body.id, body.state is
+                                   QuestionState.PENDING, question_text(body), env.ts)
         if isinstance(body, GoalGaveUp):
             return [self._event(AlertKind.GOAL_GAVE_UP, f"{body.agent}: {body.goal}",
                                 gave_up_text(body), env.ts)]

@@ -30,7 +30,7 @@ from mrss.tui.models.logfilter import LogEntry, LogFilter, LogFilterError, level
 from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 MAX_LINES = 2000
-QUIET_COMMANDS = ("mind", "tree", "snapshot")  # the dashboard's own polling
+QUIET_COMMANDS = ("mind", "tree", "snapshot", "questions")  # the dashboard's own polling
 LEVEL_STYLES = {"DEBUG": "dim", "INFO": "", "WARNING": "yellow", "ERROR": "bold red",
                 "CRITICAL": "bold red"}
 SUP_STYLES = {"start": "green", "restart": "yellow", "exit": "red", "hang": "bold red",
