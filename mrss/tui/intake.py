@@ -29,6 +29,7 @@ from mrss.messages import (
     RobotData,
     RobotState,
     SupEvent,
+    TaskAllocation,
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
@@ -40,6 +41,7 @@ from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
+from mrss.tui.models.tasks import TasksModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.widgets.alerts_strip import alert_line
 from mrss.tui.widgets.log_pane import log_line
@@ -76,6 +78,7 @@ class Models:
     map_model: MapModel
     topics: TopicsModel
     liveness: Liveness
+    tasks: TasksModel = field(default_factory=TasksModel)
 
 
 class BusIntake:
@@ -139,6 +142,8 @@ class BusIntake:
             elif isinstance(body, ActionRequest):
                 m.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")
+            elif isinstance(body, TaskAllocation):
+                self._allocation(body, env.ts, changes)
             elif isinstance(body, RobotState):
                 m.robots.apply_state(body)
                 dirty.add("robots")
@@ -177,6 +182,20 @@ class BusIntake:
         if "actions" in dirty:
             dirty.add("mission")  # its goals' actions
         return changes
+
+    def _allocation(self, body: TaskAllocation, ts: float, changes: Changes) -> None:
+        """A task's award or wait: its row's holder and reason; a hand-over from a lost
+        robot is an alert (and so a log line)."""
+        m = self.models
+        change = m.tasks.apply(body, ts)
+        changes.panels.update(("actions", "robots"))
+        if change is None:
+            return
+        lost = m.robots.robots.get(change.lost_from)
+        alert = m.alerts.reassigned(change.subject, change.lost_from, change.robot, ts,
+                                    lost.reason if lost is not None else "")
+        changes.panels.add("alerts")
+        changes.lines.append(alert_line(alert, ts))
 
     def _world_reply(self, reply: DataReply) -> None:
         if not reply.ok:
