@@ -73,11 +73,10 @@ class ActionsTable(KeyedTable):
         robot, state = view.robot, view.shown_state
         task = self.tasks.tasks.get(view.uuid)
         if task is not None and not view.terminal and not waits:
-            reason = task.why(self._unavailable)
             if task.state is AllocationState.WAITING:
-                robot, state = task.role, "waiting"
-            else:
-                robot = robot or task.robot
+                robot, state, reason = task.role, "waiting", task.why(self._unavailable)
+            else:  # its holder; why it won, unless its status says more (reassigning ...)
+                robot, reason = task.robot, view.reason or task.why(self._unavailable)
         shown = (view.name or "?", robot, view.goal, state, reason,
                  view.progress_text(), "" if age is None else age_text(age))
         cached = self._cells.get(view.uuid)
