@@ -7,10 +7,11 @@ with a real link per robot and the reasoner. Once every robot is available the b
 sends as many goals every 10 s as there are robots (spread evenly over the 10 s), each
 addressed to a role, as many to `uav` as there are UAVs and to `ugv` as UGVs (a percept
 `assign(Kind, Seq)`: the agent's `goto(any([Kind]), Seq)`, awarded by the RCL's
-allocation to a free robot of that kind). Each size runs twice, at the shipped defaults (no scheduling keys) and tuned
-(the opt-in realtime of `fleet_project.Scheduling.TUNED`), each for `WINDOWS` windows one
-after the other (`mrss.bench.fleet_table`: worst window, share meeting the targets).
-For each window it measures:
+allocation to a free robot of that kind). Each size runs twice, at the shipped
+defaults (no scheduling keys) and tuned (the opt-in realtime of
+`fleet_project.Scheduling.TUNED`), each for `WINDOWS` windows one after the other
+(`mrss.bench.fleet_table`: worst window, share meeting the targets). For each window it
+measures:
 
 * percept -> skill start p50/p99: CLOCK_MONOTONIC at the skill's `start()` minus the
   same clock just before the bench published the percept (the allocation's award
