@@ -36,16 +36,10 @@ from mrss.config.alerts import AlertRule
 from mrss.config.map import MapConfig
 from mrss.config.operator import OperatorConfig
 from mrss.messages import Envelope, Percept
-from mrss.tui import decommission, gc_tuning
+from mrss.tui import gc_tuning
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import RowDetails
-from mrss.tui.events import (
-    READONLY_NOTICE,
-    BusActivity,
-    MissionRequested,
-    Note,
-    SendRequested,
-)
+from mrss.tui.events import READONLY_NOTICE, BusActivity, MissionRequested, Note, SendRequested
 from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
@@ -58,7 +52,6 @@ from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
-from mrss.tui.models.tasks import TasksModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.ops import OperatorTools
 from mrss.tui.palette import MrssCommands
@@ -153,7 +146,6 @@ class MrssApp(App[None]):
         self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel(rules=alert_rules)
         self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
-        self.tasks = TasksModel()  # tasks addressed to a role: holders, bids, hand-overs
         self.incident = IncidentFeed.for_endpoints(endpoints)  # the run's record, on attach
         # the dashboard's ideas, each with its own state (above: the models)
         self.picture = Picture(self, self.link, liveness=self.liveness,
@@ -163,8 +155,7 @@ class MrssApp(App[None]):
                                on_end=self._system_ended)
         self.intake = BusIntake(
             self, self.link, Models(self.actions, self.robots, self.supervision, self.goals,
-                                    self.alerts, self.map_model, self.topics, self.liveness,
-                                    self.tasks),
+                                    self.alerts, self.map_model, self.topics, self.liveness),
             agent=agent, min_refresh=min_refresh, deliver=self._deliver,
             system_event=self.picture.system_event)
         self.redraws = Redraws(self, table_every=2 * min_refresh, clock=clock)
@@ -175,8 +166,7 @@ class MrssApp(App[None]):
         self.row_details = RowDetails(self, self.say, actions=self.actions,
                                       goals=self.goals, robots=self.robots,
                                       supervision=self.supervision,
-                                      restart_budget=restart_budget, clock=clock,
-                                      tasks=self.tasks)
+                                      restart_budget=restart_budget, clock=clock)
         self.tools = OperatorTools(self, self.say, readonly=readonly, endpoints=endpoints,
                                    topics=self.topics, alerts=self.alerts, mission=mission,
                                    open_area_form=self.steering.open_area_form)
@@ -220,11 +210,10 @@ class MrssApp(App[None]):
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
-            yield RobotsTable(self.robots, self.goals, id="robots")
+            yield RobotsTable(self.robots, self.goals, self.actions, id="robots")
             yield MapPanel(self.map_model, id="map")
         with Horizontal(id="middle"):
-            yield ActionsTable(self.actions, tasks=self.tasks, robots=self.robots,
-                               id="actions")
+            yield ActionsTable(self.actions, robots=self.robots, id="actions")
             yield MissionPanel(self.goals, self.actions, id="mission")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
@@ -397,11 +386,6 @@ class MrssApp(App[None]):
 
     def open_area_form(self) -> None:
         self.steering.open_area_form()
-
-    def decommission_request(self, robot: str) -> SendRequested:
-        """What `d` on the robots table sends for `robot` (decommission.py)."""
-        return decommission.request(robot, robots=self.robots, actions=self.actions,
-                                    tasks=self.tasks)
 
     def open_actions_of(self, robot: str) -> list[str]:
         return self.steering.open_actions_of(robot)

@@ -16,7 +16,7 @@ from mrss.messages import Command
 from mrss.tui.events import SendRequested
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.robots import RobotsModel
-from mrss.tui.models.tasks import TasksModel, task_label
+from mrss.tui.models.tasks import task_label
 from mrss.tui.operator import OperatorError
 
 SHOWN = 6  # tasks or actions named in the question (the rest counted)
@@ -29,9 +29,10 @@ def command(robot: str, out: bool) -> Command:
     return Command(command="decommission" if out else "recommission", target=robot)
 
 
-def request(robot: str, *, robots: RobotsModel, actions: ActionsModel,
-            tasks: TasksModel) -> SendRequested:
-    """The request `d` makes for `robot`: its question names what it changes."""
+def request(robot: str, *, robots: RobotsModel, actions: ActionsModel) -> SendRequested:
+    """The request `d` makes for `robot`: its question names what it changes (the tasks
+    among its open actions: `actions.tasks`)."""
+    tasks = actions.tasks
     known = robots.robots.get(robot)
     out = not (known is not None and known.decommissioned)
     if not out:

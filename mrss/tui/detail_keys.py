@@ -13,7 +13,6 @@ from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
-from mrss.tui.models.tasks import TasksModel
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.mission_panel import MissionPanel
@@ -29,7 +28,7 @@ class RowDetails:
     def __init__(self, app: App[None], say: Say, *, actions: ActionsModel,
                  goals: GoalsModel, robots: RobotsModel, supervision: SupervisionModel,
                  restart_budget: tuple[int, float] | None,
-                 clock: Callable[[], float], tasks: TasksModel | None = None) -> None:
+                 clock: Callable[[], float]) -> None:
         self.app = app
         self.say = say
         self.actions = actions
@@ -38,7 +37,6 @@ class RowDetails:
         self.supervision = supervision
         self.restart_budget = restart_budget  # the root's (intensity, period), if known
         self.clock = clock
-        self.tasks = tasks or TasksModel()
 
     def open_row(self, event: StripTable.RowSelected) -> None:
         """Enter on a row: the detail screen of that action, goal, component or robot."""
@@ -46,13 +44,13 @@ class RowDetails:
         table = event.table
         screen: DetailScreen | None = None
         if isinstance(table, ActionsTable):
-            screen = ActionDetail(self.actions, key, self.tasks, clock=self.clock)
+            screen = ActionDetail(self.actions, key, clock=self.clock)
         elif isinstance(table, MissionPanel):
             last = self.goals.last_action(key, self.actions)
             if last is None:
                 self.say(f"goal {key} has no action yet")
                 return
-            screen = ActionDetail(self.actions, last.uuid, self.tasks, clock=self.clock)
+            screen = ActionDetail(self.actions, last.uuid, clock=self.clock)
         elif isinstance(table, SupervisionTable):
             screen = ComponentDetail(self.supervision, key,
                                      self.app.query_one(LogPane).lines_text,

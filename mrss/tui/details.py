@@ -34,7 +34,7 @@ from mrss.messages import AllocationState
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.robots import HISTORY_SECONDS, RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
-from mrss.tui.models.tasks import TasksModel, TaskView
+from mrss.tui.models.tasks import TaskView
 
 LOG_TAIL = 12
 SPARK_SERIES = (("battery", "battery %"), ("altitude", "altitude m"), ("tank", "tank L"))
@@ -102,11 +102,9 @@ class ActionDetail(DetailScreen):
     """One action, its request and its history; a task addressed to a role, its
     allocation too (every bid published, its holders)."""
 
-    def __init__(self, model: ActionsModel, uuid: str, tasks: TasksModel | None = None,
-                 **kw: Any) -> None:
+    def __init__(self, model: ActionsModel, uuid: str, **kw: Any) -> None:
         super().__init__(f"Action {uuid}", **kw)
         self.model, self.uuid = model, uuid
-        self.tasks = tasks or TasksModel()
 
     def body(self) -> Text:
         view = self.model.actions.get(self.uuid)
@@ -125,7 +123,7 @@ class ActionDetail(DetailScreen):
             _pairs(text, [(f"  {k}", v) for k, v in sorted(view.progress.items())])
         else:
             text.append("  none reported\n", "dim")
-        task = self.tasks.tasks.get(self.uuid)
+        task = self.model.tasks.tasks.get(self.uuid)
         if task is not None:
             _allocation(text, task)
         text.append("\ntimeline (when, state, who, why)\n", "bold")

@@ -41,7 +41,6 @@ from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
-from mrss.tui.models.tasks import TasksModel
 from mrss.tui.models.topics import TopicsModel
 from mrss.tui.widgets.alerts_strip import alert_line
 from mrss.tui.widgets.log_pane import log_line
@@ -78,7 +77,6 @@ class Models:
     map_model: MapModel
     topics: TopicsModel
     liveness: Liveness
-    tasks: TasksModel = field(default_factory=TasksModel)
 
 
 class BusIntake:
@@ -187,7 +185,7 @@ class BusIntake:
         """A task's award or wait: its row's holder and reason; a hand-over from a lost
         robot is an alert (and so a log line)."""
         m = self.models
-        change = m.tasks.apply(body, ts)
+        change = m.actions.tasks.apply(body, ts)
         changes.panels.update(("actions", "robots"))
         if change is None:
             return

@@ -159,8 +159,8 @@ def test_decommission_key_asks_naming_the_tasks_handed_on_then_toggles_back(
                                       name="recharge", goal="b1"))
             peer.publish(TaskAllocation(uuid="t" * 32, state=AllocationState.AWARDED,
                                         robot="uav1", name="cover", goal="a1"))
-            await until(pilot, lambda: has_row(table, "uav1") and "t" * 32 in app.tasks.tasks
-                        and len(app.actions.actions) == 2, message="robot, task, action")
+            await until(pilot, lambda: has_row(table, "uav1") and len(app.actions.actions) == 2
+                        and "t" * 32 in app.actions.tasks.tasks, message="robot, task, action")
             table.focus()
             await pilot.press("d")
             screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)

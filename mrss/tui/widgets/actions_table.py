@@ -22,7 +22,6 @@ from mrss.tui import operator
 from mrss.tui.events import Note, SendRequested
 from mrss.tui.models.actions import ActionsModel, ActionView
 from mrss.tui.models.robots import RobotsModel
-from mrss.tui.models.tasks import TasksModel
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 
 STATE_STYLES = {
@@ -43,12 +42,11 @@ class ActionsTable(KeyedTable):
         Binding("r", "control('resume')", "Debug resume"),
     ]
 
-    def __init__(self, model: ActionsModel, *, tasks: TasksModel | None = None,
-                 robots: RobotsModel | None = None, id: str | None = None) -> None:
+    def __init__(self, model: ActionsModel, *, robots: RobotsModel | None = None,
+                 id: str | None = None) -> None:
         super().__init__(id=id)
         self.model = model
-        self.tasks = tasks or TasksModel()
-        self.robots = robots or RobotsModel()
+        self.robots = robots or RobotsModel()  # an unavailable robot's reason
         self._cells: dict[str, tuple[tuple[str, ...], tuple[Text, ...]]] = {}
 
     MAX_ROWS = 200  # the newest; drawing more costs the operator responsiveness
@@ -71,7 +69,7 @@ class ActionsTable(KeyedTable):
         waits = view.waiting_for()
         reason = f"waits for {waits}" if waits else view.reason
         robot, state = view.robot, view.shown_state
-        task = self.tasks.tasks.get(view.uuid)
+        task = self.model.tasks.tasks.get(view.uuid)
         if task is not None and not view.terminal and not waits:
             if task.state is AllocationState.WAITING:
                 robot, state, reason = task.role, "waiting", task.why(self._unavailable)

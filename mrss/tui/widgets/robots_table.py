@@ -8,8 +8,9 @@ from typing import ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss.config.operator import OperatorCommand, teleop_payload
-from mrss.tui import operator
+from mrss.tui import decommission, operator
 from mrss.tui.events import MissionRequested, Note, SendRequested
+from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel, RobotView
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
@@ -36,11 +37,12 @@ class RobotsTable(KeyedTable):
         Binding("d", "decommission", "Decommission / recommission"),
     ]
 
-    def __init__(self, model: RobotsModel, goals: GoalsModel | None = None, *,
-                 id: str | None = None) -> None:
+    def __init__(self, model: RobotsModel, goals: GoalsModel | None = None,
+                 actions: ActionsModel | None = None, *, id: str | None = None) -> None:
         super().__init__(id=id)
         self.model = model
         self.goals = goals or GoalsModel()
+        self.actions = actions or ActionsModel()  # and their tasks: what `d` names
 
     def refresh_rows(self, now: float) -> None:
         self.show([self._row(view, now) for view in self.model.robots.values()])
@@ -95,11 +97,11 @@ class RobotsTable(KeyedTable):
         """`d`: take the selected robot out of service (its tasks go to others), or put
         a decommissioned one back; asks first."""
         robot = self.selected_key
-        decommission = getattr(self.app, "decommission_request", None)
-        if robot is None or not callable(decommission):
+        if robot is None:
             self.post_message(Note("no robot selected", error=True))
             return
-        self.post_message(decommission(robot))
+        self.post_message(decommission.request(robot, robots=self.model,
+                                               actions=self.actions))
 
     def action_show_on_map(self) -> None:
         """`g`: the map follows the selected robot (if it has sent a position)."""
