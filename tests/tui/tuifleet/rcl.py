@@ -24,7 +24,7 @@ class Patrol(Skill):
         self.legs = legs
 
     def run(self) -> bool:
-        done = int(self.progress.get("leg", 0))  # type: ignore[arg-type]
+        done = int(self.progress.get("leg", 0))
         while done < self.legs:
             if self.wait(0.5):
                 return False  # interrupted
@@ -45,5 +45,5 @@ class FleetRcl(RobotCommLayer):
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "patrol":
-            return [Patrol(int(action.args[2]))]  # type: ignore[call-overload]
+            return [Patrol(int(action.args[2]))]
         return super().refine_action(action)
