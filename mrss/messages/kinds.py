@@ -19,6 +19,7 @@ from enum import StrEnum
 from typing import Any, ClassVar
 
 from mrss.errors import DecodeError
+from mrss.messages import bid_reports
 from mrss.messages.closed_sets import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
@@ -226,7 +227,9 @@ class DataReply(Message):
 
 @dataclass(frozen=True)
 class RobotState(Message):
-    """A robot's availability and link state, as the RCL or a link sees it."""
+    """A robot's availability and link state, as the RCL or a link sees it; `cause`,
+    why an unavailable robot is (its actions fail with it: `decommissioned` when the
+    operator took it out of service), "" when available or not said."""
 
     kind: ClassVar[str] = "robot.state"
     robot: str
@@ -234,13 +237,16 @@ class RobotState(Message):
     link: LinkState = LinkState.UP
     reason: str = ""
     attributes: dict[str, JsonValue] = field(default_factory=dict)
+    cause: FailureCause = FailureCause.UNSPECIFIED
 
     def __post_init__(self) -> None:
-        _closed(self, link=LinkState)
+        _closed(self, link=LinkState, cause=FailureCause)
 
     def validate(self) -> None:
         if self.link not in _LINK_STATES:
             raise DecodeError(f"unknown link state {self.link!r}")
+        if self.cause not in _FAILURE_CAUSES:
+            raise DecodeError(f"unknown cause {self.cause!r}")
 
     def topic(self) -> str:
         return f"robot.{self.robot}.state"
@@ -432,7 +438,13 @@ class Rejections(Message):
 @dataclass(frozen=True)
 class TaskAllocation(Message):
     """Where a task addressed to a role stands: waiting (why, as an enum, and in words)
-    or awarded (to whom, and why that robot won)."""
+    or awarded (to whom, and why that robot won).
+
+    What the decision was made from, structured (mrss/messages/bid_reports.py): `bids`,
+    the robots' bids in rank order (at most `bid_reports.LIMIT`; `bidders` counts them
+    all), `evaluator` (the ranking's name), what the task asks (`capabilities`, `near`
+    [lat, lon] or []), and `lost_from`, the robot that lost it when an award hands it on
+    (a reassignment). `why` says the same in words, for logs."""
 
     kind: ClassVar[str] = "action.allocation"
     uuid: str
@@ -442,6 +454,12 @@ class TaskAllocation(Message):
     why: str = ""
     name: str = ""
     goal: str = ""
+    bids: list[dict[str, JsonValue]] = field(default_factory=list)
+    bidders: int = 0
+    evaluator: str = ""
+    capabilities: list[str] = field(default_factory=list)
+    near: list[float] = field(default_factory=list)
+    lost_from: str = ""
 
     def __post_init__(self) -> None:
         _closed(self, state=AllocationState, wait=WaitReason)
@@ -452,6 +470,9 @@ class TaskAllocation(Message):
             raise DecodeError(f"unknown allocation state {self.state!r}")
         if self.wait not in frozenset(WaitReason):
             raise DecodeError(f"unknown wait reason {self.wait!r}")
+        bid_reports.check(self.bids)
+        if self.near and len(self.near) != 2:
+            raise DecodeError(f"near must be [lat, lon] or [], not {self.near!r}")
 
 
 @dataclass(frozen=True)

@@ -222,10 +222,10 @@ class MrssApp(App[None]):
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
-            yield RobotsTable(self.robots, self.goals, id="robots")
+            yield RobotsTable(self.robots, self.goals, self.actions, id="robots")
             yield MapPanel(self.map_model, id="map")
         with Horizontal(id="middle"):
-            yield ActionsTable(self.actions, id="actions")
+            yield ActionsTable(self.actions, robots=self.robots, id="actions")
             yield MissionPanel(self.goals, self.actions, id="mission")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")

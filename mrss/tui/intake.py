@@ -31,6 +31,7 @@ from mrss.messages import (
     RobotData,
     RobotState,
     SupEvent,
+    TaskAllocation,
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
@@ -144,6 +145,8 @@ class BusIntake:
             elif isinstance(body, ActionRequest):
                 m.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")
+            elif isinstance(body, TaskAllocation):
+                self._allocation(body, env.ts, changes)
             elif isinstance(body, RobotState):
                 m.robots.apply_state(body)
                 dirty.add("robots")
@@ -186,6 +189,20 @@ class BusIntake:
         if "actions" in dirty:
             dirty.add("mission")  # its goals' actions
         return changes
+
+    def _allocation(self, body: TaskAllocation, ts: float, changes: Changes) -> None:
+        """A task's award or wait: its row's holder and reason; a hand-over from a lost
+        robot is an alert (and so a log line)."""
+        m = self.models
+        change = m.actions.tasks.apply(body, ts)
+        changes.panels.update(("actions", "robots"))
+        if change is None:
+            return
+        lost = m.robots.robots.get(change.lost_from)
+        alert = m.alerts.reassigned(change.subject, change.lost_from, change.robot, ts,
+                                    lost.reason if lost is not None else "")
+        changes.panels.add("alerts")
+        changes.lines.append(alert_line(alert, ts))
 
     def _world_reply(self, reply: DataReply) -> None:
         if not reply.ok:

@@ -37,7 +37,14 @@ from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import SetTeleop
 from mrss.errors import ActionError
 from mrss.links.failsafe import LinkDownCause, link_down_cause
-from mrss.messages import ActionState, LinkState, Message, RobotState, SupEvent
+from mrss.messages import (
+    ActionState,
+    FailureCause,
+    LinkState,
+    Message,
+    RobotState,
+    SupEvent,
+)
 from mrss.supervision import events as ev
 
 log = logging.getLogger("mrss.rcl")
@@ -191,11 +198,14 @@ class RobotAvailability:
         self.on_change()
         with self.actions.lock:
             reason = self._unavailable.get(robot, "")
-            link_down = self._unavailable_cause.get(robot) in LINK_CAUSES
+            end = self._unavailable_cause.get(robot)
+            link_down = end in LINK_CAUSES
+        cause = FailureCause(lc.FAILURE_OF.get(end, "")) if reason and end is not None \
+            else FailureCause.UNSPECIFIED
         try:
             self.publish(RobotState(robot=robot, available=not reason, reason=reason,
                                     link=LinkState.DOWN if link_down else LinkState.UP,
-                                    attributes=attrs))
+                                    attributes=attrs, cause=cause))
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)
 

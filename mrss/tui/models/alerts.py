@@ -8,12 +8,13 @@ condition, its text the latest counts, and so is a component whose restart budge
 (as its supervisor reports it in the tree) leaves at most one more restart. Events
 (hotspot found, component restarted, hung, quarantined, gave up; a mission goal
 failed for good, as the goals model reads it from the agent; a goal the agent gave up,
-as the reasoner reports it, `GoalGaveUp`: its agent, reason and last cause) raise one alert per
-subject, counted when they recur: a recurrence of an acknowledged alert raises it
-again. Acknowledging clears the highlight; every alert stays in the history; one alert
-can be acknowledged by its key (`acknowledge_one`). A project's own rules (`[[alerts]]`,
-`mrss.config.alerts`) are conditions on a telemetry field, named by the rule. Pure
-Python: no Textual.
+as the reasoner reports it, `GoalGaveUp`: its agent, reason and last cause; a task
+addressed to a role handed from a lost robot to another, as the RCL's allocator reports
+it: `reassigned`) raise one alert per subject, counted when they recur: a recurrence
+of an acknowledged alert raises it again. Acknowledging clears the highlight; every
+alert stays in the history; one alert can be acknowledged by its key
+(`acknowledge_one`). A project's own rules (`[[alerts]]`, `mrss.config.alerts`) are
+conditions on a telemetry field, named by the rule. Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class AlertKind(StrEnum):
     NO_GO = "inside a no-go zone"  # the geofence found the robot stopped there: leaving
     TRAPPED = "trapped in a no-go zone"  # ... and every way out crosses another zone
     QUESTION = "question"  # the agent waits for the operator's answer (`.ask_operator`)
+    REASSIGNED = "task reassigned"  # a lost robot's task went to another (models/tasks.py)
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
@@ -231,6 +233,13 @@ class AlertsModel:
         with the reason: the agent's, else its last action's."""
         text = " ".join(p for p in (f"({robot})" if robot else "", why) if p)
         return self._event(AlertKind.GOAL_FAILED, goal, text, ts)
+
+    def reassigned(self, task: str, lost_from: str, robot: str, ts: float,
+                   why: str = "") -> Alert:
+        """A task addressed to a role went from a lost robot to another
+        (`mrss.tui.models.tasks`): one alert per task, counted when it happens again."""
+        text = f"from {lost_from} to {robot}" + (f" ({lost_from}: {why})" if why else "")
+        return self._event(AlertKind.REASSIGNED, task, text, ts)
 
     def _budgets(self, tree: dict[str, Any], parent: str, ts: float) -> list[Alert]:
         """Each child whose next restart or the one after would exceed its budget (the

@@ -72,6 +72,12 @@ def test_a_task_goes_to_the_robot_that_finishes_it_first(rcl: Rcl) -> None:
     award = rcl.awarded("near-ugv2")
     assert award.robot == "ugv2"
     assert award.why.startswith("ugv2: finish in ") and "ugv1: finish in" in award.why
+    # the same decision, structured: every capable robot's bid in rank order
+    assert [b["robot"] for b in award.bids] == ["ugv2", "ugv1"]
+    assert award.bids[0]["unfit"] == "" and award.bids[0]["reserve"] == 20.0
+    assert award.bids[0]["finish_s"] < award.bids[1]["finish_s"]
+    assert (award.evaluator, award.capabilities, award.near, award.bidders) == \
+        ("quickest_finish", ["camera", "ugv"], [48.0095, 16.0], 2)
     done = rcl.ended("near-ugv2")
     assert (done.state, done.robot) == (ActionState.SUCCEEDED, "ugv2")
     rcl.request("near-ugv1", ["camera"], near=[48.0005, 16.0])  # uav1 stands there too:
@@ -93,6 +99,8 @@ def test_a_task_waits_while_every_capable_robot_is_busy_then_is_awarded(rcl: Rcl
                timeout=20, message="the next task waits")
     waiting = rcl.allocations("next")[0]
     assert waiting.wait is WaitReason.BUSY and "uav1 busy with priority 0" in waiting.why
+    assert [(b["robot"], b["unfit"], b["busy_priority"]) for b in waiting.bids] == \
+        [("uav1", "busy", 0)]
     assert not rcl.statuses("next")  # no robot has it yet
     rcl.tx.send(ActionControl(command=ControlCommand.CANCEL, target="long",
                               target_kind=ControlTarget.ACTION))
@@ -119,6 +127,8 @@ def test_a_higher_priority_task_preempts_and_a_low_battery_robot_is_passed_over(
                timeout=20, message="the far task waits")
     far = rcl.allocations("far")[0]
     assert far.wait is WaitReason.BATTERY and "below its reserve 20 %" in far.why
+    (bid,) = far.bids
+    assert (bid["unfit"], bid["reserve"]) == ("battery", 20.0) and bid["battery_after"] < 20
 
 
 @pytest.mark.slow

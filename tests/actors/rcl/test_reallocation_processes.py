@@ -99,6 +99,9 @@ def test_a_lost_robots_task_goes_to_another_that_goes_on_from_its_progress(
                    message="t1 awarded again")
         again = system.awards("t1")[1]
         assert again.robot == "uav2" and again.why.startswith("reassigned from uav1 (lost)")
+        assert again.lost_from == "uav1" and system.awards("t1")[0].lost_from == ""
+        assert [b["robot"] for b in again.bids] == ["uav2", "uav1"]
+        assert again.bids[1]["unfit"] == "unavailable"  # the lost one, still away
         percept = f"reassigned(sweep(any([uav], at({HOMES['uav1'][0]}, {HOMES['uav1'][1]})), " \
                   f"g_t1, 40), uav1, uav2)"  # after the award: the agent's event
         wait_until(lambda: percept in [p.literal for p in system.bodies(Percept)],
