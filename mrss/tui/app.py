@@ -31,6 +31,7 @@ from textual.containers import Horizontal
 from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
+from mrss.auth.store import Identity
 from mrss.bus import BusEndpoints
 from mrss.config.alerts import AlertRule
 from mrss.config.map import MapConfig
@@ -44,6 +45,7 @@ from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
 from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
+from mrss.tui.login import Login, LoginScreen
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
@@ -126,8 +128,9 @@ class MrssApp(App[None]):
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
                  map_config: MapConfig | None = None,
-                 quiet_gc: bool = False) -> None:
+                 quiet_gc: bool = False, login: Login | None = None) -> None:
         super().__init__()
+        self.login = login  # users configured: nothing shown or sent before a login
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -236,6 +239,23 @@ class MrssApp(App[None]):
         if self.readonly:
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
+        if self.login is not None and self.login.identity is None:
+            self.push_screen(LoginScreen(self.login, self.project), self._logged_in)
+        else:
+            self._watch()
+
+    def _logged_in(self, identity: Identity | None) -> None:
+        if identity is not None:
+            self._watch()
+
+    def _watch(self) -> None:
+        """Connect to the bus and show the system (after the login, if any): every
+        message sent carries the operator's session credential."""
+        if self.login is not None and self.login.identity is not None:
+            self.link.operator = self.login.credential
+            if self.mission is not None:
+                self.mission.credential = self.login.credential
+            self.sub_title = f"{self.login.identity}"
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))

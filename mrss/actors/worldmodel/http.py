@@ -39,9 +39,11 @@ from typing import Any, Protocol
 from urllib.parse import parse_qs, unquote, urlsplit
 
 from mrss.actors.worldmodel.store import Change, Position, WorldObject, WorldStoreUnavailable
+from mrss.auth.roles import CommandKind
 from mrss.edge.http_token import authorized
 from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.rejections import RejectionLog
+from mrss.runtime.operator_guard import OperatorGuard
 
 log = logging.getLogger("mrss.worldmodel.http")
 MAX_BODY = 1 << 20
@@ -203,8 +205,7 @@ class _Handler(BaseHTTPRequestHandler):
 
     def handle_expect_100(self) -> bool:
         """`Expect: 100-continue`: a request without the token is refused before its body."""
-        if not authorized(self.headers.get("Authorization"), self.server.token):
-            self._refuse_unauthorized(self.command or "?")
+        if not self._admitted(self.command or "?"):
             return False
         return bool(super().handle_expect_100())
 
@@ -219,9 +220,31 @@ class _Handler(BaseHTTPRequestHandler):
         self._answered = True
         super().end_headers()
 
-    def _dispatch(self, method: str) -> None:
-        if not authorized(self.headers.get("Authorization"), self.server.token):
+    def _admitted(self, method: str) -> bool:
+        """The project's token, or an operator whose role allows `method` (reads: every
+        role, writes: `WORLD_WRITE`); else refused (401, or 403 for a known operator)."""
+        header = self.headers.get("Authorization")
+        if authorized(header, self.server.token):
+            return True
+        guard = self.server.operators
+        scheme, _, bearer = (header or "").strip().partition(" ")
+        if guard is None or not guard.active or scheme.lower() != "bearer":
             self._refuse_unauthorized(method)
+            return False
+        kind = CommandKind.READ if method in ("GET", "HEAD") else CommandKind.WORLD_WRITE
+        path = urlsplit(self.path).path[:80]
+        verdict = guard.check(bearer.strip(), kind, f"{method} {path}",
+                              sender=self.client_address[0])
+        if verdict.ok:
+            return True
+        if "may not" in verdict.reason:
+            self._reply(HTTPStatus.FORBIDDEN, {"error": verdict.reason}, close=True)
+        else:
+            self._refuse_unauthorized(method)
+        return False
+
+    def _dispatch(self, method: str) -> None:
+        if not self._admitted(method):
             return
         self._body_read = False
         try:
@@ -342,12 +365,13 @@ class _Server(ThreadingHTTPServer):
                     exc_info=log.isEnabledFor(logging.DEBUG))
 
     def __init__(self, address: tuple[str, int], service: ObjectService, token: str | None,
-                 timeout_s: float) -> None:
+                 timeout_s: float, operators: OperatorGuard | None = None) -> None:
         if ":" in address[0]:
             self.address_family = socket.AF_INET6
         super().__init__(address, _Handler)
         self.service = service
         self.token = token
+        self.operators = operators  # the project's operators (mrss.runtime.operator_guard)
         self.timeout_s = timeout_s
         self.rejections = RejectionLog(log, "HTTP request")
 
@@ -361,10 +385,11 @@ class WorldModelHttp:
     """
 
     def __init__(self, service: ObjectService, host: str = "127.0.0.1", port: int = 0, *,
-                 token: str | None = None, timeout: float = DEFAULT_TIMEOUT) -> None:
+                 token: str | None = None, timeout: float = DEFAULT_TIMEOUT,
+                 operators: OperatorGuard | None = None) -> None:
         if timeout <= 0:
             raise ValueError("timeout must be positive")
-        self._server = _Server((host, port), service, token, timeout)
+        self._server = _Server((host, port), service, token, timeout, operators)
         self._thread = threading.Thread(target=self._server.serve_forever, args=(0.05,),
                                         name="worldmodel-http", daemon=True)
 
