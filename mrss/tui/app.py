@@ -255,7 +255,7 @@ class MrssApp(App[None]):
             self.link.operator = self.login.credential
             if self.mission is not None:
                 self.mission.credential = self.login.credential
-            self.sub_title = f"{self.login.identity}"
+            self.title = f"{self.title} · {self.login.identity}"
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))

@@ -62,6 +62,7 @@ class LoginScreen(Screen[Identity]):
     """
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("ctrl+q", "app.quit", "Leave", priority=True)]
+    AUTO_FOCUS = "#login-user"  # before the first frame: keys typed at once land there
 
     def __init__(self, login: Login, project: str) -> None:
         super().__init__()
@@ -76,14 +77,13 @@ class LoginScreen(Screen[Identity]):
             yield Input(placeholder="password or token", password=True, id="login-secret")
             yield Static("", id="login-error")
 
-    def on_mount(self) -> None:
-        self.query_one("#login-user", Input).focus()
-
     def on_input_submitted(self, event: Input.Submitted) -> None:
         user = self.query_one("#login-user", Input)
         secret = self.query_one("#login-secret", Input)
         if event.input is user:
-            secret.focus()
+            self.set_focus(secret)
+            self.query_one("#login-error", Static).update(
+                f"the password or token of {user.value.strip()}, then Enter")
             return
         try:
             identity = self.login.login(user.value, secret.value)

@@ -109,6 +109,8 @@ class Page:
         while not condition(self.screen):
             left = deadline - time.monotonic()
             if left <= 0:
+                if os.environ.get("MRSS_SCREENSHOT_DIR"):
+                    Path(os.environ["MRSS_SCREENSHOT_DIR"], "screen.txt").write_text(self.screen)
                 raise AssertionError(f"{what}: not on the page; its end: {self.screen[-600:]!r}")
             try:
                 self._event(await self.ws.receive_json(timeout=min(left, 1.0)))

@@ -70,14 +70,17 @@ def test_a_browser_logs_in_sees_the_robots_and_sends_a_command(tmp_path: Path) -
                 await page.call("Runtime.evaluate", expression=(
                     "document.querySelector('.xterm-helper-textarea').focus()"))
                 await page.type("cora")
-                await page.enter()
+                await page.until(lambda s: "cora" in s, "the user name typed")
+                await page.enter()  # typed on before the focus moved, keys would go astray
+                await page.until(lambda s: "the password or token of cora" in s,
+                                 "the password asked for")
                 await page.type("not-her-password")
                 await page.enter()
                 await page.until(lambda s: "wrong password or token for 'cora'" in s,
                                  "a wrong password refused")
                 await page.type(PASSWORDS["cora"])  # the secret field has the cursor again
                 await page.enter()
-                await page.until(lambda s: "cora (commander)" in s, "logged in as cora")
+                await page.until(lambda s: "MRSS · cora (commander)" in s, "logged in as cora")
                 await page.until(lambda s: "uav1" in s and "ugv1" in s, "the robots")
                 await page.type("H")  # all robots hold: asks first
                 await page.until(lambda s: "All robots hold?" in s, "the question")
