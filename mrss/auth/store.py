@@ -119,10 +119,8 @@ class OperatorStore:
         except OSError as exc:
             raise ConfigError(f"cannot read the operators file: {exc.strerror or exc}",
                               file=str(path)) from None
+        check_private(path, st)  # at every load: a chmod does not change the content
         return _load(str(path), st.st_mtime_ns, st.st_size, st.st_ino)
-
-    def _check_mode(self) -> None:
-        check_private(self.path)
 
     # -- who is who ------------------------------------------------------------------------
     def user(self, name: str) -> User:
@@ -193,9 +191,9 @@ def new_token() -> str:
     return TOKEN_PREFIX + secrets.token_urlsafe(32)
 
 
-def check_private(path: Path) -> None:
+def check_private(path: Path, st: os.stat_result | None = None) -> None:
     """ConfigError unless `path` is owned by this user and readable by nobody else."""
-    st = path.stat()
+    st = st or path.stat()
     if st.st_uid != os.geteuid():
         raise ConfigError(f"the operators file belongs to uid {st.st_uid}, not to this user "
                           f"({os.geteuid()}): refused", file=str(path))
@@ -209,7 +207,6 @@ def check_private(path: Path) -> None:
 def _load(path_text: str, mtime_ns: int, size: int, inode: int) -> OperatorStore:
     """The store at `path_text`, read again only when the file changed."""
     path = Path(path_text)
-    check_private(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

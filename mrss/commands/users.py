@@ -30,7 +30,7 @@ EXIT_USAGE = 2
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("project", help="project name (projects/<name>/)")
-    verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+    verbs = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     add = verbs.add_parser("add", help="add an operator, or give one a new secret")
     add.add_argument("name")
     add.add_argument("--role", required=True, choices=[r.value for r in Role])
@@ -50,13 +50,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         path = store_path(project_path(args.project))
         exists = path.exists()
-        if args.verb != "add" and not exists:
+        if args.action != "add" and not exists:
             print(f"mrss users: {args.project} has no users yet ({path} does not exist); "
                   f"add one with mrss users {args.project} add NAME --role commander",
                   file=sys.stderr)
             return EXIT_USAGE
         store = OperatorStore.load(path) if exists else OperatorStore.new(path)
-        if args.verb == "list":
+        if args.action == "list":
             for user in sorted(store.users.values(), key=lambda u: u.name):
                 kinds = [k for k, v in (("password", user.password), ("token", user.token))
                          if v]
@@ -65,12 +65,12 @@ def run(args: argparse.Namespace) -> int:
                 print(f"{user.name}  {user.role.value}  {'+'.join(kinds) or 'no secret'}"
                       f"{ends}")
             return 0
-        if args.verb == "remove":
+        if args.action == "remove":
             store = store.without_user(args.name)
             store.save()
             print(f"removed {args.name}")
             return 0
-        if args.verb == "set-role":
+        if args.action == "set-role":
             if args.name not in store.users:
                 store.without_user(args.name)  # says "no user ... did you mean"
             store = store.with_user(args.name, Role(args.role))
