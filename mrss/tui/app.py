@@ -13,8 +13,10 @@ and messages to:
 - `RowDetails` (`detail_keys.py`): the detail screen Enter opens on a row;
 - `OperatorTools` (`ops.py`): the Messages, log-line and alerts screens, recording;
 - `PanelLayout` (`layout.py`): the compact mode and the panel keys;
-- `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach.
-Their bindings and `action_*` methods stay here, where Textual looks for them.
+- `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach;
+- `log_in_first` (`login.py`): with users configured, the login before anything else.
+Their bindings and `action_*` methods stay here, where Textual looks for them:
+One idea in one module, the app wiring the parts; each part's logic is its own module.
 """
 
 from __future__ import annotations
@@ -31,7 +33,6 @@ from textual.containers import Horizontal
 from textual.css.query import NoMatches
 from textual.widgets import Footer, Header, Input, Static
 
-from mrss.auth.store import Identity
 from mrss.bus import BusEndpoints
 from mrss.config.alerts import AlertRule
 from mrss.config.map import MapConfig
@@ -45,7 +46,7 @@ from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
 from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
-from mrss.tui.login import Login, LoginScreen
+from mrss.tui.login import Login, log_in_first
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
@@ -239,23 +240,10 @@ class MrssApp(App[None]):
         if self.readonly:
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
-        if self.login is not None and self.login.identity is None:
-            self.push_screen(LoginScreen(self.login, self.project), self._logged_in)
-        else:
-            self._watch()
-
-    def _logged_in(self, identity: Identity | None) -> None:
-        if identity is not None:
-            self._watch()
+        log_in_first(self, self._watch)  # login.py: users configured, a login first
 
     def _watch(self) -> None:
-        """Connect to the bus and show the system (after the login, if any): every
-        message sent carries the operator's session credential."""
-        if self.login is not None and self.login.identity is not None:
-            self.link.operator = self.login.credential
-            if self.mission is not None:
-                self.mission.credential = self.login.credential
-            self.title = f"{self.title} · {self.login.identity}"
+        """Connect to the bus and show the system (after the login, if any)."""
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))

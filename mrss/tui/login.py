@@ -12,9 +12,10 @@ dashboard connects to the bus only after the login; a wrong one says why and sta
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 from textual.app import ComposeResult
 from textual.binding import Binding, BindingType
@@ -25,6 +26,9 @@ from textual.widgets import Input, Static
 from mrss.auth.sessions import mint, verify
 from mrss.auth.store import AuthError, Identity, OperatorStore
 from mrss.errors import ConfigError
+
+if TYPE_CHECKING:
+    from mrss.tui.app import MrssApp
 
 TOKEN_ENV = "MRSS_OPERATOR_TOKEN"
 
@@ -93,3 +97,27 @@ class LoginScreen(Screen[Identity]):
             self.query_one("#login-error", Static).update(f"not logged in: {exc}")
             return
         self.dismiss(identity)
+
+
+def log_in_first(app: MrssApp, start: Callable[[], None]) -> None:
+    """`start` the dashboard at once when the project has no users, else once its
+    operator logged in (at once with a token given); the operator's session credential
+    then goes with everything the dashboard sends, and the title names them."""
+    login = app.login
+    if login is None:
+        start()
+        return
+
+    def logged_in(identity: Identity | None) -> None:
+        if identity is None:
+            return
+        app.link.operator = login.credential
+        if app.mission is not None:
+            app.mission.credential = login.credential
+        app.title = f"{app.title} · {identity}"
+        start()
+
+    if login.identity is not None:
+        logged_in(login.identity)
+    else:
+        app.push_screen(LoginScreen(login, app.project), logged_in)

@@ -15,15 +15,19 @@ header line too long or too many headers), 501 (unknown method), 505 (HTTP/2 and
 Errors raised while reading the request close the connection.
 
 With a `token` (`mrss.edge.http_token`) every request must carry ``Authorization:
-Bearer <token>``. Each connection is served on its own thread with a socket timeout
-(`timeout`, 10 s): a client that stalls mid-request is answered 408 and dropped, and
-never delays another. The server goes through the same `ObjectService` as the bus, so
-rules fire for HTTP writes too.
+Bearer <token>``, or an operator's identity for what the role allows (403 otherwise:
+`http_admission`, with the project's operators). Each connection is served on its own
+thread with a socket timeout (`timeout`, 10 s): a client that stalls mid-request is
+answered 408 and dropped, and never delays another. The server goes through the same
+`ObjectService` as the bus, so rules fire for HTTP writes too.
 
 Refused requests (`REFUSED`: no valid token, bad input, a malformed request) are counted
 by (client address, status) in a `RejectionLog` ("HTTP request"), logged once per
 interval and reported with the component's other refusals (docs/edges.md); a flood of
 them is a few log lines, not one per request.
+
+One idea in one module: the conversation with one client (read, admit, route, answer),
+which the standard library's request handler keeps in one class.
 """
 
 from __future__ import annotations
@@ -38,9 +42,8 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Protocol
 from urllib.parse import parse_qs, unquote, urlsplit
 
+from mrss.actors.worldmodel.http_admission import admission
 from mrss.actors.worldmodel.store import Change, Position, WorldObject, WorldStoreUnavailable
-from mrss.auth.roles import CommandKind
-from mrss.edge.http_token import authorized
 from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.rejections import RejectionLog
 from mrss.runtime.operator_guard import OperatorGuard
@@ -221,27 +224,15 @@ class _Handler(BaseHTTPRequestHandler):
         super().end_headers()
 
     def _admitted(self, method: str) -> bool:
-        """The project's token, or an operator whose role allows `method` (reads: every
-        role, writes: `WORLD_WRITE`); else refused (401, or 403 for a known operator)."""
-        header = self.headers.get("Authorization")
-        if authorized(header, self.server.token):
-            return True
-        guard = self.server.operators
-        scheme, _, bearer = (header or "").strip().partition(" ")
-        if guard is None or not guard.active or scheme.lower() != "bearer":
+        """Whether the request may be served (`http_admission`); else it is answered."""
+        status, why = admission(self.headers.get("Authorization"), method,
+                                urlsplit(self.path).path[:80], self.client_address[0],
+                                self.server.token, self.server.operators)
+        if status == HTTPStatus.FORBIDDEN:
+            self._reply(status, {"error": why}, close=True)
+        elif status:
             self._refuse_unauthorized(method)
-            return False
-        kind = CommandKind.READ if method in ("GET", "HEAD") else CommandKind.WORLD_WRITE
-        path = urlsplit(self.path).path[:80]
-        verdict = guard.check(bearer.strip(), kind, f"{method} {path}",
-                              sender=self.client_address[0])
-        if verdict.ok:
-            return True
-        if "may not" in verdict.reason:
-            self._reply(HTTPStatus.FORBIDDEN, {"error": verdict.reason}, close=True)
-        else:
-            self._refuse_unauthorized(method)
-        return False
+        return not status
 
     def _dispatch(self, method: str) -> None:
         if not self._admitted(method):
