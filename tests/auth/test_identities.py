@@ -167,3 +167,24 @@ def test_the_world_model_api_takes_operators_identities_for_what_their_role_allo
         assert json.loads(json.dumps(server.rejections.stats()))  # the refusals counted
     finally:
         server.stop()
+
+
+def test_the_operators_credential_travels_in_the_envelope_and_never_into_a_recording(
+        tmp_path: Path) -> None:
+    from mrss.messages import Command, decode, encode
+    from mrss.recording.format import RecordedMessage
+    from mrss.recording.mcap_reader import McapRecording
+    from mrss.recording.mcap_writer import McapRecordingWriter
+
+    topic, payload = encode(Command("stop", target="p"), src="tui", op="s1:alice:1:2:3")
+    env = decode(topic, payload)
+    assert env.op == "s1:alice:1:2:3" and env.inc == 0
+    assert decode(*encode(Command("stop", target="p"), src="tui")).op == ""
+    with (tmp_path / "r.mcap").open("wb") as out:
+        writer = McapRecordingWriter(out, created=time.time())
+        writer.write(RecordedMessage(time.time(), (topic, payload)))
+        writer.finish()
+    with (tmp_path / "r.mcap").open("rb") as source:
+        (entry,) = list(McapRecording(source).entries())
+    assert entry.value()["src"] == "tui" and "op" not in entry.value()
+    assert b"s1:alice" not in entry.data
