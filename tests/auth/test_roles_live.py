@@ -7,6 +7,9 @@ what it may; the incident record names each command's author."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import threading
 from pathlib import Path
 
@@ -96,6 +99,14 @@ def test_each_component_refuses_what_the_senders_role_may_not_do(tmp_path: Path)
                    message="the operator's teleop executed")
         wait_until(lambda: watch.refused.get("rcl", 0) >= 4, timeout=30,
                    message="four refusals counted by the RCL")
+        # `mrss send` with an operator's personal token (MRSS_OPERATOR_TOKEN)
+        sent = subprocess.run([sys.executable, "-m", "mrss", "send", "--run-dir",
+                               str(run_dir), "teleop", "ugv1", "off"], capture_output=True,
+                              text=True, timeout=60,
+                              env={**os.environ, "MRSS_OPERATOR_TOKEN": otto_token})
+        assert sent.returncode == 0, sent.stderr
+        wait_until(lambda: watch.teleop.get("ugv1") is False, timeout=30,
+                   message="mrss send's teleop off executed")
 
         # the root supervisor: an observer's stop is refused, the system keeps running
         send(olga, Command("stop", target="tuimission"))
