@@ -14,7 +14,8 @@ and messages to:
 - `OperatorTools` (`ops.py`): the Messages, log-line and alerts screens, recording;
 - `PanelLayout` (`layout.py`): the compact mode and the panel keys;
 - `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach;
-- `AnswerDesk` (`answers.py`): the agent's questions (`O`) and the operator's answers.
+- `AnswerDesk` (`answers.py`): the agent's questions (`O`) and the operator's answers;
+- `log_in_first` (`login.py`): with users configured, the login before anything else.
 Their bindings and `action_*` methods stay here, where Textual looks for them.
 
 One idea in one module: the app is the hub Textual reads (bindings, message handlers,
@@ -50,6 +51,7 @@ from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
 from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
+from mrss.tui.login import Login, log_in_first
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
@@ -134,8 +136,9 @@ class MrssApp(App[None]):
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
                  map_config: MapConfig | None = None,
-                 quiet_gc: bool = False) -> None:
+                 quiet_gc: bool = False, login: Login | None = None) -> None:
         super().__init__()
+        self.login = login  # users configured: nothing shown or sent before a login
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -248,6 +251,10 @@ class MrssApp(App[None]):
         if self.readonly:
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
+        log_in_first(self, self._watch)  # login.py: users configured, a login first
+
+    def _watch(self) -> None:
+        """Connect to the bus and show the system (after the login, if any)."""
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))

@@ -37,6 +37,7 @@ class BusLink:
                  prefixes: tuple[str, ...] = PREFIXES) -> None:
         self.endpoints = endpoints
         self.src = src
+        self.operator = ""  # the session credential sent with each message (mrss.auth)
         self._prefixes = (*prefixes, wm_reply_topic(src))
         self._inbox: deque[Envelope] = deque(maxlen=INBOX_LIMIT)  # drops the oldest
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -96,9 +97,11 @@ class BusLink:
         return self._sub.welcomes if self._sub is not None else 0
 
     def publish(self, msg: Message, topic: str | None = None) -> str:
-        """Send one operator message (on `topic`, default its own); its id."""
+        """Send one operator message (on `topic`, default its own), with the logged-in
+        operator's session credential (`operator`); its id."""
         if self._pub is None:
             raise RuntimeError("the bus link is not started")
+        self._pub.operator = self.operator
         return self._pub.publish(msg, topic=topic)
 
     def close(self) -> None:

@@ -55,6 +55,7 @@ from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
+from mrss.runtime.operator_guard import OperatorGuard, percept_guard
 
 log = logging.getLogger("mrss.reasoner")
 
@@ -162,9 +163,13 @@ class ReasonerComponent(Component):
         from mrss.edge.robot_owners import RobotOwners
 
         owners = RobotOwners.of_project(ctx.project_dir, proven=bool(endpoints.key))
-        self._sub.start(owners.guard(reasoner.on_message))
+        # An operator's percept (from no supervised component) needs a credential whose
+        # role may send percepts, once the project has users (mrss.runtime.operator_guard)
+        operators = OperatorGuard(ctx.project_dir, log)
+        self._sub.start(percept_guard(operators, owners.guard(reasoner.on_message)))
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
-                                    channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
+                                    channel=PERCEPT_CHANNEL,
+                                    handler=percept_guard(operators, reasoner.on_message),
                                     incarnations=live)
         reasoner.start()
         log.info("%s: reasoning on %s (incarnation %d)", ctx.name,
