@@ -94,7 +94,7 @@ class Proc:
         start in a row that took longer (a slow or loaded host, a first run that
         compiles or migrates), at most START_PATIENCE_MAX times it; a start that
         reaches ready resets it."""
-        return self.spec.start.start_timeout * min(2 ** self.start_timeouts,
+        return self.spec.start.start_timeout * min(1 << min(self.start_timeouts, 8),
                                                     START_PATIENCE_MAX)
 
     @property
