@@ -126,7 +126,7 @@ class MrssApp(App[None]):
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
                  map_config: MapConfig | None = None,
-                 quiet_gc: bool = False) -> None:
+                 quiet_gc: bool = False, link: BusLink | None = None) -> None:
         super().__init__()
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
@@ -137,7 +137,7 @@ class MrssApp(App[None]):
         self.mission = mission
         self.project = project
         self.readonly = readonly
-        self.link = BusLink(endpoints)
+        self.link = link or BusLink(endpoints)  # a replay's link reads a recording
         self.goals = GoalsModel(self.operator_config.goals)  # the models: plain Python
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()

@@ -138,6 +138,13 @@ class LogPane(Vertical):
         if not self.following:
             self._subtitle()
 
+    def replace(self, entries: list[LogEntry]) -> None:
+        """Show `entries` instead of every line so far (a replay moved its cursor)."""
+        self._entries.clear()
+        self.view.clear()
+        self.missed = 0
+        self.add(entries)
+
     def note(self, text: str, *, error: bool = False) -> None:
         """A line from the TUI itself (what the operator did)."""
         stamp = time.strftime("%H:%M:%S")
