@@ -27,7 +27,13 @@ from mrss.messages import Envelope, MindSnapshot
 from mrss.tui.app import MrssApp
 from mrss.tui.intake import BusIntake, Mind
 from mrss.tui.redraws import SCHEDULED
-from mrss.tui.replay.index import MarkKind, ReplayIndex, fresh_models, restore
+from mrss.tui.replay.index import (
+    KEYFRAME_EVERY,
+    MarkKind,
+    ReplayIndex,
+    fresh_models,
+    restore,
+)
 from mrss.tui.replay.link import NO_BUS, ReplayLink
 from mrss.tui.replay.player import Player, PlayState
 from mrss.tui.replay.seek_form import SeekScreen
@@ -61,7 +67,7 @@ class ReplayApp(MrssApp):
     ]
 
     def __init__(self, tape: Tape, *, name: str, speed: float = 1.0, play: bool = True,
-                 **kwargs: Any) -> None:
+                 keyframe_every: int = KEYFRAME_EVERY, **kwargs: Any) -> None:
         player = Player(tape.frames, speed=speed)
         link = ReplayLink(f"replay of {name}")
         super().__init__(NO_BUS, link=link, readonly=True, clock=player.now,
@@ -75,7 +81,7 @@ class ReplayApp(MrssApp):
         shadow = BusIntake(self, ReplayLink(name), fresh_models(self.intake.models),
                            agent=self.intake.agent, min_refresh=0.0,
                            deliver=lambda _: None, system_event=lambda _e, _s: None)
-        self.index = ReplayIndex.build(tape.frames, shadow)
+        self.index = ReplayIndex.build(tape.frames, shadow, every=keyframe_every)
         self._last_step = time.monotonic()
 
     def compose(self) -> ComposeResult:
