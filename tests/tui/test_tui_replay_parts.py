@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import itertools
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -77,10 +78,11 @@ def write_mcap(path: Path, items: list[tuple[float, Message, str, str | None]]) 
 
 
 def comparable(app: ReplayApp) -> dict[str, Any]:
-    """The models' state, but the topic rates (per second of the wall clock), and with
-    counters by value."""
-    state = capture(app.intake.models)
-    del state["topics"]
+    """The models' state (a keyframe's), with counters by value; and the Messages
+    screen's topics (recounted at each seek)."""
+    state = pickle.loads(capture(app.intake.models))
+    state["topics"] = {topic: (stats.count, [e.id for e in stats.recent])
+                       for topic, stats in app.topics.topics.items()}
     return {name: {k: repr(v) if isinstance(v, itertools.count) else v
                    for k, v in attributes.items()} for name, attributes in state.items()}
 

@@ -32,6 +32,7 @@ from mrss.tui.replay.index import (
     MarkKind,
     ReplayIndex,
     fresh_models,
+    recount_topics,
     restore,
 )
 from mrss.tui.replay.link import NO_BUS, ReplayLink
@@ -45,6 +46,7 @@ from mrss.tui.widgets.timeline_bar import TimelineBar, clock_text
 
 STEP_EVERY = 0.1  # seconds of wall-clock time between two moves of a playing cursor
 SKIP = 10.0  # seconds `,` and `.` move the cursor
+LOG_SHOWN = 100  # log lines drawn after a seek (the pane keeps all; `L` lists them)
 
 
 class ReplayApp(MrssApp):
@@ -75,6 +77,7 @@ class ReplayApp(MrssApp):
                          stale_after=math.inf, **kwargs)
         self.tape = tape
         self.player = player
+        self.topics.clock = player.now  # the Messages screen's rates: per recorded second
         self.replay_link = link
         self.autoplay = play
         self.seeks = 0  # rebuilds done (tests wait on it)
@@ -168,9 +171,9 @@ class ReplayApp(MrssApp):
         self.picture.replayed_back()
         models = self.intake.models
         restore(models, keyframe.state)
+        recount_topics(models, self.tape.frames[:target])
         mind = keyframe.mind
         envelopes = [f.env for f in self.tape.frames[keyframe.index:target]]
-        models.topics.count(envelopes)
         for batch in _up_to_each_mind(envelopes):
             mind = self.intake.take(batch).mind or mind
         self.seeks += 1
@@ -185,7 +188,8 @@ class ReplayApp(MrssApp):
         if mind is not None:
             inspector.show_snapshot(mind.snapshot, mind.ts, mind.inc)
         self.query_one(AlertsStrip).show_alerts()
-        self.query_one(LogPane).replace(self.index.lines_before(target, MAX_LINES))
+        self.query_one(LogPane).replace(self.index.lines_before(target, MAX_LINES),
+                                        shown_most=LOG_SHOWN)
         self.timeline.show()
 
 

@@ -138,12 +138,21 @@ class LogPane(Vertical):
         if not self.following:
             self._subtitle()
 
-    def replace(self, entries: list[LogEntry]) -> None:
-        """Show `entries` instead of every line so far (a replay moved its cursor)."""
+    def replace(self, entries: list[LogEntry], shown_most: int = MAX_LINES) -> None:
+        """Keep `entries` instead of every line so far (a replay moved its cursor), and
+        show the newest `shown_most` of them that pass the filter, in one write (a
+        write a line costs a third of a millisecond each); `L` lists them all."""
         self._entries.clear()
-        self.view.clear()
+        self._entries.extend(entries[-MAX_LINES:])
+        view = self.view
+        view.clear()
         self.missed = 0
-        self.add(entries)
+        shown = [entry.text for entry in self._entries if self.filter.matches(entry)]
+        shown = shown[-shown_most:] if shown_most > 0 else []
+        if shown:
+            view.write(Text("\n").join(shown), scroll_end=self.following)
+        if not self.following:
+            self._subtitle()
 
     def note(self, text: str, *, error: bool = False) -> None:
         """A line from the TUI itself (what the operator did)."""

@@ -9,6 +9,7 @@ there (`TimelineBar.Seek`). The app redraws it as the cursor moves (`show`).
 from __future__ import annotations
 
 import time
+from itertools import groupby
 
 from rich.text import Text
 from textual import events
@@ -78,8 +79,8 @@ class TimelineBar(Static):
         cells[cursor] = ("┃", "bold reverse") if cells[cursor][0] == "─" else \
             (cells[cursor][0], "bold reverse")
         bar = Text(no_wrap=True)
-        for glyph, style in cells:
-            bar.append(glyph, style)
+        for style, run in groupby(cells, key=lambda cell: cell[1]):  # a span a run
+            bar.append("".join(glyph for glyph, _ in run), style)
         text = Text("\n").join([head, bar])
         self.plain = text.plain
         self.update(text)
