@@ -8,17 +8,20 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+from contextlib import closing
 from pathlib import Path
 
 from mrss.api.testing import RunningProject
 from tests.commands.cli_bus import mrss_process
 
 WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
+START_TIMEOUT = 60.0  # its fork server imports every component first: slow on a busy box
 
 
 def record_wildfire(out: Path, run_dir: Path) -> None:
     """Record one wildfire mission (area goal, hotspots found, water supplied) to `out`."""
-    with RunningProject(WILDFIRE, run_dir, env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+    system = RunningProject(WILDFIRE, run_dir, env={"MRSS_SIM_SPEEDUP": "20"})
+    with closing(system.start(timeout=START_TIMEOUT)):
         with mrss_process("record", "--run-dir", str(run_dir), "--out", str(out),
                           "--project", str(WILDFIRE), "--timeout", "30") as rec:
             rec.wait_line("recording ", timeout=30)

@@ -12,7 +12,8 @@ Seeking to any moment is then restoring the keyframe before it and applying at m
 A keyframe is the models' attributes pickled (a deep copy by pickle: some 30 times
 faster than `copy.deepcopy` for the robots' telemetry series). The topics of the
 Messages screen are not kept: a seek counts them again from the last `TOPICS_WINDOW`
-messages before the cursor (their latest messages and rates).
+messages before the cursor (their latest messages and rates: topics quieter than
+that show up at the next message).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.replay.tape import Frame
 
 KEYFRAME_EVERY = 500  # messages between two keyframes: the most a seek re-applies
-TOPICS_WINDOW = 2_000  # messages a seek counts the Messages screen's topics from
+TOPICS_WINDOW = 500  # messages a seek counts the Messages screen's topics from
 # The models a keyframe keeps (liveness is the dashboard's wall clock; topics: above).
 KEPT = ("actions", "robots", "supervision", "goals", "alerts", "map_model")
 # Counters (the models' sequence numbers) pickled by their next value.

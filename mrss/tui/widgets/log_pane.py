@@ -147,8 +147,13 @@ class LogPane(Vertical):
         view = self.view
         view.clear()
         self.missed = 0
-        shown = [entry.text for entry in self._entries if self.filter.matches(entry)]
-        shown = shown[-shown_most:] if shown_most > 0 else []
+        shown: list[Text] = []
+        for entry in reversed(self._entries):  # the newest first, until enough
+            if len(shown) >= shown_most:
+                break
+            if self.filter.matches(entry):
+                shown.append(entry.text)
+        shown.reverse()
         if shown:
             view.write(Text("\n").join(shown), scroll_end=self.following)
         if not self.following:

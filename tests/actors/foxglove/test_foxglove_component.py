@@ -8,6 +8,7 @@ from __future__ import annotations
 import io
 import json
 import shutil
+from contextlib import closing
 from pathlib import Path
 
 import foxglove
@@ -42,7 +43,8 @@ def test_a_foxglove_client_receives_a_driving_robots_positions(tmp_path: Path) -
     shutil.copytree(TEMPLATE_SIMS, project, ignore=shutil.ignore_patterns("__pycache__"))
     with (project / "project.toml").open("a", encoding="utf-8") as toml:
         toml.write(FOXGLOVE_TABLE)
-    with RunningProject(project, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+    system = RunningProject(project, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"})
+    with closing(system.start(timeout=60.0)):  # generous: a busy machine starts slowly
         system.wait_ready()
         url_file = tmp_path / "run" / URL_FILE
         system.wait_for(url_file.is_file, 30, "the Foxglove server's URL")
