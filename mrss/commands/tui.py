@@ -7,6 +7,12 @@ mind and the log, with operator commands. `q` detaches: the system keeps running
 login (or takes `MRSS_OPERATOR_TOKEN`). `--web` serves the same dashboard to browsers
 (`mrss.tui.web`: loopback by default, `--host`, `--port`, `--tls-cert`/`--tls-key`).
 Exits 0 when closed, 2 if no bus is found or the web console may not start.
+
+`mrss tui --replay FILE [PROJECT] [--speed X] [--paused]`: the same dashboard driven by
+a recording of `mrss record` (MCAP, or the older format), read-only, with a timeline
+(mrss/tui/replay/). The project's `[operator]`, `[map]` and `[[alerts]]` tables come
+from PROJECT if given, else from the project.toml kept in the recording. Exits 2 if the
+file is not a recording (the error gives the byte offset).
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ DEFAULT_WEB_PORT = 8566
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("project", help="project name (projects/<name>/)")
+    parser.add_argument("project", nargs="?", default=None,
+                        help="project name (projects/<name>/); with --replay, optional")
     parser.add_argument("--run-dir", type=Path, default=None,
                         help="the run dir of `mrss supervise` (its ipc bus sockets)")
     parser.add_argument("--endpoints", nargs=2, metavar=("FRONTEND", "BACKEND"), default=None,
@@ -49,6 +56,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         metavar="S",
                         help="turn the header red when nothing came from the system for S "
                              "seconds (default 5)")
+    parser.add_argument("--replay", type=Path, default=None, metavar="FILE",
+                        help="show a recording (mrss record) instead of a running system")
+    parser.add_argument("--speed", type=float, default=1.0, metavar="X",
+                        help="with --replay: the speed to start at (0.5 to 20; default 1)")
+    parser.add_argument("--paused", action="store_true",
+                        help="with --replay: start paused at the beginning")
     parser.add_argument("--readonly", action="store_true",
                         help="watch only: every control (percepts, goals, cancel, teleop, "
                              "faults, stop, recordings) is refused")
@@ -68,6 +81,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.replay is not None:
+        from mrss.commands.tui_replay import run_replay  # Textual only when needed
+
+        return run_replay(args)
+    if args.project is None:
+        print("mrss tui: a project name is needed (or --replay FILE)", file=sys.stderr)
+        return EXIT_NO_BUS
     if args.web:
         return serve_web(args)
     from mrss.tui.discovery import find_endpoints  # Textual is imported only when needed

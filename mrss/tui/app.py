@@ -136,7 +136,8 @@ class MrssApp(App[None]):
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
                  map_config: MapConfig | None = None,
-                 quiet_gc: bool = False, login: Login | None = None) -> None:
+                 quiet_gc: bool = False, login: Login | None = None,
+                 link: BusLink | None = None) -> None:
         super().__init__()
         self.login = login  # users configured: nothing shown or sent before a login
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
@@ -148,7 +149,7 @@ class MrssApp(App[None]):
         self.mission = mission
         self.project = project
         self.readonly = readonly
-        self.link = BusLink(endpoints)
+        self.link = link or BusLink(endpoints)  # a replay's link reads a recording
         self.goals = GoalsModel(self.operator_config.goals)  # the models: plain Python
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()

@@ -96,6 +96,10 @@ class BusLink:
         """How many times the proxy greeted the subscriber: it grows after a proxy restart."""
         return self._sub.welcomes if self._sub is not None else 0
 
+    def where(self) -> str:
+        """What the header says the dashboard is looking at."""
+        return f"connected · {self.endpoints.backend}"
+
     def publish(self, msg: Message, topic: str | None = None) -> str:
         """Send one operator message (on `topic`, default its own), with the logged-in
         operator's session credential (`operator`); its id."""

@@ -136,6 +136,11 @@ class Picture:
             self.liveness.ended = ""
             self._system_stopping = False
 
+    def replayed_back(self) -> None:
+        """A replay moved its cursor: whether the system ended is told again from there."""
+        self.liveness.ended = ""
+        self._system_stopping = False
+
     def _stopped_quietly(self) -> bool:
         """Silent, after the root said it was stopping, or with every component of the
         root stopped (but perhaps the bus proxy, which cannot tell its own end over the
@@ -186,4 +191,4 @@ class Picture:
         project = f"{self.project} · " if self.project else ""
         # no message count here: a header title that changes every second lays the whole
         # screen out again every second (`mrss bench tui`)
-        return f"{project}connected · {self.link.endpoints.backend}"
+        return f"{project}{self.link.where()}"

@@ -138,6 +138,27 @@ class LogPane(Vertical):
         if not self.following:
             self._subtitle()
 
+    def replace(self, entries: list[LogEntry], shown_most: int = MAX_LINES) -> None:
+        """Keep `entries` instead of every line so far (a replay moved its cursor), and
+        show the newest `shown_most` of them that pass the filter, in one write (a
+        write a line costs a third of a millisecond each); `L` lists them all."""
+        self._entries.clear()
+        self._entries.extend(entries[-MAX_LINES:])
+        view = self.view
+        view.clear()
+        self.missed = 0
+        shown: list[Text] = []
+        for entry in reversed(self._entries):  # the newest first, until enough
+            if len(shown) >= shown_most:
+                break
+            if self.filter.matches(entry):
+                shown.append(entry.text)
+        shown.reverse()
+        if shown:
+            view.write(Text("\n").join(shown), scroll_end=self.following)
+        if not self.following:
+            self._subtitle()
+
     def note(self, text: str, *, error: bool = False) -> None:
         """A line from the TUI itself (what the operator did)."""
         stamp = time.strftime("%H:%M:%S")
