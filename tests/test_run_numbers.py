@@ -8,9 +8,18 @@ from pathlib import Path
 
 import pytest
 
-from mrss.errors import BusError
-from mrss.messages import RUN_SPAN, IncarnationKey, across_runs, load_key, within_run
-from mrss.messages.credentials import KEY_FILE
+from mrss.errors import BusError, DecodeError
+from mrss.messages import (
+    RUN_SPAN,
+    IncarnationKey,
+    NodeBeat,
+    across_runs,
+    decode,
+    encode,
+    load_key,
+    within_run,
+)
+from mrss.messages.credentials import KEY_FILE, MAX_RUN
 
 
 def test_a_new_run_numbers_above_the_last_even_when_the_clock_went_back(
@@ -40,3 +49,9 @@ def test_every_incarnation_of_a_later_run_ranks_above_the_earlier_runs() -> None
     assert within_run(across_runs(new, 7)) == 7 and within_run(7) == 7
     assert across_runs(0, 3) == 3  # a node that numbers no runs: as it counts
     assert across_runs(new, 1) < 2**63  # signed 64 bits: SQLite and msgpack alike
+
+
+@pytest.mark.parametrize("run", [-1, MAX_RUN + 1])
+def test_a_node_beat_with_a_run_out_of_range_is_refused(run: int) -> None:
+    with pytest.raises(DecodeError, match="run"):
+        decode(*encode(NodeBeat(node="field", boot="b", run=run), src="node.field"))
