@@ -32,7 +32,13 @@ from mrss.messages.codec import (
     mark_replayed,
     new_id,
 )
-from mrss.messages.credentials import IncarnationKey, load_key
+from mrss.messages.credentials import (
+    RUN_SPAN,
+    IncarnationKey,
+    across_runs,
+    load_key,
+    within_run,
+)
 from mrss.messages.kinds import (
     KINDS,
     SCHEMA_VERSION,
@@ -112,10 +118,13 @@ __all__ = [
     "TaskAllocation",
     "Topic",
     "WaitReason",
+    "RUN_SPAN",
+    "across_runs",
     "build",
     "decode",
     "encode",
     "load_key",
     "mark_replayed",
     "new_id",
+    "within_run",
 ]
