@@ -1,8 +1,8 @@
 """The recorder: every bus message a raw subscriber receives, frames untouched, to a file.
 
 Behind `mrss record` and the dashboard's Ctrl+P "record the bus". The proxy's welcome and
-reliable-channel acknowledgements are not bus traffic and are left out; a message that
-does not decode is recorded with the reason (`fault_of`).
+reliable-channel acknowledgements are not bus traffic and are left out; the writer checks
+each message as it writes it, and one that does not decode is recorded with the reason.
 """
 
 from __future__ import annotations
@@ -14,10 +14,7 @@ from typing import Protocol
 import zmq
 
 from mrss.bus import BusEndpoints, direct, sockets
-from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
-from mrss.errors import DecodeError
-from mrss.messages import decode
-from mrss.recording.format import RecordedMessage
+from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack
 
 _POLL_MS = 100
 # The recorder's own queue, in ZeroMQ messages (a batch is one): ten times a component's,
@@ -27,9 +24,9 @@ _NOBLOCK = int(zmq.NOBLOCK)
 
 
 class Writer(Protocol):
-    """Where a recorder writes: the MCAP writer, or the older format's (tests)."""
+    """Where a recorder writes (the MCAP writer): it checks and writes each message."""
 
-    def write(self, message: RecordedMessage) -> None: ...
+    def received(self, t: float, frames: list[bytes]) -> None: ...
 
     def flush(self) -> None: ...
 
@@ -89,18 +86,9 @@ class BusRecorder:
             received = time.time()
             if frames == [WELCOME] or (len(frames) == 2 and is_ack(frames[0])):
                 continue  # a proxy restart's greeting, a reliable ack: not traffic
-            writer.write(RecordedMessage(received, tuple(frames), fault_of(frames)))
+            writer.received(received, frames)
 
     def close(self) -> None:
         self._sock.close(0)
         direct.forget_member(self._member)
 
-
-def fault_of(frames: list[bytes]) -> str:
-    """Why `frames` are not a valid bus message ("" if they are)."""
-    try:
-        for topic, payload in message_frames(frames):
-            decode(topic, payload)
-    except DecodeError as exc:
-        return exc.reason
-    return ""
