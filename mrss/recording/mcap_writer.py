@@ -9,6 +9,9 @@ The layout (docs/tools.md, "The MCAP recording"):
   envelope; reliable data is recorded as the message it carries.
 * `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every telemetry record
   with a lat and lon, so Foxglove's Map panel shows the robots without configuration.
+* `world.geojson`: the world model's areas, zones and objects (not robots) as Foxglove's
+  `foxglove.GeoJSON`, written whole each time they change as the bus shows them
+  (mrss/recording/geojson.py).
 * `mrss.malformed`: what did not decode, its frames in base64 and the reason.
 * metadata `mrss` (version, creation time, bus endpoints, prefixes), `project` (its name
   and project.toml) at the start, `incarnations` (every sender's incarnations seen) at
@@ -36,8 +39,9 @@ from mcap.writer import CompressionType
 import mrss
 from mrss.bus.wire import message_frames
 from mrss.errors import DecodeError
-from mrss.messages import Envelope, RobotData, decode_raw
+from mrss.messages import DataReply, DataRequest, Envelope, RobotData, decode_raw
 from mrss.recording.format import RecordedMessage
+from mrss.recording.geojson import GEOJSON, GEOJSON_SCHEMA, GEOJSON_TOPIC, WorldShapes
 from mrss.recording.mcap_fast import FastWriter
 from mrss.recording.schemas import (
     ENCODING,
@@ -98,6 +102,7 @@ class McapRecordingWriter:
         self._channels: dict[tuple[str, str], int] = {}
         self._sequence: dict[int, int] = defaultdict(int)
         self._incarnations: dict[str, set[int]] = defaultdict(set)
+        self._world = WorldShapes()
         self._chunk_opened: float | None = None
         self._finished = False
         self.count = 0  # bus messages written: each envelope of a batch, and malformed ones
@@ -177,12 +182,18 @@ class McapRecordingWriter:
                   publish_time, json_bytes(env))
         self.count += 1
         body = envelope.body
-        if type(body) is RobotData:
+        kind = type(body)
+        if kind is RobotData:
+            assert isinstance(body, RobotData)  # for mypy
             fix = location_fix(body.robot, envelope.ts, body.data)
             if fix is not None:
                 self._add(self._channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
                                         LOCATION_FIX_SCHEMA), log_time, publish_time,
                           json_bytes(fix))
+        elif (kind is DataRequest or kind is DataReply) \
+                and self._world.seen(envelope.topic, body):
+            self._add(self._channel(GEOJSON_TOPIC, GEOJSON, GEOJSON_SCHEMA), log_time,
+                      publish_time, json_bytes(self._world.collection()))
 
     def flush(self) -> None:
         """Close the open chunk if it is `CHUNK_SECONDS` old (it then reaches the OS)."""
