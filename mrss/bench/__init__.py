@@ -18,6 +18,6 @@ BENCHES: dict[str, str] = {
                   "after a robot is lost",
     "incident": "a dashboard attaching late to a 4-hour incident record",
     "record": "the MCAP recorder at 10,000 msgs/s: drops, CPU, bytes/msg; its top rate vs the "
-              "mcap library's writer; seeking in a 1 GB recording",
+              "mcap library's writer; seeking in a 1 GB recording; a 30-minute what-if",
     "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

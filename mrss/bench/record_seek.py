@@ -80,15 +80,15 @@ def write_large(path: Path, size: int, frames: list[list[bytes]], chunk: int = C
     return count
 
 
-def seek_latencies(path: Path, seeks: int, seed: int = 3) -> Seeks:
-    """Open the file `seeks` times, and seek to as many random times on an open reader
+def seek_latencies(path: Path, seeks: int, opens: int = 5, seed: int = 3) -> Seeks:
+    """Open the file `opens` times, and seek to `seeks` random times on an open reader
     (ms each; the seeks in CPU ms too)."""
-    opens = []
-    for _ in range(seeks):
+    opened = []
+    for _ in range(opens):
         start = time.perf_counter()
         with path.open("rb") as handle:
             summary = make_reader(handle).get_summary()
-        opens.append((time.perf_counter() - start) * 1000)
+        opened.append((time.perf_counter() - start) * 1000)
     assert summary is not None and summary.statistics is not None
     stats = summary.statistics
     rng = random.Random(seed)
@@ -105,5 +105,5 @@ def seek_latencies(path: Path, seeks: int, seed: int = 3) -> Seeks:
             cpu.append((time.process_time() - start_cpu) * 1000)
             if message.log_time < target:
                 raise RuntimeError(f"seek to {target} gave a message at {message.log_time}")
-    return Seeks(os.path.getsize(path), stats.message_count, stats.chunk_count, opens,
+    return Seeks(os.path.getsize(path), stats.message_count, stats.chunk_count, opened,
                  wall, cpu)

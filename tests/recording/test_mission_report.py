@@ -1,24 +1,18 @@
-"""`mrss recording report` on a real recording of the wildfire procedure: an operator's
-area goal, the hotspot the world model sends the UGV to, the operator's teleop on the
-way, a killed component; and the recording's world.geojson shows the area and hotspot."""
+"""`mrss recording report` on a real recording of the wildfire procedure (conftest.py: an
+operator's area goal, the hotspot the world model sends the UGV to, the operator's
+teleop on the way, a killed component); the recording's world.geojson shows the area
+and the hotspot."""
 
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
-import sys
-from contextlib import closing
 from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
-from mrss.api.testing import RunningProject
 from mrss.recording.mission_figures import first_argument
-from tests.commands.cli_bus import mrss, mrss_process
-
-WILDFIRE = Path(__file__).resolve().parents[2] / "projects" / "wildfire"
+from tests.commands.cli_bus import mrss
 
 
 def test_a_goals_name_is_its_percepts_first_argument() -> None:
@@ -27,46 +21,9 @@ def test_a_goals_name_is_its_percepts_first_argument() -> None:
     assert first_argument("hold_all") is None
 
 
-def _operator(run_dir: Path, *command: str) -> None:
-    """The project's operator console, as a user runs it (it waits for the answer)."""
-    out = subprocess.run([sys.executable, str(WILDFIRE / "operator_console.py"),
-                          "--run-dir", str(run_dir), *command],
-                         capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0 and out.stdout.rstrip().endswith("-> accepted"), out
-
-
 @pytest.mark.slow
-def test_report_of_a_wildfire_recording(tmp_path: Path) -> None:
-    out = tmp_path / "wildfire.mcap"
-    run_dir = tmp_path / "run"
-    # a loaded machine may take a minute to start the fork server and the proxy
-    with closing(RunningProject(WILDFIRE, run_dir, env={"MRSS_SIM_SPEEDUP": "20"})
-                 .start(timeout=90)) as system:
-        with mrss_process("record", "--run-dir", str(run_dir), "--out", str(out),
-                          "--project", str(WILDFIRE), "--timeout", "30") as rec:
-            rec.wait_line("recording ", timeout=30)
-            system.wait_ready()
-            system.wait_for(lambda: (system.world("uav1") or {}).get("position")
-                            and (system.world("ugv1") or {}).get("position"), 30,
-                            "telemetry of both robots")
-            _operator(run_dir, "area", "a1", "--center=-35.360567,149.165237",
-                      "--radius", "100", "-p", "2")
-            system.signal("events", signal.SIGKILL)  # a fault: restarted by the supervisor
-            system.wait_for(lambda: system.incarnation("events") >= 2, 30,
-                            "the events manager restarted")
-            system.wait_for(lambda: system.statuses("uav1", "succeeded"), 60, "the cover")
-            supply = system.wait_for(lambda: system.statuses("ugv1", "running"), 30,
-                                     "the supply action to run")[0]
-            _operator(run_dir, "teleop", "ugv1", "on")  # the operator takes the UGV over
-            system.wait_for(lambda: [s for s in system.statuses("ugv1", "suspended")
-                                     if s.uuid == supply.uuid], 20, "the supply suspended")
-            _operator(run_dir, "teleop", "ugv1", "off")
-            system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
-                                     if s.uuid == supply.uuid], 60, "the supply done")
-            rec.proc.send_signal(signal.SIGINT)
-            assert rec.finish() == 0, rec.stderr()
-        assert system.interrupt() == 0
-
+def test_report_of_a_wildfire_recording(wildfire_recording: Path) -> None:
+    out = wildfire_recording
     report = mrss("recording", "report", str(out), "--format", "json")
     assert report.returncode == 0, report.stderr
     data = json.loads(report.stdout)
