@@ -107,8 +107,11 @@ def run(quick: bool) -> BenchReport:
     report.target(f"at {SUSTAINED_RATE:,}/s: the rate sent (the sender kept up)",
                   sustained.sent / sustained.send_s, Relation.AT_LEAST, 0.95 * SUSTAINED_RATE,
                   "95 % of the rate asked for")
-    report.target(f"at {SUSTAINED_RATE:,}/s: recorder CPU % of a core",
-                  sustained.cpu_percent, Relation.AT_MOST, CPU_TARGET, "issue 32")
+    # What recording SUSTAINED_RATE takes of a core at the recorder's measured cost per
+    # message: its share of a busy machine (the 'CPU %' column) says more of the neighbours.
+    needed = 100 * SUSTAINED_RATE * sustained.cpu_s / max(1, sustained.recorded)
+    report.target(f"at {SUSTAINED_RATE:,}/s: recorder CPU % of a core, at its cost per "
+                  "message", needed, Relation.AT_MOST, CPU_TARGET, "issue 32")
     report.target("recorder top rate, msgs per CPU second", top.recorded / top.cpu_s,
                   Relation.AT_LEAST, TOP_RATE_TARGET, "issue 32 (the C++ writer: ~410,000)")
     report.target(f"seek p99 in {label}, open reader (ms)", _percentile(found.seek_ms, 0.99),
@@ -118,7 +121,8 @@ def run(quick: bool) -> BenchReport:
         "'messages' and 'dropped' count the file's summary (LocationFix not counted); "
         "'msgs/s' is the rate the bench's publisher achieved; 'per CPU s' is recorded "
         "messages per CPU second of the recorder, from the first sent until it was idle "
-        "again; 'CPU %' the recorder's CPU time over that span. "
+        "again; 'CPU %' the recorder's CPU time over that span (on a loaded machine, its "
+        "share: a starved recorder falls behind and its queue overflows). "
         f"Offered {TOP_RATE_TARGET:,}/s: one publisher sent them "
         f"in {top.send_s:.1f} s, the recorder was busy {top.busy_s:.1f} s.")
     report.notes.append(

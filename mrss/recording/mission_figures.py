@@ -25,8 +25,9 @@ once):
   percepts its component sent for it). A goal is done **without an operator** when it
   was done and no intervention was on it.
 
-Components are the senders of heartbeats (and the supervisor); the `[operator]` topics
-come from the project.toml kept in the recording (`mrss record --project`).
+Components are what supervisors start (the children of `sup.*` events) and the senders
+of heartbeats; the `[operator]` topics come from the project.toml kept in the recording
+(`mrss record --project`).
 """
 
 from __future__ import annotations
@@ -255,6 +256,9 @@ class FigureCounter:
             Intervention(ts, who, what, frozenset(_WORD.findall(what))))
 
     def _supervision(self, body: SupEvent) -> None:
+        self._components.add(body.child)  # what a supervisor starts is a component
+        if body.supervisor:
+            self._components.add(body.supervisor)
         if body.event is SupEventKind.RESTART:
             self.result.restarts[body.child] += 1
         elif body.event in FAULTS and not (body.event is SupEventKind.EXIT

@@ -227,14 +227,16 @@ def report(result: WhatIf) -> str:
         lines.append(f"first difference: decision {first + 1}")
         lines.append(f"  recorded: {say(result.recorded)}")
         lines.append(f"  edited:   {say(result.edited)}")
-    lines += ["", f"{'#':>4}  {'recorded':<48}  edited"]
+    rows = []
     for i in range(max(len(result.recorded), len(result.edited))):
-        cells = []
-        for run in (result.recorded, result.edited):
-            cells.append(f"+{run[i].at:7.1f} s {run[i].text}" if i < len(run) else "-")
-        mark = " " if i < min(len(result.recorded), len(result.edited)) and \
-            result.recorded[i].text == result.edited[i].text else "*"
-        lines.append(f"{i + 1:>4}{mark} {cells[0]:<48}  {cells[1]}")
+        cells = [f"+{run[i].at:7.1f} s {run[i].text}" if i < len(run) else "-"
+                 for run in (result.recorded, result.edited)]
+        same = i < min(len(result.recorded), len(result.edited)) and \
+            result.recorded[i].text == result.edited[i].text
+        rows.append((i + 1, " " if same else "*", *cells))
+    width = max([len("recorded"), *(len(row[2]) for row in rows)])
+    lines += ["", f"{'#':>4}  {'recorded':<{width}}  edited"]
+    lines += [f"{n:>4}{mark} {was:<{width}}  {now}" for n, mark, was, now in rows]
     if result.refused:
         lines.append(f"percepts the edited agent could not read: {len(result.refused)}")
     return "\n".join(lines)

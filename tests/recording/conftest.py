@@ -27,8 +27,8 @@ def _operator(run_dir: Path, *command: str) -> None:
 @pytest.fixture(scope="session")
 def wildfire_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """`mrss record --project wildfire` of the procedure: the operator's area goal a1,
-    the events manager SIGKILLed (restarted), the UAV's cover, the UGV sent to hotspot
-    hs1, the operator's teleop on and off on the way, the supply done."""
+    the events manager SIGKILLed (restarted), the operator's teleop of the UGV (on), the
+    UAV finding hotspot hs1 while covering, teleop off, the UGV's supply, the cover done."""
     tmp_path = tmp_path_factory.mktemp("wildfire-recording")
     out = tmp_path / "wildfire.mcap"
     run_dir = tmp_path / "run"
@@ -44,18 +44,18 @@ def wildfire_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
                             "telemetry of both robots")
             _operator(run_dir, "area", "a1", "--center=-35.360567,149.165237",
                       "--radius", "100", "-p", "2")
-            system.signal("events", signal.SIGKILL)  # a fault: restarted by the supervisor
-            system.wait_for(lambda: system.incarnation("events") >= 2, 30,
+            killed = system.signal("events", signal.SIGKILL)  # a fault: restarted
+            system.wait_for(lambda: system.component_pid("events") not in (0, killed), 60,
                             "the events manager restarted")
-            system.wait_for(lambda: system.statuses("uav1", "succeeded"), 60, "the cover")
-            supply = system.wait_for(lambda: system.statuses("ugv1", "running"), 30,
-                                     "the supply action to run")[0]
-            _operator(run_dir, "teleop", "ugv1", "on")  # the operator takes the UGV over
-            system.wait_for(lambda: [s for s in system.statuses("ugv1", "suspended")
-                                     if s.uuid == supply.uuid], 20, "the supply suspended")
+            # the operator takes the UGV over before the UAV finds the hotspot: its goal
+            # waits until the UGV is back in autonomy
+            _operator(run_dir, "teleop", "ugv1", "on")
+            system.wait_for(lambda: system.perceived("hotspot_detected(hs1,"), 90,
+                            "the hotspot found")
             _operator(run_dir, "teleop", "ugv1", "off")
+            system.wait_for(lambda: system.statuses("uav1", "succeeded"), 90, "the cover")
             system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
-                                     if s.uuid == supply.uuid], 60, "the supply done")
+                                     if s.name == "supply_water"], 90, "the supply done")
             rec.proc.send_signal(signal.SIGINT)
             assert rec.finish() == 0, rec.stderr()
         assert system.interrupt() == 0

@@ -1,7 +1,7 @@
 """`mrss recording report` on a real recording of the wildfire procedure (conftest.py: an
-operator's area goal, the hotspot the world model sends the UGV to, the operator's
-teleop on the way, a killed component); the recording's world.geojson shows the area
-and the hotspot."""
+operator's area goal, a killed component, the operator's teleop of the UGV, the hotspot
+the world model sends the UGV to once it is back); the recording's world.geojson shows
+the area and the hotspot."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def test_report_of_a_wildfire_recording(wildfire_recording: Path) -> None:
         assert 0 <= goal["to_first_action"] < goal["to_done"]
     assert hotspot["reported"] > area["reported"]  # found while covering the area
     assert area["interventions"] == 0
-    assert hotspot["interventions"] == 2  # teleop on, off: on its robot while it was open
+    assert hotspot["interventions"] == 1  # teleop off: on its robot while it was open
     assert data["goals_reported"] == 2 and data["goals_done"] == 2
     assert data["goals_done_without_operator"] == 1
     assert data["share_done_without_operator"] == 0.5
@@ -64,7 +64,8 @@ def test_report_of_a_wildfire_recording(wildfire_recording: Path) -> None:
                   make_reader(handle).iter_messages(topics=["world.geojson"])]
     assert shapes, "no world.geojson message"
     last = {f["id"]: f for f in shapes[-1]["features"]}
-    assert last["a1"]["geometry"]["type"] == "Polygon"
+    assert last["a1"]["geometry"]["type"] == "Point"  # a centre and a radius, as stored
+    assert last["a1"]["properties"]["radius_m"] == 100
     assert last["hs1"]["geometry"]["type"] == "Point"
     assert last["hs1"]["properties"]["kind"] == "hotspot"
     assert "uav1" not in last and "ugv1" not in last
