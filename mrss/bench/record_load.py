@@ -2,12 +2,13 @@
 process publishing the mission mix at a set rate (or as fast as it can).
 
 The recorder's CPU is read from the OS (psutil) from the first message sent until it has
-caught up (its CPU time stops growing); what it recorded is what the file's summary
-counts, compared with what was sent.
+caught up: an end marker sent last is in the file (read as it grows); what it recorded
+is what the file's summary counts, compared with what was sent.
 """
 
 from __future__ import annotations
 
+import io
 import os
 import queue
 import re
@@ -21,15 +22,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import psutil
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
 from mcap.reader import make_reader
+from mcap.records import Chunk
+from mcap.records import Message as McapMessage
+from mcap.stream_reader import breakup_chunk
 
 from mrss.bench.record_traffic import mission_message
 from mrss.bus import BusEndpoints, Publisher
 from mrss.interpreter import python_module
-from mrss.messages import Message
+from mrss.messages import Message, Percept
+from mrss.recording.mcap_reader import MAGIC
 from mrss.recording.mcap_writer import LOCATION_SUFFIX
 
-_IDLE_CPU = 0.02  # the recorder has caught up when it uses less than this of a core
 _RECORDED = re.compile(r"recorded (\d+) messages")
 
 
@@ -106,18 +112,44 @@ def _cpu(proc: psutil.Process) -> float:
     return float(times.user + times.system)
 
 
-def _wait_idle(proc: psutil.Process, timeout: float) -> tuple[float, float]:
-    """Wait until `proc` uses less than _IDLE_CPU of a core over 0.5 s; (when its busy
-    span ended, by perf_counter; its CPU time then)."""
+class _Tail:
+    """The messages of an MCAP file being written, in the chunks it has completed since
+    the last call (the recorder closes a chunk at most a second after its first message)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.offset = len(MAGIC)
+
+    def new_messages(self) -> list[bytes]:
+        with self.path.open("rb") as handle:
+            handle.seek(self.offset)
+            data = handle.read()
+        found: list[bytes] = []
+        pos = 0
+        while pos + 9 <= len(data):
+            length = int.from_bytes(data[pos + 1:pos + 9], "little")
+            end = pos + 9 + length
+            if end > len(data):
+                break  # a record still being written
+            if data[pos] == Opcode.CHUNK:
+                chunk = Chunk.read(ReadDataStream(io.BytesIO(data[pos + 9:end])))
+                found.extend(bytes(r.data) for r in breakup_chunk(chunk)
+                             if isinstance(r, McapMessage))
+            pos = end
+        self.offset += pos
+        return found
+
+
+def _wait_recorded(tail: _Tail, marker: bytes, proc: psutil.Process, timeout: float
+                   ) -> tuple[float, float]:
+    """Wait until the message carrying `marker` is in the file: the recorder has taken
+    everything sent before it. (When it was seen, by perf_counter; the recorder's CPU.)"""
     deadline = time.monotonic() + timeout
-    last_cpu, last_t = _cpu(proc), time.perf_counter()
     while time.monotonic() < deadline:
-        time.sleep(0.5)  # a sampling interval, not a synchronisation
-        cpu, now = _cpu(proc), time.perf_counter()
-        if cpu - last_cpu < _IDLE_CPU * (now - last_t):
-            return last_t, last_cpu
-        last_cpu, last_t = cpu, now
-    raise RuntimeError(f"the recorder was still busy after {timeout} s")
+        if any(marker in data for data in tail.new_messages()):
+            return time.perf_counter(), _cpu(proc)
+        time.sleep(0.2)  # polling the file's growth
+    raise RuntimeError(f"the recorder had not written the end marker after {timeout} s")
 
 
 def record_at(rate: float | None, count: int, messages: list[Message]) -> LoadResult:
@@ -149,9 +181,12 @@ def record_at(rate: float | None, count: int, messages: list[Message]) -> LoadRe
                 sent += 1
             if rate is not None and sent < count:
                 time.sleep(0.001)  # pacing the sender, not a synchronisation
+        marker = f"bench_end_{os.getpid()}_{time.monotonic_ns()}"
+        pub.publish(Percept(literal=marker))
         pub.flush()
         send_s = time.perf_counter() - start
-        busy_end, cpu_end = _wait_idle(rec, 120 + count / 2000)
+        busy_end, cpu_end = _wait_recorded(_Tail(out), marker.encode(), rec,
+                                           300 + count / 500)
         recorder.proc.send_signal(signal.SIGINT)
         line = recorder.wait_line("recorded ", 120)
         match = _RECORDED.match(line)
@@ -161,7 +196,8 @@ def record_at(rate: float | None, count: int, messages: list[Message]) -> LoadRe
             summary = make_reader(handle).get_summary()
         assert summary is not None and summary.statistics is not None
         recorded = sum(n for cid, n in summary.statistics.channel_message_counts.items()
-                       if not summary.channels[cid].topic.endswith(LOCATION_SUFFIX))
+                       if not summary.channels[cid].topic.endswith(LOCATION_SUFFIX)) - 1
+        reported -= 1  # the end marker
         return LoadResult(sent, send_s, max(busy_end - start, send_s), cpu_end - cpu_start,
                           recorded, reported, os.path.getsize(out))
 
