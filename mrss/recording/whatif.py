@@ -227,13 +227,13 @@ def report(result: WhatIf) -> str:
         lines.append(f"first difference: decision {first + 1}")
         lines.append(f"  recorded: {say(result.recorded)}")
         lines.append(f"  edited:   {say(result.edited)}")
-    rows = []
+    rows: list[tuple[int, str, str, str]] = []
     for i in range(max(len(result.recorded), len(result.edited))):
         cells = [f"+{run[i].at:7.1f} s {run[i].text}" if i < len(run) else "-"
                  for run in (result.recorded, result.edited)]
         same = i < min(len(result.recorded), len(result.edited)) and \
             result.recorded[i].text == result.edited[i].text
-        rows.append((i + 1, " " if same else "*", *cells))
+        rows.append((i + 1, " " if same else "*", cells[0], cells[1]))
     width = max([len("recorded"), *(len(row[2]) for row in rows)])
     lines += ["", f"{'#':>4}  {'recorded':<{width}}  edited"]
     lines += [f"{n:>4}{mark} {was:<{width}}  {now}" for n, mark, was, now in rows]
