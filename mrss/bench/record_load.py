@@ -2,8 +2,9 @@
 process publishing the mission mix at a set rate (or as fast as it can).
 
 The recorder's CPU is read from the OS (psutil) from the first message sent until it has
-caught up: an end marker sent last is in the file (read as it grows); what it recorded
-is what the file's summary counts, compared with what was sent.
+caught up: an end marker sent after the load is in the file (read as it grows); what it
+recorded is what the file's summary counts (less the markers), compared with what was
+sent.
 """
 
 from __future__ import annotations
@@ -140,16 +141,40 @@ class _Tail:
         return found
 
 
-def _wait_recorded(tail: _Tail, marker: bytes, proc: psutil.Process, timeout: float
-                   ) -> tuple[float, float]:
-    """Wait until the message carrying `marker` is in the file: the recorder has taken
-    everything sent before it. (When it was seen, by perf_counter; the recorder's CPU.)"""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if any(marker in data for data in tail.new_messages()):
-            return time.perf_counter(), _cpu(proc)
-        time.sleep(0.2)  # polling the file's growth
-    raise RuntimeError(f"the recorder had not written the end marker after {timeout} s")
+class _EndMarker:
+    """End markers sent after the load, one a second until the file has one: then the
+    recorder has taken everything sent before it. A starved recorder's queue may
+    overflow and drop a marker too; `in_file` counts those it recorded."""
+
+    def __init__(self, pub: Publisher, tail: _Tail) -> None:
+        self.pub, self.tail = pub, tail
+        self.prefix = f"bench_end_{os.getpid()}_{time.monotonic_ns()}"
+        self.sent = 0
+        self.in_file = 0
+
+    def _seen(self) -> bool:
+        found = sum(self.prefix.encode() in data for data in self.tail.new_messages())
+        self.in_file += found
+        return found > 0
+
+    def wait(self, proc: psutil.Process, timeout: float) -> tuple[float, float]:
+        """(When a marker was seen in the file, by perf_counter; the recorder's CPU then.)"""
+        deadline = time.monotonic() + timeout
+        next_send = 0.0
+        while time.monotonic() < deadline:
+            if time.monotonic() >= next_send:
+                self.pub.publish(Percept(literal=f"{self.prefix}({self.sent})"))
+                self.pub.flush()
+                self.sent += 1
+                next_send = time.monotonic() + 1.0
+            if self._seen():
+                return time.perf_counter(), _cpu(proc)
+            time.sleep(0.2)  # polling the file's growth
+        raise RuntimeError(f"the recorder had not written an end marker after {timeout} s")
+
+    def count_rest(self) -> None:
+        """Count the markers in what the recorder wrote last (call once it has exited)."""
+        self._seen()
 
 
 def record_at(rate: float | None, count: int, messages: list[Message]) -> LoadResult:
@@ -181,23 +206,22 @@ def record_at(rate: float | None, count: int, messages: list[Message]) -> LoadRe
                 sent += 1
             if rate is not None and sent < count:
                 time.sleep(0.001)  # pacing the sender, not a synchronisation
-        marker = f"bench_end_{os.getpid()}_{time.monotonic_ns()}"
-        pub.publish(Percept(literal=marker))
-        pub.flush()
         send_s = time.perf_counter() - start
-        busy_end, cpu_end = _wait_recorded(_Tail(out), marker.encode(), rec,
-                                           300 + count / 500)
+        marker = _EndMarker(pub, _Tail(out))
+        busy_end, cpu_end = marker.wait(rec, 300 + count / 500)
         recorder.proc.send_signal(signal.SIGINT)
         line = recorder.wait_line("recorded ", 120)
         match = _RECORDED.match(line)
         reported = int(match.group(1)) if match else -1
         recorder.proc.wait(timeout=60)
+        marker.count_rest()
         with out.open("rb") as handle:
             summary = make_reader(handle).get_summary()
         assert summary is not None and summary.statistics is not None
         recorded = sum(n for cid, n in summary.statistics.channel_message_counts.items()
-                       if not summary.channels[cid].topic.endswith(LOCATION_SUFFIX)) - 1
-        reported -= 1  # the end marker
+                       if not summary.channels[cid].topic.endswith(LOCATION_SUFFIX))
+        recorded -= marker.in_file
+        reported -= marker.in_file
         return LoadResult(sent, send_s, max(busy_end - start, send_s), cpu_end - cpu_start,
                           recorded, reported, os.path.getsize(out))
 
