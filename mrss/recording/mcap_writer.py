@@ -176,8 +176,11 @@ class McapRecordingWriter:
         name = SCHEMA_PREFIX + env["kind"]
         publish_time = _ns(envelope.ts)
         self._incarnations[envelope.src].add(envelope.inc)
-        if "cred" in env:  # base64 text, as the schema says (not a tagged object)
-            env = {**env, "cred": base64.b64encode(env["cred"]).decode("ascii")}
+        if "cred" in env or "op" in env:
+            env = dict(env)
+            env.pop("op", None)  # an operator's session credential is a secret: never kept
+            if "cred" in env:  # base64 text, as the schema says (not a tagged object)
+                env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
         self._add(self._channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time,
                   publish_time, json_bytes(env))
         self.count += 1

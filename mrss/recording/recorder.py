@@ -1,20 +1,25 @@
 """The recorder: every bus message a raw subscriber receives, frames untouched, to a file.
 
 Behind `mrss record` and the dashboard's Ctrl+P "record the bus". The proxy's welcome and
-reliable-channel acknowledgements are not bus traffic and are left out; the writer checks
-each message as it writes it, and one that does not decode is recorded with the reason.
+reliable-channel acknowledgements are not bus traffic and are left out; a message that
+does not decode is recorded with the reason (`fault_of`; a writer with `received`, the
+MCAP writer, checks each message itself as it writes it, unpacking it once).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 import zmq
 
 from mrss.bus import BusEndpoints, direct, sockets
-from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack
+from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
+from mrss.errors import DecodeError
+from mrss.messages import decode
+from mrss.recording.format import RecordedMessage
 
 _POLL_MS = 100
 # The recorder's own queue, in ZeroMQ messages (a batch is one): ten times a component's,
@@ -24,9 +29,10 @@ _NOBLOCK = int(zmq.NOBLOCK)
 
 
 class Writer(Protocol):
-    """Where a recorder writes (the MCAP writer): it checks and writes each message."""
+    """Where a recorder writes: the MCAP writer, the Foxglove bridge, the older format's.
+    One that also has `received(t, frames)` is given the frames unchecked."""
 
-    def received(self, t: float, frames: list[bytes]) -> None: ...
+    def write(self, message: RecordedMessage) -> None: ...
 
     def flush(self) -> None: ...
 
@@ -78,6 +84,8 @@ class BusRecorder:
             writer.flush()  # what it decides to write out, a recorder killed now keeps
 
     def _drain(self, writer: Writer) -> None:
+        received_by: Callable[[float, list[bytes]], None] | None = getattr(
+            writer, "received", None)
         while True:
             try:
                 frames = self._sock.recv_multipart(_NOBLOCK)
@@ -86,9 +94,21 @@ class BusRecorder:
             received = time.time()
             if frames == [WELCOME] or (len(frames) == 2 and is_ack(frames[0])):
                 continue  # a proxy restart's greeting, a reliable ack: not traffic
-            writer.received(received, frames)
+            if received_by is not None:
+                received_by(received, frames)
+            else:
+                writer.write(RecordedMessage(received, tuple(frames), fault_of(frames)))
 
     def close(self) -> None:
         self._sock.close(0)
         direct.forget_member(self._member)
 
+
+def fault_of(frames: list[bytes]) -> str:
+    """Why `frames` are not a valid bus message ("" if they are)."""
+    try:
+        for topic, payload in message_frames(frames):
+            decode(topic, payload)
+    except DecodeError as exc:
+        return exc.reason
+    return ""

@@ -36,6 +36,7 @@ from typing import Any
 
 import pykka
 
+from mrss.actors.rcl.allocation import published
 from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, compute_bid, no_bid
 from mrss.actors.rcl.allocation.board import BidBoard
 from mrss.actors.rcl.allocation.book import TaskBook
@@ -45,10 +46,8 @@ from mrss.actors.rcl.allocation.task import Task
 from mrss.errors import ActionError
 from mrss.messages import (
     ActionRequest,
-    AllocationState,
     JsonValue,
     Message,
-    TaskAllocation,
     WaitReason,
 )
 
@@ -73,6 +72,7 @@ class OpenTask:
     timings: list[float] = field(default_factory=list)
     progress: dict[str, JsonValue] = field(default_factory=dict)  # from a lost holder
     lost_from: str = ""  # the robot that lost it ("": a new task)
+    choice: Choice | None = None  # the round's decision it waits on (its bids published)
 
 
 class Allocator:
@@ -127,7 +127,8 @@ class Allocator:
             return
         task = Task.of(request)
         self.check_capable(task)
-        self.book.opened(request, requester)  # journaled before anything is decided
+        self.book.opened(request, requester,  # journaled before anything is decided
+                         f"waiting for {task.describe()}")
         self._open_task(OpenTask(request, requester, task, self.clock()))
 
     def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
@@ -144,6 +145,11 @@ class Allocator:
                  f" again ({open_task.lost_from} lost it)" if open_task.lost_from else "",
                  open_task.task.describe())
         self._wake.set()
+
+    def withdraw(self, uuid: str) -> bool:
+        """The task's action ended while it waited (cancelled, failed): no more rounds."""
+        with self._lock:
+            return self._open.pop(uuid, None) is not None
 
     def check_capable(self, task: Task) -> None:
         """ActionError unless some configured robot has every capability `task` asks."""
@@ -213,6 +219,7 @@ class Allocator:
             bids = [fresh if b.robot == winner.robot else b for b in bids]
         if open_task.said != (choice.wait, choice.why):
             open_task.said = (choice.wait, choice.why)
+            open_task.choice = choice
             self._say_waiting(open_task, choice.wait, choice.why)
 
     def _bids(self, task: Task) -> list[Bid]:
@@ -266,20 +273,18 @@ class Allocator:
         log.info("task %s awarded to %s after %d round(s), %.1f ms: %s", task.uuid,
                  winner.robot, open_task.rounds, latency * 1000, choice.why)
         self.book.awarded(task.uuid, winner.robot)  # committed before the action is
-        why = choice.why if not open_task.lost_from else \
-            f"reassigned from {open_task.lost_from} (lost): {choice.why}"
-        self._send(TaskAllocation(uuid=task.uuid, state=AllocationState.AWARDED,
-                                  robot=winner.robot, why=why, name=request.name,
-                                  goal=request.goal))
+        self._send(published.allocation(request, task, choice, evaluator=self.ranking.name,
+                                        profiles=self.profiles,
+                                        lost_from=open_task.lost_from))
         self._award(request, open_task.requester, winner.robot, open_task.progress)
         if open_task.lost_from:
             self._reassigned(request, open_task.lost_from, winner.robot)
 
     def _say_waiting(self, open_task: OpenTask, wait: WaitReason, why: str) -> None:
         log.info("task %s waits (%s): %s", open_task.task.uuid, wait.value, why)
-        self._send(TaskAllocation(uuid=open_task.task.uuid, state=AllocationState.WAITING,
-                                  wait=wait, why=why, name=open_task.request.name,
-                                  goal=open_task.request.goal))
+        choice = open_task.choice or Choice(None, wait, why)
+        self._send(published.allocation(open_task.request, open_task.task, choice,
+                                        evaluator=self.ranking.name, profiles=self.profiles))
 
     def _send(self, message: Message) -> None:
         try:

@@ -60,6 +60,7 @@ class Choice:
     winner: Bid | None
     wait: WaitReason
     why: str
+    bids: tuple[Bid, ...] = ()  # in rank order (the winner first), as `why` lists them
 
 
 class BidRanking:
@@ -91,7 +92,7 @@ class BidRanking:
             why += "; " + "; ".join(b.describe() for b in others[:3])
             if len(others) > 3:
                 why += f"; {len(others) - 3} more"
-        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})")
+        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})", (winner, *others))
 
     def _scores(self, task: Task, fit: Sequence[Bid]) -> list[float]:
         score = SCORES[self.evaluator] if isinstance(self.evaluator, Evaluator) \
@@ -120,4 +121,4 @@ def _waiting(bids: Sequence[Bid]) -> Choice:
     why = "; ".join(b.describe() for b in ordered[:4])
     if len(ordered) > 4:
         why += f"; {len(ordered) - 4} more"
-    return Choice(None, reason, why or "no robot answered")
+    return Choice(None, reason, why or "no robot answered", tuple(ordered))
