@@ -62,7 +62,7 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail", "res")
+    __slots__ = ("lit", "tail", "res", "key")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
@@ -70,6 +70,9 @@ class Achieve(Instr):
         self.lit = lit
         self.tail = False
         self.res = resolver(lit)
+        # the plan-library key of the goal (`AchieveVar`'s is only known when it runs)
+        self.key = (ADD_ACH, lit.functor, len(lit.args), lit.neg) if type(lit) is Struct \
+            else None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
@@ -81,7 +84,7 @@ class Achieve(Instr):
         events = rt.events
         # With no other event queued, the next cycle's deliberate phase would take this
         # one first: its plan is selected and pushed now (no Event, no queue round trip).
-        if not events and rt.intend_now(it, ADD_ACH, lit, tail):
+        if not events and rt.intend_now(it, self.key, lit, tail):  # type: ignore[arg-type]
             return True
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
         it.line = self.line

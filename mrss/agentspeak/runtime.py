@@ -53,7 +53,7 @@ from mrss.agentspeak.intentions import (
     Intention,
     IntentionState,
 )
-from mrss.agentspeak.plans import Plan, PlanLibrary
+from mrss.agentspeak.plans import Plan, PlanKey, PlanLibrary
 from mrss.agentspeak.registry import IAContext, InternalAction, Registry
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -199,10 +199,11 @@ class Runtime:
             held = store.get(lit.args) if store is not None else None
             if held is None or SOURCE_PERCEPT not in held.annots:
                 self.on_percept_gone(lit)
-        if (op, lit.functor, len(lit.args), lit.neg) in self.plans.index:
+        key = (op, lit.functor, len(lit.args), lit.neg)
+        if key in self.plans.index:
             if it is not None:
                 if (now and not self.events and not self.event_waiters and self.atomic is None
-                        and not self.plans.meta and self.intend_now(it, op, lit, False)):
+                        and not self.plans.meta and self.intend_now(it, key, lit, False)):
                     return True
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
@@ -257,8 +258,8 @@ class Runtime:
             it.in_queue = True
             self.runq.append(it)
 
-    def intend_now(self, it: Intention, op: int, lit: Struct, tail: bool) -> bool:
-        """Handle the event `op lit` that `it` posts (a sub-goal, or a belief change of
+    def intend_now(self, it: Intention, key: PlanKey, lit: Struct, tail: bool) -> bool:
+        """Handle the event `lit` of `key` (its operator and predicate) that `it` posts (a sub-goal, or a belief change of
         its body) now, as the next cycle's deliberate phase would, when the caller has
         made sure that is the same: no other event is queued (so it would be the next
         one taken), no `.wait`, `[atomic]` intention or goal-state plan could tell the
@@ -267,7 +268,6 @@ class Runtime:
         event then goes through the queue, where the failure and the warnings happen in
         their usual cycle. When True, the formula's step is over: the plan's first
         formula is the intention's next step (`run_step` clears nothing this time)."""
-        key = (op, lit.functor, len(lit.args), lit.neg)
         plans = self.plans
         try:
             select = plans.selectors[key]
@@ -286,14 +286,24 @@ class Runtime:
             return False
         chosen, frame = found
         stack = it.stack
+        reused = False
         if tail and stack:
             top = stack[-1]
             tl = top.lit
             if (top.op == ADD_ACH and tl.functor == key[1] and len(tl.args) == key[2]
                     and top.fail_target is None and top.pc >= len(top.code)
                     and (DEL_ACH, tl.functor, key[2], tl.neg) not in plans.index):
-                stack.pop()  # tail-recursion optimisation, as in `handle_event`
-        stack.append(IntendedMeans(chosen, frame, lit, op))
+                # tail-recursion optimisation, as in `handle_event`: the finished frame
+                # is replaced; its object, referenced nowhere else, is reused
+                top.plan = chosen
+                top.frame = frame
+                top.pc = 0
+                top.code = chosen.code
+                top.lit = lit
+                top.loops = None
+                reused = True
+        if not reused:
+            stack.append(IntendedMeans(chosen, frame, lit, key[0]))
         if chosen.atomic:
             self.atomic = it
         it.state = RUNNABLE
