@@ -261,10 +261,9 @@ class Runtime:
     def intend_now(self, it: Intention, key: PlanKey, lit: Struct, tail: bool) -> bool:
         """Handle the event `lit` of `key` (operator and predicate) that `it` posts (a
         sub-goal, or a belief change of its body) now, as the next cycle's deliberate
-        phase would, when the caller has
-        made sure that is the same: no other event is queued (so it would be the next
-        one taken), no `.wait`, `[atomic]` intention or goal-state plan could tell the
-        difference, and the formula posts no other event.
+        phase would, when the caller has made sure that is the same: no other event is
+        queued (so it would be the next one taken), no `.wait`, `[atomic]` intention or
+        goal-state plan could tell the difference, and the formula posts no other event.
         False, with nothing done, when no plan is applicable or a context raised: the
         event then goes through the queue, where the failure and the warnings happen in
         their usual cycle. When True, the formula's step is over: the plan's first
