@@ -73,13 +73,12 @@ class Extras:
     gives an object of more than about 30 attributes slower attribute access, which
     costs every reasoning cycle some 10% (measured with `mrss bench reasoner`)."""
 
-    __slots__ = ("suspended_events", "ns_props", "selecting_now", "context_failed")
+    __slots__ = ("suspended_events", "ns_props", "context_errors")
 
     def __init__(self) -> None:
-        # `Runtime.intend_subgoal` is selecting: a context error is noted, not warned
-        # (the sub-goal then goes through the event queue, where it is warned once)
-        self.selecting_now = False
-        self.context_failed = False
+        # the context errors of a selection by `Runtime.intend_now`, not warned there
+        # (the event then goes through the queue, where they are warned once)
+        self.context_errors: list[Any] = []
         self.suspended_events: list[Event] = []  # goal events held by `.suspend(G)`
         # `.namespace_set_prop`: namespace -> key text -> (key, value), in the order set
         self.ns_props: dict[str, dict[str, tuple[Term, Term]]] = {}
@@ -148,10 +147,6 @@ class Runtime:
 
     def context_error(self, plan: Plan, exc: BaseException) -> None:
         """A plan's context raised `exc` while selecting: warn; the next plan is tried."""
-        extras = self.extras
-        if extras.selecting_now:
-            extras.context_failed = True
-            return
         if isinstance(exc, AslRuntimeError):
             what = exc.message
         elif isinstance(exc, RecursionError):
@@ -275,14 +270,10 @@ class Runtime:
             select = plans.selector(key)
         if select is None:
             return False
-        extras = self.extras
-        extras.selecting_now = True
-        try:
-            found = select(self, lit)
-        finally:
-            extras.selecting_now = False
-        if type(found) is not tuple or extras.context_failed:
-            extras.context_failed = False
+        errors = self.extras.context_errors
+        found = select(self, lit, errors)
+        if type(found) is not tuple or errors:
+            errors.clear()
             return False
         chosen, frame = found
         stack = it.stack
@@ -347,7 +338,7 @@ class Runtime:
                     return
                 if self.trail:
                     self.trail.clear()
-                if intended:  # a sub-goal's plan was pushed (`intend_subgoal`): it is
+                if intended:  # a sub-goal's plan was pushed (`intend_now`): it is
                     return    # runnable, and its first step is the next cycle's
         if it.state is RUNNABLE and not it.dropped:
             self.pop_finished(it)
