@@ -26,6 +26,10 @@ AgentSpeak using Jason", formal semantics) and where each one is:
   (`instructions.Instr.run`); environment actions leave through `start_action` and
   come back through `process_completion`.
 - ClrInt (clear finished plans): `Runtime.pop_finished`.
+
+One idea in one module: the transitions above share the circumstance they change and
+call each other on the hot path (`intend_now` is AddIM taken early from ExecInt); a
+method per file would make one cycle a walk across modules.
 """
 
 from __future__ import annotations
