@@ -128,6 +128,12 @@ def test_playing_feeds_the_dashboard_as_the_bus_would_and_pauses(wildfire_mcap: 
             await until(pilot, lambda: supply.uuid in app.actions.actions, timeout=30,
                         message="the dispatch reached by playing")
             assert app.replay_link.received > 0 and app.flushes > 0
+            # a loaded machine may have played on to the end meanwhile (ended): back to
+            # before the dispatch, playing, so that space pauses a replay that plays
+            app.seek_to(found - 1.0)
+            if app.player.state is PlayState.PAUSED:
+                await pilot.press("space")
+            assert app.player.state is PlayState.PLAYING
             await pilot.press("space")
             assert app.player.state is PlayState.PAUSED
             paused_at = app.player.time

@@ -36,6 +36,10 @@ def record_wildfire(out: Path, run_dir: Path) -> None:
             assert sent.returncode == 0, sent
             system.wait_for(lambda: system.statuses("ugv1", "succeeded"), 120,
                             "the UGV's water supply to succeed")
+            # the agent marks the hotspot supplied after the action's success: the write
+            # has passed the bus (to the recorder too) once the world model holds it
+            system.wait_for(lambda: ((system.world("hs1") or {}).get("attributes") or {})
+                            .get("state") == "supplied", 60, "hs1 supplied in the world model")
             rec.proc.send_signal(signal.SIGINT)
             assert rec.finish() == 0, rec.stderr()
         assert system.interrupt() == 0, system.log()
