@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from mrss.bus import BusEndpoints, ReliableSender, Subscriber
+from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
 from mrss.config.kinds import KINDS, ComponentKind
 from mrss.messages import (
     ActionControl,
@@ -22,9 +22,11 @@ from mrss.messages import (
     ActionState,
     ActionStatus,
     AllocationState,
+    Command,
     ControlCommand,
     ControlTarget,
     Envelope,
+    RobotState,
     TaskAllocation,
     WaitReason,
 )
@@ -74,10 +76,11 @@ class Rcl:
         self.endpoints = BusEndpoints.ipc(run_dir)
         procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
         self.seen: list[Envelope] = []
-        self.sub = Subscriber(self.endpoints, prefixes=["action."])
+        self.sub = Subscriber(self.endpoints, prefixes=["action.", "robot."])
         self.sub.start(self.seen.append)
         assert self.sub.wait_connected(5)
         self.tx = ReliableSender(self.endpoints, src="reasoner", inc=1, channel="action")
+        self.ctl = Publisher(self.endpoints, src="operator")
         child = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target,
                                                 {"robots": ROBOTS, "heartbeat": 0.2}, 20.0),
                           shutdown=5.0)
@@ -93,6 +96,7 @@ class Rcl:
     def close(self) -> None:
         self.sup.stop(timeout=30)
         self.tx.close()
+        self.ctl.close()
         self.sub.close()
 
     def request(self, uuid: str, caps: list[str], near: list[float] | None = None,
@@ -186,6 +190,29 @@ def test_a_higher_priority_task_preempts_and_a_low_battery_robot_is_passed_over(
                timeout=20, message="the far task waits")
     far = rcl.allocations("far")[0]
     assert far.wait is WaitReason.BATTERY and "below its reserve 20 %" in far.why
+
+
+@pytest.mark.slow
+def test_a_robot_put_in_teleop_gets_no_task_until_it_is_out_of_teleop(rcl: Rcl) -> None:
+    def teleop(on: bool) -> None:  # told, and the RCL says so (its actor may not have yet)
+        since = len(rcl.seen)
+        rcl.ctl.publish(Command(command="teleop", target="uav1", args={"on": on}))
+        wait_until(lambda: any(isinstance(e.body, RobotState) and e.body.robot == "uav1"
+                               and e.body.attributes.get("teleop") is on
+                               for e in rcl.seen[since:]),
+                   timeout=20, message=f"uav1's teleop {on}")
+
+    teleop(True)
+    rcl.request("flight", ["uav"], seconds=0.1)
+    wait_until(lambda: any(a.state is AllocationState.WAITING
+                           for a in rcl.allocations("flight")),
+               timeout=20, message="the task waits for the only UAV")
+    waiting = rcl.allocations("flight")[0]
+    assert waiting.wait is WaitReason.UNAVAILABLE and "uav1 in teleop" in waiting.why
+    assert not rcl.statuses("flight")
+    teleop(False)
+    assert rcl.awarded("flight").robot == "uav1"
+    assert rcl.ended("flight").state is ActionState.SUCCEEDED
 
 
 @pytest.mark.slow
