@@ -4,8 +4,8 @@ Per fleet size N (10, 100, 200; `--quick`: 10), `mrss supervise` runs a generate
 project (`mrss.bench.allocation_project`): the simulated fleet (real MAVLink and MQTT
 links, one per robot, every robot with a camera), two scouts in processes of their own,
 the RCL and the reasoner. Every robot bids for every task (all N have the capability):
-the RCL computes each bid from what the robot's actor published, and asks the winner's
-actor alone to confirm it.
+the RCL ranks every bid in one pass over the state it holds (what each robot's actor
+published, its link's telemetry), asking no robot actor.
 It measures:
 
 * goal -> award p50/p99: the bench publishes a percept `task(N, Lat, Lon)` (a place on
@@ -13,6 +13,10 @@ It measures:
   clock stops when the RCL publishes the `action.allocation` AWARDED for it (its
   envelope's wall-clock `ts`; the bench's clock when it published the percept: one
   machine, one clock);
+* of which in the RCL, p50/p99: from the request's arrival to the award's decision, as
+  the RCL logs it ("task ... awarded to ... after 1 round(s), 0.6 ms", in the run's
+  mrss.log): the rest is the percept's way to the reasoner, its plan, the request's and
+  the award's way on the bus, and the award's journal write;
 * goal -> first skill start p50/p99: the skill reads CLOCK_MONOTONIC first in `start()`;
 * robot lost -> task re-awarded p50/p99: a task for a scout (`hold(any([scout], ...))`)
   is awarded to the nearer scout and its skill starts; the bench freezes that scout's
@@ -30,6 +34,7 @@ from __future__ import annotations
 import math
 import os
 import random
+import re
 import signal
 import threading
 import time
@@ -68,9 +73,11 @@ REAWARD_SLACK_MS = 100.0  # re-award p99 <= link timeout + this
 TASK_GAP_S = 0.05  # between two goals (20 tasks/s)
 RATE_HZ = 1.0  # telemetry per robot: allocation reads positions, not more
 LATE_S = 10.0
+#: the allocator's log line of an award (mrss.actors.rcl.allocation.allocator)
+AWARD_LOGGED = re.compile(r"task (\w+) awarded to \S+ after \d+ round\(s\), ([\d.]+) ms")
 COLUMNS = ["robots", "tasks", "award p50 ms", "award p99 ms", "x Open-RMF window",
-           "start p50 ms", "start p99 ms", "lost rounds", "re-award p50 ms",
-           "re-award p99 ms"]
+           "in RCL p50 ms", "in RCL p99 ms", "start p50 ms", "start p99 ms", "lost rounds",
+           "re-award p50 ms", "re-award p99 ms"]
 
 
 class AllocationRun:
@@ -132,8 +139,10 @@ class AllocationRun:
         raise TimeoutError(f"not ready after {timeout:.0f}s: robots silent: "
                            f"{sorted(everyone - self.seen)[:10]}")
 
-    def tasks(self, count: int, first: int) -> tuple[list[float], list[float], int]:
-        """`count` goals, TASK_GAP_S apart: (award ms, skill start ms, late)."""
+    def tasks(self, count: int, first: int) -> tuple[list[float], list[float], list[float],
+                                                    int]:
+        """`count` goals, TASK_GAP_S apart: (award ms, of which in the RCL, skill start
+        ms, late)."""
         rng = random.Random(first)
         sent: dict[int, int] = {}
         sent_at: dict[int, float] = {}
@@ -146,11 +155,21 @@ class AllocationRun:
         with self._cond:
             self._cond.wait_for(lambda: all(s in self.starts and str(s) in self.awards
                                             for s in sent), timeout=LATE_S)
-            awards = {s: self.awards[str(s)][0][2] for s in sent if str(s) in self.awards}
+            awards = {s: self.awards[str(s)][0] for s in sent if str(s) in self.awards}
             starts = {s: self.starts[s] for s in sent if s in self.starts}
         late = sum(1 for s in sent if s not in awards or s not in starts)
-        return ([(awards[s] - sent_at[s]) * 1e3 for s in awards],
+        decided = self.decided()
+        return ([(awards[s][2] - sent_at[s]) * 1e3 for s in awards],
+                [decided[a[0]] for a in awards.values() if a[0] in decided],
                 [(starts[s] - sent[s]) / 1e6 for s in starts], late)
+
+    def decided(self) -> dict[str, float]:
+        """uuid -> ms from the request's arrival to the award, as the RCL logged it."""
+        try:
+            text = (self.system.run_dir / "mrss.log").read_text(errors="replace")
+        except OSError:
+            return {}
+        return {m[1]: float(m[2]) for m in AWARD_LOGGED.finditer(text)}
 
     def lost(self, rounds: int, first: int) -> tuple[list[float], int]:
         """`rounds` times: a scout's task, the scout frozen, the task re-awarded (ms)."""
@@ -219,7 +238,7 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
             run_.wait_ready(timeout=60 + robots)
             run_.tasks(min(10, count), seq)  # warm-up: first plans, first links
             seq += 10
-            awards, starts, late = run_.tasks(count, seq)
+            awards, in_rcl, starts, late = run_.tasks(count, seq)
             seq += count
             lost, lost_late = run_.lost(rounds, seq)
             seq += rounds
@@ -230,7 +249,8 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
             reaward_p99.append(lost_p99)
         report.add_row(robots, count, _ms(awards, 50, late), p99,
                        RMF_BIDDING_WINDOW_MS / p99 if p99 and math.isfinite(p99) else None,
-                       _ms(starts, 50, late), _ms(starts, 99, late), rounds,
+                       _ms(in_rcl, 50, late), _ms(in_rcl, 99, late), _ms(starts, 50, late),
+                       _ms(starts, 99, late), rounds,
                        _ms(lost, 50, lost_late), lost_p99)
     if TARGET_ROBOTS in award_p99:
         report.target(f"goal -> award p99 at {TARGET_ROBOTS} robots (ms)",
@@ -243,9 +263,11 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
                       f"the link's heartbeat_timeout ({project.LINK_TIMEOUT_S:g} s) + "
                       f"{REAWARD_SLACK_MS:g} ms")
     report.notes.append(
-        "award: bench percept -> reasoner -> RCL -> every capable robot's bid (from "
-        "what its actor published) ranked, the winner's actor confirms -> "
-        "action.allocation AWARDED seen by the bench; start: ... -> the skill's start(). "
+        "award: bench percept -> reasoner -> RCL -> every capable robot's bid ranked, in "
+        "one pass over the state the RCL holds (what each robot actor published, its "
+        "link's telemetry) -> action.allocation AWARDED seen by the bench; in RCL: the "
+        "request's arrival -> the award decided (the RCL's log); start: ... -> the "
+        "skill's start(). "
         f"{count} goals per size, {1 / TASK_GAP_S:g}/s, each at a random robot's place "
         "(every robot of the fleet bids; half UAVs over MAVLink/UDP, half UGVs over MQTT, "
         "one `mrss sim fleet` process); after 10 warm-up goals. Re-award: the scout "
