@@ -124,17 +124,22 @@ def compute_bid(request: BidRequest, *, position: Place | None, battery: float |
 
 
 def figures(task: Task, profile: RobotProfile, base: Place | None, position: Place | None,
-            battery: float | None) -> tuple[float, float, float, float | None]:
+            battery: float | None, *, home_read: bool = True,
+            back_read: bool = True) -> tuple[float, float, float, float | None]:
     """(travel_m, home_m, back_m, battery_after) of a robot for `task`: the figures of
     its bid, the same whether one bid is made (`compute_bid`) or a whole fleet is
-    ranked in one pass (mrss.actors.rcl.allocation.fleet)."""
+    ranked in one pass (mrss.actors.rcl.allocation.fleet), which leaves out (0.0) the
+    way home when neither its score (`home_read`) nor the battery needs it, and the way
+    back unless its score reads it (`back_read`)."""
+    home_read = home_read or battery is not None
     if task.near is None:
         travel = 0.0
-        home = _dist(position, base) if position is not None else 0.0
+        home = _dist(position, base) if position is not None and home_read else 0.0
     else:
         travel = _dist(position, task.near)
-        home = _dist(task.near, base) if base is not None else 0.0
-    back = _dist(position, base) if position is not None and base is not None else 0.0
+        home = _dist(task.near, base) if base is not None and home_read else 0.0
+    back = _dist(position, base) if position is not None and base is not None \
+        and back_read else 0.0
     after = None
     if battery is not None:
         after = battery - profile.battery_per_km * (travel + home) / 1000.0
@@ -143,8 +148,13 @@ def figures(task: Task, profile: RobotProfile, base: Place | None, position: Pla
 
 def link_state(link: Any) -> tuple[Place | None, float | None]:
     """(position, battery %) of a robot from its link: the last `position` and `battery`
-    telemetry records (mrss.links.base.RobotLink.latest), or `lat`/`lon`/`battery`
-    attributes of a link of the project's own; None for what it does not say."""
+    telemetry records (mrss.links.base.RobotLink.whereabouts, or `latest`), or
+    `lat`/`lon`/`battery` attributes of a link of the project's own; None for what it
+    does not say."""
+    whereabouts = getattr(link, "whereabouts", None)
+    if callable(whereabouts):
+        found: tuple[Place | None, float | None] = whereabouts()
+        return found
     latest = getattr(link, "latest", None)
     position = battery = None
     if callable(latest):

@@ -35,7 +35,9 @@ class BidState:
     def top(self) -> Work | None:
         """Its work that decides whether it is busy: the highest priority, then the
         furthest along (None: idle)."""
-        return max(self.work, key=lambda w: (w.priority, w.done), default=None)
+        if not self.work:
+            return None
+        return max(self.work, key=lambda w: (w.priority, w.done))
 
 
 class BidBoard:

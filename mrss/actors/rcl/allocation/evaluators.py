@@ -51,6 +51,15 @@ FIGURE_SCORES: dict[Evaluator, FigureScore] = {
     else math.inf,
 }
 
+#: The figures besides travel and battery_after each named evaluator's score reads:
+#: (home_m, back_m); a round over the fleet computes no other.
+READS: dict[Evaluator, tuple[bool, bool]] = {
+    Evaluator.QUICKEST_FINISH: (False, False),
+    Evaluator.LEAST_COST: (True, False),
+    Evaluator.LEAST_MARGINAL_COST: (True, True),
+    Evaluator.BATTERY_AWARE: (False, False),
+}
+
 
 def _bid_score(figures: FigureScore) -> BidScore:
     return lambda _t, b: figures(b.finish_s, b.travel_m, b.home_m, b.back_m, b.battery_after)
@@ -95,6 +104,12 @@ class BidRanking:
         given whole bids)."""
         e = self.evaluator
         return FIGURE_SCORES[e] if isinstance(e, Evaluator) else None
+
+    @property
+    def reads(self) -> tuple[bool, bool]:
+        """(home_m, back_m): whether the score reads them (a project's own: both)."""
+        e = self.evaluator
+        return READS[e] if isinstance(e, Evaluator) else (True, True)
 
     def choose(self, task: Task, bids: Sequence[Bid]) -> Choice:
         """The winner among `bids` (deterministic), or why the task waits."""

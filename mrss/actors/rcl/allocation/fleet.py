@@ -79,6 +79,7 @@ class FleetRound:
         fit: list[tuple[bool, float, str]] = []  # (pre-empts, score, robot): rank order
         unfit: list[tuple[WaitReason, str]] = []
         priority = task.priority
+        home_read, back_read = ranking.reads
         for profile in capable:
             robot = profile.robot
             state = self.states.get(robot)
@@ -91,7 +92,8 @@ class FleetRound:
                 continue
             position, battery = self.where(robot)
             travel, home, back, after = figures(task, profile, self.base(profile) or position,
-                                                position, battery)
+                                                position, battery, home_read=home_read,
+                                                back_read=back_read)
             if after is not None and after < profile.battery_reserve:
                 unfit.append((WaitReason.BATTERY, robot))
                 continue
