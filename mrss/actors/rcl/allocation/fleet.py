@@ -76,40 +76,40 @@ class FleetRound:
         score = ranking.figure_score
         if score is None:
             return ranking.choose(task, [self.bid(task, p) for p in capable])
-        fit: list[tuple[bool, float, str]] = []  # (pre-empts, score, robot): rank order
-        unfit: list[tuple[WaitReason, str]] = []
+        # (pre-empts, score, robot, its profile): rank order (robot ids are unique)
+        fit: list[tuple[bool, float, str, RobotProfile]] = []
+        unfit: list[tuple[WaitReason, str, RobotProfile]] = []
         priority = task.priority
         home_read, back_read = ranking.reads
         for profile in capable:
             robot = profile.robot
             state = self.states.get(robot)
             if state is None or state.teleop or robot in self.unavailable:
-                unfit.append((WaitReason.UNAVAILABLE, robot))
+                unfit.append((WaitReason.UNAVAILABLE, robot, profile))
                 continue
             top = state.top
             if top is not None and priority <= top.priority:
-                unfit.append((WaitReason.BUSY, robot))  # its work goes before this task
+                unfit.append((WaitReason.BUSY, robot, profile))  # its work goes first
                 continue
             position, battery = self.where(robot)
             travel, home, back, after = figures(task, profile, self.base(profile) or position,
                                                 position, battery, home_read=home_read,
                                                 back_read=back_read)
             if after is not None and after < profile.battery_reserve:
-                unfit.append((WaitReason.BATTERY, robot))
+                unfit.append((WaitReason.BATTERY, robot, profile))
                 continue
             value = score(travel / profile.cruise_speed, travel, home, back, after)
             if math.isnan(value):  # the ranking's fallback decides, as for any bad score
                 return ranking.choose(task, [self.bid(task, p) for p in capable])
-            fit.append((top is not None, value, robot))
-        profiles = {p.robot: p for p in capable}
+            fit.append((top is not None, value, robot, profile))
         if not fit:
-            unfit.sort(key=lambda rr: (wait_rank(rr[0]), rr[1]))
-            return waiting({r for r, _ in unfit},
-                           [self.bid(task, profiles[r]) for _, r in unfit[:WAITING_SHOWN]],
+            unfit.sort(key=lambda u: (wait_rank(u[0]), u[1]))
+            return waiting({reason for reason, _, _ in unfit},
+                           [self.bid(task, p) for _, _, p in unfit[:WAITING_SHOWN]],
                            len(unfit))
-        fit.sort()
-        named = [robot for _, _, robot in fit[:SHOWN + 1]]
+        fit.sort(key=lambda f: f[:3])
+        named = [p for _, _, _, p in fit[:SHOWN + 1]]
         if len(named) <= SHOWN:  # after the fit ones, the unfit ones by robot id
-            named += sorted(r for _, r in unfit)[:SHOWN + 1 - len(named)]
-        bids = [self.bid(task, profiles[r]) for r in named]
+            named += [p for _, _, p in sorted(unfit, key=lambda u: u[1])][:SHOWN + 1 - len(named)]
+        bids = [self.bid(task, p) for p in named]
         return ranking.award(bids[0], bids[1:], len(fit) - 1 + len(unfit))
