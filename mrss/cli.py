@@ -29,6 +29,7 @@ class Verb:
 VERBS: tuple[Verb, ...] = (
     Verb("supervise", "run a project's whole system under the root supervisor", True),
     Verb("tui", "open the monitoring and debug dashboard", True),
+    Verb("users", "manage the operators of a project: add, remove, list, set-role", True),
     Verb("keys", "make a node's CurveZMQ keypair (projects with [nodes])", True),
     Verb("new", "create a project folder from the template"),
     Verb("check", "load and validate a project without starting robots", True),

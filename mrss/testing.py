@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import socket
 import subprocess
@@ -27,19 +28,49 @@ class WaitTimeout(AssertionError):
     """A condition did not hold within its timeout."""
 
 
+MAX_STRETCH = 4.0  # a wait gets at most 4x its timeout on an overloaded machine
+
+
+def stretch() -> float:
+    """How much longer than its timeout a wait gets on this machine now: the run queue
+    per CPU (the 1-minute load average) when above 1, at most MAX_STRETCH. A timeout in
+    a test is a failure detector: on a host with 20 runnable processes for 2 CPUs
+    everything takes several times as long, and a detector tuned for a quiet machine would
+    call that a failure."""
+    try:
+        per_cpu = os.getloadavg()[0] / (os.cpu_count() or 1)
+    except OSError:
+        return 1.0
+    return min(max(per_cpu, 1.0), MAX_STRETCH)
+
+
+def expired(started: float, timeout: float) -> bool:
+    """Whether a wait begun at `started` (time.monotonic()) with `timeout` is over, given
+    the machine's load now (`stretch`)."""
+    waited = time.monotonic() - started
+    return waited >= timeout and waited >= timeout * stretch()
+
+
 def wait_until(
     condition: Callable[[], T], timeout: float = 10.0, interval: float = 0.005,
     message: str = "condition",
 ) -> T:
-    """Poll `condition` until it returns a truthy value; return it, or raise WaitTimeout."""
-    deadline = time.monotonic() + timeout
+    """Poll `condition` until it returns a truthy value; return it, or raise WaitTimeout.
+    On a loaded machine the wait goes on past `timeout` in proportion (`stretch`)."""
+    started = time.monotonic()
     while True:
         value = condition()
         if value:
             return value
-        if time.monotonic() >= deadline:
-            raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s")
+        if time.monotonic() - started >= timeout and expired(started, timeout):
+            raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s"
+                              f"{_stretched(started, timeout)}")
         time.sleep(interval)
+
+
+def _stretched(started: float, timeout: float) -> str:
+    waited = time.monotonic() - started
+    return f" (waited {waited:.1f}s: the machine was loaded)" if waited > timeout * 1.05 else ""
 
 
 @dataclass(frozen=True)

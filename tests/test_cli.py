@@ -12,7 +12,8 @@ from mrss import __version__
 from mrss.cli import VERBS, Verb, main
 
 DESIGN_VERBS = {"supervise", "tui", "new", "check", "test", "agent", "send", "record",
-                "replay", "recording", "incident", "sim", "bench", "chaos", "keys"}
+                "replay", "recording", "incident", "sim", "bench", "chaos", "keys",
+                "users"}
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:

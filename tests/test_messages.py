@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from mrss import messages as m
 from mrss.errors import DecodeError
+from mrss.messages.bid_reports import BidReport
 
 # -- strategies --------------------------------------------------------------------------
 
@@ -32,6 +33,12 @@ plain_values = st.recursive(
 )
 nonempty = st.text(min_size=1, max_size=20)
 
+_maybe_number = st.one_of(st.none(), st.floats(allow_nan=False))
+bid_reports = st.builds(
+    lambda *a: BidReport(*a).to_wire(), nonempty,
+    st.sampled_from(list(m.WaitReason)), _maybe_number, _maybe_number, _maybe_number,
+    st.one_of(st.none(), _INT64), st.floats(allow_nan=False), st.booleans())
+
 # Fields whose values `validate` constrains, per kind.
 _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("percept", "literal"): st.text(min_size=1, max_size=20).filter(str.strip),
@@ -45,6 +52,9 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("action.status", "critical_bound"): st.floats(min_value=0, allow_nan=False),
     ("action.status", "progress_bound"): st.floats(min_value=0, allow_infinity=False),
     ("action.allocation", "uuid"): nonempty,
+    ("action.allocation", "bids"): st.lists(bid_reports, max_size=3),
+    ("action.allocation", "near"): st.one_of(st.just([]), st.lists(
+        st.floats(allow_nan=False), min_size=2, max_size=2)),
     ("action.control", "command"): st.sampled_from(m.CONTROL_COMMANDS),
     ("action.control", "target_kind"): st.sampled_from(m.CONTROL_TARGETS),
     ("action.control", "target"): nonempty,
@@ -55,6 +65,11 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("node.beat", "boot"): nonempty,
     ("agent.gave_up", "agent"): nonempty,
     ("agent.gave_up", "goal"): nonempty,
+    ("question", "id"): nonempty,
+    ("question.answer", "id"): nonempty,
+    ("question.answer", "answer"): nonempty,
+    ("question.answer", "by"): nonempty,
+    ("question.answer", "request"): nonempty,
 }
 
 
@@ -301,3 +316,51 @@ def test_a_credential_proves_one_incarnation_of_one_sender_under_one_key(
     other = m.IncarnationKey.create(tmp_path)  # the next run: a new key
     assert not other.vouches("rcl", 2, cred)
     assert m.load_key(str(tmp_path / "incarnation.key")) == other
+
+
+# -- the bids of an allocation -------------------------------------------------------------
+
+def _allocation(**bid: Any) -> tuple[bytes, bytes]:
+    body = m.TaskAllocation(uuid="t1", state=m.AllocationState.AWARDED, robot="uav1")
+    frames = m.encode(body, src="rcl")
+    env = msgpack.unpackb(frames[1], raw=False)
+    env["body"]["bids"] = [{"robot": "uav1", **bid}]
+    return frames[0], msgpack.packb(env, use_bin_type=True)
+
+
+@pytest.mark.parametrize(("bid", "reason"), [
+    ({"unfit": "tired"}, "bid report 0: unknown excuse 'tired' (one of 'busy', "),
+    ({"finish_s": "soon"}, "bid report 0: finish_s is not a number"),
+    ({"busy_priority": 1.5}, "bid report 0: busy_priority is not an integer"),
+    ({"why": "because"}, "bid report 0 has unknown key(s) ['why']"),
+    ({"robot": ""}, "bid report 0 names no robot"),
+])
+def test_an_allocation_with_a_malformed_bid_names_the_bid_and_its_key(
+        bid: dict[str, Any], reason: str) -> None:
+    with pytest.raises(DecodeError, match=re.escape(reason)):
+        m.decode(*_allocation(**bid))
+
+
+def test_an_allocation_of_the_previous_wire_without_bids_still_decodes() -> None:
+    body = m.TaskAllocation(uuid="t1", state=m.AllocationState.WAITING,
+                            wait=m.WaitReason.BUSY, why="uav1 busy with priority 5")
+    frames = m.encode(body, src="rcl")
+    env = msgpack.unpackb(frames[1], raw=False)
+    for key in ("bids", "bidders", "evaluator", "capabilities", "near", "lost_from"):
+        del env["body"][key]
+    decoded = m.decode(frames[0], msgpack.packb(env, use_bin_type=True)).body
+    assert decoded == body and decoded.bids == []
+
+
+def test_a_bid_report_says_why_in_words_from_its_figures() -> None:
+    report = BidReport
+    assert report("uav3", finish_s=41.6, battery_after=71.2).describe() == \
+        "uav3: finish in 42 s, 71 % battery after"
+    assert report("uav1", m.WaitReason.BUSY, busy_priority=5, busy_done=0.4).describe() \
+        == "uav1 busy with priority 5 (40% done)"
+    assert report("uav2", m.WaitReason.BATTERY, battery_after=12.0, reserve=20.0).describe() \
+        == "uav2 battery too low (12 % < reserve 20 %)"
+    assert report("uav4", m.WaitReason.UNAVAILABLE).describe("link down") == \
+        "uav4 unavailable: link down"
+    assert report("uav5", finish_s=None, preempts=True, busy_priority=1).describe() == \
+        "uav5: finish in unknown time, pre-empting priority 1"

@@ -17,5 +17,6 @@ BENCHES: dict[str, str] = {
     "allocation": "tasks addressed to a role among 10..200 robots: goal -> award, re-award "
                   "after a robot is lost",
     "incident": "a dashboard attaching late to a 4-hour incident record",
+    "replay": "the dashboard's replay of a 30-minute mission: load, index, seek",
     "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

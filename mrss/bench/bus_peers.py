@@ -66,8 +66,8 @@ class BusLink:
     """Our bus: a Publisher and a Subscriber."""
 
     def __init__(self, endpoints: BusEndpoints, topics: list[str], src: str,
-                 batching: bool = True, bind: bool = False) -> None:
-        self.pub = Publisher(endpoints, src=src, batching=batching, bind=bind)
+                 batching: bool = True, bind: bool = False, inc: int = 0) -> None:
+        self.pub = Publisher(endpoints, src=src, inc=inc, batching=batching, bind=bind)
         self.sub = Subscriber(endpoints, prefixes=topics, name=src)
 
     def publish(self, msg: Message) -> None:
@@ -159,7 +159,7 @@ def make_link(spec: dict[str, Any], topics: list[str], src: str, role: str) -> A
         return BusLink(ends, topics, src, bind=True)
     if spec["kind"] == "bus":
         return BusLink(BusEndpoints.from_dict(spec["endpoints"]), topics, src,
-                       batching=spec.get("batching", True))
+                       batching=spec.get("batching", True), inc=int(spec.get("inc", 0)))
     return MqttLink(spec["host"], int(spec["port"]), int(spec["qos"]), topics, src)
 
 

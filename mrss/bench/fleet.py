@@ -4,14 +4,18 @@ Per fleet size N (half UAVs over MAVLink/UDP, half UGVs over MQTT on a private
 Mosquitto, all in one `mrss sim fleet` process), `mrss supervise` runs a generated
 project (`mrss.bench.fleet_project`): bus, world model, data layer, the fleet, the RCL
 with a real link per robot and the reasoner. Once every robot is available the bench
-assigns each robot a goal every 10 s (a percept `assign(R, Seq)`, spread evenly over the
-10 s). Each size runs twice, at the shipped defaults (no scheduling keys) and tuned
-(the opt-in realtime of `fleet_project.Scheduling.TUNED`), each for `WINDOWS` windows one
-after the other (`mrss.bench.fleet_table`: worst window, share meeting the targets).
-For each window it measures:
+sends as many goals every 10 s as there are robots (spread evenly over the 10 s), each
+addressed to a role, as many to `uav` as there are UAVs and to `ugv` as UGVs (a percept
+`assign(Kind, Seq)`: the agent's `goto(any([Kind]), Seq)`, awarded by the RCL's
+allocation to a free robot of that kind). Each size runs twice, at the shipped
+defaults (no scheduling keys) and tuned (the opt-in realtime of
+`fleet_project.Scheduling.TUNED`), each for `WINDOWS` windows one after the other
+(`mrss.bench.fleet_table`: worst window, share meeting the targets). For each window it
+measures:
 
 * percept -> skill start p50/p99: CLOCK_MONOTONIC at the skill's `start()` minus the
-  same clock just before the bench published the percept;
+  same clock just before the bench published the percept (the allocation's award
+  included);
 * telemetry -> world model lag p50/p99: from the link's reception of a telemetry record
   in the RCL (the record's `ts`) to the world model's reply to its write (seen on the bus;
   the data layer sends telemetry writes in batches, `wm.upsert_many`, answered together
@@ -174,9 +178,9 @@ class FleetRun:
             due = begin + (seq - first) * gap_ns
             if due > now:
                 time.sleep((due - now) / 1e9)
-            robot = self.robot_ids[seq % len(self.robot_ids)]
+            kind = self.robot_ids[seq % len(self.robot_ids)][:3]  # uav | ugv: the role
             sent[seq] = time.monotonic_ns()
-            self.system.pub.publish(Percept(literal=f"assign({robot}, {seq})"))
+            self.system.pub.publish(Percept(literal=f"assign({kind}, {seq})"))
             seq += 1
         self.measuring = False
         self.next_seq = seq
@@ -264,7 +268,8 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
         "lag: telemetry record received by the RCL's link -> data layer -> world model "
         "write answered. Robots: half UAVs (MAVLink/UDP), half UGVs (MQTT: Mosquitto, else "
         "the embedded broker), one "
-        f"`mrss sim fleet` process; each robot gets a goal every {ASSIGN_EVERY_S:g} s. "
+        f"`mrss sim fleet` process; one goal per robot every {ASSIGN_EVERY_S:g} s, each "
+        "addressed to a role (any uav, any ugv) and awarded by the RCL's allocation. "
         f"{windows} windows of {window:g} s per row, one after the other on one system; p50 "
         "over all windows, p99 of the worst window and how many windows met the target. "
         f"A skill start or write not seen {LATE_AFTER_S:g} s after its window is late: "

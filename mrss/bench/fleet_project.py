@@ -2,8 +2,11 @@
 
 Components: bus proxy, world model (SQLite), data layer, the simulated fleet (`mrss sim
 fleet` as a component), the RCL with one real link per robot (MAVLink over UDP per UAV,
-MQTT per UGV, on a private Mosquitto) and the reasoner. The agent turns each
-`assign(R, Seq)` percept into an action `goto(R, Seq)`; the RCL's skill reads the clock
+MQTT per UGV, on a private Mosquitto) and the reasoner. Robots declare their kind as
+their capability (`uav` or `ugv`), and the agent addresses each goal to that role, not
+to a robot: an `assign(Kind, Seq)` percept becomes the action `goto(any([Kind]), Seq)`,
+which the RCL's allocator awards to the best free robot of that kind (docs/rcl.md,
+"Allocation"); the skill on the winner reads the clock
 first thing in `start()` (kept as progress) and then commands the robot over its link
 (a UGV drives 20 m, a UAV is switched to GUIDED). The data layer writes every telemetry
 record to the world model (the default `on_telemetry`) and tells the agent when a robot
@@ -22,7 +25,7 @@ from mrss.links.geo import offset
 
 PROJECT = "fleetbench"
 AGENT = """\
-+assign(R, N)[source(percept)] <- -assign(R, N)[source(percept)]; goto(R, N).
++assign(K, N)[source(percept)] <- -assign(K, N)[source(percept)]; goto(any([K]), N).
 +moving(R)[source(percept)] <- +busy(R).
 -moving(R)[source(percept)] <- -busy(R).
 """
@@ -62,8 +65,10 @@ def toml(uavs: int, ugvs: int, broker_url: str | None, rate: float,
     (None: the embedded broker, a component of the project), scheduled as `scheduling`."""
     tuned = scheduling is Scheduling.TUNED
     favoured, telemetry = (FAVOURED, TELEMETRY) if tuned else ("", "")
-    robots = [f"uav{k} = {{ link = \"mavlink\" }}" for k in range(1, uavs + 1)]
-    robots += [f"ugv{k} = {{ link = \"mqtt\" }}" for k in range(1, ugvs + 1)]
+    robots = [f"uav{k} = {{ link = \"mavlink\", capabilities = [\"uav\"] }}"
+              for k in range(1, uavs + 1)]
+    robots += [f"ugv{k} = {{ link = \"mqtt\", capabilities = [\"ugv\"] }}"
+               for k in range(1, ugvs + 1)]
     return f"""\
 [project]
 name = "{PROJECT}"
@@ -131,7 +136,8 @@ class Assignment(Skill):
 
 
 class FleetLayer(RobotCommLayer):
-    """`goto(R, Seq)` -> one Assignment skill on robot R (real links by default)."""
+    """`goto(Role, Seq)` -> one Assignment skill on the robot that won the task (real
+    links by default)."""
 
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "goto":

@@ -4,7 +4,8 @@ of the run folder.
 Every `every` seconds (wall clock) the sampler finds the root `mrss supervise` of the run
 (a child of this process whose command line names the run folder) and reads, with
 psutil, each of its descendants: the components by their process name (`mrss:<id>`),
-the fork server, and the root itself; their RSS (MB), open file descriptors and
+the fork server, the embedded broker's Mosquitto (`broker/mosquitto`, where the broker runs
+one) and the root itself; their RSS (MB), open file descriptors and
 threads. It also sizes the files the components keep in the run folder, by what they
 are (`FileKind`): a SQLite file counts with its -wal and -shm files, a log with its
 rotated files (`mrss.log.1`, ...: `mrss.logfile`) and its lock file.
@@ -27,6 +28,8 @@ from mrss.runtime.forkserver import COMPONENT_COMM_PREFIX, is_fork_server
 MB = 2**20
 ROOT = "supervisor"
 FORKSERVER = "forkserver"
+MOSQUITTO = "mosquitto"  # the executable the embedded broker runs where installed
+EMBEDDED_MOSQUITTO = "broker/mosquitto"
 
 
 class Resource(enum.StrEnum):
@@ -165,4 +168,6 @@ def _processes(root: psutil.Process) -> dict[str, psutil.Process]:
             found[name[len(COMPONENT_COMM_PREFIX):]] = child
         elif is_fork_server(cmdline, name):
             found[FORKSERVER] = child
+        elif name == MOSQUITTO:  # the embedded broker's engine, a child of `mrss:broker`
+            found[EMBEDDED_MOSQUITTO] = child
     return found

@@ -107,17 +107,17 @@ class Incarnations:
     def admit(self, env: Envelope) -> bool:
         """Whether the rule lets `env` through (and learn from it when proven)."""
         if env.replayed:
-            return self._refuse(env, Refusal.REPLAYED, "")
+            return self.refuse(env, Refusal.REPLAYED, "")
         body = env.body
         if isinstance(body, SupEvent) and env.topic == ANNOUNCEMENT and \
                 not self._announced(body) and env.inc <= 0:
-            return self._refuse(env, Refusal.UNPROVEN, f"a start of {body.child[:40]} "
+            return self.refuse(env, Refusal.UNPROVEN, f"a start of {body.child[:40]} "
                                 "that its supervisor did not announce")
         if env.inc <= 0 or self._known.get(env.src) == (env.inc, env.cred):
             return True  # unsupervised, or the live incarnation as proven: no lock
         key = self.key
         if key is not None and not key.vouches(env.src, env.inc, env.cred):
-            return self._refuse(env, Refusal.UNPROVEN, f"inc {env.inc}, "
+            return self.refuse(env, Refusal.UNPROVEN, f"inc {env.inc}, "
                                 f"{'a wrong' if env.cred else 'no'} credential")
         with self._lock:
             live = self._live.get(env.src, 0)
@@ -125,7 +125,7 @@ class Incarnations:
                 self._live[env.src] = env.inc
                 self._known[env.src] = (env.inc, env.cred)
                 return True
-        return self._refuse(env, Refusal.STALE, f"inc {env.inc}; {live} is live")
+        return self.refuse(env, Refusal.STALE, f"inc {env.inc}; {live} is live")
 
     def _announced(self, event: SupEvent) -> bool:
         """A `sup.start`: learn from it as far as its credential proves it. False for a
@@ -153,8 +153,9 @@ class Incarnations:
                 self._live[src] = inc
                 self._known.pop(src, None)
 
-    def _refuse(self, env: Envelope, reason: Refusal, detail: str) -> bool:
-        """Count (and now and then log) one refusal; False."""
+    def refuse(self, env: Envelope, reason: Refusal, detail: str) -> bool:
+        """Count (and now and then log) one refusal; False. (Also the mesh's border's,
+        mrss/bus/border.py, for what a peer node cannot prove.)"""
         key = (env.src[:64], reason)
         now = time.monotonic()
         with self._lock:

@@ -15,8 +15,10 @@ a multi-node project (`[nodes]`, mrss.config.nodes) runs this instead, one threa
   window while it lasts (level-triggered, for components that started later).
 
 Everything a peer sends is checked before local components see it: the frames' shape,
-each envelope (`mrss.messages.decode`), and the sender's state (a refused node's
-messages are dropped); failures are logged (rate-limited) and counted, never raised.
+each envelope (`mrss.messages.decode`), the sender's state (a refused node's messages
+are dropped), and every incarnation it claims, at the border (mrss.bus.border: proven
+by the peer's incarnation key, which its beats carry, and re-minted with this node's);
+failures are logged (rate-limited) and counted, never raised.
 Handshake failures on the inbox (garbage, a wrong mechanism) are logged from the
 socket monitor.
 """
@@ -36,10 +38,11 @@ import zmq
 from zmq.utils.monitor import recv_monitor_message
 
 from mrss.bus import sockets
+from mrss.bus.border import Border
 from mrss.bus.curve import DOMAIN, NodeKeys, ZapGate, load_keys, load_public
 from mrss.bus.endpoints import BusEndpoints
 from mrss.bus.forwarder import bind_endpoint, clear_stale_socket
-from mrss.bus.wire import WELCOME, is_ack, message_frames, unpack_ack
+from mrss.bus.wire import RELIABLE_PREFIX, WELCOME, is_ack, message_frames, unpack_ack
 from mrss.errors import BusError, ConfigError, DecodeError
 from mrss.messages import NodeBeat, SupEvent, decode, encode
 from mrss.supervision.nodes import Membership, Transition
@@ -106,6 +109,9 @@ class MeshProxy:
         self._drops = sockets.DropLog(f"node {settings.node}: from a peer")
         self._src = f"node.{settings.node}"
         self._refusals: dict[tuple[str, str], int] = {}
+        # this node's incarnation key (its root supervisor's, through the bus endpoints)
+        self.border = Border(settings.node, endpoints.authority())
+        self._key_hex = self.border.own.export() if self.border.own is not None else ""
 
     def run(self, stop: threading.Event, ready: Callable[[], None] | None = None) -> None:
         ctx: sockets.Context = zmq.Context()  # own context: the ZAP gate covers only it
@@ -215,7 +221,8 @@ class MeshProxy:
 
     def _beat(self, outs: dict[str, sockets.Socket]) -> None:
         body = NodeBeat(node=self.settings.node, boot=self.boot,
-                        components=list(self.settings.components.get(self.settings.node, [])))
+                        components=list(self.settings.components.get(self.settings.node, [])),
+                        key=self._key_hex)
         frames = list(encode(body, src=self._src))
         for out in outs.values():
             _send(out, frames)
@@ -233,6 +240,8 @@ class MeshProxy:
                     raise DecodeError("a node beat of the wrong shape", topic="node.beat")
                 b = env.body
                 self._publish(backend, self.membership.beat(who, b.node, b.boot, env.ts))
+                if who == b.node and self.membership.admits(who):
+                    self.border.learn(who, b.key)
                 return
             if not self.membership.admits(who):
                 self.dropped += 1
@@ -242,13 +251,31 @@ class MeshProxy:
             if len(raw) == 2 and is_ack(raw[0]):
                 unpack_ack(raw[1])
             else:
-                for topic, payload in message_frames(raw):
-                    decode(topic, payload)
+                raw = self._cross(who, raw)
+                if not raw:
+                    self.dropped += 1
+                    return
         except DecodeError as exc:
             self.dropped += 1
             self._drops.drop(DecodeError(f"node {who}: {exc.reason}", topic=exc.topic))
             return
         backend.send_multipart(raw)
+
+    def _cross(self, who: str, raw: list[bytes]) -> list[bytes]:
+        """The frames of a peer's message as they may enter: every envelope decoded and
+        through the border (re-minted); a batch loses the envelopes it refuses; [] when
+        nothing is left. DecodeError for a malformed one."""
+        pairs = message_frames(raw)
+        if not pairs:
+            return raw
+        crossed = [self.border.cross(who, decode(topic, payload), payload)
+                   for topic, payload in pairs]
+        if self.border.own is None:
+            return raw
+        if len(raw) == 4 and raw[0].startswith(RELIABLE_PREFIX):  # [rel, topic, env, header]
+            return [raw[0], raw[1], crossed[0], raw[3]] if crossed[0] is not None else []
+        kept = [p for p in crossed if p is not None]
+        return [raw[0], *kept] if kept else []
 
     def _publish(self, backend: sockets.Socket, moves: list[Transition], *,
                  repeat: bool = False) -> None:

@@ -86,6 +86,7 @@ class Publisher:
         self.src = src
         self.inc = inc
         self.cred = endpoints.credential(src, inc)  # proof of (src, inc) on a keyed bus
+        self.operator = ""  # a dashboard's session credential, sent with every message
         self.endpoints = endpoints
         self._ids = IdGenerator()
         self._lock = threading.Lock()
@@ -125,7 +126,7 @@ class Publisher:
         """Send `msg` on `topic` (default: the message's own topic); return its id."""
         msg_id = self._ids()
         topic_frame, payload = encode(msg, src=self.src, inc=self.inc, msg_id=msg_id,
-                                      topic=topic, cred=self.cred)
+                                      topic=topic, cred=self.cred, op=self.operator)
         held = getattr(self._gathered, "held", None)
         if held is not None:
             if not held or held[0][0] == topic_frame:

@@ -33,6 +33,10 @@ and the reason is given):
 
     node_partition  every packet to and from a peer node's address dropped
     node_loss       30 % of the packets to and from it dropped at random
+    node_delay      everything either way between the nodes held 0.2 s (to 0.4 s: a
+                    chunk arriving while one is held waits for it too), in relays the
+                    campaign put between the nodes before they started (nftables NAT
+                    redirects; mrss.chaos.node_relays) since netem is not in every kernel
 
 Targets come from the project's components by module (`targets`). A pid is checked to be
 a descendant of the root supervisor before any signal, so a recycled pid is never hit.
@@ -83,6 +87,7 @@ class FaultKind(StrEnum):
     PARTITION = "partition"
     NODE_PARTITION = "node_partition"
     NODE_LOSS = "node_loss"
+    NODE_DELAY = "node_delay"
 
     @property
     def timed(self) -> bool:
@@ -104,7 +109,10 @@ class FaultKind(StrEnum):
 #: Each network kind's strength: the relay's impairment, or the % of packets dropped.
 NETWORK_AMOUNTS: dict[FaultKind, float] = {
     FaultKind.DELAY: 0.5, FaultKind.LOSS: 0.3, FaultKind.REORDER: 0.3,
-    FaultKind.PARTITION: 0.0, FaultKind.NODE_PARTITION: 100.0, FaultKind.NODE_LOSS: 30.0}
+    FaultKind.PARTITION: 0.0, FaultKind.NODE_PARTITION: 100.0, FaultKind.NODE_LOSS: 30.0,
+    FaultKind.NODE_DELAY: 0.2}
+#: The kinds between nodes (a project on [nodes], in network namespaces).
+NODE_KINDS = (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS, FaultKind.NODE_DELAY)
 #: The relay's impairment for each network kind on a robot link.
 IMPAIRMENTS = {FaultKind.DELAY: Impairment.DELAY, FaultKind.LOSS: Impairment.LOSS,
                FaultKind.REORDER: Impairment.REORDER, FaultKind.PARTITION: Impairment.PARTITION}
@@ -167,8 +175,7 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
         **{kind: sorted(r for r, link in relayed.items()
                         if link == "mavlink" or kind in TCP_KINDS)
            for kind in IMPAIRMENTS},
-        FaultKind.NODE_PARTITION: nodes,
-        FaultKind.NODE_LOSS: nodes,
+        **{kind: nodes for kind in NODE_KINDS},
     }
 
 
@@ -187,7 +194,7 @@ def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
                          "in such a link's path)" if not relayed else
                          f"{kind} applies to MAVLink (UDP) links only; this project's "
                          "relayed links are MQTT (TCP)")
-    for kind in (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS):
+    for kind in NODE_KINDS:
         why[kind] = why_no_nodes(config) or "the project has a single node"
     if config.supervisor.launcher != "fork":
         why[FaultKind.FORKSERVER] = "the supervisor's launcher is not fork"
@@ -241,10 +248,12 @@ class Injector:
                 return 0, self.relays.impair(fault.target, IMPAIRMENTS[kind], fault.amount)
             except NetworkError as exc:
                 raise InjectionError(str(exc)) from None
-        if kind in (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS):
+        if kind in NODE_KINDS:
             if self.network is None:
                 raise InjectionError(f"{kind}: the campaign runs no node network")
             try:
+                if kind is FaultKind.NODE_DELAY:
+                    return 0, self.network.delay(fault.target, fault.amount)
                 return 0, self.network.cut(fault.target, int(fault.amount))
             except NetworkError as exc:
                 raise InjectionError(str(exc)) from None

@@ -8,7 +8,8 @@ an IPv4 address) on a veth whose other end is on a bridge in a hub namespace
 talk over real TCP through that wire, CurveZMQ and all, so a packet filter on it acts on
 their traffic: `node_partition` and `node_loss` are nftables rules (mrss.chaos.network
 `NodeFilter`) in the namespace of the campaign's own node (the one with the RCL, whose
-bus the recorder hears), on a peer's address.
+bus the recorder hears), on a peer's address; `node_delay` holds that traffic in relays
+the campaign put in its path before the nodes started (`relay`, mrss.chaos.node_relays).
 
 Unix sockets are not bound to a network namespace: the recorder hears the home node's
 bus as on one host. TCP on 127.0.0.1 is the namespace's own: the campaign's thread
@@ -30,6 +31,7 @@ import threading
 import uuid
 
 from mrss.chaos.network import Heal, NetworkError, NodeFilter, why_no_nft
+from mrss.chaos.node_relays import NodeRelays, RelayError
 from mrss.config.nodes import Node
 
 
@@ -74,6 +76,7 @@ class NodeNetwork:
         self.hub = f"mrss-{self.tag}-hub"
         self._made: list[str] = []
         self.filter: NodeFilter | None = None
+        self.relays: NodeRelays | None = None
         self._back: int | None = None  # the entered thread's own namespace (an fd)
 
     def namespace(self, node: str) -> str:
@@ -125,6 +128,29 @@ class NodeNetwork:
             raise NetworkError(why_no_nft() or "the network is not up")
         return self.filter.cut(self.nodes[peer].address, loss_percent)
 
+    def relay(self, seed: int = 0) -> NodeRelays:
+        """Relays between the home node and each peer, for `delay` (call from a thread
+        that has `enter`ed the home node, before the nodes start: a connection made
+        earlier does not pass them)."""
+        if self.filter is None:
+            raise NetworkError(why_no_nft() or "the network is not up")
+        peers = {p: self.nodes[p] for p in self.peers}
+        try:
+            self.relays = NodeRelays(self.nodes[self.home], peers, self.prefix(self.home),
+                                     seed).start()
+        except (RelayError, OSError) as exc:
+            raise NetworkError(f"relays between the nodes: {exc}") from None
+        return self.relays
+
+    def delay(self, peer: str, seconds: float) -> Heal:
+        """Hold the traffic between the home node and `peer` `seconds` s; the heal."""
+        if self.relays is None:
+            raise NetworkError("no relays between the nodes (the campaign started none)")
+        try:
+            return self.relays.delay(peer, seconds)
+        except RelayError as exc:
+            raise NetworkError(str(exc)) from None
+
     def enter(self, node: str) -> None:
         """Move the calling thread into `node`'s namespace (until `leave`)."""
         if self._back is not None:
@@ -151,6 +177,9 @@ class NodeNetwork:
 
     def close(self) -> None:
         self.leave()
+        if self.relays is not None:
+            self.relays.close()
+            self.relays = None
         if self.filter is not None:
             self.filter.close()
             self.filter = None

@@ -242,20 +242,23 @@ class UdpRelay(_Relay):
 
 
 class TcpRelay(_Relay):
-    """A TCP relay: each connection to `address` is joined to a new one to the upstream."""
+    """A TCP relay: each connection to `address` is joined to a new one to the upstream
+    (marked `mark` (SO_MARK, needs root) when not 0: a packet filter's redirect that
+    brought the traffic here lets the relay's own connection pass)."""
 
     name = "chaos-tcp-relay"
 
     def __init__(self, upstream: Upstream, impairments: Impairments,
-                 host: str = "127.0.0.1") -> None:
+                 host: str = "127.0.0.1", mark: int = 0) -> None:
         self.upstream, self.impairments = upstream, impairments
+        self.mark = mark
         self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self.listener.bind((host, 0))
         self.listener.listen(16)
         self.listener.settimeout(TICK * 4)
         self.address: Address = self.listener.getsockname()
-        self.counts: Counter[str] = Counter()  # connections, bytes, refused, stalled, reset
+        self.counts: Counter[str] = Counter()  # connections, bytes, held, refused, stalled, reset
         self.stall = LOSS_STALL  # s a chunk hit by loss waits
         self.reset_share = RESET_SHARE  # ... or its connection is reset, this share of them
         self._lock = threading.Lock()
@@ -280,7 +283,7 @@ class TcpRelay(_Relay):
             try:
                 if target is None:
                     raise OSError("no upstream address")
-                server = socket.create_connection(target, timeout=5)
+                server = _connect(target, self.mark)
             except OSError:
                 self.counts["refused"] += 1
                 _close(client)
@@ -327,13 +330,29 @@ class TcpRelay(_Relay):
                     self._sockets.discard(s)
 
     def _hold(self, received: float) -> None:
-        """Wait while partitioned and until `delay` s after `received`."""
+        """Wait while partitioned and until `delay` s after `received` (counted `held`)."""
+        if self.impairments.strongest(Impairment.DELAY):
+            self.counts["held"] += 1
         while not self._stop.is_set():
             delay = self.impairments.strongest(Impairment.DELAY) or 0.0
             left = received + delay - time.monotonic()
             if not self.impairments.partitioned and left <= 0:
                 return
             time.sleep(min(TICK, max(left, 0.005)))
+
+
+def _connect(target: Address, mark: int) -> socket.socket:
+    if not mark:
+        return socket.create_connection(target, timeout=5)
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_MARK, mark)
+        s.settimeout(5)
+        s.connect(target)
+    except OSError:
+        s.close()
+        raise
+    return s
 
 
 def _abort(s: socket.socket) -> None:

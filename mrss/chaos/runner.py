@@ -5,7 +5,8 @@
    With network faults in the plan, a relay is put in each simulated robot's link first
    (mrss.chaos.network): the system finds it where it would find the robot. A project on
    `[nodes]` runs each node in a network namespace of its own (mrss.chaos.netns): the
-   RCL's node in the run folder, each peer in `nodes/<name>/` of it, started after it.
+   RCL's node in the run folder, each peer in `nodes/<name>/` of it, started after it;
+   with `node_delay` in the plan, relays between the nodes first (mrss.chaos.node_relays).
 2. After `warmup` seconds the faults of the seeded plan are injected at their times
    while the project's operator traffic runs; timed faults are healed when they are over.
 3. Once the last fault is over the traffic stops and the system is probed every second
@@ -120,6 +121,8 @@ def run(options: Options, say: Say = print,
     try:
         if network is not None:  # this thread (and those it starts) on the home node
             network.up().enter(home)
+            if any(f.kind is FaultKind.NODE_DELAY for f in faults):
+                network.relay(options.seed)  # in the nodes' path before they connect
         # relays in the robots' paths before anything resolves their addresses (detours)
         if any(f.kind.network and f.kind in IMPAIRMENTS for f in faults):
             relays = Relays(config, options.run_dir, options.seed).start()
@@ -180,7 +183,8 @@ def run(options: Options, say: Say = print,
         for peer in peers:
             _stop(peer)
         writer.write("end", t=recorder.now(), faults_ended=faults_ended, exit_code=code,
-                     relays=relays.counts() if relays is not None else {})
+                     relays={**(relays.counts() if relays is not None else {}),
+                             **_node_relay_counts(network)})
     finally:
         if recorder is not None:
             _heal_all(heals, recorder, writer)
@@ -194,6 +198,13 @@ def run(options: Options, say: Say = print,
             relays.close()
         writer.close()
     return path
+
+
+def _node_relay_counts(network: NodeNetwork | None) -> dict[str, dict[str, int]]:
+    """The relays between the nodes (node_delay), as "node <peer>" -> their counts."""
+    if network is None or network.relays is None:
+        return {}
+    return {f"node {peer}": seen for peer, seen in network.relays.counts().items()}
 
 
 def _node_system(project_dir: Path, options: Options, network: NodeNetwork | None,

@@ -49,7 +49,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--kinds", default="all", metavar="K,K",
                         help="fault kinds: kill, hang, blackout, broker, link, forkserver, "
                              "disk_full, delay, loss, reorder, partition, node_partition, "
-                             "node_loss (default all: those without a target here are "
+                             "node_loss, node_delay (default all: those without a target here are "
                              "skipped and reported; one named here is refused)")
     parser.add_argument("--targets", default="", metavar="C,C",
                         help="components that kill and hang may hit (default: all)")

@@ -3,9 +3,13 @@
 FILE is an MCAP recording or one of the older MRSS format (`.mrssrec`); both are read.
 
 ```
-mrss replay FILE --run-dir DIR [--speed X | --as-fast-as-possible] [--max-gap S]
+mrss replay FILE --to-bus --run-dir DIR [--speed X | --as-fast-as-possible] [--max-gap S]
                  [--prefix P ...] [--include-malformed]
 ```
+
+`--to-bus` says where the recording goes: onto a running system's bus (to look at a
+recording in the dashboard instead: `mrss tui --replay FILE`). Without it, the former
+spelling, it is replayed onto the bus as before, with a warning that shows the new one.
 
 Messages go out in file order with their recorded spacing divided by `--speed`
 (or back to back with `--as-fast-as-possible`), frames as recorded. Recorded times are
@@ -58,6 +62,9 @@ MAX_GAP_LIMIT = 3600.0
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", type=Path, help="a recording made by `mrss record`")
+    parser.add_argument("--to-bus", action="store_true",
+                        help="publish the recording on a running system's bus (--run-dir "
+                             "or --endpoints)")
     add_bus_arguments(parser)
     pace = parser.add_mutually_exclusive_group()
     pace.add_argument("--speed", type=number_in(MIN_SPEED, MAX_SPEED, "the replay speed"),
@@ -78,6 +85,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     path: Path = args.file
+    if not args.to_bus:
+        print(f"mrss replay: warning: replaying onto the bus without --to-bus is the former "
+              f"spelling; say: mrss replay {path} --to-bus ...", file=sys.stderr)
     skipped = _Skips()
     try:
         with path.open("rb") as handle:

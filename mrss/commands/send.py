@@ -117,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     try:
         with connected_publisher(endpoints, args.src, args.timeout) as publisher:
+            # an operator's personal token, for a project with users (docs/tui.md)
+            publisher.operator = os.environ.get("MRSS_OPERATOR_TOKEN", "")
             msg_id = publisher.publish(message, topic=topic)
         # Leaving the block waited until the message was handed to the proxy.
     except MrssError as exc:

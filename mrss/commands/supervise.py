@@ -46,6 +46,7 @@ from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.messages import IncarnationKey
 from mrss.runtime.incident_recorder import IncidentRecorder
+from mrss.runtime.operator_guard import OperatorGuard
 from mrss.runtime.remote import RemoteControl
 from mrss.supervision.children import ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
@@ -202,10 +203,10 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
-    # may claim an incarnation"). Not with [nodes] yet: each node's root has its own.
-    key = None if node else IncarnationKey.create(run_dir)
-    if key is not None:
-        endpoints = endpoints.keyed(key.path)
+    # may claim an incarnation"). With [nodes], each node's root has its own, and the
+    # nodes' proxies translate proofs at the border (mrss/bus/border.py).
+    key = IncarnationKey.create(run_dir)
+    endpoints = endpoints.keyed(key.path)
     publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
     to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
     outbox = None
@@ -219,7 +220,9 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
                                bus=endpoints.to_dict(), node=node, key=key)
-        remote = RemoteControl(sup, endpoints, publisher.publish).start()  # ctl.tree, ctl.fault
+        remote = RemoteControl(sup, endpoints, publisher.publish,  # ctl.tree, ctl.fault
+                               OperatorGuard(config.directory,
+                                             logging.getLogger("mrss.supervise"))).start()
         try:
             with cpu_latency(config.supervisor.cpu_latency_us):
                 return _run_root(config, run_dir, sup, early)
@@ -239,7 +242,8 @@ def incident_recorder(config: ProjectConfig, run_dir: Path,
     operator = read_operator(config.sections.get(OPERATOR_SECTION), file=str(config.file))
     topics = [*operator.topics.values(), *(c.topic for c in operator.commands.values())]
     return IncidentRecorder(run_dir, endpoints, project=config.name, operator_topics=topics,
-                            components=[c.id for c in config.components]).start()
+                            components=[c.id for c in config.components],
+                            project_dir=config.directory).start()
 
 
 def proxy_child(config: ProjectConfig) -> str:

@@ -33,6 +33,7 @@ class ComponentKind(StrEnum):
     SIM_UAV = "sim_uav"          # a simulated UAV speaking MAVLink
     SIM_UGV = "sim_ugv"          # a simulated UGV speaking JSON over MQTT
     SIM_FLEET = "sim_fleet"      # a fleet of simulated robots in one process
+    FOXGLOVE = "foxglove"        # the live bus as a Foxglove WebSocket server (optional)
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ KINDS: Mapping[ComponentKind, Kind] = {
     ComponentKind.SIM_UAV: Kind("mrss.sim.component:SimUavComponent"),
     ComponentKind.SIM_UGV: Kind("mrss.sim.component:SimUgvComponent"),
     ComponentKind.SIM_FLEET: Kind("mrss.sim.fleet_component:SimFleetComponent"),
+    ComponentKind.FOXGLOVE: Kind("mrss.actors.foxglove.service:FoxgloveComponent"),
 }
 
 #: The module paths earlier releases' project.toml files named, and the kind each meant.

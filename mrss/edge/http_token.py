@@ -10,8 +10,12 @@ Rules (the one place they are implemented):
   token: without one the world model refuses to start and `mrss check` reports it,
   naming `worldmodel.token_file`.
 - With a token, every request must carry ``Authorization: Bearer <token>`` (401
-  otherwise), on loopback too. The project's own clients (events manager adapters, the
-  data layer, `mrss.api.WorldModelClient` built by them) send it by themselves.
+  otherwise), on loopback too. A project with users (`mrss users`) has a token even
+  without these keys: its identity store's service token; and an operator's own
+  token or session credential is accepted too, for what the role allows (reads for
+  every role, writes from operator up; 403 otherwise). The project's own clients
+  (events manager adapters, the data layer, `mrss.api.WorldModelClient` built by them)
+  send it by themselves.
 """
 
 from __future__ import annotations
@@ -95,7 +99,18 @@ def configured_token(section: Mapping[str, Any], project_dir: Path | None) -> st
         if problem:
             raise ConfigError(problem, key=f"{SECTION}.{TOKEN_ENV_KEY}")
         return value.strip()
-    return None
+    return service_token(project_dir)
+
+
+def service_token(project_dir: Path | None) -> str | None:
+    """A project with users (mrss.auth.store) and no token of its own: the store's
+    service token, the project's own clients' identity; else None."""
+    from mrss.auth.store import OperatorStore, configured, store_path
+
+    if not configured(project_dir):
+        return None
+    assert project_dir is not None
+    return OperatorStore.load(store_path(project_dir)).service_token
 
 
 def project_token(project_dir: Path) -> str | None:

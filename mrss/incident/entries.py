@@ -36,6 +36,7 @@ class IncidentKind(StrEnum):
     GAVE_UP = "gave_up"            # the agent gave a goal up for good (agent.gave_up)
     REASSIGNED = "reassigned"      # a task moved to another robot (reassigned percept)
     ALLOCATION = "allocation"      # a task for a role was awarded or waits
+    QUESTION = "question"          # the agent asked the operator; answered (by whom), timed out
 
 
 class Level(StrEnum):

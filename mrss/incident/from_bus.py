@@ -10,7 +10,7 @@ outcome.
 from __future__ import annotations
 
 from collections import OrderedDict
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from typing import Any
 
 from mrss.incident.entries import Entry, IncidentKind, Level
@@ -24,7 +24,9 @@ from mrss.messages import (
     EventReport,
     GoalGaveUp,
     Message,
+    OperatorQuestion,
     Percept,
+    QuestionState,
     RobotState,
     SupEvent,
     SupEventKind,
@@ -33,9 +35,9 @@ from mrss.messages import (
 
 #: The bus topics a recorder subscribes to: everything `Classifier` may record.
 TOPICS = ("action.request", "action.status", "action.allocation", "rel.action.", "percept",
-          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.")
+          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.", "question.")
 SEEN = 10_000  # envelope ids remembered: the reliable channel may deliver one again
-QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot"})  # a dashboard's polling
+QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot", "questions"})  # a dashboard's polling
 ENDED = {ActionState.SUCCEEDED: Level.INFO, ActionState.FAILED: Level.WARNING,
          ActionState.CANCELLED: Level.INFO}
 SUP_LEVELS = {SupEventKind.RESTART: Level.WARNING, SupEventKind.EXIT: Level.WARNING,
@@ -51,8 +53,12 @@ class Classifier:
     from anyone else is an operator's)."""
 
     def __init__(self, *, operator_topics: Collection[str] = (),
-                 components: Collection[str] = ()) -> None:
+                 components: Collection[str] = (),
+                 author: Callable[[Envelope], str] | None = None) -> None:
         self.operator_topics = frozenset(operator_topics)
+        # who sent an operator's command: the user its credential proves (the root's
+        # `mrss.runtime.incident_recorder` checks it), else its sender
+        self.author = author or (lambda env: env.src)
         self.components = frozenset(components)
         self._available: dict[str, tuple[bool, str]] = {}
         self._seen: OrderedDict[tuple[str, str], None] = OrderedDict()
@@ -65,10 +71,13 @@ class Classifier:
         self._seen[key] = None
         if len(self._seen) > SEEN:
             self._seen.popitem(last=False)
-        return self.of(env.body, ts=env.ts, src=env.src)
+        operator = isinstance(env.body, (Command, Percept))
+        return self.of(env.body, ts=env.ts, src=env.src,
+                       who=self.author(env) if operator else "")
 
-    def of(self, body: Message, *, ts: float, src: str) -> Entry | None:
-        """The row for one message (sent by `src` at `ts`), or None."""
+    def of(self, body: Message, *, ts: float, src: str, who: str = "") -> Entry | None:
+        """The row for one message (sent by `src` at `ts`, by the operator `who`), or
+        None."""
         if isinstance(body, ActionRequest):
             return self._request(body, ts, src)
         if isinstance(body, ActionStatus):
@@ -76,12 +85,12 @@ class Classifier:
         if isinstance(body, TaskAllocation):
             return self._allocation(body, ts, src)
         if isinstance(body, Percept):
-            return self._percept(body, ts, src)
+            return self._percept(body, ts, src, who or src)
         if isinstance(body, Command) and body.command not in QUIET_COMMANDS:
             args = " ".join(f"{k}={v}" for k, v in body.args.items())
             return Entry(ts, IncidentKind.OPERATOR, f"ctl.{body.command} {body.target} {args}"
                          .strip().replace("  ", " "), subject=body.target, source=src,
-                         who=src, detail={"command": body.command, "args": body.args})
+                         who=who or src, detail={"command": body.command, "args": body.args})
         if isinstance(body, EventReport):
             return self._report(body, ts, src)
         if isinstance(body, GoalGaveUp):
@@ -92,6 +101,8 @@ class Classifier:
                                              "message": body.message})
         if isinstance(body, RobotState):
             return self._robot(body, ts, src)
+        if isinstance(body, OperatorQuestion):
+            return self._question(body, ts, src)
         if isinstance(body, SupEvent):
             return self.supervision(body, ts, src)
         return None
@@ -148,14 +159,14 @@ class Classifier:
                      detail={"uuid": body.uuid, "robot": body.robot,
                              "state": body.state.value, "wait": body.wait.value})
 
-    def _percept(self, body: Percept, ts: float, src: str) -> Entry | None:
+    def _percept(self, body: Percept, ts: float, src: str, who: str) -> Entry | None:
         if body.literal.startswith("reassigned("):
             return Entry(ts, IncidentKind.REASSIGNED, body.literal, subject=body.literal,
                          level=Level.WARNING, source=src)
         if src in self.components or not src:
             return None  # the events manager's and the RCL's percepts: the agent's input
         return Entry(ts, IncidentKind.OPERATOR, f"percept {body.op} {body.literal}",
-                     subject=body.literal, source=src, who=src, detail={"op": body.op})
+                     subject=body.literal, source=src, who=who, detail={"op": body.op})
 
     def _report(self, body: EventReport, ts: float, src: str) -> Entry | None:
         if body.status == "duplicate":
@@ -167,7 +178,7 @@ class Classifier:
         why = f": {body.reason}" if body.reason else ""
         return Entry(ts, IncidentKind.OPERATOR if operator else IncidentKind.EVENT,
                      f"{body.event_topic} {body.status}{why}", subject=body.event_topic,
-                     level=level, source=src, who=f"mqtt:{body.event_topic}" if operator
+                     level=level, source=src, who=_mqtt_author(body) if operator
                      else "", detail=detail)
 
     def _robot(self, body: RobotState, ts: float, src: str) -> Entry | None:
@@ -182,3 +193,30 @@ class Classifier:
         return Entry(ts, IncidentKind.ROBOT, f"{body.robot} lost: {why}", subject=body.robot,
                      level=Level.ALERT, source=src,
                      detail={"link": body.link.value, "available": body.available})
+
+    def _question(self, body: OperatorQuestion, ts: float, src: str) -> Entry | None:
+        if body.repeat:
+            return None  # asked again for a late dashboard, or adopted after a restart
+        detail = {"id": body.id, "state": body.state.value, "choices": body.choices,
+                  "answer": body.answer, "deadline": body.deadline}
+        if body.state is QuestionState.PENDING:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.agent} asks {body.question!r} "
+                         f"({' / '.join(body.choices)})", subject=body.id,
+                         level=Level.ALERT, source=src, detail=detail)
+        if body.state is QuestionState.ANSWERED:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} answered "
+                         f"{body.answer!r} by {body.by}", subject=body.id, source=src,
+                         who=body.by, detail=detail)
+        if body.state is QuestionState.TIMED_OUT:
+            return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} timed out: default "
+                         f"answer {body.answer!r}", subject=body.id, level=Level.WARNING,
+                         source=src, detail=detail)
+        return Entry(ts, IncidentKind.QUESTION, f"{body.question!r} withdrawn by the agent",
+                     subject=body.id, source=src, detail=detail)
+
+
+def _mqtt_author(body: EventReport) -> str:
+    """The author of an operator command over MQTT: the user its credential names (the
+    events manager verified it when it accepted the command), and the topic."""
+    author = body.detail.get("author")
+    return f"{author} via mqtt:{body.event_topic}" if author else f"mqtt:{body.event_topic}"

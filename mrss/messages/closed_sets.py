@@ -23,6 +23,7 @@ class Topic(StrEnum):
     CTL = "ctl."
     EDGE = "edge."
     AGENT = "agent."
+    QUESTION = "question."
 
 
 class ActionState(StrEnum):
@@ -135,3 +136,26 @@ class WaitReason(StrEnum):
     UNAVAILABLE = "unavailable"  # ... or is unavailable (link, quarantine, teleop, node)
     NO_BID = "no_bid"  # ... or did not answer in time
     NONE = ""  # not waiting
+
+
+class QuestionState(StrEnum):
+    """Where an operator question of the agent stands (`.ask_operator`, docs/mission.md,
+    "Questions to the operator"); the transitions are mrss.actors.reasoner.questions."""
+
+    PENDING = "pending"  # asked, its intention waits for an answer
+    ANSWERED = "answered"  # an operator answered (who: `by`)
+    TIMED_OUT = "timed_out"  # nobody answered in time: the default answer was taken
+    WITHDRAWN = "withdrawn"  # the agent dropped the intention that asked
+
+    @property
+    def terminal(self) -> bool:
+        return self is not QuestionState.PENDING
+
+
+class AnswerVerdict(StrEnum):
+    """What became of an operator's answer (`AnswerReply`)."""
+
+    ACCEPTED = "accepted"  # it is the question's answer now
+    ALREADY = "already"  # the question was already answered, timed out or withdrawn
+    UNKNOWN = "unknown"  # no such question
+    INVALID = "invalid"  # not one of the question's choices

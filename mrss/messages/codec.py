@@ -3,8 +3,9 @@
 A bus message is two frames, `[topic, msgpack(envelope)]`, where the envelope is
 `{v, id, ts, src, inc, kind, body}`: schema version, message id, send time, sending
 component, the sender's incarnation (so a dead incarnation's late messages can be
-dropped), message kind, and the kind's fields. Two keys are optional and absent unless
-set: `cred`, the sender's proof of its incarnation (mrss/messages/credentials.py), and
+dropped), message kind, and the kind's fields. Three keys are optional and absent unless
+set: `cred`, the sender's proof of its incarnation (mrss/messages/credentials.py), `op`,
+the session credential of the operator who sent a command (mrss/auth/sessions.py), and
 `replayed: true`, set by `mrss replay` on everything it sends (`mark_replayed`), so that
 no component takes a recording for live traffic. `decode` validates all of it and raises
 `DecodeError` with the reason for anything else; it never raises anything but that.
@@ -42,6 +43,7 @@ class Envelope:
     v: int = SCHEMA_VERSION
     cred: bytes = b""  # the sender's proof of (src, inc); b"": none
     replayed: bool = False  # sent by `mrss replay`: a recording, not live traffic
+    op: str = ""  # an operator's session credential (mrss.auth.sessions); "": none
 
     @property
     def kind(self) -> str:
@@ -70,7 +72,7 @@ class IdGenerator:
 
 def encode(
     body: Message, *, src: str, inc: int = 0, msg_id: str | None = None,
-    topic: str | None = None, cred: bytes = b"",
+    topic: str | None = None, cred: bytes = b"", op: str = "",
 ) -> tuple[bytes, bytes]:
     """The two frames of `body` as sent on the bus: topic and msgpack envelope."""
     env = {
@@ -84,6 +86,8 @@ def encode(
     }
     if cred:
         env["cred"] = cred
+    if op:
+        env["op"] = op
     packer = getattr(_PACKERS, "packer", None)
     if packer is None:
         packer = _PACKERS.packer = msgpack.Packer(use_bin_type=True)
@@ -120,7 +124,8 @@ _ENVELOPE_FIELDS: dict[str, tuple[type, ...]] = {
     "kind": (str,), "body": (dict,),
 }
 # The optional keys, absent unless set, and their types.
-_OPTIONAL_FIELDS: dict[str, tuple[type, ...]] = {"cred": (bytes,), "replayed": (bool,)}
+_OPTIONAL_FIELDS: dict[str, tuple[type, ...]] = {"cred": (bytes,), "replayed": (bool,),
+                                                 "op": (str,)}
 _REQUIRED = len(_ENVELOPE_FIELDS)
 
 
@@ -163,11 +168,13 @@ def _envelope(topic: str, env: Any) -> Envelope:
         )
     except KeyError:
         well_typed = False
-    cred, replayed = b"", False
+    cred, replayed, op = b"", False, ""
     if len(env) != _REQUIRED and well_typed:  # optional keys: checked only when present
         cred, replayed = env.get("cred", b""), env.get("replayed", False)
+        op = env.get("op", "")
         well_typed = len(env) == _REQUIRED + ("cred" in env) + ("replayed" in env) \
-            and type(cred) is bytes and type(replayed) is bool
+            + ("op" in env) and type(cred) is bytes and type(replayed) is bool \
+            and type(op) is str
     if not well_typed:
         _envelope_fault(env)
     if version != SCHEMA_VERSION:
@@ -183,7 +190,7 @@ def _envelope(topic: str, env: Any) -> Envelope:
     result: Envelope = object.__new__(Envelope)
     result.__dict__.update(topic=topic, id=env["id"], ts=float(env["ts"]), src=env["src"],
                            inc=env["inc"], body=body, v=SCHEMA_VERSION, cred=cred,
-                           replayed=replayed)
+                           replayed=replayed, op=op)
     return result
 
 

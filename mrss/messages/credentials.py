@@ -9,6 +9,9 @@ is an HMAC of (src, inc) under the key: a sender carries its own in every envelo
 runs as incarnation `inc` (mrss/bus/incarnations.py). Without the key nobody can mint
 one: not a forged heartbeat, not a recording of another run (another key).
 
+On `[nodes]` each node's root has a key of its own; the nodes' bus proxies exchange
+them and translate proofs between nodes (mrss/bus/border.py).
+
 A credential is not a secret: every message of an incarnation shows it. It proves only
 that the supervisor started (src, inc), never anything about a later incarnation.
 """
@@ -64,6 +67,11 @@ class IncarnationKey:
         """Whether `cred` proves incarnation `inc` of `src` (constant time)."""
         return len(cred) == CREDENTIAL_BYTES and hmac.compare_digest(
             cred, self.credential(src, inc))
+
+    def export(self) -> str:
+        """The key itself, as hex: only for a peer node's border, over the encrypted link
+        between nodes (mrss/bus/border.py), never for a log or a local subscriber."""
+        return self._key.hex()
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, IncarnationKey) and hmac.compare_digest(self._key,

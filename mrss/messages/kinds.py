@@ -19,17 +19,20 @@ from enum import StrEnum
 from typing import Any, ClassVar
 
 from mrss.errors import DecodeError
+from mrss.messages import bid_reports
 from mrss.messages.closed_sets import (
     CONTROL_COMMANDS,
     CONTROL_TARGETS,
     ActionState,
     AllocationState,
+    AnswerVerdict,
     ControlCommand,
     ControlTarget,
     EventStatus,
     FailureCause,
     GiveUpReason,
     LinkState,
+    QuestionState,
     SupEventKind,
     WaitReason,
 )
@@ -224,7 +227,9 @@ class DataReply(Message):
 
 @dataclass(frozen=True)
 class RobotState(Message):
-    """A robot's availability and link state, as the RCL or a link sees it."""
+    """A robot's availability and link state, as the RCL or a link sees it; `cause`,
+    why an unavailable robot is (its actions fail with it: `decommissioned` when the
+    operator took it out of service), "" when available or not said."""
 
     kind: ClassVar[str] = "robot.state"
     robot: str
@@ -232,13 +237,16 @@ class RobotState(Message):
     link: LinkState = LinkState.UP
     reason: str = ""
     attributes: dict[str, JsonValue] = field(default_factory=dict)
+    cause: FailureCause = FailureCause.UNSPECIFIED
 
     def __post_init__(self) -> None:
-        _closed(self, link=LinkState)
+        _closed(self, link=LinkState, cause=FailureCause)
 
     def validate(self) -> None:
         if self.link not in _LINK_STATES:
             raise DecodeError(f"unknown link state {self.link!r}")
+        if self.cause not in _FAILURE_CAUSES:
+            raise DecodeError(f"unknown cause {self.cause!r}")
 
     def topic(self) -> str:
         return f"robot.{self.robot}.state"
@@ -285,12 +293,15 @@ class SupEvent(Message):
 class NodeBeat(Message):
     """A node is alive: sent by its bus proxy to every peer node (never to local
     subscribers). `boot` is random per proxy start, so two processes running as one node
-    are told apart; `components` are the node's component ids."""
+    are told apart; `components` are the node's component ids; `key` is the hex of the
+    node's incarnation key, for the peer's border (mrss/bus/border.py; "": none). Beats
+    travel only on the CurveZMQ links between nodes, encrypted."""
 
     kind: ClassVar[str] = "node.beat"
     node: str
     boot: str
     components: list[str] = field(default_factory=list)
+    key: str = field(default="", repr=False)
 
     def topic(self) -> str:
         return f"node.beat.{self.node}"
@@ -427,7 +438,13 @@ class Rejections(Message):
 @dataclass(frozen=True)
 class TaskAllocation(Message):
     """Where a task addressed to a role stands: waiting (why, as an enum, and in words)
-    or awarded (to whom, and why that robot won)."""
+    or awarded (to whom, and why that robot won).
+
+    What the decision was made from, structured (mrss/messages/bid_reports.py): `bids`,
+    the robots' bids in rank order (at most `bid_reports.LIMIT`; `bidders` counts them
+    all), `evaluator` (the ranking's name), what the task asks (`capabilities`, `near`
+    [lat, lon] or []), and `lost_from`, the robot that lost it when an award hands it on
+    (a reassignment). `why` says the same in words, for logs."""
 
     kind: ClassVar[str] = "action.allocation"
     uuid: str
@@ -437,6 +454,12 @@ class TaskAllocation(Message):
     why: str = ""
     name: str = ""
     goal: str = ""
+    bids: list[dict[str, JsonValue]] = field(default_factory=list)
+    bidders: int = 0
+    evaluator: str = ""
+    capabilities: list[str] = field(default_factory=list)
+    near: list[float] = field(default_factory=list)
+    lost_from: str = ""
 
     def __post_init__(self) -> None:
         _closed(self, state=AllocationState, wait=WaitReason)
@@ -447,6 +470,76 @@ class TaskAllocation(Message):
             raise DecodeError(f"unknown allocation state {self.state!r}")
         if self.wait not in frozenset(WaitReason):
             raise DecodeError(f"unknown wait reason {self.wait!r}")
+        bid_reports.check(self.bids)
+        if self.near and len(self.near) != 2:
+            raise DecodeError(f"near must be [lat, lon] or [], not {self.near!r}")
+
+
+@dataclass(frozen=True)
+class OperatorQuestion(Message):
+    """A question an agent asks the operator (`.ask_operator`), as it stands now: sent on
+    each transition and again (`repeat`) when a dashboard asks (`ctl.questions`).
+    `deadline` is wall-clock time (0: none); `answer` and `by` once it is not pending."""
+
+    kind: ClassVar[str] = "question"
+    id: str
+    agent: str
+    question: str
+    choices: list[str]
+    state: QuestionState
+    default: str = ""
+    deadline: float = 0.0
+    asked_at: float = 0.0
+    answer: str = ""
+    by: str = ""
+    answered_at: float = 0.0
+    repeat: bool = False
+
+    def __post_init__(self) -> None:
+        _closed(self, state=QuestionState)
+
+    def validate(self) -> None:
+        _nonempty(self.id, "id")
+        if self.state not in frozenset(QuestionState):
+            raise DecodeError(f"unknown question state {self.state!r} (one of "
+                              f"{', '.join(QuestionState)})")
+
+    def topic(self) -> str:
+        return f"question.{self.agent}"
+
+
+@dataclass(frozen=True)
+class QuestionAnswer(Message):
+    """An operator's answer to a question: sent again until an `AnswerReply` with its
+    `request` comes (the reasoner answers a repeat as it answered the first)."""
+
+    kind: ClassVar[str] = "question.answer"
+    id: str
+    answer: str
+    by: str
+    request: str
+
+    def validate(self) -> None:
+        for name in ("id", "answer", "by", "request"):
+            _nonempty(getattr(self, name), name)
+
+
+@dataclass(frozen=True)
+class AnswerReply(Message):
+    """The reasoner's word on an answer: taken, or why not (in `message`)."""
+
+    kind: ClassVar[str] = "question.reply"
+    request: str
+    id: str
+    verdict: AnswerVerdict
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        _closed(self, verdict=AnswerVerdict)
+
+    def validate(self) -> None:
+        if self.verdict not in frozenset(AnswerVerdict):
+            raise DecodeError(f"unknown answer verdict {self.verdict!r}")
 
 
 KINDS: dict[str, type[Message]] = {
@@ -455,7 +548,8 @@ KINDS: dict[str, type[Message]] = {
         Percept, ActionRequest, ActionAck, ActionStatus, ActionControl, ActionQuery,
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
-        Command, EventReport, Rejections, GoalGaveUp, TaskAllocation,
+        Command, EventReport, Rejections, GoalGaveUp, TaskAllocation, OperatorQuestion,
+        QuestionAnswer, AnswerReply,
     )
 }
 

@@ -152,6 +152,7 @@ class McapRecordingWriter:
         self._incarnations[env["src"]].add(env["inc"])
         cred = env.get("cred")
         value = to_json(env)
+        value.pop("op", None)  # an operator's session credential is a secret: never kept
         if cred is not None:
             value["cred"] = base64.b64encode(cred).decode("ascii")
         self._add(self._channel(topic, name, _KIND_SCHEMAS[name]), log_time, publish_time,

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from pathlib import Path
 
 from mrss.bus import BusEndpoints, Subscriber
 from mrss.incident.entries import Entry, IncidentKind
 from mrss.incident.from_bus import TOPICS, Classifier
 from mrss.incident.journal import IncidentJournal, incident_file
-from mrss.messages import Envelope, Message, SupEvent
+from mrss.messages import Command, Envelope, Message, Percept, SupEvent
 from mrss.supervision.events import Publish
 
 log = logging.getLogger("mrss.runtime.incident")
@@ -35,10 +35,11 @@ class IncidentRecorder:
 
     def __init__(self, run_dir: Path, endpoints: BusEndpoints, *, project: str,
                  operator_topics: Collection[str] = (),
-                 components: Collection[str] = ()) -> None:
+                 components: Collection[str] = (), project_dir: Path | None = None) -> None:
         self.project = project
         self.journal = IncidentJournal(incident_file(run_dir))
-        self.classifier = Classifier(operator_topics=operator_topics, components=components)
+        self.classifier = Classifier(operator_topics=operator_topics, components=components,
+                                     author=authors(project_dir))
         self._sub = Subscriber(endpoints, prefixes=list(TOPICS), name="incident-recorder",
                                skip=_telemetry)
         self.failures = 0
@@ -84,3 +85,28 @@ class IncidentRecorder:
 
 
 
+
+
+def authors(project_dir: Path | None) -> Callable[[Envelope], str]:
+    """Who sent a bus command, for the record: "alice (operator)" when its session
+    credential is good, "bob: refused (...)" when not, its sender when the project has
+    no users or a supervised component sent it."""
+    from mrss.auth.roles import BUS_COMMANDS, CommandKind, refusal
+    from mrss.auth.sessions import claimed_user, verify
+    from mrss.auth.store import AuthError, OperatorStore, configured, store_path
+    from mrss.errors import ConfigError
+
+    def author(env: Envelope) -> str:
+        if env.inc > 0 or not configured(project_dir):
+            return env.src
+        assert project_dir is not None
+        try:
+            identity = verify(OperatorStore.load(store_path(project_dir)), env.op)
+        except (AuthError, ConfigError, OSError) as exc:
+            return f"{claimed_user(env.op) or env.src}: refused ({exc})"
+        body = env.body
+        kind = (CommandKind.PERCEPT if isinstance(body, Percept) else
+                BUS_COMMANDS.get(body.command) if isinstance(body, Command) else None)
+        why = refusal(identity.role, kind) if kind is not None else ""
+        return f"{identity}: refused ({why})" if why else str(identity)
+    return author

@@ -12,6 +12,10 @@ subscribes the root to two `Command`s and answers on the bus:
 - `Command("stop", target=root name)` -> `request_stop()`: the same ordered stop as
   Ctrl-C (a `LogRecord` says who asked). A stop naming another system is refused.
 
+Both pass the project's roles first (`mrss.runtime.operator_guard`): with users
+configured, a fault needs a commander's credential (`CommandKind.FAULT`), and so does a
+stop (`CommandKind.STOP`); a refusal is logged (on the bus too) and counted.
+
 Only process faults on the root's own children are wired; actor faults need the
 component's in-process actor supervisor and are not reachable from here.
 """
@@ -21,9 +25,11 @@ from __future__ import annotations
 import logging
 import os
 
+from mrss.auth.roles import CommandKind
 from mrss.bus import BusEndpoints, Subscriber
 from mrss.errors import MrssError
 from mrss.messages import Command, Envelope, LogRecord, SupEvent, SupEventKind
+from mrss.runtime.operator_guard import LOCAL, OperatorGuard
 from mrss.supervision import faults
 from mrss.supervision.events import Publish
 from mrss.supervision.process import ProcessSupervisor
@@ -43,8 +49,9 @@ class RemoteControl:
     """Answers `ctl.tree`, executes `ctl.fault` and `ctl.stop` for one root supervisor."""
 
     def __init__(self, sup: ProcessSupervisor, endpoints: BusEndpoints,
-                 publish: Publish) -> None:
+                 publish: Publish, operators: OperatorGuard | None = None) -> None:
         self.sup = sup
+        self.operators = operators or OperatorGuard(None, log)
         self._publish = publish
         self._sub = Subscriber(endpoints, prefixes=["ctl.tree", "ctl.fault", "ctl.stop"],
                                name="supervisor-ctl")
@@ -64,13 +71,21 @@ class RemoteControl:
         if body.command == "tree" and body.target in ("", self.sup.name):
             self._publish(tree_event(self.sup))
         elif body.command == "fault":
-            self._fault(body, env.src)
+            verdict = self.operators.check_envelope(env, CommandKind.FAULT,
+                                                    f"ctl.fault {body.target}")
+            if verdict.ok:
+                self._fault(body, verdict.who if verdict.who != LOCAL else env.src)
         elif body.command == "stop":
+            verdict = self.operators.check_envelope(env, CommandKind.STOP,
+                                                    f"ctl.stop {body.target}")
+            if not verdict.ok:
+                return
             if body.target != self.sup.name:
                 self._say("WARNING", f"stop of {body.target!r} from {env.src} refused: "
                           f"this is {self.sup.name!r}")
                 return
-            self._say("WARNING", f"stopping {self.sup.name}: asked by {env.src}")
+            by = env.src if verdict.who in (LOCAL, env.src) else f"{verdict.who} ({env.src})"
+            self._say("WARNING", f"stopping {self.sup.name}: asked by {by}")
             self.sup.request_stop()
 
     def _fault(self, cmd: Command, sender: str) -> None:

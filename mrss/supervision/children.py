@@ -61,6 +61,9 @@ class ProcessSettings:
     key: IncarnationKey | None = None
 
 
+START_PATIENCE_MAX = 8  # a start may take at most 8 x start_timeout after slow ones
+
+
 @dataclass
 class Proc:
     """One component child: its spec and the state of its current incarnation."""
@@ -83,6 +86,16 @@ class Proc:
     then_quarantine: bool = False  # STOPPING: its group was given up; stays down after
     last_reason: str = ""
     faults: dict[str, Any] = field(default_factory=dict)  # for the next incarnation only
+    start_timeouts: int = 0  # consecutive starts killed as not ready in time
+
+    @property
+    def start_limit(self) -> float:
+        """How long this start may take: the spec's `start_timeout`, doubled after each
+        start in a row that took longer (a slow or loaded host, a first run that
+        compiles or migrates), at most START_PATIENCE_MAX times it; a start that
+        reaches ready resets it."""
+        return self.spec.start.start_timeout * min(1 << min(self.start_timeouts, 8),
+                                                    START_PATIENCE_MAX)
 
     @property
     def id(self) -> str:
@@ -95,7 +108,7 @@ class Proc:
     def deadline(self, heartbeat_limit: float) -> float:
         """When this child next needs the loop's attention (inf if it does not)."""
         if self.state is ChildState.STARTING and not self.killed:
-            return self.spawned_at + self.spec.start.start_timeout
+            return self.spawned_at + self.start_limit
         if self.state is ChildState.RUNNING and not self.killed:
             return self.last_beat + heartbeat_limit
         if self.state is ChildState.STOPPING and self.kill_at is not None:

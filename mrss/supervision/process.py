@@ -241,9 +241,10 @@ class ProcessSupervisor:
         interval, misses = self.settings.heartbeat_interval, self.settings.heartbeat_misses
         for p in self._procs.values():
             if p.state is ChildState.STARTING and not p.killed \
-                    and now >= p.spawned_at + p.spec.start.start_timeout:
-                p.verdict = ExitReason(Cause.START_TIMEOUT,
-                                       f"not ready within {p.spec.start.start_timeout:g}s")
+                    and now >= p.spawned_at + p.start_limit:
+                p.verdict = ExitReason(Cause.START_TIMEOUT, f"not ready within "
+                                       f"{p.start_limit:g}s")
+                p.start_timeouts += 1  # the next start may take twice as long
                 p.signal(signal.SIGKILL)
             elif p.state is ChildState.RUNNING and not p.killed \
                     and now - p.last_beat >= interval * misses:
@@ -344,6 +345,7 @@ class ProcessSupervisor:
             p.last_beat = now
         elif kind == control.READY and p.state is ChildState.STARTING:
             p.state, p.up_since, p.last_beat = move(p.state, ChildCause.READY, p.id), now, now
+            p.start_timeouts = 0
             self._policy.child_started(p.id)
             key = self.settings.key  # the proof of the new incarnation, for receivers
             proof: dict[str, Any] = \

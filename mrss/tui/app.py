@@ -13,8 +13,14 @@ and messages to:
 - `RowDetails` (`detail_keys.py`): the detail screen Enter opens on a row;
 - `OperatorTools` (`ops.py`): the Messages, log-line and alerts screens, recording;
 - `PanelLayout` (`layout.py`): the compact mode and the panel keys;
-- `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach.
+- `IncidentFeed` (`incident.py`): the run's incident record, in the log on attach;
+- `AnswerDesk` (`answers.py`): the agent's questions (`O`) and the operator's answers;
+- `log_in_first` (`login.py`): with users configured, the login before anything else.
 Their bindings and `action_*` methods stay here, where Textual looks for them.
+
+One idea in one module: the app is the hub Textual reads (bindings, message handlers,
+actions), each a line or two handing over to the idea that does the work; cutting it
+would scatter the keys a reader looks for in one place.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from mrss.config.map import MapConfig
 from mrss.config.operator import OperatorConfig
 from mrss.messages import Envelope, Percept
 from mrss.tui import gc_tuning
+from mrss.tui.answers import AnswerDesk
 from mrss.tui.buslink import BusLink
 from mrss.tui.detail_keys import RowDetails
 from mrss.tui.events import READONLY_NOTICE, BusActivity, MissionRequested, Note, SendRequested
@@ -44,12 +51,14 @@ from mrss.tui.help import HelpScreen, current_keys
 from mrss.tui.incident import IncidentFeed
 from mrss.tui.intake import BusIntake, Models
 from mrss.tui.layout import LAYOUT_BINDINGS, PanelLayout, is_compact
+from mrss.tui.login import Login, log_in_first
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.alerts import AlertsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.map import MapModel
+from mrss.tui.models.questions import QuestionsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
@@ -111,6 +120,7 @@ class MrssApp(App[None]):
         Binding("M", "messages", "Messages"),  # ops.py; last: the footer keeps X and q
         Binding("L", "log_lines", "Log lines"),
         Binding("exclamation_mark", "alerts_list", "Alerts list"),
+        Binding("O", "questions", "Answer the agent"),
     ]
 
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
@@ -126,8 +136,10 @@ class MrssApp(App[None]):
                  vocabulary: Vocabulary | None = None,
                  alert_rules: tuple[AlertRule, ...] = (),
                  map_config: MapConfig | None = None,
-                 quiet_gc: bool = False) -> None:
+                 quiet_gc: bool = False, login: Login | None = None,
+                 link: BusLink | None = None) -> None:
         super().__init__()
+        self.login = login  # users configured: nothing shown or sent before a login
         self.quiet_gc = quiet_gc  # the process is the dashboard: tune its collector
         self.vocabulary = vocabulary or Vocabulary()  # the agent's predicates (warnings)
         self.clock = clock  # wall-clock time of ages and uptimes (tests freeze it)
@@ -137,7 +149,7 @@ class MrssApp(App[None]):
         self.mission = mission
         self.project = project
         self.readonly = readonly
-        self.link = BusLink(endpoints)
+        self.link = link or BusLink(endpoints)  # a replay's link reads a recording
         self.goals = GoalsModel(self.operator_config.goals)  # the models: plain Python
         self.supervision = SupervisionModel(root=project)
         self.robots = RobotsModel()
@@ -146,6 +158,7 @@ class MrssApp(App[None]):
         self.map_model = MapModel(map_config)  # the project's [map] styles
         self.alerts = AlertsModel(rules=alert_rules)
         self.topics = TopicsModel()  # the Messages screen's (`M`): counted in each drain
+        self.questions = QuestionsModel()  # the agent's questions to the operator
         self.incident = IncidentFeed.for_endpoints(endpoints)  # the run's record, on attach
         # the dashboard's ideas, each with its own state (above: the models)
         self.picture = Picture(self, self.link, liveness=self.liveness,
@@ -155,7 +168,8 @@ class MrssApp(App[None]):
                                on_end=self._system_ended)
         self.intake = BusIntake(
             self, self.link, Models(self.actions, self.robots, self.supervision, self.goals,
-                                    self.alerts, self.map_model, self.topics, self.liveness),
+                                    self.alerts, self.map_model, self.topics, self.liveness,
+                                    self.questions),
             agent=agent, min_refresh=min_refresh, deliver=self._deliver,
             system_event=self.picture.system_event)
         self.redraws = Redraws(self, table_every=2 * min_refresh, clock=clock)
@@ -171,6 +185,8 @@ class MrssApp(App[None]):
                                    topics=self.topics, alerts=self.alerts, mission=mission,
                                    open_area_form=self.steering.open_area_form)
         self.panel_layout = PanelLayout(self)
+        self.answers = AnswerDesk(self, self.link, self.say, self.questions,
+                                  readonly=readonly)
 
     # -- what tests and the palette read -----------------------------------------------------
     @property
@@ -210,10 +226,10 @@ class MrssApp(App[None]):
         yield AlertsStrip(self.alerts, id="alerts")
         with Horizontal(id="top"):
             yield SupervisionTable(self.supervision, id="supervision")
-            yield RobotsTable(self.robots, self.goals, id="robots")
+            yield RobotsTable(self.robots, self.goals, self.actions, id="robots")
             yield MapPanel(self.map_model, id="map")
         with Horizontal(id="middle"):
-            yield ActionsTable(self.actions, id="actions")
+            yield ActionsTable(self.actions, robots=self.robots, id="actions")
             yield MissionPanel(self.goals, self.actions, id="mission")
         with Horizontal(id="bottom"):
             yield MindInspector(id="mind")
@@ -236,6 +252,10 @@ class MrssApp(App[None]):
         if self.readonly:
             self.query_one("#percept", Input).disabled = True
             self.title = f"{self.TITLE} (read-only)"
+        log_in_first(self, self._watch)  # login.py: users configured, a login first
+
+    def _watch(self) -> None:
+        """Connect to the bus and show the system (after the login, if any)."""
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))
@@ -269,12 +289,15 @@ class MrssApp(App[None]):
             self.query_one(AlertsStrip).show_alerts()
         if changes.lines:
             self.query_one(LogPane).add(changes.lines)
+        for reply in changes.replies:
+            self.answers.on_reply(reply)
         if "mission" in changes.panels and self.steering.awaiting:
             self.steering.follow_answers()
 
     def tick(self) -> None:
         """Once a second: uptimes, ages and the connection state move on."""
         self.incident.poll()  # the record's rows since: `incident.entries` is all of it
+        self.answers.resend()
         with suppress(NoMatches):  # the panels are gone: the app is closing
             self.redraws.tick()
             self.picture.show()
@@ -301,6 +324,9 @@ class MrssApp(App[None]):
 
     def on_note(self, note: Note) -> None:
         self.say(note.text, error=note.error)
+
+    def on_map_panel_shape_drawn(self, event: MapPanel.ShapeDrawn) -> None:
+        self.steering.open_command_with(event.kind, event.text)
 
     def on_strip_table_row_selected(self, event: StripTable.RowSelected) -> None:
         self.row_details.open_row(event)
@@ -365,6 +391,9 @@ class MrssApp(App[None]):
 
     def action_alerts_list(self) -> None:
         self.tools.alerts_list()
+
+    def action_questions(self) -> None:
+        self.answers.open()
 
     def action_show_panel(self, ident: str) -> None:
         self.panel_layout.show_panel(ident)

@@ -22,9 +22,10 @@ from mrss.world.topics import wm_reply_topic
 # `percept` (hotspots found, for the alerts), `edge.rejections` (the input each
 # component refused) and `agent.` (goals the agent gave up: `GoalGaveUp`); and the
 # world model's answers to the dashboard's own `wm.list` (for the map), on
-# `dl.reply.wm.<src>` (`wm_reply_topic`).
+# `dl.reply.wm.<src>` (`wm_reply_topic`); the agent's questions and the replies to
+# answers (`question.`).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "edge.rejections", "agent.")
+            "edge.rejections", "agent.", "question.")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 BATCH = 2_000  # messages taken per turn of the loop
 
@@ -36,6 +37,7 @@ class BusLink:
                  prefixes: tuple[str, ...] = PREFIXES) -> None:
         self.endpoints = endpoints
         self.src = src
+        self.operator = ""  # the session credential sent with each message (mrss.auth)
         self._prefixes = (*prefixes, wm_reply_topic(src))
         self._inbox: deque[Envelope] = deque(maxlen=INBOX_LIMIT)  # drops the oldest
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -94,10 +96,16 @@ class BusLink:
         """How many times the proxy greeted the subscriber: it grows after a proxy restart."""
         return self._sub.welcomes if self._sub is not None else 0
 
+    def where(self) -> str:
+        """What the header says the dashboard is looking at."""
+        return f"connected · {self.endpoints.backend}"
+
     def publish(self, msg: Message, topic: str | None = None) -> str:
-        """Send one operator message (on `topic`, default its own); its id."""
+        """Send one operator message (on `topic`, default its own), with the logged-in
+        operator's session credential (`operator`); its id."""
         if self._pub is None:
             raise RuntimeError("the bus link is not started")
+        self._pub.operator = self.operator
         return self._pub.publish(msg, topic=topic)
 
     def close(self) -> None:

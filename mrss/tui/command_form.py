@@ -39,9 +39,11 @@ class CommandForm(ModalScreen[dict[str, Any] | None]):
         Binding("ctrl+s", "submit", "Send"),
     ]
 
-    def __init__(self, spec: CommandSpec) -> None:
+    def __init__(self, spec: CommandSpec, prefill: dict[str, str] | None = None) -> None:
+        """`prefill`: field name -> text in place of its default (a shape drawn on the map)."""
         super().__init__()
         self.spec = spec
+        self.prefill = dict(prefill or {})
         self.error = ""
 
     def compose(self) -> ComposeResult:
@@ -52,7 +54,8 @@ class CommandForm(ModalScreen[dict[str, Any] | None]):
                                                          "dim")))
             for field in spec.fields:
                 yield Label(f"{field.label or field.name}: {field.hint()}")
-                yield Input(field.default_text(), id=f"cmd-{field.name}")
+                yield Input(self.prefill.get(field.name, field.default_text()),
+                            id=f"cmd-{field.name}")
             yield Static("", id="form-error")
             yield Static(Text("Enter: next field / send   Esc: close, send nothing",
                               style="dim"))

@@ -1,8 +1,10 @@
 """Detail screens: Enter on a row opens everything the dashboard knows of it, live.
 
 - an action: its full uuid, name, args, literal, robot, goal, priority, requester,
-  state, reason, every progress value, and the transition timeline with who (the
-  sender) and why (reason, failure cause, the debug keys' notes);
+  state, reason, every progress value, its allocation when it is a task addressed to
+  a role (the role, the holder, every bid published, the robots that held it), and the
+  transition timeline with who (the sender) and why (reason, failure cause, the debug
+  keys' notes);
 - a component: state, pid, incarnation, its full last exit reason, the restart budget
   ("4 of 5 in 30 s", as its supervisor counts it in the tree it reports; restarts seen
   since the dashboard attached when the tree did not say), CPU and memory of
@@ -28,9 +30,11 @@ from textual.containers import Vertical, VerticalScroll
 from textual.screen import ModalScreen
 from textual.widgets import Sparkline, Static
 
+from mrss.messages import AllocationState
 from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.robots import HISTORY_SECONDS, RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
+from mrss.tui.models.tasks import TaskView
 
 LOG_TAIL = 12
 SPARK_SERIES = (("battery", "battery %"), ("altitude", "altitude m"), ("tank", "tank L"))
@@ -95,7 +99,8 @@ def _pairs(text: Text, pairs: list[tuple[str, object]]) -> None:
 
 
 class ActionDetail(DetailScreen):
-    """One action, its request and its history."""
+    """One action, its request and its history; a task addressed to a role, its
+    allocation too (every bid published, its holders)."""
 
     def __init__(self, model: ActionsModel, uuid: str, **kw: Any) -> None:
         super().__init__(f"Action {uuid}", **kw)
@@ -118,6 +123,9 @@ class ActionDetail(DetailScreen):
             _pairs(text, [(f"  {k}", v) for k, v in sorted(view.progress.items())])
         else:
             text.append("  none reported\n", "dim")
+        task = self.model.tasks.tasks.get(self.uuid)
+        if task is not None:
+            _allocation(text, task)
         text.append("\ntimeline (when, state, who, why)\n", "bold")
         for entry in view.history:
             style = "bold yellow" if entry.state == "note" else ""
@@ -128,6 +136,22 @@ class ActionDetail(DetailScreen):
         if not view.history:
             text.append("  no transition seen (only its latest state)\n", "dim")
         return text
+
+
+def _allocation(text: Text, task: TaskView) -> None:
+    """The allocation of a task addressed to a role: what it asks, where it stands, each
+    bid (rank order) and the robots that held it."""
+    text.append("\nallocation\n", "bold")
+    holder = task.robot if task.state is AllocationState.AWARDED else "none (waiting)"
+    _pairs(text, [("  role", task.role), ("  state", task.state.value),
+                  ("  holder", holder), ("  ranked by", task.evaluator or "?"),
+                  ("  held by", " -> ".join(task.holders) or "nobody yet")])
+    for change in task.reassignments:
+        text.append(f"  {_stamp(change.ts)}  ", "dim")
+        text.append(f"reassigned from {change.lost_from} to {change.robot}\n", "bold yellow")
+    text.append(f"  bids ({max(task.bidders, len(task.bids))}, best first)\n", "dim")
+    for bid in task.bids:
+        text.append(f"    {bid.describe()}\n", "" if bid.fit else "dim")
 
 
 class ComponentDetail(DetailScreen):

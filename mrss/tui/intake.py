@@ -22,13 +22,16 @@ from mrss.config.operator import GoalState
 from mrss.messages import (
     ActionRequest,
     ActionStatus,
+    AnswerReply,
     DataReply,
     Envelope,
     MindSnapshot,
+    OperatorQuestion,
     Rejections,
     RobotData,
     RobotState,
     SupEvent,
+    TaskAllocation,
 )
 from mrss.tui import operator
 from mrss.tui.buslink import BusLink
@@ -38,6 +41,7 @@ from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.liveness import Liveness
 from mrss.tui.models.logfilter import LogEntry
 from mrss.tui.models.map import MapModel
+from mrss.tui.models.questions import QuestionsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
@@ -62,6 +66,7 @@ class Changes:
     panels: set[str] = field(default_factory=set)
     lines: list[LogEntry] = field(default_factory=list)
     mind: Mind | None = None
+    replies: list[AnswerReply] = field(default_factory=list)  # to this dashboard's answers
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,7 @@ class Models:
     map_model: MapModel
     topics: TopicsModel
     liveness: Liveness
+    questions: QuestionsModel
 
 
 class BusIntake:
@@ -139,6 +145,8 @@ class BusIntake:
             elif isinstance(body, ActionRequest):
                 m.actions.apply_request(body, env.ts, env.src)
                 dirty.add("actions")
+            elif isinstance(body, TaskAllocation):
+                self._allocation(body, env.ts, changes)
             elif isinstance(body, RobotState):
                 m.robots.apply_state(body)
                 dirty.add("robots")
@@ -158,6 +166,10 @@ class BusIntake:
             elif isinstance(body, Rejections):
                 m.supervision.apply_rejections(body)
                 dirty.update(("supervision", "alerts"))  # the counts, the alert's text
+            elif isinstance(body, OperatorQuestion):
+                m.questions.apply(body)
+            elif isinstance(body, AnswerReply):
+                changes.replies.append(body)
             elif isinstance(body, MindSnapshot) and body.agent in ("", self.agent or body.agent):
                 changes.mind = Mind(body, env.ts, env.inc)
             line = log_line(env)
@@ -177,6 +189,20 @@ class BusIntake:
         if "actions" in dirty:
             dirty.add("mission")  # its goals' actions
         return changes
+
+    def _allocation(self, body: TaskAllocation, ts: float, changes: Changes) -> None:
+        """A task's award or wait: its row's holder and reason; a hand-over from a lost
+        robot is an alert (and so a log line)."""
+        m = self.models
+        change = m.actions.tasks.apply(body, ts)
+        changes.panels.update(("actions", "robots"))
+        if change is None:
+            return
+        lost = m.robots.robots.get(change.lost_from)
+        alert = m.alerts.reassigned(change.subject, change.lost_from, change.robot, ts,
+                                    lost.reason if lost is not None else "")
+        changes.panels.add("alerts")
+        changes.lines.append(alert_line(alert, ts))
 
     def _world_reply(self, reply: DataReply) -> None:
         if not reply.ok:

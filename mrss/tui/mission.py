@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mrss.auth.sessions import CREDENTIAL_KEY
 from mrss.config.map import SECTION as MAP_SECTION
 from mrss.config.map import MapConfig, read_map
 from mrss.config.operator import SECTION, OperatorCommand, OperatorConfig, read_operator
@@ -45,6 +46,7 @@ class MissionChannel:
         # unique per dashboard: two MQTT clients with one id throw each other off
         self.client_id = client_id or f"mrss-tui-{os.getpid()}"
         self.sent = 0
+        self.credential = ""  # the logged-in operator's (mrss.tui.login), sent with each
 
     @classmethod
     def for_project(cls, config: OperatorConfig, project_dir: Path | None,
@@ -74,6 +76,8 @@ class MissionChannel:
         self.sent += 1
         from mrss.links.mqtt_request import request_json
 
+        if self.credential:  # checked by the events manager (mrss.runtime.operator_guard)
+            payload = {**payload, CREDENTIAL_KEY: self.credential}
         try:
             answer = request_json(broker, topic, payload, client_id=f"{self.client_id}-"
                                   f"{self.sent}", within=min(5.0, self.patience),

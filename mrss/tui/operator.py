@@ -106,6 +106,11 @@ def mind_request(agent: str = "") -> Command:
     return Command(command="mind", target=agent)
 
 
+def questions_request() -> Command:
+    """Ask the reasoner(s) for their pending questions again: on `ctl.questions`."""
+    return Command(command="questions")
+
+
 def tree_request() -> Command:
     """Ask the root supervisor for a `sup.tree` snapshot: on `ctl.tree`."""
     return Command(command="tree")

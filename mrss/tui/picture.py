@@ -90,7 +90,8 @@ class Picture:
         and the status of every action shown open (it may have ended unseen)."""
         self.snapshots_asked += 1
         requests: list[Message] = [operator.tree_request(), operator.snapshot_request(),
-                                   operator.mind_request(self.agent)]
+                                   operator.mind_request(self.agent),
+                                   operator.questions_request()]
         shown_open = [v.uuid for v in self.actions.newest_first() if not v.terminal]
         if shown_open:
             requests.append(operator.status_query(shown_open))
@@ -134,6 +135,11 @@ class Picture:
         elif event.event is SupEventKind.START and self.liveness.ended:
             self.liveness.ended = ""
             self._system_stopping = False
+
+    def replayed_back(self) -> None:
+        """A replay moved its cursor: whether the system ended is told again from there."""
+        self.liveness.ended = ""
+        self._system_stopping = False
 
     def _stopped_quietly(self) -> bool:
         """Silent, after the root said it was stopping, or with every component of the
@@ -185,4 +191,4 @@ class Picture:
         project = f"{self.project} · " if self.project else ""
         # no message count here: a header title that changes every second lays the whole
         # screen out again every second (`mrss bench tui`)
-        return f"{project}connected · {self.link.endpoints.backend}"
+        return f"{project}{self.link.where()}"

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from textual.app import App
 
 from mrss.config.operator import GoalState, OperatorCommand, PayloadError, hold_payload
-from mrss.config.operator_commands import CommandSpec
+from mrss.config.operator_commands import CommandSpec, FieldType
 from mrss.messages import Percept
 from mrss.tui import operator
 from mrss.tui.area_form import AreaForm
@@ -177,7 +177,36 @@ class Steering:
 
         self.app.push_screen(CommandMenu(choices), chosen)
 
-    def open_command_form(self, spec: CommandSpec) -> None:
+    def open_command_with(self, kind: FieldType, text: str) -> None:
+        """A shape drawn on the map: the declared commands with a field of its kind (a
+        menu when there are several), the form pre-filled with it."""
+        commands = self.mission.config.commands if self.mission is not None else {}
+        fitting = {name: spec for name, spec in commands.items()
+                   if any(f.type is kind for f in spec.fields)}
+        if not fitting:
+            self.say(f"no declared command takes a {kind.value} ([operator.commands]): "
+                     f"{text[:60]}", error=True)
+            return
+        if self.readonly:
+            self.say(f"new command refused: {READONLY_NOTICE}", error=True)
+            return
+
+        def open_form(name: str | None) -> None:
+            if name is None:
+                self.say("no command sent (menu closed)")
+                return
+            spec = fitting[name]
+            target = next(f.name for f in spec.fields if f.type is kind)
+            self.open_command_form(spec, {target: text})
+
+        if len(fitting) == 1:
+            open_form(next(iter(fitting)))
+            return
+        self.app.push_screen(CommandMenu([(n, f"{n}: {s.label}" if s.label else n)
+                                          for n, s in fitting.items()]), open_form)
+
+    def open_command_form(self, spec: CommandSpec,
+                          prefill: dict[str, str] | None = None) -> None:
         """The form of one declared command; a good form goes to the agent."""
         if self.readonly:
             self.say(f"{spec.name} refused: {READONLY_NOTICE}", error=True)
@@ -189,7 +218,7 @@ class Steering:
                 return
             self.app.post_message(MissionRequested(spec, dict(payload), spec.summary(payload)))
 
-        self.app.push_screen(CommandForm(spec), filled)
+        self.app.push_screen(CommandForm(spec, prefill), filled)
 
     def open_area_form(self) -> None:
         """The area form of the fixed vocabulary; its area goes to the agent."""

@@ -65,3 +65,26 @@ tries(G, 0) :- not tried(G, _).
       -tried(G, _).
 
 +robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").
+
+// A goal addressed to a role, not a robot: "any robot with a camera, near there". The
+// RCL awards it to the robot that finishes it first, among those declaring both
+// capabilities in project.toml (`capabilities = ["uav", "camera"]`); a goal waits
+// while none is free. If that robot is lost on the way (its link, its failsafe, the
+// operator decommissions it), the RCL hands the task to another capable robot, which
+// goes on from the progress recorded, and the agent hears `reassigned(Task, From, To)`:
+// the action does not fail (docs/agentspeak.md, "Tasks addressed to a role").
+// ADAPT: the capabilities your tasks need; `any([uav])` for any UAV.
++survey_received(G, Lat, Lon)[source(percept)]
+   <- .print("goal ", G, ": any robot with a camera goes to ", Lat, ",", Lon);
+      !survey(G, Lat, Lon).
++!survey(G, Lat, Lon)
+   <- fly(any([uav, camera], at(Lat, Lon)), G, Lat, Lon);
+      .print("goal ", G, " surveyed");
+      -survey_received(G, Lat, Lon)[source(percept)].
+-!survey(G, Lat, Lon)[error(E)]               // never reassigned: it failed for good
+   <- .print("goal ", G, " failed: ", E);
+      give_up(G, plan_failed, E);
+      -survey_received(G, Lat, Lon)[source(percept)].
++reassigned(fly(_, G, _, _), From, To)[source(percept)]
+   <- -reassigned(fly(_, G, _, _), From, To)[source(percept)];
+      .print("goal ", G, " went from ", From, " to ", To).

@@ -36,7 +36,7 @@ from mrss.config.loader import load_file
 
 PROJECT = Path(__file__).resolve().parents[1] / "nodes" / "nodes_project"
 REQUIRE = os.environ.get("MRSS_REQUIRE_NETNS") == "1"
-CAMPAIGN = ["--faults", "3", "--seed", "1", "--kinds", "node_partition,node_loss",
+CAMPAIGN = ["--faults", "4", "--seed", "6", "--kinds", "node_partition,node_loss,node_delay",
             "--interval", "3..4", "--duration", "2..4", "--operator-every", "2",
             "--warmup", "3", "--latch-bound", "10", "--cancel-bound", "10",
             "--converge-bound", "30"]
@@ -91,9 +91,14 @@ def test_a_node_cut_off_and_back_heals_to_the_same_state(campaign) -> None:  # t
     code, h, report = campaign
     assert h.campaign["nodes"] == {"home": "base", "peers": ["field"]}
     assert [(f.kind, f.target, f.ok) for f in h.faults] == [
-        ("node_partition", "field", True), ("node_loss", "field", True),
-        ("node_partition", "field", True)], h.faults
-    assert len(h.heals) == 3
+        ("node_partition", "field", True), ("node_partition", "field", True),
+        ("node_loss", "field", True), ("node_delay", "field", True)], h.faults
+    assert len(h.heals) == 4
+    # every byte between the nodes went through the relays (node_delay), both ways
+    relayed = h.end["relays"]["node field"]
+    assert relayed["out_connections"] >= 1 and relayed["in_connections"] >= 1, relayed
+    assert relayed["out_bytes"] > 0 and relayed["in_bytes"] > 0, relayed
+    assert relayed["out_held"] > 0 and relayed["in_held"] > 0, relayed  # the delay
     states = [(e.t, e.body["available"], str(e.body.get("reason", "")))
               for e in h.of_kind("robot.state") if e.body.get("robot") == "ugv1"]
     for fault in (f for f in h.faults if f.kind == "node_partition"):

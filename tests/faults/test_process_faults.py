@@ -98,6 +98,20 @@ def test_slow_start_past_the_start_timeout_is_killed_and_retried(make_tree: Make
     wait_until(lambda: tree.all_running() and tree.incarnations()["a"] == 3, timeout=10)
 
 
+def test_a_start_slower_than_its_timeout_every_time_is_given_twice_the_time_each_retry(
+        make_tree: MakeTree) -> None:
+    # A slow or loaded host: every start takes 1.2 s against a start_timeout of 0.5 s. The
+    # supervisor doubles the patience after each start killed for it (0.5, 1, 2 s) instead
+    # of killing the same slow start for ever; once up, the next start has 0.5 s again.
+    tree = make_tree(worker("a", start_timeout=0.5, start_delay=1.2), wait=False)
+    wait_until(lambda: tree.all_running(), timeout=60, message="a running at last")
+    reasons = [e.reason for e in tree.log.of("exit", "a")]
+    # at least the first two starts were too slow; a loaded machine may need one more
+    assert len(reasons) >= 2 and reasons == [
+        f"start_timeout: not ready within {0.5 * 2 ** k:g}s" for k in range(len(reasons))]
+    assert tree.incarnations()["a"] == len(reasons) + 1
+
+
 def test_crash_fault_reports_the_childs_own_reason(make_tree: MakeTree) -> None:
     tree = make_tree(worker("a"))
     faults.crash(tree.sup, "a")

@@ -40,7 +40,7 @@ def test_supervised_components_speak_on_the_bus_and_restarts_are_published(
                    message="announcer started")
         # what was published before this subscriber joined the proxy is not ours to see;
         # the welcome alone does not mean its subscriptions have reached the proxy
-        assert sub.wait_connected(timeout=10)
+        wait_until(lambda: sub.wait_connected(timeout=0.5), timeout=10, message="subscribed")
         with Publisher(BusEndpoints.ipc(tmp_path), src="probe") as probe:
             marker = SupEvent(event=SupEventKind.TREE, child="probe")
             wait_until(lambda: probe.publish(marker) and any(

@@ -38,6 +38,7 @@ from mrss.bus import BusEndpoints, ReliableSender, Stale, Subscriber
 from mrss.bus.curve import generate, load_public
 from mrss.cli import main
 from mrss.messages import ActionRequest, ActionStatus, Envelope, Percept, RobotState, SupEvent
+from mrss.messages.credentials import KEY_FILE
 from mrss.testing import wait_until
 from mrss.tui.models.supervision import SupervisionModel
 
@@ -211,7 +212,9 @@ def test_two_nodes_lose_and_regain_each_other_and_refuse_a_stranger(
             return [e.body for e in list(seen) if isinstance(e.body, ActionStatus)
                     and e.body.uuid == uuid_ and e.body.state == state]
 
-        tx = ReliableSender(ep, src="reasoner", inc=1, channel="action")
+        # as a reasoner base's root started: its envelopes prove inc 1 with base's key
+        tx = ReliableSender(ep.keyed(run_a / KEY_FILE), src="reasoner", inc=1,
+                            channel="action")
         tx.send(ActionRequest(uuid="long", name="patrol",
                               args=["ugv1", "g", list(range(2000))]))
         wait_until(lambda: status("long", "running"), timeout=20, message="action running")

@@ -24,7 +24,7 @@ def stop_all_actors() -> Iterator[None]:
     try:
         yield
     finally:
-        pykka.ActorRegistry.stop_all(block=True, timeout=5)
+        pykka.ActorRegistry.stop_all(block=True, timeout=30)
 
 
 @pytest.fixture()

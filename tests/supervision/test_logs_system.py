@@ -59,7 +59,8 @@ def system(tmp_path: Path) -> Iterator[System]:
     running = System(proc, tmp_path, stderr)
     sub.start(running.seen.append)
     try:
-        assert sub.wait_connected(timeout=30), "the bus proxy did not come up"
+        wait_until(lambda: sub.wait_connected(timeout=0.5), timeout=30,
+                   message="the bus proxy up")
         yield running
     finally:
         sub.close()

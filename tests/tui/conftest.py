@@ -89,3 +89,14 @@ def tuimission() -> Iterator[Path]:
         yield from supervise("tuimission", HERE, run_dir)
     finally:
         shutil.rmtree(run_dir, ignore_errors=True)
+
+
+@pytest.fixture()
+def tuifleet() -> Iterator[Path]:
+    """tests/tui/tuifleet (bus, RCL with three ground robots, an agent addressing fires
+    to a role) running; its run dir."""
+    run_dir = Path(tempfile.mkdtemp(prefix="mrss-tuifleet-"))
+    try:
+        yield from supervise("tuifleet", HERE, run_dir)
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)

@@ -7,7 +7,16 @@ from pathlib import Path
 from textual.widgets import Input
 
 from mrss.bus import BusEndpoints
-from mrss.messages import ActionControl, ActionStatus, Command, Percept, RobotState
+from mrss.messages import (
+    ActionControl,
+    ActionStatus,
+    AllocationState,
+    Command,
+    FailureCause,
+    Percept,
+    RobotState,
+    TaskAllocation,
+)
 from mrss.tui.app import MrssApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.widgets.actions_table import ActionsTable
@@ -20,7 +29,8 @@ from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
 
 def commands(peer: Peer) -> list[Command]:
     """The operator commands the TUI sent (not its periodic tree and mind requests)."""
-    return [c for c in peer.received(Command) if c.command not in ("tree", "mind", "snapshot")]
+    return [c for c in peer.received(Command)
+            if c.command not in ("tree", "mind", "snapshot", "questions")]
 
 
 def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(
@@ -133,6 +143,53 @@ def test_teleop_key_toggles_teleop_for_the_selected_robot(
             assert commands(peer) == [
                 Command(command="teleop", target="ugv1", args={"on": True}),
                 Command(command="teleop", target="ugv1", args={"on": False})]
+    run(body())
+
+
+def test_decommission_key_asks_naming_the_tasks_handed_on_then_toggles_back(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    async def body() -> None:
+        app = make_app(endpoints)
+        async with app.run_test(size=SIZE) as pilot:
+            await connected(pilot, peer)
+            table = app.query_one(RobotsTable)
+            peer.publish(RobotState(robot="uav1", available=True))
+            peer.publish(ActionStatus(uuid="t" * 32, state="running", robot="uav1",
+                                      name="cover", goal="a1"))
+            peer.publish(ActionStatus(uuid="n" * 32, state="running", robot="uav1",
+                                      name="recharge", goal="b1"))
+            peer.publish(TaskAllocation(uuid="t" * 32, state=AllocationState.AWARDED,
+                                        robot="uav1", name="cover", goal="a1"))
+            await until(pilot, lambda: has_row(table, "uav1") and len(app.actions.actions) == 2
+                        and "t" * 32 in app.actions.tasks.tasks, message="robot, task, action")
+            table.focus()
+            await pilot.press("d")
+            screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
+                                 and app.screen, message="decommission question")
+            assert screen.question == "Decommission uav1: take it out of service?"
+            assert screen.details[1:] == [
+                "tasks handed to other robots (addressed to a role): cover a1 (tttttttt)",
+                "actions that fail (addressed to it by name; the agent decides): recharge "
+                "b1 (nnnnnnnn)"]
+            await pilot.press("escape")
+            assert commands(peer) == [] and "not sent (declined)" in \
+                app.query_one(OperatorBar).status_text
+            await pilot.press("d", "y")
+            await until(pilot, lambda: commands(peer), message="decommission sent")
+            # the RCL answers with the robot's state: out of service; d puts it back
+            peer.publish(RobotState(robot="uav1", available=False,
+                                    reason="decommissioned by the operator",
+                                    cause=FailureCause.DECOMMISSIONED), src="rcl")
+            await until(pilot, lambda: row_text(table, "uav1")[1] == "decommissioned",
+                        message="decommissioned shown")
+            await pilot.press("d")
+            screen = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
+                                 and app.screen, message="recommission question")
+            assert screen.question == "Recommission uav1: back in service?"
+            await pilot.press("y")
+            await until(pilot, lambda: len(commands(peer)) == 2, message="recommission sent")
+            assert commands(peer) == [Command(command="decommission", target="uav1"),
+                                      Command(command="recommission", target="uav1")]
     run(body())
 
 

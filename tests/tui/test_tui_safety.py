@@ -94,12 +94,13 @@ def test_readonly_dashboard_refuses_every_control_with_a_notice(
                 await refused(key)
             robots.focus()
             await refused("t")
+            await refused("d")  # decommission
             sup.focus()
             await pilot.press("down", "down")
             await refused("k")
             await refused("X")
             await refused("p")
-            assert refusals == 7
+            assert refusals == 8
             # the dashboard still asks for pictures (read-only requests) but sends no control
             assert commands(peer) == []
             assert peer.received(ActionControl) == [] and peer.received(Percept) == []

@@ -16,7 +16,7 @@ from textual.pilot import Pilot
 
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Envelope, Heartbeat, Message
-from mrss.testing import WaitTimeout
+from mrss.testing import WaitTimeout, expired
 
 T = TypeVar("T")
 M = TypeVar("M", bound=Message)
@@ -26,12 +26,12 @@ async def until(pilot: Pilot[Any], condition: Callable[[], T], timeout: float = 
                 message: str = "condition", describe: Callable[[], str] | None = None) -> T:
     """Poll `condition`, letting the app run between polls, until it is truthy; return it.
     On a timeout `describe()` (if given) says what was there instead."""
-    deadline = time.monotonic() + timeout
+    started = time.monotonic()
     while True:
         value = condition()
         if value:
             return value
-        if time.monotonic() >= deadline:
+        if time.monotonic() - started >= timeout and expired(started, timeout):
             seen = f"; instead: {describe()}" if describe is not None else ""
             raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s{seen}")
         await pilot.pause(0.01)

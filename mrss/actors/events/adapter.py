@@ -58,6 +58,9 @@ class EventsContext:
     intake: EventIntake | None = None  # None: the adapter makes a plain one
     world_model_token: str | None = None  # [worldmodel] token: sent by world_model()
     robots: frozenset[str] | None = None  # the project's robots (None: not known)
+    # the check of operator commands' authors (mrss.actors.events.operator_commands):
+    # the payload to handle, or PayloadError; None: none
+    operator_check: Callable[[str, bytes], bytes] | None = None
 
 
 class ExternalAdapter:
@@ -116,11 +119,13 @@ class ExternalAdapter:
     def on_message(self, topic_filter: str, handler: RawHandler) -> None:
         """Call `handler(topic, payload)` for each MQTT message, on the intake thread."""
         mqtt = self.mqtt
+        check = self.context.operator_check or (lambda _topic, payload: payload)
 
         def take(delivery: Delivery) -> None:
             event = InboundEvent(delivery.topic, delivery.payload, delivery.redelivered,
                                  acknowledge=lambda: mqtt.ack(delivery))
-            self.intake.submit(event, lambda: handler(delivery.topic, delivery.payload))
+            self.intake.submit(event, lambda: handler(
+                delivery.topic, check(delivery.topic, delivery.payload)))
         mqtt.subscribe_deliveries(topic_filter, take)
 
     def on_json(self, topic_filter: str, handler: JsonHandler) -> None:

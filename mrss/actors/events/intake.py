@@ -41,6 +41,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from mrss.actors.events.reports import EventReporter
+from mrss.auth.sessions import CREDENTIAL_KEY, claimed_user
 from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.retry import Attempt, RetryPolicy, classify
 from mrss.messages import EventStatus, JsonValue
@@ -90,6 +91,9 @@ def identify(event: InboundEvent) -> Identity:
         goal = obj.get("goal")
         if isinstance(goal, str) and len(goal) <= MAX_ID_LENGTH:
             detail["goal"] = goal
+        credential = obj.get(CREDENTIAL_KEY)  # an operator command's author (as claimed:
+        if isinstance(credential, str):  # an accepted one was verified, mrss.auth)
+            detail["author"] = claimed_user(credential) or "(token)"
     digest = hashlib.sha256(event.topic.encode("utf-8", "replace") + b"\0")
     if event_id:
         digest.update(b"id\0" + event_id.encode("utf-8", "replace"))

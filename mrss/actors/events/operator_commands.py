@@ -7,19 +7,28 @@ else (a field out of range, a self-intersecting polygon, too many vertices, an u
 field) is a bad payload, refused back to the sender on `<topic>/reply` and counted,
 never a percept. The dashboard checks the same before it sends; this is the check that
 holds for every client. Runs beside the project's own adapter, on its MQTT client.
+
+With users configured (mrss.auth), every operator command's topic — these and the
+fixed vocabulary's (`[operator] area = ...`) — needs a `"credential"` in its JSON whose
+role may send it (`operator_check`, before the project's own handler sees it).
 """
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from mrss.actors.events.adapter import ExternalAdapter
+from mrss.auth.roles import CommandKind, Role
+from mrss.auth.sessions import CREDENTIAL_KEY
 from mrss.config.loader import load_file
-from mrss.config.operator import SECTION, read_operator
+from mrss.config.operator import SECTION, OperatorCommand, read_operator
 from mrss.config.operator_commands import CommandError, CommandSpec
 from mrss.config.projects import PROJECT_FILE
-from mrss.edge.payloads import PayloadError
+from mrss.edge.payloads import PayloadError, decode_json_object
+from mrss.runtime.operator_guard import OperatorGuard
 
 
 def declared_commands(project_dir: Path) -> dict[str, CommandSpec]:
@@ -47,3 +56,43 @@ def _handler(adapter: ExternalAdapter, spec: CommandSpec) -> Any:
             raise PayloadError(f"{spec.name}: {exc}", topic=topic) from None
         adapter.percept(literal)
     return handle
+
+
+def operator_topics(project_dir: Path) -> dict[str, tuple[CommandKind, Role | None]]:
+    """Every operator command's MQTT topic -> the kind and least role it needs: the fixed
+    vocabulary's (`[operator] area = ...`; teleop is `TELEOP`, the others `MISSION`) and
+    the declared commands' (their `role`)."""
+    file = project_dir / PROJECT_FILE
+    if not file.is_file():
+        return {}
+    sections = load_file(file).sections
+    if SECTION not in sections:
+        return {}
+    config = read_operator(sections[SECTION], file=str(file))
+    topics: dict[str, tuple[CommandKind, Role | None]] = {
+        topic: (CommandKind.TELEOP if command is OperatorCommand.TELEOP
+                else CommandKind.MISSION, None)
+        for command, topic in config.topics.items()}
+    for spec in config.commands.values():
+        topics[spec.topic] = (CommandKind.MISSION, Role(spec.role))
+    return topics
+
+
+def operator_check(guard: OperatorGuard, topics: dict[str, tuple[CommandKind, Role | None]]
+                   ) -> Callable[[str, bytes], bytes]:
+    """The check of an operator command's author, run before its handler: the payload
+    without its `"credential"`, or PayloadError (refused back to the sender, counted)
+    when the sender's role may not send it. Other topics pass untouched."""
+
+    def check(topic: str, payload: bytes) -> bytes:
+        wanted = topics.get(topic)
+        if wanted is None or not guard.active:
+            return payload
+        obj = decode_json_object(payload, topic=topic)
+        credential = obj.pop(CREDENTIAL_KEY, "")
+        verdict = guard.check(credential if isinstance(credential, str) else "",
+                              wanted[0], topic, least=wanted[1], sender=f"mqtt:{topic}")
+        if not verdict.ok:
+            raise PayloadError(f"refused: {verdict.reason}", topic=topic)
+        return json.dumps(obj).encode()
+    return check

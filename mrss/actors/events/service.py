@@ -44,7 +44,12 @@ from typing import Any, ClassVar
 
 from mrss.actors.events.adapter import EventsContext, ExternalAdapter
 from mrss.actors.events.intake import EventIntake
-from mrss.actors.events.operator_commands import declared_commands, serve_commands
+from mrss.actors.events.operator_commands import (
+    declared_commands,
+    operator_check,
+    operator_topics,
+    serve_commands,
+)
 from mrss.actors.events.reports import EventReporter, reply_template
 from mrss.config.broker import table, with_broker
 from mrss.edge.http_token import configured_token
@@ -57,6 +62,7 @@ from mrss.runtime.busport import BusPort, MessagePublisher, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.edge import edge_config, project_robots
 from mrss.runtime.loader import load_project_class
+from mrss.runtime.operator_guard import OperatorGuard
 from mrss.runtime.percept_channel import PerceptChannel
 from mrss.runtime.percepts import EventCounters, PerceptPublisher, PerceptSink
 
@@ -161,7 +167,9 @@ class ExternalEventsManager(Component):
             percept=publish, mqtt=self.mqtt, options=options, project_dir=project_dir,
             broker_url=self.mqtt.settings.url if self.mqtt else None, log=self.log,
             run_dir=run_dir, intake=self.intake, world_model_token=token,
-            robots=_robots(events, project_dir)))
+            robots=_robots(events, project_dir),
+            operator_check=operator_check(OperatorGuard(project_dir, self.log),
+                                          operator_topics(project_dir))))
         self.intake.start()
         self.adapter.start()  # subscriptions first, so the first (re)connect sends them all
         commands = declared_commands(project_dir)  # [operator.commands]: checked percepts

@@ -16,7 +16,10 @@ robot's availability; it reaches robot actors and ends actions through the core'
   release makes it available;
 - the operator decommissions a robot (`decommission`, the `ctl.decommission` command):
   unavailable with cause `decommissioned`, its open actions failing with it (a task
-  addressed to a role goes to another robot); `ctl.recommission` makes it available;
+  addressed to a role goes to another robot); `ctl.recommission` makes it available.
+  Journaled first: a decommissioned robot stays out after any restart of the RCL (or
+  of the whole system) until it is recommissioned, and a link or node lost meanwhile
+  does not replace that cause;
 - every change, and every restart of a requester, is announced as a `RobotState`
   (level-triggered: availability, reason, link, teleop).
 """
@@ -34,13 +37,21 @@ from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import SetTeleop
 from mrss.errors import ActionError
 from mrss.links.failsafe import LinkDownCause, link_down_cause
-from mrss.messages import ActionState, LinkState, Message, RobotState, SupEvent
+from mrss.messages import (
+    ActionState,
+    FailureCause,
+    LinkState,
+    Message,
+    RobotState,
+    SupEvent,
+)
 from mrss.supervision import events as ev
 
 log = logging.getLogger("mrss.rcl")
 
 LINK_DOWN = "link down"  # how an unavailable robot's reason starts when its link is lost
 NODE_DOWN = "node down"  # ... when the node it is reached through is lost
+DECOMMISSIONED = "decommissioned by the operator"  # ... when the operator took it out
 LINK_CAUSES = (lc.EndCause.LINK_LOST, lc.EndCause.FAILSAFE)
 
 
@@ -121,8 +132,8 @@ class RobotAvailability:
             if current in LINK_CAUSES:  # not when something else (a quarantine) holds it
                 self.set_available(robot, True)
             return []
-        if current is lc.EndCause.NODE_DOWN:
-            return []  # its node's loss is the deeper cause (and failed its actions)
+        if current in (lc.EndCause.NODE_DOWN, lc.EndCause.DECOMMISSIONED):
+            return []  # the deeper cause (its actions failed with it); it stays
         self.set_available(robot, False, f"{LINK_DOWN}: {reason or 'no reason given'}",
                            lc.EndCause.FAILSAFE if link_down_cause(reason)
                            is LinkDownCause.FAILSAFE else lc.EndCause.LINK_LOST)
@@ -141,17 +152,26 @@ class RobotAvailability:
                               f"{', '.join(sorted(self.links))})")
         with self.actions.lock:
             current = self._unavailable_cause.get(robot)
+        self.journal.set_decommissioned(robot, out)  # first: it outlives any restart
         if not out:
             if current is lc.EndCause.DECOMMISSIONED:
                 self.set_available(robot, True)
             return []
-        self.set_available(robot, False, "decommissioned by the operator",
-                           lc.EndCause.DECOMMISSIONED)
+        self.set_available(robot, False, DECOMMISSIONED, lc.EndCause.DECOMMISSIONED)
         targets = self.actions.of_robot(robot)
         for uuid in targets:
             self.routes.control_one(uuid, lc.End(ActionState.FAILED, lc.EndCause.DECOMMISSIONED,
                                                  f"robot {robot} decommissioned by the operator"))
         return targets
+
+    def restore_decommissioned(self) -> set[str]:
+        """After a restart (before the robot actors start): the robots the operator took
+        out of service are out again; `decommission` then fails what they still hold."""
+        out = self.journal.decommissioned_robots() & set(self.links)
+        for robot in sorted(out):
+            log.info("robot %s stays decommissioned after the restart", robot)
+            self.set_available(robot, False, DECOMMISSIONED, lc.EndCause.DECOMMISSIONED)
+        return out
 
     def node_state(self, node: str, up: bool, reason: str = "") -> list[str]:
         """The node some robots are reached through was lost (`sup.node_down`) or is back.
@@ -168,8 +188,8 @@ class RobotAvailability:
                 if current is lc.EndCause.NODE_DOWN:
                     self.set_available(robot, True)
                 continue
-            if current is lc.EndCause.NODE_DOWN:
-                continue  # a repeat (sup.node_down is level-triggered)
+            if current in (lc.EndCause.NODE_DOWN, lc.EndCause.DECOMMISSIONED):
+                continue  # a repeat (sup.node_down is level-triggered), or out of service
             why = reason or f"node {node} lost"
             self.set_available(robot, False, f"{NODE_DOWN}: {why}", lc.EndCause.NODE_DOWN)
             targets = self.actions.of_robot(robot)
@@ -185,11 +205,14 @@ class RobotAvailability:
         self.on_change()
         with self.actions.lock:
             reason = self._unavailable.get(robot, "")
-            link_down = self._unavailable_cause.get(robot) in LINK_CAUSES
+            end = self._unavailable_cause.get(robot)
+            link_down = end in LINK_CAUSES
+        cause = FailureCause(lc.FAILURE_OF.get(end, "")) if reason and end is not None \
+            else FailureCause.UNSPECIFIED
         try:
             self.publish(RobotState(robot=robot, available=not reason, reason=reason,
                                     link=LinkState.DOWN if link_down else LinkState.UP,
-                                    attributes=attrs))
+                                    attributes=attrs, cause=cause))
         except Exception as exc:
             log.error("publishing state of robot %s failed: %r", robot, exc)
 

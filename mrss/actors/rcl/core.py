@@ -181,6 +181,7 @@ class RclCore:
                 self.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
                     f"robot {entry.action.robot!r} is not configured after an RCL restart"))
+        decommissioned = self.availability.restore_decommissioned()
         children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
                                 shutdown=self.layer.interrupt_timeout + 2.0)
                     for robot in self.links]
@@ -193,6 +194,8 @@ class RclCore:
             watch = getattr(link, "watch_controller", None)
             if callable(watch):
                 watch(functools.partial(self.controls, robot))
+        for robot in sorted(decommissioned):  # what it still held (a kill came between)
+            self.availability.decommission(robot, True)
         self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
         self.reallocation.carry_out()  # awards recorded before a restart, not yet started
         self.allocator.start()
@@ -379,6 +382,14 @@ class RclCore:
         has it), from `progress`. A robot unavailable since its bid gives it back."""
         args = [robot, *request.args[1:]] if request.args else [robot]
         with self._lock:
+            known = self.journal.get(request.uuid)
+            if self.allocator.book.holder(request.uuid) != robot or known is None \
+                    or known.action.terminal:  # ended (cancelled) while it was decided
+                self.rejections.reject(robot, "award for a task no longer open",
+                                       f"{request.uuid}: award to {robot} dropped (task "
+                                       f"{known.action.state.value if known else 'unknown'})")
+                return
+            requester = known.requester  # a newer incarnation may have adopted it
             if self.refused(robot):
                 if self.allocator.book.lost(request.uuid, robot) is not None:
                     self.allocator.reopen(request, requester, robot, progress)
@@ -387,8 +398,9 @@ class RclCore:
                          requester, progress)
 
     def refused(self, robot: str) -> bool:
-        """Whether a new action for `robot` would be refused now."""
-        return self.availability.refusal(robot) is not None
+        """Whether a new action for `robot` would be refused now (one not configured,
+        e.g. an award journaled before a restart that removed it, is)."""
+        return robot not in self.links or self.availability.refusal(robot) is not None
 
     def _reject(self, uuid: str, fields: Mapping[str, Any], reason: str,
                 requester: Requester = NOBODY,
@@ -423,6 +435,7 @@ class RclCore:
             targets = list(chosen)
             robots = {u: e.robot for u, e in chosen.items()}
             agent = {u for u, e in chosen.items() if src and e.requester.src == src}
+            targets += self._control_waiting(control, src)
         if not targets and control.target_kind is ControlTarget.GOAL \
                 and control.command is ControlCommand.SUSPEND:
             log.info("suspend goal %r: no action yet; held for its later ones", control.target)
@@ -430,8 +443,35 @@ class RclCore:
             log.warning("%s %s %r: no active action", control.command, control.target_kind,
                         control.target)
         for uuid in targets:
-            self.tell(robots[uuid], Control(uuid, _event_of(control.command, uuid in agent)))
+            if uuid in robots:
+                self.tell(robots[uuid], Control(uuid, _event_of(control.command,
+                                                                uuid in agent)))
         return targets
+
+    def _control_waiting(self, control: ActionControl, src: str) -> list[str]:
+        """Under the lock: a cancel, succeed or fail of a task that waits for a robot ends
+        it here (no robot runs it; the allocator bids for it no more); a suspend or
+        resume leaves it waiting. The uuids ended."""
+        if control.command not in _END_OF or control.target_kind is ControlTarget.ROBOT:
+            return []
+        ended = []
+        for uuid, holder in self.allocator.book.holders().items():
+            if holder:
+                continue
+            entry = self.journal.get(uuid)
+            if entry is None or entry.action.terminal or entry.action.robot or not (
+                    uuid == control.target if control.target_kind is ControlTarget.ACTION
+                    else entry.action.goal == control.target):
+                continue
+            self.allocator.withdraw(uuid)
+            by_agent = bool(src) and entry.requester.src == src
+            self.end_unrouted(entry.action, lc.End(
+                _END_OF[control.command],
+                lc.EndCause.AGENT if by_agent else lc.EndCause.OPERATOR,
+                f"{_END_OF[control.command].value} by the "
+                f"{'agent' if by_agent else 'operator'} while it waited for a robot"))
+            ended.append(uuid)
+        return ended
 
     # -- plumbing ---------------------------------------------------------------------------
     def _emit(self, action: Action, suspended_by: str,

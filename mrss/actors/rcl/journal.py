@@ -10,8 +10,9 @@ not in whichever transition crosses SQLite's mark.
 It also holds the tasks addressed to a role (mrss.actors.rcl.allocation.book): each
 one's request, who holds it now ("" while it waits) and the robots that lost it; an
 award is committed before the action on the winner is, so a restart carries out a
-recorded award instead of deciding again. And the controls not yet applied by a robot
-actor (mrss.actors.rcl.controls).
+recorded award instead of deciding again. And, per robot, whether it is in teleop and
+whether the operator took it out of service (both survive any restart). And the
+controls not yet applied by a robot actor (mrss.actors.rcl.controls).
 It stays bounded: `compact` drops the terminal actions (and their transitions) last
 updated more than `keep_seconds` ago, except the newest `keep_last` of them, which the
 dashboard's history shows; and the pending controls of actions no longer open. The RCL
@@ -54,7 +55,8 @@ CREATE TABLE IF NOT EXISTS transitions (
     reason TEXT NOT NULL, progress TEXT NOT NULL, ts REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS transitions_uuid ON transitions(uuid);
-CREATE TABLE IF NOT EXISTS robots (robot TEXT PRIMARY KEY, teleop INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS robots (robot TEXT PRIMARY KEY, teleop INTEGER NOT NULL,
+                                   decommissioned INTEGER NOT NULL DEFAULT 0);
 CREATE TABLE IF NOT EXISTS controls (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, robot TEXT NOT NULL, uuid TEXT NOT NULL,
     event TEXT NOT NULL, ts REAL NOT NULL
@@ -122,6 +124,10 @@ class ActionJournal:
         columns = {row[1] for row in self._db.execute("PRAGMA table_info(actions)")}
         if "cause" not in columns:  # a journal kept from before failure causes existed
             self._db.execute("ALTER TABLE actions ADD COLUMN cause TEXT NOT NULL DEFAULT ''")
+        columns = {row[1] for row in self._db.execute("PRAGMA table_info(robots)")}
+        if "decommissioned" not in columns:  # kept from before decommissioning existed
+            self._db.execute("ALTER TABLE robots ADD COLUMN decommissioned INTEGER NOT NULL "
+                             "DEFAULT 0")
 
     def close(self) -> None:
         self._checkpointer.close()
@@ -234,7 +240,7 @@ class ActionJournal:
 
     def set_teleop(self, robot: str, on: bool) -> None:
         with self._lock:
-            self._db.execute("INSERT INTO robots VALUES (?,?) ON CONFLICT(robot) "
+            self._db.execute("INSERT INTO robots (robot, teleop) VALUES (?,?) ON CONFLICT(robot) "
                              "DO UPDATE SET teleop=excluded.teleop", (robot, int(on)))
 
     def teleop_robots(self) -> set[str]:
@@ -242,14 +248,48 @@ class ActionJournal:
             rows = self._db.execute("SELECT robot FROM robots WHERE teleop=1").fetchall()
         return {r[0] for r in rows}
 
+    def set_decommissioned(self, robot: str, out: bool) -> None:
+        """The operator took `robot` out of service (`out`) or put it back."""
+        with self._lock:
+            self._db.execute("INSERT INTO robots (robot, teleop, decommissioned) "
+                             "VALUES (?,0,?) ON CONFLICT(robot) "
+                             "DO UPDATE SET decommissioned=excluded.decommissioned",
+                             (robot, int(out)))
+
+    def decommissioned_robots(self) -> set[str]:
+        with self._lock:
+            rows = self._db.execute("SELECT robot FROM robots WHERE decommissioned=1").fetchall()
+        return {r[0] for r in rows}
+
 
     # -- tasks addressed to a role (mrss.actors.rcl.allocation.book) --------------------------
-    def open_task(self, uuid: str, request: dict[str, Any], requester: Requester) -> bool:
-        """Record a new task, waiting; False if its uuid is known already."""
+    def open_task(self, action: Action, request: dict[str, Any], requester: Requester) -> bool:
+        """Record a new task, waiting, with its action (on no robot yet: `action`), in one
+        commit; False if its uuid is known already. The action's row is what a restarted
+        requester finds in its inventory and adopts, and what a new run fails."""
+        now = self.clock()
         with self._lock:
-            cur = self._db.execute("INSERT OR IGNORE INTO tasks VALUES (?,?,?,?,'','[]',?)",
-                                   (uuid, json.dumps(request), requester.src, requester.inc,
-                                    self.clock()))
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                cur = self._db.execute(
+                    "INSERT OR IGNORE INTO tasks VALUES (?,?,?,?,'','[]',?)",
+                    (action.uuid, json.dumps(request), requester.src, requester.inc, now))
+                if cur.rowcount > 0:
+                    self._db.execute(
+                        "INSERT OR IGNORE INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                        (action.uuid, action.name, json.dumps(action.args), action.robot,
+                         action.goal, action.priority, action.literal, action.state.value,
+                         action.reason, json.dumps(action.progress), "", now, now,
+                         requester.src, requester.inc, action.cause))
+                    self._db.execute(
+                        "INSERT INTO transitions (uuid, state, reason, progress, ts) "
+                        "VALUES (?,?,?,?,?)", (action.uuid, action.state.value, action.reason,
+                                               json.dumps(action.progress), now))
+                self._db.execute("COMMIT")
+            except BaseException:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise
         return cur.rowcount > 0
 
     def hold_task(self, uuid: str, robot: str) -> None:

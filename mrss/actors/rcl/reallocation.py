@@ -18,8 +18,10 @@ One object of the RCL core, between its action path and the allocator
   first); a task held by a robot whose action is there stays with it (the actor
   restores it); an award recorded without its action yet is carried out on that robot
   (`carry_out`, after the actors start), or, the robot unavailable now, bid for again;
+  a task held by a robot that is not configured any more is bid for again (as lost);
   a task whose action ended is closed. After a restart of the whole system (a new
-  run) the tasks are dropped with their actions.
+  run) the tasks are closed and their actions (a waiting task's too, journaled when
+  it was opened) fail explicitly ("left over from a previous run").
 """
 
 from __future__ import annotations
@@ -90,6 +92,9 @@ class Reallocation:
         """`action` ended (journaled): its task, if it is one, is closed."""
         if action.terminal:
             self.allocator.book.closed(action.uuid)
+            if self.allocator.withdraw(action.uuid):
+                log.info("task %s ended while it waited (%s): no longer bid for",
+                         action.uuid, action.state.value)
 
     def reassigned(self, request: ActionRequest, lost_from: str, to: str) -> None:
         """The agent's percept `reassigned(Task, From, To)`: Task is the action as the
@@ -121,8 +126,15 @@ class Reallocation:
                 continue
             progress = dict(entry.action.progress) if entry is not None else {}
             requester = entry.requester if entry is not None else row.requester
-            if row.robot and entry is not None and entry.action.robot == row.robot:
+            gone = row.robot and row.robot not in self.allocator.profiles
+            if row.robot and entry is not None and entry.action.robot == row.robot \
+                    and not gone:
                 continue  # held, and its action is there: the robot actor restores it
+            if gone:  # its robot is configured no more: as lost, the task goes to another
+                log.warning("task %s: its holder %s is not configured after the restart; "
+                            "bidding it out again", row.uuid, row.robot)
+                book.lost(row.uuid, row.robot)
+                row = row._replace(robot="", lost=[*row.lost, row.robot])
             mine.add(row.uuid)
             if row.robot:  # an award recorded, its action not yet: carried out below
                 log.info("task %s: its award to %s is carried out after the restart",

@@ -46,6 +46,7 @@ from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.options import RCL_OPTIONS
+from mrss.auth.roles import CommandKind
 from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
 from mrss.messages import (
@@ -62,6 +63,7 @@ from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
 from mrss.runtime.loader import load_project_class
+from mrss.runtime.operator_guard import OperatorGuard
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 log = logging.getLogger("mrss.rcl")
@@ -136,6 +138,7 @@ class RclService(Component):
         # the core has started. Ready also means controls are heard.
         # One filter of dead incarnations for both receivers; after a restart of the RCL
         # it knows from the journal which requester incarnations are gone.
+        self.operators = OperatorGuard(ctx.project_dir, log)  # who may command the RCL
         self.incarnations = Incarnations(ctx.name)
         if ctx.incarnation > 1:
             for src, inc in self.journal.incarnations().items():
@@ -250,11 +253,30 @@ class RclService(Component):
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 
+    def _operator_may(self, env: Envelope) -> bool:
+        """An operator's command (a debug action control, teleop, decommission) passes
+        the project's roles here, where it is executed (mrss.runtime.operator_guard)."""
+        body = env.body
+        kind = None
+        if isinstance(body, ActionControl):
+            kind = CommandKind.ACTION_CONTROL
+        elif isinstance(body, Command) and body.command == "teleop":
+            kind = CommandKind.TELEOP
+        elif isinstance(body, Command) and body.command in ("decommission", "recommission"):
+            kind = CommandKind.DECOMMISSION
+        if kind is None:
+            return True
+        what = (f"{body.command.value} {body.target}" if isinstance(body, ActionControl)
+                else f"ctl.{body.command} {body.target}" if isinstance(body, Command) else "")
+        return self.operators.check_envelope(env, kind, what).ok
+
     def _on_message(self, env: Envelope) -> None:
         core = self.core
         if core is None or env.src == self._name:
             return
         body = env.body
+        if not self._operator_may(env):
+            return
         try:
             if isinstance(body, ActionControl):
                 core.requesters.saw_incarnation(env.src, env.inc)

@@ -27,6 +27,7 @@ from typing import Any
 
 from mrss.actors.reasoner.give_up import is_give_up
 from mrss.actors.reasoner.host import ReasonerHost
+from mrss.actors.reasoner.questions import is_question
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
 from mrss.errors import ConfigError
@@ -146,8 +147,12 @@ class AgentHost:
 
     def execute(self, action: Struct, intention_id: int) -> Hashable:
         assert self.agent is not None
-        handle = self.shared.give_up(action, self.agent.name) if is_give_up(action) \
-            else self.shared.execute(action, intention_id)
+        if is_give_up(action):
+            handle = self.shared.give_up(action, self.agent.name)
+        elif is_question(action):
+            handle = self.shared.ask(action, self.agent.name)
+        else:
+            handle = self.shared.execute(action, intention_id)
         self.router.bind(handle, self.agent)
         return handle
 

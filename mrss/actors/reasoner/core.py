@@ -38,6 +38,8 @@ from mrss.actors.reasoner.give_up import GiveUps
 from mrss.actors.reasoner.host import ReasonerHost
 from mrss.actors.reasoner.percept_guard import checked_literal
 from mrss.actors.reasoner.percept_ledger import PerceptLedger
+from mrss.actors.reasoner.question_journal import QuestionJournal
+from mrss.actors.reasoner.questions import OperatorQuestions
 from mrss.agentspeak import Agent
 from mrss.agentspeak.society import Society
 from mrss.bus import NotHandled
@@ -50,11 +52,15 @@ from mrss.messages import (
     ActionQuery,
     ActionRequest,
     ActionStatus,
+    AnswerReply,
+    AnswerVerdict,
     Command,
     Envelope,
     GoalGaveUp,
     Heartbeat,
+    OperatorQuestion,
     Percept,
+    QuestionAnswer,
     RobotState,
     SupEvent,
     SupEventKind,
@@ -83,7 +89,10 @@ class Reasoner:
                  reconcile: float = 1.0, adopt_wait: float = 3.0,
                  ledger: PerceptLedger | None = None,
                  agents: list[AgentSpec] | None = None, base: Path | None = None,
-                 send_alert: Callable[[GoalGaveUp], object] | None = None) -> None:
+                 send_alert: Callable[[GoalGaveUp], object] | None = None,
+                 questions: QuestionJournal | None = None,
+                 send_question: Callable[[OperatorQuestion | AnswerReply], object]
+                 | None = None) -> None:
         """One agent from `agent_file` named `name`, or, with `agents`, several (their
         files relative to `base`) in a society (see `reasoner_agents`)."""
         self.host = ReasonerHost(send_request, send_control, data_call, lease=lease,
@@ -112,6 +121,10 @@ class Reasoner:
             self.host.agent = self.agent
             self.agents = [self.agent]
         self.host.give_ups = GiveUps(send_alert)
+        if questions is not None:
+            self.host.questions = OperatorQuestions(
+                questions, send_question or (lambda _: None), self._complete_question)
+        self.answers = RejectionLog(log, "answer")
         for agent in self.agents:
             agent.on_goal_dropped = self.host.give_ups.dropped_handler(agent.name)
         self.ledger = ledger
@@ -128,6 +141,7 @@ class Reasoner:
             if standing:
                 log.info("%s: %d standing percept(s) asserted again", name, len(standing))
         self.name = name
+        self._send_question = send_question
         self._on_tick = on_tick
         self._tick = tick
         self._stop = threading.Event()
@@ -157,6 +171,7 @@ class Reasoner:
         self._thread.join(timeout=5)
         self.host.close()
         self.rejections.flush()
+        self.answers.flush()
 
     def request_snapshot(self) -> None:
         self._snapshot_wanted.set()
@@ -183,6 +198,8 @@ class Reasoner:
                 log.exception("%s: reasoning cycle failed", self.name)
             self.host.reconcile()
             self.host.check_lease()
+            if self.host.questions is not None:
+                self.host.questions.tick()
             if self._on_tick is not None:
                 self._on_tick()
             if self._snapshot_wanted.is_set() and self.snapshot_sink is not None:
@@ -213,9 +230,29 @@ class Reasoner:
             elif (isinstance(body, Command) and body.command == "mind"
                   and body.target in ("", self.name)):
                 self.request_snapshot()
+            elif isinstance(body, QuestionAnswer):
+                self._on_answer(body, env.src)
+            elif (isinstance(body, Command) and body.command == "questions"
+                  and self.host.questions is not None):
+                self.host.questions.announce()
         except (MrssError, ValueError) as exc:
             log.warning("%s: dropped %s from %s on %s: %s", self.name, env.kind, env.src,
                         env.topic, exc)
+
+    def _complete_question(self, handle: Any, ok: bool, reason: str | None,
+                           result: Any) -> None:
+        """A question's answer to the agent (through the router with several agents)."""
+        self.host.complete(handle, ok, reason, result)
+
+    def _on_answer(self, answer: QuestionAnswer, sender: str) -> None:
+        """An operator's answer: taken or refused, the reply goes back to its sender."""
+        if self.host.questions is None:
+            return
+        reply = self.host.questions.answer(answer)
+        if reply.verdict is not AnswerVerdict.ACCEPTED:
+            self.answers.reject(answer.by or sender, reply.verdict.value, reply.message)
+        if self._send_question is not None:
+            self._send_question(reply)
 
     def _perceive(self, percept: Percept, msg_id: str, sender: str = "?") -> None:
         """Checked (a refused percept is counted and logged, and taken as handled), then

@@ -11,6 +11,7 @@ Every environment action the agent executes gets a uuid and goes to the RCL as a
   an error reply or a timeout fails the action.
 - `give_up(Goal, Reason, Cause)` tells the operator the goal is given up for good
   (mrss.actors.reasoner.give_up) and succeeds at once.
+- `ask_operator(...)`, from `.ask_operator`, waits for the operator's answer (questions.py).
 
 A blocked intention never waits forever:
 - reconciliation: every `reconcile` seconds while actions wait, the host asks the RCL for
@@ -31,6 +32,10 @@ A failure reaches the agent with its cause (`-!g[error(Cause)]`): the RCL's
 `FailureCause` (transient, link_down, cancelled, ...), or Jason's `action_failed`.
 The translations themselves (a literal to a request or a control, a status to an
 error) are mrss.actors.reasoner.messages.
+
+One idea in one module: the latch between the agent's actions and whoever ends them
+(the RCL, the data layer, the operator); what each special action does lives in its own
+module (give_up.py, questions.py), only its routing here.
 """
 
 from __future__ import annotations
@@ -55,6 +60,7 @@ from mrss.actors.reasoner.messages import (
     goal_management_control,
     plain_arg,
 )
+from mrss.actors.reasoner.questions import OperatorQuestions, is_question
 from mrss.agentspeak import Struct, term_str
 from mrss.agentspeak.literals import term as term_text
 from mrss.errors import MrssError
@@ -139,6 +145,7 @@ class ReasonerHost:
         self._left: dict[str, list[str]] = {}  # literal -> uuids a predecessor left
         self.adopted = 0
         self.give_ups = GiveUps(None)  # the reasoner sets one that publishes
+        self.questions: OperatorQuestions | None = None  # the reasoner sets them
 
     # ------------------------------------------------------------ the agent's side
     def execute(self, action: Struct, intention_id: int) -> Hashable:
@@ -148,6 +155,8 @@ class ReasonerHost:
             return self._query(action)
         if is_give_up(action):
             return self.give_up(action, str(getattr(self.agent, "name", "")))
+        if is_question(action):
+            return self.ask(action, str(getattr(self.agent, "name", "")))
         request = action_request(action)
         now = self._clock()
         handle = request.uuid
@@ -188,8 +197,16 @@ class ReasonerHost:
         log.info("action %s adopts %s, left by a previous incarnation", request.literal, old)
         return dataclasses.replace(request, uuid=old)
 
+    def ask(self, action: Struct, agent: str) -> Hashable:
+        """`ask_operator(...)` of the agent named `agent`: it waits for the answer."""
+        if self.questions is None:
+            raise MrssError("ask_operator: this reasoner has no question journal")
+        return self.questions.ask(action, agent)
+
     def cancel(self, handle: Hashable) -> None:
         """The intention waiting on `handle` was dropped: the RCL cancels the action."""
+        if self.questions is not None and self.questions.withdraw(handle):
+            return
         with self._lock:
             uuid = self._handles.pop(str(handle), None)
             latch = self._latches.pop(uuid, None) if uuid is not None else None
@@ -204,7 +221,7 @@ class ReasonerHost:
         handle = f"gm-{uuidlib.uuid4().hex}"
         control = goal_management_control(action)
         self._send_control(control)
-        self._complete(handle, True)
+        self.complete(handle, True)
         return handle
 
     def give_up(self, action: Struct, agent: str) -> Hashable:
@@ -215,10 +232,10 @@ class ReasonerHost:
             alert = of_action(agent, action)
         except MrssError as exc:
             log.warning("%s: %s", agent, exc)
-            self._complete(handle, False, str(exc), error=FailureCause.REJECTED.value)
+            self.complete(handle, False, str(exc), error=FailureCause.REJECTED.value)
             return handle
         self.give_ups.tell(alert)
-        self._complete(handle, True)
+        self.complete(handle, True)
         return handle
 
     def _query(self, action: Struct) -> Hashable:
@@ -242,13 +259,14 @@ class ReasonerHost:
         except Exception as exc:
             log.warning("query %s%s failed: %s", function, args, exc)
             transient = isinstance(exc, DataLayerUnavailable)
-            self._complete(handle, False, f"query {function} failed: {exc}",
+            self.complete(handle, False, f"query {function} failed: {exc}",
                            error=FailureCause.TRANSIENT.value if transient else None)
             return
-        self._complete(handle, True, result=text)
+        self.complete(handle, True, result=text)
 
-    def _complete(self, handle: str, ok: bool, reason: str | None = None,
-                  result: str | None = None, error: str | None = None) -> None:
+    def complete(self, handle: Hashable, ok: bool, reason: str | None = None,
+                 result: str | Struct | None = None, error: str | None = None) -> None:
+        """Release the intention waiting on `handle` (any thread)."""
         if self.agent is not None:
             self.agent.complete_action(handle, ok, reason, result=result, error=error)
 
@@ -310,7 +328,7 @@ class ReasonerHost:
             reason = None if ok else (status.reason or status.state)
             log.info("action %s %s %s%s", latch.uuid, latch.literal, status.state,
                      f": {status.reason}" if status.reason else "")
-            self._complete(latch.handle, ok, reason,
+            self.complete(latch.handle, ok, reason,
                            error=None if ok else failure_error(status))
 
     def heard_from_rcl(self, src_inc: int) -> None:
@@ -372,7 +390,7 @@ class ReasonerHost:
             return []
         for latch in expired:
             quiet = min(silent, now - latch.status_at)
-            self._complete(latch.handle, False, f"no word of the action from the RCL for "
+            self.complete(latch.handle, False, f"no word of the action from the RCL for "
                            f"{quiet:.1f}s (lease {self.lease:.1f}s)",
                            error=FailureCause.TRANSIENT.value)
         log.warning("RCL silent on %d waiting action(s) past the %.1fs lease: failed",

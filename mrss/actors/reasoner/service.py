@@ -14,7 +14,11 @@ to the bus:
   the actions of an incarnation that is gone, so no robot works for a dead intention;
 - `ctl.mind` (any target, or this reasoner's name) publishes a `mind.<name>` snapshot;
 - a goal an agent gives up for good is published as `agent.gave_up.<agent>`
-  (`GoalGaveUp`: goal, reason, last cause), the operator's alert.
+  (`GoalGaveUp`: goal, reason, last cause), the operator's alert;
+- the agent's questions to the operator (`.ask_operator`) are journaled
+  (`<run_dir>/<name>-questions.sqlite3`, kept across restarts within a run) and published
+  on `question.<agent>`; answers come on `question.answer`, each replied to on
+  `question.reply`; `ctl.questions` publishes the pending ones again.
 
 Options (the component's table in project.toml): `agent` (file, default `agent.asl`),
 `beliefs` (extra initial beliefs), `lease` (seconds the RCL may be silent while actions
@@ -33,6 +37,7 @@ from typing import Any, ClassVar
 from mrss.actors.reasoner.agents import agent_specs
 from mrss.actors.reasoner.core import Reasoner
 from mrss.actors.reasoner.percept_ledger import PerceptLedger
+from mrss.actors.reasoner.question_journal import QuestionJournal
 from mrss.agentspeak import AslSyntaxError
 from mrss.agentspeak.agent import read_program
 from mrss.agentspeak.loadcheck import load_problems, one_line
@@ -50,6 +55,7 @@ from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
+from mrss.runtime.operator_guard import OperatorGuard, percept_guard
 
 log = logging.getLogger("mrss.reasoner")
 
@@ -85,6 +91,7 @@ class ReasonerComponent(Component):
         self._data: DataLayerClient | None = None
         self._port: ZmqBusPort | None = None
         self._ledger: PerceptLedger | None = None
+        self._questions: QuestionJournal | None = None
 
     def start(self, ctx: ComponentContext) -> None:
         opts = OptionValues(self.OPTIONS, ctx.options)
@@ -122,6 +129,8 @@ class ReasonerComponent(Component):
         self._ledger = PerceptLedger(
             Path(opts["ledger"] or ctx.run_dir / f"{ctx.name}-percepts.sqlite3"),
             fresh=not restarted)
+        self._questions = QuestionJournal(ctx.run_dir / f"{ctx.name}-questions.sqlite3",
+                                          fresh=not restarted)
         try:
             reasoner = Reasoner(
                 agent_file if specs is None else None, name=ctx.name, agents=specs,
@@ -133,7 +142,8 @@ class ReasonerComponent(Component):
                 tick=min(period, 0.5), send_query=lambda q: publisher.publish(q),
                 reconcile=opts.number("reconcile"),
                 adopt_wait=opts.number("adopt_wait"), ledger=self._ledger,
-                send_alert=publisher.publish)
+                send_alert=publisher.publish, questions=self._questions,
+                send_question=publisher.publish)
         except AslSyntaxError as exc:
             raise ConfigError(str(exc), file=str(agent_file),
                               key="agent" if specs is None else "agents") from exc
@@ -146,15 +156,20 @@ class ReasonerComponent(Component):
         live = Incarnations(ctx.name)  # one filter of dead incarnations for both receivers
         self._sub = Subscriber(endpoints, prefixes=["percept", "action.status",
                                                     "action.inventory", "sup.", "robot.",
-                                                    "ctl.mind"], incarnations=live,
+                                                    "ctl.mind", "ctl.questions",
+                                                    "question.answer"], incarnations=live,
                               skip=_robot_data)
         # A robot's state is taken only from the component that owns its link.
         from mrss.edge.robot_owners import RobotOwners
 
         owners = RobotOwners.of_project(ctx.project_dir, proven=bool(endpoints.key))
-        self._sub.start(owners.guard(reasoner.on_message))
+        # An operator's percept (from no supervised component) needs a credential whose
+        # role may send percepts, once the project has users (mrss.runtime.operator_guard)
+        operators = OperatorGuard(ctx.project_dir, log)
+        self._sub.start(percept_guard(operators, owners.guard(reasoner.on_message)))
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
-                                    channel=PERCEPT_CHANNEL, handler=reasoner.on_message,
+                                    channel=PERCEPT_CHANNEL,
+                                    handler=percept_guard(operators, reasoner.on_message),
                                     incarnations=live)
         reasoner.start()
         log.info("%s: reasoning on %s (incarnation %d)", ctx.name,
@@ -170,6 +185,8 @@ class ReasonerComponent(Component):
             self.reasoner.stop()
         if self._ledger is not None:
             self._ledger.close()
+        if self._questions is not None:
+            self._questions.close()
         if self._tx is not None:
             self._tx.close()
         if self._data is not None:

@@ -15,15 +15,19 @@ header line too long or too many headers), 501 (unknown method), 505 (HTTP/2 and
 Errors raised while reading the request close the connection.
 
 With a `token` (`mrss.edge.http_token`) every request must carry ``Authorization:
-Bearer <token>``. Each connection is served on its own thread with a socket timeout
-(`timeout`, 10 s): a client that stalls mid-request is answered 408 and dropped, and
-never delays another. The server goes through the same `ObjectService` as the bus, so
-rules fire for HTTP writes too.
+Bearer <token>``, or an operator's identity for what the role allows (403 otherwise:
+`http_admission`, with the project's operators). Each connection is served on its own
+thread with a socket timeout (`timeout`, 10 s): a client that stalls mid-request is
+answered 408 and dropped, and never delays another. The server goes through the same
+`ObjectService` as the bus, so rules fire for HTTP writes too.
 
 Refused requests (`REFUSED`: no valid token, bad input, a malformed request) are counted
 by (client address, status) in a `RejectionLog` ("HTTP request"), logged once per
 interval and reported with the component's other refusals (docs/edges.md); a flood of
 them is a few log lines, not one per request.
+
+One idea in one module: the conversation with one client (read, admit, route, answer),
+which the standard library's request handler keeps in one class.
 """
 
 from __future__ import annotations
@@ -38,10 +42,11 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Protocol
 from urllib.parse import parse_qs, unquote, urlsplit
 
+from mrss.actors.worldmodel.http_admission import admission
 from mrss.actors.worldmodel.store import Change, Position, WorldObject, WorldStoreUnavailable
-from mrss.edge.http_token import authorized
 from mrss.edge.payloads import PayloadError, decode_json
 from mrss.edge.rejections import RejectionLog
+from mrss.runtime.operator_guard import OperatorGuard
 
 log = logging.getLogger("mrss.worldmodel.http")
 MAX_BODY = 1 << 20
@@ -203,8 +208,7 @@ class _Handler(BaseHTTPRequestHandler):
 
     def handle_expect_100(self) -> bool:
         """`Expect: 100-continue`: a request without the token is refused before its body."""
-        if not authorized(self.headers.get("Authorization"), self.server.token):
-            self._refuse_unauthorized(self.command or "?")
+        if not self._admitted(self.command or "?"):
             return False
         return bool(super().handle_expect_100())
 
@@ -219,9 +223,19 @@ class _Handler(BaseHTTPRequestHandler):
         self._answered = True
         super().end_headers()
 
-    def _dispatch(self, method: str) -> None:
-        if not authorized(self.headers.get("Authorization"), self.server.token):
+    def _admitted(self, method: str) -> bool:
+        """Whether the request may be served (`http_admission`); else it is answered."""
+        status, why = admission(self.headers.get("Authorization"), method,
+                                urlsplit(self.path).path[:80], self.client_address[0],
+                                self.server.token, self.server.operators)
+        if status == HTTPStatus.FORBIDDEN:
+            self._reply(status, {"error": why}, close=True)
+        elif status:
             self._refuse_unauthorized(method)
+        return not status
+
+    def _dispatch(self, method: str) -> None:
+        if not self._admitted(method):
             return
         self._body_read = False
         try:
@@ -342,12 +356,13 @@ class _Server(ThreadingHTTPServer):
                     exc_info=log.isEnabledFor(logging.DEBUG))
 
     def __init__(self, address: tuple[str, int], service: ObjectService, token: str | None,
-                 timeout_s: float) -> None:
+                 timeout_s: float, operators: OperatorGuard | None = None) -> None:
         if ":" in address[0]:
             self.address_family = socket.AF_INET6
         super().__init__(address, _Handler)
         self.service = service
         self.token = token
+        self.operators = operators  # the project's operators (mrss.runtime.operator_guard)
         self.timeout_s = timeout_s
         self.rejections = RejectionLog(log, "HTTP request")
 
@@ -361,10 +376,11 @@ class WorldModelHttp:
     """
 
     def __init__(self, service: ObjectService, host: str = "127.0.0.1", port: int = 0, *,
-                 token: str | None = None, timeout: float = DEFAULT_TIMEOUT) -> None:
+                 token: str | None = None, timeout: float = DEFAULT_TIMEOUT,
+                 operators: OperatorGuard | None = None) -> None:
         if timeout <= 0:
             raise ValueError("timeout must be positive")
-        self._server = _Server((host, port), service, token, timeout)
+        self._server = _Server((host, port), service, token, timeout, operators)
         self._thread = threading.Thread(target=self._server.serve_forever, args=(0.05,),
                                         name="worldmodel-http", daemon=True)
 

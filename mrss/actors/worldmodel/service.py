@@ -54,6 +54,7 @@ from mrss.options import Option
 from mrss.runtime.busport import BusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.edge import edge_config
+from mrss.runtime.operator_guard import OperatorGuard
 from mrss.runtime.percept_channel import PerceptChannel
 from mrss.world.access import WORLD_MODEL_URL_FILE
 from mrss.world.topics import WM_REQUEST_TOPIC, wm_reply_topic
@@ -76,17 +77,20 @@ def recorded_port(run_dir: Path | None, host: str) -> int:
 
 
 def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None, *,
-               token: str | None = None, timeout: float = DEFAULT_TIMEOUT) -> WorldModelHttp:
+               token: str | None = None, timeout: float = DEFAULT_TIMEOUT,
+               operators: OperatorGuard | None = None) -> WorldModelHttp:
     """The HTTP API on `port`, or (0) on the port recorded by an earlier incarnation,
     or a free one; the URL is recorded in the run folder."""
     wanted = port or recorded_port(run_dir, host)
     try:
-        http = WorldModelHttp(world, host, wanted, token=token, timeout=timeout)
+        http = WorldModelHttp(world, host, wanted, token=token, timeout=timeout,
+                              operators=operators)
     except OSError as exc:
         if port or not wanted:
             raise
         log.warning("world model port %d is taken (%s); serving on a new one", wanted, exc)
-        http = WorldModelHttp(world, host, 0, token=token, timeout=timeout)
+        http = WorldModelHttp(world, host, 0, token=token, timeout=timeout,
+                              operators=operators)
     if run_dir is not None:
         partial = run_dir / (URL_FILE + ".tmp")
         partial.write_text(http.url + "\n", encoding="utf-8")
@@ -178,7 +182,7 @@ class WorldModelComponent(Component):
         bus.subscribe([WM_REQUEST_TOPIC], self._on_request)
         if http is not None:
             self.http = serve_http(self.world, *http, run_dir, token=token,
-                                   timeout=timeout)
+                                   timeout=timeout, operators=OperatorGuard(project_dir, log))
             self.http.start()
         log.info("world model up: %s, %d rules, %d seeded objects, HTTP %s%s",
                  getattr(self.world.store, "where", type(self.world.store).__name__),

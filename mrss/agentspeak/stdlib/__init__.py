@@ -13,6 +13,7 @@ from mrss.agentspeak.stdlib import (  # noqa: E402
     lists,
     loading,
     misc,
+    operator,
     plans,
     schedule,
     sets,
@@ -21,5 +22,5 @@ from mrss.agentspeak.stdlib import (  # noqa: E402
 )
 
 __all__ = ["STDLIB", "annots", "control", "introspect", "lists", "loading", "misc",
-           "plans",
+           "operator", "plans",
            "schedule", "sets", "strings", "typetests"]

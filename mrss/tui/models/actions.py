@@ -3,6 +3,8 @@
 A request is seen on the reliable `action` channel (`ActionRequest`), statuses on
 `action.status`; either may come first (the TUI may start late and see statuses only).
 The model keeps at most `limit` actions, forgetting the oldest finished ones first.
+Those addressed to a role are tasks too: their allocation is `tasks` (`models/tasks.py`,
+by the same uuid).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.messages import ActionRequest, ActionState, ActionStatus
+from mrss.tui.models.tasks import TasksModel
 
 
 @dataclass(frozen=True)
@@ -113,6 +116,7 @@ class ActionsModel:
     def __init__(self, limit: int = 1000) -> None:
         self.limit = limit
         self.actions: dict[str, ActionView] = {}
+        self.tasks = TasksModel()  # the allocation of those addressed to a role
         self._seq = itertools.count()
 
     def _action(self, uuid: str) -> ActionView:

@@ -8,12 +8,13 @@ condition, its text the latest counts, and so is a component whose restart budge
 (as its supervisor reports it in the tree) leaves at most one more restart. Events
 (hotspot found, component restarted, hung, quarantined, gave up; a mission goal
 failed for good, as the goals model reads it from the agent; a goal the agent gave up,
-as the reasoner reports it, `GoalGaveUp`: its agent, reason and last cause) raise one alert per
-subject, counted when they recur: a recurrence of an acknowledged alert raises it
-again. Acknowledging clears the highlight; every alert stays in the history; one alert
-can be acknowledged by its key (`acknowledge_one`). A project's own rules (`[[alerts]]`,
-`mrss.config.alerts`) are conditions on a telemetry field, named by the rule. Pure
-Python: no Textual.
+as the reasoner reports it, `GoalGaveUp`: its agent, reason and last cause; a task
+addressed to a role handed from a lost robot to another, as the RCL's allocator reports
+it: `reassigned`) raise one alert per subject, counted when they recur: a recurrence
+of an acknowledged alert raises it again. Acknowledging clears the highlight; every
+alert stays in the history; one alert can be acknowledged by its key
+(`acknowledge_one`). A project's own rules (`[[alerts]]`, `mrss.config.alerts`) are
+conditions on a telemetry field, named by the rule. Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -29,7 +30,9 @@ from mrss.messages import (
     Envelope,
     GoalGaveUp,
     LinkState,
+    OperatorQuestion,
     Percept,
+    QuestionState,
     Rejections,
     RobotData,
     RobotState,
@@ -59,12 +62,14 @@ class AlertKind(StrEnum):
     RULE = "rule"  # a project's own rule (`[[alerts]]`): the alert carries the rule's name
     NO_GO = "inside a no-go zone"  # the geofence found the robot stopped there: leaving
     TRAPPED = "trapped in a no-go zone"  # ... and every way out crosses another zone
+    QUESTION = "question"  # the agent waits for the operator's answer (`.ask_operator`)
+    REASSIGNED = "task reassigned"  # a lost robot's task went to another (models/tasks.py)
 
 
 CONDITIONS = (AlertKind.BATTERY_LOW, AlertKind.LINK_DOWN, AlertKind.UNAVAILABLE,
               AlertKind.NODE_DOWN, AlertKind.REFUSED, AlertKind.BUDGET, AlertKind.NO_GO,
-              AlertKind.TRAPPED)
-SEVERE = (AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
+              AlertKind.TRAPPED, AlertKind.QUESTION)
+SEVERE = (AlertKind.QUESTION, AlertKind.GOAL_FAILED, AlertKind.GOAL_GAVE_UP, AlertKind.GAVE_UP,
           AlertKind.LINK_DOWN, AlertKind.HUNG, AlertKind.QUARANTINED, AlertKind.NODE_DOWN,
           AlertKind.TRAPPED)
 #: The geofence's percepts (mrss.actors.datalayer.geofence) and the alert each raises.
@@ -153,6 +158,11 @@ def refusal_text(report: Rejections) -> str:
     return text
 
 
+def question_text(q: OperatorQuestion) -> str:
+    """A pending question on the strip: what is asked, the choices, the key to answer."""
+    return f"{q.agent} asks {q.question!r} ({' / '.join(q.choices)}): O to answer"
+
+
 def gave_up_text(report: GoalGaveUp) -> str:
     """`budget_exhausted (last cause: link_down)`."""
     return f"{report.reason.value} (last cause: {report.cause or 'none'})"
@@ -191,6 +201,9 @@ class AlertsModel:
             if body.op == "add" and literal.startswith("hotspot_detected("):
                 return [self._event(AlertKind.HOTSPOT, literal, "found", env.ts)]
             return []
+        if isinstance(body, OperatorQuestion):
+            return self._condition(AlertKind.QUESTION, body.id, body.state is
+                                   QuestionState.PENDING, question_text(body), env.ts)
         if isinstance(body, GoalGaveUp):
             return [self._event(AlertKind.GOAL_GAVE_UP, f"{body.agent}: {body.goal}",
                                 gave_up_text(body), env.ts)]
@@ -220,6 +233,13 @@ class AlertsModel:
         with the reason: the agent's, else its last action's."""
         text = " ".join(p for p in (f"({robot})" if robot else "", why) if p)
         return self._event(AlertKind.GOAL_FAILED, goal, text, ts)
+
+    def reassigned(self, task: str, lost_from: str, robot: str, ts: float,
+                   why: str = "") -> Alert:
+        """A task addressed to a role went from a lost robot to another
+        (`mrss.tui.models.tasks`): one alert per task, counted when it happens again."""
+        text = f"from {lost_from} to {robot}" + (f" ({lost_from}: {why})" if why else "")
+        return self._event(AlertKind.REASSIGNED, task, text, ts)
 
     def _budgets(self, tree: dict[str, Any], parent: str, ts: float) -> list[Alert]:
         """Each child whose next restart or the one after would exceed its budget (the

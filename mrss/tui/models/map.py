@@ -246,11 +246,12 @@ class MapModel:
             canvas.polyline(dots(list(mark.track)), style.replace("bold ", "dim "))
         for robot, plan in self.plans.items():
             self._draw_plan(canvas, dots, robot, plan)
-        for i, mark in enumerate(self.robots.values()):
-            style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
-            col, row = view.to_cell(mark.lat, mark.lon, width, height)
+        for (col, row), marks in self.robots_by_cell(view, width, height).items():
+            mark = marks[0]  # robots at one spot: the first, and how many more (l lists them)
+            style = self.robot_style(mark.robot)
+            name = mark.robot if len(marks) == 1 else f"{mark.robot}+{len(marks) - 1}"
             if canvas.glyph(col, row, heading_arrow(mark.heading), style):
-                canvas.label(col + 1, row, mark.robot, style)
+                canvas.label(col + 1, row, name, style)
         for shape in self.objects.values():
             if shape.point is None:
                 continue
@@ -263,8 +264,22 @@ class MapModel:
             if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
                 style = self.styles.line_style(shape.kind, shape.attributes)
                 col, row = view.to_cell(*shape.lines[0][0], width, height)
-                canvas.label(col, row, shape.id, style)
+                canvas.label(col, row, self.shape_label(shape), style)
         return canvas
+
+    def shape_label(self, shape: WorldShape) -> str:
+        """An area's name, with its state when its kind has one (`x1 lifted`)."""
+        state_field = self.styles.kind(shape.kind).state_field
+        state = shape.attributes.get(state_field) if state_field else None
+        return f"{shape.id} {state}" if isinstance(state, str) and state else shape.id
+
+    def robots_by_cell(self, view: Viewport, width: int, height: int
+                       ) -> dict[tuple[int, int], list[RobotMark]]:
+        """The robots in each terminal cell, first heard of first."""
+        cells: dict[tuple[int, int], list[RobotMark]] = {}
+        for mark in self.robots.values():
+            cells.setdefault(view.to_cell(mark.lat, mark.lon, width, height), []).append(mark)
+        return cells
 
     def robot_style(self, robot: str) -> str:
         """The style of a robot's marker (by the order robots were first heard of)."""

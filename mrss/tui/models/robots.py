@@ -13,7 +13,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from mrss.messages import RobotData, RobotState
+from mrss.messages import FailureCause, RobotData, RobotState
 
 HISTORY_SECONDS = 300.0  # the sparklines' span: the last five minutes
 SERIES_POINTS = 600
@@ -29,11 +29,17 @@ class RobotView:
     available: bool | None = None
     link: str = "?"
     reason: str = ""
+    cause: str = ""  # why it is unavailable (a FailureCause value: "decommissioned", ...)
     teleop: bool | None = None
     records: dict[str, dict[str, Any]] = field(default_factory=dict)  # "" = flat records
     data_ts: float | None = None
     # battery %, altitude m, tank litres over the last HISTORY_SECONDS: (ts, value)
     series: dict[str, deque[tuple[float, float]]] = field(default_factory=dict)
+
+    @property
+    def decommissioned(self) -> bool:
+        """Taken out of service by the operator (until recommissioned)."""
+        return self.available is False and self.cause == FailureCause.DECOMMISSIONED
 
     def values(self) -> dict[str, float | None]:
         """The numbers the sparklines follow (None when the telemetry has none)."""
@@ -132,6 +138,7 @@ class RobotsModel:
     def apply_state(self, state: RobotState) -> None:
         view = self._robot(state.robot)
         view.available, view.link, view.reason = state.available, state.link, state.reason
+        view.cause = state.cause.value
         teleop = state.attributes.get("teleop")
         if isinstance(teleop, bool):
             view.teleop = teleop

@@ -1,5 +1,9 @@
 """ActionsTable: the live actions, newest first; c / s / r cancel, suspend, resume the selected.
 
+An action addressed to a role (a task: `models/tasks.py`) shows its holder and why that
+robot won, or, while no robot can take it, `waiting`, the role in the robot column and
+what it waits for in the reason.
+
 Those three keys are debug keys: they go to the RCL directly (`action.control`), around
 the agent, which learns of it only as its action's end. The operator's way is the
 mission panel (goals, through the agent); a debug key says so in its question and in
@@ -13,14 +17,16 @@ from typing import ClassVar
 from rich.text import Text
 from textual.binding import Binding, BindingType
 
+from mrss.messages import AllocationState
 from mrss.tui import operator
 from mrss.tui.events import Note, SendRequested
 from mrss.tui.models.actions import ActionsModel, ActionView
+from mrss.tui.models.robots import RobotsModel
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 
 STATE_STYLES = {
     "requested": "dim", "pending": "yellow", "running": "bold green", "suspended": "magenta",
-    "succeeded": "green", "failed": "bold red", "cancelled": "red",
+    "succeeded": "green", "failed": "bold red", "cancelled": "red", "waiting": "yellow",
 }
 
 
@@ -36,9 +42,11 @@ class ActionsTable(KeyedTable):
         Binding("r", "control('resume')", "Debug resume"),
     ]
 
-    def __init__(self, model: ActionsModel, *, id: str | None = None) -> None:
+    def __init__(self, model: ActionsModel, *, robots: RobotsModel | None = None,
+                 id: str | None = None) -> None:
         super().__init__(id=id)
         self.model = model
+        self.robots = robots or RobotsModel()  # an unavailable robot's reason
         self._cells: dict[str, tuple[tuple[str, ...], tuple[Text, ...]]] = {}
 
     MAX_ROWS = 200  # the newest; drawing more costs the operator responsiveness
@@ -60,7 +68,14 @@ class ActionsTable(KeyedTable):
         age = view.age(now)
         waits = view.waiting_for()
         reason = f"waits for {waits}" if waits else view.reason
-        shown = (view.name or "?", view.robot, view.goal, view.shown_state, reason,
+        robot, state = view.robot, view.shown_state
+        task = self.model.tasks.tasks.get(view.uuid)
+        if task is not None and not view.terminal and not waits:
+            if task.state is AllocationState.WAITING:
+                robot, state, reason = task.role, "waiting", task.why(self._unavailable)
+            else:  # its holder; why it won, unless its status says more (reassigning ...)
+                robot, reason = task.robot, view.reason or task.why(self._unavailable)
+        shown = (view.name or "?", robot, view.goal, state, reason,
                  view.progress_text(), "" if age is None else age_text(age))
         cached = self._cells.get(view.uuid)
         if cached is not None and cached[0] == shown:
@@ -71,6 +86,10 @@ class ActionsTable(KeyedTable):
                  cell(progress), cell(age_cell, "dim"))
         self._cells[view.uuid] = (shown, cells)
         return view.uuid, cells
+
+    def _unavailable(self, robot: str) -> str:
+        known = self.robots.robots.get(robot)
+        return known.reason if known is not None else ""
 
     def action_control(self, command: str) -> None:
         uuid = self.selected_key

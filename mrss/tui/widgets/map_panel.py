@@ -3,6 +3,16 @@
 Until the operator zooms or pans, the view fits everything known; `0` goes back to that.
 `f` cycles "follow": the view stays centred on one robot, then the next, then none;
 the title then says how far along its plan it is (`plan 5/12` waypoints reached).
+
+Pointing and drawing (`models/sketch.py`): space shows the cursor (`┼`) at the view's
+centre, and the arrows then move it a cell at a time (panning again once it is hidden);
+Enter puts a vertex where it is, Backspace takes the last one off, Delete clears them.
+`P` makes the cursor (or the one vertex) a point, `R` a circle (centre: the first vertex,
+edge: the cursor or the second vertex), `Z` a polygon of the vertices; a good shape is
+posted as `ShapeDrawn` (the app opens a command whose form has such a field, pre-filled),
+a bad one (a polygon that crosses itself, too many vertices) is said and nothing opens.
+`l` lists the robots in the cursor's cell (several robots at one spot show as
+`uav1+2`).
 """
 
 from __future__ import annotations
@@ -11,10 +21,15 @@ from typing import ClassVar
 
 from rich.text import Text
 from textual.binding import Binding, BindingType
+from textual.message import Message
 from textual.widget import Widget
 
-from mrss.tui.models.geo import Viewport
+from mrss.config.operator_commands import FieldType
+from mrss.tui.events import Note
+from mrss.tui.models.braille import BrailleCanvas
+from mrss.tui.models.geo import DOTS_X, DOTS_Y, Viewport
 from mrss.tui.models.map import MapModel
+from mrss.tui.models.sketch import Sketch, SketchError
 
 ZOOM_STEP = 1.5
 PAN_STEP = 0.25  # of the view's width or height
@@ -33,7 +48,23 @@ class MapPanel(Widget, can_focus=True):
         Binding("down", "pan(0, 1)", "Pan down", show=False),
         Binding("f", "follow_next", "Follow robot"),
         Binding("0", "fit", "Fit all"),
+        Binding("space", "cursor", "Cursor"),
+        Binding("enter", "vertex", "Vertex", show=False),
+        Binding("backspace", "undo", "Undo vertex", show=False),
+        Binding("delete", "clear", "Clear drawing", show=False),
+        Binding("P", "shape('point')", "Point", show=False),
+        Binding("R", "shape('circle')", "Circle", show=False),
+        Binding("Z", "shape('polygon')", "Polygon", show=False),
+        Binding("l", "robots_here", "Robots here", show=False),
     ]
+
+    class ShapeDrawn(Message):
+        """A point, circle or polygon drawn on the map, as a command field's text."""
+
+        def __init__(self, kind: FieldType, text: str) -> None:
+            super().__init__()
+            self.kind = kind
+            self.text = text
 
     def __init__(self, model: MapModel, *, id: str | None = None) -> None:
         super().__init__(id=id)
@@ -41,6 +72,7 @@ class MapPanel(Widget, can_focus=True):
         self.view = Viewport()
         self.auto_fit = True
         self.following: str | None = None
+        self.sketch = Sketch()
 
     def _canvas_size(self) -> tuple[int, int]:
         size = self.content_size
@@ -54,6 +86,7 @@ class MapPanel(Widget, can_focus=True):
         elif self.auto_fit:
             self.view.fit(self.model.points(), width, height)
         canvas = self.model.draw(self.view, width, height)
+        self._draw_sketch(canvas, width, height)
         text = Text(no_wrap=True, overflow="crop")
         for i, row in enumerate(canvas.rows()):
             if i:
@@ -72,7 +105,22 @@ class MapPanel(Widget, can_focus=True):
         empty = "" if self.model.points() else " · no positions yet"
         if self.model.world_error:
             empty += f" · world model: {self.model.world_error[:40]}"
-        self.border_title = f"Map {self.view.describe(width)} · {mode}{empty} (+ - ← → f 0)"
+        drawing = ""
+        if self.sketch.cursor is not None:
+            lat, lon = self.sketch.cursor
+            drawing = f" · cursor {lat:.5f},{lon:.5f} · {len(self.sketch.vertices)} vertices"
+        self.border_title = (f"Map {self.view.describe(width)} · {mode}{empty}{drawing} "
+                             f"({'↑↓←→ Enter P R Z l Del' if drawing else '+ - ← → f 0'})")
+
+    def _draw_sketch(self, canvas: BrailleCanvas, width: int, height: int) -> None:
+        sketch = self.sketch
+        if sketch.vertices:
+            dots = [self.view.to_dots(lat, lon, width, height) for lat, lon in sketch.vertices]
+            tail = [self.view.to_dots(*sketch.cursor, width, height)] if sketch.cursor else []
+            canvas.polyline(dots + tail, "bold white")
+        if sketch.cursor is not None:
+            col, row = self.view.to_cell(*sketch.cursor, width, height)
+            canvas.glyph(col, row, "┼", "bold reverse")
 
     def marker_cell(self, robot: str) -> tuple[int, int] | None:
         """The (column, row) of a robot's marker in the panel, None if unknown or outside."""
@@ -90,6 +138,12 @@ class MapPanel(Widget, can_focus=True):
 
     def action_pan(self, right: float, down: float) -> None:
         width, height = self._canvas_size()
+        if self.sketch.cursor is not None:  # the cursor moves, a cell at a time
+            x, y = self.view.to_dots(*self.sketch.cursor, width, height)
+            self.sketch.cursor = self.view.to_latlon(x + right * DOTS_X, y + down * DOTS_Y,
+                                                     width, height)
+            self.refresh()
+            return
         self.auto_fit = False
         self.following = None
         self.view.pan(right * PAN_STEP, down * PAN_STEP, width, height)
@@ -117,3 +171,67 @@ class MapPanel(Widget, can_focus=True):
         self.following = None
         self.auto_fit = True
         self.refresh()
+
+    # -- pointing and drawing ---------------------------------------------------------------
+    def action_cursor(self) -> None:
+        """Show the cursor at the view's centre, or hide it (the vertices stay)."""
+        if self.sketch.cursor is None:
+            width, height = self._canvas_size()
+            self.auto_fit = False
+            self.following = None
+            self.sketch.cursor = self.view.to_latlon(width * DOTS_X / 2 + 1,
+                                                     height * DOTS_Y / 2 + 2, width, height)
+        else:
+            self.sketch.cursor = None
+        self.refresh()
+
+    def action_vertex(self) -> None:
+        try:
+            count = self.sketch.add()
+        except SketchError as exc:
+            self.post_message(Note(f"map: {exc}", error=True))
+            return
+        self.post_message(Note(f"map: vertex {count} at {self.sketch.vertices[-1][0]:.5f},"
+                               f"{self.sketch.vertices[-1][1]:.5f} (P point, R circle, "
+                               "Z polygon)"))
+        self.refresh()
+
+    def action_undo(self) -> None:
+        self.sketch.undo()
+        self.refresh()
+
+    def action_clear(self) -> None:
+        """Delete: the vertices go; with none left, the cursor too."""
+        if self.sketch.vertices:
+            self.sketch.clear()
+        else:
+            self.sketch.cursor = None
+        self.refresh()
+
+    def action_shape(self, kind: str) -> None:
+        """Make the drawing a point, circle or polygon and hand it to a command's form."""
+        field = FieldType(kind)
+        make = {FieldType.POINT: self.sketch.point, FieldType.CIRCLE: self.sketch.circle,
+                FieldType.POLYGON: self.sketch.polygon}[field]
+        try:
+            text = make()
+        except SketchError as exc:
+            self.post_message(Note(f"map: not a {kind}: {exc}", error=True))
+            return
+        self.post_message(self.ShapeDrawn(field, text))
+
+    def robots_here(self) -> list[str]:
+        """The robots in the cursor's cell (or, without a cursor, at the busiest spot)."""
+        width, height = self._canvas_size()
+        cells = self.model.robots_by_cell(self.view, width, height)
+        if self.sketch.cursor is not None:
+            marks = cells.get(self.view.to_cell(*self.sketch.cursor, width, height), [])
+        else:
+            marks = max(cells.values(), key=len, default=[])
+        return [m.robot for m in marks]
+
+    def action_robots_here(self) -> None:
+        robots = self.robots_here()
+        where = "under the cursor" if self.sketch.cursor is not None else "at the busiest spot"
+        self.post_message(Note(f"map: {len(robots)} robot{'s' if len(robots) != 1 else ''} "
+                               f"{where}: {', '.join(robots) or 'none'}"))

@@ -56,6 +56,16 @@ class MindInspector(Tree[str]):
         else:
             self._subtitle()
 
+    def forget(self) -> None:
+        """Drop every snapshot kept (a replay moved its cursor: they are another time's)."""
+        self.history = MindHistory()
+        self.snapshot = None
+        self.received_at = None
+        self.shown = None
+        self.clear()
+        self.root.set_label("mind: no snapshot at this moment of the recording")
+        self.border_subtitle = ""
+
     def _subtitle(self) -> None:
         entry = self.history.current()
         if entry is None:

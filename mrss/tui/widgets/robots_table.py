@@ -1,5 +1,5 @@
 """RobotsTable: one row per robot (availability, link, teleop, latest telemetry); t = teleop,
-g = follow it on the map."""
+g = follow it on the map, d = decommission / recommission it (`mrss.tui.decommission`)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ from typing import ClassVar
 from textual.binding import Binding, BindingType
 
 from mrss.config.operator import OperatorCommand, teleop_payload
-from mrss.tui import operator
+from mrss.tui import decommission, operator
 from mrss.tui.events import MissionRequested, Note, SendRequested
+from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.goals import GoalsModel
 from mrss.tui.models.robots import RobotsModel, RobotView
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, cell
@@ -30,20 +31,25 @@ class RobotsTable(KeyedTable):
                ("battery", "battery"), ("tank", "tank"), ("goal", "goal"),
                ("teleop", "teleop"), ("position", "position"), ("data", "data age"),
                ("reason", "reason"))
-    BINDINGS: ClassVar[list[BindingType]] = [Binding("t", "teleop", "Teleop on/off"),
-                                              Binding("g", "show_on_map", "Follow on map")]
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("t", "teleop", "Teleop on/off"),
+        Binding("g", "show_on_map", "Follow on map"),
+        Binding("d", "decommission", "Decommission / recommission"),
+    ]
 
-    def __init__(self, model: RobotsModel, goals: GoalsModel | None = None, *,
-                 id: str | None = None) -> None:
+    def __init__(self, model: RobotsModel, goals: GoalsModel | None = None,
+                 actions: ActionsModel | None = None, *, id: str | None = None) -> None:
         super().__init__(id=id)
         self.model = model
         self.goals = goals or GoalsModel()
+        self.actions = actions or ActionsModel()  # and their tasks: what `d` names
 
     def refresh_rows(self, now: float) -> None:
         self.show([self._row(view, now) for view in self.model.robots.values()])
 
     def _row(self, view: RobotView, now: float) -> Row:
-        available = _yes_no(view.available, "yes", "no")
+        available = ("decommissioned", "bold red") if view.decommissioned else \
+            _yes_no(view.available, "yes", "no")
         link_style = {"up": "green", "down": "red"}.get(view.link, "dim")
         teleop = ("on", "bold yellow") if view.teleop else ("off" if view.teleop is False
                                                              else "", "")
@@ -86,6 +92,16 @@ class RobotsTable(KeyedTable):
         self.post_message(SendRequested(operator.teleop(robot, on),
                                         f"debug teleop {'on' if on else 'off'} for {robot}",
                                         confirm=confirm, details=details))
+
+    def action_decommission(self) -> None:
+        """`d`: take the selected robot out of service (its tasks go to others), or put
+        a decommissioned one back; asks first."""
+        robot = self.selected_key
+        if robot is None:
+            self.post_message(Note("no robot selected", error=True))
+            return
+        self.post_message(decommission.request(robot, robots=self.model,
+                                               actions=self.actions))
 
     def action_show_on_map(self) -> None:
         """`g`: the map follows the selected robot (if it has sent a position)."""

@@ -68,3 +68,24 @@ def test_a_goal_cancelled_while_its_retry_waits_is_not_started_again(
     rcl.run_until(lambda: not agent.snapshot()["intentions"])
     assert rcl.since(mark) == [] and not rcl.open
     assert not agent.believes("goto_received(g1, _, _, _)")
+
+
+def test_a_survey_is_addressed_to_a_role_and_a_reassignment_does_not_fail_it(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    agent, rcl = world
+    rcl.feed("survey_received(s1, 48.2086, 16.3742)")
+    assert list(rcl.open.values()) == \
+        ["fly(any([uav,camera],at(48.2086,16.3742)),s1,48.2086,16.3742)"]
+    # the RCL handed the task from a lost UAV to another: the action goes on
+    rcl.feed("reassigned(fly(any([uav,camera],at(48.2086,16.3742)),s1,48.2086,16.3742),"
+             " uav1, uav2)")
+    agent.run_until_idle()
+    assert len(rcl.open) == 1 and not agent.believes("reassigned(_, _, _)")
+    rcl.finish("fly(any(", ok=True)
+    agent.run_until_idle()
+    assert not rcl.open and not agent.believes("survey_received(s1, _, _)")
+
+    rcl.feed("survey_received(s2, 48.2090, 16.3745)")
+    rcl.finish("fly(any(", ok=False, error="rejected")     # no robot could ever take it
+    agent.run_until_idle()
+    assert not rcl.open and not agent.believes("survey_received(s2, _, _)")

@@ -1,6 +1,7 @@
 """One round over the fleet's state (FleetRound) chooses what ranking every robot's whole
-bid chooses: same winner, same reason, same wait, for each named evaluator, over random
-fleets of idle, busy, pre-emptable, low-battery, teleop, unavailable and silent robots."""
+bid chooses: same winner, same reason, same wait, the same bids published, for each
+named evaluator, over random fleets of idle, busy, pre-emptable, low-battery, teleop,
+unavailable and silent robots."""
 
 from __future__ import annotations
 
@@ -40,8 +41,11 @@ def _fleet(rng: random.Random, size: int) -> tuple[list[RobotProfile], dict[str,
     return profiles, unavailable, states, where
 
 
-def _said(choice: Choice) -> tuple[str | None, WaitReason, str]:
-    return choice.winner.robot if choice.winner else None, choice.wait, choice.why
+def _said(choice: Choice) -> tuple[str | None, WaitReason, str, list[str], int]:
+    """What a choice says and publishes: its winner, wait, reason, the bids it lists (by
+    robot, in rank order) and how many robots bid."""
+    return (choice.winner.robot if choice.winner else None, choice.wait, choice.why,
+            [b.robot for b in choice.bids], choice.bidders)
 
 
 def _every_bid(task: Task, profiles: list[RobotProfile], fleet: FleetRound) -> list[Bid]:

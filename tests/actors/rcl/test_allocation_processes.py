@@ -6,41 +6,25 @@ standing where their tables say). The test plays the reasoner: it sends role-add
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
-from mrss.config.kinds import KINDS, ComponentKind
 from mrss.messages import (
     ActionControl,
     ActionRequest,
     ActionState,
-    ActionStatus,
     AllocationState,
     Command,
     ControlCommand,
     ControlTarget,
-    Envelope,
     RobotState,
-    TaskAllocation,
     WaitReason,
 )
-from mrss.supervision import (
-    Backoff,
-    ChildSpec,
-    ComponentStart,
-    EventLog,
-    ProcessSettings,
-    ProcessSupervisor,
-    SupervisorSpec,
-)
 from mrss.testing import wait_until
-from tests.actors.rcl.test_rcl_processes import Procs
+from tests.actors.rcl.processes import Bus, Procs, rcl_child, root
 
 PROJECT = Path(__file__).parent / "allocation_project"
 ROBOTS: dict[str, dict[str, Any]] = {
@@ -51,53 +35,19 @@ ROBOTS: dict[str, dict[str, Any]] = {
 }
 
 
-@pytest.fixture()
-def procs() -> Iterator[Procs]:
-    p = Procs()
-    try:
-        yield p
-    finally:
-        p.close()
-
-
-@pytest.fixture()
-def run_dir() -> Iterator[Path]:
-    path = Path(tempfile.mkdtemp(prefix="mrss-alloc-"))
-    try:
-        yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
-
-
-class Rcl:
+class Rcl(Bus):
     """The RCL process on its bus, and what the test heard."""
 
     def __init__(self, procs: Procs, run_dir: Path) -> None:
-        self.endpoints = BusEndpoints.ipc(run_dir)
-        procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
-        self.seen: list[Envelope] = []
-        self.sub = Subscriber(self.endpoints, prefixes=["action.", "robot."])
-        self.sub.start(self.seen.append)
-        assert self.sub.wait_connected(5)
-        self.tx = ReliableSender(self.endpoints, src="reasoner", inc=1, channel="action")
-        self.ctl = Publisher(self.endpoints, src="operator")
-        child = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target,
-                                                {"robots": ROBOTS, "heartbeat": 0.2}, 20.0),
-                          shutdown=5.0)
-        self.sup = ProcessSupervisor(
-            "root", SupervisorSpec(intensity=3, period=30.0,
-                                   backoff=Backoff(initial=0.02, jitter=0.0)), [child],
-            ProcessSettings(PROJECT, run_dir, bus=self.endpoints.to_dict(),
-                            heartbeat_interval=0.1, heartbeat_misses=20),
-            publish=EventLog())
+        super().__init__(procs, run_dir, ["action.", "robot."])
+        self.sup = root(PROJECT, run_dir, self.endpoints,
+                        [rcl_child({"robots": ROBOTS, "heartbeat": 0.2})])
         self.sup.start()
         assert self.sup.wait_started(30), "the RCL component did not start"
 
     def close(self) -> None:
         self.sup.stop(timeout=30)
-        self.tx.close()
-        self.ctl.close()
-        self.sub.close()
+        super().close()
 
     def request(self, uuid: str, caps: list[str], near: list[float] | None = None,
                 seconds: float = 0.2, priority: int = 0) -> None:
@@ -107,25 +57,6 @@ class Rcl:
         self.tx.send(ActionRequest(uuid=uuid, name="survey", args=["any", f"g-{uuid}",
                                                                      seconds],
                                    goal=f"g-{uuid}", priority=priority, role=role))
-
-    def allocations(self, uuid: str) -> list[TaskAllocation]:
-        return [e.body for e in list(self.seen)
-                if isinstance(e.body, TaskAllocation) and e.body.uuid == uuid]
-
-    def statuses(self, uuid: str) -> list[ActionStatus]:
-        return [e.body for e in list(self.seen)
-                if isinstance(e.body, ActionStatus) and e.body.uuid == uuid]
-
-    def awarded(self, uuid: str) -> TaskAllocation:
-        wait_until(lambda: any(a.state is AllocationState.AWARDED
-                               for a in self.allocations(uuid)), timeout=20,
-                   message=f"{uuid} awarded")
-        return next(a for a in self.allocations(uuid) if a.state is AllocationState.AWARDED)
-
-    def ended(self, uuid: str) -> ActionStatus:
-        wait_until(lambda: any(s.state.terminal for s in self.statuses(uuid)), timeout=20,
-                   message=f"{uuid} ended")
-        return next(s for s in self.statuses(uuid) if s.state.terminal)
 
 
 @pytest.fixture()
@@ -143,6 +74,12 @@ def test_a_task_goes_to_the_robot_that_finishes_it_first(rcl: Rcl) -> None:
     award = rcl.awarded("near-ugv2")
     assert award.robot == "ugv2"
     assert award.why.startswith("ugv2: finish in ") and "ugv1: finish in" in award.why
+    # the same decision, structured: every capable robot's bid in rank order
+    assert [b["robot"] for b in award.bids] == ["ugv2", "ugv1"]
+    assert award.bids[0]["unfit"] == "" and award.bids[0]["reserve"] == 20.0
+    assert award.bids[0]["finish_s"] < award.bids[1]["finish_s"]
+    assert (award.evaluator, award.capabilities, award.near, award.bidders) == \
+        ("quickest_finish", ["camera", "ugv"], [48.0095, 16.0], 2)
     done = rcl.ended("near-ugv2")
     assert (done.state, done.robot) == (ActionState.SUCCEEDED, "ugv2")
     rcl.request("near-ugv1", ["camera"], near=[48.0005, 16.0])  # uav1 stands there too:
@@ -164,6 +101,8 @@ def test_a_task_waits_while_every_capable_robot_is_busy_then_is_awarded(rcl: Rcl
                timeout=20, message="the next task waits")
     waiting = rcl.allocations("next")[0]
     assert waiting.wait is WaitReason.BUSY and "uav1 busy with priority 0" in waiting.why
+    assert [(b["robot"], b["unfit"], b["busy_priority"]) for b in waiting.bids] == \
+        [("uav1", "busy", 0)]
     assert not rcl.statuses("next")  # no robot has it yet
     rcl.tx.send(ActionControl(command=ControlCommand.CANCEL, target="long",
                               target_kind=ControlTarget.ACTION))
@@ -190,13 +129,15 @@ def test_a_higher_priority_task_preempts_and_a_low_battery_robot_is_passed_over(
                timeout=20, message="the far task waits")
     far = rcl.allocations("far")[0]
     assert far.wait is WaitReason.BATTERY and "below its reserve 20 %" in far.why
+    (bid,) = far.bids
+    assert (bid["unfit"], bid["reserve"]) == ("battery", 20.0) and bid["battery_after"] < 20
 
 
 @pytest.mark.slow
 def test_a_robot_put_in_teleop_gets_no_task_until_it_is_out_of_teleop(rcl: Rcl) -> None:
     def teleop(on: bool) -> None:  # told, and the RCL says so (its actor may not have yet)
         since = len(rcl.seen)
-        rcl.ctl.publish(Command(command="teleop", target="uav1", args={"on": on}))
+        rcl.pub.publish(Command(command="teleop", target="uav1", args={"on": on}))
         wait_until(lambda: any(isinstance(e.body, RobotState) and e.body.robot == "uav1"
                                and e.body.attributes.get("teleop") is on
                                for e in rcl.seen[since:]),

@@ -127,20 +127,37 @@ def test_with_preempted_timeout_an_action_preempted_too_long_fails_as_preempted(
 
 def test_a_preempted_action_resumed_in_time_is_not_failed_by_the_timeout(
         rcl_env: RclEnv) -> None:
-    timeout = 3.0  # each episode below ends well within it, even on a loaded machine
+    # Each episode below usually ends well within the timeout; the test measures how long
+    # each took from its own side (a bound on the RCL's suspension) and asserts the
+    # outcome only where that bound decides it, so a slow machine can't fail it.
+    timeout = 3.0
     core = rcl_env.start(preempted_timeout=timeout)
     ugv, uav = rcl_env.robots["ugv1"], rcl_env.robots["uav1"]
+
+    def low_failed() -> bool:
+        last = rcl_env.statuses.last("low")
+        return last is not None and last.state == "failed"
+
     _hold(core, "low", "ugv1", "x", priority=1)
-    first = time.monotonic()
-    for n in range(2):  # pre-empted twice, resumed in time: each episode has its own timer
-        wait_until(lambda: ugv.is_moving_to("x"), message="low running")
+    wait_until(lambda: ugv.is_moving_to("x"), message="low running")
+    first, longest = time.monotonic(), 0.0
+    for n in range(2):  # pre-empted twice, resumed each time: each episode has its own timer
+        began = time.monotonic()
         _hold(core, f"high{n}", "uav1", "y", priority=5)
         wait_until(lambda: uav.is_moving_to("y"))
         uav.arrive()
         wait_until(rcl_env.statuses.reached(f"high{n}", "succeeded"))
-    wait_until(lambda: ugv.is_moving_to("x"), message="low resumed")
+        wait_until(lambda: ugv.is_moving_to("x") or low_failed(), message="low resumed")
+        longest = max(longest, time.monotonic() - began)
     # Not a synchronisation: a timer left running from either episode fires by then.
     time.sleep(max(0.0, first + timeout + 0.5 - time.monotonic()))
+    if longest >= timeout:  # this machine was too slow for an episode to tell
+        last = rcl_env.statuses.last("low")
+        assert last is not None
+        assert last.state == "running" or (
+            last.state == "failed" and "preempted_timeout" in last.reason), last
+        return
+    assert not low_failed(), rcl_env.statuses.last("low")
     ugv.arrive()
     wait_until(rcl_env.statuses.reached("low", "succeeded"))
     assert rcl_env.statuses.states("low") == [

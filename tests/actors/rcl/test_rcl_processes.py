@@ -6,86 +6,26 @@ test) hearing about every one."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import sqlite3
-import subprocess
-import sys
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from mrss.bus import BusEndpoints, ReliableSender, Subscriber
-from mrss.config.kinds import KINDS, ComponentKind
 from mrss.messages import ActionRequest, ActionStatus, Envelope
-from mrss.supervision import (
-    Backoff,
-    ChildSpec,
-    ComponentStart,
-    EventLog,
-    ProcessSettings,
-    ProcessSupervisor,
-    SupervisorSpec,
-)
+from mrss.supervision import ProcessSupervisor
 from mrss.supervision.faults import kill
 from mrss.testing import wait_until
+from tests.actors.rcl.processes import Procs, rcl_child, root
 
 PROJECT = Path(__file__).parent / "rcl_project"
 ROBOTS = [f"ugv{i}" for i in range(1, 6)]
 
 
-class Procs:
-    """Child processes of a test, all killed at the end."""
-
-    def __init__(self) -> None:
-        self.all: list[subprocess.Popen[str]] = []
-
-    def start(self, *args: str) -> subprocess.Popen[str]:
-        proc = subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, text=True, env=os.environ.copy())
-        self.all.append(proc)
-        line = proc.stdout.readline() if proc.stdout else ""
-        assert line.startswith("ready"), f"{args[0]} did not start: {line!r}"
-        return proc
-
-    def close(self) -> None:
-        for proc in self.all:
-            if proc.poll() is None:
-                proc.kill()
-            proc.wait(timeout=10)
-            if proc.stdout:
-                proc.stdout.close()
-
-
-@pytest.fixture()
-def procs() -> Iterator[Procs]:
-    p = Procs()
-    try:
-        yield p
-    finally:
-        p.close()
-
-
-@pytest.fixture()
-def run_dir() -> Iterator[Path]:
-    path = Path(tempfile.mkdtemp(prefix="mrss-rclp-"))
-    try:
-        yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
-
-
 def _supervisor(run_dir: Path, endpoints: BusEndpoints) -> ProcessSupervisor:
     options: dict[str, Any] = {"robots": {r: {"leg": 0.05} for r in ROBOTS}}
-    child = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target, options,
-                                            20.0), shutdown=5.0)
-    spec = SupervisorSpec(intensity=3, period=30.0, backoff=Backoff(initial=0.02, jitter=0.0))
-    settings = ProcessSettings(PROJECT, run_dir, bus=endpoints.to_dict(),
-                               heartbeat_interval=0.1, heartbeat_misses=20)
-    return ProcessSupervisor("root", spec, [child], settings, publish=EventLog())
+    return root(PROJECT, run_dir, endpoints, [rcl_child(options)])
 
 
 def _progress(journal: Path, uuid: str) -> int:

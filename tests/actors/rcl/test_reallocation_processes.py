@@ -7,26 +7,20 @@ simulator (SIGSTOP: its link hears nothing past its heartbeat timeout)."""
 from __future__ import annotations
 
 import json
-import shutil
 import signal
 import sqlite3
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from mrss.bus import BusEndpoints, Publisher, ReliableSender, Subscriber
-from mrss.config.kinds import KINDS, ComponentKind
 from mrss.links.geo import offset
 from mrss.messages import (
     ActionRequest,
     ActionState,
-    ActionStatus,
     AllocationState,
     Command,
-    Envelope,
     FailureCause,
     Percept,
     RobotData,
@@ -34,69 +28,26 @@ from mrss.messages import (
     TaskAllocation,
 )
 from mrss.sim.uav import DEFAULT_HOME
-from mrss.supervision import (
-    Backoff,
-    ChildSpec,
-    ComponentStart,
-    EventLog,
-    ProcessSettings,
-    ProcessSupervisor,
-    SupervisorSpec,
-)
 from mrss.supervision.faults import kill
 from mrss.testing import wait_until
-from tests.actors.rcl.test_rcl_processes import Procs
+from tests.actors.rcl.processes import Bus, Procs, rcl_child, root, uav_sim_child
 
 PROJECT = Path(__file__).parent / "reallocation_project"
 HOMES = {"uav1": DEFAULT_HOME[:2], "uav2": offset(DEFAULT_HOME[0], DEFAULT_HOME[1], 400.0, 0)}
 
 
-@pytest.fixture()
-def procs() -> Iterator[Procs]:
-    p = Procs()
-    try:
-        yield p
-    finally:
-        p.close()
-
-
-@pytest.fixture()
-def run_dir() -> Iterator[Path]:
-    path = Path(tempfile.mkdtemp(prefix="mrss-realloc-"))
-    try:
-        yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
-
-
-class System:
+class System(Bus):
     """Two simulated UAVs and the RCL on a bus; what the test heard."""
 
     def __init__(self, procs: Procs, run_dir: Path) -> None:
-        self.run_dir = run_dir
-        self.endpoints = BusEndpoints.ipc(run_dir)
-        procs.start("mrss.bus.proxy", "--run-dir", str(run_dir))
-        self.seen: list[Envelope] = []
-        self.sub = Subscriber(self.endpoints, prefixes=["action.", "percept", "robot.uav"])
-        self.sub.start(self.seen.append)
-        assert self.sub.wait_connected(5)
-        self.tx = ReliableSender(self.endpoints, src="reasoner", inc=1, channel="action")
-        self.pub = Publisher(self.endpoints, src="operator", batching=False)
+        super().__init__(procs, run_dir, ["action.", "percept", "robot.uav"])
         robots = {r: {"link": "mavlink", "heartbeat_timeout": 3.0,  # a loaded CI host
                       "capabilities": ["uav", "camera"], "cruise_speed": 10.0}
                   for r in HOMES}
-        sims = [ChildSpec(r, ComponentStart(KINDS[ComponentKind.SIM_UAV].target,
-                                            {"id": r, "home": [*home, 584.0]}, 20.0),
-                          shutdown=5.0) for r, home in HOMES.items()]
-        rcl = ChildSpec("rcl", ComponentStart(KINDS[ComponentKind.RCL].target,
-                                              {"robots": robots, "heartbeat": 0.2}, 20.0),
-                        shutdown=5.0)
-        self.sup = ProcessSupervisor(
-            "root", SupervisorSpec(intensity=10, period=30.0,
-                                   backoff=Backoff(initial=0.02, jitter=0.0)), [*sims, rcl],
-            ProcessSettings(PROJECT, run_dir, bus=self.endpoints.to_dict(),
-                            heartbeat_interval=0.1, heartbeat_misses=100),
-            publish=EventLog())
+        sims = [uav_sim_child(r, [*home, 584.0]) for r, home in HOMES.items()]
+        self.sup = root(PROJECT, run_dir, self.endpoints,
+                        [*sims, rcl_child({"robots": robots, "heartbeat": 0.2})],
+                        intensity=10, heartbeat_misses=100)
         self.sup.start()
         assert self.sup.wait_started(60), "the simulators and the RCL did not start"
         for robot in HOMES:  # telemetry flows: its link is up, its position known
@@ -105,9 +56,7 @@ class System:
 
     def close(self) -> None:
         self.sup.stop(timeout=30)
-        self.tx.close()
-        self.pub.close()
-        self.sub.close()
+        super().close()
 
     def sweep(self, uuid: str, steps: int, near: str | None = None,
               robot: str = "", gate: Path | None = None) -> None:
@@ -120,29 +69,6 @@ class System:
                                    args=[first, f"g-{uuid}", steps, *extra],
                                    robot=robot, goal=f"g-{uuid}", role=role,
                                    literal=f"sweep({first}, g_{uuid}, {steps})"))
-
-    def bodies(self, kind: type, **match: Any) -> list[Any]:
-        return [e.body for e in list(self.seen) if isinstance(e.body, kind)
-                and all(getattr(e.body, k) == v for k, v in match.items())]
-
-    def awards(self, uuid: str) -> list[TaskAllocation]:
-        return [a for a in self.bodies(TaskAllocation, uuid=uuid)
-                if a.state is AllocationState.AWARDED]
-
-    def statuses(self, uuid: str) -> list[ActionStatus]:
-        return self.bodies(ActionStatus, uuid=uuid)
-
-    def available(self, robot: str) -> bool:
-        states = self.bodies(RobotState, robot=robot)
-        return bool(states) and states[-1].available
-
-    def ended(self, uuid: str, timeout: float = 30) -> ActionStatus:
-        wait_until(lambda: any(s.state.terminal for s in self.statuses(uuid)),
-                   timeout=timeout, message=f"{uuid} ended")
-        return next(s for s in self.statuses(uuid) if s.state.terminal)
-
-    def journal(self) -> Path:
-        return self.run_dir / "rcl-journal.sqlite3"
 
     def step(self, uuid: str) -> int:
         with sqlite3.connect(str(self.journal())) as db:
@@ -173,6 +99,9 @@ def test_a_lost_robots_task_goes_to_another_that_goes_on_from_its_progress(
                    message="t1 awarded again")
         again = system.awards("t1")[1]
         assert again.robot == "uav2" and again.why.startswith("reassigned from uav1 (lost)")
+        assert again.lost_from == "uav1" and system.awards("t1")[0].lost_from == ""
+        assert [b["robot"] for b in again.bids] == ["uav2", "uav1"]
+        assert again.bids[1]["unfit"] == "unavailable"  # the lost one, still away
         percept = f"reassigned(sweep(any([uav], at({HOMES['uav1'][0]}, {HOMES['uav1'][1]})), " \
                   f"g_t1, 40), uav1, uav2)"  # after the award: the agent's event
         wait_until(lambda: percept in [p.literal for p in system.bodies(Percept)],
@@ -246,17 +175,52 @@ def test_an_rcl_killed_between_award_and_skill_start_keeps_one_holder_per_task(
     wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
                message="the restarted RCL speaks")
     gate.touch()
-    k1, k2 = system.ended("k1"), None
-    wait_until(lambda: any(s.state.terminal for s in system.statuses("k2")), timeout=30,
-               message="k2 ended")
-    k2 = next(s for s in system.statuses("k2") if s.state.terminal)
-    # the decommission was the old incarnation's: after the restart uav2 takes k2
+    k1, k2 = system.ended("k1"), system.ended("k2")
+    # the decommission is journaled: uav2 stays out after the restart, so k2 (nearer
+    # uav2) waits for uav1 to finish k1
+    assert any(e.inc == 2 and isinstance(e.body, RobotState) and e.body.robot == "uav2"
+               and not e.body.available for e in list(system.seen))
     assert (k1.state, k1.robot, k1.progress["by"]) == (ActionState.SUCCEEDED, "uav1", "uav1")
-    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert (k2.state, k2.robot) == (ActionState.SUCCEEDED, "uav1")
     assert [a.robot for a in system.awards("k1")] == ["uav1"]  # never awarded twice
-    assert [a.robot for a in system.awards("k2")] == ["uav2"]
+    assert [a.robot for a in system.awards("k2")] == ["uav1"]
     for uuid in ("k1", "k2"):  # one holder: every status names the same robot (or none)
-        assert {s.robot for s in system.statuses(uuid)} - {""} == {k1.robot if uuid == "k1"
-                                                                   else k2.robot}
+        assert {s.robot for s in system.statuses(uuid)} - {""} == {"uav1"}
     with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
+
+
+@pytest.mark.slow
+def test_an_rcl_killed_between_a_robots_loss_and_the_reaward_keeps_one_holder(
+        system: System) -> None:
+    system.pub.publish(Command(command="decommission", target="uav2"))
+    wait_until(lambda: not system.available("uav2"), timeout=20, message="uav2 out")
+    system.sweep("l1", steps=40, near="uav1")
+    assert system.awarded("l1").robot == "uav1"
+    wait_until(lambda: system.step("l1") >= 2, timeout=20, message="uav1 swept 2 strips")
+    # uav1 lost too (the operator's decommission, a loss that outlives the restart):
+    # no robot can take l1, it waits
+    system.pub.publish(Command(command="decommission", target="uav1"))
+    wait_until(lambda: any(s.state is ActionState.PENDING and not s.robot
+                           for s in system.statuses("l1")), timeout=30,
+               message="l1 given back by uav1")
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT robot, lost FROM tasks").fetchall() == [("", '["uav1"]')]
+    kept = system.step("l1")
+
+    kill(system.sup, "rcl")  # SIGKILL between the loss and the re-award
+    wait_until(lambda: any(e.inc == 2 for e in list(system.seen)), timeout=30,
+               message="the restarted RCL speaks")
+    system.pub.publish(Command(command="recommission", target="uav2"))
+    done = system.ended("l1", timeout=60)
+    assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav2")
+    assert [a.robot for a in system.awards("l1")] == ["uav1", "uav2"]  # once each
+    assert system.awards("l1")[1].why.startswith("reassigned from uav1 (lost)")
+    resumed = next(s for s in system.statuses("l1") if s.progress.get("by") == "uav2")
+    assert resumed.progress["first"] == kept  # from where uav1 stopped
+    holders = [s.robot for s in system.statuses("l1")]  # never two: a change goes via ""
+    changes = [(a, b) for a, b in zip(holders, holders[1:], strict=False) if a != b]
+    assert all("" in pair for pair in changes), changes
+    with sqlite3.connect(str(system.journal())) as db:
+        assert db.execute("SELECT robot FROM actions WHERE uuid='l1'").fetchone() == ("uav2",)
         assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)

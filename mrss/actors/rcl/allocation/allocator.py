@@ -40,6 +40,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from mrss.actors.rcl.allocation import published
 from mrss.actors.rcl.allocation.bids import Bid, Place
 from mrss.actors.rcl.allocation.board import BidBoard
 from mrss.actors.rcl.allocation.book import TaskBook
@@ -50,10 +51,8 @@ from mrss.actors.rcl.allocation.task import Task
 from mrss.errors import ActionError
 from mrss.messages import (
     ActionRequest,
-    AllocationState,
     JsonValue,
     Message,
-    TaskAllocation,
     WaitReason,
 )
 
@@ -78,6 +77,7 @@ class OpenTask:
     timings: list[float] = field(default_factory=list)
     progress: dict[str, JsonValue] = field(default_factory=dict)  # from a lost holder
     lost_from: str = ""  # the robot that lost it ("": a new task)
+    choice: Choice | None = None  # the round's decision it waits on (its bids published)
 
 
 class Allocator:
@@ -134,7 +134,8 @@ class Allocator:
             return
         task = Task.of(request)
         self.check_capable(task)
-        self.book.opened(request, requester)  # journaled before anything is decided
+        self.book.opened(request, requester,  # journaled before anything is decided
+                         f"waiting for {task.describe()}")
         self._open_task(OpenTask(request, requester, task, self.clock()), at_once=True)
 
     def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
@@ -155,6 +156,11 @@ class Allocator:
             self._decide(open_task)  # nothing goes before it: decided on this thread
         else:
             self._wake.set()
+
+    def withdraw(self, uuid: str) -> bool:
+        """The task's action ended while it waited (cancelled, failed): no more rounds."""
+        with self._lock:
+            return self._open.pop(uuid, None) is not None
 
     def check_capable(self, task: Task) -> None:
         """ActionError unless some configured robot has every capability `task` asks."""
@@ -213,6 +219,7 @@ class Allocator:
             self._awarded(open_task, choice.winner, choice)
         elif open_task.said != (choice.wait, choice.why):
             open_task.said = (choice.wait, choice.why)
+            open_task.choice = choice
             self._say_waiting(open_task, choice.wait, choice.why)
 
     def _capable_of(self, task: Task) -> list[RobotProfile]:
@@ -231,11 +238,9 @@ class Allocator:
         self.award_latencies.append(latency)
         del self.award_latencies[:-10000]
         self.book.awarded(task.uuid, winner.robot)  # committed before the action is
-        why = choice.why if not open_task.lost_from else \
-            f"reassigned from {open_task.lost_from} (lost): {choice.why}"
-        self._send(TaskAllocation(uuid=task.uuid, state=AllocationState.AWARDED,
-                                  robot=winner.robot, why=why, name=request.name,
-                                  goal=request.goal))
+        self._send(published.allocation(request, task, choice, evaluator=self.ranking.name,
+                                        profiles=self.profiles,
+                                        lost_from=open_task.lost_from))
         log.info("task %s awarded to %s after %d round(s), %.1f ms: %s", task.uuid,
                  winner.robot, open_task.rounds, latency * 1000, choice.why)
         self._award(request, open_task.requester, winner.robot, open_task.progress)
@@ -244,9 +249,9 @@ class Allocator:
 
     def _say_waiting(self, open_task: OpenTask, wait: WaitReason, why: str) -> None:
         log.info("task %s waits (%s): %s", open_task.task.uuid, wait.value, why)
-        self._send(TaskAllocation(uuid=open_task.task.uuid, state=AllocationState.WAITING,
-                                  wait=wait, why=why, name=open_task.request.name,
-                                  goal=open_task.request.goal))
+        choice = open_task.choice or Choice(None, wait, why)
+        self._send(published.allocation(open_task.request, open_task.task, choice,
+                                        evaluator=self.ranking.name, profiles=self.profiles))
 
     def _send(self, message: Message) -> None:
         try:

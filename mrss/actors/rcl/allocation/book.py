@@ -2,9 +2,11 @@
 
 One object of the allocator, kept in memory and in the action journal (the `tasks`
 table, mrss.actors.rcl.journal), every change committed before it takes effect:
-- a task is opened (waiting) before it is bid for; an award is committed before the
-  action on the winner is, so after a restart a recorded award is carried out, never
-  decided again (`TaskRow.robot` set, no action on that robot yet: `pending_award`);
+- a task is opened (waiting) before it is bid for, with its action (PENDING on no
+  robot: a restarted requester finds it in its inventory and adopts it; a new run fails
+  it); an award is committed before the action on the winner is, so after a restart a
+  recorded award is carried out, never decided again (`TaskRow.robot` set, no action
+  on that robot yet);
 - a holder that is lost (`LOSSES`: its link, its failsafe, its node, a quarantine, the
   operator's decommission) gives the task back: it waits again, the robot is added to
   those that lost it, and its progress goes with it to the next holder;
@@ -17,6 +19,7 @@ import dataclasses
 import threading
 from dataclasses import dataclass, field
 
+from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.journal import ActionJournal, Requester, TaskRow
 from mrss.messages import ActionRequest, FailureCause, build
 
@@ -51,9 +54,13 @@ class TaskBook:
                                           r.robot, list(r.lost)) for r in rows}
         return rows
 
-    def opened(self, request: ActionRequest, requester: Requester) -> None:
+    def opened(self, request: ActionRequest, requester: Requester, why: str = "") -> None:
+        """A new task waits (journaled with its action, PENDING on no robot: `why`)."""
         if self.journal is not None:
-            self.journal.open_task(request.uuid, _wire(request), requester)
+            self.journal.open_task(Action(uuid=request.uuid, name=request.name,
+                                          args=list(request.args), goal=request.goal,
+                                          priority=request.priority, literal=request.literal,
+                                          reason=why), _wire(request), requester)
         with self._lock:
             self._held.setdefault(request.uuid, Holding(request, requester))
 

@@ -25,6 +25,7 @@ from mrss.actors.rcl.allocation.bids import Bid
 from mrss.actors.rcl.allocation.task import Task
 from mrss.edge.rejections import RejectionLog
 from mrss.messages import WaitReason
+from mrss.messages.bid_reports import LIMIT
 
 log = logging.getLogger("mrss.rcl.allocation")
 
@@ -83,6 +84,8 @@ class Choice:
     winner: Bid | None
     wait: WaitReason
     why: str
+    bids: tuple[Bid, ...] = ()  # the best (at most LIMIT) in rank order, the winner first
+    bidders: int = 0  # how many robots bid, all counted
 
 
 class BidRanking:
@@ -121,17 +124,19 @@ class BidRanking:
                         key=lambda bs: (bs[0].preempts, bs[1], bs[0].robot))
         others = [b for b, _ in ranked[1:]] + sorted((b for b in bids if not b.fit),
                                                      key=lambda b: b.robot)
-        return self.award(ranked[0][0], others[:SHOWN], len(others))
+        return self.award(ranked[0][0], others, len(others))
 
     def award(self, winner: Bid, shown: Sequence[Bid], others: int) -> Choice:
-        """The choice of `winner`, why in words: it, the first `shown` of the `others`
-        bids in rank order, and how many more there were."""
+        """The choice of `winner` over `others` more bids, of which `shown` are the best
+        in rank order (at least SHOWN of them when there are; the choice keeps at most
+        LIMIT bids): why in words names it, the first SHOWN, and how many more."""
         why = winner.describe()
         if shown:
             why += "; " + "; ".join(b.describe() for b in shown[:SHOWN])
             if others > SHOWN:
                 why += f"; {others - SHOWN} more"
-        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})")
+        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})",
+                      (winner, *shown[:LIMIT - 1]), others + 1)
 
     def _scores(self, task: Task, fit: Sequence[Bid]) -> list[float]:
         score = SCORES[self.evaluator] if isinstance(self.evaluator, Evaluator) \
@@ -154,7 +159,7 @@ class BidRanking:
 
 def _waiting(bids: Sequence[Bid]) -> Choice:
     ordered = sorted(bids, key=lambda b: (wait_rank(b.unfit), b.robot))
-    return waiting({b.unfit for b in bids}, ordered[:WAITING_SHOWN], len(bids))
+    return waiting({b.unfit for b in bids}, ordered[:LIMIT], len(bids))
 
 
 def wait_rank(reason: WaitReason) -> int:
@@ -164,9 +169,10 @@ def wait_rank(reason: WaitReason) -> int:
 
 def waiting(excuses: Collection[WaitReason], shown: Sequence[Bid], total: int) -> Choice:
     """Why a task waits: the first excuse of WAIT_ORDER among `excuses`, and the first
-    `shown` of the `total` unfit bids, best excuse then robot id first."""
+    WAITING_SHOWN of the `total` unfit bids (`shown`: the best, at least that many when
+    there are, best excuse then robot id first; the choice keeps at most LIMIT)."""
     reason = next((r for r in WAIT_ORDER if r in excuses), WaitReason.NO_BID)
     why = "; ".join(b.describe() for b in shown[:WAITING_SHOWN])
     if total > WAITING_SHOWN:
         why += f"; {total - WAITING_SHOWN} more"
-    return Choice(None, reason, why or "no robot answered")
+    return Choice(None, reason, why or "no robot answered", tuple(shown[:LIMIT]), total)

@@ -5,12 +5,13 @@ why (one read under the core's lock), what every robot actor published (the bid 
 one read under its lock), and each robot's position and battery from its link, read at
 most once per round. Then, for a named evaluator, each capable robot is scored from its
 figures (`bids.figures`, the numbers `compute_bid` makes a `Bid` of) without making a
-`Bid`: only the winner and the few bids the award's reason names are made whole
-(`compute_bid`, so the reason says what a single bid would). The ranking is the one of
-`evaluators.BidRanking.choose` (idle before pre-empting, the score, the robot id), so
-both give the same choice. The general path (`BidRanking.choose` over every bid) is
-taken for a project's own evaluator (it is given whole bids) and when a score is not a
-number (the ranking falls back to the default, logged). A task no robot is fit for
+`Bid`: only the best few (`bid_reports.LIMIT`, what the award publishes and its reason
+names) are made whole (`compute_bid`, so they say what a single bid would). The
+ranking is the one of `evaluators.BidRanking.choose` (idle before pre-empting, the
+score, the robot id), so both give the same choice. The general path
+(`BidRanking.choose` over every bid) is taken for a project's own evaluator (it is
+given whole bids) and when a score is not a number (the ranking falls back to the
+default, logged). A task no robot is fit for
 waits with the best excuse, the first few robots' bids named.
 """
 
@@ -22,8 +23,6 @@ from collections.abc import Callable, Mapping, Sequence
 from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, compute_bid, figures, no_bid
 from mrss.actors.rcl.allocation.board import BidState
 from mrss.actors.rcl.allocation.evaluators import (
-    SHOWN,
-    WAITING_SHOWN,
     BidRanking,
     Choice,
     wait_rank,
@@ -32,6 +31,7 @@ from mrss.actors.rcl.allocation.evaluators import (
 from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.allocation.task import Task
 from mrss.messages import WaitReason
+from mrss.messages.bid_reports import LIMIT
 
 Where = Callable[[str], tuple[Place | None, float | None]]
 
@@ -105,11 +105,10 @@ class FleetRound:
         if not fit:
             unfit.sort(key=lambda u: (wait_rank(u[0]), u[1]))
             return waiting({reason for reason, _, _ in unfit},
-                           [self.bid(task, p) for _, _, p in unfit[:WAITING_SHOWN]],
-                           len(unfit))
+                           [self.bid(task, p) for _, _, p in unfit[:LIMIT]], len(unfit))
         fit.sort(key=lambda f: f[:3])
-        named = [p for _, _, _, p in fit[:SHOWN + 1]]
-        if len(named) <= SHOWN:  # after the fit ones, the unfit ones by robot id
-            named += [p for _, _, p in sorted(unfit, key=lambda u: u[1])][:SHOWN + 1 - len(named)]
+        named = [p for _, _, _, p in fit[:LIMIT]]
+        if len(named) < LIMIT:  # after the fit ones, the unfit ones by robot id
+            named += [p for _, _, p in sorted(unfit, key=lambda u: u[1])][:LIMIT - len(named)]
         bids = [self.bid(task, p) for p in named]
         return ranking.award(bids[0], bids[1:], len(fit) - 1 + len(unfit))

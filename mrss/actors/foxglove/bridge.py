@@ -1,0 +1,107 @@
+"""The bus as Foxglove channels: what a recording writes, sent live instead of to a file.
+
+`FoxgloveBridge` is a recorder's writer (`mrss.recording.recorder.Writer`): the bus
+recorder hands it every bus message, frames untouched, and it logs each one on a
+Foxglove SDK channel exactly as the MCAP recording lays it out (mrss/recording/
+mcap_writer.py): a channel per bus topic and kind, the envelope in JSON against the
+kind's schema `mrss.<kind>` (encoding `jsonschema`); `robot.<id>.location` as Foxglove's
+`foxglove.LocationFix` for every telemetry record with a position, so the Map panel
+shows the robots; `mrss.malformed` for what did not decode. A test writes the same
+messages both ways and compares the channels, schemas and data.
+
+Channels are made when their first message comes (the server then advertises them);
+a message is turned into JSON only while some client is subscribed to its channel.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from typing import Any
+
+import foxglove
+import msgpack
+
+from mrss.bus.wire import message_frames
+from mrss.recording.format import RecordedMessage
+from mrss.recording.mcap_writer import LOCATION_SUFFIX, MALFORMED_TOPIC
+from mrss.recording.schemas import (
+    ENCODING,
+    LOCATION_FIX,
+    LOCATION_FIX_SCHEMA,
+    MALFORMED,
+    MALFORMED_SCHEMA,
+    all_kind_schemas,
+    location_fix,
+    schema_name,
+    to_json,
+)
+
+_KIND_SCHEMAS = all_kind_schemas()
+
+
+def _ns(seconds: float) -> int:
+    return max(0, int(seconds * 1e9))
+
+
+class FoxgloveBridge:
+    """Logs bus messages on the channels of `context` (a Foxglove server's)."""
+
+    def __init__(self, context: foxglove.Context) -> None:
+        self._context = context
+        self._channels: dict[tuple[str, str], foxglove.Channel] = {}
+        self.count = 0  # bus messages taken
+        self.sent = 0  # messages logged to a subscribed channel
+
+    def channel(self, topic: str, schema: str, data: dict[str, Any]) -> foxglove.Channel:
+        """The channel of `topic` and `schema`, made (and advertised) on first use."""
+        key = (topic, schema)
+        found = self._channels.get(key)
+        if found is None:
+            found = self._channels[key] = foxglove.Channel(
+                topic, schema=foxglove.Schema(name=schema, encoding=ENCODING,
+                                              data=json.dumps(data).encode()),
+                message_encoding="json", context=self._context)
+        return found
+
+    def topics(self) -> list[tuple[str, str]]:
+        """(topic, schema name) of every channel made so far."""
+        return list(self._channels)
+
+    def _log(self, channel: foxglove.Channel, log_time: int, value: Any) -> None:
+        if channel.has_sinks():
+            channel.log(json.dumps(value, separators=(",", ":")).encode(), log_time=log_time)
+            self.sent += 1
+
+    def write(self, message: RecordedMessage) -> None:
+        """One ZeroMQ message from the bus: each envelope in it, or a malformed one."""
+        log_time = _ns(message.t)
+        self.count += 1
+        if message.malformed:
+            self._log(self.channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
+                      {"frames": [base64.b64encode(f).decode() for f in message.frames],
+                       "note": message.note})
+            return
+        for topic, payload in message_frames(list(message.frames)):
+            env = msgpack.unpackb(payload, raw=False, strict_map_key=True)
+            self._envelope(topic.decode(), env, log_time)
+
+    def _envelope(self, topic: str, env: dict[str, Any], log_time: int) -> None:
+        kind = env["kind"]
+        name = schema_name(kind)
+        channel = self.channel(topic, name, _KIND_SCHEMAS[name])
+        if channel.has_sinks():
+            value = to_json(env)
+            cred = env.get("cred")
+            if cred is not None:
+                value["cred"] = base64.b64encode(cred).decode("ascii")
+            self._log(channel, log_time, value)
+        if kind == "robot.data":
+            body = env["body"]
+            fix = location_fix(body["robot"], float(env["ts"]), body["data"])
+            if fix is not None:
+                self._log(self.channel(f"robot.{body['robot']}{LOCATION_SUFFIX}", LOCATION_FIX,
+                                       LOCATION_FIX_SCHEMA), log_time, fix)
+
+    def flush(self) -> None:
+        """Nothing kept back: each message went out as it came."""
