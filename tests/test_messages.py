@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from mrss import messages as m
 from mrss.errors import DecodeError
 from mrss.messages.bid_reports import BidReport
+from mrss.messages.credentials import MAX_RUN
 
 # -- strategies --------------------------------------------------------------------------
 
@@ -63,6 +64,7 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("edge.report", "status"): st.sampled_from([s.value for s in m.EventStatus]),
     ("node.beat", "node"): nonempty,
     ("node.beat", "boot"): nonempty,
+    ("node.beat", "run"): st.integers(min_value=0, max_value=MAX_RUN),
     ("agent.gave_up", "agent"): nonempty,
     ("agent.gave_up", "goal"): nonempty,
     ("question", "id"): nonempty,

@@ -50,7 +50,9 @@ class Instr:
     def __init__(self, line: int) -> None:
         self.line = line
 
-    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
+        """Run the formula; True only when a sub-goal's plan was pushed at once
+        (`Achieve`): the step is over (see `Runtime.run_step`)."""
         raise NotImplementedError
 
     def text(self) -> str:
@@ -60,7 +62,7 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail", "res")
+    __slots__ = ("lit", "tail", "res", "key")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
@@ -68,17 +70,26 @@ class Achieve(Instr):
         self.lit = lit
         self.tail = False
         self.res = resolver(lit)
+        # the plan-library key of the goal (`AchieveVar`'s is only known when it runs)
+        self.key = (ADD_ACH, lit.functor, len(lit.args), lit.neg) if type(lit) is Struct \
+            else None
 
-    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         tail = self.tail
         im.pc = len(im.code) if tail else im.pc + 1
         if rt.event_waiters or rt.atomic is not None or rt.plans.meta:
             rt.post_subgoal(it, lit, tail, self.line)
-            return
+            return None
+        events = rt.events
+        # With no other event queued, the next cycle's deliberate phase would take this
+        # one first: its plan is selected and pushed now (no Event, no queue round trip).
+        if not events and rt.intend_now(it, self.key, lit, tail):  # type: ignore[arg-type]
+            return True
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
         it.line = self.line
-        rt.events.append(Event(ADD_ACH, lit, it, tail))
+        events.append(Event(ADD_ACH, lit, it, tail))
+        return None
 
 
 class AchieveNew(Instr):
@@ -168,13 +179,14 @@ class AddBelief(Instr):
         self.front = front
         self.res = resolver(lit)
 
-    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         if not lit.ground:
             lit = rename(lit)
         im.pc += 1
         if rt.bb.add(lit, self.front):
-            rt.belief_changed(ADD_BEL, lit, it)
+            return rt.belief_changed(ADD_BEL, lit, it, True)
+        return None
 
 
 class DelBelief(Instr):
@@ -189,7 +201,7 @@ class DelBelief(Instr):
         self.query = LiteralQuery(lit)
         self.res = resolver(lit)
 
-    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> None:
+    def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         frame = im.frame
         im.pc += 1
         lit: Any = self.res(frame)
@@ -197,10 +209,11 @@ class DelBelief(Instr):
             for _ in self.query.solve(rt, frame):
                 break
             else:
-                return
+                return None
             lit = self.res(frame)
         if rt.bb.remove(lit):
-            rt.belief_changed(DEL_BEL, lit, it)
+            return rt.belief_changed(DEL_BEL, lit, it, True)
+        return None
 
 
 class ReplaceBelief(Instr):

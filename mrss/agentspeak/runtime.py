@@ -53,7 +53,7 @@ from mrss.agentspeak.intentions import (
     Intention,
     IntentionState,
 )
-from mrss.agentspeak.plans import Plan, PlanLibrary
+from mrss.agentspeak.plans import Plan, PlanKey, PlanLibrary
 from mrss.agentspeak.registry import IAContext, InternalAction, Registry
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -73,9 +73,12 @@ class Extras:
     gives an object of more than about 30 attributes slower attribute access, which
     costs every reasoning cycle some 10% (measured with `mrss bench reasoner`)."""
 
-    __slots__ = ("suspended_events", "ns_props")
+    __slots__ = ("suspended_events", "ns_props", "context_errors")
 
     def __init__(self) -> None:
+        # the context errors of a selection by `Runtime.intend_now`, not warned there
+        # (the event then goes through the queue, where they are warned once)
+        self.context_errors: list[Any] = []
         self.suspended_events: list[Event] = []  # goal events held by `.suspend(G)`
         # `.namespace_set_prop`: namespace -> key text -> (key, value), in the order set
         self.ns_props: dict[str, dict[str, tuple[Term, Term]]] = {}
@@ -180,20 +183,28 @@ class Runtime:
         if self.plans.meta:
             goalstates.emit(self, lit, goalstates.GoalState.PENDING)
 
-    def belief_changed(self, op: int, lit: Struct, it: Intention | None) -> None:
+    def belief_changed(self, op: int, lit: Struct, it: Intention | None,
+                       now: bool = False) -> bool:
         """Post `+b`/`-b` if some plan or `.wait` could react; a body's own belief event
-        is handled on top of its intention before its next step."""
+        is handled on top of its intention before its next step. With `now` (the body
+        formula posts no other event), the event is handled at once when that is the
+        same (`intend_now`): True then."""
         if op == DEL_BEL and self.on_percept_gone is not None:
             store = self.bb.store((lit.functor, len(lit.args), lit.neg))
             held = store.get(lit.args) if store is not None else None
             if held is None or SOURCE_PERCEPT not in held.annots:
                 self.on_percept_gone(lit)
-        if (op, lit.functor, len(lit.args), lit.neg) in self.plans.index:
+        key = (op, lit.functor, len(lit.args), lit.neg)
+        if key in self.plans.index:
             if it is not None:
+                if (now and not self.events and not self.event_waiters and self.atomic is None
+                        and not self.plans.meta and self.intend_now(it, key, lit, False)):
+                    return True
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
         elif self.event_waiters:
             goals.notify_waiters(self, op, lit)
+        return False
 
     def handle_event(self, ev: Event) -> None:
         """Select the first applicable plan for `ev` and intend it."""
@@ -242,6 +253,56 @@ class Runtime:
             it.in_queue = True
             self.runq.append(it)
 
+    def intend_now(self, it: Intention, key: PlanKey, lit: Struct, tail: bool) -> bool:
+        """Handle the event `lit` of `key` (operator and predicate) that `it` posts (a
+        sub-goal, or a belief change of its body) now, as the next cycle's deliberate
+        phase would, when the caller has made sure that is the same: no other event is
+        queued (so it would be the next one taken), no `.wait`, `[atomic]` intention or
+        goal-state plan could tell the difference, and the formula posts no other event.
+        False, with nothing done, when no plan is applicable or a context raised: the
+        event then goes through the queue, where the failure and the warnings happen in
+        their usual cycle. When True, the formula's step is over: the plan's first
+        formula is the intention's next step (`run_step` clears nothing this time)."""
+        plans = self.plans
+        try:
+            select = plans.selectors[key]
+        except KeyError:
+            select = plans.selector(key)
+        if select is None:
+            return False
+        errors = self.extras.context_errors
+        found = select(self, lit, errors)
+        if type(found) is not tuple or errors:
+            errors.clear()
+            return False
+        chosen, frame = found
+        stack = it.stack
+        reused = False
+        if tail and stack:
+            top = stack[-1]
+            tl = top.lit
+            if (top.op == ADD_ACH and tl.functor == key[1] and len(tl.args) == key[2]
+                    and top.fail_target is None and top.pc >= len(top.code)
+                    and (DEL_ACH, tl.functor, key[2], tl.neg) not in plans.index):
+                # tail-recursion optimisation, as in `handle_event`: the finished frame
+                # is replaced; its object, referenced nowhere else, is reused
+                top.plan = chosen
+                top.frame = frame
+                top.pc = 0
+                top.code = chosen.code
+                top.lit = lit
+                top.loops = None
+                reused = True
+        if not reused:
+            stack.append(IntendedMeans(chosen, frame, lit, key[0]))
+        if chosen.atomic:
+            self.atomic = it
+        it.state = RUNNABLE
+        if not it.in_queue and not it.suspended and not it.dropped and it is not self.atomic:
+            it.in_queue = True
+            self.runq.append(it)
+        return True
+
     # ------------------------------------------------------------------ acting
     def run_step(self, it: Intention) -> None:
         """Execute one body formula of `it`'s top plan, then clear finished plans."""
@@ -258,7 +319,7 @@ class Runtime:
                 ins = code[pc]
             else:
                 try:
-                    ins.run(self, it, im)
+                    intended = ins.run(self, it, im)
                 except AslRuntimeError as exc:
                     if self.trail:
                         self.trail.clear()
@@ -277,6 +338,8 @@ class Runtime:
                     return
                 if self.trail:
                     self.trail.clear()
+                if intended:  # a sub-goal's plan was pushed (`intend_now`): it is
+                    return    # runnable, and its first step is the next cycle's
         if it.state is RUNNABLE and not it.dropped:
             self.pop_finished(it)
 

@@ -10,7 +10,9 @@ arguments, or general unification), its context inlined from `closures` (conditi
 as `if`s, belief queries as `for` loops over their solutions), so the per-plan tests
 of the general loop (`select_general`, kept for keys whose code would be too large)
 are decided once, at build time. Errors in a context are reported through
-`Runtime.context_error` and the next plan is tried, exactly as the general loop does.
+`Runtime.context_error` and the next plan is tried, exactly as the general loop does;
+when the caller passes a list `errors`, each one is appended to it instead (not warned:
+`Runtime.intend_now` then lets the event take the queue, where it is warned once).
 
 The library builds a key's selector on first use and forgets them all when a plan
 is added or removed (`PlanLibrary.selector`).
@@ -32,8 +34,8 @@ if TYPE_CHECKING:
     from mrss.agentspeak.runtime import Runtime
     from mrss.agentspeak.terms import Struct
 
-# (rt, event literal) -> (plan, frame), or whether some plan was relevant
-Selector = Callable[["Runtime", "Struct"], "tuple[Plan, list[Any]] | bool"]
+# (rt, event literal[, errors]) -> (plan, frame), or whether some plan was relevant
+Selector = Callable[..., "tuple[Plan, list[Any]] | bool"]
 
 MAX_PLANS = 64  # a key with more plans is selected by the general loop
 CONTEXT_ERRORS = (AslRuntimeError, RecursionError, ArithmeticError, ValueError)
@@ -42,7 +44,8 @@ CONTEXT_ERRORS = (AslRuntimeError, RecursionError, ArithmeticError, ValueError)
 def select_general(plans: list[Plan]) -> Selector:
     """The selection loop over `plans`, for any plan (no code generated)."""
 
-    def select(rt: Runtime, lit: Struct) -> tuple[Plan, list[Any]] | bool:
+    def select(rt: Runtime, lit: Struct,
+               errors: list[Any] | None = None) -> tuple[Plan, list[Any]] | bool:
         trail = rt.trail
         mark0 = len(trail)
         relevant = False
@@ -78,7 +81,10 @@ def select_general(plans: list[Plan]) -> Selector:
                         del trail[mark0:]
                         return plan, frame
             except CONTEXT_ERRORS as exc:
-                rt.context_error(plan, exc)
+                if errors is None:
+                    rt.context_error(plan, exc)
+                else:
+                    errors.append(exc)
             undo(trail, mark0)
         return relevant
 
@@ -140,7 +146,7 @@ def selector(plans: list[Plan], arity: int) -> Selector:
         return select_general(plans)
     g = _Gen()
     g.env.update(_unify=unify, _undo=undo, _ERRORS=CONTEXT_ERRORS)
-    lines = ["def select(rt, lit):", "    args = lit.args"]
+    lines = ["def select(rt, lit, errors=None):", "    args = lit.args"]
     if arity:
         lines.append(f"    {''.join(f'a{i}, ' for i in range(arity))}= args")
     lines += ["    trail = rt.trail", "    mark0 = len(trail)", "    relevant = False"]
@@ -151,7 +157,9 @@ def selector(plans: list[Plan], arity: int) -> Selector:
             lines += _binding(g, plan, p, arity)
             lines += ["        relevant = True", "        try:"]
             lines += _test(g, plan, p)
-            lines += ["        except _ERRORS as exc:", f"            rt.context_error({p}, exc)",
+            lines += ["        except _ERRORS as exc:", "            if errors is None:",
+                      f"                rt.context_error({p}, exc)", "            else:",
+                      "                errors.append(exc)",
                       "        break",
                       "    if len(trail) != mark0:",  # what this plan bound, undone
                       "        _undo(trail, mark0)"]

@@ -30,6 +30,7 @@ class CommandKind(StrEnum):
     READ = "read"  # snapshots and polls (ctl.tree, ctl.mind, ctl.snapshot), world model reads
     PERCEPT = "percept"  # a percept typed on the percept line (ctl.percept / percept)
     MISSION = "mission"  # the project's operator commands (area, cancel, declared forms)
+    ANSWER = "answer"  # an answer to the agent's question (`.ask_operator`)
     ACTION_CONTROL = "action_control"  # debug keys: cancel / suspend / resume one action
     TELEOP = "teleop"  # ctl.teleop
     DECOMMISSION = "decommission"  # ctl.decommission / ctl.recommission
@@ -42,8 +43,8 @@ class CommandKind(StrEnum):
 PERMISSIONS: dict[Role, frozenset[CommandKind]] = {
     Role.OBSERVER: frozenset({CommandKind.READ}),
     Role.OPERATOR: frozenset({CommandKind.READ, CommandKind.PERCEPT, CommandKind.MISSION,
-                              CommandKind.ACTION_CONTROL, CommandKind.TELEOP,
-                              CommandKind.WORLD_WRITE}),
+                              CommandKind.ANSWER, CommandKind.ACTION_CONTROL,
+                              CommandKind.TELEOP, CommandKind.WORLD_WRITE}),
     Role.COMMANDER: frozenset(CommandKind),
 }
 

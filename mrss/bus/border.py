@@ -5,26 +5,36 @@ starts, with a fresh key per run of its own (mrss/messages/credentials.py): the
 components of one node prove their incarnation to each other under that node's key.
 Between nodes the bus proxies translate at the border (mrss.bus.mesh):
 
-* each proxy sends its node's key to every peer in its `NodeBeat`, over the CurveZMQ
-  link: encrypted, to the peer whose public key it pinned, and taken only from a
-  connection authenticated as the node the beat names (the ZAP gate's user id);
+* each proxy sends its node's key and the run it is for (`run`, mrss/messages/
+  credentials.py) to every peer in its `NodeBeat`, over the CurveZMQ link: encrypted,
+  to the peer whose public key it pinned, and taken only from a connection
+  authenticated as the node the beat names (the ZAP gate's user id);
 * what a peer's connection carries is checked with that peer's key before local
   components see it: every envelope that claims an incarnation (inc > 0) must carry a
   credential the peer's key proves, and a `sup.start` proves its child's incarnation
-  the same way. A proven claim is re-minted: the envelope (and the announcement) leave
-  the border with this node's credential for the same (src, inc), so the local rule
-  (mrss/bus/incarnations.py) checks one key, its own, whatever node a sender runs on;
-* a claim the peer's key does not prove (or any claim before the peer's key is known)
+  the same way. A proven claim is translated and re-minted: incarnation i of the peer's
+  run r enters as `across_runs(r, i)`, with this node's credential for that number (the
+  envelope, and the announcement), so the local rule (mrss/bus/incarnations.py) checks
+  one key, its own, whatever node a sender runs on, and a peer's new run (its root
+  restarted: a new key, a higher run, incarnations from 1 again) ranks above its last
+  one: nothing a local component learnt of the last run silences the new one. The
+  translation is a function of what the peer's beat says, nothing this proxy keeps,
+  so a restart of this proxy changes no number;
+* a claim the peer's key does not prove (or any claim before the peer's key is known:
+  a recording of another run, the last run's messages after a restart of its root)
   is refused at the border and counted, like any refusal, in this process's
   `refusal_counts` (the proxy's `Rejections` report); an announcement it does not prove
   passes without its credential, so the local rule refuses (and counts) it as unproven;
-  a peer whose beats carry no key (an older release) is warned of once.
+  a peer whose beats carry no key (an older release) is warned of once, and so is a
+  peer whose new run has a lower number than its last (its clock went back and its run
+  directory was not kept: its components stay refused as dead here until they restart).
 
 So a forged heartbeat with a huge `inc`, sent to any node's local bus, is refused on
-every node; a recording of another run (another key on every node) proves nothing; and
-a component restart on one node (a new incarnation, proven by its node's key) raises
-the bar on all of them. Stale and replayed messages pass the border re-minted, as they
-came: each receiver's own rule refuses them, and observers (`Stale.KEEP`) see them.
+every node; a recording of another run (another key on every node) proves nothing; a
+component restart on one node (a new incarnation, proven by its node's key) raises the
+bar on all of them, and so does a restart of a node's root. Stale and replayed messages
+pass the border re-minted, as they came: each receiver's own rule refuses them, and
+observers (`Stale.KEEP`) see them.
 
 A node without a key (a bus nobody supervises: benchmarks, tests of the mesh alone)
 believes every claim, as a keyless bus does: its border passes everything unchanged.
@@ -33,18 +43,30 @@ believes every claim, as a keyless bus does: its border passes everything unchan
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from typing import Any
 
 import msgpack
 
 from mrss.bus.incarnations import ANNOUNCEMENT, Incarnations, Refusal
 from mrss.errors import BusError
-from mrss.messages import Envelope, IncarnationKey, SupEvent
+from mrss.messages import RUN_SPAN, Envelope, IncarnationKey, SupEvent, across_runs
 
 log = logging.getLogger("mrss.bus.mesh")
 # The envelope's `cred` as msgpack writes it: the key, then bin 8 of 16 bytes.
 CRED_FIELD = b"\xa4cred\xc4\x10"
 MAX_PROVEN = 4096  # (peer, src, inc, cred) proofs remembered; then start over
+
+
+@dataclass(frozen=True)
+class Minted:
+    """A peer's proven (src, inc) as it enters: the bytes of `src, inc` in the envelope
+    as the peer sent them and as they enter, and this node's credential."""
+
+    came: bytes
+    enters: bytes
+    inc: int
+    cred: bytes
 
 
 class Border:
@@ -55,12 +77,13 @@ class Border:
         self.own = own
         self._peers: dict[str, IncarnationKey] = {}
         self._counts: dict[str, Incarnations] = {}  # per peer: counted in refusal_counts
-        # (peer, src, inc, its cred) -> our cred: each proof checked and minted once
-        self._proven: dict[tuple[str, str, int, bytes], bytes] = {}
+        # (peer, src, inc, its cred) -> as it enters: each proof checked and minted once
+        self._proven: dict[tuple[str, str, int, bytes], Minted] = {}
         self._keyless: set[str] = set()
 
-    def learn(self, peer: str, key_hex: str) -> None:
-        """Peer `peer` (authenticated as it) runs with the incarnation key `key_hex`."""
+    def learn(self, peer: str, key_hex: str, run: int = 0) -> None:
+        """Peer `peer` (authenticated as it) runs with the incarnation key `key_hex`, for
+        its run `run`."""
         if self.own is None:
             return
         if not key_hex:
@@ -71,15 +94,22 @@ class Border:
                             "it runs this release too", self.me, peer)
             return
         try:
-            key = IncarnationKey(bytes.fromhex(key_hex), f"node {peer}")
+            key = IncarnationKey(bytes.fromhex(key_hex), f"node {peer}", run)
         except (ValueError, BusError):
             log.warning("node %s: node %s sent an incarnation key of the wrong shape; "
                         "its claims stay unproven", self.me, peer)
             return
-        if self._peers.get(peer) != key:
-            if peer in self._peers:
-                log.info("node %s: node %s runs with a new incarnation key (its root "
-                         "supervisor restarted)", self.me, peer)
+        last = self._peers.get(peer)
+        if last != key:
+            if last is not None and key.run <= last.run and key.run:
+                log.warning("node %s: node %s runs again (a new incarnation key) with run "
+                            "%d, not above its last run %d (its clock went back, and its "
+                            "run directory was not kept?): what components here learnt "
+                            "of its last run refuses its components as dead until they "
+                            "restart", self.me, peer, key.run, last.run)
+            elif last is not None:
+                log.info("node %s: node %s runs again (its root supervisor restarted): "
+                         "run %d, after run %d", self.me, peer, key.run, last.run)
             self._peers[peer] = key
             self._proven = {k: v for k, v in self._proven.items() if k[0] != peer}
 
@@ -100,42 +130,44 @@ class Border:
             self._refuse(peer, env, f"inc {env.inc}, before node {peer}'s incarnation "
                                     "key was heard")
             return None
-        ours = b""
+        minted: Minted | None = None
         if env.inc > 0:
-            ours = self._prove(peer, key, own, env)
-            if not ours:
-                self._refuse(peer, env, f"inc {env.inc}, {'a wrong' if env.cred else 'no'} "
-                                        f"credential from node {peer}")
+            minted = self._prove(peer, key, own, env)
+            if minted is None:
+                self._refuse(peer, env, _unproven(env, peer))
                 return None
-            if announced is None:  # the common case: swap the 16 bytes in place
-                at = payload.rfind(CRED_FIELD + env.cred)
-                if at >= 0:
-                    start = at + len(CRED_FIELD)
-                    return payload[:start] + ours + payload[start + len(ours):]
+            if announced is None:  # the common case: swap (src, inc) and the 16 bytes
+                crossed = _swapped(payload, env.cred, minted)
+                if crossed is not None:
+                    return crossed
         message: dict[str, Any] = msgpack.unpackb(payload, raw=False)
-        if env.inc > 0:
-            message["cred"] = ours
+        if minted is not None:
+            message["inc"], message["cred"] = minted.inc, minted.cred
         if announced is not None:
             child, inc, cred = announced
             detail = message["body"]["detail"]
-            if _proves(key, child, inc, cred):
-                detail["cred"] = own.credential(child, inc).hex()
+            if 0 < inc < RUN_SPAN and _proves(key, child, inc, cred):
+                detail["inc"] = across_runs(key.run, inc)
+                detail["cred"] = own.credential(child, detail["inc"]).hex()
             else:  # the local rule refuses it as unproven (and counts it)
                 detail.pop("cred", None)
         return bytes(msgpack.packb(message, use_bin_type=True))
 
     def _prove(self, peer: str, key: IncarnationKey, own: IncarnationKey,
-               env: Envelope) -> bytes:
-        """Our credential for env's (src, inc) if `key` proves its own; else b""."""
+               env: Envelope) -> Minted | None:
+        """env's (src, inc) as it enters, if `key` proves it; else None."""
         seen = (peer, env.src, env.inc, env.cred)
-        ours = self._proven.get(seen)
-        if ours is None:
-            if not key.vouches(env.src, env.inc, env.cred):
-                return b""
+        minted = self._proven.get(seen)
+        if minted is None:
+            if env.inc >= RUN_SPAN or not key.vouches(env.src, env.inc, env.cred):
+                return None
             if len(self._proven) >= MAX_PROVEN:
                 self._proven.clear()
-            ours = self._proven[seen] = own.credential(env.src, env.inc)
-        return ours
+            inc = across_runs(key.run, env.inc)
+            minted = self._proven[seen] = Minted(
+                _src_inc(env.src, env.inc), _src_inc(env.src, inc), inc,
+                own.credential(env.src, inc))
+        return minted
 
     def _refuse(self, peer: str, env: Envelope, detail: str) -> None:
         counter = self._counts.get(peer)
@@ -165,3 +197,26 @@ def _proves(key: IncarnationKey, child: str, inc: int, cred: str) -> bool:
         return key.vouches(child, inc, bytes.fromhex(cred))
     except ValueError:
         return False
+
+
+def _unproven(env: Envelope, peer: str) -> str:
+    if env.inc >= RUN_SPAN:
+        return f"inc {env.inc}, more than one run of node {peer} numbers"
+    return f"inc {env.inc}, {'a wrong' if env.cred else 'no'} credential from node {peer}"
+
+
+def _src_inc(src: str, inc: int) -> bytes:
+    """`src` and `inc` as the envelope's encoder writes them, one after the other."""
+    return b"\xa3src" + bytes(msgpack.packb(src)) + b"\xa3inc" + bytes(msgpack.packb(inc))
+
+
+def _swapped(payload: bytes, cred: bytes, minted: Minted) -> bytes | None:
+    """`payload` with its (src, inc) and credential as they enter, without decoding it
+    again; None if it is not laid out as our encoder writes it (then it is re-packed)."""
+    at = payload.find(minted.came)
+    end = payload.rfind(CRED_FIELD + cred)
+    if at < 0 or end < at + len(minted.came):
+        return None
+    end += len(CRED_FIELD)
+    return b"".join((payload[:at], minted.enters, payload[at + len(minted.came):end],
+                     minted.cred, payload[end + len(cred):]))

@@ -17,7 +17,8 @@ a multi-node project (`[nodes]`, mrss.config.nodes) runs this instead, one threa
 Everything a peer sends is checked before local components see it: the frames' shape,
 each envelope (`mrss.messages.decode`), the sender's state (a refused node's messages
 are dropped), and every incarnation it claims, at the border (mrss.bus.border: proven
-by the peer's incarnation key, which its beats carry, and re-minted with this node's);
+by the peer's incarnation key, which its beats carry with its run, and translated and
+re-minted with this node's);
 failures are logged (rate-limited) and counted, never raised.
 Handshake failures on the inbox (garbage, a wrong mechanism) are logged from the
 socket monitor.
@@ -112,6 +113,7 @@ class MeshProxy:
         # this node's incarnation key (its root supervisor's, through the bus endpoints)
         self.border = Border(settings.node, endpoints.authority())
         self._key_hex = self.border.own.export() if self.border.own is not None else ""
+        self._own_run = self.border.own.run if self.border.own is not None else 0
 
     def run(self, stop: threading.Event, ready: Callable[[], None] | None = None) -> None:
         ctx: sockets.Context = zmq.Context()  # own context: the ZAP gate covers only it
@@ -222,7 +224,7 @@ class MeshProxy:
     def _beat(self, outs: dict[str, sockets.Socket]) -> None:
         body = NodeBeat(node=self.settings.node, boot=self.boot,
                         components=list(self.settings.components.get(self.settings.node, [])),
-                        key=self._key_hex)
+                        key=self._key_hex, run=self._own_run)
         frames = list(encode(body, src=self._src))
         for out in outs.values():
             _send(out, frames)
@@ -241,7 +243,7 @@ class MeshProxy:
                 b = env.body
                 self._publish(backend, self.membership.beat(who, b.node, b.boot, env.ts))
                 if who == b.node and self.membership.admits(who):
-                    self.border.learn(who, b.key)
+                    self.border.learn(who, b.key, b.run)
                 return
             if not self.membership.admits(who):
                 self.dropped += 1

@@ -3,6 +3,7 @@
 ```
 mrss recording info FILE
 mrss recording export FILE [--topic PREFIX] [--format csv|jsonl] [--out FILE]
+mrss recording report FILE [--format text|json]
 ```
 
 `info` prints the project, the MRSS version that recorded it, its time span, each
@@ -10,7 +11,10 @@ channel (topic, schema, message count), the incarnations seen and the attachment
 `export` writes the messages on topics starting with PREFIX (default: all), for
 spreadsheets (`csv`: a column per field, nested maps as dotted names) or notebooks
 (`jsonl`: a JSON object a line with topic, log_time, publish_time and the message), to
-`--out` or stdout.
+`--out` or stdout. `report` prints the mission's figures (mrss/recording/mission_figures.py):
+per goal the time from its report to the first action and to done, actions per robot
+and outcome, restarts and faults, robot losses and reassignments, operator
+interventions per hour, and the share of goals done without an operator.
 
 Exit 0; 2 when FILE cannot be read, is not an MRSS MCAP recording (e.g. another tool's
 MCAP, an older-format `.mrssrec`: `mrss replay` plays those), or is cut or damaged:
@@ -23,6 +27,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import enum
+import json
 import sys
 import time
 from collections.abc import Iterator
@@ -32,6 +37,7 @@ from typing import IO
 from mrss.recording.contents import Contents, contents, export_csv, export_jsonl
 from mrss.recording.format import RecordingError
 from mrss.recording.mcap_reader import McapRecording
+from mrss.recording.mission_report import MissionReport, as_dict, to_text
 
 EXIT_ERROR = 2
 
@@ -39,6 +45,11 @@ EXIT_ERROR = 2
 class ExportFormat(enum.StrEnum):
     CSV = "csv"
     JSONL = "jsonl"
+
+
+class ReportFormat(enum.StrEnum):
+    TEXT = "text"
+    JSON = "json"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -53,6 +64,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         default=ExportFormat.JSONL, help="csv or jsonl (default jsonl)")
     export.add_argument("--out", type=Path, default=None, metavar="FILE",
                         help="where to write (default: stdout)")
+    report = actions.add_parser("report", help="mission figures: goals, actions, restarts, "
+                                               "losses, operator interventions")
+    report.add_argument("file", type=Path, help="an MCAP recording made by `mrss record`")
+    report.add_argument("--format", type=ReportFormat, choices=list(ReportFormat),
+                        default=ReportFormat.TEXT, help="text (Markdown) or json")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -61,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
         with path.open("rb") as source:
             if args.action == "info":
                 return _info(path, contents(source))
+            if args.action == "report":
+                return _report(path, MissionReport(source), args.format)
             return _export(args, source)
     except OSError as exc:
         print(f"mrss recording: cannot read {exc.filename or path}: {exc.strerror or exc}",
@@ -99,6 +117,23 @@ def _info(path: Path, found: Contents) -> int:
     if found.damage is not None:
         print(f"mrss recording: {path}: {found.damage} (the above is what comes before it)",
               file=sys.stderr)
+        return EXIT_ERROR
+    return 0
+
+
+def _report(path: Path, report: MissionReport, form: ReportFormat) -> int:
+    data = as_dict(report.figures)
+    if form is ReportFormat.JSON:
+        print(json.dumps({"file": str(path), "project": report.project,
+                          "warnings": report.warnings, **data}, indent=2))
+    else:
+        print(f"# Mission report: {report.project or path.name}\n")
+        print(to_text(report.figures, data))
+    for warning in report.warnings:
+        print(f"mrss recording: {path}: {warning}", file=sys.stderr)
+    if report.damage is not None:
+        print(f"mrss recording: {path}: {report.damage} (the figures are of what comes "
+              "before it)", file=sys.stderr)
         return EXIT_ERROR
     return 0
 

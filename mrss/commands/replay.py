@@ -5,6 +5,7 @@ FILE is an MCAP recording or one of the older MRSS format (`.mrssrec`); both are
 ```
 mrss replay FILE --to-bus --run-dir DIR [--speed X | --as-fast-as-possible] [--max-gap S]
                  [--prefix P ...] [--include-malformed]
+mrss replay FILE --agent EDITED.asl [--reasoner ID]       # what if: no bus (replay_agent.py)
 ```
 
 `--to-bus` says where the recording goes: onto a running system's bus (to look at a
@@ -42,6 +43,7 @@ from pathlib import Path
 
 from mrss.bus import Publisher
 from mrss.bus.wire import RELIABLE_PREFIX
+from mrss.commands import replay_agent
 from mrss.commands.busargs import (
     add_bus_arguments,
     connected_publisher,
@@ -81,9 +83,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="replay only topics starting with P (repeatable; default all)")
     parser.add_argument("--include-malformed", action="store_true",
                         help="also send messages recorded as malformed, as recorded")
+    parser.add_argument("--agent", type=Path, default=None, metavar="EDITED.asl",
+                        help="no bus: what if the recorded reasoner had run EDITED.asl? "
+                             "(mrss/commands/replay_agent.py)")
+    parser.add_argument("--reasoner", default="reasoner", metavar="ID",
+                        help="with --agent: the reasoner's component id in the recording")
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.agent is not None:
+        return replay_agent.run(args)
     path: Path = args.file
     if not args.to_bus:
         print(f"mrss replay: warning: replaying onto the bus without --to-bus is the former "

@@ -28,11 +28,18 @@ from mrss.messages.codec import (
     IdGenerator,
     build,
     decode,
+    decode_raw,
     encode,
     mark_replayed,
     new_id,
 )
-from mrss.messages.credentials import IncarnationKey, load_key
+from mrss.messages.credentials import (
+    RUN_SPAN,
+    IncarnationKey,
+    across_runs,
+    load_key,
+    within_run,
+)
 from mrss.messages.kinds import (
     KINDS,
     SCHEMA_VERSION,
@@ -112,10 +119,14 @@ __all__ = [
     "TaskAllocation",
     "Topic",
     "WaitReason",
+    "RUN_SPAN",
+    "across_runs",
     "build",
     "decode",
+    "decode_raw",
     "encode",
     "load_key",
     "mark_replayed",
     "new_id",
+    "within_run",
 ]

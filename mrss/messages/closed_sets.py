@@ -159,3 +159,4 @@ class AnswerVerdict(StrEnum):
     ALREADY = "already"  # the question was already answered, timed out or withdrawn
     UNKNOWN = "unknown"  # no such question
     INVALID = "invalid"  # not one of the question's choices
+    REFUSED = "refused"  # the sender may not answer (no credential, or its role may not)

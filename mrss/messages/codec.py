@@ -131,6 +131,13 @@ _REQUIRED = len(_ENVELOPE_FIELDS)
 
 def decode(topic: bytes, payload: bytes | bytearray | memoryview) -> Envelope:
     """Validate and decode one bus message; anything malformed raises DecodeError."""
+    return decode_raw(topic, payload)[1]
+
+
+def decode_raw(topic: bytes, payload: bytes | bytearray | memoryview
+               ) -> tuple[dict[str, Any], Envelope]:
+    """`decode`, also giving the envelope map as unpacked (for a recorder that writes the
+    message as it came, without unpacking it twice)."""
     try:
         topic_text = bytes(topic).decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -144,7 +151,7 @@ def decode(topic: bytes, payload: bytes | bytearray | memoryview) -> Envelope:
     except Exception as exc:  # msgpack raises many types for garbage input
         raise DecodeError(f"not msgpack: {exc.__class__.__name__}", topic=topic_text) from exc
     try:
-        return _envelope(topic_text, env)
+        return env, _envelope(topic_text, env)
     except DecodeError as exc:
         raise DecodeError(exc.reason, topic=topic_text) from None
     except RecursionError:

@@ -36,6 +36,7 @@ from mrss.messages.closed_sets import (
     SupEventKind,
     WaitReason,
 )
+from mrss.messages.credentials import MAX_RUN
 
 SCHEMA_VERSION = 1
 
@@ -294,14 +295,16 @@ class NodeBeat(Message):
     """A node is alive: sent by its bus proxy to every peer node (never to local
     subscribers). `boot` is random per proxy start, so two processes running as one node
     are told apart; `components` are the node's component ids; `key` is the hex of the
-    node's incarnation key, for the peer's border (mrss/bus/border.py; "": none). Beats
-    travel only on the CurveZMQ links between nodes, encrypted."""
+    node's incarnation key, for the peer's border (mrss/bus/border.py; "": none), and
+    `run` the number of the run that key is for (mrss/messages/credentials.py; 0: none).
+    Beats travel only on the CurveZMQ links between nodes, encrypted."""
 
     kind: ClassVar[str] = "node.beat"
     node: str
     boot: str
     components: list[str] = field(default_factory=list)
     key: str = field(default="", repr=False)
+    run: int = 0
 
     def topic(self) -> str:
         return f"node.beat.{self.node}"
@@ -309,6 +312,9 @@ class NodeBeat(Message):
     def validate(self) -> None:
         _nonempty(self.node, "node")
         _nonempty(self.boot, "boot")
+        if not 0 <= self.run <= MAX_RUN:
+            raise DecodeError(f"node {self.node}'s run {self.run} is not between 0 and "
+                              f"{MAX_RUN}")
 
 
 @dataclass(frozen=True)

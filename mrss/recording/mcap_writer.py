@@ -9,6 +9,9 @@ The layout (docs/tools.md, "The MCAP recording"):
   envelope; reliable data is recorded as the message it carries.
 * `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every telemetry record
   with a lat and lon, so Foxglove's Map panel shows the robots without configuration.
+* `world.geojson`: the world model's areas, zones and objects (not robots) as Foxglove's
+  `foxglove.GeoJSON`, written whole each time they change as the bus shows them
+  (mrss/recording/geojson.py).
 * `mrss.malformed`: what did not decode, its frames in base64 and the reason.
 * metadata `mrss` (version, creation time, bus endpoints, prefixes), `project` (its name
   and project.toml) at the start, `incarnations` (every sender's incarnations seen) at
@@ -26,31 +29,38 @@ import base64
 import json
 import time
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-import msgpack
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType
 
 import mrss
 from mrss.bus.wire import message_frames
+from mrss.errors import DecodeError
+from mrss.messages import DataReply, DataRequest, Envelope, RobotData, decode_raw
 from mrss.recording.format import RecordedMessage
+from mrss.recording.geojson import GEOJSON, GEOJSON_SCHEMA, GEOJSON_TOPIC, WorldShapes
+from mrss.recording.mcap_fast import FastWriter
 from mrss.recording.schemas import (
     ENCODING,
     LOCATION_FIX,
     LOCATION_FIX_SCHEMA,
     MALFORMED,
     MALFORMED_SCHEMA,
+    SCHEMA_PREFIX,
     all_kind_schemas,
+    json_bytes,
     location_fix,
-    schema_name,
-    to_json,
 )
 
 PROFILE = "mrss"
 MALFORMED_TOPIC = "mrss.malformed"
-CHUNK_BYTES = 1024 * 1024
+# 256 KiB of messages a chunk (before compression): a seek decompresses and parses one
+# chunk (1 MiB ones cost four times as long to seek in, `mrss bench record`), and zstd
+# compresses 256 KiB as well as 1 MiB.
+CHUNK_BYTES = 256 * 1024
 CHUNK_SECONDS = 1.0
 LOCATION_SUFFIX = ".location"
 ASL_MEDIA_TYPE = "text/x-agentspeak"
@@ -85,13 +95,14 @@ class McapRecordingWriter:
     def __init__(self, out: IO[bytes], *, created: float,
                  endpoints: dict[str, str] | None = None, prefixes: list[str] | None = None,
                  project: ProjectFiles | None = None) -> None:
-        self._mcap = Writer(out, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
+        self._mcap = FastWriter(out, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
         self._mcap.start(profile=PROFILE, library=f"mrss {mrss.__version__}")
         self._out = out
         self._schemas: dict[str, int] = {}
         self._channels: dict[tuple[str, str], int] = {}
         self._sequence: dict[int, int] = defaultdict(int)
         self._incarnations: dict[str, set[int]] = defaultdict(set)
+        self._world = WorldShapes()
         self._chunk_opened: float | None = None
         self._finished = False
         self.count = 0  # bus messages written: each envelope of a batch, and malformed ones
@@ -121,49 +132,71 @@ class McapRecordingWriter:
                 topic, "json", schema_id)
         return channel
 
-    def _add(self, channel: int, log_time: int, publish_time: int, value: Any) -> None:
+    def _add(self, channel: int, log_time: int, publish_time: int, data: bytes) -> None:
         self._sequence[channel] += 1
         self._mcap.add_message(channel, log_time=log_time, publish_time=publish_time,
-                               data=json.dumps(value, separators=(",", ":")).encode(),
-                               sequence=self._sequence[channel])
+                               data=data, sequence=self._sequence[channel])
 
-    def write(self, message: RecordedMessage) -> None:
-        """Append one ZeroMQ message as recorded: each envelope in it, or a malformed one."""
-        if not message.frames:
-            raise ValueError("a recorded message has at least one frame")
-        log_time = _ns(message.t)
+    def received(self, t: float, frames: list[bytes]) -> None:
+        """Check and write one ZeroMQ message as a recorder received it at `t` (Unix s):
+        each envelope in it, or, when any of them does not decode, the whole message as
+        malformed with the reason. Each envelope is unpacked once, for both."""
+        try:
+            decoded = [decode_raw(topic, payload) for topic, payload in message_frames(frames)]
+        except DecodeError as exc:
+            self._malformed(t, frames, exc.reason)
+            return
+        log_time = _ns(t)
         if self._chunk_opened is None:
             self._chunk_opened = time.monotonic()
-        if message.malformed:
-            self.count += 1
-            self.malformed += 1
-            self._add(self._channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
-                      log_time, {"frames": [base64.b64encode(f).decode() for f in message.frames],
-                                 "note": message.note})
-            return
-        for topic, payload in message_frames(list(message.frames)):
-            env = msgpack.unpackb(payload, raw=False, strict_map_key=True)
-            self._envelope(topic.decode(), env, log_time)
+        for env, envelope in decoded:
+            self._envelope(env, envelope, log_time)
 
-    def _envelope(self, topic: str, env: dict[str, Any], log_time: int) -> None:
-        kind = env["kind"]
-        name = schema_name(kind)
-        publish_time = _ns(float(env["ts"]))
-        self._incarnations[env["src"]].add(env["inc"])
-        cred = env.get("cred")
-        value = to_json(env)
-        value.pop("op", None)  # an operator's session credential is a secret: never kept
-        if cred is not None:
-            value["cred"] = base64.b64encode(cred).decode("ascii")
-        self._add(self._channel(topic, name, _KIND_SCHEMAS[name]), log_time, publish_time,
-                  value)
+    def write(self, message: RecordedMessage) -> None:
+        """Append one ZeroMQ message as recorded: each envelope in it, or a malformed one
+        (what its note says, or what does not decode)."""
+        if not message.frames:
+            raise ValueError("a recorded message has at least one frame")
+        if message.malformed:
+            self._malformed(message.t, message.frames, message.note)
+        else:
+            self.received(message.t, list(message.frames))
+
+    def _malformed(self, t: float, frames: Sequence[bytes], note: str) -> None:
+        if self._chunk_opened is None:
+            self._chunk_opened = time.monotonic()
         self.count += 1
-        if kind == "robot.data":
-            body = env["body"]
-            fix = location_fix(body["robot"], float(env["ts"]), body["data"])
+        self.malformed += 1
+        log_time = _ns(t)
+        self._add(self._channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
+                  log_time, json_bytes({"frames": [base64.b64encode(f).decode() for f in frames],
+                                        "note": note}))
+
+    def _envelope(self, env: dict[str, Any], envelope: Envelope, log_time: int) -> None:
+        name = SCHEMA_PREFIX + env["kind"]
+        publish_time = _ns(envelope.ts)
+        self._incarnations[envelope.src].add(envelope.inc)
+        if "cred" in env or "op" in env:
+            env = dict(env)
+            env.pop("op", None)  # an operator's session credential is a secret: never kept
+            if "cred" in env:  # base64 text, as the schema says (not a tagged object)
+                env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
+        self._add(self._channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time,
+                  publish_time, json_bytes(env))
+        self.count += 1
+        body = envelope.body
+        kind = type(body)
+        if kind is RobotData:
+            assert isinstance(body, RobotData)  # for mypy
+            fix = location_fix(body.robot, envelope.ts, body.data)
             if fix is not None:
-                self._add(self._channel(f"robot.{body['robot']}{LOCATION_SUFFIX}", LOCATION_FIX,
-                                        LOCATION_FIX_SCHEMA), log_time, publish_time, fix)
+                self._add(self._channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
+                                        LOCATION_FIX_SCHEMA), log_time, publish_time,
+                          json_bytes(fix))
+        elif (kind is DataRequest or kind is DataReply) \
+                and self._world.seen(envelope.topic, body):
+            self._add(self._channel(GEOJSON_TOPIC, GEOJSON, GEOJSON_SCHEMA), log_time,
+                      publish_time, json_bytes(self._world.collection()))
 
     def flush(self) -> None:
         """Close the open chunk if it is `CHUNK_SECONDS` old (it then reaches the OS)."""

@@ -2,13 +2,15 @@
 
 Behind `mrss record` and the dashboard's Ctrl+P "record the bus". The proxy's welcome and
 reliable-channel acknowledgements are not bus traffic and are left out; a message that
-does not decode is recorded with the reason (`fault_of`).
+does not decode is recorded with the reason (`fault_of`; a writer with `received`, the
+MCAP writer, checks each message itself as it writes it, unpacking it once).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 import zmq
@@ -27,7 +29,8 @@ _NOBLOCK = int(zmq.NOBLOCK)
 
 
 class Writer(Protocol):
-    """Where a recorder writes: the MCAP writer, or the older format's (tests)."""
+    """Where a recorder writes: the MCAP writer, the Foxglove bridge, the older format's.
+    One that also has `received(t, frames)` is given the frames unchecked."""
 
     def write(self, message: RecordedMessage) -> None: ...
 
@@ -81,6 +84,8 @@ class BusRecorder:
             writer.flush()  # what it decides to write out, a recorder killed now keeps
 
     def _drain(self, writer: Writer) -> None:
+        received_by: Callable[[float, list[bytes]], None] | None = getattr(
+            writer, "received", None)
         while True:
             try:
                 frames = self._sock.recv_multipart(_NOBLOCK)
@@ -89,7 +94,10 @@ class BusRecorder:
             received = time.time()
             if frames == [WELCOME] or (len(frames) == 2 and is_ack(frames[0])):
                 continue  # a proxy restart's greeting, a reliable ack: not traffic
-            writer.write(RecordedMessage(received, tuple(frames), fault_of(frames)))
+            if received_by is not None:
+                received_by(received, frames)
+            else:
+                writer.write(RecordedMessage(received, tuple(frames), fault_of(frames)))
 
     def close(self) -> None:
         self._sock.close(0)

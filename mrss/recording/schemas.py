@@ -17,6 +17,7 @@ from __future__ import annotations
 import base64
 import dataclasses
 import enum
+import json
 import math
 import types
 import typing
@@ -173,6 +174,24 @@ def to_json(value: Any) -> Any:
     if kind is float and not math.isfinite(value):
         return {"$float": repr(value)}
     return value
+
+
+def _tag_bytes(value: Any) -> Any:
+    if type(value) is bytes:
+        return {"$bytes": base64.b64encode(value).decode("ascii")}
+    raise TypeError(f"{type(value).__name__} is not JSON")
+
+
+# The C encoder does the common case; `default` tags bytes as `to_json` does.
+_ENCODE = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_tag_bytes).encode
+
+
+def json_bytes(value: Any) -> bytes:
+    """`value` (msgpack data) as compact JSON text, tagged as `to_json` tags it."""
+    try:
+        return _ENCODE(value).encode()
+    except ValueError:  # a NaN or an infinity somewhere: the slow path tags it
+        return json.dumps(to_json(value), separators=(",", ":")).encode()
 
 
 def from_json(value: Any) -> Any:

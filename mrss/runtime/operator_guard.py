@@ -19,6 +19,7 @@ world model: HTTP writes) asks its `OperatorGuard` before it acts:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,7 +30,7 @@ from mrss.auth.sessions import claimed_user, verify
 from mrss.auth.store import AuthError, OperatorStore, store_path
 from mrss.edge.rejections import RejectionLog
 from mrss.errors import ConfigError
-from mrss.messages import Envelope
+from mrss.messages import Envelope, Message
 
 LOCAL = "local operator"  # the author of a command when no users are configured
 
@@ -97,5 +98,28 @@ def percept_guard(guard: OperatorGuard, handler: Callable[[Envelope], None]
                                            f"percept {body.op} {body.literal}"[:120])
             if not verdict.ok:
                 return
+        handler(env)
+    return checked
+
+
+def answer_guard(guard: OperatorGuard, handler: Callable[[Envelope], None],
+                 reply: Callable[[Message], object]) -> Callable[[Envelope], None]:
+    """`handler`, behind the check of answers to the agent's questions
+    (`CommandKind.ANSWER`): with users configured, an answer needs a credential whose
+    role may answer; a refused one is told so (`AnswerReply` REFUSED) and changes
+    nothing, a taken one is recorded as given by the identity the credential proves
+    (never by the name the answer claims)."""
+    from mrss.messages import AnswerReply, AnswerVerdict, QuestionAnswer
+
+    def checked(env: Envelope) -> None:
+        body = env.body
+        if isinstance(body, QuestionAnswer) and env.inc <= 0 and guard.active:
+            verdict = guard.check_envelope(env, CommandKind.ANSWER,
+                                           f"answer {body.answer!r} to {body.id}"[:120])
+            if not verdict.ok:
+                reply(AnswerReply(body.request, body.id, AnswerVerdict.REFUSED,
+                                  f"answer refused: {verdict.reason}: nothing changed"))
+                return
+            env = dataclasses.replace(env, body=dataclasses.replace(body, by=verdict.who))
         handler(env)
     return checked

@@ -95,6 +95,14 @@ c(2)[source(self)].
 """, ["20)", "20", "yes", "[0,3,6]", "llo", "m1(p__1)", "m1(lab2)",
       'm2(p__1[source(self),test,url("file:substring_and_member.asl")])',
       'm2(lab2[source(self),test,url("file:substring_and_member.asl")])', "m3", "m3"]),
+    # Jason: stdlib/substring.java, the backtracking form with four arguments: End is
+    # unified with `(pos-2)+s0.length()` after `pos++`, the index of the last character
+    "substring_end_positions": ("""\
+!g.
++!g <- .findall(P, .substring("b", "abcb", P, 2), L1); .print(L1);
+   .findall([P,E], .substring("bc", "abcbc", P, E), L2); .print(L2);
+   .findall(P, .substring("b", "abcb", P, 3), L3); .print(L3).
+""", ["[]", "[[1,2],[3,4]]", "[3]"]),
 }
 
 

@@ -32,7 +32,7 @@ import zmq
 
 from mrss.bus import BusEndpoints, Stale, Subscriber
 from mrss.cli import main
-from mrss.messages import Envelope, Heartbeat, LogRecord, Rejections, encode
+from mrss.messages import Envelope, Heartbeat, LogRecord, Rejections, encode, within_run
 from mrss.testing import wait_until
 from tests.nodes.test_netns import Net, Procs, net  # noqa: F401 (the fixture)
 
@@ -63,12 +63,19 @@ class Bus:
         with self._lock:
             return list(self.seen)
 
-    def heard(self, src: str = "talker", inc: int | None = None) -> list[str]:
-        """What the listener took from `src` (of incarnation `inc`)."""
+    def heard(self, src: str = "talker", inc: int | None = None, by: str = "listener"
+              ) -> list[str]:
+        """What `by` took from `src` (of incarnation `inc`, as `src`'s own root counts)."""
+        return [tick for number, tick in self.taken(src, by)
+                if inc is None or within_run(number) == inc]
+
+    def taken(self, src: str, by: str) -> list[tuple[int, str]]:
+        """(incarnation as `by` knew it, tick) of what `by` took from `src`, in order: a
+        peer node's incarnations as its border numbers them (docs/bus.md)."""
         records = [e.body.message for e in self.envelopes() if isinstance(e.body, LogRecord)
-                   and e.body.component == "listener"]
+                   and e.body.component == by]
         found = [m for m in map(HEARD.fullmatch, records) if m and m[1] == src]
-        return [m[3] for m in found if inc is None or int(m[2]) == inc]
+        return [(int(m[2]), m[3]) for m in found]
 
     def refused(self, component: str, kind: str) -> int:
         reports = [e.body for e in self.envelopes() if isinstance(e.body, Rejections)

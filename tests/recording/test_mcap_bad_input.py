@@ -4,6 +4,7 @@ replay` say what is wrong and where (the byte offset), never with a traceback.""
 from __future__ import annotations
 
 import io
+import json
 from collections.abc import Callable
 from pathlib import Path
 
@@ -61,7 +62,8 @@ DAMAGES = [truncated, flipped, foreign, not_mcap]
 
 @pytest.mark.parametrize("damage", DAMAGES)
 @pytest.mark.parametrize("command", [["info"], ["export", "--format", "csv"],
-                                     ["export", "--format", "jsonl"]])
+                                     ["export", "--format", "jsonl"], ["report"],
+                                     ["report", "--format", "json"]])
 def test_recording_commands_name_the_damage_and_its_offset(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str],
         damage: Callable[[bytes, list[int]], tuple[bytes, int, str]]) -> None:
@@ -82,6 +84,19 @@ def test_the_intact_part_of_a_damaged_file_is_still_shown(
     assert main(["recording", "export", str(path), "--format", "jsonl"]) == 2
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 20  # the two complete chunks
+
+
+def test_the_report_of_a_damaged_file_counts_what_comes_before_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    data, offset, _ = truncated(*good_recording())
+    path = tmp_path / "cut.mcap"
+    path.write_bytes(data)
+    assert main(["recording", "report", str(path), "--format", "json"]) == 2
+    out, err = capsys.readouterr()
+    report = json.loads(out)
+    assert report["span_s"] == 19.0  # the percepts of the two complete chunks: 1 s apart
+    assert "the recording has no project" in err
+    assert f"at byte offset {offset}: truncated record" in err
 
 
 @pytest.mark.parametrize("damage", DAMAGES)

@@ -12,7 +12,7 @@ import pytest
 from rich.text import Text
 
 from mrss.errors import ConfigError
-from mrss.messages import ActionRequest, ActionStatus, Percept, RobotData, SupEvent
+from mrss.messages import ActionRequest, ActionStatus, Percept, RobotData, SupEvent, across_runs
 from mrss.tui import operator
 from mrss.tui.discovery import find_endpoints
 from mrss.tui.models.actions import ActionsModel, ActionView, bar
@@ -134,6 +134,16 @@ def test_supervision_model_has_a_level_per_node_and_marks_a_lost_nodes_component
                                node="base", detail={"state": "up"}), "node.base", 104.0)
     assert model.nodes["demo/field"].state == "up"
     assert model.nodes["demo/field/beacon"].state == "running"  # as before the loss
+
+
+def test_a_peer_nodes_component_shows_its_incarnation_as_its_root_counts() -> None:
+    """Base's border numbers field's incarnations by field's run (docs/bus.md); the
+    dashboard shows them as field's root counts them, as field's tree does."""
+    model = SupervisionModel()
+    model.apply_event(SupEvent(event="start", child="beacon", supervisor="demo", pid=10,
+                               node="field", detail={"inc": across_runs(1_800_000_000_000, 2)}),
+                      "supervisor", 100.0)
+    assert model.nodes["demo/field/beacon"].incarnation == 2
 
 
 def test_a_components_own_tree_hangs_under_the_component() -> None:

@@ -5,6 +5,7 @@ the time a seek is typed as; bad files and options refused with a clear error.""
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import itertools
 import pickle
@@ -83,8 +84,18 @@ def comparable(app: ReplayApp) -> dict[str, Any]:
     state = pickle.loads(capture(app.intake.models))
     state["topics"] = {topic: (stats.count, [e.id for e in stats.recent])
                        for topic, stats in app.topics.topics.items()}
-    return {name: {k: repr(v) if isinstance(v, itertools.count) else v
-                   for k, v in attributes.items()} for name, attributes in state.items()}
+    return {name: {k: _value(v) for k, v in attributes.items()}
+            for name, attributes in state.items()}
+
+
+def _value(v: Any) -> Any:
+    """A model attribute by value: counters by their repr, a model held by a model (the
+    actions' tasks) by its attributes."""
+    if isinstance(v, itertools.count):
+        return repr(v)
+    if hasattr(v, "__dict__") and not dataclasses.is_dataclass(v):
+        return {k: _value(x) for k, x in vars(v).items()}
+    return v
 
 
 def test_a_seek_from_a_keyframe_gives_the_state_of_applying_everything_from_the_start(

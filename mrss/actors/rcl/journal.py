@@ -21,6 +21,10 @@ repeating it after that is a new action. What compaction removed is kept in one 
 (`compaction`: how many actions in all, and the watermark `before`, the latest cutoff:
 no terminal action last updated before it is left), so a reader of the journal (the
 chaos checker) can tell an action compacted away from one never journaled.
+
+One idea in one module: the RCL's one durable record, one SQLite file whose tables are
+written together in single transactions (an award with its action, a task with its
+waiting action); split by table, a reader would lose what commits with what.
 """
 
 from __future__ import annotations

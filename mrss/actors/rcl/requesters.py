@@ -129,7 +129,12 @@ class Requesters:
                 self.routes.publish_status(entry.action, repeat=True)
                 sent += 1
         if query.requester:
-            items = self.orphans.inventory(self.journal, query.requester, query.inc)
+            # The asker's incarnation as this node knows it (its proven `inc`: from
+            # another node, translated at the border, mrss/bus/border.py), as the
+            # journal holds it; the reply repeats the asker's own words.
+            asking = requester.inc if requester.src == query.requester and \
+                requester.inc > 0 else query.inc
+            items = self.orphans.inventory(self.journal, query.requester, asking)
             try:
                 self.publish(ActionInventory(requester=query.requester, inc=query.inc,
                                              actions=items))

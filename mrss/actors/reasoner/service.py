@@ -55,7 +55,7 @@ from mrss.options import Check, Option, OptionValues
 from mrss.runtime.busport import ZmqBusPort, bus_port
 from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.datalayer_client import DataLayerClient
-from mrss.runtime.operator_guard import OperatorGuard, percept_guard
+from mrss.runtime.operator_guard import OperatorGuard, answer_guard, percept_guard
 
 log = logging.getLogger("mrss.reasoner")
 
@@ -166,7 +166,8 @@ class ReasonerComponent(Component):
         # An operator's percept (from no supervised component) needs a credential whose
         # role may send percepts, once the project has users (mrss.runtime.operator_guard)
         operators = OperatorGuard(ctx.project_dir, log)
-        self._sub.start(percept_guard(operators, owners.guard(reasoner.on_message)))
+        self._sub.start(answer_guard(operators, percept_guard(
+            operators, owners.guard(reasoner.on_message)), publisher.publish))
         self._rx = ReliableReceiver(endpoints, src=ctx.name, inc=ctx.incarnation,
                                     channel=PERCEPT_CHANNEL,
                                     handler=percept_guard(operators, reasoner.on_message),

@@ -201,7 +201,9 @@ def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
     As Jason 3.1 (stdlib/substring.java): `.substring(X, T, Start[, End])` with X free
     gives X the text of T from Start to End (T's end by default), and with T free
     (`.substring("a(10,20)", X, 5, 7)`, kept by Jason for compatibility) the other way
-    round; with neither free, End is ignored."""
+    round. Otherwise every position Pos of S in T, and End, when given, is unified
+    with Pos + length(S) - 1 (the index of the match's last character: Jason's
+    `(pos-2)+s0.length()` after its `pos++`)."""
     first, second = deref(args[0]), deref(args[1])
     start_at = deref(args[2]) if len(args) > 2 else None
     if type(start_at) in (int, float) and (type(first) is Var or type(second) is Var):
@@ -217,10 +219,14 @@ def substring(ctx: IAContext, args: list[Any]) -> Iterator[None]:
         return
     sub = string_arg(ctx, args[0])
     whole = string_arg(ctx, args[1])
+    trail = ctx.runtime.trail
     start = whole.find(sub)
     while start >= 0:
-        if len(args) < 3 or ctx.unify(args[2], start):
+        mark = len(trail)
+        if len(args) < 3 or (ctx.unify(args[2], start)
+                             and (len(args) < 4 or ctx.unify(args[3], start + len(sub) - 1))):
             yield
+        undo(trail, mark)
         start = whole.find(sub, start + 1)
 
 

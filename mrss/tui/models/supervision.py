@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from mrss.messages import Rejections, SupEvent
+from mrss.messages import Rejections, SupEvent, within_run
 from mrss.supervision.nodes import NODE_DOWN, NODE_UP
 
 # The `src` of the root supervisor's publisher in `mrss supervise`.
@@ -122,7 +122,7 @@ class SupervisionModel:
             node.refused = 0
             inc = event.detail.get("inc")
             if isinstance(inc, int) and not isinstance(inc, bool):
-                node.incarnation = inc
+                node.incarnation = within_run(inc)  # a peer node's: as its own root counts
         elif kind == "exit":
             node.state = "stopped" if event.reason.startswith("shutdown") else "exited"
             node.pid, node.up_since, node.last_reason = 0, None, event.reason

@@ -21,7 +21,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mrss.messages import Envelope
+from mrss.messages import Envelope, within_run
 
 HISTORY = 50  # messages kept per topic
 WINDOW = 10.0  # seconds of the rate's sliding window
@@ -180,5 +180,6 @@ def summary(env: Envelope, width: int = 100) -> str:
     stamp = time.strftime("%H:%M:%S", time.localtime(env.ts)) + f".{int(env.ts * 1000) % 1000:03d}"
     body = json.dumps(_plain(envelope_dict(env)["body"]), ensure_ascii=False,
                       separators=(",", ":"))
-    line = f"{stamp} {env.src}#{env.inc}{' (replayed)' if env.replayed else ''} {body}"
+    # a peer node's sender as its own root counts (the border ranks runs: docs/bus.md)
+    line = f"{stamp} {env.src}#{within_run(env.inc)}{' (replayed)' if env.replayed else ''} {body}"
     return line if len(line) <= width else line[: width - 1] + "…"

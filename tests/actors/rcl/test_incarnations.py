@@ -5,7 +5,13 @@ from __future__ import annotations
 
 from mrss.actors.rcl.journal import Requester
 from mrss.api import Action, CommandRejected, CommandTimeout, LinkDown, Skill, TransientError
-from mrss.messages import ActionInventory, ActionQuery, ActionRequest, FailureCause
+from mrss.messages import (
+    ActionInventory,
+    ActionQuery,
+    ActionRequest,
+    FailureCause,
+    across_runs,
+)
 from mrss.testing import wait_until
 from tests.actors.rcl.rcl_sim import RclEnv
 
@@ -63,6 +69,28 @@ def test_a_new_incarnation_adopts_an_orphan_by_asking_for_its_uuid(rcl_env: RclE
     assert "old1" in core.observers.active()
     states = [state.value for state, _ in rcl_env.journal.transitions("old1")]
     assert states == ["pending", "running"]  # never cancelled and started again
+
+
+def test_a_reasoner_on_another_node_adopts_across_its_nodes_root_restart(
+        rcl_env: RclEnv) -> None:
+    """The reasoner runs on another node: the RCL knows it by the numbers the border
+    gives (mrss/bus/border.py), while the reasoner asks in its own (1 again after its
+    node's root restarted). Its new run's inventory holds what the last run left, and
+    answers in the asker's words."""
+    core = rcl_env.start()
+    last_run, new_run = across_runs(1_700_000_000_000, 3), across_runs(1_700_000_100_000, 1)
+    core.submit(_req("old1", "ugv1", "a1"), Requester("reasoner", last_run))
+    wait_until(rcl_env.statuses.reached("old1", "running"))
+
+    core.requesters.answer_query(ActionQuery(requester="reasoner", inc=1),
+                                 Requester("reasoner", new_run))
+    inventories = [m for m in rcl_env.statuses.others if isinstance(m, ActionInventory)]
+    assert len(inventories) == 1 and inventories[0].inc == 1  # as the reasoner asked
+    assert [item["uuid"] for item in inventories[0].actions] == ["old1"]
+    core.submit(_req("old1", "ugv1", "a1"), Requester("reasoner", new_run))  # adopted
+    rcl_env.now += core.requesters.orphans.grace_suspended + 1
+    assert core.requesters.cancel_orphans() == []
+    assert "old1" in core.observers.active()
 
 
 def test_reconciliation_answers_each_known_uuid_from_the_journal(rcl_env: RclEnv) -> None:

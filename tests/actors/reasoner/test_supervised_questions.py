@@ -22,6 +22,9 @@ from typing import Any
 
 import pytest
 
+from mrss.auth.roles import Role
+from mrss.auth.sessions import mint
+from mrss.auth.store import Identity, OperatorStore, store_path
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import (
     AnswerReply,
@@ -77,12 +80,13 @@ AGENT = """\
 class Run:
     """One `mrss supervise asking` and what the test saw on the bus."""
 
-    def __init__(self, root: Path) -> None:
+    def __init__(self, root: Path, users: bool = False) -> None:
         self.root = root
         folder = root / "projects" / PROJECT
         folder.mkdir(parents=True)
         (folder / "project.toml").write_text(PROJECT_TOML)
         (folder / "agent.asl").write_text(AGENT)
+        self.credentials = _users(folder) if users else {}
         self.run_dir = root / "run"
         self.run_dir.mkdir()
         endpoints = BusEndpoints.ipc(self.run_dir)
@@ -134,21 +138,25 @@ class Run:
 
         def heard() -> list[OperatorQuestion]:
             sent[0] += 1
-            if sent[0] % 50 == 1:
+            if sent[0] % 50 == 1:  # with users, as the operator otto (a percept needs it)
+                self.pub.operator = self.credentials.get("otto", "")
                 self.pub.publish(Percept(literal=literal))
             return [q for q in self.bodies(OperatorQuestion) if q.question == question]
         found: list[OperatorQuestion] = wait_until(heard, 60, interval=0.02,
                                                    message=f"question for {literal}")
         return found[0]
 
-    def answer(self, qid: str, choice: str, by: str, request: str) -> AnswerReply:
-        """Send the answer until the reasoner replies (as the dashboard does)."""
+    def answer(self, qid: str, choice: str, by: str, request: str,
+               credential: str = "") -> AnswerReply:
+        """Send the answer until the reasoner replies (as the dashboard does), with an
+        operator's credential if given."""
         msg = QuestionAnswer(id=qid, answer=choice, by=by, request=request)
         sent = [0]
 
         def replied() -> list[AnswerReply]:
             sent[0] += 1
             if sent[0] % 50 == 1:
+                self.pub.operator = credential
                 self.pub.publish(msg)
             return [r for r in self.bodies(AnswerReply) if r.request == request]
         found: list[AnswerReply] = wait_until(replied, 60, interval=0.02,
@@ -168,10 +176,21 @@ class Run:
             self._log.close()
 
 
-@pytest.fixture()
-def run() -> Iterator[Run]:
+def _users(folder: Path) -> dict[str, str]:
+    """The project's operators: otto (operator, a personal token) and olga (observer, a
+    session credential, as the dashboard makes after her login); their credentials."""
+    otto = "mrss_" + "q" * 43
+    store = OperatorStore.new(store_path(folder))
+    store = store.with_user("otto", Role.OPERATOR, token=otto)
+    store = store.with_user("olga", Role.OBSERVER, password="olga-secret-1")
+    store.save()
+    return {"otto": otto, "olga": mint(store, Identity("olga", Role.OBSERVER))}
+
+
+@pytest.fixture(params=[False], ids=["no-users"])
+def run(request: pytest.FixtureRequest) -> Iterator[Run]:
     root = Path(tempfile.mkdtemp(prefix="mrss-ask-"))
-    system = Run(root)
+    system = Run(root, users=request.param)
     try:
         yield system
     finally:
@@ -229,3 +248,23 @@ def test_a_pending_question_survives_a_reasoner_kill_and_its_answer_is_recorded(
         "pending", "timed_out"]
     assert sum(1 for r in found if r["subject"] == asked.id and
                r["detail"]["state"] == "pending") == 1  # asked once: the adoption is a repeat
+
+
+@pytest.mark.parametrize("run", [True], ids=["users"], indirect=True)
+def test_with_users_an_observer_may_not_answer_and_an_answer_is_the_credentials_own(
+        run: Run) -> None:
+    run.reasoner()
+    asked = run.ask("enter(z1)", "Send the UGV into zone z1?")
+    stranger = run.answer(asked.id, "go", "otto", "req-1")  # no credential at all
+    assert stranger.verdict is AnswerVerdict.REFUSED, stranger
+    observer = run.answer(asked.id, "go", "olga", "req-2", run.credentials["olga"])
+    assert observer.verdict is AnswerVerdict.REFUSED
+    assert "the observer role may not send answer commands" in observer.message
+    assert run.printed("entering z1: go") == 0 and not run.questions(QuestionState.ANSWERED)
+    # an operator's answer is taken, as given by the identity its credential proves
+    taken = run.answer(asked.id, "hold", "mallory", "req-3", run.credentials["otto"])
+    assert taken.verdict is AnswerVerdict.ACCEPTED, taken
+    answered = wait_until(lambda: run.questions(QuestionState.ANSWERED), 60,
+                          message="the answer announced")[0]
+    assert answered.by == "otto (operator)"
+    wait_until(lambda: run.printed("entering z1: hold"), 60, message=run.log_text())

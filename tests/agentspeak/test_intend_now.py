@@ -1,0 +1,99 @@
+"""A sub-goal or belief event that a body posts while no other event is queued is
+handled at once (`Runtime.intend_now`) instead of going through the event queue: the
+same cycles, the same interleaving of intentions, the same failures and warnings as
+when every event takes the queue (the reference: `intend_now` switched off)."""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from mrss.agentspeak.agent import Agent
+from mrss.agentspeak.runtime import Runtime
+
+PROGRAMS = {
+    "interleaved": """!a. !b.
++!a <- .print(a1); !e; .print(a2); +x(a); .print(a3); -x(a); .print(a4); !f(1); .print(a5).
++!b <- .print(b1); !e; .print(b2); +x(b); .print(b3); -x(b); .print(b4); !f(2); .print(b5).
++!e.
++!f(N) : N > 1 <- .print(f, N).
++!f(N) <- !e.
++x(W) <- .print(got, W).
+-x(W).
+""",
+    "recursion": """!count(0). !other.
++!count(10) <- .print(done).
++!count(N) <- .print(N); !count(N + 1).
++!other <- .print(o1); .print(o2); .print(o3).
+""",
+    "failure": """!g. !h.
++!g <- .print(g1); !missing(1); .print(never).
++!h <- .print(h1); !sub; .print(h2).
++!sub : false <- true.
+-!g[error(E)] <- .print(failed, E).
+-!h[error(E)] <- .print(hfailed, E).
+""",
+    "context error": """!g.
++!g <- !p(0); .print(after).
++!p(X) : 1 / X > 0 <- .print(div).
++!p(X) <- .print(fallback).
+""",
+    "atomic": """!a. !b.
++!a <- .print(a1); !at; .print(a2).
++!b <- .print(b1); .print(b2); .print(b3).
+@at[atomic] +!at <- .print(at1); .print(at2).
+""",
+    "belief events": """!a. !b.
++!a <- +p(1); +p(1); -p(2); -p(1); -+q(1); -+q(2); .print(a).
++!b <- .print(b1); +p(3); .print(b2).
++p(X) <- .print(plus, X).
+-p(X) <- .print(minus, X).
++q(X) <- .print(q, X).
+-q(X) <- .print(unq, X).
+""",
+}
+
+
+def _run(src: str) -> tuple[list[str], int, list[str]]:
+    out: list[str] = []
+    agent = Agent(src, out=out.append)
+    busy = agent.run_until_idle()
+    return out, busy, agent.beliefs()
+
+
+@pytest.mark.parametrize("name", sorted(PROGRAMS))
+def test_same_as_through_the_queue(name: str, monkeypatch: pytest.MonkeyPatch,
+                                   caplog: pytest.LogCaptureFixture) -> None:
+    src = PROGRAMS[name]
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        fused = _run(src)
+    fused_log = [r.getMessage() for r in caplog.records]
+    caplog.clear()
+    monkeypatch.setattr(Runtime, "intend_now", lambda *args: False)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        queued = _run(src)
+    assert fused == queued
+    assert fused_log == [r.getMessage() for r in caplog.records]
+    assert fused[0], "the program printed something"
+
+
+def test_a_context_error_is_warned_once(caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        out, _, _ = _run(PROGRAMS["context error"])
+    assert out == ["fallback", "after"]
+    warnings = [r.getMessage() for r in caplog.records if "error in the context" in
+                r.getMessage()]
+    assert len(warnings) == 1, warnings
+
+
+def test_recursion_stays_flat() -> None:
+    """Tail recursion handled at once still replaces the frame (the stack stays one
+    plan deep below the recursion's root)."""
+    depth: list[int] = []
+    agent = Agent("!count(0).\n+!count(500).\n"
+                  "+!count(N) <- .my_name(_); !count(N + 1).\n", out=lambda _: None)
+    while agent.step():
+        for it in agent.intentions.values():
+            depth.append(len(it.stack))
+    assert depth and max(depth) == 1
