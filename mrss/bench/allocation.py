@@ -4,8 +4,8 @@ Per fleet size N (10, 100, 200; `--quick`: 10), `mrss supervise` runs a generate
 project (`mrss.bench.allocation_project`): the simulated fleet (real MAVLink and MQTT
 links, one per robot, every robot with a camera), two scouts in processes of their own,
 the RCL and the reasoner. Every robot bids for every task (all N have the capability):
-the RCL computes each bid from what the robot's actor published, and asks the winner's
-actor alone to confirm it.
+the RCL ranks every bid in one pass over the state it holds (what each robot's actor
+published, its link's telemetry), asking no robot actor.
 It measures:
 
 * goal -> award p50/p99: the bench publishes a percept `task(N, Lat, Lon)` (a place on
@@ -13,6 +13,11 @@ It measures:
   clock stops when the RCL publishes the `action.allocation` AWARDED for it (its
   envelope's wall-clock `ts`; the bench's clock when it published the percept: one
   machine, one clock);
+* where that time goes, p50/p99: goal -> the reasoner's request sent (the reasoner's
+  log line "action ... sent", to the millisecond), and in the RCL, from the request's
+  arrival to the award decided ("task ... awarded to ... after 1 round(s), 0.6 ms"),
+  both read from the run's mrss.log; the rest is the request's and the award's way on
+  the bus and the award's journal write;
 * goal -> first skill start p50/p99: the skill reads CLOCK_MONOTONIC first in `start()`;
 * robot lost -> task re-awarded p50/p99: a task for a scout (`hold(any([scout], ...))`)
   is awarded to the nearer scout and its skill starts; the bench freezes that scout's
@@ -30,10 +35,13 @@ from __future__ import annotations
 import math
 import os
 import random
+import re
 import signal
 import threading
 import time
 from contextlib import ExitStack
+from dataclasses import dataclass
+from datetime import datetime
 
 import psutil
 
@@ -68,9 +76,25 @@ REAWARD_SLACK_MS = 100.0  # re-award p99 <= link timeout + this
 TASK_GAP_S = 0.05  # between two goals (20 tasks/s)
 RATE_HZ = 1.0  # telemetry per robot: allocation reads positions, not more
 LATE_S = 10.0
+#: the allocator's log line of an award (mrss.actors.rcl.allocation.allocator)
+AWARD_LOGGED = re.compile(r"task (\w+) awarded to \S+ after \d+ round\(s\), ([\d.]+) ms")
+#: the reasoner's log line of a request sent (mrss.actors.reasoner), with its time
+REQUEST_LOGGED = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) reasoner\[\d+\] INFO "
+                            r"action (\w+) \S+ sent$", re.MULTILINE)
 COLUMNS = ["robots", "tasks", "award p50 ms", "award p99 ms", "x Open-RMF window",
-           "start p50 ms", "start p99 ms", "lost rounds", "re-award p50 ms",
-           "re-award p99 ms"]
+           "reasoner p50 ms", "reasoner p99 ms", "in RCL p50 ms", "in RCL p99 ms",
+           "start p50 ms", "start p99 ms", "lost rounds", "re-award p50 ms", "re-award p99 ms"]
+
+
+@dataclass
+class TaskSamples:
+    """What one series of goals measured (ms), and how many were late."""
+
+    award: list[float]  # goal -> award
+    in_rcl: list[float]  # request's arrival in the RCL -> award decided
+    reasoner: list[float]  # goal -> the reasoner's request sent
+    start: list[float]  # goal -> first skill start
+    late: int
 
 
 class AllocationRun:
@@ -132,8 +156,8 @@ class AllocationRun:
         raise TimeoutError(f"not ready after {timeout:.0f}s: robots silent: "
                            f"{sorted(everyone - self.seen)[:10]}")
 
-    def tasks(self, count: int, first: int) -> tuple[list[float], list[float], int]:
-        """`count` goals, TASK_GAP_S apart: (award ms, skill start ms, late)."""
+    def tasks(self, count: int, first: int) -> TaskSamples:
+        """`count` goals, TASK_GAP_S apart."""
         rng = random.Random(first)
         sent: dict[int, int] = {}
         sent_at: dict[int, float] = {}
@@ -146,11 +170,27 @@ class AllocationRun:
         with self._cond:
             self._cond.wait_for(lambda: all(s in self.starts and str(s) in self.awards
                                             for s in sent), timeout=LATE_S)
-            awards = {s: self.awards[str(s)][0][2] for s in sent if str(s) in self.awards}
+            awards = {s: self.awards[str(s)][0] for s in sent if str(s) in self.awards}
             starts = {s: self.starts[s] for s in sent if s in self.starts}
         late = sum(1 for s in sent if s not in awards or s not in starts)
-        return ([(awards[s] - sent_at[s]) * 1e3 for s in awards],
-                [(starts[s] - sent[s]) / 1e6 for s in starts], late)
+        decided, requested = self.logged()
+        return TaskSamples(
+            award=[(awards[s][2] - sent_at[s]) * 1e3 for s in awards],
+            in_rcl=[decided[a[0]] for a in awards.values() if a[0] in decided],
+            reasoner=[(requested[a[0]] - sent_at[s]) * 1e3 for s, a in awards.items()
+                      if a[0] in requested],
+            start=[(starts[s] - sent[s]) / 1e6 for s in starts], late=late)
+
+    def logged(self) -> tuple[dict[str, float], dict[str, float]]:
+        """From the run's mrss.log: uuid -> ms from the request's arrival in the RCL to
+        the award, as the RCL logged it; uuid -> when the reasoner logged the request
+        sent (wall clock, to the millisecond)."""
+        try:
+            text = (self.system.run_dir / "mrss.log").read_text(errors="replace")
+        except OSError:
+            return {}, {}
+        return ({m[1]: float(m[2]) for m in AWARD_LOGGED.finditer(text)},
+                {m[2]: _log_time(m[1]) for m in REQUEST_LOGGED.finditer(text)})
 
     def lost(self, rounds: int, first: int) -> tuple[list[float], int]:
         """`rounds` times: a scout's task, the scout frozen, the task re-awarded (ms)."""
@@ -197,6 +237,11 @@ def _resume(proc: psutil.Process) -> None:
         pass  # the supervisor replaced it already
 
 
+def _log_time(stamp: str) -> float:
+    """Seconds since the epoch of a log line's local time "2026-12-07 04:29:28,890"."""
+    return datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
+
+
 def _ms(samples: list[float], q: float, late: int) -> float | None:
     return percentile(samples, q, late) if samples or late else None
 
@@ -219,18 +264,21 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
             run_.wait_ready(timeout=60 + robots)
             run_.tasks(min(10, count), seq)  # warm-up: first plans, first links
             seq += 10
-            awards, starts, late = run_.tasks(count, seq)
+            got = run_.tasks(count, seq)
             seq += count
             lost, lost_late = run_.lost(rounds, seq)
             seq += rounds
-        p99 = _ms(awards, 99, late)
+        late = got.late
+        p99 = _ms(got.award, 99, late)
         award_p99[robots] = p99
         lost_p99 = _ms(lost, 99, lost_late)
         if lost_p99 is not None:
             reaward_p99.append(lost_p99)
-        report.add_row(robots, count, _ms(awards, 50, late), p99,
+        report.add_row(robots, count, _ms(got.award, 50, late), p99,
                        RMF_BIDDING_WINDOW_MS / p99 if p99 and math.isfinite(p99) else None,
-                       _ms(starts, 50, late), _ms(starts, 99, late), rounds,
+                       _ms(got.reasoner, 50, late), _ms(got.reasoner, 99, late),
+                       _ms(got.in_rcl, 50, late), _ms(got.in_rcl, 99, late),
+                       _ms(got.start, 50, late), _ms(got.start, 99, late), rounds,
                        _ms(lost, 50, lost_late), lost_p99)
     if TARGET_ROBOTS in award_p99:
         report.target(f"goal -> award p99 at {TARGET_ROBOTS} robots (ms)",
@@ -243,9 +291,13 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
                       f"the link's heartbeat_timeout ({project.LINK_TIMEOUT_S:g} s) + "
                       f"{REAWARD_SLACK_MS:g} ms")
     report.notes.append(
-        "award: bench percept -> reasoner -> RCL -> every capable robot's bid (from "
-        "what its actor published) ranked, the winner's actor confirms -> "
-        "action.allocation AWARDED seen by the bench; start: ... -> the skill's start(). "
+        "award: bench percept -> reasoner -> RCL -> every capable robot's bid ranked, in "
+        "one pass over the state the RCL holds (what each robot actor published, its "
+        "link's telemetry) -> action.allocation AWARDED seen by the bench; reasoner: goal "
+        "-> the reasoner's request sent, in RCL: the request's arrival -> the award "
+        "decided (both from the run's log, to the millisecond for the reasoner's); the "
+        "rest is the request's and the award's way on the bus and the award's journal "
+        "write; start: ... -> the skill's start(). "
         f"{count} goals per size, {1 / TASK_GAP_S:g}/s, each at a random robot's place "
         "(every robot of the fleet bids; half UAVs over MAVLink/UDP, half UGVs over MQTT, "
         "one `mrss sim fleet` process); after 10 warm-up goals. Re-award: the scout "

@@ -15,12 +15,13 @@ took as a state callback ``(False, "failsafe: ...")``, even when the link was do
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
-from typing import Any
+from typing import Any, TypeGuard
 
 from mrss.edge.record_declarations import DEFAULT_LIMITS, LINK_TYPES, Limits, RobotType
 from mrss.edge.rejections import RejectionLog
@@ -29,6 +30,8 @@ from mrss.links.errors import CommandTimeout, LinkDown
 from mrss.links.failsafe import FailsafeEvent, FailsafePolicy, failsafe_reason
 
 Telemetry = dict[str, Any]
+#: ((lat, lon) | None, battery % | None): `RobotLink.whereabouts`
+Whereabouts = tuple[tuple[float, float] | None, float | None]
 TelemetryCallback = Callable[[Telemetry], None]
 LinkStateCallback = Callable[[bool, str], None]
 SampleScope = Callable[[], AbstractContextManager[object]]
@@ -61,6 +64,7 @@ class RobotLink(ABC):
         self._reason = "not connected yet"
         self._closed = False
         self._latest: dict[str, Telemetry] = {}
+        self._whereabouts: Whereabouts = (None, None)
         self._controller_check: Callable[[], bool] | None = None
         self._controller_was = True
         self._failsafe_reported = False  # the robot's current failsafe was reported
@@ -121,6 +125,12 @@ class RobotLink(ABC):
         with self._changed:
             record = self._latest.get(kind)
             return dict(record) if record is not None else None
+
+    def whereabouts(self) -> Whereabouts:
+        """((lat, lon) of the last `position` record, `remaining` % of the last `battery`
+        record), None for what has not come: what a robot's bids for tasks are computed
+        from, kept as the records arrive so that reading it takes no lock and no copy."""
+        return self._whereabouts
 
     def require_up(self) -> None:
         """Raise LinkDown with the current reason unless the link is up."""
@@ -250,6 +260,8 @@ class RobotLink(ABC):
             return None
         with self._changed:
             self._latest[kind] = record
+            if kind in ("position", "battery"):
+                self._whereabouts = _whereabouts(self._whereabouts, kind, record)
             self._changed.notify_all()
         with self._dispatch:
             for callback in list(self._telemetry_callbacks):
@@ -263,3 +275,18 @@ class RobotLink(ABC):
         """Wake `wait_for` callers after an internal change that is not telemetry."""
         with self._changed:
             self._changed.notify_all()
+
+
+def _whereabouts(was: Whereabouts, kind: str, record: Telemetry) -> Whereabouts:
+    """`was` with a new `position` or `battery` record."""
+    if kind == "position":
+        lat, lon = record.get("lat"), record.get("lon")
+        place = (float(lat), float(lon)) if _finite(lat) and _finite(lon) else None
+        return place, was[1]
+    remaining = record.get("remaining")
+    return was[0], float(remaining) if _finite(remaining) else None
+
+
+def _finite(value: Any) -> TypeGuard[float]:
+    return isinstance(value, int | float) and not isinstance(value, bool) \
+        and math.isfinite(value)

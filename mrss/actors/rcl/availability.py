@@ -68,12 +68,18 @@ class RobotAvailability:
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
         self.on_change: Callable[[], None] = lambda: None  # a robot's state changed
+        self.on_teleop: Callable[[str, bool], None] = lambda _r, _on: None  # told an actor
 
     def refusal(self, robot: str) -> tuple[str, lc.EndCause] | None:
         """Why a new action for `robot` is refused now (reason, cause); None: it is not."""
         with self.actions.lock:
             reason = self._unavailable.get(robot)
             return None if reason is None else (reason, self._unavailable_cause[robot])
+
+    def unavailable(self) -> dict[str, str]:
+        """robot -> why a new action for it is refused now, of every such robot."""
+        with self.actions.lock:
+            return dict(self._unavailable)
 
     def announce_robots(self) -> None:
         """Publish every robot's state (availability, link, teleop): level-triggered, so a
@@ -87,6 +93,7 @@ class RobotAvailability:
         if robot not in self.links:
             raise ActionError(f"teleop for unknown robot {robot!r}")
         self.journal.set_teleop(robot, on)
+        self.on_teleop(robot, on)  # the bid board knows it before the actor handles it
         self.routes.tell(robot, SetTeleop(on))
         self._robot_state(robot, teleop=on)
 

@@ -120,7 +120,6 @@ class RclCore:
                  progress_every: float = 0.0,
                  profiles: Mapping[str, RobotProfile] | None = None,
                  ranking: BidRanking | None = None,
-                 bid_timeout: float = default("bid_timeout"),
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.layer, self.journal, self.publish = layer, journal, publish
         self.links = dict(robots)
@@ -149,14 +148,14 @@ class RclCore:
         self.bid_board = BidBoard()  # what robot actors publish for bids
         self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
             {r: profiles.get(r) or RobotProfile(r) for r in self.links},
-            ref=self._refs.get, board=self.bid_board,
-            where=lambda r: bid_link_state(self.links[r]),
-            refusal=lambda r: (self.availability.refusal(r) or (None,))[0],
-            award=self.award, publish=publish, ranking=ranking, bid_timeout=bid_timeout,
-            book=TaskBook(journal),
-            reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to))
+            board=self.bid_board, where=lambda r: bid_link_state(self.links[r]),
+            unavailable=self.availability.unavailable,
+            award=self.award, publish=publish, ranking=ranking, book=TaskBook(journal),
+            reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to),
+            decision_lock=self._lock)  # a round and its award: one step of the core
         self.reallocation = Reallocation(self.allocator, journal, self.actions, self, publish)
         self.availability.on_change = self.allocator.kick
+        self.availability.on_teleop = self.bid_board.teleop
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:

@@ -40,8 +40,8 @@ RCL_OPTIONS: tuple[Option, ...] = (
                "how bids for a task addressed to a role are ranked (docs/rcl.md, "
                "\"Allocation\")", choices=tuple(e.value for e in Evaluator)),
         Option("bid_timeout", float, 1.0,
-               "seconds the winning robot actor has to confirm its bid before it counts "
-               "as silent (the next-ranked is asked)",
+               "no longer used: an award asks no robot actor to confirm its bid (accepted, "
+               "with a warning, so a project that sets it still starts)",
                Check.POSITIVE),
     )
 _BY_NAME = {o.name: o for o in RCL_OPTIONS}

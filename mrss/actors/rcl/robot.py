@@ -28,8 +28,7 @@ import pykka
 
 from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action
-from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Work, compute_bid, fraction_done
-from mrss.actors.rcl.allocation.bids import link_state as bid_link_state
+from mrss.actors.rcl.allocation.bids import Work, fraction_done
 from mrss.actors.rcl.allocation.board import BidBoard, BidState
 from mrss.actors.rcl.failure_causes import failure_cause
 from mrss.actors.rcl.journal import JournalEntry
@@ -213,18 +212,9 @@ class RobotActor(SupervisedActor):
             self._deadline(message)
         elif isinstance(message, _PreemptedTooLong):
             self._preempted_too_long(message)
-        elif isinstance(message, BidRequest):
-            return self._bid(message)
         else:
             log.warning("robot %s: unexpected message %r", self.robot, message)
         return None
-
-    def _bid(self, request: BidRequest) -> Bid:
-        """This robot's bid for a task addressed to a role, from its own state
-        (mrss.actors.rcl.allocation.bids): the award's re-validation."""
-        position, battery = bid_link_state(self.link)
-        return compute_bid(request, position=position, battery=battery, teleop=self.teleop,
-                           work=self._work())
 
     def _work(self) -> tuple[Work, ...]:
         return tuple(Work(u, t.action.priority, fraction_done(t.action.progress))

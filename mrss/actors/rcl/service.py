@@ -158,10 +158,13 @@ class RclService(Component):
                             adopt_grace_suspended=opts.number("adopt_grace_suspended"),
                             preempted_timeout=opts.number("preempted_timeout"),
                             progress_every=opts.number("progress_every"),
-                            profiles=profiles, bid_timeout=opts.number("bid_timeout"),
+                            profiles=profiles,
                             ranking=BidRanking(self.layer.bid_score
                                                or Evaluator(opts.text("evaluator"))))
         self.core.availability.robot_nodes = robot_nodes
+        if "bid_timeout" in ctx.options:
+            log.warning("%s: bid_timeout is no longer used (an award asks no robot actor to "
+                        "confirm its bid); remove it from the project", ctx.name)
         self.layer.bind_runtime(link_state=self.core.availability.link_state)
         self._compaction = (opts.number("journal_keep_seconds"),
                             opts.whole("journal_keep_last"),

@@ -17,8 +17,10 @@ from mrss.messages import (
     ActionRequest,
     ActionState,
     AllocationState,
+    Command,
     ControlCommand,
     ControlTarget,
+    RobotState,
     WaitReason,
 )
 from mrss.testing import wait_until
@@ -37,7 +39,7 @@ class Rcl(Bus):
     """The RCL process on its bus, and what the test heard."""
 
     def __init__(self, procs: Procs, run_dir: Path) -> None:
-        super().__init__(procs, run_dir, ["action."])
+        super().__init__(procs, run_dir, ["action.", "robot."])
         self.sup = root(PROJECT, run_dir, self.endpoints,
                         [rcl_child({"robots": ROBOTS, "heartbeat": 0.2})])
         self.sup.start()
@@ -129,6 +131,29 @@ def test_a_higher_priority_task_preempts_and_a_low_battery_robot_is_passed_over(
     assert far.wait is WaitReason.BATTERY and "below its reserve 20 %" in far.why
     (bid,) = far.bids
     assert (bid["unfit"], bid["reserve"]) == ("battery", 20.0) and bid["battery_after"] < 20
+
+
+@pytest.mark.slow
+def test_a_robot_put_in_teleop_gets_no_task_until_it_is_out_of_teleop(rcl: Rcl) -> None:
+    def teleop(on: bool) -> None:  # told, and the RCL says so (its actor may not have yet)
+        since = len(rcl.seen)
+        rcl.pub.publish(Command(command="teleop", target="uav1", args={"on": on}))
+        wait_until(lambda: any(isinstance(e.body, RobotState) and e.body.robot == "uav1"
+                               and e.body.attributes.get("teleop") is on
+                               for e in rcl.seen[since:]),
+                   timeout=20, message=f"uav1's teleop {on}")
+
+    teleop(True)
+    rcl.request("flight", ["uav"], seconds=0.1)
+    wait_until(lambda: any(a.state is AllocationState.WAITING
+                           for a in rcl.allocations("flight")),
+               timeout=20, message="the task waits for the only UAV")
+    waiting = rcl.allocations("flight")[0]
+    assert waiting.wait is WaitReason.UNAVAILABLE and "uav1 in teleop" in waiting.why
+    assert not rcl.statuses("flight")
+    teleop(False)
+    assert rcl.awarded("flight").robot == "uav1"
+    assert rcl.ended("flight").state is ActionState.SUCCEEDED
 
 
 @pytest.mark.slow

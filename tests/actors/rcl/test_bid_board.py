@@ -42,3 +42,24 @@ def test_a_dead_incarnation_withdraws_only_its_own_state() -> None:
     board.publish("uav1", new)  # the next incarnation set up before the old one's teardown
     board.withdraw("uav1", old)
     assert board.state("uav1") is new
+
+
+def test_teleop_told_to_a_robot_counts_until_its_actor_publishes_it() -> None:
+    board = BidBoard()
+    board.publish("uav1", BidState())
+    board.started("uav1", A)
+    board.teleop("uav1", True)  # told before its actor handled it
+    assert board.state("uav1") == BidState(True, (A,))
+    assert board.states() == {"uav1": BidState(True, (A,))}
+    board.publish("uav1", BidState(teleop=True, work=(A,)))
+    board.publish("uav1", BidState(teleop=False))  # the operator's teleop off came later
+    assert board.state("uav1") == BidState(teleop=False)
+
+
+def test_states_reads_every_robot_at_once_leaving_out_those_without_an_actor() -> None:
+    board = BidBoard()
+    board.publish("uav1", BidState())
+    board.started("uav2", A)  # no state published: no bid
+    board.publish("uav3", BidState(teleop=True))
+    board.started("uav3", A)
+    assert board.states() == {"uav1": BidState(), "uav3": BidState(True, (A,))}

@@ -1,16 +1,21 @@
 """The open tasks addressed to a role, the rounds of bidding, and the award.
 
-One object of the RCL core, with one thread (`allocation`), so each award is one
-decision and two awards never race for a robot. Rules:
+One object of the RCL core. Each round is one decision taken under the decision lock
+(the core's: a round's reading of the robots and its award, which starts the action on
+the winner, are one step; nothing the core does, such as starting another action or a
+robot becoming unavailable, falls between them), so two awards never race for a robot.
+Rules:
 - a role-addressed request is checked (`Task.of`; some configured robot must have every
   capability it asks for, else it is rejected with a "did you mean") and becomes an
   open task; a duplicate of its uuid re-sends its allocation status;
-- a round: the bid of every robot with the capabilities that is available (`refusal`)
-  is computed here, from what its actor published (`board.BidBoard`) and its link's
-  position and battery, without a round trip; the ranking (`evaluators.BidRanking`)
-  picks the winner, deterministically; the winner's actor then bids itself
-  (`bids.BidRequest`, after whatever is in its mailbox): unfit now, or silent past
-  `bid_timeout`, its own bid replaces the board's and the next-ranked is asked;
+- a round: every robot with the capabilities bids, in one pass over the fleet's state
+  (`fleet.FleetRound`: the unavailable robots, what their actors published on the bid
+  board, their links' position and battery), with no round trip to any actor (the
+  board knows at once whatever the core told an actor); the ranking
+  (`evaluators.BidRanking`) picks the winner, deterministically;
+- a new task is decided at once on the thread that submits it when no other task is
+  open (no hand-over to the allocation thread); otherwise, and for every task given
+  back, the allocation thread runs the rounds;
 - a winner: the task is awarded (a `TaskAllocation` AWARDED with why it won), and the
   request goes on as one addressed to that robot (`award`); no winner: the task waits
   (a `TaskAllocation` WAITING with the reason as an enum, sent when it changes);
@@ -21,7 +26,8 @@ decision and two awards never race for a robot. Rules:
 - every open, award, loss and end is journaled first (`book.TaskBook`);
 - rounds run for every open task, highest priority and then oldest first, when a task
   arrives, whenever a robot's state changes or an action ends (`kick`), and every
-  `retry_every` seconds (a robot's battery or position changes without an event).
+  `retry_every` seconds (a robot's battery or position changes without an event); the
+  decision lock is taken per task, never for all of them.
 """
 
 from __future__ import annotations
@@ -34,13 +40,12 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import pykka
-
 from mrss.actors.rcl.allocation import published
-from mrss.actors.rcl.allocation.bids import Bid, BidRequest, Place, compute_bid, no_bid
+from mrss.actors.rcl.allocation.bids import Bid, Place
 from mrss.actors.rcl.allocation.board import BidBoard
 from mrss.actors.rcl.allocation.book import TaskBook
 from mrss.actors.rcl.allocation.evaluators import BidRanking, Choice
+from mrss.actors.rcl.allocation.fleet import FleetRound
 from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.allocation.task import Task
 from mrss.errors import ActionError
@@ -79,23 +84,25 @@ class Allocator:
     """Open tasks and their rounds of bidding (the rules of the module)."""
 
     def __init__(self, profiles: Mapping[str, RobotProfile], *,
-                 ref: Callable[[str], pykka.ActorRef[Any] | None],
                  board: BidBoard, where: Callable[[str], tuple[Place | None, float | None]],
-                 refusal: Callable[[str], str | None],
+                 unavailable: Callable[[], Mapping[str, str]],
                  award: Award, publish: Callable[[Message], object],
-                 ranking: BidRanking | None = None, bid_timeout: float = 1.0,
+                 ranking: BidRanking | None = None,
                  retry_every: float = 1.0, clock: Callable[[], float] = time.monotonic,
                  book: TaskBook | None = None,
-                 reassigned: Reassigned = lambda _r, _f, _t: None) -> None:
+                 reassigned: Reassigned = lambda _r, _f, _t: None,
+                 decision_lock: Any = None) -> None:
         self.profiles = dict(profiles)
-        self._ref, self._refusal, self._award, self._publish = ref, refusal, award, publish
+        self._unavailable, self._award, self._publish = unavailable, award, publish
         self.board, self._where = board, where
         self.ranking = ranking or BidRanking()
-        self.bid_timeout, self.retry_every, self.clock = bid_timeout, retry_every, clock
+        self.retry_every, self.clock = retry_every, clock
         self.book = book or TaskBook(None)
         self._reassigned = reassigned
+        self._decision = decision_lock if decision_lock is not None else threading.RLock()
         self._open: dict[str, OpenTask] = {}
         self._bases: dict[str, Place] = {}  # first-seen positions of robots without a base
+        self._capable: dict[frozenset[str], list[RobotProfile]] = {}  # by what tasks ask
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stop = threading.Event()
@@ -113,7 +120,7 @@ class Allocator:
         self._stop.set()
         self._wake.set()
         if self._thread is not None:
-            self._thread.join(timeout=self.bid_timeout + 5.0)
+            self._thread.join(timeout=5.0)
 
     def submit(self, request: ActionRequest, requester: Any) -> None:
         """Open a task for a role-addressed request (ActionError: reject it)."""
@@ -129,7 +136,7 @@ class Allocator:
         self.check_capable(task)
         self.book.opened(request, requester,  # journaled before anything is decided
                          f"waiting for {task.describe()}")
-        self._open_task(OpenTask(request, requester, task, self.clock()))
+        self._open_task(OpenTask(request, requester, task, self.clock()), at_once=True)
 
     def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
                progress: dict[str, JsonValue]) -> None:
@@ -137,14 +144,18 @@ class Allocator:
         self._open_task(OpenTask(request, requester, Task.of(request), self.clock(),
                                  progress=dict(progress), lost_from=lost_from))
 
-    def _open_task(self, open_task: OpenTask) -> None:
+    def _open_task(self, open_task: OpenTask, at_once: bool = False) -> None:
         with self._lock:
             self._open[open_task.task.uuid] = open_task
+            alone = len(self._open) == 1
         log.info("task %s %s opened%s: %s", open_task.task.uuid,
                  open_task.request.literal or open_task.request.name,
                  f" again ({open_task.lost_from} lost it)" if open_task.lost_from else "",
                  open_task.task.describe())
-        self._wake.set()
+        if at_once and alone and self._thread is not None and not self._stop.is_set():
+            self._decide(open_task)  # nothing goes before it: decided on this thread
+        else:
+            self._wake.set()
 
     def withdraw(self, uuid: str) -> bool:
         """The task's action ended while it waited (cancelled, failed): no more rounds."""
@@ -188,80 +199,36 @@ class Allocator:
             for open_task in tasks:
                 if self._stop.is_set():
                     return
-                try:
+                self._decide(open_task)
+
+    def _decide(self, open_task: OpenTask) -> None:
+        """One round for `open_task` under the decision lock (awarded, or it waits)."""
+        try:
+            with self._decision:
+                if self.is_open(open_task.task.uuid):  # not decided by another thread
                     self._round(open_task)
-                except Exception:  # a bug must not stop allocation for every other task
-                    log.exception("allocation round for %s failed", open_task.task.uuid)
+        except Exception:  # a bug must not stop allocation for every other task
+            log.exception("allocation round for %s failed", open_task.task.uuid)
 
     def _round(self, open_task: OpenTask) -> None:
         task = open_task.task
-        bids = self._bids(task)
+        fleet = FleetRound(self._unavailable(), self.board.states(), self._where, self._bases)
+        choice = fleet.choose(task, self._capable_of(task), self.ranking)
         open_task.rounds += 1
-        confirmed: set[str] = set()
-        while True:
-            choice = self.ranking.choose(task, bids)
-            winner = choice.winner
-            if winner is None:
-                break
-            if self._refusal(winner.robot) is not None:  # unavailable since: next round
-                self._wake.set()
-                return
-            if winner.robot in confirmed:
-                self._awarded(open_task, winner, choice)
-                return
-            fresh = self._confirm(task, winner.robot)
-            confirmed.add(winner.robot)
-            if fresh.fit and fresh.preempts <= winner.preempts:
-                self._awarded(open_task, winner, choice)
-                return
-            log.info("task %s: %s's own bid differs from its board's (%s): ranked again",
-                     task.uuid, winner.robot, fresh.describe())
-            bids = [fresh if b.robot == winner.robot else b for b in bids]
-        if open_task.said != (choice.wait, choice.why):
+        if choice.winner is not None:
+            self._awarded(open_task, choice.winner, choice)
+        elif open_task.said != (choice.wait, choice.why):
             open_task.said = (choice.wait, choice.why)
             open_task.choice = choice
             self._say_waiting(open_task, choice.wait, choice.why)
 
-    def _bids(self, task: Task) -> list[Bid]:
-        """Every capable robot's bid, computed here from the board (no round trip)."""
-        bids: list[Bid] = []
-        for robot, profile in sorted(self.profiles.items()):
-            if not profile.can(task.capabilities):
-                continue
-            refusal = self._refusal(robot)
-            state = self.board.state(robot)
-            if refusal is not None or state is None:
-                bids.append(no_bid(robot, WaitReason.UNAVAILABLE,
-                                   f"unavailable: {refusal or 'its actor is down'}"))
-                continue
-            position, battery = self._where(robot)
-            if position is not None and robot not in self._bases:
-                self._bases[robot] = position
-            request = BidRequest(task, profile, profile.base or self._bases.get(robot))
-            bids.append(compute_bid(request, position=position, battery=battery,
-                                    teleop=state.teleop, work=state.work))
-        return bids
-
-    def _confirm(self, task: Task, robot: str) -> Bid:
-        """The winner's bid from its actor (after whatever is in its mailbox): the
-        award's re-validation, one round trip."""
-        profile = self.profiles[robot]
-        ref = self._ref(robot)
-        if ref is None:
-            return no_bid(robot, WaitReason.UNAVAILABLE, "unavailable: its actor is down")
-        try:
-            bid = ref.ask(BidRequest(task, profile, profile.base or self._bases.get(robot)),
-                          timeout=self.bid_timeout)
-        except pykka.Timeout:
-            return no_bid(robot, WaitReason.NO_BID, f"did not bid within {self.bid_timeout:g} s")
-        except pykka.ActorDeadError:
-            return no_bid(robot, WaitReason.UNAVAILABLE, "unavailable: actor down")
-        except Exception as exc:
-            log.warning("robot %s could not bid for %s: %r", robot, task.uuid, exc)
-            return no_bid(robot, WaitReason.NO_BID, f"could not bid: {exc!r}")
-        if not isinstance(bid, Bid):
-            return no_bid(robot, WaitReason.NO_BID, f"answered {bid!r}, not a bid")
-        return bid
+    def _capable_of(self, task: Task) -> list[RobotProfile]:
+        """The profiles of the robots with every capability `task` asks, by robot id."""
+        capable = self._capable.get(task.capabilities)
+        if capable is None:
+            capable = self._capable[task.capabilities] = [
+                p for _, p in sorted(self.profiles.items()) if p.can(task.capabilities)]
+        return capable
 
     def _awarded(self, open_task: OpenTask, winner: Bid, choice: Choice) -> None:
         task, request = open_task.task, open_task.request
@@ -270,12 +237,12 @@ class Allocator:
         latency = self.clock() - open_task.since
         self.award_latencies.append(latency)
         del self.award_latencies[:-10000]
-        log.info("task %s awarded to %s after %d round(s), %.1f ms: %s", task.uuid,
-                 winner.robot, open_task.rounds, latency * 1000, choice.why)
         self.book.awarded(task.uuid, winner.robot)  # committed before the action is
         self._send(published.allocation(request, task, choice, evaluator=self.ranking.name,
                                         profiles=self.profiles,
                                         lost_from=open_task.lost_from))
+        log.info("task %s awarded to %s after %d round(s), %.1f ms: %s", task.uuid,
+                 winner.robot, open_task.rounds, latency * 1000, choice.why)
         self._award(request, open_task.requester, winner.robot, open_task.progress)
         if open_task.lost_from:
             self._reassigned(request, open_task.lost_from, winner.robot)

@@ -1,7 +1,8 @@
 """A robot's bid for a task, from its own state: where it is, its battery, its work.
 
-Computed on the robot's actor thread (`RobotActor` answers a `BidRequest`), every
-robot of a round at once. A bid says either how well the robot would do the task or
+Computed by the deciding thread from the state the RCL holds of the robot (what its
+actor published, its link's telemetry), the whole fleet in one pass
+(`fleet.FleetRound`). A bid says either how well the robot would do the task or
 why it cannot take it now (`unfit`, a `WaitReason`):
 - travel: the straight-line distance from its position to the task's place (0 without
   a place; unknown position: infinite), at its `cruise_speed`;
@@ -29,7 +30,7 @@ Place = tuple[float, float]
 
 @dataclass(frozen=True)
 class BidRequest:
-    """Asked of each capable robot actor in a round (its answer: a `Bid`)."""
+    """What one robot's bid is for: the task, the robot's profile, its home."""
 
     task: Task
     profile: RobotProfile
@@ -109,32 +110,51 @@ def compute_bid(request: BidRequest, *, position: Place | None, battery: float |
                    else 0.0, unfit=WaitReason.BUSY,
                    note=f"busy with priority {busy} ({top.done:.0%} done)" if top else "busy")
     base = request.base or position
-    if task.near is None:
-        travel = 0.0
-        home = _dist(position, base) if position is not None else 0.0
-    else:
-        travel = _dist(position, task.near)
-        home = _dist(task.near, base) if base is not None else 0.0
-    back = _dist(position, base) if position is not None and base is not None else 0.0
-    after = None
-    if battery is not None:
-        after = battery - profile.battery_per_km * (travel + home) / 1000.0
-        if after < profile.battery_reserve:
-            return Bid(robot, travel_m=travel, home_m=home, back_m=back, battery=battery,
-                       battery_after=after, busy_priority=busy, position=position,
-                       unfit=WaitReason.BATTERY,
-                       note=f"would have {after:.0f} % battery after, below its reserve "
-                            f"{profile.battery_reserve:.0f} %")
+    travel, home, back, after = figures(task, profile, base, position, battery)
+    if after is not None and after < profile.battery_reserve:
+        return Bid(robot, travel_m=travel, home_m=home, back_m=back, battery=battery,
+                   battery_after=after, busy_priority=busy, position=position,
+                   unfit=WaitReason.BATTERY,
+                   note=f"would have {after:.0f} % battery after, below its reserve "
+                        f"{profile.battery_reserve:.0f} %")
     return Bid(robot, finish_s=travel / profile.cruise_speed, travel_m=travel, home_m=home,
                back_m=back, battery=battery, battery_after=after, busy_priority=busy,
                busy_done=top.done if top is not None else 0.0, preempts=preempts,
                position=position)
 
 
+def figures(task: Task, profile: RobotProfile, base: Place | None, position: Place | None,
+            battery: float | None, *, home_read: bool = True,
+            back_read: bool = True) -> tuple[float, float, float, float | None]:
+    """(travel_m, home_m, back_m, battery_after) of a robot for `task`: the figures of
+    its bid, the same whether one bid is made (`compute_bid`) or a whole fleet is
+    ranked in one pass (mrss.actors.rcl.allocation.fleet), which leaves out (0.0) the
+    way home when neither its score (`home_read`) nor the battery needs it, and the way
+    back unless its score reads it (`back_read`)."""
+    home_read = home_read or battery is not None
+    if task.near is None:
+        travel = 0.0
+        home = _dist(position, base) if position is not None and home_read else 0.0
+    else:
+        travel = _dist(position, task.near)
+        home = _dist(task.near, base) if base is not None and home_read else 0.0
+    back = _dist(position, base) if position is not None and base is not None \
+        and back_read else 0.0
+    after = None
+    if battery is not None:
+        after = battery - profile.battery_per_km * (travel + home) / 1000.0
+    return travel, home, back, after
+
+
 def link_state(link: Any) -> tuple[Place | None, float | None]:
     """(position, battery %) of a robot from its link: the last `position` and `battery`
-    telemetry records (mrss.links.base.RobotLink.latest), or `lat`/`lon`/`battery`
-    attributes of a link of the project's own; None for what it does not say."""
+    telemetry records (mrss.links.base.RobotLink.whereabouts, or `latest`), or
+    `lat`/`lon`/`battery` attributes of a link of the project's own; None for what it
+    does not say."""
+    whereabouts = getattr(link, "whereabouts", None)
+    if callable(whereabouts):
+        found: tuple[Place | None, float | None] = whereabouts()
+        return found
     latest = getattr(link, "latest", None)
     position = battery = None
     if callable(latest):

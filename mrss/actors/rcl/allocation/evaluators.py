@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -25,10 +25,14 @@ from mrss.actors.rcl.allocation.bids import Bid
 from mrss.actors.rcl.allocation.task import Task
 from mrss.edge.rejections import RejectionLog
 from mrss.messages import WaitReason
+from mrss.messages.bid_reports import LIMIT
 
 log = logging.getLogger("mrss.rcl.allocation")
 
 BidScore = Callable[[Task, Bid], float]
+#: A named evaluator's score from a fit bid's figures: (finish_s, travel_m, home_m,
+#: back_m, battery_after) -> lower wins (the fleet's round scores without making a Bid).
+FigureScore = Callable[[float, float, float, float, float | None], float]
 
 
 class Evaluator(StrEnum):
@@ -40,15 +44,35 @@ class Evaluator(StrEnum):
     BATTERY_AWARE = "battery_aware"
 
 
-SCORES: dict[Evaluator, BidScore] = {
-    Evaluator.QUICKEST_FINISH: lambda _t, b: b.finish_s,
-    Evaluator.LEAST_COST: lambda _t, b: b.cost_m,
-    Evaluator.LEAST_MARGINAL_COST: lambda _t, b: b.marginal_m,
-    Evaluator.BATTERY_AWARE: lambda _t, b: -b.battery_after if b.battery_after is not None
+FIGURE_SCORES: dict[Evaluator, FigureScore] = {
+    Evaluator.QUICKEST_FINISH: lambda finish, _t, _h, _b, _a: finish,
+    Evaluator.LEAST_COST: lambda _f, travel, home, _b, _a: travel + home,  # Bid.cost_m
+    Evaluator.LEAST_MARGINAL_COST: lambda _f, travel, home, back, _a: travel + home - back,
+    Evaluator.BATTERY_AWARE: lambda _f, _t, _h, _b, after: -after if after is not None
     else math.inf,
 }
+
+#: The figures besides travel and battery_after each named evaluator's score reads:
+#: (home_m, back_m); a round over the fleet computes no other.
+READS: dict[Evaluator, tuple[bool, bool]] = {
+    Evaluator.QUICKEST_FINISH: (False, False),
+    Evaluator.LEAST_COST: (True, False),
+    Evaluator.LEAST_MARGINAL_COST: (True, True),
+    Evaluator.BATTERY_AWARE: (False, False),
+}
+
+
+def _bid_score(figures: FigureScore) -> BidScore:
+    return lambda _t, b: figures(b.finish_s, b.travel_m, b.home_m, b.back_m, b.battery_after)
+
+
+SCORES: dict[Evaluator, BidScore] = {e: _bid_score(f) for e, f in FIGURE_SCORES.items()}
 DEFAULT = Evaluator.QUICKEST_FINISH
 
+#: How many bids after the winner an award's reason names.
+SHOWN = 3
+#: How many unfit bids a waiting task's reason names.
+WAITING_SHOWN = 4
 #: The excuses of unfit robots, the one a waiting task reports first.
 WAIT_ORDER = (WaitReason.BUSY, WaitReason.BATTERY, WaitReason.UNAVAILABLE, WaitReason.NO_BID)
 
@@ -60,7 +84,8 @@ class Choice:
     winner: Bid | None
     wait: WaitReason
     why: str
-    bids: tuple[Bid, ...] = ()  # in rank order (the winner first), as `why` lists them
+    bids: tuple[Bid, ...] = ()  # the best (at most LIMIT) in rank order, the winner first
+    bidders: int = 0  # how many robots bid, all counted
 
 
 class BidRanking:
@@ -76,6 +101,19 @@ class BidRanking:
         e = self.evaluator
         return e.value if isinstance(e, Evaluator) else getattr(e, "__name__", repr(e))
 
+    @property
+    def figure_score(self) -> FigureScore | None:
+        """The named evaluator's score from figures (None: a project's own, which is
+        given whole bids)."""
+        e = self.evaluator
+        return FIGURE_SCORES[e] if isinstance(e, Evaluator) else None
+
+    @property
+    def reads(self) -> tuple[bool, bool]:
+        """(home_m, back_m): whether the score reads them (a project's own: both)."""
+        e = self.evaluator
+        return READS[e] if isinstance(e, Evaluator) else (True, True)
+
     def choose(self, task: Task, bids: Sequence[Bid]) -> Choice:
         """The winner among `bids` (deterministic), or why the task waits."""
         fit = [b for b in bids if b.fit]
@@ -84,15 +122,21 @@ class BidRanking:
         scores = self._scores(task, fit)
         ranked = sorted(zip(fit, scores, strict=True),
                         key=lambda bs: (bs[0].preempts, bs[1], bs[0].robot))
-        winner = ranked[0][0]
         others = [b for b, _ in ranked[1:]] + sorted((b for b in bids if not b.fit),
                                                      key=lambda b: b.robot)
+        return self.award(ranked[0][0], others, len(others))
+
+    def award(self, winner: Bid, shown: Sequence[Bid], others: int) -> Choice:
+        """The choice of `winner` over `others` more bids, of which `shown` are the best
+        in rank order (at least SHOWN of them when there are; the choice keeps at most
+        LIMIT bids): why in words names it, the first SHOWN, and how many more."""
         why = winner.describe()
-        if others:
-            why += "; " + "; ".join(b.describe() for b in others[:3])
-            if len(others) > 3:
-                why += f"; {len(others) - 3} more"
-        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})", (winner, *others))
+        if shown:
+            why += "; " + "; ".join(b.describe() for b in shown[:SHOWN])
+            if others > SHOWN:
+                why += f"; {others - SHOWN} more"
+        return Choice(winner, WaitReason.NONE, f"{why} ({self.name})",
+                      (winner, *shown[:LIMIT - 1]), others + 1)
 
     def _scores(self, task: Task, fit: Sequence[Bid]) -> list[float]:
         score = SCORES[self.evaluator] if isinstance(self.evaluator, Evaluator) \
@@ -114,11 +158,21 @@ class BidRanking:
 
 
 def _waiting(bids: Sequence[Bid]) -> Choice:
-    excuses = {b.unfit for b in bids}
+    ordered = sorted(bids, key=lambda b: (wait_rank(b.unfit), b.robot))
+    return waiting({b.unfit for b in bids}, ordered[:LIMIT], len(bids))
+
+
+def wait_rank(reason: WaitReason) -> int:
+    """Where an excuse comes in a waiting task's reason (WAIT_ORDER; others last)."""
+    return WAIT_ORDER.index(reason) if reason in WAIT_ORDER else len(WAIT_ORDER)
+
+
+def waiting(excuses: Collection[WaitReason], shown: Sequence[Bid], total: int) -> Choice:
+    """Why a task waits: the first excuse of WAIT_ORDER among `excuses`, and the first
+    WAITING_SHOWN of the `total` unfit bids (`shown`: the best, at least that many when
+    there are, best excuse then robot id first; the choice keeps at most LIMIT)."""
     reason = next((r for r in WAIT_ORDER if r in excuses), WaitReason.NO_BID)
-    ordered = sorted(bids, key=lambda b: (WAIT_ORDER.index(b.unfit)
-                                          if b.unfit in WAIT_ORDER else 9, b.robot))
-    why = "; ".join(b.describe() for b in ordered[:4])
-    if len(ordered) > 4:
-        why += f"; {len(ordered) - 4} more"
-    return Choice(None, reason, why or "no robot answered", tuple(ordered))
+    why = "; ".join(b.describe() for b in shown[:WAITING_SHOWN])
+    if total > WAITING_SHOWN:
+        why += f"; {total - WAITING_SHOWN} more"
+    return Choice(None, reason, why or "no robot answered", tuple(shown[:LIMIT]), total)

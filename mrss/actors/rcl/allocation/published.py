@@ -36,7 +36,7 @@ def allocation(request: ActionRequest, task: Task, choice: Choice, *, evaluator:
         why=choice.why if not lost_from else f"reassigned from {lost_from} (lost): {choice.why}",
         name=request.name, goal=request.goal,
         bids=[report(b, profiles.get(b.robot)).to_wire() for b in choice.bids[:LIMIT]],
-        bidders=len(choice.bids), evaluator=evaluator,
+        bidders=choice.bidders, evaluator=evaluator,
         capabilities=sorted(task.capabilities),
         near=list(task.near) if task.near is not None else [],
         lost_from=lost_from if winner is not None else "")
