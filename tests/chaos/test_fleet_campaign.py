@@ -69,7 +69,8 @@ def test_a_robot_lost_mid_task_hands_its_task_on_and_the_task_invariants_hold(
     assert [a["robot"] for a in awards] == [loss.target, other]
     assert awards[1]["why"].startswith(f"reassigned from {loss.target} (lost)")
     seen = [e.body for e in h.of_kind("action.status") if e.body["uuid"] == task]
-    released = next(s for s in seen if s["state"] == "pending" and not s["robot"])
+    released = next(s for s in seen if s["state"] == "pending" and not s["robot"]
+                    and s["reason"].startswith("reassigning"))
     assert released["reason"].startswith(f"reassigning: robot {loss.target} unreachable")
     resumed = next(s for s in seen if s["progress"].get("by") == other)
     assert resumed["progress"]["first"] == released["progress"].get("step", 0)
