@@ -21,7 +21,9 @@ link up, not in teleop, holding no action, and not lost), the RCL awards it with
   loaded machine (`MARGIN`).
 - `restart`: an RCL killed during the wait comes back within the root supervisor's
   backoff cap plus the RCL's `start_timeout`; it then makes its book whole and bids
-  the task out again. Added once per death of an RCL incarnation in the wait.
+  the task out again. Added once per death of an RCL incarnation, kill of the bus proxy
+  or of the fork server (everything restarts), in the wait or up to `restart` s before
+  it (a request sent while the RCL was down waits for it).
 - a stall: a `hang`, `blackout` or `disk_full` of a component in `stalls` (the RCLs and
   the bus proxy) holds every decision up for its duration; added per such fault.
 """

@@ -15,7 +15,8 @@ than one already heard are a dead incarnation's late words and are ignored.
   robot, or a status of the action on a robot, while another robot holds the task.
 - AWARD_BOUNDED: a task that waits while a capable robot can take it is awarded within
   the bound (mrss.chaos.task_bound: link loss + allocation + margin, stretched by each
-  stall or restart of the RCL in the wait). A task waits from its request, from the
+  stall of the RCL or the bus in the wait, and each restart of the RCL, the bus proxy or
+  everything (a fork server kill) in it or begun up to a restart's time before it). A task waits from its request, from the
   release of its holder and, when its holder is lost for good (a `robot_loss` fault),
   from that loss (the RCL learns of it only after the link's timeout, which the bound
   covers), until its award or its end. A robot can take it when it has every
@@ -269,11 +270,16 @@ def _stretches(h: History, bound: AwardBound | None) -> Callable[[float, float],
     held = [(f.t, f.t + f.duration) for f in h.faults
             if f.ok and f.kind in STALLS and (f.target in stalls or f.kind == "blackout")]
     names = rcl_names(h)
+    # restarts: the RCL's deaths as seen, the bus proxy's kills, the fork server's (all)
     deaths = [t for (src, _inc), t in death_times(h).items() if src in names]
+    deaths += [f.t for f in h.faults if f.ok and (
+        f.kind == "forkserver" or (f.kind == "kill" and f.target in stalls
+                                   and f.target not in names))]
 
     def stretch(start: float, stop: float) -> float:
+        """A restart that began up to `restart` s before the wait still holds it up."""
         return (sum(z - a for a, z in held if a < stop and z > start)
-                + restart * sum(1 for t in deaths if start <= t <= stop))
+                + restart * sum(1 for t in deaths if start - restart <= t <= stop))
     return stretch
 
 

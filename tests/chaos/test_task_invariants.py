@@ -42,6 +42,12 @@ def on(robot: str, record: Record) -> Record:
     return record
 
 
+def rcl_exit(t: float) -> Record:
+    """The root supervisor saw the RCL's first incarnation exit (it is restarted)."""
+    return bus(t, "sup.event", {"event": "exit", "child": "rcl", "detail": {"inc": 1}},
+               src="supervisor", inc=0)
+
+
 def timed(records: list[Record]) -> list[Record]:
     """In time order (the bus records as the recorder heard them), the campaign first."""
     return sorted(records, key=lambda r: (r["type"] != "campaign", r.get("t", 0.0)))
@@ -166,9 +172,15 @@ def test_a_wait_while_every_capable_robot_is_busy_or_unable_is_no_violation() ->
 
 
 def test_a_restart_or_a_stall_of_the_rcl_in_the_wait_stretches_the_bound() -> None:
-    restarted = lost_and_reassigned(
-        40.0, bus(30.0, "sup.heartbeat", {"component": "rcl", "pid": 9}, inc=2))
+    restarted = lost_and_reassigned(40.0, rcl_exit(30.0))
     assert verdict(restarted).of(Invariant.AWARD_BOUNDED) == []  # 8 + 15 s
+    before = lost_and_reassigned(40.0, rcl_exit(16.0))  # just before the wait: it counts
+    assert verdict(lost_and_reassigned(40.0, rcl_exit(4.0))).of(Invariant.AWARD_BOUNDED)
+    assert verdict(before).of(Invariant.AWARD_BOUNDED) == []
+    bus_killed = lost_and_reassigned(40.0, {"type": "fault", "t": 24.0, "kind": "kill",
+                                            "target": "bus", "pid": 5, "duration": 0.0,
+                                            "ok": True})
+    assert verdict(bus_killed).of(Invariant.AWARD_BOUNDED) == []
     hung = lost_and_reassigned(35.0, {"type": "fault", "t": 24.0, "kind": "hang",
                                       "target": "rcl", "pid": 5, "duration": 10.0,
                                       "ok": True})
