@@ -16,17 +16,17 @@ than one already heard are a dead incarnation's late words and are ignored.
 - AWARD_BOUNDED: a task that waits while a capable robot can take it is awarded within
   the bound (mrss.chaos.task_bound: link loss + allocation + margin, stretched by each
   stall of the RCL or the bus in the wait, and each restart of the RCL, the bus proxy or
-  everything (a fork server kill) in it or begun up to a restart's time before it). A task waits from its request, from the
-  release of its holder and, when its holder is lost for good (a `robot_loss` fault),
-  from that loss (the RCL learns of it only after the link's timeout, which the bound
-  covers), until its award or its end. A robot can take it when it has every
-  capability the task asks for (the campaign record's robots), its last `robot.state`
-  says available with its link up and not in teleop, no action is on it (by the
-  statuses, the awards and the journal's ends) and it was not lost for good. A
-  violation is a wait during which such a robot stayed so for longer than the bound.
-  The history holds no batteries: a task whose last WAITING before the deadline says
-  `battery` (every capable robot would come home below its reserve) is excused, on the
-  allocator's word.
+  everything (a fork server kill) in it or begun up to a restart's time before it). A
+  task waits from its request, from the release of its holder and, when its holder is
+  lost for good (a `robot_loss` fault), from that loss (the RCL learns of it only after
+  the link's timeout, which the bound covers), until its award or its end. A robot can
+  take it when it has every capability the task asks for (the campaign record's robots),
+  its last `robot.state` says available with its link up and not in teleop, no action is
+  on it (by the statuses, the awards and the journal's ends) and it was not lost for
+  good. A violation is a wait during which such a robot stayed so for longer than the
+  bound. The history holds no batteries: a task whose last WAITING before the deadline
+  says `battery` (every capable robot would come home below its reserve) is excused, on
+  the allocator's word.
 
 Both read only the bus (and the journal's transitions when it was read); a campaign
 that awarded no task leaves them vacuous, never holding.
