@@ -12,7 +12,9 @@ than one already heard are a dead incarnation's late words and are ignored.
   robot (PENDING "reassigning: ..."), a terminal status, or an award that says it was
   reassigned from that robot (the release's own status may be lost on the bus; the
   journal's "reassigning" transition counts as well). A violation is an award to a
-  robot, or a status of the action on a robot, while another robot holds the task.
+  robot, or a status of the action on a robot, while another robot holds the task; or
+  a second award to the robot that holds it (an award is decided once: after a restart
+  a journaled award is carried out, not decided again).
 - AWARD_BOUNDED: a task that waits while a capable robot can take it is awarded within
   the bound (mrss.chaos.task_bound: link loss + allocation + margin, stretched by each
   stall of the RCL or the bus in the wait, and each restart of the RCL, the bus proxy or
@@ -171,6 +173,9 @@ def _walk(life: Life, releases: list[float], lost: dict[str, float],
                     life.clashes.append(f"awarded to {robot} at {e.t:.1f}s while {holder} "
                                         f"held it (since {since:.1f}s)")
                 release(e.t)
+            elif holder == robot:  # decided again: a journaled award is only carried out
+                life.clashes.append(f"awarded to {robot} again at {e.t:.1f}s while it held "
+                                    f"it (since {since:.1f}s)")
             if holder != robot:
                 take(robot, e.t, f"awarded to {robot}")
             continue

@@ -105,6 +105,14 @@ def test_the_lost_robot_still_running_its_task_after_the_reaward_is_two_holders(
     assert "running on uav1 at 25.0s while uav2 held it (since 23.5s)" in found[0].evidence
 
 
+def test_an_award_decided_again_for_the_robot_holding_the_task_is_caught() -> None:
+    again = allocation(15.0, T2, "awarded", "uav1", "uav1: finish in 7 s")
+    found = verdict(lost_and_reassigned(23.5, again)).of(Invariant.NEVER_TWO_HOLDERS)
+    assert [v.subject for v in found] == [T2]
+    assert "awarded to uav1 again at 15.0s while it held it (since 13.1s)" in \
+        found[0].evidence
+
+
 def test_a_release_lost_on_the_bus_is_found_in_the_journal() -> None:
     records = [r for r in lost_and_reassigned()
                if not (r["type"] == "bus" and r["kind"] == "action.status"
