@@ -19,4 +19,4 @@ def operator_traffic(rng: random.Random, every: float) -> Iterator[dict[str, Any
         lat, lon = rng.choice(HOMES)
         yield {"after": rng.uniform(0.5, 1.5) * every, "intent": "goal", "goal": goal,
                "topic": "mrss/ui/sweep",
-               "payload": {"goal": goal, "lat": lat, "lon": lon, "strips": 20}}
+               "payload": {"goal": goal, "lat": lat, "lon": lon, "strips": 12}}

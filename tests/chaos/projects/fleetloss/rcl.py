@@ -1,10 +1,13 @@
 """The fleetloss RCL: `sweep(Robot, Goal, Strips)` covers `Strips` strips, `STRIP_S`
 seconds each, keeping the strip it is at as progress (`step`): a sweep handed to another
 robot goes on from there. It records where it began (`first`) and who swept (`by`). A
-strip counts only while the robot's link is up, as a robot out of reach reports nothing
-it did: a robot lost mid-sweep leaves the rest to the robot that takes the task over."""
+strip counts only when the robot was heard during it (a position report, 4 a second
+from the simulator), as a robot out of reach reports nothing it did: a robot lost
+mid-sweep leaves the rest to the robot that takes the task over."""
 
 from __future__ import annotations
+
+import time
 
 from mrss.api import Action, RobotCommLayer, Skill
 
@@ -24,13 +27,19 @@ class Sweep(Skill):
     def run(self) -> bool:
         step = int(self.progress.get("step", 0))  # type: ignore[arg-type]
         while step < self.strips:
+            began = time.time()
             if self.wait(STRIP_S):
                 return False
-            if self.link is not None and not self.link.up:
+            if not self.heard_since(began):
                 continue
             step += 1
             self.record_progress(step=step)
         return True
+
+    def heard_since(self, began: float) -> bool:
+        """Whether the link received a position report at or after `began` (wall time)."""
+        record = self.link.latest("position") if self.link is not None else None
+        return record is not None and float(record.get("ts", 0.0)) >= began
 
 
 class Rcl(RobotCommLayer):
