@@ -10,13 +10,17 @@ The award bound of these histories is 8 s (3 s link loss, 2 s allocation, 3 s ma
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
+
+import pytest
 
 from mrss.chaos.campaign import parse_kinds, plan
 from mrss.chaos.checker import Bounds, Invariant, Judgement, Verdict, check
 from mrss.chaos.faults import ALL_KINDS, FaultKind, targets
 from mrss.chaos.history import parse
 from mrss.chaos.task_bound import AwardBound, award_bound, robot_capabilities
+from mrss.cli import main
 from mrss.config.loader import load_project
 from tests.chaos.histories import (
     Record,
@@ -233,3 +237,17 @@ def test_robot_loss_is_drawn_only_when_named_and_takes_each_robot_once() -> None
     lost = [f.target for f in faults if f.kind is FaultKind.ROBOT_LOSS]
     assert len(lost) == len(set(lost)) and lost
     assert all(f.duration == 0.0 for f in faults if f.kind is FaultKind.ROBOT_LOSS)
+
+
+def test_mrss_chaos_award_bound_replaces_the_derived_one_and_must_not_be_negative(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "h.jsonl"
+    path.write_text("\n".join(json.dumps(r) for r in lost_and_reassigned(30.0)) + "\n")
+    assert main(["chaos", "--check", str(path), "--json"]) == 1  # 10 s > the derived 8 s
+    assert json.loads(capsys.readouterr().out)["invariants"]["award-bounded"][
+        "judgement"] == "fails"
+    main(["chaos", "--check", str(path), "--json", "--award-bound", "12"])
+    assert json.loads(capsys.readouterr().out)["invariants"]["award-bounded"][
+        "judgement"] == "holds"
+    assert main(["chaos", "wildfire", "--award-bound", "-1"]) == 2
+    assert "--award-bound: must be >= 0" in capsys.readouterr().err
