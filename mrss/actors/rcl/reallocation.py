@@ -189,12 +189,11 @@ class Reallocation:
         robot actors start): on their robot, or bid for again if it is unavailable now;
         those of a robot whose link has not reported up since the start wait for it
         (called again when it does, or when its wait is over)."""
-        with self._carrying:
-            pending, self._pending = self._pending, []
-            self._pending = [p for p in pending if self.host.awaiting(p[2])]
-        for request, requester, robot, progress in pending:
-            if self.host.awaiting(robot):
-                continue
+        with self._carrying:  # each award is taken out once, and carried out once
+            waits = [self.host.awaiting(p[2]) for p in self._pending]
+            ready = [p for p, wait in zip(self._pending, waits, strict=True) if not wait]
+            self._pending = [p for p, wait in zip(self._pending, waits, strict=True) if wait]
+        for request, requester, robot, progress in ready:
             if self.host.refused(robot):
                 self.allocator.book.lost(request.uuid, robot)
                 self.allocator.reopen(request, requester, robot, progress)
