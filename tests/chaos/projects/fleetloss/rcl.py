@@ -25,7 +25,7 @@ class Sweep(Skill):
         self.record_progress(first=first, step=first, by=self.robot)
 
     def run(self) -> bool:
-        step = int(self.progress.get("step", 0))  # type: ignore[arg-type]
+        step = int(self.progress.get("step", 0))
         while step < self.strips:
             began = time.time()
             if self.wait(STRIP_S):
@@ -45,5 +45,5 @@ class Sweep(Skill):
 class Rcl(RobotCommLayer):
     def refine_action(self, action: Action) -> list[Skill]:
         if action.name == "sweep":
-            return [Sweep(int(action.args[2]))]  # type: ignore[arg-type]
+            return [Sweep(int(action.args[2]))]
         return super().refine_action(action)
