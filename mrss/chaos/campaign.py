@@ -5,7 +5,9 @@ same faults, so a failing campaign is re-run exactly (`--seed`). Each fault pick
 uniformly among the requested kinds that have a target in the project, then a target of
 that kind uniformly, waits a uniform time in `interval` after the previous fault, and a
 timed fault lasts a uniform time in `duration`. The first fault comes one interval after
-the faults begin.
+the faults begin. A robot is lost for good (`robot_loss`) at most once: a lost robot is
+no target of a later one, and the kind is drawn no more once every robot is lost
+(unless no other kind is left).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from __future__ import annotations
 import random
 from collections.abc import Iterable, Mapping
 
-from mrss.chaos.faults import Fault, FaultKind
+from mrss.chaos.faults import ALL_KINDS, Fault, FaultKind
 from mrss.errors import MrssError
 
 
@@ -39,9 +41,9 @@ def parse_range(text: str, what: str) -> Range:
 
 
 def parse_kinds(text: str) -> list[FaultKind]:
-    """A comma-separated list of fault kinds ("all" for every kind)."""
+    """A comma-separated list of fault kinds ("all": every kind but those never healed)."""
     if text.strip() == "all":
-        return list(FaultKind)
+        return list(ALL_KINDS)
     kinds = []
     for name in (n.strip() for n in text.split(",") if n.strip()):
         try:
@@ -63,11 +65,14 @@ def plan(seed: int, count: int, kinds: Iterable[FaultKind],
         raise CampaignError("none of the fault kinds asked for has a target in this project")
     rng = random.Random(seed)
     faults: list[Fault] = []
+    left = {k: list(targets[k]) for k in usable}
     at = 0.0
     for _ in range(count):
         at += rng.uniform(*interval)
-        kind = rng.choice(usable)
-        target = rng.choice(targets[kind])
+        kind = rng.choice([k for k in usable if left[k]] or usable)
+        target = rng.choice(left[kind] or targets[kind])
+        if kind.permanent and target in left[kind]:
+            left[kind].remove(target)
         lasts = round(rng.uniform(*duration), 2) if kind.timed else 0.0
         faults.append(Fault(round(at, 2), kind, target, lasts, kind.amount))
     return faults

@@ -46,7 +46,11 @@ them all. What each one relies on is stated here and in docs/chaos.md:
   vacuous when no fault was injected (a system that is not running still fails it).
 - NO_ROBOT_STUCK and HEALED (mrss.chaos.recovery): no action of a skill with a progress
   bound runs longer than it without news; after the faults the last probe finds the
-  robots as available as before the first fault, and the system whole.
+  robots as available as before the first fault (but those lost for good), and the
+  system whole.
+- NEVER_TWO_HOLDERS and AWARD_BOUNDED (mrss.chaos.tasks): no task addressed to a role
+  is held by two robots at once; a task that waits while a capable robot can take it
+  is awarded within the bound derived from the project (mrss.chaos.task_bound).
 
 A rule that needs the journal (or the run's log) and finds it missing is incomplete; it
 still reports what it could see without it, when that is a violation whatever the rest
@@ -64,6 +68,7 @@ from mrss.chaos.goals import GoalOutcome, goal_outcomes
 from mrss.chaos.history import History, JournalAction
 from mrss.chaos.modes import check_mode_consistent
 from mrss.chaos.recovery import check_healed, check_no_robot_stuck
+from mrss.chaos.tasks import check_award_bounded, check_never_two_holders
 from mrss.chaos.verdict import (
     Bounds,
     Invariant,
@@ -119,7 +124,9 @@ def check(history: History, bounds: Bounds = DEFAULT_BOUNDS) -> Verdict:
                             (Invariant.CONVERGED, check_converged),
                             (Invariant.NO_ROBOT_STUCK, check_no_robot_stuck),
                             (Invariant.HEALED, check_healed),
-                            (Invariant.CRITICAL_BOUNDED, check_critical_bounded)):
+                            (Invariant.CRITICAL_BOUNDED, check_critical_bounded),
+                            (Invariant.NEVER_TWO_HOLDERS, check_never_two_holders),
+                            (Invariant.AWARD_BOUNDED, check_award_bounded)):
         verdict.rulings[invariant] = rule(history, bounds)
     return verdict
 

@@ -27,6 +27,15 @@ kernel, and components of one node talk over unix sockets no packet filter sees)
     partition       nothing passes: a MAVLink robot out of reach, or the MQTT broker cut
                     from one robot (its bytes wait; the RCL's own connection is not cut)
 
+and one that is never healed, drawn only when named (not in `all`):
+
+    robot_loss      a robot taken away for good, mid-task: its link's relay lets nothing
+                    through for the rest of the campaign (a robot destroyed, or gone out
+                    of range for good); its simulator runs on, so no supervisor brings
+                    it back. The campaign waits (up to `MID_TASK_WAIT` s) until the robot
+                    runs a task addressed to a role, and records the tasks it held. Each
+                    robot is lost at most once
+
 and between nodes, by the kernel (nftables rules in the campaign's network namespace,
 needing root, `nft` and a project on [nodes]; without them the kinds have no target,
 and the reason is given):
@@ -88,6 +97,12 @@ class FaultKind(StrEnum):
     NODE_PARTITION = "node_partition"
     NODE_LOSS = "node_loss"
     NODE_DELAY = "node_delay"
+    ROBOT_LOSS = "robot_loss"
+
+    @property
+    def permanent(self) -> bool:
+        """Whether the fault is never healed (drawn only when named: not in `all`)."""
+        return self is FaultKind.ROBOT_LOSS
 
     @property
     def timed(self) -> bool:
@@ -111,6 +126,10 @@ NETWORK_AMOUNTS: dict[FaultKind, float] = {
     FaultKind.DELAY: 0.5, FaultKind.LOSS: 0.3, FaultKind.REORDER: 0.3,
     FaultKind.PARTITION: 0.0, FaultKind.NODE_PARTITION: 100.0, FaultKind.NODE_LOSS: 30.0,
     FaultKind.NODE_DELAY: 0.2}
+#: What `--kinds all` draws from: every kind but those never healed.
+ALL_KINDS = tuple(k for k in FaultKind if not k.permanent)
+#: Seconds a robot_loss waits for its robot to be mid-task before it strikes anyway.
+MID_TASK_WAIT = 30.0
 #: The kinds between nodes (a project on [nodes], in network namespaces).
 NODE_KINDS = (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS, FaultKind.NODE_DELAY)
 #: The relay's impairment for each network kind on a robot link.
@@ -176,6 +195,7 @@ def targets(config: ProjectConfig, only: Iterable[str] = ()) -> dict[FaultKind, 
                         if link == "mavlink" or kind in TCP_KINDS)
            for kind in IMPAIRMENTS},
         **{kind: nodes for kind in NODE_KINDS},
+        FaultKind.ROBOT_LOSS: sorted(relayed),
     }
 
 
@@ -196,6 +216,9 @@ def unavailable(config: ProjectConfig) -> dict[FaultKind, str]:
                          "relayed links are MQTT (TCP)")
     for kind in NODE_KINDS:
         why[kind] = why_no_nodes(config) or "the project has a single node"
+    if not relayed:
+        why[FaultKind.ROBOT_LOSS] = ("no simulated robot whose link MRSS finds itself (a "
+                                     "relay is put in such a link's path)")
     if config.supervisor.launcher != "fork":
         why[FaultKind.FORKSERVER] = "the supervisor's launcher is not fork"
     return why
@@ -240,6 +263,15 @@ class Injector:
     def inject(self, fault: Fault) -> tuple[int, Heal | None]:
         """Inject `fault` now; the pid hit and, for a timed fault, how to heal it."""
         kind = fault.kind
+        if kind is FaultKind.ROBOT_LOSS:  # a partition never healed
+            if self.relays is None:
+                raise InjectionError(f"{fault.target}: no relay in the path (the campaign "
+                                     "started none)")
+            try:
+                self.relays.impair(fault.target, Impairment.PARTITION, 0.0)
+            except NetworkError as exc:
+                raise InjectionError(str(exc)) from None
+            return 0, None
         if kind in IMPAIRMENTS:
             if self.relays is None:
                 raise InjectionError(f"{fault.target}: no relay in the path (the campaign "

@@ -5,9 +5,12 @@ started (the recorder's monotonic clock for what it saw itself; wall-clock sourc
 RCL journal and the run's log file, are moved onto the same time line with the campaign's
 start wall time). Record types:
 
-    campaign   first line: project, seed, options, the planned faults, start wall time
+    campaign   first line: project, seed, options, the planned faults, start wall time,
+               the robots' capabilities (`robots`) and the award bound derived from the
+               project (`award_bound`, mrss.chaos.task_bound)
     bus        a bus message as received: topic, src, inc, kind, body (its fields)
-    fault      a fault injected: kind, target, pid, duration (s, 0 for instant), ok, error
+    fault      a fault injected: kind, target, pid, duration (s, 0 for instant), ok, error;
+               a robot_loss also `holding`, the tasks addressed to a role its robot ran
     heal       a timed fault ended (SIGCONT sent, file size limit restored)
     operator   an operator step published over MQTT: intent, goal, robot, on, ..., ok
     reply      an MQTT message the system sent the operator (on the project's reply topics)
@@ -60,6 +63,7 @@ class FaultEvent:
     duration: float
     ok: bool
     error: str = ""
+    holding: tuple[str, ...] = ()  # robot_loss: the tasks its robot ran when it was lost
 
 
 @dataclass(frozen=True)
@@ -269,7 +273,8 @@ def _add(h: History, r: dict[str, Any]) -> None:
     elif kind == "fault":
         h.faults.append(FaultEvent(float(r["t"]), str(r["kind"]), str(r["target"]),
                                    int(r.get("pid", 0)), float(r.get("duration", 0.0)),
-                                   bool(r["ok"]), str(r.get("error", ""))))
+                                   bool(r["ok"]), str(r.get("error", "")),
+                                   tuple(str(u) for u in r.get("holding") or ())))
     elif kind == "heal":
         h.heals.append(HealEvent(float(r["t"]), str(r["kind"]), str(r["target"]),
                                  int(r.get("pid", 0))))

@@ -1,7 +1,8 @@
 """Records a running system into a campaign history: bus, operator replies, probes, journal, log.
 
-- The bus: `action.*` (requests on the reliable channel too), `sup.*`, `robot.*`,
-  `percept`, `log.*`, `mind.*`, stamped on arrival. To keep the file small, robot
+- The bus: `action.*` (requests on the reliable channel too; the RCL's allocations of
+  tasks addressed to a role, `TaskAllocation` on `action.allocation`), `sup.*`,
+  `robot.*`, `percept`, `log.*`, `mind.*`, stamped on arrival. To keep the file small, robot
   telemetry is kept only when it carries a mode (`teleop` or `mode`), and of the
   heartbeats only the first of each incarnation.
 - The operator's replies: MQTT messages on the project's reply topics (reconnecting to
@@ -40,6 +41,8 @@ from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.logfile import read_history
 from mrss.logs import log_file
 from mrss.messages import (
+    ActionStatus,
+    AllocationState,
     Command,
     Envelope,
     Heartbeat,
@@ -47,6 +50,7 @@ from mrss.messages import (
     RobotData,
     SupEvent,
     SupEventKind,
+    TaskAllocation,
 )
 
 PREFIXES = ["action.", "rel.action.msg", "sup.", "robot.", "percept", "log.", "mind."]
@@ -68,6 +72,7 @@ class Recorder:
         self._replies: dict[str, Envelope] = {}
         self._answer = threading.Condition(self._lock)
         self._answered: set[str] = set()  # ids of operator steps a reply named
+        self._tasks: dict[str, tuple[str, str]] = {}  # role task -> (its robot, state)
         endpoints = BusEndpoints.ipc(run_dir)
         self._pub = Publisher(endpoints, src="chaos")
         self._sub = Subscriber(endpoints, prefixes=PREFIXES, name="chaos-recorder",
@@ -107,6 +112,8 @@ class Recorder:
             elif isinstance(body, MindSnapshot):
                 self._replies["mind"] = env
                 self._answer.notify_all()
+            elif isinstance(body, TaskAllocation | ActionStatus):
+                self._follow_task(body)
         self.writer.write("bus", t=self.now(), topic=env.topic, src=env.src, inc=env.inc,
                           kind=env.kind, body=asdict(body))  # type: ignore[call-overload]
 
@@ -118,6 +125,24 @@ class Recorder:
                 if child.get("pid") and child.get("state") == "running":
                     self._pids[str(child.get("id"))] = int(child["pid"])
                 self._learn_tree(child)
+
+    def _follow_task(self, body: TaskAllocation | ActionStatus) -> None:
+        """Which robot each task addressed to a role is on, and in what state (under the
+        lock): an award puts it there, a status on no robot or a terminal one ends it."""
+        if isinstance(body, TaskAllocation):
+            if body.state is AllocationState.AWARDED:
+                self._tasks[body.uuid] = (body.robot, "awarded")
+        elif body.uuid in self._tasks:
+            if body.state.value in TERMINAL or not body.robot:
+                del self._tasks[body.uuid]
+            else:
+                self._tasks[body.uuid] = (body.robot, body.state.value)
+
+    def tasks_running_on(self, robot: str) -> list[str]:
+        """The tasks addressed to a role that `robot` runs now, as the bus told."""
+        with self._lock:
+            return sorted(u for u, (r, state) in self._tasks.items()
+                          if r == robot and state == "running")
 
     def pid_of(self, component: str) -> int | None:
         with self._lock:

@@ -9,6 +9,7 @@
 - HEALED: after the last fault is over and the system settled, the last probe finds it
   as it was before the first fault: every robot that was available with its link up
   (its last `robot.state` before the first fault) is so again (its last one at all),
+  but a robot taken away for good (`robot_loss`), which must stay away,
   and the system is whole (`probe_problems` of the last probe: every component
   running, every open action waited on by an intention, every waited-on action open:
   no orphan, every action has an outcome or an owner).
@@ -105,8 +106,11 @@ def check_healed(h: History, b: object = None) -> Ruling:
     first_fault = min(f.t for f in injected)
     before = robot_states(h, first_fault)
     after = robot_states(h)
+    lost = {f.target for f in injected if f.kind == "robot_loss"}
     evidence = []
     for robot, (available, link) in sorted(before.items()):
+        if robot in lost:
+            continue
         if available and link == "up" and after.get(robot) != (True, "up"):
             now = after[robot]
             evidence.append(f"robot {robot}: available, link up before the first fault "

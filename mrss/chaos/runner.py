@@ -31,7 +31,9 @@ from mrss.chaos.campaign import CampaignError, Range, plan
 from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
+    ALL_KINDS,
     IMPAIRMENTS,
+    MID_TASK_WAIT,
     Fault,
     FaultKind,
     Heal,
@@ -47,6 +49,7 @@ from mrss.chaos.history import FILE_NAME, HistoryWriter, parse
 from mrss.chaos.netns import NodeNetwork
 from mrss.chaos.network import Relays
 from mrss.chaos.recorder import Recorder
+from mrss.chaos.task_bound import award_bound, robot_capabilities
 from mrss.chaos.traffic import Intent, OperatorStep, Sent, Traffic, load_traffic, publish
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
@@ -67,7 +70,7 @@ class Options:
     run_dir: Path
     faults: int = 10
     seed: int = 1
-    kinds: tuple[FaultKind, ...] = tuple(FaultKind)
+    kinds: tuple[FaultKind, ...] = ALL_KINDS
     interval: Range = (3.0, 6.0)
     duration: Range = (2.0, 8.0)
     only: tuple[str, ...] = ()
@@ -98,7 +101,7 @@ def run(options: Options, say: Say = print,
     traffic = load_traffic(config.directory)
     possible = targets(config, options.only)
     skipped = skipped_kinds(options.kinds, possible, unavailable(config),
-                            explicit=set(options.kinds) != set(FaultKind))
+                            explicit=set(options.kinds) != set(ALL_KINDS))
     faults = plan(options.seed, options.faults, options.kinds, possible, options.interval,
                   options.duration)
     reasoners = components_of(config, ComponentKind.REASONER)
@@ -124,7 +127,8 @@ def run(options: Options, say: Say = print,
             if any(f.kind is FaultKind.NODE_DELAY for f in faults):
                 network.relay(options.seed)  # in the nodes' path before they connect
         # relays in the robots' paths before anything resolves their addresses (detours)
-        if any(f.kind.network and f.kind in IMPAIRMENTS for f in faults):
+        if any((f.kind.network and f.kind in IMPAIRMENTS) or f.kind.permanent
+               for f in faults):
             relays = Relays(config, options.run_dir, options.seed).start()
         system.start(timeout=STARTUP)
         for peer in peers:  # the home node's proxy first, as an operator starts them
@@ -140,6 +144,8 @@ def run(options: Options, say: Say = print,
                      failed_beliefs=failed_goal_functors(config),
                      mode_beliefs=traffic.mode_beliefs,
                      planned=[dataclasses.asdict(f) for f in faults],
+                     robots=robot_capabilities(config),
+                     award_bound=award_bound(config).record(),
                      skipped={k.value: why for k, why in skipped.items()},
                      relayed=relays.links if relays is not None else {},
                      nodes={"home": home, "peers": [p.node for p in peers]} if home else {})
@@ -162,7 +168,8 @@ def run(options: Options, say: Say = print,
                 break
             if fault.kind is not FaultKind.FORKSERVER:
                 recorder.tree(timeout=2.0)  # fresh pids when the bus answers
-            _inject(injector, fault, recorder, writer, heals)
+            holding = _mid_task(fault, recorder, system, heals, writer)
+            _inject(injector, fault, recorder, writer, heals, holding)
             say(f"chaos: fault {number}/{len(faults)} {fault.kind} {fault.target}"
                 + (f" for {fault.duration:.1f}s" if fault.kind.timed else ""))
         while heals and _running(system):
@@ -275,17 +282,33 @@ def _deliver(step: OperatorStep, options: Options, recorder: Recorder) -> tuple[
             return sent, attempts
 
 
+def _mid_task(fault: Fault, recorder: Recorder, system: RunningProject,
+              heals: list[tuple[float, Fault, int, Heal]], writer: HistoryWriter
+              ) -> list[str] | None:
+    """For a robot_loss, wait (at most MID_TASK_WAIT s) until its robot runs a task
+    addressed to a role, so that it is lost mid-task; those tasks (None: another kind)."""
+    if fault.kind is not FaultKind.ROBOT_LOSS:
+        return None
+    deadline = recorder.now() + MID_TASK_WAIT
+    while not recorder.tasks_running_on(fault.target) and recorder.now() < deadline \
+            and _running(system):
+        _sleep_until(recorder, min(deadline, recorder.now() + 0.1), system, heals, writer)
+    return recorder.tasks_running_on(fault.target)
+
+
 def _inject(injector: Injector, fault: Fault, recorder: Recorder, writer: HistoryWriter,
-            heals: list[tuple[float, Fault, int, Heal]]) -> None:
+            heals: list[tuple[float, Fault, int, Heal]],
+            holding: list[str] | None = None) -> None:
     t = recorder.now()
+    held = {} if holding is None else {"holding": holding}  # the tasks a lost robot ran
     try:
         pid, heal = injector.inject(fault)
     except (InjectionError, OSError) as exc:
         writer.write("fault", t=t, kind=fault.kind.value, target=fault.target, pid=0,
-                     duration=fault.duration, ok=False, error=str(exc))
+                     duration=fault.duration, ok=False, error=str(exc), **held)
         return
     writer.write("fault", t=t, kind=fault.kind.value, target=fault.target, pid=pid,
-                 duration=fault.duration, ok=True)
+                 duration=fault.duration, ok=True, **held)
     if heal is not None:
         heals.append((t + fault.duration, fault, pid, heal))
 

@@ -36,12 +36,15 @@ from mrss.chaos.views import accepted
 
 @dataclass(frozen=True)
 class Bounds:
-    """Seconds: latch release, cancel/orphan stop, convergence after the last fault."""
+    """Seconds: latch release, cancel/orphan stop, convergence after the last fault, and
+    a task's award (0: the bound the campaign derived from the project, recorded in its
+    campaign record; mrss.chaos.task_bound)."""
 
     latch: float = 15.0
     cancel: float = 15.0
     converge: float = 60.0
     critical_slack: float = 1.0
+    award: float = 0.0
 
 
 class Invariant(StrEnum):
@@ -55,6 +58,8 @@ class Invariant(StrEnum):
     NO_ROBOT_STUCK = "no-robot-stuck"
     HEALED = "heals-to-same-state"
     CRITICAL_BOUNDED = "critical-bounded"
+    NEVER_TWO_HOLDERS = "never-two-holders"
+    AWARD_BOUNDED = "award-bounded"
 
 
 #: What an invariant had none of when it is vacuous (the report says it).
@@ -69,6 +74,9 @@ NOTHING_TO_CHECK = {
     Invariant.NO_ROBOT_STUCK: "no action of a skill with a progress bound ran",
     Invariant.HEALED: "no fault injected, nothing to heal from",
     Invariant.CRITICAL_BOUNDED: "no skill entered a critical section",
+    Invariant.NEVER_TWO_HOLDERS: "no task addressed to a role was awarded",
+    Invariant.AWARD_BOUNDED: "no task addressed to a role waited while a capable robot "
+                             "could take it",
 }
 
 

@@ -2,7 +2,8 @@
 
 Produced: every `JsonMapping("functor", Field, ...)` and `self.percept("functor", ...)` of
 events.py (read with `ast`, arity from the fields or arguments), the world model rules'
-functors of project.toml, MRSS's own `robot_unavailable/1`, and the geofence's
+functors of project.toml, MRSS's own `robot_unavailable/1` and `reassigned/3` (the RCL's,
+when a task addressed to a role goes to another robot), and the geofence's
 `geofence_exit/4` and `geofence_trapped/2` when `[datalayer] geofence` is on. Rules:
 - a percept events.py declares that no `+functor(...)`/`-functor(...)` plan of the agent
   handles (same arity) is a warning at its line in events.py;
@@ -25,7 +26,7 @@ from mrss.check.findings import Report, did_you_mean
 from mrss.check.sources import PySource
 from mrss.config.project import ProjectConfig
 
-BUILTIN = {("robot_unavailable", 1)}
+BUILTIN = {("robot_unavailable", 1), ("reassigned", 3)}
 
 
 @dataclass(frozen=True)

@@ -48,9 +48,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "fault lasts (default 2..8)")
     parser.add_argument("--kinds", default="all", metavar="K,K",
                         help="fault kinds: kill, hang, blackout, broker, link, forkserver, "
-                             "disk_full, delay, loss, reorder, partition, node_partition, "
-                             "node_loss, node_delay (default all: those without a target here are "
-                             "skipped and reported; one named here is refused)")
+                             "disk_full, delay, loss, reorder, partition, robot_loss, "
+                             "node_partition, node_loss, node_delay (default all: every kind "
+                             "but robot_loss, which is drawn only when named; those without "
+                             "a target here are skipped and reported; one named here is "
+                             "refused)")
     parser.add_argument("--targets", default="", metavar="C,C",
                         help="components that kill and hang may hit (default: all)")
     parser.add_argument("--operator-every", type=float, default=20.0, metavar="S",
@@ -63,6 +65,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="a cancelled or orphaned action ends within S s")
     parser.add_argument("--converge-bound", type=float, default=Bounds.converge,
                         metavar="S", help="the system converges within S s of the last fault")
+    parser.add_argument("--award-bound", type=float, default=Bounds.award, metavar="S",
+                        help="a task addressed to a role that a capable robot can take is "
+                             "awarded within S s (default: derived from the project: link "
+                             "loss + allocation + margin, docs/chaos.md)")
     parser.add_argument("--run-dir", type=Path, default=None,
                         help="run folder (default: a new /tmp/mrss-chaos-PROJECT-*)")
     parser.add_argument("--check", type=Path, default=None, metavar="FILE",
@@ -72,7 +78,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     bounds = Bounds(latch=args.latch_bound, cancel=args.cancel_bound,
-                    converge=args.converge_bound)
+                    converge=args.converge_bound, award=args.award_bound)
     if args.check is not None:
         return _check(args.check, bounds, args.json)
     if args.project is None:
@@ -104,6 +110,8 @@ def _options(args: argparse.Namespace, bounds: Bounds) -> runner.Options:
     for name in ("operator_every", "latch_bound", "cancel_bound", "converge_bound"):
         if getattr(args, name) <= 0:
             raise CampaignError(f"--{name.replace('_', '-')}: must be > 0")
+    if args.award_bound < 0:
+        raise CampaignError("--award-bound: must be >= 0 (0: derived from the project)")
     seed = args.seed if args.seed is not None else random.SystemRandom().randrange(1 << 31)
     run_dir = args.run_dir or Path(tempfile.mkdtemp(prefix=f"mrss-chaos-{args.project}-"))
     return runner.Options(

@@ -55,6 +55,7 @@ class FailureCause(StrEnum):
     PREEMPTED = "preempted"  # pre-empted longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
     DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
+    BATTERY_CRITICAL = "battery_critical"  # its battery fell below its critical level
     UNSPECIFIED = ""  # no particular cause: the agent sees error(action_failed)
 
 

@@ -306,6 +306,16 @@ def test_orphan_percepts_are_warnings_on_both_sides(
         warnings[("agent.asl", agent_line)]
 
 
+def test_the_rcls_reassigned_percept_is_known_to_be_produced(
+        project: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with (project / "agent.asl").open("a") as asl:  # the RCL's, for tasks addressed to a role
+        asl.write("\n+reassigned(Task, From, To)[source(percept)]\n"
+                  "   <- .print(Task, \" went from \", From, \" to \", To).\n")
+    code, report = run_check(capsys)
+    assert code == 0, report
+    assert not [f for f in report["findings"] if "reassigned" in f["message"]], report
+
+
 def test_text_output_names_file_line_and_column(
         project: Path, capsys: pytest.CaptureFixture[str]) -> None:
     inject(project, next(m for m in MISTAKES if m.name == "action without a recipe"))

@@ -20,6 +20,12 @@ robot's availability; it reaches robot actors and ends actions through the core'
   Journaled first: a decommissioned robot stays out after any restart of the RCL (or
   of the whole system) until it is recommissioned, and a link or node lost meanwhile
   does not replace that cause;
+- at start, a robot whose link is not up yet is unavailable until the link first
+  reports up (`await_first_reports`): a link starts down and says nothing until its
+  first heartbeat or telemetry, so without this a robot that never came back after an
+  RCL restart would look available and be given tasks. Past its link's timeout without
+  a first report it is lost like a link going down (`first_reports_due`): its open
+  actions fail with `link_down` and its tasks addressed to a role go to others;
 - every change, and every restart of a requester, is announced as a `RobotState`
   (level-triggered: availability, reason, link, teleop).
 """
@@ -27,7 +33,7 @@ robot's availability; it reaches robot actors and ends actions through the core'
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from mrss.actors.rcl import lifecycle as lc
@@ -52,6 +58,11 @@ log = logging.getLogger("mrss.rcl")
 LINK_DOWN = "link down"  # how an unavailable robot's reason starts when its link is lost
 NODE_DOWN = "node down"  # ... when the node it is reached through is lost
 DECOMMISSIONED = "decommissioned by the operator"  # ... when the operator took it out
+FIRST_REPORT = "waiting for its link's first report"  # ... at start, until its link is up
+#: The attributes by which a link says how long its robot may be silent (MAVLink, MQTT,
+#: HTTP), and the wait for a first report of a link that says none.
+SILENCE_TIMEOUTS = ("heartbeat_timeout", "telemetry_timeout", "timeout")
+DEFAULT_SILENCE = 3.0
 LINK_CAUSES = (lc.EndCause.LINK_LOST, lc.EndCause.FAILSAFE)
 
 
@@ -67,8 +78,11 @@ class RobotAvailability:
         self.stopping = False  # the RCL is stopping: its own links closing are no news
         self._unavailable: dict[str, str] = {}
         self._unavailable_cause: dict[str, lc.EndCause] = {}  # what a request is refused as
+        self._awaiting: dict[str, tuple[float, float]] = {}  # robot -> (deadline, timeout)
         self.on_change: Callable[[], None] = lambda: None  # a robot's state changed
         self.on_teleop: Callable[[str, bool], None] = lambda _r, _on: None  # told an actor
+        #: a robot awaited at start reported up, or its wait is over (it is lost)
+        self.on_settled: Callable[[str], None] = lambda robot: None
 
     def refusal(self, robot: str) -> tuple[str, lc.EndCause] | None:
         """Why a new action for `robot` is refused now (reason, cause); None: it is not."""
@@ -113,6 +127,36 @@ class RobotAvailability:
         if changed:
             self._robot_state(robot)
 
+    def await_first_reports(self, timeouts: Mapping[str, float], now: float) -> None:
+        """At start, before the links' states are bound: each robot of `timeouts` (its
+        link's silence timeout) is unavailable until its link first reports up, and lost
+        if none came by `now` + that timeout (`first_reports_due`)."""
+        for robot, timeout in timeouts.items():
+            if robot not in self.links:
+                continue
+            with self.actions.lock:
+                self._awaiting[robot] = (now + timeout, timeout)
+            self.set_available(robot, False, f"{LINK_DOWN}: {FIRST_REPORT}",
+                               lc.EndCause.LINK_LOST)
+
+    def awaiting(self, robot: str) -> bool:
+        """Whether `robot`'s link has not reported up since the start (and may yet)."""
+        with self.actions.lock:
+            return robot in self._awaiting
+
+    def first_reports_due(self, now: float) -> None:
+        """The robots whose link gave no first report within its timeout: lost."""
+        with self.actions.lock:
+            due = [(r, t) for r, (deadline, t) in self._awaiting.items() if now >= deadline]
+            for robot, _ in due:
+                del self._awaiting[robot]
+        for robot, timeout in due:
+            log.warning("robot %s: its link gave no first report within %g s of the start",
+                        robot, timeout)
+            self.link_state(robot, False, f"no first report within {timeout:g} s of the "
+                            "RCL's start")
+            self.on_settled(robot)
+
     def link_state(self, robot: str, up: bool, reason: str = "") -> list[str]:
         """The robot's link went down (robot unreachable) or came back.
 
@@ -128,9 +172,12 @@ class RobotAvailability:
             return []
         with self.actions.lock:
             current = self._unavailable_cause.get(robot)
+            first = up and self._awaiting.pop(robot, None) is not None
         if up:
             if current in LINK_CAUSES:  # not when something else (a quarantine) holds it
                 self.set_available(robot, True)
+            if first:
+                self.on_settled(robot)
             return []
         if current in (lc.EndCause.NODE_DOWN, lc.EndCause.DECOMMISSIONED):
             return []  # the deeper cause (its actions failed with it); it stays
@@ -235,3 +282,12 @@ class RobotAvailability:
                 self.routes.end_unrouted(entry.action, lc.End(
                     ActionState.FAILED, lc.EndCause.QUARANTINED,
                     f"robot {robot} quarantined: its actor keeps crashing ({reason})"))
+
+
+def silence_timeout(link: Any) -> float:
+    """How long `link`'s robot may be silent before the link is down (its own timeout)."""
+    for name in SILENCE_TIMEOUTS:
+        value = getattr(link, name, None)
+        if isinstance(value, int | float) and not isinstance(value, bool) and value > 0:
+            return float(value)
+    return DEFAULT_SILENCE

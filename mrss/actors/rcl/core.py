@@ -197,7 +197,10 @@ class RclCore:
         for robot in sorted(decommissioned):  # what it still held (a kill came between)
             self.availability.decommission(robot, True)
         self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
-        self.reallocation.carry_out()  # awards recorded before a restart, not yet started
+        # awards recorded before a restart, not yet started; a robot whose link has not
+        # reported up since the start gets its award when it does
+        self.availability.on_settled = lambda _robot: self.reallocation.carry_out()
+        self.reallocation.carry_out()
         self.allocator.start()
 
     def controls(self, robot: str) -> bool:
@@ -396,6 +399,16 @@ class RclCore:
                 return
             self._accept(dataclasses.replace(request, robot=robot, args=args, role={}),
                          requester, progress)
+
+    def check_batteries(self) -> None:
+        """Tasks addressed to a role held by a robot whose battery is critical go to
+        others (Reallocation.battery_check; the RCL calls it every heartbeat tick)."""
+        self.reallocation.battery_check(
+            lambda r: bid_link_state(self.links[r])[1] if r in self.links else None)
+
+    def awaiting(self, robot: str) -> bool:
+        """Whether `robot`'s link has not reported up since the start (and may yet)."""
+        return self.availability.awaiting(robot)
 
     def refused(self, robot: str) -> bool:
         """Whether a new action for `robot` would be refused now (one not configured,

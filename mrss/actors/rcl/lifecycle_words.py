@@ -118,14 +118,16 @@ class EndCause(StrEnum):
     PREEMPTED = "preempted"  # pre-empted for longer than the RCL's preempted_timeout
     NODE_DOWN = "node_down"  # the node the robot is reached through was lost
     DECOMMISSIONED = "decommissioned"  # the operator took the robot out of service
+    BATTERY_CRITICAL = "battery_critical"  # its battery fell below its critical level
 
 
 #: The end causes that wait for a skill's critical section to end (`Skill.critical`);
 #: the others (the robot lost, in its failsafe, behind a lost node, quarantined, an RCL
-#: restart) interrupt inside the section: there is nothing to wait for.
+#: restart) interrupt inside the section: there is nothing to wait for. A robot whose
+#: battery is critical still hears us: its section (a landing) ends first.
 WAITS_FOR_CRITICAL: frozenset[EndCause] = frozenset({
     EndCause.OPERATOR, EndCause.AGENT, EndCause.ORPHANED, EndCause.REJECTED,
-    EndCause.PREEMPTED})
+    EndCause.PREEMPTED, EndCause.BATTERY_CRITICAL})
 
 
 #: The FailureCause the agent sees (`error(Cause)`) for each end cause; "" = by state.
@@ -136,6 +138,7 @@ FAILURE_OF: Mapping[EndCause, str] = {
     EndCause.RCL_RESTARTED: FailureCause.TRANSIENT, EndCause.REJECTED: FailureCause.REJECTED,
     EndCause.PREEMPTED: FailureCause.PREEMPTED, EndCause.NODE_DOWN: FailureCause.NODE_DOWN,
     EndCause.DECOMMISSIONED: FailureCause.DECOMMISSIONED,
+    EndCause.BATTERY_CRITICAL: FailureCause.BATTERY_CRITICAL,
 }
 
 

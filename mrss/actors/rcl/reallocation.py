@@ -3,13 +3,19 @@
 One object of the RCL core, between its action path and the allocator
 (mrss.actors.rcl.allocation). Rules:
 - the action of a task addressed to a role ends with a cause that says its robot is
-  lost (`book.LOSSES`: link lost, failsafe, node down, quarantined, decommissioned):
+  lost (`book.LOSSES`: link lost, failsafe, node down, quarantined, decommissioned,
+  battery critical):
   instead of that end, the task goes back to allocation (`lost`). Journaled first: the
   book has it waiting, then the action is PENDING on no robot (its progress kept, the
   reason "reassigning: ..."), published so, and no longer open on the lost robot; the
   allocator bids it out again and the next holder resumes from that progress. The
   agent's intention keeps waiting on the same action; it sees `reassigned(Task, From,
   To)` as a percept when the task has a new holder (`reassigned`);
+- a robot whose battery (its link's last `battery` telemetry) is below its
+  `battery_critical` is lost for the tasks it holds (`battery_check`, every heartbeat
+  tick of the RCL): their actions end with `battery_critical`, which gives them back as
+  above (after a critical section of theirs, like a stop of the agent's); a task
+  addressed to a robot by name runs on, as before;
 - any other end (done, failed for another cause, cancelled) closes the task;
 - a task addressed to a robot by name is no task of the book: it ends as before;
 - after a restart (`recover`, before the robot actors start) each journaled task has
@@ -17,7 +23,9 @@ One object of the RCL core, between its action path and the allocator
   kill came between the book's write and the action's, is taken off the lost robot
   first); a task held by a robot whose action is there stays with it (the actor
   restores it); an award recorded without its action yet is carried out on that robot
-  (`carry_out`, after the actors start), or, the robot unavailable now, bid for again;
+  (`carry_out`, after the actors start; when its robot's link has not reported up yet
+  since the start, once it does), or, the robot unavailable (or its link silent past
+  its timeout), bid for again;
   a task held by a robot that is not configured any more is bid for again (as lost);
   a task whose action ended is closed. After a restart of the whole system (a new
   run) the tasks are closed and their actions (a waiting task's too, journaled when
@@ -28,8 +36,11 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import threading
+from collections.abc import Callable
 from typing import Any, Protocol
 
+from mrss.actors.rcl import lifecycle as lc
 from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.allocation.allocator import Allocator
 from mrss.actors.rcl.allocation.book import LOSSES
@@ -53,6 +64,10 @@ class Host(Protocol):
 
     def refused(self, robot: str) -> bool: ...
 
+    def awaiting(self, robot: str) -> bool: ...
+
+    def control_one(self, uuid: str, event: lc.Suspend | lc.Resume | lc.End) -> None: ...
+
 
 class Reallocation:
     """Lost holders' tasks back to allocation; the book made whole after a restart."""
@@ -62,6 +77,8 @@ class Reallocation:
         self.allocator, self.journal, self.actions = allocator, journal, actions
         self.host, self.publish = host, publish
         self._pending: list[tuple[ActionRequest, Requester, str, dict[str, JsonValue]]] = []
+        self._carrying = threading.Lock()  # the start, and a robot's first report
+        self._low: set[tuple[str, str]] = set()  # (task, robot) handed back for its battery
 
     # -- the action path ---------------------------------------------------------------------
     def ending(self, action: Action) -> bool:
@@ -87,6 +104,23 @@ class Reallocation:
                     action.robot, action.cause, dict(action.progress) or "the start")
         self.allocator.reopen(held.request, requester, action.robot, dict(action.progress))
         return True
+
+    def battery_check(self, battery_of: Callable[[str], float | None]) -> None:
+        """Each task held by a robot whose battery is below its `battery_critical` goes
+        back to allocation: its action ends with `battery_critical` (a loss), once."""
+        held = {(u, r) for u, r in self.allocator.book.holders().items() if r}
+        self._low &= held
+        for uuid, robot in sorted(held - self._low):
+            profile = self.allocator.profiles.get(robot)
+            level = battery_of(robot)
+            if profile is None or level is None or level >= profile.battery_critical:
+                continue
+            self._low.add((uuid, robot))
+            why = (f"robot {robot}'s battery is at {level:.0f} %, below its critical "
+                   f"{profile.battery_critical:g} %")
+            log.warning("task %s: %s; it goes to another robot", uuid, why)
+            self.host.control_one(uuid, lc.End(ActionState.FAILED,
+                                               lc.EndCause.BATTERY_CRITICAL, why))
 
     def ended(self, action: Action) -> None:
         """`action` ended (journaled): its task, if it is one, is closed."""
@@ -152,9 +186,14 @@ class Reallocation:
 
     def carry_out(self) -> None:
         """The awards recorded before a restart whose actions were not started (after the
-        robot actors start): on their robot, or bid for again if it is unavailable now."""
-        pending, self._pending = self._pending, []
-        for request, requester, robot, progress in pending:
+        robot actors start): on their robot, or bid for again if it is unavailable now;
+        those of a robot whose link has not reported up since the start wait for it
+        (called again when it does, or when its wait is over)."""
+        with self._carrying:  # each award is taken out once, and carried out once
+            waits = [self.host.awaiting(p[2]) for p in self._pending]
+            ready = [p for p, wait in zip(self._pending, waits, strict=True) if not wait]
+            self._pending = [p for p, wait in zip(self._pending, waits, strict=True) if wait]
+        for request, requester, robot, progress in ready:
             if self.host.refused(robot):
                 self.allocator.book.lost(request.uuid, robot)
                 self.allocator.reopen(request, requester, robot, progress)

@@ -10,6 +10,11 @@
   restarted requester's predecessors);
 - `ctl.decommission` / `ctl.recommission` (Command, target = robot, from the operator)
   take a robot out of service (its tasks addressed to a role go to others) and back;
+- at start, a robot whose link is not up yet is unavailable until its link first
+  reports up, and lost past the link's timeout without a report (checked on every
+  heartbeat tick): `RobotAvailability.await_first_reports`; on every tick, too, the
+  tasks addressed to a role of a robot whose battery is critical go to others
+  (`Reallocation.battery_check`);
 - `ctl.snapshot` (Command, from an observer such as the dashboard) is answered with
   every robot's state and every open action's status (`repeat`): `RclCore.snapshot`;
 - `action.status` and `robot.<id>.state` leave through the component's Publisher,
@@ -42,6 +47,7 @@ from typing import Any, ClassVar
 
 from mrss.actors.rcl.allocation.evaluators import BidRanking, Evaluator
 from mrss.actors.rcl.allocation.profile import RobotProfile, split_table
+from mrss.actors.rcl.availability import silence_timeout
 from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
@@ -49,6 +55,7 @@ from mrss.actors.rcl.options import RCL_OPTIONS
 from mrss.auth.roles import CommandKind
 from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
+from mrss.links.base import RobotLink
 from mrss.messages import (
     ActionControl,
     ActionQuery,
@@ -165,6 +172,11 @@ class RclService(Component):
         if "bid_timeout" in ctx.options:
             log.warning("%s: bid_timeout is no longer used (an award asks no robot actor to "
                         "confirm its bid); remove it from the project", ctx.name)
+        # before the links' states are bound (those reported already are replayed): a
+        # robot is unavailable until its link first reports up
+        self.core.availability.await_first_reports(
+            {r: silence_timeout(link) for r, link in self.links.items()
+             if isinstance(link, RobotLink) and not link.up}, time.monotonic())
         self.layer.bind_runtime(link_state=self.core.availability.link_state)
         self._compaction = (opts.number("journal_keep_seconds"),
                             opts.whole("journal_keep_last"),
@@ -208,6 +220,12 @@ class RclService(Component):
                         self.core.observers.publish_progress()
                 except Exception as exc:
                     log.error("heartbeat not published: %r", exc)
+            if self.core is not None:
+                try:
+                    self.core.availability.first_reports_due(time.monotonic())
+                    self.core.check_batteries()
+                except Exception as exc:  # the next tick tries again
+                    log.error("robot checks failed: %r", exc)
             if time.monotonic() >= next_compaction:
                 next_compaction = time.monotonic() + self._compaction[2]
                 self._compact()

@@ -231,12 +231,16 @@ class RclEnv:
     now: float = 1000.0  # the core's clock (orphan grace); tests move it on by hand
 
     def start(self, robots: dict[str, SimRobot] | None = None, new_run: bool = False,
+              before_start: Callable[[RclCore], object] = lambda core: None,
               **options: Any) -> RclCore:
+        """`before_start(core)` runs between the core's making and its start (as
+        RclService binds the links' states there)."""
         self.journal = ActionJournal(self.journal_path)
         self.statuses.check = self._journaled_before_publish if self.check_journal_first else None
         links = robots if robots is not None else self.robots
         self.core = RclCore(self.layer, self.journal, self.statuses, links,
                             clock=lambda: self.now, **options)
+        before_start(self.core)
         self.core.start(new_run=new_run)
         return self.core
 

@@ -254,7 +254,8 @@ def test_only_a_teleop_suspension_interrupts_inside_a_critical_section(
 def test_ends_the_robot_cannot_wait_for_interrupt_inside_a_critical_section(
         by: lc.EndCause) -> None:
     waits = by in {lc.EndCause.OPERATOR, lc.EndCause.AGENT, lc.EndCause.ORPHANED,
-                   lc.EndCause.REJECTED, lc.EndCause.PREEMPTED}
+                   lc.EndCause.REJECTED, lc.EndCause.PREEMPTED,
+                   lc.EndCause.BATTERY_CRITICAL}  # a robot low on battery still hears us
     assert (by in lc.WAITS_FOR_CRITICAL) is waits
     _, effects = step(Lifecycle(Phase.RUNNING), lc.End(S.CANCELLED, by))
     assert effects == (lc.Interrupt(urgent=not waits),)

@@ -224,3 +224,31 @@ def test_an_rcl_killed_between_a_robots_loss_and_the_reaward_keeps_one_holder(
     with sqlite3.connect(str(system.journal())) as db:
         assert db.execute("SELECT robot FROM actions WHERE uuid='l1'").fetchone() == ("uav2",)
         assert db.execute("SELECT COUNT(*) FROM tasks").fetchone() == (0,)
+
+
+@pytest.mark.slow
+def test_a_robot_that_does_not_come_back_after_an_rcl_restart_is_given_no_task(
+        system: System) -> None:
+    def states(inc: int) -> list[RobotState]:
+        return [e.body for e in list(system.seen) if e.src == "rcl" and e.inc == inc
+                and isinstance(e.body, RobotState) and e.body.robot == "uav2"]
+
+    kill(system.sup, "uav2", signal.SIGSTOP)  # uav2's robot falls silent ...
+    try:
+        wait_until(lambda: not system.available("uav2"), timeout=30, message="uav2 lost")
+        kill(system.sup, "rcl")  # ... and the RCL restarts without ever hearing it again
+        wait_until(lambda: bool(states(2)), timeout=30,
+                   message="the restarted RCL announces uav2")
+        # its link starts down and never reports: uav2 is unavailable from the start
+        assert states(2)[0].reason == "link down: waiting for its link's first report"
+        system.sweep("n1", steps=2, near="uav2")  # uav2 is the nearer, but silent
+        done = system.ended("n1")
+        assert (done.state, done.robot) == (ActionState.SUCCEEDED, "uav1")
+        assert [a.robot for a in system.awards("n1")] == ["uav1"]
+        wait_until(lambda: any(s.reason.startswith("link down: no first report within 3 s")
+                               for s in states(2)), timeout=30,
+                   message="uav2 given up past its link's timeout")
+        assert not any(s.available for s in states(2))
+    finally:
+        kill(system.sup, "uav2", signal.SIGCONT)
+    wait_until(lambda: system.available("uav2"), timeout=30, message="uav2 back")

@@ -3,7 +3,8 @@
 its action, so a restarted requester adopts it and a new run fails it explicitly; a
 decommission outlives any restart; a cancelled waiting task, an award for a task
 already done and a holder no longer configured lose no task and make no second
-holder."""
+holder; a journaled award waits for its robot's first link report after a restart,
+and is bid for again when none comes."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from typing import Any
 
 from mrss.actors.rcl.allocation.profile import RobotProfile
 from mrss.actors.rcl.core import RclCore
-from mrss.actors.rcl.journal import Requester
+from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.messages import (
     ActionControl,
     ActionInventory,
@@ -182,3 +183,49 @@ def test_a_task_held_by_a_robot_no_longer_configured_goes_to_another(
     assert last is not None and last.robot == "ugv2"
     assert last.cause == ""  # never failed on its way
     assert _awards(rcl_env, "w7") == ["ugv1", "ugv2"]
+
+
+def _award_journaled_not_started(env: RclEnv, uuid: str) -> None:
+    """A task waiting, then its award to ugv1 journaled and the RCL killed before the
+    action started on it."""
+    _start(env)
+    assert env.core is not None
+    env.core.submit(_patrol(uuid), REASONER)
+    _waits(env, uuid)
+    env.stop()
+    journal = ActionJournal(env.journal_path)
+    journal.hold_task(uuid, "ugv1")
+    journal.close()
+
+
+def test_a_journaled_award_waits_for_its_robots_first_report_after_a_restart(
+        rcl_env: RclEnv) -> None:
+    _award_journaled_not_started(rcl_env, "f1")
+    rcl_env.robots["ugv1"].auto = True
+    core = rcl_env.start(profiles=PROFILES, before_start=lambda c: c.availability
+                         .await_first_reports({"ugv1": 60.0}, 0.0))
+    assert core.availability.refusal("ugv1") is not None  # not heard yet: unavailable
+    assert _tasks(rcl_env) == {"f1": "ugv1"} and not rcl_env.statuses.of("f1")
+    core.availability.link_state("ugv1", True)  # its first report: the award is carried out
+    wait_until(rcl_env.statuses.reached("f1", "succeeded"), timeout=30, message="f1 done")
+    assert {s.robot for s in rcl_env.statuses.of("f1")} == {"ugv1"}
+    assert _awards(rcl_env, "f1") == []  # carried out, never decided again
+    core.availability.link_state("ugv1", True)  # a later report changes nothing
+    assert [s.state for s in rcl_env.statuses.of("f1")].count(ActionState.SUCCEEDED) == 1
+
+
+def test_a_journaled_award_is_bid_for_again_when_its_robot_never_reports(
+        rcl_env: RclEnv) -> None:
+    _award_journaled_not_started(rcl_env, "f2")
+    rcl_env.robots["ugv2"].auto = True
+    core = rcl_env.start(profiles=PROFILES, before_start=lambda c: c.availability
+                         .await_first_reports({"ugv1": 3.0}, 0.0))
+    core.availability.first_reports_due(1.0)  # within its link's timeout: still waits
+    assert core.availability.awaiting("ugv1") and _tasks(rcl_env) == {"f2": "ugv1"}
+    core.availability.first_reports_due(3.5)  # past it: ugv1 is lost, f2 goes to ugv2
+    wait_until(rcl_env.statuses.reached("f2", "succeeded"), timeout=30, message="f2 done")
+    assert _awards(rcl_env, "f2") == ["ugv2"]
+    assert {s.robot for s in rcl_env.statuses.of("f2")} - {""} == {"ugv2"}
+    refusal = core.availability.refusal("ugv1")
+    assert refusal is not None and refusal[0] == ("link down: no first report within 3 s "
+                                                  "of the RCL's start")

@@ -8,8 +8,9 @@ table, mrss.actors.rcl.journal), every change committed before it takes effect:
   recorded award is carried out, never decided again (`TaskRow.robot` set, no action
   on that robot yet);
 - a holder that is lost (`LOSSES`: its link, its failsafe, its node, a quarantine, the
-  operator's decommission) gives the task back: it waits again, the robot is added to
-  those that lost it, and its progress goes with it to the next holder;
+  operator's decommission, its battery below its critical level) gives the task back:
+  it waits again, the robot is added to those that lost it, and its progress goes with
+  it to the next holder;
 - any other end of the task's action (done, failed, cancelled) closes the task.
 """
 
@@ -25,7 +26,8 @@ from mrss.messages import ActionRequest, FailureCause, build
 
 #: The causes of an action's end that say its robot is lost: the task goes to another.
 LOSSES = frozenset({FailureCause.LINK_DOWN, FailureCause.FAILSAFE, FailureCause.NODE_DOWN,
-                    FailureCause.QUARANTINED, FailureCause.DECOMMISSIONED})
+                    FailureCause.QUARANTINED, FailureCause.DECOMMISSIONED,
+                    FailureCause.BATTERY_CRITICAL})
 
 
 @dataclass

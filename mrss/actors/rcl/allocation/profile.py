@@ -2,8 +2,10 @@
 
 `[components.rcl.robots.uav1]` may say `capabilities = ["uav", "camera"]` (what tasks
 addressed to a role may ask of it), `cruise_speed` (m/s, for time estimates),
-`battery_per_km` (% of battery a km costs), `battery_reserve` (% it keeps to get home)
-and `base` ([lat, lon]: where home is; default: where it was first seen). They are the
+`battery_per_km` (% of battery a km costs), `battery_reserve` (% it keeps to get home),
+`battery_critical` (% below which it is lost for the tasks addressed to a role it holds:
+they go to others) and `base` ([lat, lon]: where home is; default: where it was first
+seen). They are the
 RCL's keys, not the link's (`ALLOCATION_KEYS`): set aside before `connect_robot`.
 """
 
@@ -24,6 +26,9 @@ ROBOT_ALLOCATION_OPTIONS: tuple[Option, ...] = (
            Check.NON_NEGATIVE),
     Option("battery_reserve", float, 20.0, "% of battery kept to get home",
            Check.NON_NEGATIVE),
+    Option("battery_critical", float, 10.0, "% of battery below which the robot is lost "
+           "for the tasks addressed to a role it holds: they go to other robots (0: never)",
+           Check.NON_NEGATIVE),
     Option("base", list, None, "[lat, lon] of home (default: where the robot was first "
            "seen)", Check.POSITION),
 )
@@ -40,6 +45,7 @@ class RobotProfile:
     battery_per_km: float = 1.0
     battery_reserve: float = 20.0
     base: tuple[float, float] | None = None
+    battery_critical: float = 10.0
 
     @classmethod
     def read(cls, robot: str, table: Mapping[str, Any], section: str = "") -> RobotProfile:
@@ -49,7 +55,8 @@ class RobotProfile:
         base = values["base"]
         return cls(robot, frozenset(str(c) for c in caps), values.number("cruise_speed"),
                    values.number("battery_per_km"), values.number("battery_reserve"),
-                   (float(base[0]), float(base[1])) if base else None)
+                   (float(base[0]), float(base[1])) if base else None,
+                   values.number("battery_critical"))
 
     def can(self, capabilities: frozenset[str]) -> bool:
         return capabilities <= self.capabilities
