@@ -15,8 +15,8 @@ link up, not in teleop, holding no action, and not lost), the RCL awards it with
   its task back. The wait of such a task is counted from the loss itself (the fault),
   so its bound must cover the silence.
 - `allocation`: one round of the allocator after that: its retry period (a round runs
-  at least that often) and, for every robot, the confirmation of its bid (`bid_timeout`,
-  the RCL option): in the worst case each ranked winner is silent in turn.
+  at least that often). A round is decided in one pass over the fleet's states under
+  the RCL's lock, asking no robot actor to confirm its bid, so it adds no wait per robot.
 - `margin`: the statuses' and allocations' travel on the bus and the scheduling of a
   loaded machine (`MARGIN`).
 - `restart`: an RCL killed during the wait comes back within the root supervisor's
@@ -35,7 +35,6 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from mrss.actors.rcl.allocation.allocator import Allocator
-from mrss.actors.rcl.options import RCL_OPTIONS
 from mrss.config.kinds import ComponentKind
 from mrss.config.project import ProjectConfig
 from mrss.links.http import HttpLink
@@ -96,20 +95,16 @@ def robot_capabilities(config: ProjectConfig) -> dict[str, list[str]]:
 
 def award_bound(config: ProjectConfig) -> AwardBound:
     """The bound for this project (the module's rules)."""
-    link_loss, robots, bid_timeout, restart = 0.0, 0, 0.0, 0.0
+    link_loss, restart = 0.0, 0.0
     cap = config.supervisor.spec.backoff.cap
     for rcl in config.of_kind(ComponentKind.RCL):
-        options = {o.name: o for o in RCL_OPTIONS}
-        bid_timeout = max(bid_timeout, float(options["bid_timeout"].read(rcl.options)))
         restart = max(restart, cap + rcl.start_timeout)
         tables = rcl.options.get("robots") or {}
         for table in tables.values() if isinstance(tables, dict) else ():
-            robots += 1
             link_loss = max(link_loss, link_timeout(table if isinstance(table, dict) else {}))
     stalls = tuple(c.id for c in config.components
                    if c.kind in (ComponentKind.RCL, ComponentKind.BUS))
-    return AwardBound(link_loss, _retry_every() + bid_timeout * robots, restart,
-                      stalls=stalls)
+    return AwardBound(link_loss, _retry_every(), restart, stalls=stalls)
 
 
 def link_timeout(table: dict[str, Any]) -> float:

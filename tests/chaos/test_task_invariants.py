@@ -220,10 +220,10 @@ def test_a_history_of_tasks_without_robots_or_bound_cannot_judge_the_award() -> 
 def test_the_award_bound_is_derived_from_the_project() -> None:
     config = load_project("fleetloss", FLEET)
     bound = award_bound(config)
-    # heartbeat_timeout 3 s; the allocator's 1 s retry + bid_timeout 1 s x 2 robots;
-    # the root's backoff cap 5 s + the RCL's start_timeout 10 s
-    assert bound == AwardBound(3.0, 3.0, 15.0, 3.0, ("bus", "rcl"))
-    assert bound.base == 9.0 and AwardBound.of_record(bound.record()) == bound
+    # heartbeat_timeout 3 s; the allocator's 1 s retry (no wait per robot: an award
+    # asks no robot to confirm); the root's backoff cap 5 s + the RCL's start_timeout 10 s
+    assert bound == AwardBound(3.0, 1.0, 15.0, 3.0, ("bus", "rcl"))
+    assert bound.base == 7.0 and AwardBound.of_record(bound.record()) == bound
     assert robot_capabilities(config) == {"uav1": ["camera", "uav"], "uav2": ["camera", "uav"]}
 
 
