@@ -183,9 +183,12 @@ class Classifier:
 
     def _robot(self, body: RobotState, ts: float, src: str) -> Entry | None:
         state = (body.available and body.link.value == "up", body.link.value)
-        if self._available.get(body.robot, (True, "up")) == state:
+        before = self._available.get(body.robot)
+        if before == state:
             return None
         self._available[body.robot] = state
+        if before is None:  # a robot's first state is not news: up, or not heard up yet
+            return None    # (the RCL's start waits for its link's first report)
         if state[0]:
             return Entry(ts, IncidentKind.ROBOT, f"{body.robot} back", subject=body.robot,
                          source=src, detail={"link": body.link.value})

@@ -14,7 +14,8 @@ once):
 * **actions** per robot and final state (each action once, by uuid), failures by cause.
 * **restarts and faults**: `sup.restart` per component; exits other than a shutdown,
   hangs, quarantines, escalations, give-ups, nodes lost.
-* **robot losses** (a robot becoming unavailable or its link not up, once per change)
+* **robot losses** (a robot that was up becoming unavailable or its link not up, once per
+  change)
   and **reassignments** (the RCL's `reassigned(...)` percepts, an allocated task awarded
   to another robot than before).
 * **operator interventions**: operator commands (`ctl.*`, not the dashboard's polls), a
@@ -267,7 +268,9 @@ class FigureCounter:
 
     def _robot(self, ts: float, body: RobotState) -> None:
         up = body.available and body.link.value == "up"
-        if self._robots.get(body.robot, True) and not up:
+        # a loss is a robot that was up going down: one not heard up yet (the RCL's start,
+        # waiting for its link's first report) has nothing to lose
+        if self._robots.get(body.robot, False) and not up:
             self.result.losses.append((ts, body.robot, body.reason or f"link {body.link.value}"))
         self._robots[body.robot] = up
 

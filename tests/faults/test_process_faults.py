@@ -95,7 +95,9 @@ def test_slow_start_past_the_start_timeout_is_killed_and_retried(make_tree: Make
         lambda: [e for e in tree.log.of("exit", "a") if e.reason.startswith("start_timeout")],
         timeout=10)
     assert timeout_exit[0].reason == "start_timeout: not ready within 0.5s"
-    wait_until(lambda: tree.all_running() and tree.incarnations()["a"] == 3, timeout=10)
+    # retried with twice the time, and up; a loaded machine may need more than 1 s to
+    # start even without the fault (then one more retry, with 2 s)
+    wait_until(lambda: tree.all_running() and tree.incarnations()["a"] >= 3, timeout=10)
 
 
 def test_a_start_slower_than_its_timeout_every_time_is_given_twice_the_time_each_retry(
