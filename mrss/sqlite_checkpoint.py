@@ -1,4 +1,5 @@
-"""WAL checkpoints of an SQLite file on a thread of their own, off the writers' path.
+"""The components' SQLite files in WAL mode: how one is opened (`connect_wal`), and its
+checkpoints on a thread of their own, off the writers' path.
 
 SQLite in WAL mode copies the log back into the database file every 1,000 pages by
 default, in whichever commit crosses that mark, and syncs the file while doing so: that
@@ -26,6 +27,18 @@ import threading
 from pathlib import Path
 
 log = logging.getLogger("mrss.sqlite")
+
+
+def connect_wal(path: str | Path, *, durable: bool = False) -> sqlite3.Connection:
+    """A connection to the SQLite file at `path` (its folder made if missing), shared by
+    the threads of one component behind its own lock, in autocommit mode, with WAL and
+    `synchronous=NORMAL` (survives a killed process, not a power cut) or, `durable`,
+    FULL (every commit synced)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    db = sqlite3.connect(str(path), check_same_thread=False, isolation_level=None)
+    db.execute("PRAGMA journal_mode=WAL")
+    db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
+    return db
 
 DEFAULT_INTERVAL = 1.0
 RARE_INTERVAL = 10.0  # for writers on the action path: see the module docstring

@@ -40,7 +40,7 @@ from typing import Any, NamedTuple
 
 from mrss.actors.rcl.action import Action
 from mrss.messages import ActionState
-from mrss.sqlite_checkpoint import RARE_INTERVAL, manual_checkpoints
+from mrss.sqlite_checkpoint import RARE_INTERVAL, connect_wal, manual_checkpoints
 
 log = logging.getLogger("mrss.rcl.journal")
 
@@ -116,12 +116,8 @@ class ActionJournal:
         self.path = Path(path)
         self.write_patience = write_patience
         self.clock = clock  # wall-clock seconds (a benchmark simulates a day with it)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(str(self.path), check_same_thread=False,
-                                   isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
+        self._db = connect_wal(self.path, durable=durable)
         self._db.executescript(_SCHEMA)
         # Checkpoints sync the file: on a thread of their own, never in a transition.
         self._checkpointer = manual_checkpoints(self._db, self.path, RARE_INTERVAL)

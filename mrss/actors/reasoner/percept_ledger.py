@@ -24,12 +24,11 @@ their annotations, the way the belief base tells two beliefs apart.
 
 from __future__ import annotations
 
-import sqlite3
 import threading
 from pathlib import Path
 
 from mrss.agentspeak import Struct, parse_literal, term_str
-from mrss.sqlite_checkpoint import RARE_INTERVAL, manual_checkpoints
+from mrss.sqlite_checkpoint import RARE_INTERVAL, connect_wal, manual_checkpoints
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS percepts (
@@ -53,12 +52,8 @@ class PerceptLedger:
 
     def __init__(self, path: str | Path, *, fresh: bool = False) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(str(self.path), check_same_thread=False,
-                                   isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=NORMAL")  # survives a killed process
+        self._db = connect_wal(self.path)  # survives a killed process
         self._db.executescript(_SCHEMA)
         # Checkpoints sync the file: on a thread of their own, not as a percept arrives.
         self._checkpointer = manual_checkpoints(self._db, self.path, RARE_INTERVAL)

@@ -14,12 +14,12 @@ starts with an empty journal.
 from __future__ import annotations
 
 import json
-import sqlite3
 import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 from mrss.messages import QuestionState
+from mrss.sqlite_checkpoint import connect_wal
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS questions (
@@ -64,12 +64,8 @@ class QuestionJournal:
 
     def __init__(self, path: str | Path, *, fresh: bool = False) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(str(self.path), check_same_thread=False,
-                                   isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=NORMAL")  # survives a killed process
+        self._db = connect_wal(self.path)  # survives a killed process
         self._db.executescript(_SCHEMA)
         if fresh:
             self._db.execute("DELETE FROM questions")
