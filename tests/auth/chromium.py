@@ -19,6 +19,7 @@ import aiohttp
 import pytest
 
 from mrss.ports import free_port
+from mrss.testing import wait_until
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -49,19 +50,18 @@ class Browser:
 
     def page_socket(self, timeout: float = 60.0) -> str:
         """The DevTools websocket of the browser's page."""
-        deadline = time.monotonic() + timeout
-        while True:
+        def page() -> str | None:
+            assert self.proc.poll() is None, "chromium ended"
             try:
                 with urllib.request.urlopen(f"http://127.0.0.1:{self.port}/json/list",
                                             timeout=5) as reply:
                     pages = [t for t in json.load(reply) if t.get("type") == "page"]
-                if pages:
-                    return str(pages[0]["webSocketDebuggerUrl"])
             except OSError:
-                pass
-            if time.monotonic() > deadline or self.proc.poll() is not None:
-                raise AssertionError("chromium's DevTools did not answer")
-            time.sleep(0.2)
+                return None
+            return str(pages[0]["webSocketDebuggerUrl"]) if pages else None
+        found: str = wait_until(page, timeout, interval=0.2,
+                                message="chromium's DevTools answering")
+        return found
 
     def close(self) -> None:
         self.proc.terminate()

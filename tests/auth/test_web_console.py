@@ -9,7 +9,6 @@ import base64
 import os
 import subprocess
 import sys
-import time
 import urllib.request
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import aiohttp
 import pytest
 
 from mrss.ports import free_port
+from mrss.testing import wait_until
 from tests.auth.chromium import Browser, Page, chromium
 from tests.auth.operators import PASSWORDS, project_with_users
 from tests.faults.supervised import Supervised
@@ -26,17 +26,14 @@ SCREENSHOT = "web-console.png"
 
 
 def wait_http(url: str, proc: subprocess.Popen[bytes], timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while True:
+    def answers() -> bool:
+        assert proc.poll() is None, "the web console ended"
         try:
             with urllib.request.urlopen(url, timeout=5) as reply:
-                if reply.status == 200:
-                    return
+                return reply.status == 200
         except OSError:
-            pass
-        assert proc.poll() is None, "the web console ended"
-        assert time.monotonic() < deadline, f"{url} did not answer"
-        time.sleep(0.2)
+            return False
+    wait_until(answers, timeout, interval=0.2, message=f"{url} answering")
 
 
 def test_a_browser_logs_in_sees_the_robots_and_sends_a_command(tmp_path: Path) -> None:
