@@ -33,8 +33,10 @@ and one that is never healed, drawn only when named (not in `all`):
                     through for the rest of the campaign (a robot destroyed, or gone out
                     of range for good); its simulator runs on, so no supervisor brings
                     it back. The campaign waits (up to `MID_TASK_WAIT` s) until the robot
-                    runs a task addressed to a role, and records the tasks it held. Each
-                    robot is lost at most once
+                    has just begun a task addressed to a role (within `FRESH_TASK` s: the
+                    loss is known only after the link's timeout, so the task's work must
+                    lie ahead), and records the tasks it held. Each robot is lost at most
+                    once
 
 and between nodes, by the kernel (nftables rules in the campaign's network namespace,
 needing root, `nft` and a project on [nodes]; without them the kinds have no target,
@@ -130,6 +132,7 @@ NETWORK_AMOUNTS: dict[FaultKind, float] = {
 ALL_KINDS = tuple(k for k in FaultKind if not k.permanent)
 #: Seconds a robot_loss waits for its robot to be mid-task before it strikes anyway.
 MID_TASK_WAIT = 30.0
+FRESH_TASK = 1.0  # a robot_loss strikes a task begun at most this long ago
 #: The kinds between nodes (a project on [nodes], in network namespaces).
 NODE_KINDS = (FaultKind.NODE_PARTITION, FaultKind.NODE_LOSS, FaultKind.NODE_DELAY)
 #: The relay's impairment for each network kind on a robot link.

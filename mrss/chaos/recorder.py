@@ -72,7 +72,8 @@ class Recorder:
         self._replies: dict[str, Envelope] = {}
         self._answer = threading.Condition(self._lock)
         self._answered: set[str] = set()  # ids of operator steps a reply named
-        self._tasks: dict[str, tuple[str, str]] = {}  # role task -> (its robot, state)
+        # role task -> (its robot, state, when it began running on that robot: now())
+        self._tasks: dict[str, tuple[str, str, float]] = {}
         endpoints = BusEndpoints.ipc(run_dir)
         self._pub = Publisher(endpoints, src="chaos")
         self._sub = Subscriber(endpoints, prefixes=PREFIXES, name="chaos-recorder",
@@ -131,18 +132,22 @@ class Recorder:
         lock): an award puts it there, a status on no robot or a terminal one ends it."""
         if isinstance(body, TaskAllocation):
             if body.state is AllocationState.AWARDED:
-                self._tasks[body.uuid] = (body.robot, "awarded")
+                self._tasks[body.uuid] = (body.robot, "awarded", 0.0)
         elif body.uuid in self._tasks:
             if body.state.value in TERMINAL or not body.robot:
                 del self._tasks[body.uuid]
-            else:
-                self._tasks[body.uuid] = (body.robot, body.state.value)
+                return
+            robot, state, began = self._tasks[body.uuid]
+            if (robot, state) != (body.robot, "running") and body.state.value == "running":
+                began = self.now()  # it (re)starts on this robot
+            self._tasks[body.uuid] = (body.robot, body.state.value, began)
 
-    def tasks_running_on(self, robot: str) -> list[str]:
-        """The tasks addressed to a role that `robot` runs now, as the bus told."""
+    def tasks_running_on(self, robot: str, since: float = 0.0) -> list[str]:
+        """The tasks addressed to a role that `robot` runs now, as the bus told; with
+        `since`, only those that began running on it at or after that time (now())."""
         with self._lock:
-            return sorted(u for u, (r, state) in self._tasks.items()
-                          if r == robot and state == "running")
+            return sorted(u for u, (r, state, began) in self._tasks.items()
+                          if r == robot and state == "running" and began >= since)
 
     def pid_of(self, component: str) -> int | None:
         with self._lock:

@@ -32,6 +32,7 @@ from mrss.chaos.checker import Bounds
 from mrss.chaos.convergence import probe_problems
 from mrss.chaos.faults import (
     ALL_KINDS,
+    FRESH_TASK,
     IMPAIRMENTS,
     MID_TASK_WAIT,
     Fault,
@@ -285,13 +286,16 @@ def _deliver(step: OperatorStep, options: Options, recorder: Recorder) -> tuple[
 def _mid_task(fault: Fault, recorder: Recorder, system: RunningProject,
               heals: list[tuple[float, Fault, int, Heal]], writer: HistoryWriter
               ) -> list[str] | None:
-    """For a robot_loss, wait (at most MID_TASK_WAIT s) until its robot runs a task
-    addressed to a role, so that it is lost mid-task; those tasks (None: another kind)."""
+    """For a robot_loss, wait (at most MID_TASK_WAIT s) until its robot has just begun a
+    task addressed to a role (within FRESH_TASK s), so that it is lost with the task's
+    work ahead of it: a loss is known only after the link's timeout, and a task struck
+    near its end would be done by then. Past the wait, any task it runs will do. Those
+    tasks (None: another kind)."""
     if fault.kind is not FaultKind.ROBOT_LOSS:
         return None
     deadline = recorder.now() + MID_TASK_WAIT
-    while not recorder.tasks_running_on(fault.target) and recorder.now() < deadline \
-            and _running(system):
+    while not recorder.tasks_running_on(fault.target, recorder.now() - FRESH_TASK) \
+            and recorder.now() < deadline and _running(system):
         _sleep_until(recorder, min(deadline, recorder.now() + 0.1), system, heals, writer)
     return recorder.tasks_running_on(fault.target)
 
