@@ -31,6 +31,7 @@ from mrss.check.map import check_map
 from mrss.check.nodes import check_nodes
 from mrss.check.operator import check_operator
 from mrss.check.operator_commands import check_commands, command_functors
+from mrss.check.operators import check_operators
 from mrss.check.options import check_component, check_tables, check_values, declared_options
 from mrss.check.percepts import check_percepts
 from mrss.check.reasoner_agents import check_agents
@@ -81,6 +82,7 @@ def check_project(config: ProjectConfig) -> Report:
     if operator is not None:
         check_commands(config, report, operator, uses,
                        events_running=bool(_running(config, EVENTS)))
+    check_operators(config, report, operator)
     check_chaos_traffic(config, report, agent_files=[a for a in agents if a.is_file()])
     check_alerts(config, report)
     check_map(config, report)

@@ -7,7 +7,7 @@ percept it becomes:
     [operator.commands.exclusion]
     label = "Exclusion zone: robots keep out"
     percept = "exclusion_zone(Zone, Shape)"  # fields by name, capitalised
-    role = "commander"                       # who may send it (stored; not enforced yet)
+    role = "commander"                       # the least role that may send it
     topic = "mrss/ui/exclusion"              # default "mrss/operator/<name>"
     fields = [
       { name = "zone", type = "text", atom = true, default = "z1" },
