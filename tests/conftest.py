@@ -6,11 +6,19 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
+import pytest_timeout
 
 from mrss import ports
-from mrss.testing import BrokerInfo, amqtt_broker, find_mosquitto, mosquitto_broker
+from mrss.testing import (
+    BrokerInfo,
+    amqtt_broker,
+    find_mosquitto,
+    mosquitto_broker,
+    stretch,
+)
 from tests import mosquitto
 
 REPO = Path(__file__).resolve().parent.parent
@@ -27,6 +35,19 @@ def pytest_configure(config: pytest.Config) -> None:
         shares = ports.shares(count)
         if shares:
             os.environ[ports.SHARE_VARIABLE] = shares[int(worker[2:])]
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_timeout_set_timer(item: pytest.Item, settings: Any) -> object:
+    """The hang guard (pytest-timeout, `timeout` in setup.cfg) stretches with the
+    machine's load as every wait in the tests does (mrss.testing.stretch, at most 4x):
+    a long test through real processes whose waits were each given more time on a
+    loaded machine is not cut short by a guard that was not. A hang still ends it."""
+    factor = stretch()
+    if factor <= 1.0 or not settings.timeout:
+        return None  # pytest-timeout's own
+    return pytest_timeout.pytest_timeout_set_timer(
+        item, settings._replace(timeout=settings.timeout * factor))
 
 
 def _children_import_the_tests() -> None:

@@ -18,7 +18,7 @@ from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.mind_inspector import MindInspector
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
-from tests.tui.tui_helpers import has_row, row_text, run, until
+from tests.tui.tui_helpers import confirmed, has_row, row_text, run, until
 
 COMPONENTS = ("bus", "rcl", "reasoner", "telemetry")
 
@@ -154,15 +154,15 @@ def test_operator_drives_a_live_reasoner_and_rcl_from_the_dashboard(tuidemo: Pat
                         "fire(area1)[source(percept)]" in mind.snapshot.beliefs
                         and len(mind.snapshot.intentions) == 1, message="intention in mind")
             robots.focus()
-            await pilot.press("t", "y")  # ugv1 (the first row) to teleop: its action suspended
+            await confirmed(pilot, "t")  # ugv1 (the first row) to teleop: its action suspended
             await until(pilot, lambda: action_state() == "suspended: robot in teleop",
                         message="suspended by teleop")
             await until(pilot, lambda: row_text(robots, "ugv1")[6] == "on", message="teleop on")
-            await pilot.press("t", "y")
+            await confirmed(pilot, "t")
             await until(pilot, lambda: action_state().startswith("running"),
                         message="resumed after teleop")
             actions.focus()
-            await pilot.press("c", "y")
+            await confirmed(pilot, "c")
             await until(pilot, lambda: action_state().startswith("cancelled"),
                         message="cancelled from the dashboard")
             await until(pilot, lambda: mind.snapshot is not None

@@ -21,7 +21,7 @@ from mrss.tui.widgets.log_pane import LogPane
 from mrss.tui.widgets.mission_panel import MissionPanel
 from mrss.tui.widgets.robots_table import RobotsTable
 from tests.tui.conftest import HERE
-from tests.tui.tui_helpers import has_row, row_text, run, until
+from tests.tui.tui_helpers import confirmed, has_row, row_text, run, until
 
 
 def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
@@ -119,9 +119,9 @@ def test_operator_goal_commands_reach_the_agent_and_a_cancel_is_a_cancel(
                 "requested", "pending", "running", "cancelled"], repr(timeline)
             assert "cancelled by the agent" in timeline  # the agent's plan, not the RCL alone
             # all robots hold: the agent suspends a2; lifting the hold resumes it
-            await pilot.press("H", "y")
+            await confirmed(pilot, "H")
             await until(pilot, lambda: goal("a2")[1] == "suspended", message="held")
-            await pilot.press("H", "y")
+            await confirmed(pilot, "H")
             await until(pilot, lambda: goal("a2")[1] == "running", message="going on")
             assert not any("not done" in line for line in log.lines_text())
     run(body())

@@ -24,7 +24,7 @@ from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 from tests.tui.test_tui_panels import SIZE, make_app, tree_snapshot
-from tests.tui.tui_helpers import Peer, connected, has_row, row_text, run, until
+from tests.tui.tui_helpers import Peer, confirmed, connected, has_row, row_text, run, until
 
 
 def commands(peer: Peer) -> list[Command]:
@@ -80,7 +80,7 @@ def test_action_keys_send_cancel_suspend_resume_for_the_selected_action(
             await until(pilot, lambda: bar.status_error, message="refusal shown")
             assert "already succeeded" in bar.status_text
             assert not isinstance(app.screen, ConfirmScreen)
-            await pilot.press("up", "c", "y")
+            await confirmed(pilot, "up", "c")
             await until(pilot, lambda: len(peer.received(ActionControl)) == 4,
                         message="fourth control")
             assert peer.received(ActionControl)[-1].target == older
@@ -138,7 +138,7 @@ def test_teleop_key_toggles_teleop_for_the_selected_robot(
             peer.publish(RobotState(robot="ugv1", available=True, attributes={"teleop": True}),
                          src="rcl")
             await until(pilot, lambda: row_text(table, "ugv1")[6] == "on", message="teleop shown")
-            await pilot.press("t", "y")
+            await confirmed(pilot, "t")
             await until(pilot, lambda: len(commands(peer)) == 2, message="teleop off")
             assert commands(peer) == [
                 Command(command="teleop", target="ugv1", args={"on": True}),
@@ -174,7 +174,7 @@ def test_decommission_key_asks_naming_the_tasks_handed_on_then_toggles_back(
             await pilot.press("escape")
             assert commands(peer) == [] and "not sent (declined)" in \
                 app.query_one(OperatorBar).status_text
-            await pilot.press("d", "y")
+            await confirmed(pilot, "d")
             await until(pilot, lambda: commands(peer), message="decommission sent")
             # the RCL answers with the robot's state: out of service; d puts it back
             peer.publish(RobotState(robot="uav1", available=False,
@@ -246,7 +246,7 @@ def test_a_burst_of_a_thousand_statuses_is_drawn_in_a_few_batches(
             assert table.rebuilds - rebuilds < 100
             # and the app still answers keys at once
             table.focus()
-            await pilot.press("c", "y")
+            await confirmed(pilot, "c")
             await until(pilot, lambda: peer.received(ActionControl), message="control")
             assert peer.received(ActionControl)[0].target == f"{999:032x}"
     run(body())

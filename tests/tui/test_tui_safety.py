@@ -14,7 +14,7 @@ from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
 from tests.tui.test_tui_operator import commands
 from tests.tui.test_tui_panels import SIZE, make_app, tree_snapshot
-from tests.tui.tui_helpers import Peer, connected, has_row, run, until
+from tests.tui.tui_helpers import Peer, confirmed, connected, has_row, run, until
 
 
 def test_q_detaches_the_viewer_and_sends_nothing_to_the_system(
@@ -56,7 +56,7 @@ def test_stop_key_asks_naming_components_robots_and_actions_and_sends_ctl_stop_o
             await until(pilot, lambda: not isinstance(app.screen, ConfirmScreen),
                         message="q declined")
             assert app.is_running and commands(peer) == []
-            await pilot.press("X", "y")
+            await confirmed(pilot, "X")
             await until(pilot, lambda: commands(peer), message="stop sent")
             assert commands(peer) == [Command(command="stop", target="demo")]
             assert app.is_running  # stopping the system does not close the dashboard

@@ -19,7 +19,7 @@ from mrss.commands.supervise_tui import SupervisedApp
 from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.widgets.operator_bar import OperatorBar
 from tests.tui.test_tui_panels import SIZE
-from tests.tui.tui_helpers import Peer, connected, run, until
+from tests.tui.tui_helpers import Peer, confirmed, connected, run, until
 
 SYSTEM = """
 import signal, sys
@@ -67,7 +67,7 @@ def test_q_asks_before_stopping_the_system_and_no_keeps_it_running(
             bar = app.query_one(OperatorBar)
             await until(pilot, lambda: "keeps running" in bar.status_text, message="declined")
             assert app.is_running and system.poll() is None and not app.stop_requested
-            await pilot.press("q", "y")
+            await confirmed(pilot, "q")
             await until(pilot, lambda: not app.is_running, message="closed")
         assert app.stop_requested  # run_with_dashboard then stops it with SIGINT
     run(body())
@@ -86,7 +86,7 @@ def test_stop_key_stops_the_system_and_the_dashboard_closes_when_it_has_ended(
             await until(pilot, lambda: not isinstance(app.screen, ConfirmScreen),
                         message="declined")
             assert system.poll() is None
-            await pilot.press("X", "y")
+            await confirmed(pilot, "X")
             await until(pilot, lambda: not app.is_running, message="closed after the stop")
         assert system.wait(timeout=10) == 0  # the ordered stop (SIGINT)
     run(body())

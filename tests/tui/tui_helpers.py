@@ -17,6 +17,7 @@ from textual.pilot import Pilot
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Envelope, Heartbeat, Message
 from mrss.testing import WaitTimeout, expired
+from mrss.tui.confirm import ConfirmScreen
 
 T = TypeVar("T")
 M = TypeVar("M", bound=Message)
@@ -35,6 +36,16 @@ async def until(pilot: Pilot[Any], condition: Callable[[], T], timeout: float = 
             seen = f"; instead: {describe()}" if describe is not None else ""
             raise WaitTimeout(f"{message} did not hold within {timeout:.1f}s{seen}")
         await pilot.pause(0.01)
+
+
+async def confirmed(pilot: Pilot[Any], *keys: str, answer: str = "y") -> None:
+    """Press `keys`, wait for the question they raise (ConfirmScreen), answer it. The
+    answer is pressed only once the question is up: pressed at once, on a loaded
+    machine it can reach the panel before the screen is mounted, and be lost."""
+    await pilot.press(*keys)
+    await until(pilot, lambda: isinstance(pilot.app.screen, ConfirmScreen),
+                message=f"the question of {' '.join(keys)}")
+    await pilot.press(answer)
 
 
 class Peer:
