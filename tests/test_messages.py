@@ -72,6 +72,7 @@ _CONSTRAINED: dict[tuple[str, str], st.SearchStrategy[Any]] = {
     ("question.answer", "answer"): nonempty,
     ("question.answer", "by"): nonempty,
     ("question.answer", "request"): nonempty,
+    ("fleet.stand_down", "ident"): nonempty,
 }
 
 

@@ -34,6 +34,7 @@ class CommandKind(StrEnum):
     ACTION_CONTROL = "action_control"  # debug keys: cancel / suspend / resume one action
     TELEOP = "teleop"  # ctl.teleop
     DECOMMISSION = "decommission"  # ctl.decommission / ctl.recommission
+    STAND_DOWN = "stand_down"  # ctl.stand_down / ctl.stand_down_lift: robots in an area hold
     WORLD_WRITE = "world_write"  # world model HTTP POST / PUT / DELETE
     FAULT = "fault"  # ctl.fault
     STOP = "stop"  # ctl.stop: the whole system
@@ -44,7 +45,8 @@ PERMISSIONS: dict[Role, frozenset[CommandKind]] = {
     Role.OBSERVER: frozenset({CommandKind.READ}),
     Role.OPERATOR: frozenset({CommandKind.READ, CommandKind.PERCEPT, CommandKind.MISSION,
                               CommandKind.ANSWER, CommandKind.ACTION_CONTROL,
-                              CommandKind.TELEOP, CommandKind.WORLD_WRITE}),
+                              CommandKind.TELEOP, CommandKind.WORLD_WRITE,
+                              CommandKind.STAND_DOWN}),
     Role.COMMANDER: frozenset(CommandKind),
 }
 
@@ -53,7 +55,8 @@ PERMISSIONS: dict[Role, frozenset[CommandKind]] = {
 BUS_COMMANDS: dict[str, CommandKind] = {
     "teleop": CommandKind.TELEOP, "decommission": CommandKind.DECOMMISSION,
     "recommission": CommandKind.DECOMMISSION, "fault": CommandKind.FAULT,
-    "stop": CommandKind.STOP,
+    "stop": CommandKind.STOP, "stand_down": CommandKind.STAND_DOWN,
+    "stand_down_lift": CommandKind.STAND_DOWN,
 }
 
 

@@ -28,6 +28,7 @@ from mrss.messages import (
     Percept,
     QuestionState,
     RobotState,
+    StandDownState,
     SupEvent,
     SupEventKind,
     TaskAllocation,
@@ -35,7 +36,7 @@ from mrss.messages import (
 
 #: The bus topics a recorder subscribes to: everything `Classifier` may record.
 TOPICS = ("action.request", "action.status", "action.allocation", "rel.action.", "percept",
-          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.", "question.")
+          "ctl.", "edge.", "agent.gave_up", "robot.", "sup.", "question.", "fleet.")
 SEEN = 10_000  # envelope ids remembered: the reliable channel may deliver one again
 QUIET_COMMANDS = frozenset({"mind", "tree", "snapshot", "questions"})  # a dashboard's polling
 ENDED = {ActionState.SUCCEEDED: Level.INFO, ActionState.FAILED: Level.WARNING,
@@ -61,6 +62,7 @@ class Classifier:
         self.author = author or (lambda env: env.src)
         self.components = frozenset(components)
         self._available: dict[str, tuple[bool, str]] = {}
+        self._stand_downs: dict[str, tuple[bool, tuple[str, ...]]] = {}  # what was recorded
         self._seen: OrderedDict[tuple[str, str], None] = OrderedDict()
 
     def entry(self, env: Envelope) -> Entry | None:
@@ -101,6 +103,8 @@ class Classifier:
                                              "message": body.message})
         if isinstance(body, RobotState):
             return self._robot(body, ts, src)
+        if isinstance(body, StandDownState):
+            return self._stand_down(body, ts, src)
         if isinstance(body, OperatorQuestion):
             return self._question(body, ts, src)
         if isinstance(body, SupEvent):
@@ -196,6 +200,26 @@ class Classifier:
         return Entry(ts, IncidentKind.ROBOT, f"{body.robot} lost: {why}", subject=body.robot,
                      level=Level.ALERT, source=src,
                      detail={"link": body.link.value, "available": body.available})
+
+    def _stand_down(self, body: StandDownState, ts: float, src: str) -> Entry | None:
+        """A stand-down by area made, refused or lifted (its repeats on snapshots: none)."""
+        state = (body.active, tuple(body.notes if not body.active else body.robots))
+        if self._stand_downs.get(body.ident) == state:
+            return None
+        self._stand_downs[body.ident] = state
+        robots = ", ".join(body.robots) or "no robot"
+        if body.active:
+            notes = f" ({'; '.join(body.notes)})" if body.notes else ""
+            text, level = f"stand-down {body.ident} ({body.mode.value}): {robots} held{notes}", \
+                Level.WARNING
+        elif body.notes and body.notes[0].startswith("refused"):
+            text, level = f"stand-down {body.ident} {body.notes[0]}", Level.WARNING
+        else:
+            text, level = f"stand-down {body.ident} lifted: {robots} go on", Level.INFO
+        return Entry(ts, IncidentKind.ROBOT, text, subject=body.ident, level=level,
+                     source=src, who=body.by,
+                     detail={"mode": body.mode.value, "active": body.active,
+                             "robots": list(body.robots), "area": body.area})
 
     def _question(self, body: OperatorQuestion, ts: float, src: str) -> Entry | None:
         if body.repeat:

@@ -178,6 +178,10 @@ class MavlinkLink(RobotLink):
         self.command(MAV.MAV_CMD_NAV_RETURN_TO_LAUNCH)
         self.mode = "RTL"
 
+    def go_home(self) -> None:
+        """What a stand-down by area (mode home) asks of any link: RTL."""
+        self.return_to_launch()
+
     def start_mission(self, first_item: int = 0) -> None:
         """Fly the uploaded mission (AUTO), from `first_item` if it is not 0."""
         self.command(MAV.MAV_CMD_MISSION_START, first_item, 0)

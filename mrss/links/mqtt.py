@@ -144,6 +144,10 @@ class MqttLink(RobotLink):
         """Drive back to base (where the tank refills and the battery charges)."""
         return self.command("return_to_base", wait=wait, timeout=timeout)
 
+    def go_home(self) -> None:
+        """What a stand-down by area (mode home) asks of any link: back to base."""
+        self.return_to_base(wait=False)
+
     def stop(self) -> UgvAck:
         """Stop driving and pumping; running commands end "cancelled"."""
         return self.command("stop")

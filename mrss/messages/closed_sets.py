@@ -24,6 +24,7 @@ class Topic(StrEnum):
     EDGE = "edge."
     AGENT = "agent."
     QUESTION = "question."
+    FLEET = "fleet."
 
 
 class ActionState(StrEnum):
@@ -137,6 +138,14 @@ class WaitReason(StrEnum):
     UNAVAILABLE = "unavailable"  # ... or is unavailable (link, quarantine, teleop, node)
     NO_BID = "no_bid"  # ... or did not answer in time
     NONE = ""  # not waiting
+
+
+class StandDownMode(StrEnum):
+    """What the robots of an operator's stand-down by area do (`ctl.stand_down`,
+    mrss.actors.rcl.stand_down): stop where they are, or go home; both until lifted."""
+
+    HOLD = "hold"  # every action of the robot suspended; it stops (a copter hovers)
+    HOME = "home"  # ... and the robot is sent home by its link (copter RTL, UGV to base)
 
 
 class QuestionState(StrEnum):

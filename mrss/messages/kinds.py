@@ -33,6 +33,7 @@ from mrss.messages.closed_sets import (
     GiveUpReason,
     LinkState,
     QuestionState,
+    StandDownMode,
     SupEventKind,
     WaitReason,
 )
@@ -482,6 +483,37 @@ class TaskAllocation(Message):
 
 
 @dataclass(frozen=True)
+class StandDownState(Message):
+    """An operator's stand-down by area as the RCL executes it (mrss.actors.rcl
+    .stand_down): sent when it is made and when it is lifted, and again on a snapshot.
+    `area` is the GeoJSON Polygon (lon, lat); `capabilities` what a robot must have to be
+    concerned ([]: every robot); `robots` those inside by their own last position, held;
+    `notes` what differed from the operator's picture (a robot named but outside, one
+    with no position yet)."""
+
+    kind: ClassVar[str] = "fleet.stand_down"
+    ident: str
+    mode: StandDownMode
+    active: bool
+    area: dict[str, JsonValue] = field(default_factory=dict)
+    capabilities: list[str] = field(default_factory=list)
+    robots: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    by: str = ""
+
+    def __post_init__(self) -> None:
+        _closed(self, mode=StandDownMode)
+
+    def validate(self) -> None:
+        _nonempty(self.ident, "ident")
+        if self.mode not in frozenset(StandDownMode):
+            raise DecodeError(f"unknown stand-down mode {self.mode!r}")
+
+    def topic(self) -> str:
+        return f"fleet.stand_down.{self.ident}"
+
+
+@dataclass(frozen=True)
 class OperatorQuestion(Message):
     """A question an agent asks the operator (`.ask_operator`), as it stands now: sent on
     each transition and again (`repeat`) when a dashboard asks (`ctl.questions`).
@@ -555,7 +587,7 @@ KINDS: dict[str, type[Message]] = {
         ActionInventory, DataRequest,
         DataReply, RobotState, RobotData, SupEvent, NodeBeat, Heartbeat, LogRecord, MindSnapshot,
         Command, EventReport, Rejections, GoalGaveUp, TaskAllocation, OperatorQuestion,
-        QuestionAnswer, AnswerReply,
+        QuestionAnswer, AnswerReply, StandDownState,
     )
 }
 

@@ -113,6 +113,7 @@ class MrssApp(App[None]):
         Binding("slash", "log_filter", "Filter log"),
         Binding("A", "ack_alerts", "Ack alerts"),
         Binding("H", "hold_all", "All hold"),
+        Binding("U", "lift_stand_downs", "Lift stand-downs", show=False),
         Binding("question_mark,f1", "help", "Help"),
         Binding("X", "stop_system", "Stop system"),
         Binding("q", "close", "Detach"),
@@ -379,6 +380,9 @@ class MrssApp(App[None]):
 
     def action_hold_all(self) -> None:
         self.steering.hold_all()
+
+    def action_lift_stand_downs(self) -> None:
+        self.steering.lift_stand_downs(self.map_model.stand_downs)
 
     def action_stop_system(self) -> None:
         self.steering.stop_system()

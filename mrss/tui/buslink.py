@@ -25,7 +25,7 @@ from mrss.world.topics import wm_reply_topic
 # `dl.reply.wm.<src>` (`wm_reply_topic`); the agent's questions and the replies to
 # answers (`question.`).
 PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.", "percept",
-            "edge.rejections", "agent.", "question.")
+            "edge.rejections", "agent.", "question.", "fleet.")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 BATCH = 2_000  # messages taken per turn of the loop
 

@@ -30,6 +30,7 @@ from mrss.messages import (
     Rejections,
     RobotData,
     RobotState,
+    StandDownState,
     SupEvent,
     TaskAllocation,
 )
@@ -45,6 +46,7 @@ from mrss.tui.models.questions import QuestionsModel
 from mrss.tui.models.robots import RobotsModel
 from mrss.tui.models.supervision import SupervisionModel
 from mrss.tui.models.topics import TopicsModel
+from mrss.tui.stand_down import stand_down_line
 from mrss.tui.widgets.alerts_strip import alert_line
 from mrss.tui.widgets.log_pane import log_line
 from mrss.tui.widgets.mission_panel import goal_line
@@ -166,6 +168,10 @@ class BusIntake:
             elif isinstance(body, Rejections):
                 m.supervision.apply_rejections(body)
                 dirty.update(("supervision", "alerts"))  # the counts, the alert's text
+            elif isinstance(body, StandDownState):
+                if m.map_model.apply_stand_down(body):
+                    dirty.add("map")
+                lines.append(stand_down_line(body, env.ts))
             elif isinstance(body, OperatorQuestion):
                 m.questions.apply(body)
             elif isinstance(body, AnswerReply):

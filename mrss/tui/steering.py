@@ -4,8 +4,9 @@ Widgets post `SendRequested` or `MissionRequested`; the app hands them to `Steer
 which refuses them when read-only, asks the question first when there is one
 (`ConfirmScreen`), publishes them (a project operator command through the
 `MissionChannel`, on a worker thread), and says what happened. `X` (stop the system),
-`H` (all robots hold), the command menu and forms (the project's declared
-commands, `mrss.tui.command_form`), the area form and the palette's "Send percept" are built here
+`H` (all robots hold), `U` (lift the stand-downs by area), the command menu and forms
+(the project's declared commands, `mrss.tui.command_form`, and the stand-down by area,
+`mrss.tui.stand_down`), the area form and the palette's "Send percept" are built here
 too, as requests of the same kinds, so they pass the same checks.
 """
 
@@ -18,8 +19,8 @@ from textual.app import App
 
 from mrss.config.operator import GoalState, OperatorCommand, PayloadError, hold_payload
 from mrss.config.operator_commands import CommandSpec, FieldType
-from mrss.messages import Percept
-from mrss.tui import operator
+from mrss.messages import Percept, StandDownState
+from mrss.tui import operator, stand_down
 from mrss.tui.area_form import AreaForm
 from mrss.tui.buslink import BusLink
 from mrss.tui.command_form import AREA_CHOICE, CommandForm, CommandMenu
@@ -183,6 +184,8 @@ class Steering:
         commands = self.mission.config.commands if self.mission is not None else {}
         fitting = {name: spec for name, spec in commands.items()
                    if any(f.type is kind for f in spec.fields)}
+        if kind in (FieldType.CIRCLE, FieldType.POLYGON):  # built in: to the RCL
+            fitting[stand_down.NAME] = stand_down.spec(kind)
         if not fitting:
             self.say(f"no declared command takes a {kind.value} ([operator.commands]): "
                      f"{text[:60]}", error=True)
@@ -197,6 +200,9 @@ class Steering:
                 return
             spec = fitting[name]
             target = next(f.name for f in spec.fields if f.type is kind)
+            if name == stand_down.NAME:
+                self.open_stand_down(spec, kind, text)
+                return
             self.open_command_form(spec, {target: text})
 
         if len(fitting) == 1:
@@ -235,6 +241,23 @@ class Steering:
                 f"area {payload['goal']} (priority {payload['priority']})"))
 
         self.app.push_screen(AreaForm(), filled)
+
+    def open_stand_down(self, spec: CommandSpec, kind: FieldType, text: str) -> None:
+        """The stand-down form for a drawn area; a good one is asked, then sent."""
+        def filled(payload: dict[str, object] | None) -> None:
+            if payload is None:
+                self.say("stand-down not sent (form closed)")
+                return
+            self.app.post_message(stand_down.request(payload, kind, self.robots))
+
+        self.app.push_screen(CommandForm(spec, {"area": text}), filled)
+
+    def lift_stand_downs(self, active: dict[str, StandDownState]) -> None:
+        """`U`: lift every active stand-down (one command, after a question)."""
+        try:
+            self.app.post_message(stand_down.lift(active))
+        except operator.OperatorError as exc:
+            self.say(str(exc), error=True)
 
     def hold_all(self) -> None:
         """`H`: all robots hold, or go on again (the agent suspends and resumes goals)."""

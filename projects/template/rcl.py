@@ -54,6 +54,7 @@ class PointRobot:
     def __init__(self, robot: str, lat: float, lon: float, speed: float,
                  on_telemetry: Any) -> None:
         self.robot, self.lat, self.lon, self.speed = robot, lat, lon, speed
+        self.home = (lat, lon)
         self.target: tuple[float, float] | None = None
         self.travelled_m = 0.0
         self._on_telemetry = on_telemetry
@@ -65,6 +66,10 @@ class PointRobot:
     def goto(self, lat: float, lon: float) -> None:
         with self._lock:
             self.target, self.travelled_m = (lat, lon), 0.0
+
+    def go_home(self) -> None:
+        """Where a stand-down by area with mode home sends it (a link's `go_home`)."""
+        self.goto(*self.home)
 
     def halt(self) -> None:
         with self._lock:

@@ -14,16 +14,18 @@ from mrss.bus import BusEndpoints
 from mrss.config.map import read_map
 from mrss.config.operator import read_operator
 from mrss.config.operator_commands import CommandError, FieldSpec, FieldType
-from mrss.messages import RobotData
+from mrss.messages import Command, RobotData, StandDownMode, StandDownState
+from mrss.tui import stand_down
 from mrss.tui.app import MrssApp
 from mrss.tui.command_form import CommandForm, CommandMenu
+from mrss.tui.confirm import ConfirmScreen
 from mrss.tui.mission import MissionChannel
 from mrss.tui.models.geo import Viewport
 from mrss.tui.models.map import MapModel
 from mrss.tui.models.sketch import Sketch, SketchError
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.operator_bar import OperatorBar
-from tests.tui.tui_helpers import run, until
+from tests.tui.tui_helpers import Peer, run, until
 
 COMMANDS = {"commands": {
     "exclusion": {"label": "Exclusion zone", "percept": "exclusion_zone(Zone, Shape)",
@@ -46,7 +48,9 @@ def _app(endpoints: BusEndpoints) -> MrssApp:
 
 
 def _place(app: MrssApp, robot: str, lat: float, lon: float) -> None:
-    app.map_model.apply_data(RobotData(robot=robot, data={"lat": lat, "lon": lon}))
+    data = RobotData(robot=robot, data={"lat": lat, "lon": lon})
+    app.map_model.apply_data(data)
+    app.robots.apply_data(data, 0.0)
 
 
 def _status(app: MrssApp) -> str:
@@ -74,7 +78,11 @@ def test_a_polygon_drawn_by_keys_opens_the_zone_form_pre_filled(
             await pilot.press("enter", *["right"] * 6, "enter", *["down"] * 4, "enter")
             assert len(panel.sketch.vertices) == 3
             assert "3 vertices" in str(panel.border_title)
-            await pilot.press("Z")
+            await pilot.press("Z")  # the project's command, or a stand-down by area
+            menu = await until(pilot, lambda: isinstance(app.screen, CommandMenu)
+                               and app.screen, 10, "the menu of area commands")
+            assert [name for name, _ in menu.choices] == ["exclusion", stand_down.NAME]
+            await pilot.press("enter")
             form = await until(pilot, lambda: isinstance(app.screen, CommandForm)
                                and app.screen, 10, "the zone form")
             assert form.spec.name == "exclusion"
@@ -126,13 +134,69 @@ def test_a_point_and_a_circle_pre_fill_their_forms(endpoints: BusEndpoints) -> N
             await pilot.press("enter", *["right"] * 5, "R")  # two take a circle: a menu
             menu = await until(pilot, lambda: isinstance(app.screen, CommandMenu)
                                and app.screen, 10, "the menu of circle commands")
-            assert [name for name, _ in menu.choices] == ["watch", "survey"]
+            assert [name for name, _ in menu.choices] == ["watch", "survey", stand_down.NAME]
             await pilot.press("enter")
             form = await until(pilot, lambda: isinstance(app.screen, CommandForm)
                                and app.screen, 10, "the watch form")
             text = form.query_one("#cmd-ring", Input).value
             assert text == panel.sketch.circle() and float(text.split(",")[2]) > 0
     run(body())
+
+
+def test_an_area_drawn_stands_down_the_robots_inside_after_a_question_naming_them(
+        endpoints: BusEndpoints) -> None:
+    peer = Peer(endpoints)
+
+    async def body() -> None:
+        app = _app(endpoints)
+        async with app.run_test(size=(160, 45)) as pilot:
+            _place(app, "uav1", *BASE)
+            _place(app, "ugv1", BASE[0] + 0.004, BASE[1] + 0.004)
+            _place(app, "uav2", BASE[0] + 0.002, BASE[1] + 0.002)  # the view's centre
+            panel = await _map(pilot, app)
+            panel.refresh()
+            # a square of 8 x 6 cells around the cursor at the centre of the view
+            await pilot.press("space", *["left"] * 4, *["up"] * 3, "enter", *["right"] * 8,
+                              "enter", *["down"] * 6, "enter", *["left"] * 8, "enter", "Z")
+            await until(pilot, lambda: isinstance(app.screen, CommandMenu), 10, "the menu")
+            await pilot.press("down", "enter")
+            form = await until(pilot, lambda: isinstance(app.screen, CommandForm)
+                               and app.screen.query("#cmd-area") and app.screen, 10,
+                               "the stand-down form")
+            assert form.query_one("#cmd-area", Input).value == panel.sketch.polygon()
+            form.query_one("#cmd-mode", Input).value = "hme"  # a typo: named, nothing sent
+            await pilot.press("ctrl+s")
+            await until(pilot, lambda: "'hme' is not one of hold, home" in form.error, 10,
+                        "the refusal")
+            form.query_one("#cmd-mode", Input).value = "home"
+            await pilot.press("ctrl+s")
+            question = await until(pilot, lambda: isinstance(app.screen, ConfirmScreen)
+                                   and app.screen, 10, "the question")
+            assert question.question == "Stand down every robot in this area (home)?"
+            outline = stand_down.ring(FieldSpec("a", FieldType.POLYGON).from_text(
+                panel.sketch.polygon()), FieldType.POLYGON)
+            inside = stand_down.inside(app.robots, outline)
+            assert inside == ["uav2"]
+            assert f"seen inside here: {', '.join(inside)} " in question.details[1]
+            await pilot.press("y")
+            sent = await until(pilot, lambda: [c for c in peer.received(Command)
+                                               if c.command == "stand_down"], 10, "sent")
+            args = sent[0].args
+            assert (args["mode"], args["capabilities"], args["robots"]) == ("home", [], inside)
+            assert args["area"] == {"type": "Polygon", "coordinates": [outline]}
+            # the RCL's answer: on the map and in the log; U lifts it after a question
+            app.map_model.apply_stand_down(StandDownState(
+                ident=sent[0].target, mode=StandDownMode.HOME, active=True,
+                area=args["area"], robots=inside))
+            await pilot.press("escape", "U")
+            await until(pilot, lambda: isinstance(app.screen, ConfirmScreen), 10, "lift?")
+            await pilot.press("y")
+            await until(pilot, lambda: [c for c in peer.received(Command)
+                                        if c.command == "stand_down_lift"], 10, "lift sent")
+    try:
+        run(body())
+    finally:
+        peer.close()
 
 
 def test_robots_at_one_spot_stay_readable(endpoints: BusEndpoints) -> None:

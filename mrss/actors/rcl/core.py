@@ -65,6 +65,7 @@ from mrss.actors.rcl.reallocation import Reallocation
 from mrss.actors.rcl.requesters import Requesters
 from mrss.actors.rcl.resources import ResourceBroker
 from mrss.actors.rcl.robot import Control, RobotActor, StartAction
+from mrss.actors.rcl.stand_down import StandDowns
 from mrss.edge.rejections import RejectionLog
 from mrss.errors import ActionError, DecodeError
 from mrss.messages import (
@@ -138,10 +139,10 @@ class RclCore:
                                               self.actions, self)
         self.requesters = Requesters(journal, publish, self.actions, self,
                                      Orphans(adopt_grace, adopt_grace_suspended, clock),
-                                     self.availability.announce_robots)
+                                     self.announce)
         self.observers = ObserverReports(layer, journal, publish, self.actions, self,
                                          ProgressFeed(progress_every, clock),
-                                         self.availability.announce_robots,
+                                         self.announce,
                                          lambda: self.robots)
         self.rejections = RejectionLog(log, "action request")
         profiles = profiles or {}
@@ -149,12 +150,17 @@ class RclCore:
         self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
             {r: profiles.get(r) or RobotProfile(r) for r in self.links},
             board=self.bid_board, where=lambda r: bid_link_state(self.links[r]),
-            unavailable=self.availability.unavailable,
+            unavailable=lambda: {**self.stand_downs.not_bidding(),
+                                 **self.availability.unavailable()},
             award=self.award, publish=publish, ranking=ranking, book=TaskBook(journal),
             reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to),
             decision_lock=self._lock)  # a round and its award: one step of the core
         self.reallocation = Reallocation(self.allocator, journal, self.actions, self, publish)
         self.availability.on_change = self.allocator.kick
+        self.stand_downs = StandDowns(  # the operator's stand-downs by area
+            self.links, {r: p.capabilities for r, p in profiles.items()},
+            lambda r: bid_link_state(self.links[r])[0], journal, self.actions, self, publish)
+        self.stand_downs.on_change = self.allocator.kick
         self.availability.on_teleop = self.bid_board.teleop
 
     # -- lifecycle of the core ----------------------------------------------------------
@@ -182,6 +188,7 @@ class RclCore:
                     ActionState.FAILED, lc.EndCause.RCL_RESTARTED,
                     f"robot {entry.action.robot!r} is not configured after an RCL restart"))
         decommissioned = self.availability.restore_decommissioned()
+        self.stand_downs.restore()
         children = [actor_child(robot, self._robot_factory(robot), watchdog=self.robot_watchdog,
                                 shutdown=self.layer.interrupt_timeout + 2.0)
                     for robot in self.links]
@@ -196,7 +203,7 @@ class RclCore:
                 watch(functools.partial(self.controls, robot))
         for robot in sorted(decommissioned):  # what it still held (a kill came between)
             self.availability.decommission(robot, True)
-        self.availability.announce_robots()  # so the reasoner and the dashboard know each robot now
+        self.announce()  # so the reasoner and the dashboard know each robot now
         # awards recorded before a restart, not yet started; a robot whose link has not
         # reported up since the start gets its award when it does
         self.availability.on_settled = lambda _robot: self.reallocation.carry_out()
@@ -366,7 +373,9 @@ class RclCore:
             if progress:
                 action.progress = dict(progress)  # from the robot that lost the task
             held = self._held_goals.cause_for(action.goal, requester.src)
-            start = StartAction(action, held)
+            stood_down = self.stand_downs.cause_for(action.robot) if held is None else None
+            start = StartAction(action, held) if stood_down is None else \
+                StartAction(action, stood_down.by, stood_down.reason)
             # Journaled first, then the robot actor is told (it starts the skills while
             # PENDING goes out), all under the lock: a later control comes after the
             # StartAction, and the actor's RUNNING waits for the lock, so after PENDING.
@@ -399,6 +408,11 @@ class RclCore:
                 return
             self._accept(dataclasses.replace(request, robot=robot, args=args, role={}),
                          requester, progress)
+
+    def announce(self) -> None:
+        """Every robot's state and every active stand-down (level-triggered)."""
+        self.availability.announce_robots()
+        self.stand_downs.announce()
 
     def check_batteries(self) -> None:
         """Tasks addressed to a role held by a robot whose battery is critical go to

@@ -61,6 +61,7 @@ CREATE TABLE IF NOT EXISTS transitions (
 CREATE INDEX IF NOT EXISTS transitions_uuid ON transitions(uuid);
 CREATE TABLE IF NOT EXISTS robots (robot TEXT PRIMARY KEY, teleop INTEGER NOT NULL,
                                    decommissioned INTEGER NOT NULL DEFAULT 0);
+CREATE TABLE IF NOT EXISTS stand_downs (ident TEXT PRIMARY KEY, body TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS controls (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, robot TEXT NOT NULL, uuid TEXT NOT NULL,
     event TEXT NOT NULL, ts REAL NOT NULL
@@ -255,6 +256,20 @@ class ActionJournal:
                              "VALUES (?,0,?) ON CONFLICT(robot) "
                              "DO UPDATE SET decommissioned=excluded.decommissioned",
                              (robot, int(out)))
+
+    def save_stand_down(self, ident: str, body: str) -> None:
+        """An active stand-down by area (mrss.actors.rcl.stand_down), as JSON."""
+        with self._lock:
+            self._db.execute("INSERT OR REPLACE INTO stand_downs (ident, body) VALUES (?,?)",
+                             (ident, body))
+
+    def drop_stand_down(self, ident: str) -> None:
+        with self._lock:
+            self._db.execute("DELETE FROM stand_downs WHERE ident=?", (ident,))
+
+    def stand_downs(self) -> dict[str, str]:
+        with self._lock:
+            return dict(self._db.execute("SELECT ident, body FROM stand_downs").fetchall())
 
     def decommissioned_robots(self) -> set[str]:
         with self._lock:

@@ -114,7 +114,7 @@ def _accept(lc: Lifecycle, ev: Accept) -> Step:
     if ev.teleop:
         return _suspended(SuspendCause.TELEOP, "robot in teleop")
     if ev.held is not None:
-        return _suspended(ev.held, f"its goal is suspended by the {ev.held.value}")
+        return _suspended(ev.held, ev.why or f"its goal is suspended by the {ev.held.value}")
     return Lifecycle(Phase.RUNNING), (Run(""),)
 
 

@@ -162,6 +162,7 @@ class Accept:
 
     teleop: bool = False
     held: SuspendCause | None = None  # its goal is suspended already (held_goals.py)
+    why: str = ""  # ... or why else it starts held (a stand-down by area)
     kind = EventKind.ACCEPT
 
 

@@ -31,6 +31,7 @@ from mrss.actors.rcl.action import Action
 from mrss.actors.rcl.allocation.bids import Work, fraction_done
 from mrss.actors.rcl.allocation.board import BidBoard, BidState
 from mrss.actors.rcl.failure_causes import failure_cause
+from mrss.actors.rcl.going_home import GoHome, HomeErrand
 from mrss.actors.rcl.journal import JournalEntry
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.resources import ResourceBroker
@@ -93,6 +94,7 @@ class StartAction:
 
     action: Action
     held: lc.SuspendCause | None = None
+    why: str = ""  # why it is held, when not its goal (a stand-down by area)
 
 
 @dataclass(frozen=True)
@@ -152,6 +154,7 @@ class RobotActor(SupervisedActor):
         self.actions: dict[str, _Tracked] = {}
         self._replayed: set[int] = set()  # pending controls applied by `setup`
         self._published: BidState | None = None  # on the bid board
+        self.home = HomeErrand(robot, link)  # a stand-down's "go home", once stopped
 
     def _skill_data_fn(self, uuid: str) -> Callable[[Mapping[str, JsonValue]], bool]:
         """A skill's robot data goes out as the robot's (on the skill's thread); a plan
@@ -194,6 +197,7 @@ class RobotActor(SupervisedActor):
             return self._dispatch(message)
         finally:
             self._publish_bid_state()
+            self.home.check(any(r is not None for t in self.actions.values() for r in t.refs))
 
     def _dispatch(self, message: Any) -> Any:
         if isinstance(message, SkillReport):
@@ -208,6 +212,8 @@ class RobotActor(SupervisedActor):
             self._control(message)
         elif isinstance(message, SetTeleop):
             self._set_teleop(message.on)
+        elif isinstance(message, GoHome):
+            self.home.ask(message)
         elif isinstance(message, _StopDeadline):
             self._deadline(message)
         elif isinstance(message, _PreemptedTooLong):
@@ -259,7 +265,7 @@ class RobotActor(SupervisedActor):
             return  # restored from the journal already
         t = _Tracked(msg.action.copy(), lc.Lifecycle.of(msg.action.state))
         self.actions[t.action.uuid] = t
-        self._feed(t, lc.Accept(self.teleop, msg.held))
+        self._feed(t, lc.Accept(self.teleop, msg.held, msg.why))
 
     def _progress(self, msg: ProgressRecorded) -> None:
         t = self.actions.get(msg.uuid)

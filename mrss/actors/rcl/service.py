@@ -9,6 +9,7 @@
   `action.query` (reconciliation: statuses from the journal, and the inventory of a
   restarted requester's predecessors);
 - `ctl.decommission` / `ctl.recommission` (Command, target = robot, from the operator)
+- `ctl.stand_down` / `ctl.stand_down_lift` (Command, target = its id: mrss.actors.rcl.stand_down)
   take a robot out of service (its tasks addressed to a role go to others) and back;
 - at start, a robot whose link is not up yet is unavailable until its link first
   reports up, and lost past the link's timeout without a report (checked on every
@@ -52,6 +53,7 @@ from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal, Requester
 from mrss.actors.rcl.layer import RobotCommLayer
 from mrss.actors.rcl.options import RCL_OPTIONS
+from mrss.actors.rcl.stand_down import LIFT, STAND_DOWN
 from mrss.auth.roles import CommandKind
 from mrss.bus import BusEndpoints, Incarnations, NotHandled, ReliableReceiver, Subscriber
 from mrss.errors import ConfigError, MrssError
@@ -153,6 +155,7 @@ class RclService(Component):
         self._sub = Subscriber(endpoints, prefixes=["action.control", "action.query",
                                                     "ctl.teleop", "ctl.snapshot",
                                                     "ctl.decommission", "ctl.recommission",
+                                                    "ctl.stand_down",
                                                     "sup.heartbeat.", "sup.node_"],
                                incarnations=self.incarnations)
         if not self._sub.wait_connected(5.0):
@@ -271,7 +274,7 @@ class RclService(Component):
         except MrssError as exc:
             log.warning("dropped %s from %s: %s", env.kind, env.src, exc)
 
-    def _operator_may(self, env: Envelope) -> bool:
+    def _operator_may(self, env: Envelope) -> str | None:
         """An operator's command (a debug action control, teleop, decommission) passes
         the project's roles here, where it is executed (mrss.runtime.operator_guard)."""
         body = env.body
@@ -282,18 +285,22 @@ class RclService(Component):
             kind = CommandKind.TELEOP
         elif isinstance(body, Command) and body.command in ("decommission", "recommission"):
             kind = CommandKind.DECOMMISSION
+        elif isinstance(body, Command) and body.command in (STAND_DOWN, LIFT):
+            kind = CommandKind.STAND_DOWN
         if kind is None:
-            return True
+            return env.src
         what = (f"{body.command.value} {body.target}" if isinstance(body, ActionControl)
                 else f"ctl.{body.command} {body.target}" if isinstance(body, Command) else "")
-        return self.operators.check_envelope(env, kind, what).ok
+        verdict = self.operators.check_envelope(env, kind, what)
+        return verdict.who if verdict.ok else None
 
     def _on_message(self, env: Envelope) -> None:
         core = self.core
         if core is None or env.src == self._name:
             return
         body = env.body
-        if not self._operator_may(env):
+        who = self._operator_may(env)  # the operator (or component) it is from; None: refused
+        if who is None:
             return
         try:
             if isinstance(body, ActionControl):
@@ -309,6 +316,8 @@ class RclService(Component):
             elif isinstance(body, Command) and body.command in ("decommission",
                                                                 "recommission"):
                 core.availability.decommission(body.target, body.command == "decommission")
+            elif isinstance(body, Command) and body.command in (STAND_DOWN, LIFT):
+                core.stand_downs.command(body, who)
             elif isinstance(body, Command) and body.command == "snapshot":
                 core.observers.snapshot()
             elif isinstance(body, Heartbeat):

@@ -2,8 +2,9 @@
 (`plan` robot data, mrss.messages.plans: the path flown dim, the path left bright) from robot
 data, and the world model's objects (hotspots, water sources, bases as points; operator
 areas and other shapes as outlines) from its `wm.list` answers, styled by the project's
-`[map]` table (mrss.config.map). Drawn onto a braille canvas through a `Viewport`.
-Pure Python: no Textual.
+`[map]` table (mrss.config.map), and the active stand-downs by area (the RCL's
+`fleet.stand_down`) as red outlines with their id and mode. Drawn onto a braille
+canvas through a `Viewport`. Pure Python: no Textual.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.config.map import MapConfig, PolygonDraw
-from mrss.messages import ActionState, ActionStatus, RobotData
+from mrss.messages import ActionState, ActionStatus, RobotData, StandDownState
 from mrss.messages.plans import PLAN_MAX_WAYPOINTS, PLAN_RECORD
 from mrss.tui.models.braille import BrailleCanvas
 from mrss.tui.models.geo import DOTS_X, DOTS_Y, METRES_PER_DEGREE, Viewport, heading_arrow
@@ -25,6 +26,7 @@ RING_VERTICES = 48  # of a `radius_field` ring
 ToDots = Callable[[list[tuple[float, float]]], list[tuple[float, float]]]
 ENDED = frozenset(s.value for s in ActionState if s.terminal)
 ROBOT_STYLES = ("bold cyan", "bold magenta", "bold green", "bold yellow", "bold blue")
+STAND_DOWN_STYLE = "bold red"  # an active stand-down by area (mrss.tui.stand_down)
 
 
 @dataclass
@@ -136,6 +138,7 @@ class MapModel:
         self.robots: dict[str, RobotMark] = {}
         self.objects: dict[str, WorldShape] = {}
         self.plans: dict[str, Plan] = {}  # robot -> its plan
+        self.stand_downs: dict[str, StandDownState] = {}  # active ones, by id
         self.world_error = ""
         self.styles = styles or MapConfig()
 
@@ -180,6 +183,13 @@ class MapModel:
         for robot in ended:
             del self.plans[robot]
         return bool(ended)
+
+    def apply_stand_down(self, state: StandDownState) -> bool:
+        """The RCL's word on a stand-down by area: shown while active."""
+        if state.active:
+            self.stand_downs[state.ident] = state
+            return True
+        return self.stand_downs.pop(state.ident, None) is not None
 
     def apply_world(self, objects: Any) -> bool:
         """The answer to `wm.list`: replaces every object; False if it is not a list."""
@@ -241,6 +251,9 @@ class MapModel:
             ring = self.styles.ring(shape.kind, shape.attributes) if shape.point else None
             if shape.point is not None and ring is not None:
                 canvas.polyline(dots(ring_points(*shape.point, ring[0])), ring[1])
+        for held in self.stand_downs.values():  # the operator's stand-downs, in red
+            for line in _geometry_lines(held.area):
+                canvas.polyline(dots(line), STAND_DOWN_STYLE)
         for i, mark in enumerate(self.robots.values()):
             style = ROBOT_STYLES[i % len(ROBOT_STYLES)]
             canvas.polyline(dots(list(mark.track)), style.replace("bold ", "dim "))
@@ -260,6 +273,10 @@ class MapModel:
             if canvas.glyph(col, row, char, style, over=False) \
                     and self.styles.kind(shape.kind).label:
                 canvas.label(col + 1, row, shape.id, "dim")
+        for held in self.stand_downs.values():
+            for line in _geometry_lines(held.area)[:1]:
+                col, row = view.to_cell(*line[0], width, height)
+                canvas.label(col, row, f"{held.ident} {held.mode.value}", STAND_DOWN_STYLE)
         for shape in self.objects.values():
             if shape.lines and shape.point is None and self.styles.kind(shape.kind).label:
                 style = self.styles.line_style(shape.kind, shape.attributes)

@@ -87,6 +87,11 @@ class RobotView:
         value = self.records.get(record, {}).get(key)
         return value if value is not None else self.records.get("", {}).get(key)
 
+    def place(self) -> tuple[float, float] | None:
+        """(lat, lon) of its last position, None before the first."""
+        lat, lon = self._field("position", "lat"), self._field("position", "lon")
+        return (float(lat), float(lon)) if _is_number(lat) and _is_number(lon) else None
+
     def position(self) -> str:
         lat, lon = self._field("position", "lat"), self._field("position", "lon")
         if not _is_number(lat) or not _is_number(lon):

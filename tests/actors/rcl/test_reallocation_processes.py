@@ -39,8 +39,8 @@ HOMES = {"uav1": DEFAULT_HOME[:2], "uav2": offset(DEFAULT_HOME[0], DEFAULT_HOME[
 class System(Bus):
     """Two simulated UAVs and the RCL on a bus; what the test heard."""
 
-    def __init__(self, procs: Procs, run_dir: Path) -> None:
-        super().__init__(procs, run_dir, ["action.", "percept", "robot.uav"])
+    def __init__(self, procs: Procs, run_dir: Path, hear: tuple[str, ...] = ()) -> None:
+        super().__init__(procs, run_dir, ["action.", "percept", "robot.uav", *hear])
         robots = {r: {"link": "mavlink", "heartbeat_timeout": 3.0,  # a loaded CI host
                       "capabilities": ["uav", "camera"], "cruise_speed": 10.0}
                   for r in HOMES}
