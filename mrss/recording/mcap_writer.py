@@ -7,8 +7,9 @@ The layout (docs/tools.md, "The MCAP recording"):
   envelope in JSON; log time is when the recorder received it, publish time the
   envelope's `ts`, sequence its number on the channel. A batch is one message per
   envelope; reliable data is recorded as the message it carries.
-* `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every telemetry record
-  with a lat and lon, so Foxglove's Map panel shows the robots without configuration.
+* `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every `position` record
+  (or untyped sample) with a lat and lon (`schemas.location_fix`), so Foxglove's Map
+  panel shows the robots without configuration.
 * `world.geojson`: the world model's areas, zones and objects (not robots) as Foxglove's
   `foxglove.GeoJSON`, written whole each time they change as the bus shows them
   (mrss/recording/geojson.py).

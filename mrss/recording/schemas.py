@@ -28,6 +28,8 @@ from mrss.messages import KINDS, Message
 SCHEMA_PREFIX = "mrss."
 MALFORMED_SCHEMA = "mrss.malformed"
 LOCATION_FIX = "foxglove.LocationFix"
+# The telemetry record type that is the robot's own position (docs/robots.md).
+POSITION_RECORD = "position"
 ENCODING = "jsonschema"
 _DRAFT = "https://json-schema.org/draft/2020-12/schema"
 
@@ -146,7 +148,13 @@ LOCATION_FIX_SCHEMA = {
 
 
 def location_fix(robot: str, ts: float, data: dict[str, Any]) -> dict[str, Any] | None:
-    """A LocationFix of a robot's telemetry record, when it has a numeric lat and lon."""
+    """A LocationFix of a robot's own position: a telemetry record of type `position`
+    (or one without a type, a plain sample) with a numeric lat and lon. Records of other
+    types carry the position of what they report (a `hotspot` the UAV saw), not the
+    robot's, and make none."""
+    kind = data.get("type")
+    if kind is not None and kind != POSITION_RECORD:
+        return None
     lat, lon, alt = data.get("lat"), data.get("lon"), data.get("alt", 0.0)
     if not (_finite(lat) and _finite(lon) and _finite(alt)):
         return None

@@ -5,7 +5,7 @@ recorder hands it every bus message, frames untouched, and it logs each one on a
 Foxglove SDK channel exactly as the MCAP recording lays it out (mrss/recording/
 mcap_writer.py): a channel per bus topic and kind, the envelope in JSON against the
 kind's schema `mrss.<kind>` (encoding `jsonschema`); `robot.<id>.location` as Foxglove's
-`foxglove.LocationFix` for every telemetry record with a position, so the Map panel
+`foxglove.LocationFix` for every record of the robot's position, so the Map panel
 shows the robots; `mrss.malformed` for what did not decode. A test writes the same
 messages both ways and compares the channels, schemas and data.
 
