@@ -76,7 +76,7 @@ def write_large(path: Path, size: int, frames: list[list[bytes]], chunk: int = C
                 mcap.add_message(channel, log_time=t, publish_time=t, data=data,
                                  sequence=count)
                 count += 1
-        mcap.finish()  # type: ignore[no-untyped-call]
+        mcap.finish()
     return count
 
 

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+import msgspec
 from mcap.writer import CompressionType
 
 import mrss
@@ -55,6 +56,7 @@ from mrss.recording.schemas import (
     json_bytes,
     location_fix,
 )
+from mrss.recording.transcode import transcode
 
 PROFILE = "mrss"
 MALFORMED_TOPIC = "mrss.malformed"
@@ -143,15 +145,16 @@ class McapRecordingWriter:
         each envelope in it, or, when any of them does not decode, the whole message as
         malformed with the reason. Each envelope is unpacked once, for both."""
         try:
-            decoded = [decode_raw(topic, payload) for topic, payload in message_frames(frames)]
+            decoded = [transcode(topic, payload) or _exact(topic, payload)
+                       for topic, payload in message_frames(frames)]
         except DecodeError as exc:
             self._malformed(t, frames, exc.reason)
             return
         log_time = _ns(t)
         if self._chunk_opened is None:
             self._chunk_opened = time.monotonic()
-        for env, envelope in decoded:
-            self._envelope(env, envelope, log_time)
+        for data, envelope in decoded:
+            self._envelope(data, envelope, log_time)
 
     def write(self, message: RecordedMessage) -> None:
         """Append one ZeroMQ message as recorded: each envelope in it, or a malformed one
@@ -173,17 +176,12 @@ class McapRecordingWriter:
                   log_time, json_bytes({"frames": [base64.b64encode(f).decode() for f in frames],
                                         "note": note}))
 
-    def _envelope(self, env: dict[str, Any], envelope: Envelope, log_time: int) -> None:
-        name = SCHEMA_PREFIX + env["kind"]
+    def _envelope(self, data: bytes, envelope: Envelope, log_time: int) -> None:
+        name = SCHEMA_PREFIX + envelope.body.kind
         publish_time = _ns(envelope.ts)
         self._incarnations[envelope.src].add(envelope.inc)
-        if "cred" in env or "op" in env:
-            env = dict(env)
-            env.pop("op", None)  # an operator's session credential is a secret: never kept
-            if "cred" in env:  # base64 text, as the schema says (not a tagged object)
-                env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
         self._add(self._channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time,
-                  publish_time, json_bytes(env))
+                  publish_time, data)
         self.count += 1
         body = envelope.body
         kind = type(body)
@@ -193,7 +191,7 @@ class McapRecordingWriter:
             if fix is not None:
                 self._add(self._channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
                                         LOCATION_FIX_SCHEMA), log_time, publish_time,
-                          json_bytes(fix))
+                          _fix_json(fix))
         elif (kind is DataRequest or kind is DataReply) \
                 and self._world.seen(envelope.topic, body):
             self._add(self._channel(GEOJSON_TOPIC, GEOJSON, GEOJSON_SCHEMA), log_time,
@@ -203,7 +201,7 @@ class McapRecordingWriter:
         """Close the open chunk if it is `CHUNK_SECONDS` old (it then reaches the OS)."""
         opened = self._chunk_opened
         if opened is not None and time.monotonic() - opened >= CHUNK_SECONDS:
-            self._mcap.flush()  # type: ignore[no-untyped-call]
+            self._mcap.flush()
             self._chunk_opened = None
 
     def finish(self) -> None:
@@ -215,8 +213,22 @@ class McapRecordingWriter:
             src: ",".join(map(str, sorted(incs)))
             for src, incs in sorted(self._incarnations.items())
         })
-        self._mcap.finish()  # type: ignore[no-untyped-call]
+        self._mcap.finish()
         self._out.flush()
 
 
+def _exact(topic: bytes, payload: bytes) -> tuple[bytes, Envelope]:
+    """What `transcode` did not vouch for: decoded by the codec (DecodeError with the
+    reason), written by the JSON module with bytes and non-finite floats tagged."""
+    env, envelope = decode_raw(topic, payload)
+    if "cred" in env or "op" in env:
+        env = dict(env)
+        env.pop("op", None)  # an operator's session credential is a secret: never kept
+        if "cred" in env:  # base64 text, as the schema says (not a tagged object)
+            env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
+    return json_bytes(env), envelope
+
+
 _KIND_SCHEMAS = all_kind_schemas()
+# A LocationFix holds finite numbers and text only (location_fix checks): nothing to tag.
+_fix_json = msgspec.json.Encoder().encode
