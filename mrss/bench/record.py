@@ -91,6 +91,10 @@ def run(quick: bool) -> BenchReport:
                    f"{_percentile(found.seek_ms, 0.5):.1f} / "
                    f"{_percentile(found.seek_ms, 0.99):.1f} "
                    f"({_percentile(found.seek_cpu_ms, 0.5):.1f})")
+    report.add_row(f"reference: mcap library reader's seek in {label}: p50 / p99 ms",
+                   found.messages, None, None, None, None, None,
+                   f"{_percentile(found.library_ms, 0.5):.1f} / "
+                   f"{_percentile(found.library_ms, 0.99):.1f}")
 
     minutes = 2 if quick else 30
     with tempfile.TemporaryDirectory(prefix="mrss-bench-whatif-") as tmp:

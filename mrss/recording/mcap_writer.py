@@ -35,13 +35,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-import msgspec
 from mcap.writer import CompressionType
 
 import mrss
 from mrss.bus.wire import message_frames
 from mrss.errors import DecodeError
-from mrss.messages import DataReply, DataRequest, Envelope, RobotData, decode_raw
+from mrss.messages import DataReply, DataRequest, Envelope, RobotData
 from mrss.recording.format import RecordedMessage
 from mrss.recording.geojson import GEOJSON, GEOJSON_SCHEMA, GEOJSON_TOPIC, WorldShapes
 from mrss.recording.mcap_fast import FastWriter
@@ -54,9 +53,9 @@ from mrss.recording.schemas import (
     SCHEMA_PREFIX,
     all_kind_schemas,
     json_bytes,
-    location_fix,
+    location_fix_json,
 )
-from mrss.recording.transcode import transcode
+from mrss.recording.transcode import recording_json
 
 PROFILE = "mrss"
 MALFORMED_TOPIC = "mrss.malformed"
@@ -67,6 +66,16 @@ CHUNK_BYTES = 256 * 1024
 CHUNK_SECONDS = 1.0
 LOCATION_SUFFIX = ".location"
 ASL_MEDIA_TYPE = "text/x-agentspeak"
+
+
+class _Channel:
+    """An MCAP channel of the file and the sequence number of its last message."""
+
+    __slots__ = ("id", "sequence")
+
+    def __init__(self, channel_id: int) -> None:
+        self.id = channel_id
+        self.sequence = 0
 
 
 @dataclass(frozen=True)
@@ -102,9 +111,9 @@ class McapRecordingWriter:
         self._mcap.start(profile=PROFILE, library=f"mrss {mrss.__version__}")
         self._out = out
         self._schemas: dict[str, int] = {}
-        self._channels: dict[tuple[str, str], int] = {}
-        self._sequence: dict[int, int] = defaultdict(int)
-        self._incarnations: dict[str, set[int]] = defaultdict(set)
+        self._channels: dict[tuple[str, str], _Channel] = {}  # by topic and schema name
+        self._by_kind: dict[tuple[str, type], _Channel] = {}  # by topic and message kind
+        self._senders: set[tuple[str, int]] = set()  # (src, incarnation) seen
         self._world = WorldShapes()
         self._chunk_opened: float | None = None
         self._finished = False
@@ -123,7 +132,7 @@ class McapRecordingWriter:
                                           media_type=ASL_MEDIA_TYPE, data=source)
         out.flush()
 
-    def _channel(self, topic: str, schema: str, data: dict[str, Any]) -> int:
+    def _channel(self, topic: str, schema: str, data: dict[str, Any]) -> _Channel:
         key = (topic, schema)
         channel = self._channels.get(key)
         if channel is None:
@@ -131,21 +140,20 @@ class McapRecordingWriter:
             if schema_id is None:
                 schema_id = self._schemas[schema] = self._mcap.register_schema(
                     schema, ENCODING, json.dumps(data).encode())
-            channel = self._channels[key] = self._mcap.register_channel(
-                topic, "json", schema_id)
+            channel = self._channels[key] = _Channel(self._mcap.register_channel(
+                topic, "json", schema_id))
         return channel
 
-    def _add(self, channel: int, log_time: int, publish_time: int, data: bytes) -> None:
-        self._sequence[channel] += 1
-        self._mcap.add_message(channel, log_time=log_time, publish_time=publish_time,
-                               data=data, sequence=self._sequence[channel])
+    def _add(self, channel: _Channel, log_time: int, publish_time: int, data: bytes) -> None:
+        channel.sequence += 1
+        self._mcap.add_message(channel.id, log_time, data, publish_time, channel.sequence)
 
     def received(self, t: float, frames: list[bytes]) -> None:
         """Check and write one ZeroMQ message as a recorder received it at `t` (Unix s):
         each envelope in it, or, when any of them does not decode, the whole message as
         malformed with the reason. Each envelope is unpacked once, for both."""
         try:
-            decoded = [transcode(topic, payload) or _exact(topic, payload)
+            decoded = [recording_json(topic, payload)
                        for topic, payload in message_frames(frames)]
         except DecodeError as exc:
             self._malformed(t, frames, exc.reason)
@@ -177,21 +185,25 @@ class McapRecordingWriter:
                                         "note": note}))
 
     def _envelope(self, data: bytes, envelope: Envelope, log_time: int) -> None:
-        name = SCHEMA_PREFIX + envelope.body.kind
-        publish_time = _ns(envelope.ts)
-        self._incarnations[envelope.src].add(envelope.inc)
-        self._add(self._channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time,
-                  publish_time, data)
-        self.count += 1
         body = envelope.body
         kind = type(body)
+        ts = envelope.ts
+        publish_time = max(0, int(ts * 1e9))
+        self._senders.add((envelope.src, envelope.inc))
+        channel = self._by_kind.get((envelope.topic, kind))
+        if channel is None:
+            name = SCHEMA_PREFIX + body.kind
+            channel = self._by_kind[envelope.topic, kind] = self._channel(
+                envelope.topic, name, _KIND_SCHEMAS[name])
+        self._add(channel, log_time, publish_time, data)
+        self.count += 1
         if kind is RobotData:
             assert isinstance(body, RobotData)  # for mypy
-            fix = location_fix(body.robot, envelope.ts, body.data)
+            fix = location_fix_json(body.robot, ts, body.data)
             if fix is not None:
                 self._add(self._channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
                                         LOCATION_FIX_SCHEMA), log_time, publish_time,
-                          _fix_json(fix))
+                          fix)
         elif (kind is DataRequest or kind is DataReply) \
                 and self._world.seen(envelope.topic, body):
             self._add(self._channel(GEOJSON_TOPIC, GEOJSON, GEOJSON_SCHEMA), log_time,
@@ -209,26 +221,13 @@ class McapRecordingWriter:
         if self._finished:
             return
         self._finished = True
+        incarnations: dict[str, list[int]] = defaultdict(list)
+        for src, inc in sorted(self._senders):
+            incarnations[src].append(inc)
         self._mcap.add_metadata("incarnations", {
-            src: ",".join(map(str, sorted(incs)))
-            for src, incs in sorted(self._incarnations.items())
-        })
+            src: ",".join(map(str, incs)) for src, incs in incarnations.items()})
         self._mcap.finish()
         self._out.flush()
 
 
-def _exact(topic: bytes, payload: bytes) -> tuple[bytes, Envelope]:
-    """What `transcode` did not vouch for: decoded by the codec (DecodeError with the
-    reason), written by the JSON module with bytes and non-finite floats tagged."""
-    env, envelope = decode_raw(topic, payload)
-    if "cred" in env or "op" in env:
-        env = dict(env)
-        env.pop("op", None)  # an operator's session credential is a secret: never kept
-        if "cred" in env:  # base64 text, as the schema says (not a tagged object)
-            env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
-    return json_bytes(env), envelope
-
-
 _KIND_SCHEMAS = all_kind_schemas()
-# A LocationFix holds finite numbers and text only (location_fix checks): nothing to tag.
-_fix_json = msgspec.json.Encoder().encode

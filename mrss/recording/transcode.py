@@ -16,6 +16,7 @@ and the caller takes the exact path, which writes it or names what is wrong with
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import functools
 import operator
@@ -27,7 +28,8 @@ from typing import Annotated, Any, Literal, Union
 import msgspec
 
 from mrss.errors import DecodeError
-from mrss.messages import KINDS, SCHEMA_VERSION, Envelope, Message
+from mrss.messages import KINDS, SCHEMA_VERSION, Envelope, Message, decode_raw
+from mrss.recording.schemas import json_bytes
 
 _MAX = 1.7976931348623157e308
 # A float JSON can hold: msgspec refuses NaN and the infinities against these bounds.
@@ -146,3 +148,21 @@ def transcode(topic: bytes, payload: bytes) -> tuple[bytes, Envelope] | None:
                              inc=env.inc, body=msg, v=SCHEMA_VERSION, cred=env.cred,
                              replayed=env.replayed, op="")
     return _ENCODE(env), envelope
+
+
+def recording_json(topic: bytes, payload: bytes) -> tuple[bytes, Envelope]:
+    """One bus message as a recording writes it: its envelope in JSON, and decoded
+    (DecodeError with the reason if it is not a valid bus message)."""
+    return transcode(topic, payload) or _exact(topic, payload)
+
+
+def _exact(topic: bytes, payload: bytes) -> tuple[bytes, Envelope]:
+    """What `transcode` did not vouch for: decoded by the codec (DecodeError with the
+    reason), written by the JSON module with bytes and non-finite floats tagged."""
+    env, envelope = decode_raw(topic, payload)
+    if "cred" in env or "op" in env:
+        env = dict(env)
+        env.pop("op", None)  # an operator's session credential is a secret: never kept
+        if "cred" in env:  # base64 text, as the schema says (not a tagged object)
+            env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
+    return json_bytes(env), envelope

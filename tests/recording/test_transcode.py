@@ -17,8 +17,7 @@ from hypothesis import strategies as st
 
 from mrss.errors import DecodeError
 from mrss.messages import KINDS, EventStatus, Message, Percept, RobotData, decode_raw, encode
-from mrss.recording.mcap_writer import _exact
-from mrss.recording.transcode import transcode
+from mrss.recording.transcode import _exact, transcode
 
 
 def _sample_value(hint: Any) -> Any:
