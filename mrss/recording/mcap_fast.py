@@ -6,10 +6,11 @@ its chunk's message indexes are then written eight bytes per call. That was most
 recorder's time per message once decoding was cheap (profiled: `mrss bench record`).
 
 `FastWriter.add_message` writes the record with one `struct.pack` into the open chunk
-and keeps the counts, times and index entries in plain locals of its own; they are
-handed to the library's chunk builder and statistics just before the library closes a
-chunk or writes the summary (`_hand_over`), and the message indexes are written with
-one `struct.pack` each (`_PackedIndex`). Everything else (chunks, compression, the
+and keeps only its index entry (log time, offset) in a list of its own; the counts and
+time spans follow from those when they are handed to the library's chunk builder and
+statistics, just before the library closes a chunk or writes the summary
+(`_hand_over`); the message indexes are written with one `struct.pack` each
+(`_PackedIndex`). Everything else (chunks, compression, the
 summary and its index) is the library's, and the file is the library's byte for byte
 (tests/recording/test_mcap_fast.py). It relies on the library's private attributes
 (mcap 1.6); where they are not as expected, it is the library's own `add_message`.
@@ -18,7 +19,6 @@ summary and its index) is the library's, and the file is the library's byte for 
 from __future__ import annotations
 
 import struct
-from collections import Counter
 from typing import IO, Any
 
 from mcap.opcode import Opcode
@@ -54,10 +54,9 @@ class FastWriter(Writer):
                       and hasattr(builder, "message_indices")
                       and hasattr(getattr(builder, "record_writer", None), "_buffer"))
         self._chunk_size: int = getattr(self, "_Writer__chunk_size", 0)
-        # the open chunk, as kept here until `_hand_over`
+        # the open chunk's messages, as kept here until `_hand_over`: their counts and
+        # time span follow from these
         self._entries: dict[int, list[int]] = {}  # channel -> log time, offset, ...
-        self._counts: Counter[int] = Counter()
-        self._first = self._last = 0  # the open chunk's time span (ns), once it has messages
         self._buffer: Any = None  # the chunk builder's record buffer (replaced per chunk)
         self._refresh()
 
@@ -72,31 +71,30 @@ class FastWriter(Writer):
 
     def _hand_over(self) -> None:
         """Give the open chunk's messages to the library's chunk builder and statistics."""
-        if not self._counts:
+        if not self._entries:
             return
+        times = [t for flat in self._entries.values() for t in flat[::2]]
+        first, last, messages = min(times), max(times), len(times)
         stats = self._Writer__statistics  # type: ignore[attr-defined]
-        if stats.message_count == 0 or self._first < stats.message_start_time:
-            stats.message_start_time = self._first
-        stats.message_end_time = max(stats.message_end_time, self._last)
-        for channel, count in self._counts.items():
-            stats.channel_message_counts[channel] += count
-        messages = sum(self._counts.values())
+        if stats.message_count == 0 or first < stats.message_start_time:
+            stats.message_start_time = first
+        stats.message_end_time = max(stats.message_end_time, last)
         stats.message_count += messages
         chunk = self._Writer__chunk_builder  # type: ignore[attr-defined]
         if chunk.num_messages == 0:
-            chunk.message_start_time, chunk.message_end_time = self._first, self._last
+            chunk.message_start_time, chunk.message_end_time = first, last
         else:  # handed over before (a channel registered), and not closed since
-            chunk.message_start_time = min(chunk.message_start_time, self._first)
-            chunk.message_end_time = max(chunk.message_end_time, self._last)
+            chunk.message_start_time = min(chunk.message_start_time, first)
+            chunk.message_end_time = max(chunk.message_end_time, last)
         chunk.num_messages += messages
         for channel, flat in self._entries.items():
+            stats.channel_message_counts[channel] += len(flat) // 2
             index = chunk.message_indices.get(channel)
             if index is None:
                 chunk.message_indices[channel] = _PackedIndex(channel, flat)  # type: ignore[arg-type]
             else:
                 index.records += flat
         self._entries = {}
-        self._counts = Counter()
 
     def add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
                     sequence: int = 0) -> None:
@@ -104,14 +102,6 @@ class FastWriter(Writer):
             super().add_message(channel_id, log_time=log_time, data=data,
                                 publish_time=publish_time, sequence=sequence)
             return
-        counts = self._counts
-        if not counts:
-            self._first = self._last = log_time
-        elif log_time < self._first:
-            self._first = log_time
-        elif log_time > self._last:
-            self._last = log_time
-        counts[channel_id] += 1
         buffer = self._buffer
         offset = buffer.tell()
         entries = self._entries.get(channel_id)

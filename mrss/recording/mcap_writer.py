@@ -38,7 +38,7 @@ from typing import IO, Any
 from mcap.writer import CompressionType
 
 import mrss
-from mrss.bus.wire import message_frames
+from mrss.bus.wire import RELIABLE_PREFIX, message_frames
 from mrss.errors import DecodeError
 from mrss.messages import DataReply, DataRequest, Envelope, RobotData
 from mrss.recording.format import RecordedMessage
@@ -153,8 +153,11 @@ class McapRecordingWriter:
         each envelope in it, or, when any of them does not decode, the whole message as
         malformed with the reason. Each envelope is unpacked once, for both."""
         try:
-            decoded = [recording_json(topic, payload)
-                       for topic, payload in message_frames(frames)]
+            if len(frames) == 2 and not frames[0].startswith(RELIABLE_PREFIX):
+                decoded = [recording_json(frames[0], frames[1])]  # the common case
+            else:
+                decoded = [recording_json(topic, payload)
+                           for topic, payload in message_frames(frames)]
         except DecodeError as exc:
             self._malformed(t, frames, exc.reason)
             return

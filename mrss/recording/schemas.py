@@ -167,6 +167,7 @@ class _LocationFix(msgspec.Struct):
 
 
 _NO_COVARIANCE = [0.0] * 9
+_NUMBERS = (int, float)  # exactly: a bool is no coordinate
 _encode_fix = msgspec.json.Encoder().encode
 
 
@@ -174,10 +175,12 @@ def _fix(robot: str, ts: float, data: dict[str, Any]) -> _LocationFix | None:
     kind = data.get("type")
     if kind is not None and kind != POSITION_RECORD:
         return None
-    lat, lon, alt = data.get("lat"), data.get("lon"), data.get("alt", 0.0)
-    if not (_finite(lat) and _finite(lon) and _finite(alt)):
+    lat: Any = data.get("lat")
+    lon: Any = data.get("lon")
+    alt: Any = data.get("alt", 0.0)
+    if not (type(lat) in _NUMBERS and type(lon) in _NUMBERS and type(alt) in _NUMBERS
+            and math.isfinite(lat) and math.isfinite(lon) and math.isfinite(alt)):
         return None
-    assert lat is not None and lon is not None and alt is not None  # for mypy
     sec = int(ts)
     return _LocationFix(_Time(sec, min(int((ts - sec) * 1e9), 999_999_999)), robot,
                         float(lat), float(lon), float(alt), _NO_COVARIANCE, 0)
@@ -196,10 +199,6 @@ def location_fix_json(robot: str, ts: float, data: dict[str, Any]) -> bytes | No
     """`location_fix` as compact JSON (a fix holds finite numbers and text: no tags)."""
     fix = _fix(robot, ts, data)
     return None if fix is None else _encode_fix(fix)
-
-
-def _finite(value: Any) -> bool:
-    return type(value) in (int, float) and math.isfinite(value)
 
 
 def to_json(value: Any) -> Any:
