@@ -8,6 +8,8 @@ import random
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
 
 from mrss.messages import Percept, RobotData, encode
 from mrss.recording import mcap_writer
@@ -96,8 +98,35 @@ def test_a_damaged_chunk_names_its_offset(monkeypatch: pytest.MonkeyPatch) -> No
     data = bytearray(recording(monkeypatch, count=500))
     indexed = IndexedRecording(io.BytesIO(bytes(data)))
     chunk = indexed._chunks[3]
-    data[chunk.chunk_start_offset + 60] ^= 0xFF  # inside its compressed records
+    data[chunk.offset + 60] ^= 0xFF  # inside its compressed records
     damaged = IndexedRecording(io.BytesIO(bytes(data)))
     with pytest.raises(RecordingError, match="corrupt chunk") as found:
-        list(damaged.seek(chunk.message_start_time))
-    assert found.value.offset == chunk.chunk_start_offset
+        list(damaged.seek(chunk.start))
+    assert found.value.offset == chunk.offset
+
+
+def test_the_index_read_is_the_mcap_librarys_summary(monkeypatch: pytest.MonkeyPatch) -> None:
+    data = recording(monkeypatch, count=800)
+    summary = make_reader(io.BytesIO(data)).get_summary()
+    assert summary is not None and summary.statistics is not None
+    indexed = IndexedRecording(io.BytesIO(data))
+    assert indexed._chunks == sorted(
+        (c.message_start_time, c.message_end_time, c.chunk_start_offset, c.chunk_length)
+        for c in summary.chunk_indexes)
+    assert (indexed.start, indexed.end, indexed.messages) == (
+        summary.statistics.message_start_time, summary.statistics.message_end_time,
+        summary.statistics.message_count)
+    topics = {e.topic: e.schema for e in indexed.seek(0)}
+    assert topics["percept"] == "mrss.percept"
+    assert topics["robot.r1.data"] == "mrss.robot.data"
+    assert topics["robot.r1.location"] == "foxglove.LocationFix"
+
+
+def test_another_profiles_mcap_file_is_refused_at_its_header() -> None:
+    out = io.BytesIO()
+    other = Writer(out)
+    other.start(profile="ros2", library="elsewhere")
+    other.finish()  # type: ignore[no-untyped-call]
+    with pytest.raises(RecordingError, match="not an MRSS recording") as found:
+        IndexedRecording(io.BytesIO(out.getvalue()))
+    assert found.value.offset == 8
