@@ -54,3 +54,22 @@ def test_a_recorded_hotspot_report_is_not_a_robot_position(tmp_path: Path) -> No
                  if schema is not None and schema.name == LOCATION_FIX
                  and channel.topic == "robot.uav1.location"]
     assert fixes == [(POSITION["lat"], POSITION["lon"]), (SAMPLE["lat"], SAMPLE["lon"])]
+
+
+def test_in_the_wildfire_recording_the_uavs_fixes_are_its_positions_not_the_hotspot(
+        wildfire_recording: Path) -> None:
+    positions, hotspots, fixes = [], [], []
+    with wildfire_recording.open("rb") as handle:
+        for schema, channel, message in make_reader(handle).iter_messages():
+            value = json.loads(message.data)
+            if channel.topic == "robot.uav1.data":
+                data = value["body"]["data"]
+                if data.get("type") == "hotspot":
+                    hotspots.append((data["lat"], data["lon"]))
+                elif data.get("type") in (None, "position") and "lat" in data:
+                    positions.append((message.publish_time, data["lat"], data["lon"]))
+            elif channel.topic == "robot.uav1.location":
+                assert schema is not None and schema.name == LOCATION_FIX
+                fixes.append((message.publish_time, value["latitude"], value["longitude"]))
+    assert hotspots, "the UAV reported the hotspot"
+    assert fixes == positions and len(fixes) > 10
