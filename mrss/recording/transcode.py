@@ -7,8 +7,9 @@ the message kinds (mrss/messages/kinds.py: the same fields, types, closed sets a
 required fields, unknown fields refused), the kind's own `validate` and topic check run
 on the message built from them, and msgspec writes the JSON.
 
-It only vouches for what it can show is written exactly as the exact path
-(`decode_raw` + `schemas.json_bytes`) would write it: anything else, whether wrong (bad
+It only vouches for what it writes as the same JSON value as the exact path
+(`decode_raw` + `schemas.json_bytes`) does (keys may come in another order, text
+unescaped; tests/recording/test_transcode.py compares them): anything else, whether wrong (bad
 msgpack, unknown kind, a bad field) or merely unusual (bytes or NaN in free data, which
 JSON must tag; an operator's credential, which is dropped; a wrong topic), gives None,
 and the caller takes the exact path, which writes it or names what is wrong with it.
