@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import base64
 import json
+from collections.abc import Sequence
 from typing import Any
 
 import foxglove
@@ -79,20 +80,30 @@ class FoxgloveBridge:
 
     def write(self, message: RecordedMessage) -> None:
         """One ZeroMQ message from the bus: each envelope in it, or a malformed one."""
-        log_time = _ns(message.t)
-        self.count += 1
         if message.malformed:
-            self._log(self.channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
-                      json_bytes({"frames": [base64.b64encode(f).decode()
-                                             for f in message.frames],
-                                  "note": message.note}))
+            self.count += 1
+            self._malformed(_ns(message.t), message.frames, message.note)
+        else:
+            self.received(message.t, list(message.frames))
+
+    def received(self, t: float, frames: list[bytes]) -> None:
+        """Check and send one ZeroMQ message as the recorder received it at `t`: each
+        envelope in it, or the whole message as malformed with the reason (as the MCAP
+        writer does; the recorder then leaves the checking to this)."""
+        self.count += 1
+        try:
+            decoded = [recording_json(topic, payload)
+                       for topic, payload in message_frames(frames)]
+        except DecodeError as exc:
+            self._malformed(_ns(t), frames, exc.reason)
             return
-        for topic, payload in message_frames(list(message.frames)):
-            try:
-                data, envelope = recording_json(topic, payload)
-            except DecodeError:  # the recorder checked it: not expected here
-                continue
-            self._envelope(data, envelope, log_time)
+        for data, envelope in decoded:
+            self._envelope(data, envelope, _ns(t))
+
+    def _malformed(self, log_time: int, frames: Sequence[bytes], note: str) -> None:
+        self._log(self.channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
+                  json_bytes({"frames": [base64.b64encode(f).decode() for f in frames],
+                              "note": note}))
 
     def _envelope(self, data: bytes, envelope: Envelope, log_time: int) -> None:
         name = schema_name(envelope.body.kind)
