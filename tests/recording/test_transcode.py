@@ -132,7 +132,7 @@ _free = st.recursive(
     max_leaves=8)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(data=st.dictionaries(st.text(max_size=4), _free, max_size=4))
 def test_free_data_of_any_shape_is_written_as_the_exact_path_writes_it(
         data: dict[str, Any]) -> None:
