@@ -7,8 +7,9 @@ The layout (docs/tools.md, "The MCAP recording"):
   envelope in JSON; log time is when the recorder received it, publish time the
   envelope's `ts`, sequence its number on the channel. A batch is one message per
   envelope; reliable data is recorded as the message it carries.
-* `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every telemetry record
-  with a lat and lon, so Foxglove's Map panel shows the robots without configuration.
+* `robot.<id>.location`: Foxglove's `foxglove.LocationFix` for every `position` record
+  (or untyped sample) with a lat and lon (`schemas.location_fix`), so Foxglove's Map
+  panel shows the robots without configuration.
 * `world.geojson`: the world model's areas, zones and objects (not robots) as Foxglove's
   `foxglove.GeoJSON`, written whole each time they change as the bus shows them
   (mrss/recording/geojson.py).
@@ -37,9 +38,9 @@ from typing import IO, Any
 from mcap.writer import CompressionType
 
 import mrss
-from mrss.bus.wire import message_frames
+from mrss.bus.wire import RELIABLE_PREFIX, message_frames
 from mrss.errors import DecodeError
-from mrss.messages import DataReply, DataRequest, Envelope, RobotData, decode_raw
+from mrss.messages import DataReply, DataRequest, Envelope, RobotData
 from mrss.recording.format import RecordedMessage
 from mrss.recording.geojson import GEOJSON, GEOJSON_SCHEMA, GEOJSON_TOPIC, WorldShapes
 from mrss.recording.mcap_fast import FastWriter
@@ -52,8 +53,9 @@ from mrss.recording.schemas import (
     SCHEMA_PREFIX,
     all_kind_schemas,
     json_bytes,
-    location_fix,
+    location_fix_json,
 )
+from mrss.recording.transcode import recording_json
 
 PROFILE = "mrss"
 MALFORMED_TOPIC = "mrss.malformed"
@@ -64,6 +66,16 @@ CHUNK_BYTES = 256 * 1024
 CHUNK_SECONDS = 1.0
 LOCATION_SUFFIX = ".location"
 ASL_MEDIA_TYPE = "text/x-agentspeak"
+
+
+class _Channel:
+    """An MCAP channel of the file and the sequence number of its last message."""
+
+    __slots__ = ("id", "sequence")
+
+    def __init__(self, channel_id: int) -> None:
+        self.id = channel_id
+        self.sequence = 0
 
 
 @dataclass(frozen=True)
@@ -99,9 +111,9 @@ class McapRecordingWriter:
         self._mcap.start(profile=PROFILE, library=f"mrss {mrss.__version__}")
         self._out = out
         self._schemas: dict[str, int] = {}
-        self._channels: dict[tuple[str, str], int] = {}
-        self._sequence: dict[int, int] = defaultdict(int)
-        self._incarnations: dict[str, set[int]] = defaultdict(set)
+        self._channels: dict[tuple[str, str], _Channel] = {}  # by topic and schema name
+        self._by_kind: dict[tuple[str, type], _Channel] = {}  # by topic and message kind
+        self._senders: set[tuple[str, int]] = set()  # (src, incarnation) seen
         self._world = WorldShapes()
         self._chunk_opened: float | None = None
         self._finished = False
@@ -120,7 +132,7 @@ class McapRecordingWriter:
                                           media_type=ASL_MEDIA_TYPE, data=source)
         out.flush()
 
-    def _channel(self, topic: str, schema: str, data: dict[str, Any]) -> int:
+    def _channel(self, topic: str, schema: str, data: dict[str, Any]) -> _Channel:
         key = (topic, schema)
         channel = self._channels.get(key)
         if channel is None:
@@ -128,29 +140,32 @@ class McapRecordingWriter:
             if schema_id is None:
                 schema_id = self._schemas[schema] = self._mcap.register_schema(
                     schema, ENCODING, json.dumps(data).encode())
-            channel = self._channels[key] = self._mcap.register_channel(
-                topic, "json", schema_id)
+            channel = self._channels[key] = _Channel(self._mcap.register_channel(
+                topic, "json", schema_id))
         return channel
 
-    def _add(self, channel: int, log_time: int, publish_time: int, data: bytes) -> None:
-        self._sequence[channel] += 1
-        self._mcap.add_message(channel, log_time=log_time, publish_time=publish_time,
-                               data=data, sequence=self._sequence[channel])
+    def _add(self, channel: _Channel, log_time: int, publish_time: int, data: bytes) -> None:
+        channel.sequence += 1
+        self._mcap.add_message(channel.id, log_time, data, publish_time, channel.sequence)
 
     def received(self, t: float, frames: list[bytes]) -> None:
         """Check and write one ZeroMQ message as a recorder received it at `t` (Unix s):
         each envelope in it, or, when any of them does not decode, the whole message as
         malformed with the reason. Each envelope is unpacked once, for both."""
         try:
-            decoded = [decode_raw(topic, payload) for topic, payload in message_frames(frames)]
+            if len(frames) == 2 and not frames[0].startswith(RELIABLE_PREFIX):
+                decoded = [recording_json(frames[0], frames[1])]  # the common case
+            else:
+                decoded = [recording_json(topic, payload)
+                           for topic, payload in message_frames(frames)]
         except DecodeError as exc:
             self._malformed(t, frames, exc.reason)
             return
         log_time = _ns(t)
         if self._chunk_opened is None:
             self._chunk_opened = time.monotonic()
-        for env, envelope in decoded:
-            self._envelope(env, envelope, log_time)
+        for data, envelope in decoded:
+            self._envelope(data, envelope, log_time)
 
     def write(self, message: RecordedMessage) -> None:
         """Append one ZeroMQ message as recorded: each envelope in it, or a malformed one
@@ -172,27 +187,26 @@ class McapRecordingWriter:
                   log_time, json_bytes({"frames": [base64.b64encode(f).decode() for f in frames],
                                         "note": note}))
 
-    def _envelope(self, env: dict[str, Any], envelope: Envelope, log_time: int) -> None:
-        name = SCHEMA_PREFIX + env["kind"]
-        publish_time = _ns(envelope.ts)
-        self._incarnations[envelope.src].add(envelope.inc)
-        if "cred" in env or "op" in env:
-            env = dict(env)
-            env.pop("op", None)  # an operator's session credential is a secret: never kept
-            if "cred" in env:  # base64 text, as the schema says (not a tagged object)
-                env["cred"] = base64.b64encode(env["cred"]).decode("ascii")
-        self._add(self._channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time,
-                  publish_time, json_bytes(env))
-        self.count += 1
+    def _envelope(self, data: bytes, envelope: Envelope, log_time: int) -> None:
         body = envelope.body
         kind = type(body)
+        ts = envelope.ts
+        publish_time = max(0, int(ts * 1e9))
+        self._senders.add((envelope.src, envelope.inc))
+        channel = self._by_kind.get((envelope.topic, kind))
+        if channel is None:
+            name = SCHEMA_PREFIX + body.kind
+            channel = self._by_kind[envelope.topic, kind] = self._channel(
+                envelope.topic, name, _KIND_SCHEMAS[name])
+        self._add(channel, log_time, publish_time, data)
+        self.count += 1
         if kind is RobotData:
             assert isinstance(body, RobotData)  # for mypy
-            fix = location_fix(body.robot, envelope.ts, body.data)
+            fix = location_fix_json(body.robot, ts, body.data)
             if fix is not None:
                 self._add(self._channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
                                         LOCATION_FIX_SCHEMA), log_time, publish_time,
-                          json_bytes(fix))
+                          fix)
         elif (kind is DataRequest or kind is DataReply) \
                 and self._world.seen(envelope.topic, body):
             self._add(self._channel(GEOJSON_TOPIC, GEOJSON, GEOJSON_SCHEMA), log_time,
@@ -202,7 +216,7 @@ class McapRecordingWriter:
         """Close the open chunk if it is `CHUNK_SECONDS` old (it then reaches the OS)."""
         opened = self._chunk_opened
         if opened is not None and time.monotonic() - opened >= CHUNK_SECONDS:
-            self._mcap.flush()  # type: ignore[no-untyped-call]
+            self._mcap.flush()
             self._chunk_opened = None
 
     def finish(self) -> None:
@@ -210,11 +224,12 @@ class McapRecordingWriter:
         if self._finished:
             return
         self._finished = True
+        incarnations: dict[str, list[int]] = defaultdict(list)
+        for src, inc in sorted(self._senders):
+            incarnations[src].append(inc)
         self._mcap.add_metadata("incarnations", {
-            src: ",".join(map(str, sorted(incs)))
-            for src, incs in sorted(self._incarnations.items())
-        })
-        self._mcap.finish()  # type: ignore[no-untyped-call]
+            src: ",".join(map(str, incs)) for src, incs in incarnations.items()})
+        self._mcap.finish()
         self._out.flush()
 
 

@@ -16,7 +16,14 @@ from typing import Protocol
 import zmq
 
 from mrss.bus import BusEndpoints, direct, sockets
-from mrss.bus.wire import MEMBER, WELCOME, WELCOME_DIRECT, is_ack, message_frames
+from mrss.bus.wire import (
+    MEMBER,
+    RELIABLE_PREFIX,
+    WELCOME,
+    WELCOME_DIRECT,
+    is_ack,
+    message_frames,
+)
 from mrss.errors import DecodeError
 from mrss.messages import decode
 from mrss.recording.format import RecordedMessage
@@ -86,13 +93,22 @@ class BusRecorder:
     def _drain(self, writer: Writer) -> None:
         received_by: Callable[[float, list[bytes]], None] | None = getattr(
             writer, "received", None)
+        # pyzmq's recv_multipart asks the socket for RCVMORE after each frame, an option
+        # lookup that took a sixth of the recorder's time (profiled); a frame knows it
+        recv, clock = self._sock.recv, time.time
         while True:
             try:
-                frames = self._sock.recv_multipart(_NOBLOCK)
+                frame = recv(_NOBLOCK, copy=False)
+                frames = [frame.bytes]
+                while frame.more:
+                    frame = recv(_NOBLOCK, copy=False)
+                    frames.append(frame.bytes)
             except zmq.Again:
                 return
-            received = time.time()
-            if frames == [WELCOME] or (len(frames) == 2 and is_ack(frames[0])):
+            received = clock()
+            first = frames[0]
+            if (first == WELCOME and len(frames) == 1) or (
+                    first.startswith(RELIABLE_PREFIX) and len(frames) == 2 and is_ack(first)):
                 continue  # a proxy restart's greeting, a reliable ack: not traffic
             if received_by is not None:
                 received_by(received, frames)

@@ -23,11 +23,15 @@ import types
 import typing
 from typing import Any, Union
 
+import msgspec
+
 from mrss.messages import KINDS, Message
 
 SCHEMA_PREFIX = "mrss."
 MALFORMED_SCHEMA = "mrss.malformed"
 LOCATION_FIX = "foxglove.LocationFix"
+# The telemetry record type that is the robot's own position (docs/robots.md).
+POSITION_RECORD = "position"
 ENCODING = "jsonschema"
 _DRAFT = "https://json-schema.org/draft/2020-12/schema"
 
@@ -145,21 +149,56 @@ LOCATION_FIX_SCHEMA = {
 }
 
 
-def location_fix(robot: str, ts: float, data: dict[str, Any]) -> dict[str, Any] | None:
-    """A LocationFix of a robot's telemetry record, when it has a numeric lat and lon."""
-    lat, lon, alt = data.get("lat"), data.get("lon"), data.get("alt", 0.0)
-    if not (_finite(lat) and _finite(lon) and _finite(alt)):
+class _Time(msgspec.Struct):
+    sec: int
+    nsec: int
+
+
+class _LocationFix(msgspec.Struct):
+    """`foxglove.LocationFix`, its fields in the schema's order."""
+
+    timestamp: _Time
+    frame_id: str
+    latitude: float
+    longitude: float
+    altitude: float
+    position_covariance: list[float]
+    position_covariance_type: int
+
+
+_NO_COVARIANCE = [0.0] * 9
+_NUMBERS = (int, float)  # exactly: a bool is no coordinate
+_encode_fix = msgspec.json.Encoder().encode
+
+
+def _fix(robot: str, ts: float, data: dict[str, Any]) -> _LocationFix | None:
+    kind = data.get("type")
+    if kind is not None and kind != POSITION_RECORD:
         return None
-    assert lat is not None and lon is not None and alt is not None  # for mypy
+    lat: Any = data.get("lat")
+    lon: Any = data.get("lon")
+    alt: Any = data.get("alt", 0.0)
+    if not (type(lat) in _NUMBERS and type(lon) in _NUMBERS and type(alt) in _NUMBERS
+            and math.isfinite(lat) and math.isfinite(lon) and math.isfinite(alt)):
+        return None
     sec = int(ts)
-    return {"timestamp": {"sec": sec, "nsec": min(int((ts - sec) * 1e9), 999_999_999)},
-            "frame_id": robot, "latitude": float(lat), "longitude": float(lon),
-            "altitude": float(alt), "position_covariance": [0.0] * 9,
-            "position_covariance_type": 0}
+    return _LocationFix(_Time(sec, min(int((ts - sec) * 1e9), 999_999_999)), robot,
+                        float(lat), float(lon), float(alt), _NO_COVARIANCE, 0)
 
 
-def _finite(value: Any) -> bool:
-    return type(value) in (int, float) and math.isfinite(value)
+def location_fix(robot: str, ts: float, data: dict[str, Any]) -> dict[str, Any] | None:
+    """A LocationFix of a robot's own position: a telemetry record of type `position`
+    (or one without a type, a plain sample) with a numeric lat and lon. Records of other
+    types carry the position of what they report (a `hotspot` the UAV saw), not the
+    robot's, and make none."""
+    fix = _fix(robot, ts, data)
+    return None if fix is None else dict(msgspec.to_builtins(fix))
+
+
+def location_fix_json(robot: str, ts: float, data: dict[str, Any]) -> bytes | None:
+    """`location_fix` as compact JSON (a fix holds finite numbers and text: no tags)."""
+    fix = _fix(robot, ts, data)
+    return None if fix is None else _encode_fix(fix)
 
 
 def to_json(value: Any) -> Any:

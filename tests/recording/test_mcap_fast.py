@@ -29,6 +29,8 @@ def _write(cls: type[Writer], chunk_size: int) -> bytes:
                          data=json.dumps({"i": i, "x": rng.random()}).encode(), sequence=i)
         if i == 1500:
             mcap.flush()  # type: ignore[no-untyped-call]
+        if i % 700 == 350:  # a channel registered while a chunk is open
+            channels.append(mcap.register_channel(f"late{i}", "json", schema))
     mcap.finish()  # type: ignore[no-untyped-call]
     return out.getvalue()
 

@@ -5,24 +5,28 @@ recorder hands it every bus message, frames untouched, and it logs each one on a
 Foxglove SDK channel exactly as the MCAP recording lays it out (mrss/recording/
 mcap_writer.py): a channel per bus topic and kind, the envelope in JSON against the
 kind's schema `mrss.<kind>` (encoding `jsonschema`); `robot.<id>.location` as Foxglove's
-`foxglove.LocationFix` for every telemetry record with a position, so the Map panel
+`foxglove.LocationFix` for every record of the robot's position, so the Map panel
 shows the robots; `mrss.malformed` for what did not decode. A test writes the same
 messages both ways and compares the channels, schemas and data.
 
-Channels are made when their first message comes (the server then advertises them);
-a message is turned into JSON only while some client is subscribed to its channel.
+Channels are made when their first message comes (the server then advertises them).
+Each message is turned into JSON by the recorder's own code (mrss/recording/
+transcode.py), so the live channels carry the recording's bytes: an operator's session
+credential (`op`) is never sent.
 """
 
 from __future__ import annotations
 
 import base64
 import json
+from collections.abc import Sequence
 from typing import Any
 
 import foxglove
-import msgpack
 
 from mrss.bus.wire import message_frames
+from mrss.errors import DecodeError
+from mrss.messages import Envelope, RobotData
 from mrss.recording.format import RecordedMessage
 from mrss.recording.mcap_writer import LOCATION_SUFFIX, MALFORMED_TOPIC
 from mrss.recording.schemas import (
@@ -32,10 +36,11 @@ from mrss.recording.schemas import (
     MALFORMED,
     MALFORMED_SCHEMA,
     all_kind_schemas,
-    location_fix,
+    json_bytes,
+    location_fix_json,
     schema_name,
-    to_json,
 )
+from mrss.recording.transcode import recording_json
 
 _KIND_SCHEMAS = all_kind_schemas()
 
@@ -68,39 +73,46 @@ class FoxgloveBridge:
         """(topic, schema name) of every channel made so far."""
         return list(self._channels)
 
-    def _log(self, channel: foxglove.Channel, log_time: int, value: Any) -> None:
+    def _log(self, channel: foxglove.Channel, log_time: int, data: bytes) -> None:
         if channel.has_sinks():
-            channel.log(json.dumps(value, separators=(",", ":")).encode(), log_time=log_time)
+            channel.log(data, log_time=log_time)
             self.sent += 1
 
     def write(self, message: RecordedMessage) -> None:
         """One ZeroMQ message from the bus: each envelope in it, or a malformed one."""
-        log_time = _ns(message.t)
-        self.count += 1
         if message.malformed:
-            self._log(self.channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
-                      {"frames": [base64.b64encode(f).decode() for f in message.frames],
-                       "note": message.note})
-            return
-        for topic, payload in message_frames(list(message.frames)):
-            env = msgpack.unpackb(payload, raw=False, strict_map_key=True)
-            self._envelope(topic.decode(), env, log_time)
+            self.count += 1
+            self._malformed(_ns(message.t), message.frames, message.note)
+        else:
+            self.received(message.t, list(message.frames))
 
-    def _envelope(self, topic: str, env: dict[str, Any], log_time: int) -> None:
-        kind = env["kind"]
-        name = schema_name(kind)
-        channel = self.channel(topic, name, _KIND_SCHEMAS[name])
-        if channel.has_sinks():
-            value = to_json(env)
-            cred = env.get("cred")
-            if cred is not None:
-                value["cred"] = base64.b64encode(cred).decode("ascii")
-            self._log(channel, log_time, value)
-        if kind == "robot.data":
-            body = env["body"]
-            fix = location_fix(body["robot"], float(env["ts"]), body["data"])
+    def received(self, t: float, frames: list[bytes]) -> None:
+        """Check and send one ZeroMQ message as the recorder received it at `t`: each
+        envelope in it, or the whole message as malformed with the reason (as the MCAP
+        writer does; the recorder then leaves the checking to this)."""
+        self.count += 1
+        try:
+            decoded = [recording_json(topic, payload)
+                       for topic, payload in message_frames(frames)]
+        except DecodeError as exc:
+            self._malformed(_ns(t), frames, exc.reason)
+            return
+        for data, envelope in decoded:
+            self._envelope(data, envelope, _ns(t))
+
+    def _malformed(self, log_time: int, frames: Sequence[bytes], note: str) -> None:
+        self._log(self.channel(MALFORMED_TOPIC, MALFORMED_SCHEMA, MALFORMED), log_time,
+                  json_bytes({"frames": [base64.b64encode(f).decode() for f in frames],
+                              "note": note}))
+
+    def _envelope(self, data: bytes, envelope: Envelope, log_time: int) -> None:
+        name = schema_name(envelope.body.kind)
+        self._log(self.channel(envelope.topic, name, _KIND_SCHEMAS[name]), log_time, data)
+        body = envelope.body
+        if isinstance(body, RobotData):
+            fix = location_fix_json(body.robot, envelope.ts, body.data)
             if fix is not None:
-                self._log(self.channel(f"robot.{body['robot']}{LOCATION_SUFFIX}", LOCATION_FIX,
+                self._log(self.channel(f"robot.{body.robot}{LOCATION_SUFFIX}", LOCATION_FIX,
                                        LOCATION_FIX_SCHEMA), log_time, fix)
 
     def flush(self) -> None:

@@ -21,7 +21,7 @@ from mrss.actors.foxglove.service import URL_FILE, FoxgloveComponent
 from mrss.api import distance_m
 from mrss.api.testing import RunningProject
 from mrss.errors import ConfigError
-from mrss.messages import ActionStatus, LogRecord, Percept, RobotData, encode
+from mrss.messages import ActionStatus, Command, LogRecord, Percept, RobotData, encode
 from mrss.recording.format import RecordedMessage
 from mrss.recording.mcap_writer import McapRecordingWriter
 from mrss.recording.schemas import LOCATION_FIX
@@ -92,6 +92,11 @@ def test_the_bridge_sends_the_channels_schemas_and_messages_of_a_recording(
         RecordedMessage(13.0, (b"percept", b"\xc1 not msgpack"), "not msgpack: FormatError"),
         RecordedMessage(14.0, encode(RobotData(robot="ugv1", data={"lat": 1.6, "lon": 2.5}),
                                      src="rcl")),
+        # a hotspot the UGV reports is not where it is; an operator's session is a secret
+        RecordedMessage(15.0, encode(RobotData(robot="ugv1", data={
+            "type": "hotspot", "id": 1, "lat": 9.0, "lon": 9.0}), src="rcl")),
+        RecordedMessage(16.0, encode(Command(command="pause"), src="tui",
+                                     op="session-secret")),
     ]
     recorded = io.BytesIO()
     writer = McapRecordingWriter(recorded, created=1.0)
@@ -117,6 +122,13 @@ def test_the_bridge_sends_the_channels_schemas_and_messages_of_a_recording(
     topics = {t for t, *_ in contents(recorded)}
     assert {"percept", "robot.ugv1.location", "mrss.malformed"} <= topics
     assert bridge.count == len(messages)
+    recorded.seek(0)
+    sent_data = [data for *_, data in contents(recorded)]
+    assert not [d for d in sent_data if b"session-secret" in d]
+    recorded.seek(0)
+    fixes = [json.loads(d)["latitude"] for t, *_, d in contents(recorded)
+             if t == "robot.ugv1.location"]
+    assert fixes == [1.5, 1.6]
 
 
 @pytest.mark.parametrize("host", ["0.0.0.0", "192.168.1.20", "command-post"])
