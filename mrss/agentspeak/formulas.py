@@ -25,7 +25,7 @@ from mrss.agentspeak.terms import (
     rename,
     term_str,
 )
-from mrss.agentspeak.unify import resolve, undo, unify
+from mrss.agentspeak.unify import resolve, strict_var_annot, undo, unify
 
 if TYPE_CHECKING:
     from mrss.agentspeak.registry import InternalAction, Registry
@@ -230,7 +230,9 @@ class RelQuery(Query):
         if op == "=":
             trail = rt.trail
             mark = len(trail)
-            if unify(self.left, frame, resolve(self.right, frame), trail):
+            right = resolve(self.right, frame)
+            if not strict_var_annot(self.left, frame, right) and unify(
+                    self.left, frame, right, trail):
                 yield
             undo(trail, mark)
             return
