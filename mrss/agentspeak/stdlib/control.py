@@ -61,9 +61,12 @@ def wait(ctx: IAContext, args: list[Any]) -> bool:
 
 @STDLIB.action(".intend", min_args=1, max_args=1)
 def intend(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """Holds for each goal `+!G` in any intention's stack (blocked ones included)."""
-    for _ in goals.intended(ctx.runtime, args[0]):
-        yield
+    """Holds for each goal `+!G` in any intention's stack (blocked ones included), but
+    not in an intention suspended by `.suspend`: Jason's intend.java passes
+    considerSuspended=false (`.desire` passes true)."""
+    for it, _ in goals.intended(ctx.runtime, args[0]):
+        if not it.suspended:
+            yield
 
 
 def _goal_events(ctx: IAContext) -> list[Event]:
@@ -153,24 +156,58 @@ def drop_all_events(ctx: IAContext, args: list[Any]) -> bool:
     return True
 
 
-@STDLIB.action(".drop_all_intentions", max_args=0)
-def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
+def _drop_all_but_current(ctx: IAContext) -> None:
+    """Drop every intention but the one running: Jason clears its running, pending and
+    waiting intentions (Circumstance.clearRunningIntentions ...), and the intention that
+    runs the action is none of these at that moment, so it goes on."""
     rt = ctx.runtime
     for it in list(rt.intentions.values()):
-        rt.drop(it)
+        if it is not ctx.intention:
+            rt.drop(it)
+
+
+@STDLIB.action(".drop_all_intentions", max_args=0)
+def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
+    """Drop every intention but the current one, which goes on (Jason's
+    drop_all_intentions.java); the goal events of sub-goals go with their intentions."""
+    _drop_all_but_current(ctx)
     return True
 
 
 @STDLIB.action(".drop_all_desires", max_args=0)
 def drop_all_desires(ctx: IAContext, args: list[Any]) -> bool:
+    """`.drop_all_intentions` and every goal event too (Jason's drop_all_desires.java)."""
     _drop_goal_events(ctx, None)
-    for it in list(ctx.runtime.intentions.values()):
-        ctx.runtime.drop(it)
+    _drop_all_but_current(ctx)
     return True
 
 
-def _surgery(ctx: IAContext, g: Term, op: Any) -> bool:
+def _surgery(ctx: IAContext, g: Term, op: Any, in_event: Any) -> bool:
+    """Apply `op` to each intention with goal G, and `in_event` to each goal event `+!G`
+    not yet intended (queued or held by `.suspend`), as Jason's succeed_goal.drop does
+    for the events first."""
     rt = ctx.runtime
+    trail = rt.trail
+    held = rt.extras.suspended_events
+    for queue in (rt.events, rt.atomic_events, held):
+        i = 0
+        while i < len(queue):
+            ev = queue[i]
+            i += 1
+            if ev.op != ADD_ACH:
+                continue
+            mark = len(trail)
+            hit = unify(g, None, ev.lit, trail)
+            undo(trail, mark)
+            if not hit:
+                continue
+            del queue[i - 1]
+            i -= 1
+            size = len(queue)
+            in_event(rt, ev)
+            if len(queue) > size and queue is not held:  # Jason changes the event in
+                queue.insert(i, queue.pop())              # place: the new one takes its turn
+                i += 1
     for it in _matching(ctx, g):
         i = goals.goal_index(rt, it, g)
         if i >= 0 and not it.dropped:
@@ -180,14 +217,16 @@ def _surgery(ctx: IAContext, g: Term, op: Any) -> bool:
 
 @STDLIB.action(".succeed_goal", min_args=1, max_args=1)
 def succeed_goal(ctx: IAContext, args: list[Any]) -> bool:
-    """Goal G is taken as achieved: its plans are popped, the caller goes on."""
-    return _surgery(ctx, args[0], goals.succeed_goal)
+    """Goal G is taken as achieved: its plans are popped, the caller goes on; a goal
+    still an event is removed (its intention, if any, goes on after `!G`)."""
+    return _surgery(ctx, args[0], goals.succeed_goal, goals.succeed_event)
 
 
 @STDLIB.action(".fail_goal", min_args=1, max_args=1)
 def fail_goal(ctx: IAContext, args: list[Any]) -> bool:
-    """Goal G fails: `-!G` is posted (no error annotation); then the caller goes on."""
-    return _surgery(ctx, args[0], goals.fail_goal)
+    """Goal G fails: `-!G` is posted (no error annotation); then the caller goes on. A
+    goal still an event becomes the event `-!G` (Jason's fail_goal.dropInEvent)."""
+    return _surgery(ctx, args[0], goals.fail_goal, goals.fail_event)
 
 
 def _suspend_events(ctx: IAContext, g: Term) -> None:
@@ -215,7 +254,8 @@ def _suspend_events(ctx: IAContext, g: Term) -> None:
         queue.extend(kept)
 
 
-SUSPEND_REASON = Struct("suspend")
+SUSPEND_REASON = Struct("suspend_ia")  # Jason's suspend.java
+RESUME_REASON = Struct("resume_ia")  # Jason's resume.java
 
 
 def _suspend(ctx: IAContext, it: Intention) -> None:
@@ -248,7 +288,7 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
         if it.suspended:
             it.suspended = False
             if rt.plans.meta:
-                goalstates.emit_top(rt, it, GoalState.RESUMED)
+                goalstates.emit_top(rt, it, GoalState.RESUMED, RESUME_REASON)
             if it.state is RUNNABLE:
                 rt.make_runnable(it)
     trail = rt.trail
@@ -272,37 +312,31 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
 
 
 def suspended_reason(it: Intention) -> Term | None:
-    """Why `it` is not running (Jason's PA and PI): `act` for an environment action,
-    `wait(W)` for a `.wait`, `suspend` for `.suspend`; None if it is running."""
-    if it.suspended:
-        return SUSPEND_REASON
+    """Why `it` is not running, as Jason's .suspended finds it: `act` for an environment
+    action (PA, searched first), the `.wait`'s reason (PI: a `.suspend` while waiting
+    keeps it), `suspend_ia` for `.suspend`; None if it is running."""
     if it.action is not None:
         return Struct("act")
     if it.wait is not None:
-        return Struct("wait", (it.wait.what,))
+        return goals.wait_reason(it)
+    if it.suspended:
+        return SUSPEND_REASON
     return None
 
 
 @STDLIB.action(".suspended", min_args=1, max_args=2)
-def suspended(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """`.suspended(G)`, `.suspended(G, R)`: G is a goal of an intention that is not
-    running -- suspended, waiting for an action or in a `.wait` -- and R the reason
-    (`suspend`, `act`, `wait(W)`)."""
-    trail = ctx.runtime.trail
-    for it, _ in goals.intended(ctx.runtime, args[0]):
-        reason = suspended_reason(it)
-        if reason is None:
-            continue
-        if len(args) == 1:
-            yield
-            continue
-        mark = len(trail)
-        if unify(args[1], None, reason, trail):
-            yield
-        undo(trail, mark)
-    for ev in list(ctx.runtime.extras.suspended_events):
-        mark = len(trail)
-        if ev.op == ADD_ACH and unify(args[0], None, ev.lit, trail) and (
-                len(args) == 1 or unify(args[1], None, SUSPEND_REASON, trail)):
-            yield
-        undo(trail, mark)
+def suspended(ctx: IAContext, args: list[Any]) -> bool:
+    """`.suspended(G, R)`: G is a goal of an intention that is not running -- waiting
+    for an action, in a `.wait` or suspended -- and R the reason (`act`, `wait(Id)[..]`,
+    `suspend_ia`). As Jason's suspended.java, only the first such intention is tried
+    (intentions waiting for an action first), and a goal that is still an event is not
+    one; `.suspended(G)` (MRSS) leaves out R."""
+    g = deref(args[0])
+    if type(g) is not Struct:
+        raise ctx.error(f"the first argument must be a literal, not {term_str(g)}")
+    found = [(it, suspended_reason(it)) for it in _matching(ctx, g)]
+    found = ([f for f in found if f[0].action is not None]
+             + [f for f in found if f[0].action is None and f[1] is not None])
+    if not found:
+        return False
+    return len(args) == 1 or ctx.unify(args[1], found[0][1])  # type: ignore[arg-type]
