@@ -77,6 +77,41 @@ c(2)[source(self)].
    .remove_plan([l4]); .relevant_plans({+!d}, L5); .print(L5).
 """, ["a", "b", "c", "d", '[p__1[atomic,source(self),test,url("file:plan_labels.asl")]]',
       '[p__2[source(self),test,url("file:plan_labels.asl")]]', "[]", "[]", "[]"]),
+    # Jason: stdlib/plan_label.java's three modes (the plan of a label; a plan term's own
+    # label; both enumerated), Plan.toASString without a context `true`, and
+    # .remove_plan by label and source (stdlib/remove_plan.java: another source's plan
+    # stays); AGENTSPEAK.md has no rule on it, so Jason's code decides
+    "plan_label_modes": ("""\
+!g.
+@lab[atomic,prio(2)] +!a <- .print(a).
+@lab2[prio(1)]
++!b <- .print(b).
++!g <- !a; !b;
+    .add_plan({ @l1 +!p1 : true <- +p1 }, bob);
+    .plan_label(PB1,l1); .print(PB1);
+    if (PB1 = { @l1[source(bob)] +!p1 <- +p1 }) { .print(eq1) } else { .print(neq1) };
+    .add_plan({ @l2 +!p2 : true <- +p2 });
+    .plan_label({@l2[source(self)] +!p2 <- +p2},PL2_1); .print(PL2_1);
+    .plan_label({ @l2[source(self)] +!p2 : true <- +p2},PL2_2); .print(PL2_2);
+    .plan_label(PA, lab); .print(PA);
+    .relevant_plans({+!a}, RP, RL); .print(RL);
+    .relevant_plans({+!b}, RP2); .print(RP2);
+    .add_plan({ @l1_1 +!p : true <- +p1_1 }, bob);
+    .add_plan({ @l1_2 +!p : true <- +p1_2 });
+    .remove_plan(l1_1,bob); .remove_plan(l1_2,bob);
+    .relevant_plans({+!p},LP1_2); .length(LP1_2,N1); .print(N1);
+    .add_plan({ @l1_1 +!p : true <- +p1_1 }, bob);
+    .add_plan({ @l1_3 +!p : true <- +p1_3 }, bob);
+    .remove_plan([l1_1,l1_2,l1_3],bob);
+    .relevant_plans({+!p},_,LL4); .print(LL4);
+    .remove_plan(lab); .relevant_plans({+!a}, _, RL3); .print(RL3);
+    .findall(L, .plan_label(_, L) & L = l2[_|_], Ls); .print(Ls).
+""", ["a", "b", "{ @l1[source(bob)] +!p1 <- +p1 }", "eq1", "l2[source(self)]",
+      "l2[source(self)]",
+      '{ @lab[atomic,prio(2),source(self),url("file:plan_label_modes.asl")] +!a <- '
+      '.print(a) }', '[lab[atomic,prio(2),source(self),url("file:plan_label_modes.asl")]]',
+      '[{ @lab2[prio(1),source(self),url("file:plan_label_modes.asl")] +!b <- .print(b) }]',
+      "1", "[l1_2[source(self)]]", "[]", "[l2[source(self)]]"]),
     # Jason: stdlib/substring.java (four arguments: a text from Start to End) and
     # `.member(Label[test], Labels)` over the labels of `.relevant_plans({+!_}, _, L)`
     "substring_and_member": ("""\
@@ -121,7 +156,7 @@ def test_program_prints_what_jason_printed(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", ["sources_and_annotations", "plan_labels",
-                                  "substring_and_member"])
+                                  "substring_and_member", "plan_label_modes"])
 def test_mrss_agent_prints_what_jason_printed(name: str, tmp_path: Path) -> None:
     source = PROGRAMS[name][0]
     expected = _expected(name)
