@@ -41,6 +41,41 @@ JASON = ["m(a)", 'm("s")', "m(3)", "m([1])", "m(q)", "nz", "w(p(1))", "nw3", "w5
          "h1(k)", "h2(k[n])"]
 
 
+# A belief query with annotations and no tail tries each set of that many annotations
+# of a fact, in order (Literal.logicalConsequence's nbAnnots, ListTermImpl.subSets):
+# every source of a belief, every annotation for c[A].
+QUERIES = """\
+c[deadline(10),priority(high)].
+p(1)[source(a)].
+!g.
++!g <- +p(1)[source(b)]; +p(2)[source(c),x];
+   .findall(A, c[A], L); .print(L);
+   .findall(f(A,B), c[A,B], L2); .print(L2);
+   .findall(S, p(1)[source(S)], L3); .print(L3);
+   .findall(pair(N,S), p(N)[source(S)], L4); .print(L4);
+   ?p(1)[source(S1)]; .print(S1);
+   .findall(N, p(N)[x], L5); .print(L5);
+   .findall(N, p(N)[x,source(c)], L6); .print(L6);
+   .findall(Q, c[priority(Q)], L7); .print(L7);
+   .findall(z, c[A1,B1,C1], L8); .print(L8);
+   .findall(z, c[A2,B2,C2,D2], L9); .print(L9);
+   .count(p(_)[source(_)], K); .print(K);
+   if (p(1)[source(S2)] & S2 \\== a) { .print(S2) }.
+"""
+
+JASON_QUERIES = ["[deadline(10),priority(high),source(self)]",
+                 "[f(deadline(10),priority(high)),f(deadline(10),source(self)),"
+                 "f(priority(high),source(self))]", "[a,b]",
+                 "[pair(2,c),pair(1,a),pair(1,b)]", "a", "[2]", "[2]", "[high]", "[z]", "[]",
+                 "3", "b"]
+
+
+def test_a_query_with_annotations_gives_each_matching_set_as_in_jason() -> None:
+    out: list[str] = []
+    Agent(QUERIES, file="queries.asl", out=out.append).run_until_idle()
+    assert out == JASON_QUERIES
+
+
 def test_annotated_terms_unify_as_in_jason() -> None:
     out: list[str] = []
     Agent(PROGRAM, file="annots.asl", out=out.append).run_until_idle()
