@@ -185,7 +185,9 @@ NAMESPACE_MISUSES = """\
 def test_a_misused_namespace_is_named_at_its_place_not_a_parse_error() -> None:
     """MRSS's namespaces are prefixes of literals (ns::b); what Jason's parser refuses
     (ns::ns2::b, ~ns::b) or gives meaning only inside a module (::b) or at run time
-    (ns::X, X::b) is a load error that says so, at file:line:col."""
+    (ns::X, X::b) is a load error that says so, at file:line:col (issue 33's rule for
+    bad input: every syntax error is `file:line:col: message`; AGENTSPEAK.md has no
+    namespaces)."""
     with pytest.raises(AslSyntaxError) as info:
         Agent(NAMESPACE_MISUSES, file="ns.asl")
     found = [(p.line, p.col, p.message) for p in info.value.problems]
