@@ -350,10 +350,30 @@ def _unify_with_var_annot(t: Term, frame: Frame | None, r: VarAnnot, trail: Trai
     if type(v) is Struct:
         vs: Struct = v
         if vs.annots:
-            if not unify_annots(vs.annots, None, r.annots, trail):
+            if not _annots_into(vs.annots, r.annots, trail):
                 return False
             v = Struct(vs.functor, vs.args, (), vs.neg)
     return unify(r.var, None, v, trail)
+
+
+def _annots_into(annots: tuple[Term, ...], into: tuple[Term, ...], trail: Trail) -> bool:
+    """Each of a literal's `annots` unifies with a different one of `into` (an annotated
+    variable's); those left over go to `into`'s tail when it has one (Jason's
+    Pred.hasSubsetAnnot: `a[x,y] = N[H|T]` gives H = x, T = [y])."""
+    if not into or type(into[-1]) is not AnnotTail:
+        return bool(into) and unify_annots(annots, None, into, trail)
+    left = list(into[:-1])
+    extra: list[Term] = []
+    for a in annots:
+        for i, b in enumerate(left):
+            mark = len(trail)
+            if unify(a, None, b, trail):
+                del left[i]
+                break
+            undo(trail, mark)
+        else:
+            extra.append(a)
+    return not extra or unify(into[-1].tail, None, tuple(extra), trail)
 
 
 def strict_var_annot(left: Term, frame: Frame | None, right: Term) -> bool:

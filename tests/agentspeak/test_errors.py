@@ -280,3 +280,17 @@ def test_a_broken_parser_cache_is_rebuilt_without_a_word(
     finally:
         parser._lark.cache_clear()
     assert capfd.readouterr() == ("", "")
+
+
+def test_a_belief_update_through_a_variable_that_is_no_literal_fails_with_the_reason(
+        caplog: pytest.LogCaptureFixture) -> None:
+    out: list[str] = []
+    agent = Agent("!a. !b. !c.\n+!a <- +S; .print(never).\n+!b <- X = 3; -X.\n"
+                  "+!c <- Y = \"s\"; -+Y.\n", file="bv.asl", out=out.append)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        agent.run_until_idle()
+    assert out == []
+    messages = "\n".join(r.getMessage() for r in caplog.records)
+    assert "bv.asl:2: unbound variable S used as a belief in +S" in messages
+    assert "bv.asl:3: -X: 3 is not a literal" in messages
+    assert 'bv.asl:4: -+Y: "s" is not a literal' in messages

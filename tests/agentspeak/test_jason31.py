@@ -112,6 +112,28 @@ c(2)[source(self)].
       '.print(a) }', '[lab[atomic,prio(2),source(self),url("file:plan_label_modes.asl")]]',
       '[{ @lab2[prio(1),source(self),url("file:plan_label_modes.asl")] +!b <- .print(b) }]',
       "1", "[l1_2[source(self)]]", "[]", "[l2[source(self)]]"]),
+    # Jason: a belief update may name a variable (+S, -S, -+S, +>S: the body literal is
+    # the variable's value, AS2JavaParser.jj's body_formula); Agent.abolish with a
+    # variable looks at every belief (_[source(ag2)]); an annotated variable with a tail
+    # on the right of `=` takes what is left over (Pred.hasSubsetAnnot). AGENTSPEAK.md:
+    # "`+b` in a body gets source(self)", "`-+b` removes the old one and adds the new".
+    "variable_beliefs": ("""\
+!g.
++!g <- S = b(1); +S; ?b(X); .print(X); -S; if (not b(_)) { .print(gone) };
+   +c(1); T = c(2); -+T; ?c(Y); .print(Y);
+   U = d(1)[source(ag1)]; +U; .findall(Src, d(1)[source(Src)], L0); .print(L0);
+   +>e(1); V = e(2); +>V; .findall(E, e(E), L1); .print(L1);
+   +f(a)[source(ag2)]; +f(b)[source(ag1)]; +g[source(ag2)];
+   .abolish(_[source(ag2)]); .findall(F, f(F), L2); .print(L2);
+   if (not g) { .print(no_g) };
+   LL = [a[test],b[test,atomic],c[atomic]];
+   for (.member(La, LL)) {
+      La = N[H|Tl];
+      if (.list(Tl)) { .print(N, " ", H, " ", Tl) } else { .print(N, " ", H) } };
+   .print(done).
+-b(X) <- .print(removed(X)).
+""", ["1", "removed(1)", "gone", "2", "[ag1]", "[1,2]", "[b]", "no_g", "a test",
+      "b atomic [test]", "c atomic", "done"]),
     # Jason: stdlib/substring.java (four arguments: a text from Start to End) and
     # `.member(Label[test], Labels)` over the labels of `.relevant_plans({+!_}, _, L)`
     "substring_and_member": ("""\

@@ -18,6 +18,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    VarAnnot,
     compare,
     deref,
     term_str,
@@ -135,9 +136,11 @@ def fail(ctx: IAContext, args: list[Any]) -> bool:
 
 @STDLIB.action(".abolish", min_args=1, max_args=1)
 def abolish(ctx: IAContext, args: list[Any]) -> bool:
-    """Remove every belief that unifies with the argument (posting `-b` events)."""
+    """Remove every belief that unifies with the argument (posting `-b` events); a
+    variable with annotations (`_[source(ag2)]`) looks at every belief, as Jason's
+    Agent.abolish does for a variable."""
     pattern = deref(args[0])
-    if type(pattern) is not Struct:
+    if type(pattern) is not Struct and type(pattern) is not VarAnnot:
         raise ctx.error(f"expected a literal, not {term_str(pattern)}")
     rt = ctx.runtime
     trail = rt.trail
@@ -148,8 +151,10 @@ def abolish(ctx: IAContext, args: list[Any]) -> bool:
         undo(trail, mark)
         return ok
 
-    for b in rt.bb.abolish(pattern.key, keep=lambda b: not matches(b)):
-        rt.belief_changed(DEL_BEL, b, None)
+    keys = [pattern.key] if type(pattern) is Struct else list(rt.bb.preds)
+    for key in keys:
+        for b in rt.bb.abolish(key, keep=lambda b: not matches(b)):
+            rt.belief_changed(DEL_BEL, b, None)
     return True
 
 
