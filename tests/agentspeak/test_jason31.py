@@ -134,6 +134,22 @@ c(2)[source(self)].
 -b(X) <- .print(removed(X)).
 """, ["1", "removed(1)", "gone", "2", "[ag1]", "[1,2]", "[b]", "no_g", "a test",
       "b atomic [test]", "c atomic", "done"]),
+    # Jason: .set_random_seed seeds java.util.Random, which .random and math.random draw
+    # from (stdlib/random.java: .random(X, N), N = 0 without end, .random(L, X[, N]) by
+    # nextInt); functions/median.java, StdDev.java (n - 1)
+    "random_seed": ("""\
+!g.
++!g <- .set_random_seed(20); R = math.random(10); .print(R);
+   .random(X); .print(X); .random(Y); .print(Y); .random(Z); .print(Z);
+   .set_random_seed(7); .findall(A, .random(A, 3), L); .print(L);
+   .random([a,b,c,d,e], P); .print(P); .findall(Q, .random([a,b,c], Q, 4), L2); .print(L2);
+   if (.random(X3, 0) & X3 > 0.9) { .print(found) };
+   .findall(W, .random(W, 50), L5);
+   M = math.median([3,1,2,5]); S = math.std_dev([1,2,3,4]); .print(M, " ", S);
+   .length(L5, N5); .print(N5).
+""", ["7.320427537419555", "0.20600366582289698", "0.7938483742301582",
+      "0.1630765589278791", "[0.7306990420600421,0.7491696031336331,0.34830970303125697]",
+      "d", "[c,a,a,a]", "found", "2.5 1.2909944487358056", "50"]),
     # Jason: stdlib/substring.java (four arguments: a text from Start to End) and
     # `.member(Label[test], Labels)` over the labels of `.relevant_plans({+!_}, _, L)`
     "substring_and_member": ("""\
