@@ -48,6 +48,25 @@ PROGRAMS: dict[str, tuple[str, list[str]]] = {
 +!e2 <- .print(e2_runs).
 +!e3 <- .print(e3_runs).
 """, ["held", "e1_failed", "e3_runs"]),
+    # A goal that is still an event, suspended and resumed: its goal states are
+    # suspended (suspend_ia: Circumstance.addPendingEvent tells the goal listeners),
+    # resumed (resume_ia) and pending again as the event is added back (resume.java);
+    # a .fail_goal'ed event keeps its place though a goal-state meta-event goes first.
+    "event_goal_states": ("""\
+!start.
+@s[atomic]
++!start <- !!go(1); .suspend(go(1)); .print(suspended_event);
+   !!e1; !!e2; .fail_goal(e1); .print(held);
+   .resume(go(1)); .print(resumed_event).
++!go(N) <- .print(go(N)).
++!e1 <- .print(e1_runs).
+-!e1 <- .print(e1_failed).
++!e2 <- .print(e2_runs).
+^!go(N)[state(S)[reason(R)]] <- .print(state(go(N), S, R)).
+""", ["suspended_event", "held", "resumed_event", 'state(go(1),pending,"")',
+      "state(go(1),suspended,suspend_ia)", "state(go(1),resumed,resume_ia)",
+      'state(go(1),pending,"")', "e1_failed", "e2_runs", "go(1)",
+      'state(go(1),executing,"")', 'state(go(1),achieved,"")', 'state(go(1),finished,"")']),
     # AGENTSPEAK.md: ".intend(G) holds for a goal anywhere in any intention's stack,
     # blocked ones included" -- but not one suspended by .suspend (intend.java passes
     # considerSuspended=false; desire.java true). .suspended(G, R) gives the reason of

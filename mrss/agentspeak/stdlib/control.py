@@ -13,7 +13,16 @@ from mrss.agentspeak.goalstates import GoalState
 from mrss.agentspeak.intentions import RUNNABLE, Event, Intention, WaitInfo
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
-from mrss.agentspeak.terms import ADD_ACH, Struct, Term, Trigger, deref, is_number, term_str
+from mrss.agentspeak.terms import (
+    ADD_ACH,
+    GOAL_STATE,
+    Struct,
+    Term,
+    Trigger,
+    deref,
+    is_number,
+    term_str,
+)
 from mrss.agentspeak.unify import undo, unify
 
 
@@ -190,29 +199,40 @@ def _surgery(ctx: IAContext, g: Term, op: Any, in_event: Any) -> bool:
     trail = rt.trail
     held = rt.extras.suspended_events
     for queue in (rt.events, rt.atomic_events, held):
-        i = 0
-        while i < len(queue):
-            ev = queue[i]
-            i += 1
-            if ev.op != ADD_ACH:
-                continue
-            mark = len(trail)
-            hit = unify(g, None, ev.lit, trail)
-            undo(trail, mark)
-            if not hit:
-                continue
-            del queue[i - 1]
-            i -= 1
-            size = len(queue)
+        hits = []
+        for ev in queue:
+            if ev.op == ADD_ACH:
+                mark = len(trail)
+                if unify(g, None, ev.lit, trail):
+                    hits.append(ev)
+                undo(trail, mark)
+        for ev in hits:
+            i = next(k for k, e in enumerate(queue) if e is ev)
+            after = queue[i + 1] if i + 1 < len(queue) else None
+            del queue[i]
+            before = {id(e) for e in queue}
             in_event(rt, ev)
-            if len(queue) > size and queue is not held:  # Jason changes the event in
-                queue.insert(i, queue.pop())              # place: the new one takes its turn
-                i += 1
+            if queue is not held:  # Jason changes the event in place: a `-!G` that
+                _take_place(queue, before, after)  # replaces it keeps its turn
     for it in _matching(ctx, g):
         i = goals.goal_index(rt, it, g)
         if i >= 0 and not it.dropped:
             op(rt, it, i)
     return True
+
+
+def _take_place(queue: Any, before: set[int], after: Event | None) -> None:
+    """Move the events posted since `before` (goal-state meta-events aside, which go
+    first anyway) back to where the event they replace was: just before `after`."""
+    new = [e for e in queue if id(e) not in before and e.op != GOAL_STATE]
+    at = next((k for k, e in enumerate(queue) if e is after), None)
+    if not new or at is None:
+        return
+    for e in new:
+        queue.remove(e)
+    at = next(k for k, e in enumerate(queue) if e is after)
+    for k, e in enumerate(new):
+        queue.insert(at + k, e)
 
 
 @STDLIB.action(".succeed_goal", min_args=1, max_args=1)
@@ -229,11 +249,16 @@ def fail_goal(ctx: IAContext, args: list[Any]) -> bool:
     return _surgery(ctx, args[0], goals.fail_goal, goals.fail_event)
 
 
+SUSPEND_REASON = Struct("suspend_ia")  # Jason's suspend.java
+RESUME_REASON = Struct("resume_ia")  # Jason's resume.java
+
+
 def _suspend_events(ctx: IAContext, g: Term) -> None:
     """Move the goal events `+!G` (and those of intentions pursuing G) out of the event
     queue until `.resume(G)`."""
     rt = ctx.runtime
     trail = rt.trail
+    held: list[Event] = []
     for queue in (rt.events, rt.atomic_events):
         kept: deque[Event] = deque()
         for ev in queue:
@@ -245,17 +270,18 @@ def _suspend_events(ctx: IAContext, g: Term) -> None:
             if not hit and ev.intention is not None:
                 hit = goals.goal_index(rt, ev.intention, g) >= 0
             if hit:
-                rt.extras.suspended_events.append(ev)
+                held.append(ev)
                 if ev.intention is not None:
                     ev.intention.suspended = True
             else:
                 kept.append(ev)
         queue.clear()
         queue.extend(kept)
-
-
-SUSPEND_REASON = Struct("suspend_ia")  # Jason's suspend.java
-RESUME_REASON = Struct("resume_ia")  # Jason's resume.java
+    rt.extras.suspended_events.extend(held)
+    if rt.plans.meta:  # Circumstance.addPendingEvent tells the goal's listeners
+        for ev in held:
+            if ev.op == ADD_ACH:
+                goalstates.emit(rt, ev.lit, GoalState.SUSPENDED, SUSPEND_REASON)
 
 
 def _suspend(ctx: IAContext, it: Intention) -> None:
@@ -306,6 +332,9 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
             back.append(ev)
             if ev.intention is not None:
                 ev.intention.suspended = False
+            if rt.plans.meta and ev.op == ADD_ACH:  # resume.java: goalResumed, then
+                goalstates.emit(rt, ev.lit, GoalState.RESUMED, RESUME_REASON)  # the
+                goalstates.emit(rt, ev.lit, GoalState.PENDING)  # event is added again
     for ev in back:
         rt.post(ev)
     return True
