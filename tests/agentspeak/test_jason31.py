@@ -204,3 +204,21 @@ def test_mrss_agent_prints_what_jason_printed(name: str, tmp_path: Path) -> None
                           text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines() == expected
+
+
+def test_list_files_lists_the_folder_as_jason(tmp_path: Path) -> None:
+    """Jason's list_files.java: every file under the folder (sub-folders too) whose name
+    the regular expression matches whole, as the folder's path joined with the name; a
+    folder that does not exist gives []. Jason printed these lists for the same files
+    (`./d/b.txt` first: its file system's order; ours is by name)."""
+    (tmp_path / "d" / "sub").mkdir(parents=True)
+    for name in ("d/a.asl", "d/b.txt", "d/sub/c.asl"):
+        (tmp_path / name).write_text("")
+    d = f"{tmp_path}/d"
+    out: list[str] = []
+    Agent(f'!g.\n+!g <- .list_files("{d}/", L1); .print(L1); '
+          f'.list_files("{d}", ".*.asl", L2); .print(L2); '
+          f'.list_files("/non/existing", L3); .print(L3); '
+          f'.list_files("{d}", "a.*", L4); .print(L4).\n', out=out.append).run_until_idle()
+    assert out == [f'["{d}/a.asl","{d}/b.txt","{d}/sub/c.asl"]',
+                   f'["{d}/a.asl","{d}/sub/c.asl"]', "[]", f'["{d}/a.asl"]']
