@@ -7,10 +7,10 @@ Jason computes with doubles; we keep integers exact where Jason's result is inte
 from __future__ import annotations
 
 import math
-import random
 from collections.abc import Callable
 
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.jrandom import RNG
 
 Number = int | float
 
@@ -73,7 +73,7 @@ FUNCTIONS: dict[str, Callable[..., Number]] = {
     "math.sqrt": _sqrt,
     "math.max": max,
     "math.min": min,
-    "math.random": lambda a=1: random.random() * a,
+    "math.random": lambda a=1: RNG.random() * a,
     "math.log": lambda a: math.log(a),
     "math.pi": lambda: math.pi,
     "math.e": lambda: math.e,

@@ -216,11 +216,9 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
 
     def _item(self, kind: str, meta: Any, c: list[Any]) -> BodyItem:
         lit = c[-1]
-        if type(lit) is not Struct and not (
-                kind in ("achieve", "achieve_new", "test") and type(lit) in (Slot, VarAnnot)):
-            what = "a variable" if type(lit) in (Slot, VarAnnot) else "this term"
+        if type(lit) not in (Struct, Slot, VarAnnot):  # a variable: its value, at run time
             self.problems.append((meta.line, meta.column,
-                                  f"expected a literal here, not {what}"))
+                                  "expected a literal here, not this term"))
         return BodyItem(kind, lit, self._line(meta))
 
     @v_args(meta=True)

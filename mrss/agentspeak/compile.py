@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from mrss.agentspeak.beliefs import Rule, has_source
+from mrss.agentspeak.beliefvar import BeliefVar
 from mrss.agentspeak.depth import PARSE_DEPTH
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.formulas import Query, compile_query
@@ -186,6 +187,9 @@ class _Compiler:
             return
         if kind in ("achieve", "achieve_new") and type(t) in (Slot, VarAnnot):
             code.append(AchieveVar(t, line) if kind == "achieve" else AchieveNewVar(t, line))
+            return
+        if kind in ("add", "add_end", "del", "replace") and type(t) in (Slot, VarAnnot):
+            code.append(BeliefVar(kind, t, line))
             return
         if type(t) is not Struct:
             self.problem(line, f"expected a literal, not {term_str(t)}")

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import operator
 from collections.abc import Iterator
+from itertools import combinations
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.beliefs import NO_KEY, first_key
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.terms import (
+    AnnotTail,
     Slot,
     Struct,
     Term,
@@ -25,7 +27,7 @@ from mrss.agentspeak.terms import (
     rename,
     term_str,
 )
-from mrss.agentspeak.unify import resolve, undo, unify
+from mrss.agentspeak.unify import resolve, strict_var_annot, undo, unify
 
 if TYPE_CHECKING:
     from mrss.agentspeak.registry import InternalAction, Registry
@@ -84,11 +86,15 @@ def _ground_args(args: tuple[Term, ...], frame: Any) -> tuple[Term, ...] | None:
 class LiteralQuery(Query):
     """A literal: matches beliefs of its predicate, newest `+b` first, then rules."""
 
-    __slots__ = ("lit", "key", "direct")
+    __slots__ = ("lit", "key", "direct", "nannots")
 
     def __init__(self, lit: Struct) -> None:
         self.lit = lit
         self.key = (lit.functor, len(lit.args), lit.neg)
+        # Jason's nbAnnots (Literal.logicalConsequence): a query with annotations and no
+        # tail backtracks over each set of that many annotations of a fact
+        annots = lit.annots
+        self.nannots = len(annots) if annots and type(annots[-1]) is not AnnotTail else 0
         # arguments are plain slots or constants and no annotations: a ground instance can
         # be looked up directly instead of scanned for
         self.direct = not lit.annots and all(
@@ -122,10 +128,27 @@ class LiteralQuery(Query):
                 key = first_key(a0)
                 if key is not NO_KEY:
                     facts = store.facts_with_first(key)
+        k = self.nannots
         for b in store.facts() if facts is None else facts:
             if not b.ground:
                 b = rename(b)  # type: ignore[assignment]
+            if k:
+                yield from self._annot_options(b, frame, trail, mark)
+                continue
             if unify(lit, frame, b, trail):
+                yield
+            undo(trail, mark)
+
+    def _annot_options(self, b: Struct, frame: Any, trail: list[Any],
+                       mark: int) -> Iterator[None]:
+        """Fact `b` with each set of the query's number of its annotations, in order
+        (Jason's ListTermImpl.subSets): `.findall(A, c[A], L)` gives every annotation of
+        c, `p[source(S)]` every source."""
+        lit = self.lit
+        if len(b.annots) < self.nannots:
+            return
+        for subset in combinations(b.annots, self.nannots):
+            if unify(lit, frame, Struct(b.functor, b.args, subset, b.neg), trail):
                 yield
             undo(trail, mark)
 
@@ -138,7 +161,9 @@ class LiteralQuery(Query):
         for c in store.clauses():
             if type(c) is Struct:
                 b: Any = c if c.ground else rename(c)
-                if unify(lit, frame, b, trail):
+                if self.nannots:
+                    yield from self._annot_options(b, frame, trail, mark)
+                elif unify(lit, frame, b, trail):
                     yield
             else:
                 if q is None:
@@ -230,7 +255,9 @@ class RelQuery(Query):
         if op == "=":
             trail = rt.trail
             mark = len(trail)
-            if unify(self.left, frame, resolve(self.right, frame), trail):
+            right = resolve(self.right, frame)
+            if not strict_var_annot(self.left, frame, right) and unify(
+                    self.left, frame, right, trail):
                 yield
             undo(trail, mark)
             return

@@ -1,5 +1,6 @@
 """Jason's functions over terms, used inside expressions: `.length(L)`, `.count(Q)`,
-`math.sum(L)`, `math.average(L)`, and `math.max(L)`/`math.min(L)` of a list.
+`math.sum(L)`, `math.average(L)`, `math.median(L)`, `math.std_dev(L)`, and
+`math.max(L)`/`math.min(L)` of a list.
 
 The numeric functions (`math.abs`, ...) live in `arith`; these take any term. The
 builder makes an `Expr` of a call with a known name and arity; the compiler attaches
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
 # actions, e.g. `.length(L, N)`)
 TERM_ARITY: dict[str, tuple[int, ...]] = {
     ".length": (1,), ".count": (1,), "math.sum": (1,), "math.average": (1,),
-    "math.max": (1, 2), "math.min": (1, 2),
+    "math.median": (1,), "math.std_dev": (1,), "math.max": (1, 2), "math.min": (1, 2),
 }
 
 
@@ -70,6 +71,26 @@ def _average(t: Term) -> Term:
     return sum(xs) / len(xs)
 
 
+def _median(t: Term) -> Term:
+    """The middle number, or the mean of the two middle ones (Jason's median.java)."""
+    if type(t) is tuple and not all(is_number(x) for x in t):
+        raise AslRuntimeError(f"math.median needs a list of numbers, not {term_str(t)}")
+    xs = sorted(_numbers("math.median", t))
+    if not xs:
+        raise AslRuntimeError("math.median of an empty list")
+    half = len(xs) // 2
+    return xs[half] if len(xs) % 2 else (xs[half - 1] + xs[half]) / 2
+
+
+def _std_dev(t: Term) -> Term:
+    """The sample standard deviation (n - 1), as Jason's StdDev.java."""
+    xs = _numbers("math.std_dev", t)
+    if len(xs) < 2:
+        raise AslRuntimeError("math.std_dev needs two numbers or more")
+    mean = sum(xs) / len(xs)
+    return float((sum((x - mean) ** 2 for x in xs) / (len(xs) - 1)) ** 0.5)
+
+
 def _extreme(name: str, pick: Callable[..., Any]) -> Callable[..., Term]:
     def fn(*args: Term) -> Term:
         if len(args) == 2:
@@ -86,6 +107,7 @@ def _extreme(name: str, pick: Callable[..., Any]) -> Callable[..., Term]:
 
 _PURE: dict[str, Callable[..., Term]] = {
     ".length": _length, "math.sum": _sum, "math.average": _average,
+    "math.median": _median, "math.std_dev": _std_dev,
     "math.max": _extreme("math.max", max), "math.min": _extreme("math.min", min),
 }
 

@@ -32,6 +32,7 @@ from mrss.agentspeak.terms import (
     OP_TEXT,
     Struct,
     Term,
+    Trigger,
     term_str,
     value,
 )
@@ -42,20 +43,11 @@ if TYPE_CHECKING:
 
 
 def has_handler(rt: Runtime, lit: Struct) -> bool:
-    """Whether some `-!lit` plan is relevant (its trigger arguments unify)."""
-    plans = rt.plans.relevant(DEL_ACH, lit)
-    if not plans:
-        return False
-    trail: list[Any] = []
-    bare = Struct(lit.functor, lit.args, (), lit.neg)
-    for plan in plans:
-        trig = plan.trigger
-        ok = unify(Struct(trig.functor, trig.args, (), trig.neg), [None] * plan.nslots, bare,
-                   trail)
-        undo(trail, 0)
-        if ok:
-            return True
-    return False
+    """Whether goal `lit` has a `-!` plan of its predicate: Jason's findEventForFailure
+    stops at the nearest goal with a candidate plan (PlanLibrary.hasCandidatePlan: the
+    same functor and arity), whether or not its arguments, annotations or context will
+    let one apply."""
+    return bool(rt.plans.relevant(DEL_ACH, lit))
 
 
 def fail(rt: Runtime, it: Intention, error: str | None, message: str, file: str, line: int,
@@ -173,8 +165,15 @@ def no_applicable_plan(rt: Runtime, ev: Event, relevant: bool) -> None:
         file = it.stack[-1].plan.file if it.stack else "<agent>"
         fail(rt, it, "test_goal_failed", f"test goal {text} failed", file, it.line)
     elif ev.op == DEL_ACH and it is not None:
-        error, message, file, line, annots = ev.error
-        fail(rt, it, error, message, file, line, annots, start=ev.target - 1)
+        # Jason (TransitionSystem.generateGoalDeletionFromEvent): a `-!g` that no plan
+        # applies to ends its intention ("Could not finish intention"), no cascade
+        error, message, file, line, _ = ev.error
+        rt.warn(f"{file}:{line}: {message}; no {what} plan for {text}, intention "
+                f"{it.id} dropped")
+        given_up = dropped_goal(it, None)
+        rt.drop(it)
+        if rt.on_goal_dropped is not None and given_up:
+            rt.on_goal_dropped(given_up, error, f"{file}:{line}: {message}")
     elif it is not None:
         rt.pop_finished(it)
 
@@ -190,7 +189,21 @@ def park(rt: Runtime, it: Intention, w: Any) -> None:
     if w.deadline is not None:
         rt.add_timer(w.deadline, it, w.token)
     if rt.plans.meta:
-        goalstates.emit_top(rt, it, GoalState.WAITING, Struct("wait", (w.what,)))
+        goalstates.emit_top(rt, it, GoalState.WAITING, wait_reason(it))
+
+
+def wait_reason(it: Intention) -> Term:
+    """Jason's reason of an intention in a `.wait` (wait.java's pendingReason):
+    `wait(Id)[time(Ms)]`, `wait(Id)[Event's literal]`, `wait(Id)[condition]`."""
+    w = it.wait
+    what = value(w.what) if w is not None else Struct("condition")
+    if type(what) is Trigger:
+        annot: Term = what.lit
+    elif type(what) is int or type(what) is float:
+        annot = Struct("time", (what,))
+    else:
+        annot = what
+    return Struct("wait", (it.id,), (annot,))
 
 
 def resume(rt: Runtime, it: Intention, now: float) -> None:
@@ -303,3 +316,35 @@ def fail_goal(rt: Runtime, it: Intention, index: int) -> None:
     it.state = RUNNABLE
     fail(rt, it, None, "goal failed by .fail_goal", im.plan.file, im.plan.line,
          start=index)
+
+
+def succeed_event(rt: Runtime, ev: Event) -> None:
+    """`.succeed_goal` of a goal still an event (taken out of the queue by the caller):
+    the goal counts as achieved, and the intention that posted it, if any, goes on
+    after `!g` (Jason's succeed_goal.dropInEvent)."""
+    if rt.plans.meta:
+        for state in goalstates.DONE:
+            goalstates.emit(rt, ev.lit, state)
+    it = ev.intention
+    if it is not None and not it.dropped and it.gen == ev.gen:
+        it.state = RUNNABLE
+        rt.pop_finished(it)
+
+
+def fail_event(rt: Runtime, ev: Event) -> None:
+    """`.fail_goal` of a goal still an event (taken out of the queue by the caller): it
+    becomes the event `-!g`, without error annotations (Jason's fail_goal.dropInEvent
+    turns the trigger's operator into `-`). A sub-goal's `-!g` plan runs on top of its
+    intention, which then goes on after `!g`; with no `-!g` plan the failure goes down
+    the stack as any other."""
+    it = ev.intention
+    if it is None:
+        if rt.plans.meta:
+            goalstates.emit(rt, ev.lit, GoalState.FAILED)
+        rt.post(Event(DEL_ACH, ev.lit, None))
+        return
+    if it.dropped or it.gen != ev.gen:
+        return
+    it.state = RUNNABLE
+    file = it.stack[-1].plan.file if it.stack else "<agent>"
+    fail(rt, it, None, "goal failed by .fail_goal", file, it.line, virtual=ev.lit)

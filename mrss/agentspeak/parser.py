@@ -174,8 +174,38 @@ def _unsupported(chunk: str, exc: lark.exceptions.UnexpectedInput) -> str | None
     if here in ("|&|", "|||"):
         return "fork and join (|&| and |||) are not supported"
     if here.startswith("::"):
-        return "a namespace must be an atom (ns::b); variable namespaces (X::b) are not supported"
+        return _namespace_before(chunk[:pos])
+    after_ns = _AFTER_NS.search(chunk[:pos])
+    if after_ns is not None:
+        ns = after_ns.group(1)
+        c = chunk[pos]
+        what = ("a variable" if c.isupper() or c == "_" else "a string" if c == '"'
+                else "a list" if c == "[" else "a number" if c.isdigit() else None)
+        if what is not None:
+            return (f"a namespace prefixes a literal ({ns}::b); {what} after it is not "
+                    f"supported")
     return None
+
+
+_BEFORE_NS = re.compile(r"(::)?(~?)([A-Za-z_][A-Za-z0-9_]*)?\s*$")
+_AFTER_NS = re.compile(r"([a-z][A-Za-z0-9_]*)::\s*$")
+
+
+def _namespace_before(before: str) -> str:
+    """Why `::` cannot come after `before` (the text up to it)."""
+    m = _BEFORE_NS.search(before)
+    name = m.group(3) if m is not None else None
+    if m is not None and m.group(1) and name:
+        return "a literal has one namespace (ns::b), not several"
+    if name is None:
+        return ("`::b` names the local namespace of a module, and modules of namespaces "
+                "({ begin namespace(ns) }) are not supported: write ns::b")
+    if name[0].isupper() or name[0] == "_":
+        return (f"variable namespaces ({name}::b) are not supported: a namespace is an "
+                f"atom (ns::b)")
+    if m is not None and m.group(2):
+        return f"the strong negation goes after the namespace: {name}::~b, not ~{name}::b"
+    return f"a namespace must be an atom (ns::b), not {name}"
 
 
 def _restart_offset(chunk: str, exc: lark.exceptions.UnexpectedInput) -> int | None:

@@ -26,6 +26,8 @@ from mrss.agentspeak.terms import (
     value,
 )
 
+TRUE = Struct("true")
+
 
 class _Closer:
     def __init__(self, frame: list[Any] | None) -> None:
@@ -146,8 +148,8 @@ def plan_term_text(p: PlanSrc) -> str:
             label = Struct(label.functor, label.args, p.annots, label.neg)
         text += "@" + term_str(label) + " "
     text += OP_TEXT[p.op] + term_str(p.trigger)
-    if p.context is not None:
-        text += " : " + term_str(p.context)
+    if p.context is not None and p.context != TRUE:  # Jason's Plan.toASString leaves
+        text += " : " + term_str(p.context)           # out a context `true`
     if p.body:
         text += " <- " + _body_text(p.body)
     return text + " }"

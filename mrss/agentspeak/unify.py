@@ -84,6 +84,8 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
         if rt is Var:
             v = resolve(t, frame)
             tv = type(v)
+            if tv is VarAnnot:  # Jason: a free `X[a]`'s annotations are no subset of
+                return False    # a free variable's (none)
             if ((tv is Struct and not v.ground) or tv is tuple  # type: ignore[union-attr]
                     or tv is PList) and occurs(r, v):  # type: ignore[arg-type]
                 raise _cyclic(r, v)  # type: ignore[arg-type]
@@ -92,8 +94,8 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
             trail.append(-1)
             return True
     if tt is Struct:
-        if rt is not Struct:  # a free annotated variable on the runtime side: its variable
-            return rt is VarAnnot and unify(t, frame, r.var, trail)  # type: ignore[union-attr]
+        if rt is not Struct:  # a free annotated variable on the runtime side
+            return rt is VarAnnot and _unify_with_var_annot(t, frame, r, trail)  # type: ignore
         ts: Struct = t  # type: ignore[assignment]
         rs: Struct = r  # type: ignore[assignment]
         if ts.functor != rs.functor or ts.neg != rs.neg:
@@ -112,9 +114,13 @@ def unify(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
             return unify_annots(ts.annots, frame, rs.annots, trail)
         return True
     if tt is str:
-        return rt is str and t == r
+        if rt is str:
+            return t == r
+        return rt is VarAnnot and _unify_with_var_annot(t, frame, r, trail)  # type: ignore
     if tt is int or tt is float:
-        return (rt is int or rt is float) and t == r
+        if rt is int or rt is float:
+            return t == r
+        return rt is VarAnnot and _unify_with_var_annot(t, frame, r, trail)  # type: ignore
     if tt is tuple or tt is PList:
         return _unify_lists(t, frame, r, trail)
     if tt is Expr:
@@ -221,7 +227,7 @@ def _split(t: Term, frame: Frame | None) -> tuple[list[Term], Term | None]:
 
 def _unify_lists(t: Term, frame: Frame | None, r: Term, trail: Trail) -> bool:
     if type(r) is not tuple and type(r) is not PList:
-        return False
+        return type(r) is VarAnnot and _unify_with_var_annot(t, frame, r, trail)
     ti, ttail = _split(t, frame)
     ri, rtail = _split(r, None)
     n = min(len(ti), len(ri))
@@ -310,18 +316,75 @@ def _resolve_var_annot(t: VarAnnot, frame: Frame | None) -> Term:
 
 
 def _unify_var_annot(t: VarAnnot, frame: Frame | None, r: Term, trail: Trail) -> bool:
-    """Jason: the annotations of `X[..]` must be a subset of the literal's; X takes the
-    literal without its annotations."""
+    """Jason (Unifier.unifiesNoUndo): the annotations of `X[..]` must be a subset of the
+    other literal's, and X takes that literal without its annotations. A free variable
+    has no annotations, so a free `X[a]` never unifies with it; a number, a string, a
+    list and an atom written as an argument or a list item (Jason's Atom class, which is
+    no Pred) are taken with no test (`strict_var_annot` says where an atom is tested)."""
     r = deref(r)
-    if type(r) is VarAnnot:
-        r = deref(r.var)
-    if type(r) is Struct:
-        rs: Struct = r
-        if t.annots and not unify_annots(t.annots, frame, rs.annots, trail):
+    tr = type(r)
+    if tr is VarAnnot:
+        if not unify_annots(t.annots, frame, r.annots, trail):  # type: ignore[union-attr]
             return False
-        if rs.annots:
-            r = Struct(rs.functor, rs.args, (), rs.neg)
+        return unify(t.var, frame, r.var, trail)  # type: ignore[union-attr]
+    if tr is Var:
+        v = t.var
+        if type(v) is Slot:
+            v = frame[v.index]  # type: ignore[index]
+        return (v is not None and type(deref(v)) is not Var
+                and unify(r, None, resolve(t, frame), trail))
+    if tr is Struct:
+        rs: Struct = r  # type: ignore[assignment]
+        if rs.annots or rs.args or rs.neg:
+            if t.annots and not unify_annots(t.annots, frame, rs.annots, trail):
+                return False
+            if rs.annots:
+                r = Struct(rs.functor, rs.args, (), rs.neg)
     return unify(t.var, frame, r, trail)
+
+
+def _unify_with_var_annot(t: Term, frame: Frame | None, r: VarAnnot, trail: Trail) -> bool:
+    """Template `t` against a free `X[a]` on the runtime side: as Jason, t's annotations
+    must be a subset of X's, and X takes t without its annotations."""
+    v = resolve(t, frame)
+    if type(v) is Struct:
+        vs: Struct = v
+        if vs.annots:
+            if not _annots_into(vs.annots, r.annots, trail):
+                return False
+            v = Struct(vs.functor, vs.args, (), vs.neg)
+    return unify(r.var, None, v, trail)
+
+
+def _annots_into(annots: tuple[Term, ...], into: tuple[Term, ...], trail: Trail) -> bool:
+    """Each of a literal's `annots` unifies with a different one of `into` (an annotated
+    variable's); those left over go to `into`'s tail when it has one (Jason's
+    Pred.hasSubsetAnnot: `a[x,y] = N[H|T]` gives H = x, T = [y])."""
+    if not into or type(into[-1]) is not AnnotTail:
+        return bool(into) and unify_annots(annots, None, into, trail)
+    left = list(into[:-1])
+    extra: list[Term] = []
+    for a in annots:
+        for i, b in enumerate(left):
+            mark = len(trail)
+            if unify(a, None, b, trail):
+                del left[i]
+                break
+            undo(trail, mark)
+        else:
+            extra.append(a)
+    return not extra or unify(into[-1].tail, None, tuple(extra), trail)
+
+
+def strict_var_annot(left: Term, frame: Frame | None, right: Term) -> bool:
+    """Whether `left = right` must fail before unifying: Jason's `W[a] = b` fails (the
+    atom `b` at the top of `=` is a Pred without annotations), though `.member(W[a],
+    [b])` binds W (an atom in a list is Jason's Atom class, not a Pred)."""
+    if type(left) is not VarAnnot or not left.annots:
+        return False
+    r = deref(right)
+    return (type(r) is Struct and not r.args and not r.annots
+            and not r.neg)
 
 
 def evaluate(t: Term, frame: Frame | None) -> Term:

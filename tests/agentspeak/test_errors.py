@@ -162,13 +162,47 @@ def test_unsupported_jason_constructs_are_named_not_parse_errors() -> None:
                'supported'),
         (3, 15, "fork and join (|&| and |||) are not supported"),
         (4, 1, "goal-state meta-events of test goals (^?g) are not supported; ^!g is"),
-        (5, 9, "a namespace must be an atom (ns::b); variable namespaces (X::b) are not "
-               "supported"),
+        (5, 9, "variable namespaces (X::b) are not supported: a namespace is an atom "
+               "(ns::b)"),
         (6, 8, "`.create_agent` is not supported: agents are started and stopped by MRSS's "
                "supervisor and configuration, not by Jason's MAS infrastructure"),
         (7, 8, "`.send` is not supported: it needs other agents: run several (mrss agent "
                "a.asl b.asl, or the reasoner component's agents list)"),
     ]
+
+
+NAMESPACE_MISUSES = """\
++!a <- +::b(1).
++!b <- +ns::ns2::c(1).
++!c <- +ns::X.
++!d <- +~ns::d.
++!e <- .print(ns::"s").
++!f <- ?ns::[1].
++!g <- +ns::~g(1); ?ns::~g(N); +default::h.
+"""
+
+
+def test_a_misused_namespace_is_named_at_its_place_not_a_parse_error() -> None:
+    """MRSS's namespaces are prefixes of literals (ns::b); what Jason's parser refuses
+    (ns::ns2::b, ~ns::b) or gives meaning only inside a module (::b) or at run time
+    (ns::X, X::b) is a load error that says so, at file:line:col (issue 33's rule for
+    bad input: every syntax error is `file:line:col: message`; AGENTSPEAK.md has no
+    namespaces)."""
+    with pytest.raises(AslSyntaxError) as info:
+        Agent(NAMESPACE_MISUSES, file="ns.asl")
+    found = [(p.line, p.col, p.message) for p in info.value.problems]
+    assert found == [
+        (1, 9, "`::b` names the local namespace of a module, and modules of namespaces "
+               "({ begin namespace(ns) }) are not supported: write ns::b"),
+        (2, 16, "a literal has one namespace (ns::b), not several"),
+        (3, 13, "a namespace prefixes a literal (ns::b); a variable after it is not "
+                "supported"),
+        (4, 12, "the strong negation goes after the namespace: ns::~b, not ~ns::b"),
+        (5, 19, "a namespace prefixes a literal (ns::b); a string after it is not "
+                "supported"),
+        (6, 13, "a namespace prefixes a literal (ns::b); a list after it is not supported"),
+    ]
+    assert str(info.value).startswith("ns.asl:1:9: ")
 
 
 def test_an_initial_belief_with_an_annotation_tail_is_a_load_error() -> None:
@@ -246,3 +280,17 @@ def test_a_broken_parser_cache_is_rebuilt_without_a_word(
     finally:
         parser._lark.cache_clear()
     assert capfd.readouterr() == ("", "")
+
+
+def test_a_belief_update_through_a_variable_that_is_no_literal_fails_with_the_reason(
+        caplog: pytest.LogCaptureFixture) -> None:
+    out: list[str] = []
+    agent = Agent("!a. !b. !c.\n+!a <- +S; .print(never).\n+!b <- X = 3; -X.\n"
+                  "+!c <- Y = \"s\"; -+Y.\n", file="bv.asl", out=out.append)
+    with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
+        agent.run_until_idle()
+    assert out == []
+    messages = "\n".join(r.getMessage() for r in caplog.records)
+    assert "bv.asl:2: unbound variable S used as a belief in +S" in messages
+    assert "bv.asl:3: -X: 3 is not a literal" in messages
+    assert 'bv.asl:4: -+Y: "s" is not a literal' in messages

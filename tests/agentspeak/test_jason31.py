@@ -77,6 +77,79 @@ c(2)[source(self)].
    .remove_plan([l4]); .relevant_plans({+!d}, L5); .print(L5).
 """, ["a", "b", "c", "d", '[p__1[atomic,source(self),test,url("file:plan_labels.asl")]]',
       '[p__2[source(self),test,url("file:plan_labels.asl")]]', "[]", "[]", "[]"]),
+    # Jason: stdlib/plan_label.java's three modes (the plan of a label; a plan term's own
+    # label; both enumerated), Plan.toASString without a context `true`, and
+    # .remove_plan by label and source (stdlib/remove_plan.java: another source's plan
+    # stays); AGENTSPEAK.md has no rule on it, so Jason's code decides
+    "plan_label_modes": ("""\
+!g.
+@lab[atomic,prio(2)] +!a <- .print(a).
+@lab2[prio(1)]
++!b <- .print(b).
++!g <- !a; !b;
+    .add_plan({ @l1 +!p1 : true <- +p1 }, bob);
+    .plan_label(PB1,l1); .print(PB1);
+    if (PB1 = { @l1[source(bob)] +!p1 <- +p1 }) { .print(eq1) } else { .print(neq1) };
+    .add_plan({ @l2 +!p2 : true <- +p2 });
+    .plan_label({@l2[source(self)] +!p2 <- +p2},PL2_1); .print(PL2_1);
+    .plan_label({ @l2[source(self)] +!p2 : true <- +p2},PL2_2); .print(PL2_2);
+    .plan_label(PA, lab); .print(PA);
+    .relevant_plans({+!a}, RP, RL); .print(RL);
+    .relevant_plans({+!b}, RP2); .print(RP2);
+    .add_plan({ @l1_1 +!p : true <- +p1_1 }, bob);
+    .add_plan({ @l1_2 +!p : true <- +p1_2 });
+    .remove_plan(l1_1,bob); .remove_plan(l1_2,bob);
+    .relevant_plans({+!p},LP1_2); .length(LP1_2,N1); .print(N1);
+    .add_plan({ @l1_1 +!p : true <- +p1_1 }, bob);
+    .add_plan({ @l1_3 +!p : true <- +p1_3 }, bob);
+    .remove_plan([l1_1,l1_2,l1_3],bob);
+    .relevant_plans({+!p},_,LL4); .print(LL4);
+    .remove_plan(lab); .relevant_plans({+!a}, _, RL3); .print(RL3);
+    .findall(L, .plan_label(_, L) & L = l2[_|_], Ls); .print(Ls).
+""", ["a", "b", "{ @l1[source(bob)] +!p1 <- +p1 }", "eq1", "l2[source(self)]",
+      "l2[source(self)]",
+      '{ @lab[atomic,prio(2),source(self),url("file:plan_label_modes.asl")] +!a <- '
+      '.print(a) }', '[lab[atomic,prio(2),source(self),url("file:plan_label_modes.asl")]]',
+      '[{ @lab2[prio(1),source(self),url("file:plan_label_modes.asl")] +!b <- .print(b) }]',
+      "1", "[l1_2[source(self)]]", "[]", "[l2[source(self)]]"]),
+    # Jason: a belief update may name a variable (+S, -S, -+S, +>S: the body literal is
+    # the variable's value, AS2JavaParser.jj's body_formula); Agent.abolish with a
+    # variable looks at every belief (_[source(ag2)]); an annotated variable with a tail
+    # on the right of `=` takes what is left over (Pred.hasSubsetAnnot). AGENTSPEAK.md:
+    # "`+b` in a body gets source(self)", "`-+b` removes the old one and adds the new".
+    "variable_beliefs": ("""\
+!g.
++!g <- S = b(1); +S; ?b(X); .print(X); -S; if (not b(_)) { .print(gone) };
+   +c(1); T = c(2); -+T; ?c(Y); .print(Y);
+   U = d(1)[source(ag1)]; +U; .findall(Src, d(1)[source(Src)], L0); .print(L0);
+   +>e(1); V = e(2); +>V; .findall(E, e(E), L1); .print(L1);
+   +f(a)[source(ag2)]; +f(b)[source(ag1)]; +g[source(ag2)];
+   .abolish(_[source(ag2)]); .findall(F, f(F), L2); .print(L2);
+   if (not g) { .print(no_g) };
+   LL = [a[test],b[test,atomic],c[atomic]];
+   for (.member(La, LL)) {
+      La = N[H|Tl];
+      if (.list(Tl)) { .print(N, " ", H, " ", Tl) } else { .print(N, " ", H) } };
+   .print(done).
+-b(X) <- .print(removed(X)).
+""", ["1", "removed(1)", "gone", "2", "[ag1]", "[1,2]", "[b]", "no_g", "a test",
+      "b atomic [test]", "c atomic", "done"]),
+    # Jason: .set_random_seed seeds java.util.Random, which .random and math.random draw
+    # from (stdlib/random.java: .random(X, N), N = 0 without end, .random(L, X[, N]) by
+    # nextInt); functions/median.java, StdDev.java (n - 1)
+    "random_seed": ("""\
+!g.
++!g <- .set_random_seed(20); R = math.random(10); .print(R);
+   .random(X); .print(X); .random(Y); .print(Y); .random(Z); .print(Z);
+   .set_random_seed(7); .findall(A, .random(A, 3), L); .print(L);
+   .random([a,b,c,d,e], P); .print(P); .findall(Q, .random([a,b,c], Q, 4), L2); .print(L2);
+   if (.random(X3, 0) & X3 > 0.9) { .print(found) };
+   .findall(W, .random(W, 50), L5);
+   M = math.median([3,1,2,5]); S = math.std_dev([1,2,3,4]); .print(M, " ", S);
+   .length(L5, N5); .print(N5).
+""", ["7.320427537419555", "0.20600366582289698", "0.7938483742301582",
+      "0.1630765589278791", "[0.7306990420600421,0.7491696031336331,0.34830970303125697]",
+      "d", "[c,a,a,a]", "found", "2.5 1.2909944487358056", "50"]),
     # Jason: stdlib/substring.java (four arguments: a text from Start to End) and
     # `.member(Label[test], Labels)` over the labels of `.relevant_plans({+!_}, _, L)`
     "substring_and_member": ("""\
@@ -121,7 +194,7 @@ def test_program_prints_what_jason_printed(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", ["sources_and_annotations", "plan_labels",
-                                  "substring_and_member"])
+                                  "substring_and_member", "plan_label_modes"])
 def test_mrss_agent_prints_what_jason_printed(name: str, tmp_path: Path) -> None:
     source = PROGRAMS[name][0]
     expected = _expected(name)
@@ -131,3 +204,21 @@ def test_mrss_agent_prints_what_jason_printed(name: str, tmp_path: Path) -> None
                           text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines() == expected
+
+
+def test_list_files_lists_the_folder_as_jason(tmp_path: Path) -> None:
+    """Jason's list_files.java: every file under the folder (sub-folders too) whose name
+    the regular expression matches whole, as the folder's path joined with the name; a
+    folder that does not exist gives []. Jason printed these lists for the same files
+    (`./d/b.txt` first: its file system's order; ours is by name)."""
+    (tmp_path / "d" / "sub").mkdir(parents=True)
+    for name in ("d/a.asl", "d/b.txt", "d/sub/c.asl"):
+        (tmp_path / name).write_text("")
+    d = f"{tmp_path}/d"
+    out: list[str] = []
+    Agent(f'!g.\n+!g <- .list_files("{d}/", L1); .print(L1); '
+          f'.list_files("{d}", ".*.asl", L2); .print(L2); '
+          f'.list_files("/non/existing", L3); .print(L3); '
+          f'.list_files("{d}", "a.*", L4); .print(L4).\n', out=out.append).run_until_idle()
+    assert out == [f'["{d}/a.asl","{d}/b.txt","{d}/sub/c.asl"]',
+                   f'["{d}/a.asl","{d}/sub/c.asl"]', "[]", f'["{d}/a.asl"]']

@@ -9,6 +9,7 @@ STDLIB = Registry()
 from mrss.agentspeak.stdlib import (  # noqa: E402
     annots,
     control,
+    files,
     introspect,
     lists,
     loading,
@@ -21,6 +22,6 @@ from mrss.agentspeak.stdlib import (  # noqa: E402
     typetests,
 )
 
-__all__ = ["STDLIB", "annots", "control", "introspect", "lists", "loading", "misc",
+__all__ = ["STDLIB", "annots", "control", "files", "introspect", "lists", "loading", "misc",
            "operator", "plans",
            "schedule", "sets", "strings", "typetests"]

@@ -13,7 +13,16 @@ from mrss.agentspeak.goalstates import GoalState
 from mrss.agentspeak.intentions import RUNNABLE, Event, Intention, WaitInfo
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
-from mrss.agentspeak.terms import ADD_ACH, Struct, Term, Trigger, deref, is_number, term_str
+from mrss.agentspeak.terms import (
+    ADD_ACH,
+    GOAL_STATE,
+    Struct,
+    Term,
+    Trigger,
+    deref,
+    is_number,
+    term_str,
+)
 from mrss.agentspeak.unify import undo, unify
 
 
@@ -61,9 +70,12 @@ def wait(ctx: IAContext, args: list[Any]) -> bool:
 
 @STDLIB.action(".intend", min_args=1, max_args=1)
 def intend(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """Holds for each goal `+!G` in any intention's stack (blocked ones included)."""
-    for _ in goals.intended(ctx.runtime, args[0]):
-        yield
+    """Holds for each goal `+!G` in any intention's stack (blocked ones included), but
+    not in an intention suspended by `.suspend`: Jason's intend.java passes
+    considerSuspended=false (`.desire` passes true)."""
+    for it, _ in goals.intended(ctx.runtime, args[0]):
+        if not it.suspended:
+            yield
 
 
 def _goal_events(ctx: IAContext) -> list[Event]:
@@ -153,24 +165,55 @@ def drop_all_events(ctx: IAContext, args: list[Any]) -> bool:
     return True
 
 
-@STDLIB.action(".drop_all_intentions", max_args=0)
-def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
+def _drop_all_but_current(ctx: IAContext) -> None:
+    """Drop every intention but the one running: Jason clears its running, pending and
+    waiting intentions (Circumstance.clearRunningIntentions ...), and the intention that
+    runs the action is none of these at that moment, so it goes on."""
     rt = ctx.runtime
     for it in list(rt.intentions.values()):
-        rt.drop(it)
+        if it is not ctx.intention:
+            rt.drop(it)
+
+
+@STDLIB.action(".drop_all_intentions", max_args=0)
+def drop_all_intentions(ctx: IAContext, args: list[Any]) -> bool:
+    """Drop every intention but the current one, which goes on (Jason's
+    drop_all_intentions.java); the goal events of sub-goals go with their intentions."""
+    _drop_all_but_current(ctx)
     return True
 
 
 @STDLIB.action(".drop_all_desires", max_args=0)
 def drop_all_desires(ctx: IAContext, args: list[Any]) -> bool:
+    """`.drop_all_intentions` and every goal event too (Jason's drop_all_desires.java)."""
     _drop_goal_events(ctx, None)
-    for it in list(ctx.runtime.intentions.values()):
-        ctx.runtime.drop(it)
+    _drop_all_but_current(ctx)
     return True
 
 
-def _surgery(ctx: IAContext, g: Term, op: Any) -> bool:
+def _surgery(ctx: IAContext, g: Term, op: Any, in_event: Any) -> bool:
+    """Apply `op` to each intention with goal G, and `in_event` to each goal event `+!G`
+    not yet intended (queued or held by `.suspend`), as Jason's succeed_goal.drop does
+    for the events first."""
     rt = ctx.runtime
+    trail = rt.trail
+    held = rt.extras.suspended_events
+    for queue in (rt.events, rt.atomic_events, held):
+        hits = []
+        for ev in queue:
+            if ev.op == ADD_ACH:
+                mark = len(trail)
+                if unify(g, None, ev.lit, trail):
+                    hits.append(ev)
+                undo(trail, mark)
+        for ev in hits:
+            i = next(k for k, e in enumerate(queue) if e is ev)
+            after = queue[i + 1] if i + 1 < len(queue) else None
+            del queue[i]
+            before = {id(e) for e in queue}
+            in_event(rt, ev)
+            if queue is not held:  # Jason changes the event in place: a `-!G` that
+                _take_place(queue, before, after)  # replaces it keeps its turn
     for it in _matching(ctx, g):
         i = goals.goal_index(rt, it, g)
         if i >= 0 and not it.dropped:
@@ -178,16 +221,36 @@ def _surgery(ctx: IAContext, g: Term, op: Any) -> bool:
     return True
 
 
+def _take_place(queue: Any, before: set[int], after: Event | None) -> None:
+    """Move the events posted since `before` (goal-state meta-events aside, which go
+    first anyway) back to where the event they replace was: just before `after`."""
+    new = [e for e in queue if id(e) not in before and e.op != GOAL_STATE]
+    at = next((k for k, e in enumerate(queue) if e is after), None)
+    if not new or at is None:
+        return
+    for e in new:
+        queue.remove(e)
+    at = next(k for k, e in enumerate(queue) if e is after)
+    for k, e in enumerate(new):
+        queue.insert(at + k, e)
+
+
 @STDLIB.action(".succeed_goal", min_args=1, max_args=1)
 def succeed_goal(ctx: IAContext, args: list[Any]) -> bool:
-    """Goal G is taken as achieved: its plans are popped, the caller goes on."""
-    return _surgery(ctx, args[0], goals.succeed_goal)
+    """Goal G is taken as achieved: its plans are popped, the caller goes on; a goal
+    still an event is removed (its intention, if any, goes on after `!G`)."""
+    return _surgery(ctx, args[0], goals.succeed_goal, goals.succeed_event)
 
 
 @STDLIB.action(".fail_goal", min_args=1, max_args=1)
 def fail_goal(ctx: IAContext, args: list[Any]) -> bool:
-    """Goal G fails: `-!G` is posted (no error annotation); then the caller goes on."""
-    return _surgery(ctx, args[0], goals.fail_goal)
+    """Goal G fails: `-!G` is posted (no error annotation); then the caller goes on. A
+    goal still an event becomes the event `-!G` (Jason's fail_goal.dropInEvent)."""
+    return _surgery(ctx, args[0], goals.fail_goal, goals.fail_event)
+
+
+SUSPEND_REASON = Struct("suspend_ia")  # Jason's suspend.java
+RESUME_REASON = Struct("resume_ia")  # Jason's resume.java
 
 
 def _suspend_events(ctx: IAContext, g: Term) -> None:
@@ -195,6 +258,7 @@ def _suspend_events(ctx: IAContext, g: Term) -> None:
     queue until `.resume(G)`."""
     rt = ctx.runtime
     trail = rt.trail
+    held: list[Event] = []
     for queue in (rt.events, rt.atomic_events):
         kept: deque[Event] = deque()
         for ev in queue:
@@ -206,16 +270,18 @@ def _suspend_events(ctx: IAContext, g: Term) -> None:
             if not hit and ev.intention is not None:
                 hit = goals.goal_index(rt, ev.intention, g) >= 0
             if hit:
-                rt.extras.suspended_events.append(ev)
+                held.append(ev)
                 if ev.intention is not None:
                     ev.intention.suspended = True
             else:
                 kept.append(ev)
         queue.clear()
         queue.extend(kept)
-
-
-SUSPEND_REASON = Struct("suspend")
+    rt.extras.suspended_events.extend(held)
+    if rt.plans.meta:  # Circumstance.addPendingEvent tells the goal's listeners
+        for ev in held:
+            if ev.op == ADD_ACH:
+                goalstates.emit(rt, ev.lit, GoalState.SUSPENDED, SUSPEND_REASON)
 
 
 def _suspend(ctx: IAContext, it: Intention) -> None:
@@ -248,7 +314,7 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
         if it.suspended:
             it.suspended = False
             if rt.plans.meta:
-                goalstates.emit_top(rt, it, GoalState.RESUMED)
+                goalstates.emit_top(rt, it, GoalState.RESUMED, RESUME_REASON)
             if it.state is RUNNABLE:
                 rt.make_runnable(it)
     trail = rt.trail
@@ -266,43 +332,40 @@ def resume(ctx: IAContext, args: list[Any]) -> bool:
             back.append(ev)
             if ev.intention is not None:
                 ev.intention.suspended = False
+            if rt.plans.meta and ev.op == ADD_ACH:  # resume.java: goalResumed, then
+                goalstates.emit(rt, ev.lit, GoalState.RESUMED, RESUME_REASON)  # the
+                goalstates.emit(rt, ev.lit, GoalState.PENDING)  # event is added again
     for ev in back:
         rt.post(ev)
     return True
 
 
 def suspended_reason(it: Intention) -> Term | None:
-    """Why `it` is not running (Jason's PA and PI): `act` for an environment action,
-    `wait(W)` for a `.wait`, `suspend` for `.suspend`; None if it is running."""
-    if it.suspended:
-        return SUSPEND_REASON
+    """Why `it` is not running, as Jason's .suspended finds it: `act` for an environment
+    action (PA, searched first), the `.wait`'s reason (PI: a `.suspend` while waiting
+    keeps it), `suspend_ia` for `.suspend`; None if it is running."""
     if it.action is not None:
         return Struct("act")
     if it.wait is not None:
-        return Struct("wait", (it.wait.what,))
+        return goals.wait_reason(it)
+    if it.suspended:
+        return SUSPEND_REASON
     return None
 
 
 @STDLIB.action(".suspended", min_args=1, max_args=2)
-def suspended(ctx: IAContext, args: list[Any]) -> Iterator[None]:
-    """`.suspended(G)`, `.suspended(G, R)`: G is a goal of an intention that is not
-    running -- suspended, waiting for an action or in a `.wait` -- and R the reason
-    (`suspend`, `act`, `wait(W)`)."""
-    trail = ctx.runtime.trail
-    for it, _ in goals.intended(ctx.runtime, args[0]):
-        reason = suspended_reason(it)
-        if reason is None:
-            continue
-        if len(args) == 1:
-            yield
-            continue
-        mark = len(trail)
-        if unify(args[1], None, reason, trail):
-            yield
-        undo(trail, mark)
-    for ev in list(ctx.runtime.extras.suspended_events):
-        mark = len(trail)
-        if ev.op == ADD_ACH and unify(args[0], None, ev.lit, trail) and (
-                len(args) == 1 or unify(args[1], None, SUSPEND_REASON, trail)):
-            yield
-        undo(trail, mark)
+def suspended(ctx: IAContext, args: list[Any]) -> bool:
+    """`.suspended(G, R)`: G is a goal of an intention that is not running -- waiting
+    for an action, in a `.wait` or suspended -- and R the reason (`act`, `wait(Id)[..]`,
+    `suspend_ia`). As Jason's suspended.java, only the first such intention is tried
+    (intentions waiting for an action first), and a goal that is still an event is not
+    one; `.suspended(G)` (MRSS) leaves out R."""
+    g = deref(args[0])
+    if type(g) is not Struct:
+        raise ctx.error(f"the first argument must be a literal, not {term_str(g)}")
+    found = [(it, suspended_reason(it)) for it in _matching(ctx, g)]
+    found = ([f for f in found if f[0].action is not None]
+             + [f for f in found if f[0].action is None and f[1] is not None])
+    if not found:
+        return False
+    return len(args) == 1 or ctx.unify(args[1], found[0][1])  # type: ignore[arg-type]

@@ -5,12 +5,12 @@ from __future__ import annotations
 import datetime
 import enum
 import functools
-import random as _random
 import time as _time
 from collections.abc import Iterator
 from typing import Any
 
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.jrandom import RNG
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
 from mrss.agentspeak.terms import (
@@ -18,6 +18,7 @@ from mrss.agentspeak.terms import (
     Struct,
     Term,
     Var,
+    VarAnnot,
     compare,
     deref,
     term_str,
@@ -26,7 +27,6 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import undo, unify
 
 _order = functools.cmp_to_key(compare)
-RNG = _random.Random()  # `.random`, `.shuffle`: seeded by `.set_random_seed`
 
 
 def text_of(t: Term) -> str:
@@ -98,10 +98,36 @@ def date_(ctx: IAContext, args: list[Any]) -> bool:
                                                   strict=True))
 
 
-@STDLIB.action(".random", min_args=1, max_args=1)
-def random_(ctx: IAContext, args: list[Any]) -> bool:
-    """`.random(X)`: X is a random number in [0, 1)."""
-    return ctx.unify(args[0], RNG.random())
+@STDLIB.action(".random", min_args=1, max_args=3)
+def random_(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """As Jason's random.java: `.random(X)`, X a number in [0, 1); `.random(X, N)`, N
+    such numbers in turn (0: without end, for backtracking); `.random(L, X)` and
+    `.random(L, X, N)`, X an item of list L picked at random (once, or N times)."""
+    first = deref(args[0])
+    items: tuple[Term, ...] | None = None
+    if type(first) is tuple:
+        if len(args) == 1:
+            raise ctx.error("a list needs the variable to bind: .random(L, X)")
+        items, target, count = first, args[1], (args[2] if len(args) == 3 else 1)
+        if not items:
+            return
+    elif len(args) == 3:
+        raise ctx.error(f"expected a list, not {term_str(first)}")
+    else:
+        target, count = args[0], (args[1] if len(args) == 2 else 1)
+    n = deref(count)
+    if type(n) is not int or n < 0:
+        raise ctx.error(f"the number of values must be a natural number, not "
+                        f"{term_str(n)}")
+    trail = ctx.runtime.trail
+    drawn = 0
+    while n == 0 or drawn < n:
+        drawn += 1
+        mark = len(trail)
+        pick = RNG.random() if items is None else items[RNG.next_int(len(items))]
+        if ctx.unify(target, pick):
+            yield
+        undo(trail, mark)
 
 
 @STDLIB.action(".set_random_seed", min_args=1, max_args=1)
@@ -135,9 +161,11 @@ def fail(ctx: IAContext, args: list[Any]) -> bool:
 
 @STDLIB.action(".abolish", min_args=1, max_args=1)
 def abolish(ctx: IAContext, args: list[Any]) -> bool:
-    """Remove every belief that unifies with the argument (posting `-b` events)."""
+    """Remove every belief that unifies with the argument (posting `-b` events); a
+    variable with annotations (`_[source(ag2)]`) looks at every belief, as Jason's
+    Agent.abolish does for a variable."""
     pattern = deref(args[0])
-    if type(pattern) is not Struct:
+    if type(pattern) is not Struct and type(pattern) is not VarAnnot:
         raise ctx.error(f"expected a literal, not {term_str(pattern)}")
     rt = ctx.runtime
     trail = rt.trail
@@ -148,8 +176,10 @@ def abolish(ctx: IAContext, args: list[Any]) -> bool:
         undo(trail, mark)
         return ok
 
-    for b in rt.bb.abolish(pattern.key, keep=lambda b: not matches(b)):
-        rt.belief_changed(DEL_BEL, b, None)
+    keys = [pattern.key] if type(pattern) is Struct else list(rt.bb.preds)
+    for key in keys:
+        for b in rt.bb.abolish(key, keep=lambda b: not matches(b)):
+            rt.belief_changed(DEL_BEL, b, None)
     return True
 
 

@@ -194,13 +194,34 @@ def list_plans(ctx: IAContext, args: list[Any]) -> bool:
 
 
 @STDLIB.action(".plan_label", min_args=2, max_args=2)
-def plan_label(ctx: IAContext, args: list[Any]) -> bool:
-    """`.plan_label(P, L)`: P is the plan term of the plan labelled L."""
+def plan_label(ctx: IAContext, args: list[Any]) -> Iterator[None]:
+    """`.plan_label(P, L)` as Jason's plan_label.java: with L given, P is the plan term of
+    the plan labelled L (its label annotated with its sources); with P a plan term and L
+    free, L is P's own label; otherwise each plan of the library whose label and term
+    unify with L and P, in library order."""
+    plan_arg = deref(args[0])
     label = deref(args[1])
-    if type(label) is not Struct:
-        raise ctx.error(f"the label must be a literal, not {term_str(label)}")
-    plan = ctx.runtime.plans.labelled(label)
-    return plan is not None and ctx.unify(args[0], plan_term(plan, True))
+    rt = ctx.runtime
+    if type(plan_arg) is Var and type(label) is not Var:
+        if type(label) is not Struct:
+            label = Struct(term_str(label))
+        plan = rt.plans.labelled(label)
+        if plan is not None and ctx.unify(args[0], plan_term(plan, True)):
+            yield
+        return
+    if type(label) is Var and type(plan_arg) is PlanTerm:
+        src = plan_arg.src
+        if src.label is not None:
+            own = Struct(src.label.functor, src.label.args, tuple(src.annots), src.label.neg)
+            if ctx.unify(label, own):
+                yield
+        return
+    trail = rt.trail
+    for plan in list(rt.plans.plans):
+        mark = len(trail)
+        if ctx.unify(args[1], full_label(plan)) and ctx.unify(args[0], plan_term(plan, True)):
+            yield
+        undo(trail, mark)
 
 
 def _fresh(t: Term, frame: list[Any]) -> Term:

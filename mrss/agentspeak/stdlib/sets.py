@@ -8,10 +8,10 @@ import functools
 from collections.abc import Iterator
 from typing import Any
 
+from mrss.agentspeak.jrandom import RNG
 from mrss.agentspeak.registry import IAContext
 from mrss.agentspeak.stdlib import STDLIB
 from mrss.agentspeak.stdlib.lists import list_arg
-from mrss.agentspeak.stdlib.misc import RNG
 from mrss.agentspeak.terms import Term, compare, deref
 
 _key = functools.cmp_to_key(compare)

@@ -15,8 +15,8 @@
       .resume(sleepy); .wait(sleepy_done);
       !check_desire;
       !!idle(1); !!idle(2); .wait(ready(idle(1)) & ready(idle(2)));
-      .drop_all_intentions;
-      .print("never printed").
+      .drop_all_intentions;                  // all but this one, as Jason
+      .print("goes on").
 +!worker(N) <- !hold(N); .print("worker ", N, " continues"); +done(N).
 +!hold(N) <- +ready(N); .wait({+never(N)}); .print("never").
 -!hold(N) <- .print("hold(", N, ") failed, handled").

@@ -7,4 +7,6 @@
       X = math.random(10);
       if (X >= 0 & X < 10) { .print(random_below_10) };
       Y = math.random;
-      if (Y >= 0 & Y < 1) { .print(random_below_1) }.
+      if (Y >= 0 & Y < 1) { .print(random_below_1) };
+      .print(math.median([3, 1, 2, 5]), " ", math.median([4, 1, 7]), " ",
+             math.std_dev([2, 4, 4, 4, 5, 5, 7, 9])).

@@ -6,6 +6,7 @@
       .date(Y, Mo, D); if (Y > 2000 & Mo >= 1 & D >= 1) { .print("date ok") };
       .random(R); if (R >= 0 & R < 1) { .print("random ok") };
       .nano_time(T1); .nano_time(T2); if (T2 >= T1) { .println("nano_time ok") };
-      !custom; .print("end").
+      !custom; .list_files("/no/such/folder", Files); .print("files ", Files);
+      .print("end").
 +!custom <- .fail(reason(busy)).
 -!custom[reason(W)] <- .print("custom failure: ", W).
