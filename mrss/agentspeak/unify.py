@@ -4,6 +4,11 @@ Bindings are recorded on a trail -- a flat list of (frame, index) pairs, or (Var
 for runtime variables -- so a backtracking search can undo them with `undo`.
 Annotations follow Jason: the annotations of the first term must be a subset of the
 annotations of the second (each one unifying with some annotation there).
+
+One idea in one module: Jason's unifier (Unifier.unifiesNoUndo) is one recursion in
+which terms, lists, annotation subsets and annotated variables call each other over the
+same frames and trail; resolution reads those frames back. Cut apart, each piece would
+import the others.
 """
 
 from __future__ import annotations
