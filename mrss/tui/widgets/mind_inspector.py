@@ -1,8 +1,9 @@
 """MindInspector: the reasoner's beliefs, intentions (their stacks) and pending events.
 
 Fed with `mind.<agent>` snapshots (`MindSnapshot`), requested by the app every second or
-on a key. The tree is rebuilt only when a snapshot differs from the one shown, and
-nodes the operator opened or closed stay that way across rebuilds.
+on a key. A snapshot that differs from the one shown changes only the nodes that differ
+(a new belief is added in its place, a gone one removed, a changed intention relabelled),
+and nodes the operator opened or closed stay that way.
 
 History (`models/mind_history.py`): every snapshot that differs is kept with its time
 and the reasoner's incarnation. `[` and `]` step back and forward through them, `f`
@@ -14,6 +15,8 @@ branch lists those gone. The panel's subtitle says which snapshot shows.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from rich.text import Text
@@ -23,11 +26,12 @@ from textual.widgets.tree import TreeNode
 
 from mrss.messages import MindSnapshot
 from mrss.tui.models.mind_history import MindEntry, MindHistory
+from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 OPEN_BY_DEFAULT = ("beliefs", "intentions", "events", "removed")
 
 
-class MindInspector(Tree[str]):
+class MindInspector(SteadyScroll, Tree[str]):
     """A tree: agent > beliefs / intentions > stack frames / events."""
 
     BINDINGS: ClassVar[list[BindingType]] = [
@@ -46,6 +50,17 @@ class MindInspector(Tree[str]):
         self._expanded_keys: set[str] = set(OPEN_BY_DEFAULT)
         self._collapsed_keys: set[str] = set()
         self._seen: set[str] = set()
+
+    def _invalidate(self) -> None:
+        """Textual's Tree lays the whole screen out again at every node added or
+        removed; this panel's size does not depend on its content, so it only repaints
+        itself (SteadyScroll lays out when a scrollbar comes or goes). Replaces
+        `Tree._invalidate` (textual 8): the line cache, the node's update counter, the
+        width cache, then a repaint instead of a layout."""
+        self._clear_line_cache()
+        self._updates += 1
+        self.root._reset()
+        self.refresh()
 
     def show_snapshot(self, snap: MindSnapshot, when: float, incarnation: int = 0) -> None:
         """A snapshot arrived: kept in the history, shown if the inspector is live."""
@@ -104,44 +119,78 @@ class MindInspector(Tree[str]):
         self._show_entry()
 
     def _draw(self, snap: MindSnapshot) -> None:
+        """Bring the tree to `snap`: only the nodes whose label or place changed are
+        touched (a snapshot a second with ~150 beliefs and a few changed must not rebuild
+        them all: that was most of what the dashboard spent on the mind)."""
         added, removed = self.history.diff()
         fresh = set(added)
         self._remember_expansion(self.root)
         self.snapshot = snap
         self._seen = set()
-        self.clear()
-        root = self.root
-        root.set_label(Text.assemble(("agent ", "dim"), (snap.agent, "bold")))
+        root_label = Text.assemble(("agent ", "dim"), (snap.agent, "bold"))
+        if self.root.label != root_label:
+            self.root.set_label(root_label)
         label = Text(f"beliefs ({len(snap.beliefs)})")
         if added or removed:
             label.append(f"  +{len(added)} -{len(removed)} since the one before", "dim")
-        beliefs = self._branch(root, label, "beliefs")
-        for belief in snap.beliefs:
-            beliefs.add_leaf(Text.assemble(("+ ", "bold green"), (belief, "green"))
-                             if belief in fresh else Text(belief))
+        shape = [Shape("beliefs", label, _leaves(
+            (Text.assemble(("+ ", "bold green"), (belief, "green")) if belief in fresh
+             else Text(belief)) for belief in snap.beliefs))]
         if removed:
-            gone = self._branch(root, Text(f"removed since the one before ({len(removed)})",
-                                           style="red"), "removed")
-            for belief in removed:
-                gone.add_leaf(Text.assemble(("- ", "bold red"), (belief, "red")))
-        intentions = self._branch(root, f"intentions ({len(snap.intentions)})", "intentions")
-        for intention in snap.intentions:
-            self._intention(intentions, intention)
-        events = self._branch(root, f"events ({len(snap.events)})", "events")
-        for event in snap.events:
-            events.add_leaf(Text(event_text(event)))
-        root.expand()
+            shape.append(Shape("removed", Text(f"removed since the one before "
+                                               f"({len(removed)})", style="red"),
+                               _leaves(Text.assemble(("- ", "bold red"), (belief, "red"))
+                                       for belief in removed)))
+        shape.append(Shape("intentions", Text(f"intentions ({len(snap.intentions)})"),
+                           [self._intention(intention) for intention in snap.intentions]))
+        shape.append(Shape("events", Text(f"events ({len(snap.events)})"),
+                           _leaves(Text(event_text(event)) for event in snap.events)))
+        self._sync(self.root, shape)
+        self.root.expand()
         self._expanded_keys &= self._seen | set(OPEN_BY_DEFAULT)  # forget intentions that are gone
         self._collapsed_keys &= self._seen
 
-    def _branch(self, parent: TreeNode[str], label: str | Text, key: str) -> TreeNode[str]:
-        node = parent.add(label, data=key)
-        self._seen.add(key)
-        if key in self._expanded_keys and key not in self._collapsed_keys:
+    def _sync(self, parent: TreeNode[str], shape: list[Shape]) -> None:
+        """Make `parent`'s children `shape`, in order, reusing the nodes of the same key
+        that are already in that order and changing only labels that differ."""
+        wanted = {part.key for part in shape}
+        kept: list[TreeNode[str]] = []
+        for child in list(parent.children):
+            if child.data in wanted:
+                kept.append(child)
+            else:
+                child.remove()
+        by_key = {child.data: child for child in kept}
+        moved: set[int] = set()
+        at = 0
+        for part in shape:
+            while at < len(kept) and id(kept[at]) in moved:
+                at += 1
+            node = by_key.get(part.key)
+            if node is not None and at < len(kept) and kept[at] is node:
+                at += 1
+                if node.label != part.label:
+                    node.set_label(part.label)
+            else:
+                if node is not None:  # out of order: made again in its place
+                    moved.add(id(node))
+                    node.remove()
+                before = kept[at] if at < len(kept) else None
+                node = self._make(parent, part, before)
+            if part.children is not None:
+                self._seen.add(part.key)
+                self._sync(node, part.children)
+
+    def _make(self, parent: TreeNode[str], part: Shape,
+              before: TreeNode[str] | None) -> TreeNode[str]:
+        if part.children is None:
+            return parent.add_leaf(part.label, data=part.key, before=before)
+        node = parent.add(part.label, data=part.key, before=before)
+        if part.key in self._expanded_keys and part.key not in self._collapsed_keys:
             node.expand()
         return node
 
-    def _intention(self, parent: TreeNode[str], data: dict[str, Any]) -> None:
+    def _intention(self, data: dict[str, Any]) -> Shape:
         ident = data.get("id", "?")
         label = Text.assemble((f"#{ident} ", "bold"), (str(data.get("state", "")), "cyan"))
         if data.get("suspended"):
@@ -150,7 +199,7 @@ class MindInspector(Tree[str]):
             label.append(f"  waiting on {data['waiting_on']}", "yellow")
         key = f"intention:{ident}"
         self._expanded_keys.add(key)  # intentions open unless the operator closed them
-        node = self._branch(parent, label, key)
+        frames: list[Shape] = []
         stack = data.get("stack")
         for depth, frame in enumerate(stack if isinstance(stack, list) else []):
             if not isinstance(frame, dict):
@@ -159,20 +208,22 @@ class MindInspector(Tree[str]):
                                    (f"  {frame.get('source', '')}", "dim"))
             if depth == 0:
                 self._expanded_keys.add(f"{key}/0")  # the top of the stack: what runs now
-            fnode = self._branch(node, flabel, f"{key}/{depth}")
+            lines: list[Text] = []
             if frame.get("next"):
-                fnode.add_leaf(Text.assemble(("next: ", "dim"), str(frame["next"])))
+                lines.append(Text.assemble(("next: ", "dim"), str(frame["next"])))
             bindings = frame.get("bindings")
             if isinstance(bindings, dict) and bindings:
                 text = ", ".join(f"{k}={v}" for k, v in bindings.items())
-                fnode.add_leaf(Text.assemble(("bindings: ", "dim"), text))
+                lines.append(Text.assemble(("bindings: ", "dim"), text))
             if frame.get("plan"):
-                fnode.add_leaf(Text.assemble(("plan: ", "dim"), str(frame["plan"])))
+                lines.append(Text.assemble(("plan: ", "dim"), str(frame["plan"])))
+            frames.append(Shape(f"{key}/{depth}", flabel, _leaves(lines, f"{key}/{depth}")))
+        return Shape(key, label, frames)
 
     def _remember_expansion(self, node: TreeNode[str]) -> None:
         for child in node.children:
             key = child.data
-            if not key:
+            if not key or not child.allow_expand:
                 continue  # a leaf
             if child.is_expanded:
                 self._expanded_keys.add(key)
@@ -180,6 +231,27 @@ class MindInspector(Tree[str]):
             else:
                 self._collapsed_keys.add(key)
             self._remember_expansion(child)
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A node the tree should have: its key (unique among its siblings), its label, and
+    its children (None: a leaf)."""
+
+    key: str
+    label: Text
+    children: list[Shape] | None = None
+
+
+def _leaves(labels: Iterable[Text], scope: str = "") -> list[Shape]:
+    """Leaves keyed by their text (and which time that text repeats)."""
+    seen: dict[str, int] = {}
+    shape = []
+    for label in labels:
+        text = label.plain
+        n = seen[text] = seen.get(text, 0) + 1
+        shape.append(Shape(f"leaf:{scope}:{text}#{n}", label))
+    return shape
 
 
 def event_text(event: str) -> str:
