@@ -66,11 +66,11 @@ def test_a_late_dashboard_gets_the_whole_picture_then_progress_and_x_stops_the_s
 
             def progress() -> bool:
                 text = row_text(actions, uuid)[6]
-                if text.endswith(("█", "░")) and "/25 " in text:
+                if text.endswith(("█", "░")) and "/1000 " in text:
                     seen.add(text.split(" ")[0])
                 return len(seen) >= 2
 
-            await until(pilot, progress, timeout=15, message="progress moving (n/25)")
+            await until(pilot, progress, timeout=15, message="progress moving (n/1000)")
             # X: the root supervisor stops the whole system, in order
             await pilot.press("X")
             await until(pilot, lambda: "Stop the whole system tuidemo?" in
