@@ -15,7 +15,7 @@ branch lists those gone. The panel's subtitle says which snapshot shows.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -50,13 +50,22 @@ class MindInspector(SteadyScroll, Tree[str]):
         self._expanded_keys: set[str] = set(OPEN_BY_DEFAULT)
         self._collapsed_keys: set[str] = set()
         self._seen: set[str] = set()
+        self._drawing = False  # a snapshot is being drawn: one invalidation at its end
+        self._invalid = False
+        self._built: dict[int, Shape] = {}  # node id -> the shape it was made or set from
+        self._intentions: dict[str, Shape] = {}  # an intention's data (repr) -> its shape
+        self._leaf_shapes: dict[tuple[str, bool], Shape] = {}  # (key, fresh) -> leaf
 
     def _invalidate(self) -> None:
         """Textual's Tree lays the whole screen out again at every node added or
         removed; this panel's size does not depend on its content, so it only repaints
-        itself (SteadyScroll lays out when a scrollbar comes or goes). Replaces
-        `Tree._invalidate` (textual 8): the line cache, the node's update counter, the
-        width cache, then a repaint instead of a layout."""
+        itself (SteadyScroll lays out when a scrollbar comes or goes), and while a
+        snapshot is being drawn only once, at its end. Replaces `Tree._invalidate`
+        (textual 8): the line cache, the node's update counter, the width cache, then a
+        repaint instead of a layout."""
+        if self._drawing:
+            self._invalid = True
+            return
         self._clear_line_cache()
         self._updates += 1
         self.root._reset()
@@ -77,6 +86,7 @@ class MindInspector(SteadyScroll, Tree[str]):
         self.snapshot = None
         self.received_at = None
         self.shown = None
+        self._built.clear()
         self.clear()
         self.root.set_label("mind: no snapshot at this moment of the recording")
         self.border_subtitle = ""
@@ -121,32 +131,46 @@ class MindInspector(SteadyScroll, Tree[str]):
     def _draw(self, snap: MindSnapshot) -> None:
         """Bring the tree to `snap`: only the nodes whose label or place changed are
         touched (a snapshot a second with ~150 beliefs and a few changed must not rebuild
-        them all: that was most of what the dashboard spent on the mind)."""
+        them all: that was most of what the dashboard spent on the mind). A subtree
+        made from the same shape as before (an intention that did not change) is not
+        even compared."""
         added, removed = self.history.diff()
         fresh = set(added)
         self._remember_expansion(self.root)
         self.snapshot = snap
-        self._seen = set()
         root_label = Text.assemble(("agent ", "dim"), (snap.agent, "bold"))
         if self.root.label != root_label:
             self.root.set_label(root_label)
         label = Text(f"beliefs ({len(snap.beliefs)})")
         if added or removed:
             label.append(f"  +{len(added)} -{len(removed)} since the one before", "dim")
-        shape = [Shape("beliefs", label, _leaves(
-            (Text.assemble(("+ ", "bold green"), (belief, "green")) if belief in fresh
-             else Text(belief)) for belief in snap.beliefs))]
+        leaves, self._leaf_shapes = self._leaf_shapes, {}
+        shape = [Shape("beliefs", label, self._leaves(
+            leaves, ((belief, belief in fresh) for belief in snap.beliefs), _belief))]
         if removed:
             shape.append(Shape("removed", Text(f"removed since the one before "
                                                f"({len(removed)})", style="red"),
-                               _leaves(Text.assemble(("- ", "bold red"), (belief, "red"))
-                                       for belief in removed)))
+                               self._leaves(leaves, ((belief, False) for belief in removed),
+                                            _gone, "removed")))
+        intentions, self._intentions = self._intentions, {}
         shape.append(Shape("intentions", Text(f"intentions ({len(snap.intentions)})"),
-                           [self._intention(intention) for intention in snap.intentions]))
+                           [self._intention(intentions, data) for data in snap.intentions]))
         shape.append(Shape("events", Text(f"events ({len(snap.events)})"),
-                           _leaves(Text(event_text(event)) for event in snap.events)))
-        self._sync(self.root, shape)
-        self.root.expand()
+                           self._leaves(leaves, ((event_text(event), False)
+                                                 for event in snap.events),
+                                        _event, "events")))
+        self._seen = set()
+        for part in shape:
+            part.branch_keys(self._seen)
+        self._drawing = True
+        try:
+            self._sync(self.root, shape)
+            self.root.expand()
+        finally:
+            self._drawing = False
+        if self._invalid:
+            self._invalid = False
+            self._invalidate()
         self._expanded_keys &= self._seen | set(OPEN_BY_DEFAULT)  # forget intentions that are gone
         self._collapsed_keys &= self._seen
 
@@ -159,7 +183,7 @@ class MindInspector(SteadyScroll, Tree[str]):
             if child.data in wanted:
                 kept.append(child)
             else:
-                child.remove()
+                self._drop(child)
         by_key = {child.data: child for child in kept}
         moved: set[int] = set()
         at = 0
@@ -169,56 +193,59 @@ class MindInspector(SteadyScroll, Tree[str]):
             node = by_key.get(part.key)
             if node is not None and at < len(kept) and kept[at] is node:
                 at += 1
+                if self._built.get(node.id) is part:
+                    continue  # made from this very shape: nothing in it changed
                 if node.label != part.label:
                     node.set_label(part.label)
             else:
                 if node is not None:  # out of order: made again in its place
                     moved.add(id(node))
-                    node.remove()
+                    self._drop(node)
                 before = kept[at] if at < len(kept) else None
                 node = self._make(parent, part, before)
+            self._built[node.id] = part
             if part.children is not None:
-                self._seen.add(part.key)
                 self._sync(node, part.children)
+
+    def _drop(self, node: TreeNode[str]) -> None:
+        stack = [node]
+        while stack:
+            gone = stack.pop()
+            self._built.pop(gone.id, None)
+            stack.extend(gone.children)
+        node.remove()
 
     def _make(self, parent: TreeNode[str], part: Shape,
               before: TreeNode[str] | None) -> TreeNode[str]:
         if part.children is None:
             return parent.add_leaf(part.label, data=part.key, before=before)
         node = parent.add(part.label, data=part.key, before=before)
-        if part.key in self._expanded_keys and part.key not in self._collapsed_keys:
+        if ((part.open or part.key in self._expanded_keys)
+                and part.key not in self._collapsed_keys):
             node.expand()
         return node
 
-    def _intention(self, data: dict[str, Any]) -> Shape:
-        ident = data.get("id", "?")
-        label = Text.assemble((f"#{ident} ", "bold"), (str(data.get("state", "")), "cyan"))
-        if data.get("suspended"):
-            label.append(" suspended", "magenta")
-        if data.get("waiting_on"):
-            label.append(f"  waiting on {data['waiting_on']}", "yellow")
-        key = f"intention:{ident}"
-        self._expanded_keys.add(key)  # intentions open unless the operator closed them
-        frames: list[Shape] = []
-        stack = data.get("stack")
-        for depth, frame in enumerate(stack if isinstance(stack, list) else []):
-            if not isinstance(frame, dict):
-                continue
-            flabel = Text.assemble((str(frame.get("trigger", "?")), "bold"),
-                                   (f"  {frame.get('source', '')}", "dim"))
-            if depth == 0:
-                self._expanded_keys.add(f"{key}/0")  # the top of the stack: what runs now
-            lines: list[Text] = []
-            if frame.get("next"):
-                lines.append(Text.assemble(("next: ", "dim"), str(frame["next"])))
-            bindings = frame.get("bindings")
-            if isinstance(bindings, dict) and bindings:
-                text = ", ".join(f"{k}={v}" for k, v in bindings.items())
-                lines.append(Text.assemble(("bindings: ", "dim"), text))
-            if frame.get("plan"):
-                lines.append(Text.assemble(("plan: ", "dim"), str(frame["plan"])))
-            frames.append(Shape(f"{key}/{depth}", flabel, _leaves(lines, f"{key}/{depth}")))
-        return Shape(key, label, frames)
+    def _leaves(self, memo: dict[tuple[str, bool], Shape],
+                texts: Iterable[tuple[str, bool]], label: Callable[[str, bool], Text],
+                scope: str = "") -> list[Shape]:
+        """Leaves keyed by their text (and which time that text repeats), the same
+        shapes as the draw before for the same text."""
+        seen: dict[str, int] = {}
+        shape = []
+        for text, fresh in texts:
+            n = seen[text] = seen.get(text, 0) + 1
+            key = f"leaf:{scope}:{text}#{n}"
+            leaf = memo.get((key, fresh)) or Shape(key, label(text, fresh))
+            self._leaf_shapes[key, fresh] = leaf
+            shape.append(leaf)
+        return shape
+
+    def _intention(self, memo: dict[str, Shape], data: dict[str, Any]) -> Shape:
+        """An intention's subtree; the same shape as the draw before for the same data."""
+        signature = repr(data)
+        shape = memo.get(signature) or _intention(data)
+        self._intentions[signature] = shape
+        return shape
 
     def _remember_expansion(self, node: TreeNode[str]) -> None:
         for child in node.children:
@@ -233,25 +260,66 @@ class MindInspector(SteadyScroll, Tree[str]):
             self._remember_expansion(child)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Shape:
-    """A node the tree should have: its key (unique among its siblings), its label, and
-    its children (None: a leaf)."""
+    """A node the tree should have: its key (unique among its siblings), its label, its
+    children (None: a leaf), and whether it opens when first shown (unless the operator
+    closed it before)."""
 
     key: str
     label: Text
     children: list[Shape] | None = None
+    open: bool = False
+
+    def branch_keys(self, into: set[str]) -> None:
+        if self.children is not None:
+            into.add(self.key)
+            for child in self.children:
+                child.branch_keys(into)
 
 
-def _leaves(labels: Iterable[Text], scope: str = "") -> list[Shape]:
-    """Leaves keyed by their text (and which time that text repeats)."""
-    seen: dict[str, int] = {}
-    shape = []
-    for label in labels:
-        text = label.plain
-        n = seen[text] = seen.get(text, 0) + 1
-        shape.append(Shape(f"leaf:{scope}:{text}#{n}", label))
-    return shape
+def _belief(text: str, fresh: bool) -> Text:
+    return Text.assemble(("+ ", "bold green"), (text, "green")) if fresh else Text(text)
+
+
+def _gone(text: str, _: bool) -> Text:
+    return Text.assemble(("- ", "bold red"), (text, "red"))
+
+
+def _event(text: str, _: bool) -> Text:
+    return Text(text)
+
+
+def _intention(data: dict[str, Any]) -> Shape:
+    """An intention: open (unless the operator closed it), its stack's top open too."""
+    ident = data.get("id", "?")
+    label = Text.assemble((f"#{ident} ", "bold"), (str(data.get("state", "")), "cyan"))
+    if data.get("suspended"):
+        label.append(" suspended", "magenta")
+    if data.get("waiting_on"):
+        label.append(f"  waiting on {data['waiting_on']}", "yellow")
+    key = f"intention:{ident}"
+    frames: list[Shape] = []
+    stack = data.get("stack")
+    for depth, frame in enumerate(stack if isinstance(stack, list) else []):
+        if not isinstance(frame, dict):
+            continue
+        flabel = Text.assemble((str(frame.get("trigger", "?")), "bold"),
+                               (f"  {frame.get('source', '')}", "dim"))
+        lines: list[Text] = []
+        if frame.get("next"):
+            lines.append(Text.assemble(("next: ", "dim"), str(frame["next"])))
+        bindings = frame.get("bindings")
+        if isinstance(bindings, dict) and bindings:
+            text = ", ".join(f"{k}={v}" for k, v in bindings.items())
+            lines.append(Text.assemble(("bindings: ", "dim"), text))
+        if frame.get("plan"):
+            lines.append(Text.assemble(("plan: ", "dim"), str(frame["plan"])))
+        scope = f"{key}/{depth}"
+        frames.append(Shape(scope, flabel, [Shape(f"leaf:{scope}:{n}", line)
+                                            for n, line in enumerate(lines)],
+                            open=depth == 0))  # the top of the stack: what runs now
+    return Shape(key, label, frames, open=True)
 
 
 def event_text(event: str) -> str:
