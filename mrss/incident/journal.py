@@ -48,6 +48,11 @@ class IncidentReader:
                 data = f.read()
         except FileNotFoundError:
             return []
+        return self.take(data)
+
+    def take(self, data: bytes) -> list[Entry]:
+        """The good rows of the complete lines of `data` (the file's bytes from
+        `offset` on); what follows the last newline is left for the next read."""
         end = data.rfind(b"\n") + 1
         entries: list[Entry] = []
         start = 0
@@ -83,16 +88,18 @@ class IncidentReader:
 
 def read_incident(path: Path) -> tuple[list[Entry], list[IncidentFileError]]:
     """Every good row of a whole file, and what was wrong with the other lines (a last
-    line without its newline included: a row cut short)."""
-    reader = IncidentReader(path)
+    line without its newline included: a row cut short). The file is read once, so a
+    row appended meanwhile is either wholly in or out (a second read for the last line
+    once took a row being written after it for part of it). A record still being
+    written is read with `IncidentReader`, whose rows are the complete lines."""
     if not path.exists():
         raise FileNotFoundError(f"{path}: no incident record here")
-    entries = reader.read_new()
-    rest = reader.trailing()
-    if rest:
-        with open(path, "rb") as f:
-            f.seek(reader.offset)
-            tail = f.read()
+    with open(path, "rb") as f:
+        data = f.read()
+    reader = IncidentReader(path)
+    entries = reader.take(data)
+    tail = data[reader.offset:]
+    if tail:
         reader.line += 1
         entry = reader._decode(tail, reader.offset)  # a complete row lacking its newline
         if entry is not None:
@@ -100,7 +107,8 @@ def read_incident(path: Path) -> tuple[list[Entry], list[IncidentFileError]]:
         else:
             last = reader.problems.pop()
             reader.problems.append(IncidentFileError(
-                last.file, last.line, last.offset, f"cut short ({rest} bytes): {last.why}"))
+                last.file, last.line, last.offset,
+                f"cut short ({len(tail)} bytes): {last.why}"))
     return entries, reader.problems
 
 

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from mrss.incident.entries import Entry, IncidentKind
-from mrss.incident.journal import incident_file, read_incident
+from mrss.incident.journal import IncidentReader, incident_file
 from mrss.messages import Command, Percept
 from mrss.testing import wait_until
 from mrss.tui.app import MrssApp
@@ -25,10 +25,11 @@ TUI = Path(__file__).resolve().parent.parent / "tui"  # tuidemo: bus, rcl, reaso
 
 
 def rows(run_dir: Path) -> list[Entry]:
-    if not incident_file(run_dir).exists():
-        return []
-    entries, problems = read_incident(incident_file(run_dir))
-    assert not problems, problems
+    """The record's rows so far: its complete lines (the system may be writing the next;
+    `read_incident` is for a whole file, whose unfinished last line is a fault)."""
+    reader = IncidentReader(incident_file(run_dir))
+    entries = reader.read_new()
+    assert not reader.problems, reader.problems
     return entries
 
 
