@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 
 import pytest
 
 from mrss.bus import BusEndpoints
-from mrss.testing import wait_until
+from mrss.testing import WaitTimeout, wait_until
 from tests.bus.bus_helpers import BusProcess, Spawn
 
 
@@ -84,15 +85,27 @@ def test_10000_reliable_messages_survive_two_proxy_kills_exactly_once(
     def handled() -> list[str]:
         return [line.split()[1] for line in list(receiver.lines[1:])]
 
+    spawned = time.monotonic()
     for mark in (2500, 6000):
         wait_until(lambda mark=mark: len(handled()) >= mark, 30, message=f"{mark} handled")
         assert len(handled()) < count, "the run finished before the proxy was killed"
         proxy.kill()
+        killed = time.monotonic()
         if endpoints.direct:  # messages and acks go past the proxy: they flow without one
             down = len(handled())
-            wait_until(lambda down=down: len(handled()) >= down + 200, 30,
-                       message="messages handled while the proxy is down")
+            try:
+                wait_until(lambda down=down: len(handled()) >= down + 200, 30,
+                           message="messages handled while the proxy is down")
+            except WaitTimeout as exc:  # what the two ends said, for the next look
+                for peer in (sender, receiver):
+                    peer.stop()
+                raise AssertionError(
+                    f"{exc}; kill at mark {mark}, {killed - spawned:.2f} s after the proxy "
+                    f"was started; handled {down} then {len(handled())}; sender said "
+                    f"{sender.lines[1:]} {sender.stderr()[-3000:]!r}; receiver said "
+                    f"{receiver.stderr()[-3000:]!r}") from exc
         proxy = spawn(endpoints, "proxy")
+        spawned = time.monotonic()
 
     wait_until(lambda: sender.lines[1:] != [], 60, message="the sender to finish")
     assert sender.lines[1] == f"acked {count}"
