@@ -17,6 +17,7 @@ from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
 from mrss.agentspeak.intentions import PENDING_EVENT, Event
+from mrss.agentspeak.ownevent import OwnEvent
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -62,7 +63,7 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail", "res", "key")
+    __slots__ = ("lit", "tail", "res", "own")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
@@ -71,21 +72,26 @@ class Achieve(Instr):
         self.tail = False
         self.res = resolver(lit)
         # the plan-library key of the goal (`AchieveVar`'s is only known when it runs)
-        self.key = (ADD_ACH, lit.functor, len(lit.args), lit.neg) if type(lit) is Struct \
-            else None
+        self.own = OwnEvent((ADD_ACH, lit.functor, len(lit.args), lit.neg)) \
+            if type(lit) is Struct else None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         tail = self.tail
         im.pc = len(im.code) if tail else im.pc + 1
-        if rt.event_waiters or rt.atomic is not None or rt.plans.meta:
+        plans = rt.plans
+        if rt.event_waiters or rt.atomic is not None or plans.meta:
             rt.post_subgoal(it, lit, tail, self.line)
             return None
         events = rt.events
         # With no other event queued, the next cycle's deliberate phase would take this
         # one first: its plan is selected and pushed now (no Event, no queue round trip).
-        if not events and rt.intend_now(it, self.key, lit, tail):  # type: ignore[arg-type]
-            return True
+        if not events:
+            own: Any = self.own
+            if own.lib is not plans or own.version != plans.version:
+                own.refresh(plans)
+            if rt.intend_now(it, own.key, lit, tail, own):
+                return True
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
         it.line = self.line
         events.append(Event(ADD_ACH, lit, it, tail))
@@ -170,7 +176,7 @@ class TestGoal(Instr):
 class AddBelief(Instr):
     """`+b` (in front) or `+>b` (at the end); annotated `source(self)`."""
 
-    __slots__ = ("lit", "front", "res")
+    __slots__ = ("lit", "front", "res", "own")
     prefix = "+"
 
     def __init__(self, lit: Struct, front: bool, line: int) -> None:
@@ -178,6 +184,7 @@ class AddBelief(Instr):
         self.lit = lit
         self.front = front
         self.res = resolver(lit)
+        self.own = OwnEvent((ADD_BEL, lit.functor, len(lit.args), lit.neg))
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
@@ -185,14 +192,33 @@ class AddBelief(Instr):
             lit = rename(lit)
         im.pc += 1
         if rt.bb.add(lit, self.front):
-            return rt.belief_changed(ADD_BEL, lit, it, True)
+            return own_belief_event(rt, self.own, lit, it)
         return None
+
+
+def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> bool:
+    """`Runtime.belief_changed(op, lit, it, True)` for the `+b`/`-b` formula whose
+    `OwnEvent` is `own`: the same outcome, with the plan library's answers kept."""
+    plans = rt.plans
+    if own.lib is not plans or own.version != plans.version:
+        own.refresh(plans)
+    if own.relevant:
+        if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
+            if (not rt.events and not rt.event_waiters and rt.atomic is None
+                    and not plans.meta and rt.intend_now(it, own.key, lit, False, own)):
+                return True
+            it.state = PENDING_EVENT
+            rt.post(Event(own.key[0], lit, it))
+            return False
+    elif not rt.event_waiters and (rt.on_percept_gone is None or own.key[0] != DEL_BEL):
+        return False
+    return rt.belief_changed(own.key[0], lit, it, True)
 
 
 class DelBelief(Instr):
     """`-b`: remove the first matching belief (its `source(self)`); never fails."""
 
-    __slots__ = ("lit", "query", "res")
+    __slots__ = ("lit", "query", "res", "own")
     prefix = "-"
 
     def __init__(self, lit: Struct, line: int) -> None:
@@ -200,6 +226,7 @@ class DelBelief(Instr):
         self.lit = lit
         self.query = LiteralQuery(lit)
         self.res = resolver(lit)
+        self.own = OwnEvent((DEL_BEL, lit.functor, len(lit.args), lit.neg))
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         frame = im.frame
@@ -212,7 +239,7 @@ class DelBelief(Instr):
                 return None
             lit = self.res(frame)
         if rt.bb.remove(lit):
-            return rt.belief_changed(DEL_BEL, lit, it, True)
+            return own_belief_event(rt, self.own, lit, it)
         return None
 
 
