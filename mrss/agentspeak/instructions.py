@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
-from mrss.agentspeak.intentions import PENDING_EVENT, Event
+from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
 from mrss.agentspeak.ownevent import OwnEvent
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
@@ -37,7 +37,7 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import resolve, undo
 
 if TYPE_CHECKING:
-    from mrss.agentspeak.intentions import IntendedMeans, Intention
+    from mrss.agentspeak.intentions import Intention
     from mrss.agentspeak.registry import InternalAction
     from mrss.agentspeak.runtime import Runtime
 
@@ -63,13 +63,18 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail", "res", "own")
+    __slots__ = ("lit", "tail", "res", "own", "self_call")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.tail = False
+        # the goal's trigger is its plan's own (same functor, arity and negation, `+!`):
+        # in tail position, the tail-recursion rule then holds unless the plan was
+        # entered for a failure (`fail_target`) or the goal has `-!` plans (set by
+        # `compile.Compiler.plan`, with `tail`)
+        self.self_call = False
         self.res = resolver(lit)
         # the plan-library key of the goal (`AchieveVar`'s is only known when it runs)
         self.own = OwnEvent((ADD_ACH, lit.functor, len(lit.args), lit.neg)) \
@@ -85,13 +90,40 @@ class Achieve(Instr):
             return None
         events = rt.events
         # With no other event queued, the next cycle's deliberate phase would take this
-        # one first: its plan is selected and pushed now (no Event, no queue round trip).
+        # one first: its plan is selected and pushed now (no Event, no queue round trip),
+        # as `Runtime.intend_now` does, written out for a goal of a known key posted
+        # by the top intended means `im`.
         if not events:
             own: Any = self.own
             if own.lib is not plans or own.version != plans.version:
                 own.refresh(plans)
-            if rt.intend_now(it, own.key, lit, tail, own):
-                return True
+            if tail and not self.self_call:
+                if rt.intend_now(it, own.key, lit, tail, own):
+                    return True
+            elif (select := own.select) is not None:
+                errors = rt.extras.context_errors
+                found = select(rt, lit, errors)
+                if type(found) is tuple and not errors:
+                    chosen, frame = found
+                    if tail and own.no_fail_plan and im.fail_target is None:
+                        # tail-recursion optimisation: `im`, finished, is replaced
+                        im.plan = chosen
+                        im.frame = frame
+                        im.pc = 0
+                        im.code = chosen.code
+                        im.lit = lit
+                        im.loops = None
+                    else:
+                        it.stack.append(IntendedMeans(chosen, frame, lit, ADD_ACH))
+                    if chosen.atomic:
+                        rt.atomic = it
+                    it.state = RUNNABLE
+                    if (not it.in_queue and not it.suspended and not it.dropped
+                            and it is not rt.atomic):
+                        it.in_queue = True
+                        rt.runq.append(it)
+                    return True
+                errors.clear()
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
         it.line = self.line
         events.append(Event(ADD_ACH, lit, it, tail))
@@ -204,9 +236,22 @@ def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> 
         own.refresh(plans)
     if own.relevant:
         if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
-            if (not rt.events and not rt.event_waiters and rt.atomic is None
-                    and not plans.meta and rt.intend_now(it, own.key, lit, False, own)):
-                return True
+            if not rt.events and not rt.event_waiters and rt.atomic is None and not plans.meta:
+                # `Runtime.intend_now`, written out for a belief event of a known key
+                errors = rt.extras.context_errors
+                found = own.select(rt, lit, errors)  # type: ignore[misc]
+                if type(found) is tuple and not errors:
+                    chosen, frame = found
+                    it.stack.append(IntendedMeans(chosen, frame, lit, own.key[0]))
+                    if chosen.atomic:
+                        rt.atomic = it
+                    it.state = RUNNABLE
+                    if (not it.in_queue and not it.suspended and not it.dropped
+                            and it is not rt.atomic):
+                        it.in_queue = True
+                        rt.runq.append(it)
+                    return True
+                errors.clear()
             it.state = PENDING_EVENT
             rt.post(Event(own.key[0], lit, it))
             return False
