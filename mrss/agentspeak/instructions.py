@@ -93,7 +93,7 @@ class Achieve(Instr):
         # one first: its plan is selected and pushed now (no Event, no queue round trip),
         # as `Runtime.intend_now` does, written out for a goal of a known key posted
         # by the top intended means `im`.
-        if not events:
+        if not events and rt.intend_at_once:
             own: Any = self.own
             if own.lib is not plans or own.version != plans.version:
                 own.refresh(plans)
@@ -236,7 +236,8 @@ def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> 
         own.refresh(plans)
     if own.relevant:
         if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
-            if not rt.events and not rt.event_waiters and rt.atomic is None and not plans.meta:
+            if (not rt.events and not rt.event_waiters and rt.atomic is None
+                    and not plans.meta and rt.intend_at_once):
                 # `Runtime.intend_now`, written out for a belief event of a known key
                 errors = rt.extras.context_errors
                 found = own.select(rt, lit, errors)  # type: ignore[misc]

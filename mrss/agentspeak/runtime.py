@@ -92,6 +92,12 @@ class Extras:
 class Runtime:
     """State and transitions of one agent; not thread-safe (see `Agent`)."""
 
+    # A formula's own event (`!g`, `+b`, `-b`) is handled in its step when that is the
+    # same as through the queue (`intend_now`, and its forms written out in
+    # `instructions`); False sends every event through the queue: the reference the
+    # tests compare the at-once handling with.
+    intend_at_once = True
+
     def __init__(self, name: str, host: Host | None, registry: Registry,
                  clock: Callable[[], float], out: Callable[[str], None]) -> None:
         self.name = name
@@ -203,7 +209,8 @@ class Runtime:
         if key in self.plans.index:
             if it is not None:
                 if (now and not self.events and not self.event_waiters and self.atomic is None
-                        and not self.plans.meta and self.intend_now(it, key, lit, False)):
+                        and not self.plans.meta and self.intend_at_once
+                        and self.intend_now(it, key, lit, False)):
                     return True
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
