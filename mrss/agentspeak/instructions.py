@@ -37,6 +37,7 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import resolve, undo
 
 if TYPE_CHECKING:
+    from mrss.agentspeak.beliefs import BeliefBase, PredStore
     from mrss.agentspeak.intentions import Intention
     from mrss.agentspeak.registry import InternalAction
     from mrss.agentspeak.runtime import Runtime
@@ -208,7 +209,7 @@ class TestGoal(Instr):
 class AddBelief(Instr):
     """`+b` (in front) or `+>b` (at the end); annotated `source(self)`."""
 
-    __slots__ = ("lit", "front", "res", "own")
+    __slots__ = ("lit", "front", "res", "own", "bb", "store")
     prefix = "+"
 
     def __init__(self, lit: Struct, front: bool, line: int) -> None:
@@ -217,13 +218,21 @@ class AddBelief(Instr):
         self.front = front
         self.res = resolver(lit)
         self.own = OwnEvent((ADD_BEL, lit.functor, len(lit.args), lit.neg))
+        # the store of the literal's predicate in belief base `bb` (stores are never
+        # replaced or dropped: kept for the agent that last ran this formula)
+        self.bb: BeliefBase | None = None
+        self.store: PredStore | None = None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         if not lit.ground:
             lit = rename(lit)
         im.pc += 1
-        if rt.bb.add(lit, self.front):
+        bb = rt.bb
+        if self.bb is not bb:
+            self.store = bb._store(self.own.key[1:])  # type: ignore[arg-type]
+            self.bb = bb
+        if bb.add(lit, self.front, self.store):
             return own_belief_event(rt, self.own, lit, it)
         return None
 
@@ -264,7 +273,7 @@ def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> 
 class DelBelief(Instr):
     """`-b`: remove the first matching belief (its `source(self)`); never fails."""
 
-    __slots__ = ("lit", "query", "res", "own")
+    __slots__ = ("lit", "query", "res", "own", "bb", "store")
     prefix = "-"
 
     def __init__(self, lit: Struct, line: int) -> None:
@@ -273,6 +282,8 @@ class DelBelief(Instr):
         self.query = LiteralQuery(lit)
         self.res = resolver(lit)
         self.own = OwnEvent((DEL_BEL, lit.functor, len(lit.args), lit.neg))
+        self.bb: BeliefBase | None = None  # as `AddBelief`'s, once the store exists
+        self.store: PredStore | None = None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         frame = im.frame
@@ -284,7 +295,14 @@ class DelBelief(Instr):
             else:
                 return None
             lit = self.res(frame)
-        if rt.bb.remove(lit):
+        bb = rt.bb
+        if self.bb is not bb:
+            store = bb.store(self.own.key[1:])  # type: ignore[arg-type]
+            if store is None:
+                return None  # no belief of the predicate: nothing to remove
+            self.store = store
+            self.bb = bb
+        if bb.remove(lit, self.store):
             return own_belief_event(rt, self.own, lit, it)
         return None
 
