@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak import ownevent
 from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
@@ -94,7 +95,7 @@ class Achieve(Instr):
         # one first: its plan is selected and pushed now (no Event, no queue round trip),
         # as `Runtime.intend_now` does, written out for a goal of a known key posted
         # by the top intended means `im`.
-        if not events and rt.intend_at_once:
+        if not events and ownevent.AT_ONCE:
             own: Any = self.own
             if own.lib is not plans or own.version != plans.version:
                 own.refresh(plans)
@@ -230,7 +231,7 @@ class AddBelief(Instr):
         im.pc += 1
         bb = rt.bb
         if self.bb is not bb:
-            self.store = bb._store(self.own.key[1:])  # type: ignore[arg-type]
+            self.store = bb._store(self.own.key[1:])
             self.bb = bb
         if bb.add(lit, self.front, self.store):
             return own_belief_event(rt, self.own, lit, it)
@@ -246,7 +247,7 @@ def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> 
     if own.relevant:
         if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
             if (not rt.events and not rt.event_waiters and rt.atomic is None
-                    and not plans.meta and rt.intend_at_once):
+                    and not plans.meta and ownevent.AT_ONCE):
                 # `Runtime.intend_now`, written out for a belief event of a known key
                 errors = rt.extras.context_errors
                 found = own.select(rt, lit, errors)  # type: ignore[misc]
@@ -297,7 +298,7 @@ class DelBelief(Instr):
             lit = self.res(frame)
         bb = rt.bb
         if self.bb is not bb:
-            store = bb.store(self.own.key[1:])  # type: ignore[arg-type]
+            store = bb.store(self.own.key[1:])
             if store is None:
                 return None  # no belief of the predicate: nothing to remove
             self.store = store

@@ -16,6 +16,13 @@ from typing import TYPE_CHECKING
 
 from mrss.agentspeak.terms import DEL_ACH
 
+# A formula's own event (`!g`, `+b`, `-b`) is handled in its step when that is the same
+# as through the queue (`Runtime.intend_now`, and its forms written out in
+# `instructions`); False sends every event through the queue: the reference the tests
+# compare the at-once handling with. (A module global: read on every such step, it is
+# cheaper here than as a class attribute read through the agent.)
+AT_ONCE = True
+
 if TYPE_CHECKING:
     from mrss.agentspeak.plans import PlanKey, PlanLibrary
     from mrss.agentspeak.selection import Selector

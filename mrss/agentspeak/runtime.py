@@ -40,7 +40,7 @@ from collections import deque
 from collections.abc import Callable, Hashable
 from typing import Any
 
-from mrss.agentspeak import goals, goalstates, hostactions, timers
+from mrss.agentspeak import goals, goalstates, hostactions, ownevent, timers
 from mrss.agentspeak.beliefs import BeliefBase
 from mrss.agentspeak.depth import DEPTH_ERROR, depth_message
 from mrss.agentspeak.errors import AslRuntimeError
@@ -91,12 +91,6 @@ class Extras:
 
 class Runtime:
     """State and transitions of one agent; not thread-safe (see `Agent`)."""
-
-    # A formula's own event (`!g`, `+b`, `-b`) is handled in its step when that is the
-    # same as through the queue (`intend_now`, and its forms written out in
-    # `instructions`); False sends every event through the queue: the reference the
-    # tests compare the at-once handling with.
-    intend_at_once = True
 
     def __init__(self, name: str, host: Host | None, registry: Registry,
                  clock: Callable[[], float], out: Callable[[str], None]) -> None:
@@ -209,7 +203,7 @@ class Runtime:
         if key in self.plans.index:
             if it is not None:
                 if (now and not self.events and not self.event_waiters and self.atomic is None
-                        and not self.plans.meta and self.intend_at_once
+                        and not self.plans.meta and ownevent.AT_ONCE
                         and self.intend_now(it, key, lit, False)):
                     return True
                 it.state = PENDING_EVENT

@@ -1,7 +1,7 @@
 """A sub-goal or belief event that a body posts while no other event is queued is
 handled at once (`Runtime.intend_now`) instead of going through the event queue: the
 same cycles, the same interleaving of intentions, the same failures and warnings as
-when every event takes the queue (the reference: `Runtime.intend_at_once` off)."""
+when every event takes the queue (the reference: `ownevent.AT_ONCE` off)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import logging
 
 import pytest
 
+from mrss.agentspeak import ownevent
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.runtime import Runtime
 from mrss.agentspeak.terms import Struct
@@ -78,7 +79,7 @@ def test_same_as_through_the_queue(name: str, monkeypatch: pytest.MonkeyPatch,
         fused = _run(src)
     fused_log = [r.getMessage() for r in caplog.records]
     caplog.clear()
-    monkeypatch.setattr(Runtime, "intend_at_once", False)
+    monkeypatch.setattr(ownevent, "AT_ONCE", False)
     monkeypatch.setattr(Runtime, "intend_now", lambda *args, **kwargs: False)
     with caplog.at_level(logging.WARNING, logger="mrss.agentspeak"):
         queued = _run(src)
