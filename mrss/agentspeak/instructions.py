@@ -1,6 +1,6 @@
 """Compiled plan-body formulas: one instruction object per formula, run one per step.
 
-One idea in one module (~430 lines): the instruction set, one small class per formula
+One idea in one module (~500 lines): the instruction set, one small class per formula
 kind (as Jason's asSemantics keeps its body-literal cases together), so the
 interpreter's whole repertoire is read in one place.
 
@@ -18,7 +18,7 @@ from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
 from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
-from mrss.agentspeak.ownevent import OwnEvent
+from mrss.agentspeak.ownevent import OwnEvent, belief_event
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -234,41 +234,8 @@ class AddBelief(Instr):
             self.store = bb._store(self.own.key[1:])
             self.bb = bb
         if bb.add(lit, self.front, self.store):
-            return own_belief_event(rt, self.own, lit, it)
+            return belief_event(rt, self.own, lit, it)
         return None
-
-
-def own_belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> bool:
-    """`Runtime.belief_changed(op, lit, it, True)` for the `+b`/`-b` formula whose
-    `OwnEvent` is `own`: the same outcome, with the plan library's answers kept."""
-    plans = rt.plans
-    if own.lib is not plans or own.version != plans.version:
-        own.refresh(plans)
-    if own.relevant:
-        if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
-            if (not rt.events and not rt.event_waiters and rt.atomic is None
-                    and not plans.meta and ownevent.AT_ONCE):
-                # `Runtime.intend_now`, written out for a belief event of a known key
-                errors = rt.extras.context_errors
-                found = own.select(rt, lit, errors)  # type: ignore[misc]
-                if type(found) is tuple and not errors:
-                    chosen, frame = found
-                    it.stack.append(IntendedMeans(chosen, frame, lit, own.key[0]))
-                    if chosen.atomic:
-                        rt.atomic = it
-                    it.state = RUNNABLE
-                    if (not it.in_queue and not it.suspended and not it.dropped
-                            and it is not rt.atomic):
-                        it.in_queue = True
-                        rt.runq.append(it)
-                    return True
-                errors.clear()
-            it.state = PENDING_EVENT
-            rt.post(Event(own.key[0], lit, it))
-            return False
-    elif not rt.event_waiters and (rt.on_percept_gone is None or own.key[0] != DEL_BEL):
-        return False
-    return rt.belief_changed(own.key[0], lit, it, True)
 
 
 class DelBelief(Instr):
@@ -304,7 +271,7 @@ class DelBelief(Instr):
             self.store = store
             self.bb = bb
         if bb.remove(lit, self.store):
-            return own_belief_event(rt, self.own, lit, it)
+            return belief_event(rt, self.own, lit, it)
         return None
 
 

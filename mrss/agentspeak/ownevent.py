@@ -1,20 +1,23 @@
-"""What a body formula keeps of the plan library for the event it posts itself.
+"""A body formula's own event, handled in the formula's step.
 
 `!g`, `+b` and `-b` post an event of one fixed key (operator, functor, arity,
-negation) on their own intention, and `Runtime.intend_now` usually handles it in the
-same step. Looking the key up per step (its compiled selection, whether it has plans,
-whether a `-!g` plan forbids the tail-recursion optimisation) costs two dictionary
-lookups of a tuple key, which Python hashes anew each time: about a fifth of a cycle
-of `+!count(I, N) : I < N <- !count(I + 1, N).` An `OwnEvent` keeps those answers
-for the formula and asks again only when the library has changed (`PlanLibrary.version`)
-or is another agent's.
+negation) on their own intention, and when nothing else could tell the difference it
+is handled in the same step (`Runtime.intend_now`): its plan selected and pushed, no
+`Event`, no queue. Looking the key up per step (its compiled selection, whether it has
+plans, whether a `-!g` plan forbids the tail-recursion optimisation) costs two
+dictionary lookups of a tuple key, which Python hashes anew each time: about a fifth of
+a cycle of `+!count(I, N) : I < N <- !count(I + 1, N).` An `OwnEvent` keeps those
+answers for the formula and asks again only when the library has changed
+(`PlanLibrary.version`) or is another agent's. `belief_event` is the at-once handling
+of `+b`/`-b` with them (`!g`'s is written out in `instructions.Achieve`).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from mrss.agentspeak.terms import DEL_ACH
+from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
+from mrss.agentspeak.terms import DEL_ACH, DEL_BEL, Struct
 
 # A formula's own event (`!g`, `+b`, `-b`) is handled in its step when that is the same
 # as through the queue (`Runtime.intend_now`, and its forms written out in
@@ -24,7 +27,9 @@ from mrss.agentspeak.terms import DEL_ACH
 AT_ONCE = True
 
 if TYPE_CHECKING:
+    from mrss.agentspeak.intentions import Intention
     from mrss.agentspeak.plans import PlanKey, PlanLibrary
+    from mrss.agentspeak.runtime import Runtime
     from mrss.agentspeak.selection import Selector
 
 
@@ -53,3 +58,37 @@ class OwnEvent:
         self.no_fail_plan = (DEL_ACH, key[1], key[2], key[3]) not in plans.index
         self.lib = plans
         self.version = plans.version
+
+
+def belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> bool:
+    """`Runtime.belief_changed(op, lit, it, True)` for the `+b`/`-b` formula whose
+    `OwnEvent` is `own`: the same outcome, with the plan library's answers kept and
+    `Runtime.intend_now` written out."""
+    plans = rt.plans
+    if own.lib is not plans or own.version != plans.version:
+        own.refresh(plans)
+    if own.relevant:
+        if rt.on_percept_gone is None or own.key[0] != DEL_BEL:
+            if (not rt.events and not rt.event_waiters and rt.atomic is None
+                    and not plans.meta and AT_ONCE):
+                # `Runtime.intend_now`, written out for a belief event of a known key
+                errors = rt.extras.context_errors
+                found = own.select(rt, lit, errors)  # type: ignore[misc]
+                if type(found) is tuple and not errors:
+                    chosen, frame = found
+                    it.stack.append(IntendedMeans(chosen, frame, lit, own.key[0]))
+                    if chosen.atomic:
+                        rt.atomic = it
+                    it.state = RUNNABLE
+                    if (not it.in_queue and not it.suspended and not it.dropped
+                            and it is not rt.atomic):
+                        it.in_queue = True
+                        rt.runq.append(it)
+                    return True
+                errors.clear()
+            it.state = PENDING_EVENT
+            rt.post(Event(own.key[0], lit, it))
+            return False
+    elif not rt.event_waiters and (rt.on_percept_gone is None or own.key[0] != DEL_BEL):
+        return False
+    return rt.belief_changed(own.key[0], lit, it, True)
