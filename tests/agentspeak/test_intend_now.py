@@ -6,6 +6,7 @@ when every event takes the queue (the reference: `ownevent.AT_ONCE` off)."""
 from __future__ import annotations
 
 import logging
+from typing import Any
 
 import pytest
 
@@ -53,6 +54,14 @@ PROGRAMS = {
 +!g(0) <- .print(g0).
 +!g(N) : N > 0 <- .print(g, N); !g(N - 1).
 """,
+    "tail calls": """!a(3). !b(3).
++!a(0).
++!a(N) : N > 0 <- !other(N).
++!other(N) <- !a(N - 1).
++!b(0).
++!b(N) : N > 0 <- .print(b, N); !b(N - 1).
+-!b(N) <- .print(failed, N).
+""",
     "belief events": """!a. !b.
 +!a <- +p(1); +p(1); -p(2); -p(1); -+q(1); -+q(2); .print(a).
 +!b <- .print(b1); +p(3); .print(b2).
@@ -86,6 +95,32 @@ def test_same_as_through_the_queue(name: str, monkeypatch: pytest.MonkeyPatch,
     assert fused == queued
     assert fused_log == [r.getMessage() for r in caplog.records]
     assert fused[0], "the program printed something"
+
+
+def _depths(src: str, monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, int]]:
+    """(intention, stack depth) each time a formula is about to run: the plan an event
+    pushes is on the stack by then, whether the event was handled at once or queued."""
+    seen: list[tuple[int, int]] = []
+    run_step = Runtime.run_step
+
+    def recording(rt: Runtime, it: Any) -> None:
+        seen.append((it.id, len(it.stack)))
+        run_step(rt, it)
+
+    monkeypatch.setattr(Runtime, "run_step", recording)
+    Agent(src, out=lambda _: None).run_until_idle()
+    monkeypatch.setattr(Runtime, "run_step", run_step)
+    return seen
+
+
+@pytest.mark.parametrize("name", sorted(PROGRAMS))
+def test_stacks_as_through_the_queue(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tail-recursion optimisation (and where it must not apply: a `-!g` plan, a
+    tail call to another goal) is the queue's: each formula runs on as deep a stack."""
+    fused = _depths(PROGRAMS[name], monkeypatch)
+    monkeypatch.setattr(ownevent, "AT_ONCE", False)
+    assert fused == _depths(PROGRAMS[name], monkeypatch)
+    assert fused
 
 
 def test_a_context_error_is_warned_once(caplog: pytest.LogCaptureFixture) -> None:
