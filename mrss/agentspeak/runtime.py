@@ -352,6 +352,13 @@ class Runtime:
                     self.trail.clear()
                 if intended:  # a sub-goal's plan was pushed (`intend_now`): it is
                     return    # runnable, and its first step is the next cycle's
+                if im.pc < len(im.code) and stack and stack[-1] is im:
+                    # the plan goes on: nothing to clear (`pop_finished`, inline)
+                    if (it.state is RUNNABLE and not it.dropped and not it.in_queue
+                            and not it.suspended and it is not self.atomic):
+                        it.in_queue = True
+                        self.runq.append(it)
+                    return
         if it.state is RUNNABLE and not it.dropped:
             self.pop_finished(it)
 
