@@ -228,11 +228,16 @@ class BeliefBase:
         old = s.front.get(args)
         if old is None:
             old = s.back.get(args)
-        if old is None:
-            s._add(args, lit, front)
-            if not front and s.rules:
-                s.seq += 1
-                s.born[args] = s.seq
+        if old is None:  # a new fact (`PredStore._add`, inline)
+            if front:
+                s.front[args] = lit
+            else:
+                s.back[args] = lit
+                if s.rules:
+                    s.seq += 1
+                    s.born[args] = s.seq
+            if s.first is not None:
+                s._index(args, front)
             self.size += 1
             return True
         merged = _merge(old.annots, lit.annots)
@@ -249,13 +254,24 @@ class BeliefBase:
             s = self.preds.get((lit.functor, len(lit.args), lit.neg))
             if s is None:
                 return False
-        old = s.front.get(lit.args)
+        args = lit.args
+        in_front = True
+        old = s.front.get(args)
         if old is None:
-            old = s.back.get(lit.args)
-        if old is None:
-            return False
+            in_front = False
+            old = s.back.get(args)
+            if old is None:
+                return False
         if not lit.annots or lit.annots == old.annots:  # every annotation goes
-            s._pop(lit.args)
+            # `PredStore._pop`, inline
+            if s.first is not None:
+                s._unindex(args)
+            if in_front:
+                del s.front[args]
+            else:
+                del s.back[args]
+                if s.born:
+                    s.born.pop(args, None)
             self.size -= 1
             return True
         trail: list[Any] = []
