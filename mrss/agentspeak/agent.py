@@ -229,11 +229,29 @@ class Agent(Runtime):
         """Run cycles until nothing is left to do now (parked intentions may remain);
         returns the number of busy cycles."""
         n = 0
+        limit = -1 if max_cycles is None else max(max_cycles, 1)
         step = self.step
-        while step():
-            n += 1
-            if max_cycles is not None and n >= max_cycles:
+        run_step = self.run_step
+        # the cycle's queues, never replaced: read here without an attribute lookup
+        runq, events, atomic_events = self.runq, self.events, self.atomic_events
+        completed, inbox, timers = self.completed, self._inbox, self.timers
+        while n != limit:
+            # The lone intention's lane: one runnable intention and nothing else for a
+            # cycle to do (no input, event, finished action, timer or [atomic] one):
+            # `step` would only take it from the queue and run one formula of it.
+            if (len(runq) == 1 and not events and not inbox and not completed
+                    and not atomic_events and not timers and self.atomic is None):
+                it = runq[0]
+                if it.state is RUNNABLE and not it.dropped and not it.suspended:
+                    runq.popleft()
+                    it.in_queue = False
+                    self.cycle += 1
+                    run_step(it)
+                    n += 1
+                    continue
+            if not step():
                 break
+            n += 1
         return n
 
     def has_work(self) -> bool:

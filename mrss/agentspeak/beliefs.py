@@ -218,17 +218,26 @@ class BeliefBase:
             s = self.preds[key] = PredStore()
         return s
 
-    def add(self, lit: Struct, front: bool = True) -> bool:
+    def add(self, lit: Struct, front: bool = True, s: PredStore | None = None) -> bool:
         """Add `lit` (annotations merge into an existing equal belief); False if nothing
-        new was added, in which case no event must be posted."""
-        s = self._store((lit.functor, len(lit.args), lit.neg))
+        new was added, in which case no event must be posted. `s`, when given, is the
+        store of `lit`'s predicate (a body formula's, kept: `instructions.AddBelief`)."""
+        if s is None:
+            s = self._store((lit.functor, len(lit.args), lit.neg))
         args = lit.args
-        old = s.get(args)
+        old = s.front.get(args)
         if old is None:
-            s._add(args, lit, front)
-            if not front and s.rules:
-                s.seq += 1
-                s.born[args] = s.seq
+            old = s.back.get(args)
+        if old is None:  # a new fact (`PredStore._add`, inline)
+            if front:
+                s.front[args] = lit
+            else:
+                s.back[args] = lit
+                if s.rules:
+                    s.seq += 1
+                    s.born[args] = s.seq
+            if s.first is not None:
+                s._index(args, front)
             self.size += 1
             return True
         merged = _merge(old.annots, lit.annots)
@@ -237,17 +246,32 @@ class BeliefBase:
         s._put(args, Struct(old.functor, old.args, merged, old.neg))
         return True
 
-    def remove(self, lit: Struct) -> bool:
+    def remove(self, lit: Struct, s: PredStore | None = None) -> bool:
         """Remove the annotations of ground `lit` from the equal belief; the belief goes
-        when no source is left. False when there was no such belief (not a failure)."""
-        s = self.preds.get((lit.functor, len(lit.args), lit.neg))
+        when no source is left. False when there was no such belief (not a failure).
+        `s`, when given, is the store of `lit`'s predicate (`instructions.DelBelief`)."""
         if s is None:
-            return False
-        old = s.get(lit.args)
+            s = self.preds.get((lit.functor, len(lit.args), lit.neg))
+            if s is None:
+                return False
+        args = lit.args
+        in_front = True
+        old = s.front.get(args)
         if old is None:
-            return False
+            in_front = False
+            old = s.back.get(args)
+            if old is None:
+                return False
         if not lit.annots or lit.annots == old.annots:  # every annotation goes
-            s._pop(lit.args)
+            # `PredStore._pop`, inline
+            if s.first is not None:
+                s._unindex(args)
+            if in_front:
+                del s.front[args]
+            else:
+                del s.back[args]
+                if s.born:
+                    s.born.pop(args, None)
             self.size -= 1
             return True
         trail: list[Any] = []

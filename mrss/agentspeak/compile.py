@@ -52,6 +52,7 @@ from mrss.agentspeak.syntax import (
 )
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
+    ADD_ACH,
     OP_TEXT,
     SOURCE_SELF,
     AnnotTail,
@@ -232,6 +233,11 @@ class _Compiler:
                     if j <= i:
                         break
                 ins.tail = j >= len(code)
+                g = ins.lit
+                ins.self_call = (src.op == ADD_ACH and type(g) is Struct
+                                 and g.functor == src.trigger.functor
+                                 and len(g.args) == len(src.trigger.args)
+                                 and g.neg == src.trigger.neg)
         ctx = src.context
         context = None
         if ctx is not None and not (type(ctx) is Struct and ctx.functor == "true"

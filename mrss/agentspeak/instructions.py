@@ -1,6 +1,6 @@
 """Compiled plan-body formulas: one instruction object per formula, run one per step.
 
-One idea in one module (~430 lines): the instruction set, one small class per formula
+One idea in one module (~500 lines): the instruction set, one small class per formula
 kind (as Jason's asSemantics keeps its body-literal cases together), so the
 interpreter's whole repertoire is read in one place.
 
@@ -13,10 +13,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mrss.agentspeak import ownevent
 from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
-from mrss.agentspeak.intentions import PENDING_EVENT, Event
+from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
+from mrss.agentspeak.ownevent import OwnEvent, belief_event
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_ACH,
@@ -36,7 +38,8 @@ from mrss.agentspeak.terms import (
 from mrss.agentspeak.unify import resolve, undo
 
 if TYPE_CHECKING:
-    from mrss.agentspeak.intentions import IntendedMeans, Intention
+    from mrss.agentspeak.beliefs import BeliefBase, PredStore
+    from mrss.agentspeak.intentions import Intention
     from mrss.agentspeak.registry import InternalAction
     from mrss.agentspeak.runtime import Runtime
 
@@ -62,30 +65,67 @@ class Instr:
 class Achieve(Instr):
     """`!g`: post a sub-goal on this intention; it waits until a plan is pushed."""
 
-    __slots__ = ("lit", "tail", "res", "key")
+    __slots__ = ("lit", "tail", "res", "own", "self_call")
     prefix = "!"
 
     def __init__(self, lit: Term, line: int) -> None:
         super().__init__(line)
         self.lit = lit
         self.tail = False
+        # the goal's trigger is its plan's own (same functor, arity and negation, `+!`):
+        # in tail position, the tail-recursion rule then holds unless the plan was
+        # entered for a failure (`fail_target`) or the goal has `-!` plans (set by
+        # `compile.Compiler.plan`, with `tail`)
+        self.self_call = False
         self.res = resolver(lit)
         # the plan-library key of the goal (`AchieveVar`'s is only known when it runs)
-        self.key = (ADD_ACH, lit.functor, len(lit.args), lit.neg) if type(lit) is Struct \
-            else None
+        self.own = OwnEvent((ADD_ACH, lit.functor, len(lit.args), lit.neg)) \
+            if type(lit) is Struct else None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         tail = self.tail
         im.pc = len(im.code) if tail else im.pc + 1
-        if rt.event_waiters or rt.atomic is not None or rt.plans.meta:
+        plans = rt.plans
+        if rt.event_waiters or rt.atomic is not None or plans.meta:
             rt.post_subgoal(it, lit, tail, self.line)
             return None
         events = rt.events
         # With no other event queued, the next cycle's deliberate phase would take this
-        # one first: its plan is selected and pushed now (no Event, no queue round trip).
-        if not events and rt.intend_now(it, self.key, lit, tail):  # type: ignore[arg-type]
-            return True
+        # one first: its plan is selected and pushed now (no Event, no queue round trip),
+        # as `Runtime.intend_now` does, written out for a goal of a known key posted
+        # by the top intended means `im`.
+        if not events and ownevent.AT_ONCE:
+            own: Any = self.own
+            if own.lib is not plans or own.version != plans.version:
+                own.refresh(plans)
+            if tail and not self.self_call:
+                if rt.intend_now(it, own.key, lit, tail, own):
+                    return True
+            elif (select := own.select) is not None:
+                errors = rt.extras.context_errors
+                found = select(rt, lit, errors)
+                if type(found) is tuple and not errors:
+                    chosen, frame = found
+                    if tail and own.no_fail_plan and im.fail_target is None:
+                        # tail-recursion optimisation: `im`, finished, is replaced
+                        im.plan = chosen
+                        im.frame = frame
+                        im.pc = 0
+                        im.code = chosen.code
+                        im.lit = lit
+                        im.loops = None
+                    else:
+                        it.stack.append(IntendedMeans(chosen, frame, lit, ADD_ACH))
+                    if chosen.atomic:
+                        rt.atomic = it
+                    it.state = RUNNABLE
+                    if (not it.in_queue and not it.suspended and not it.dropped
+                            and it is not rt.atomic):
+                        it.in_queue = True
+                        rt.runq.append(it)
+                    return True
+                errors.clear()
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done
         it.line = self.line
         events.append(Event(ADD_ACH, lit, it, tail))
@@ -170,7 +210,7 @@ class TestGoal(Instr):
 class AddBelief(Instr):
     """`+b` (in front) or `+>b` (at the end); annotated `source(self)`."""
 
-    __slots__ = ("lit", "front", "res")
+    __slots__ = ("lit", "front", "res", "own", "bb", "store")
     prefix = "+"
 
     def __init__(self, lit: Struct, front: bool, line: int) -> None:
@@ -178,21 +218,30 @@ class AddBelief(Instr):
         self.lit = lit
         self.front = front
         self.res = resolver(lit)
+        self.own = OwnEvent((ADD_BEL, lit.functor, len(lit.args), lit.neg))
+        # the store of the literal's predicate in belief base `bb` (stores are never
+        # replaced or dropped: kept for the agent that last ran this formula)
+        self.bb: BeliefBase | None = None
+        self.store: PredStore | None = None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         lit: Any = self.res(im.frame)
         if not lit.ground:
             lit = rename(lit)
         im.pc += 1
-        if rt.bb.add(lit, self.front):
-            return rt.belief_changed(ADD_BEL, lit, it, True)
+        bb = rt.bb
+        if self.bb is not bb:
+            self.store = bb._store(self.own.key[1:])
+            self.bb = bb
+        if bb.add(lit, self.front, self.store):
+            return belief_event(rt, self.own, lit, it)
         return None
 
 
 class DelBelief(Instr):
     """`-b`: remove the first matching belief (its `source(self)`); never fails."""
 
-    __slots__ = ("lit", "query", "res")
+    __slots__ = ("lit", "query", "res", "own", "bb", "store")
     prefix = "-"
 
     def __init__(self, lit: Struct, line: int) -> None:
@@ -200,6 +249,9 @@ class DelBelief(Instr):
         self.lit = lit
         self.query = LiteralQuery(lit)
         self.res = resolver(lit)
+        self.own = OwnEvent((DEL_BEL, lit.functor, len(lit.args), lit.neg))
+        self.bb: BeliefBase | None = None  # as `AddBelief`'s, once the store exists
+        self.store: PredStore | None = None
 
     def run(self, rt: Runtime, it: Intention, im: IntendedMeans) -> bool | None:
         frame = im.frame
@@ -211,8 +263,15 @@ class DelBelief(Instr):
             else:
                 return None
             lit = self.res(frame)
-        if rt.bb.remove(lit):
-            return rt.belief_changed(DEL_BEL, lit, it, True)
+        bb = rt.bb
+        if self.bb is not bb:
+            store = bb.store(self.own.key[1:])
+            if store is None:
+                return None  # no belief of the predicate: nothing to remove
+            self.store = store
+            self.bb = bb
+        if bb.remove(lit, self.store):
+            return belief_event(rt, self.own, lit, it)
         return None
 
 

@@ -87,6 +87,9 @@ class PlanLibrary:
         self.labels: dict[str, Plan] = {}  # by the label's functor, as in Jason
         self._auto = 0
         self.meta = 0  # how many plans handle goal-state meta-events (`^!g`)
+        # changes whenever a plan is added or removed: what a formula's `OwnEvent` keeps
+        # of this library (its key's selection) holds while the version is the same
+        self.version = 0
 
     def _label(self, plan: Plan, source: Term) -> None:
         if plan.label is not None:
@@ -105,6 +108,7 @@ class PlanLibrary:
         """Add `plan` after all others (or, with `begin`, before all others)."""
         self._label(plan, source)
         self.selectors.clear()
+        self.version += 1
         if plan.op == GOAL_STATE:
             self.meta += 1
         if begin:
@@ -122,6 +126,7 @@ class PlanLibrary:
             del self.labels[plan.plabel.functor]
         self.plans.remove(plan)
         self.selectors.clear()
+        self.version += 1
         if plan.op == GOAL_STATE:
             self.meta -= 1
         same = [p for p in self.index[plan.key] if p is not plan]

@@ -40,7 +40,7 @@ from collections import deque
 from collections.abc import Callable, Hashable
 from typing import Any
 
-from mrss.agentspeak import goals, goalstates, hostactions, timers
+from mrss.agentspeak import goals, goalstates, hostactions, ownevent, timers
 from mrss.agentspeak.beliefs import BeliefBase
 from mrss.agentspeak.depth import DEPTH_ERROR, depth_message
 from mrss.agentspeak.errors import AslRuntimeError
@@ -57,6 +57,7 @@ from mrss.agentspeak.intentions import (
     Intention,
     IntentionState,
 )
+from mrss.agentspeak.ownevent import OwnEvent
 from mrss.agentspeak.plans import Plan, PlanKey, PlanLibrary
 from mrss.agentspeak.registry import IAContext, InternalAction, Registry
 from mrss.agentspeak.terms import (
@@ -202,7 +203,8 @@ class Runtime:
         if key in self.plans.index:
             if it is not None:
                 if (now and not self.events and not self.event_waiters and self.atomic is None
-                        and not self.plans.meta and self.intend_now(it, key, lit, False)):
+                        and not self.plans.meta and ownevent.AT_ONCE
+                        and self.intend_now(it, key, lit, False)):
                     return True
                 it.state = PENDING_EVENT
             self.post(Event(op, lit, it))
@@ -257,7 +259,8 @@ class Runtime:
             it.in_queue = True
             self.runq.append(it)
 
-    def intend_now(self, it: Intention, key: PlanKey, lit: Struct, tail: bool) -> bool:
+    def intend_now(self, it: Intention, key: PlanKey, lit: Struct, tail: bool,
+                   own: OwnEvent | None = None) -> bool:
         """Handle the event `lit` of `key` (operator and predicate) that `it` posts (a
         sub-goal, or a belief change of its body) now, as the next cycle's deliberate
         phase would, when the caller has made sure that is the same: no other event is
@@ -266,12 +269,16 @@ class Runtime:
         False, with nothing done, when no plan is applicable or a context raised: the
         event then goes through the queue, where the failure and the warnings happen in
         their usual cycle. When True, the formula's step is over: the plan's first
-        formula is the intention's next step (`run_step` clears nothing this time)."""
+        formula is the intention's next step (`run_step` clears nothing this time).
+        `own`, when given, is the posting formula's `OwnEvent` for `key`, up to date."""
         plans = self.plans
-        try:
-            select = plans.selectors[key]
-        except KeyError:
-            select = plans.selector(key)
+        if own is not None:
+            select = own.select
+        else:
+            try:
+                select = plans.selectors[key]
+            except KeyError:
+                select = plans.selector(key)
         if select is None:
             return False
         errors = self.extras.context_errors
@@ -287,7 +294,8 @@ class Runtime:
             tl = top.lit
             if (top.op == ADD_ACH and tl.functor == key[1] and len(tl.args) == key[2]
                     and top.fail_target is None and top.pc >= len(top.code)
-                    and (DEL_ACH, tl.functor, key[2], tl.neg) not in plans.index):
+                    and (own.no_fail_plan if own is not None and tl.neg is key[3] else
+                         (DEL_ACH, tl.functor, key[2], tl.neg) not in plans.index)):
                 # tail-recursion optimisation, as in `handle_event`: the finished frame
                 # is replaced; its object, referenced nowhere else, is reused
                 top.plan = chosen
@@ -344,6 +352,13 @@ class Runtime:
                     self.trail.clear()
                 if intended:  # a sub-goal's plan was pushed (`intend_now`): it is
                     return    # runnable, and its first step is the next cycle's
+                if im.pc < len(im.code) and stack and stack[-1] is im:
+                    # the plan goes on: nothing to clear (`pop_finished`, inline)
+                    if (it.state is RUNNABLE and not it.dropped and not it.in_queue
+                            and not it.suspended and it is not self.atomic):
+                        it.in_queue = True
+                        self.runq.append(it)
+                    return
         if it.state is RUNNABLE and not it.dropped:
             self.pop_finished(it)
 
