@@ -15,9 +15,9 @@ It measures:
   machine, one clock);
 * where that time goes, p50/p99: goal -> the reasoner's request sent (the reasoner's
   log line "action ... sent", to the millisecond), and in the RCL, from the request's
-  arrival to the award decided ("task ... awarded to ... after 1 round(s), 0.6 ms"),
-  both read from the run's mrss.log; the rest is the request's and the award's way on
-  the bus and the award's journal write;
+  arrival in the allocator (checked) to the award decided and journaled, in one commit
+  with the task ("task ... awarded to ... after 1 round(s), 0.6 ms"), both read from
+  the run's mrss.log; the rest is the request's and the award's way on the bus;
 * goal -> first skill start p50/p99: the skill reads CLOCK_MONOTONIC first in `start()`;
 * robot lost -> task re-awarded p50/p99: a task for a scout (`hold(any([scout], ...))`)
   is awarded to the nearer scout and its skill starts; the bench freezes that scout's
@@ -294,10 +294,10 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
         "award: bench percept -> reasoner -> RCL -> every capable robot's bid ranked, in "
         "one pass over the state the RCL holds (what each robot actor published, its "
         "link's telemetry) -> action.allocation AWARDED seen by the bench; reasoner: goal "
-        "-> the reasoner's request sent, in RCL: the request's arrival -> the award "
-        "decided (both from the run's log, to the millisecond for the reasoner's); the "
-        "rest is the request's and the award's way on the bus and the award's journal "
-        "write; start: ... -> the skill's start(). "
+        "-> the reasoner's request sent, in RCL: the request's arrival in the allocator "
+        "-> the award decided and journaled with the task, one commit (both from the "
+        "run's log, to the millisecond for the reasoner's); the rest is the request's "
+        "and the award's way on the bus; start: ... -> the skill's start(). "
         f"{count} goals per size, {1 / TASK_GAP_S:g}/s, each at a random robot's place "
         "(every robot of the fleet bids; half UAVs over MAVLink/UDP, half UGVs over MQTT, "
         "one `mrss sim fleet` process); after 10 warm-up goals. Re-award: the scout "
