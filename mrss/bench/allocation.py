@@ -256,7 +256,9 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
     award_p99: dict[int, float | None] = {}
     reaward_p99: list[float] = []
     seq = 1
+    loads: list[str] = []  # per size: the load average before and after (the p99s' context)
     for robots in sizes:
+        load_before = os.getloadavg()[0]
         with ExitStack() as stack:
             url = stack.enter_context(mosquitto_broker(binary)).url if binary else None
             run_ = AllocationRun(robots, url)
@@ -268,6 +270,7 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
             seq += count
             lost, lost_late = run_.lost(rounds, seq)
             seq += rounds
+        loads.append(f"{robots}: {load_before:.1f}/{os.getloadavg()[0]:.1f}")
         late = got.late
         p99 = _ms(got.award, 99, late)
         award_p99[robots] = p99
@@ -303,5 +306,6 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
         "one `mrss sim fleet` process); after 10 warm-up goals. Re-award: the scout "
         "holding a task frozen (SIGSTOP of its simulator), until the other scout is "
         f"awarded it; {rounds} rounds. Late (not within {LATE_S:g} s) ranks above every "
-        f"sample. The machine ({os.cpu_count()} CPUs) is shared: the numbers are noisy.")
+        f"sample. The machine ({os.cpu_count()} CPUs) is shared: the numbers are noisy; "
+        f"load average before/after each size: {', '.join(loads)}.")
     return report
