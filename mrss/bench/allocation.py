@@ -15,9 +15,9 @@ It measures:
   machine, one clock);
 * where that time goes, p50/p99: goal -> the reasoner's request sent (the reasoner's
   log line "action ... sent", to the millisecond), and in the RCL, from the request's
-  arrival to the award decided ("task ... awarded to ... after 1 round(s), 0.6 ms"),
-  both read from the run's mrss.log; the rest is the request's and the award's way on
-  the bus and the award's journal write;
+  arrival in the allocator (checked) to the award decided and journaled, in one commit
+  with the task ("task ... awarded to ... after 1 round(s), 0.6 ms"), both read from
+  the run's mrss.log; the rest is the request's and the award's way on the bus;
 * goal -> first skill start p50/p99: the skill reads CLOCK_MONOTONIC first in `start()`;
 * robot lost -> task re-awarded p50/p99: a task for a scout (`hold(any([scout], ...))`)
   is awarded to the nearer scout and its skill starts; the bench freezes that scout's
@@ -256,7 +256,9 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
     award_p99: dict[int, float | None] = {}
     reaward_p99: list[float] = []
     seq = 1
+    loads: list[str] = []  # per size: the load average before and after (the p99s' context)
     for robots in sizes:
+        load_before = os.getloadavg()[0]
         with ExitStack() as stack:
             url = stack.enter_context(mosquitto_broker(binary)).url if binary else None
             run_ = AllocationRun(robots, url)
@@ -268,6 +270,7 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
             seq += count
             lost, lost_late = run_.lost(rounds, seq)
             seq += rounds
+        loads.append(f"{robots}: {load_before:.1f}/{os.getloadavg()[0]:.1f}")
         late = got.late
         p99 = _ms(got.award, 99, late)
         award_p99[robots] = p99
@@ -294,14 +297,15 @@ def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
         "award: bench percept -> reasoner -> RCL -> every capable robot's bid ranked, in "
         "one pass over the state the RCL holds (what each robot actor published, its "
         "link's telemetry) -> action.allocation AWARDED seen by the bench; reasoner: goal "
-        "-> the reasoner's request sent, in RCL: the request's arrival -> the award "
-        "decided (both from the run's log, to the millisecond for the reasoner's); the "
-        "rest is the request's and the award's way on the bus and the award's journal "
-        "write; start: ... -> the skill's start(). "
+        "-> the reasoner's request sent, in RCL: the request's arrival in the allocator "
+        "-> the award decided and journaled with the task, one commit (both from the "
+        "run's log, to the millisecond for the reasoner's); the rest is the request's "
+        "and the award's way on the bus; start: ... -> the skill's start(). "
         f"{count} goals per size, {1 / TASK_GAP_S:g}/s, each at a random robot's place "
         "(every robot of the fleet bids; half UAVs over MAVLink/UDP, half UGVs over MQTT, "
         "one `mrss sim fleet` process); after 10 warm-up goals. Re-award: the scout "
         "holding a task frozen (SIGSTOP of its simulator), until the other scout is "
         f"awarded it; {rounds} rounds. Late (not within {LATE_S:g} s) ranks above every "
-        f"sample. The machine ({os.cpu_count()} CPUs) is shared: the numbers are noisy.")
+        f"sample. The machine ({os.cpu_count()} CPUs) is shared: the numbers are noisy; "
+        f"load average before/after each size: {', '.join(loads)}.")
     return report

@@ -99,3 +99,28 @@ tries(G, 0) :- not tried(G, _).
       -tried(G, _).
 
 +robot_unavailable(R)[source(percept)] <- .print(R, " is unavailable").
+
+// A goal addressed to a role, not a robot: "any ground robot, near there". The RCL
+// gives it to the robot that finishes it first among those declaring the capability in
+// project.toml (`capabilities = ["ground"]`); it waits while none is free. If that robot
+// is lost on the way (its link, its failsafe, the operator decommissions it), the RCL
+// hands the task to another capable robot, which goes on from the progress recorded,
+// and the agent hears `reassigned(Task, From, To)`: the action does not fail
+// (docs/agentspeak.md, "Tasks addressed to a role").
+// ADAPT: the capabilities your tasks need, e.g. `any([uav, camera], at(Lat, Lon))`.
++inspect_received(G, Lat, Lon)[source(percept)]
+   <- .print("goal ", G, ": any ground robot goes to ", Lat, ",", Lon);
+      !inspect(G, Lat, Lon).
++inspect_point(G, [Lat, Lon])[source(percept)]      // the dashboard's form
+   <- !inspect(G, Lat, Lon).
++!inspect(G, Lat, Lon)
+   <- move(any([ground], at(Lat, Lon)), G, Lat, Lon);
+      .print("goal ", G, " inspected");
+      -inspect_received(G, Lat, Lon)[source(percept)].
+-!inspect(G, Lat, Lon)[error(E)]              // never reassigned: it failed for good
+   <- .print("goal ", G, " failed: ", E);
+      give_up(G, plan_failed, E);
+      -inspect_received(G, Lat, Lon)[source(percept)].
++reassigned(move(_, G, _, _), From, To)[source(percept)]
+   <- -reassigned(move(_, G, _, _), From, To)[source(percept)];
+      .print("goal ", G, " went from ", From, " to ", To).

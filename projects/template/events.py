@@ -23,6 +23,11 @@ from mrss.api import ExternalAdapter, Field, JsonMapping, Option
 GOTO = JsonMapping("goto_received", Field("goal", "atom"), Field("lat", "lat"),
                    Field("lon", "lon"))
 CANCEL = JsonMapping("goal_cancelled", Field("goal", "atom"))
+# `{"goal": "i1", "lat": 48.2, "lon": 16.37}`: a goal for any robot that can (a role)
+INSPECT = JsonMapping("inspect_received",
+                      Field("goal", "atom"),
+                      Field("lat", "lat"),
+                      Field("lon", "lon"))
 
 
 class ProjectEvents(ExternalAdapter):
@@ -35,3 +40,4 @@ class ProjectEvents(ExternalAdapter):
         prefix = str(self.options.get("topic_prefix", "mrss/ui")).rstrip("/")
         self.map_json(f"{prefix}/goto", GOTO)
         self.map_json(f"{prefix}/cancel", CANCEL)
+        self.map_json(f"{prefix}/inspect", INSPECT)

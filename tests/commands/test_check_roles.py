@@ -1,6 +1,6 @@
 """`mrss check` on tasks addressed to a role: the robots' capabilities in project.toml,
 and every `any([...])` of agent.asl one some robot could take (file, line, did you mean).
-Each case copies projects/template, declares its robot's capabilities and writes a role
+Each case copies projects/template, changes its robot's capabilities and writes a role
 into its agent."""
 
 from __future__ import annotations
@@ -14,9 +14,8 @@ from tests.commands.test_check_mistakes import Mistake, inject, line_of, project
 
 __all__ = ["project"]  # the fixture, shared
 
-CAPS = Mistake("robot1 has capabilities", "project.toml", "[components.rcl.robots.robot1]\n",
-               '[components.rcl.robots.robot1]\ncapabilities = ["ground", "camera"]\n',
-               "", "")
+CAPS = Mistake("robot1 has capabilities", "project.toml", 'capabilities = ["ground"]',
+               'capabilities = ["ground", "camera"]', "", "")
 
 
 def _role(project: Path, role: str) -> None:
@@ -55,11 +54,10 @@ def test_a_role_no_robot_could_take_is_an_error_at_its_line(
 
 def test_a_capability_that_is_no_name_is_an_error_in_project_toml(
         project: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    inject(project, Mistake("", "project.toml", "[components.rcl.robots.robot1]\n",
-                            '[components.rcl.robots.robot1]\ncapabilities = ["Camera"]\n',
-                            "", ""))
+    inject(project, Mistake("", "project.toml", 'capabilities = ["ground"]',
+                            'capabilities = ["ground", "Camera"]', "", ""))
     errors = _errors(capsys)
     assert [(e["line"], e["key"]) for e in errors] == [
-        (line_of(project / "project.toml", 'capabilities = ["Camera"]'),
+        (line_of(project / "project.toml", 'capabilities = ["ground", "Camera"]'),
          "components.rcl.robots.robot1.capabilities")]
     assert "capabilities are lowercase names" in str(errors[0]["message"])

@@ -278,8 +278,10 @@ class ActionJournal:
 
 
     # -- tasks addressed to a role (mrss.actors.rcl.allocation.book) --------------------------
-    def open_task(self, action: Action, request: dict[str, Any], requester: Requester) -> bool:
-        """Record a new task, waiting, with its action (on no robot yet: `action`), in one
+    def open_task(self, action: Action, request: dict[str, Any], requester: Requester,
+                  holder: str = "") -> bool:
+        """Record a new task, waiting (or already held by `holder`: decided at once, the
+        award in the same commit), with its action (on no robot yet: `action`), in one
         commit; False if its uuid is known already. The action's row is what a restarted
         requester finds in its inventory and adopts, and what a new run fails."""
         now = self.clock()
@@ -287,8 +289,9 @@ class ActionJournal:
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 cur = self._db.execute(
-                    "INSERT OR IGNORE INTO tasks VALUES (?,?,?,?,'','[]',?)",
-                    (action.uuid, json.dumps(request), requester.src, requester.inc, now))
+                    "INSERT OR IGNORE INTO tasks VALUES (?,?,?,?,?,'[]',?)",
+                    (action.uuid, json.dumps(request), requester.src, requester.inc,
+                     holder, now))
                 if cur.rowcount > 0:
                     self._db.execute(
                         "INSERT OR IGNORE INTO actions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",

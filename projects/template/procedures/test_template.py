@@ -17,6 +17,7 @@ from mrss.api.testing import RunningProject
 
 PROJECT = Path(__file__).resolve().parent.parent      # this project's folder
 TARGET = (48.2090, 16.3745)                             # ~100 m from the robot's home
+HOME = (48.2082, 16.3738)                               # project.toml's robot1 home
 
 
 @pytest.mark.slow
@@ -39,5 +40,12 @@ def test_operator_goal_is_reached(tmp_path: Path) -> None:
             return distance_m(position["lat"], position["lon"], *TARGET) < 1.0
 
         system.wait_for(at_target, 5, "robot1 at the target in the world model")
+
+        # a goal addressed to a role: the RCL gives it to robot1, the one ground robot
+        system.publish("mrss/ui/inspect", {"goal": "i1", "lat": HOME[0], "lon": HOME[1]})
+        inspected = system.wait_for(
+            lambda: [s for s in system.statuses("robot1", "succeeded") if s.goal == "i1"],
+            20, "the inspect goal's move to succeed on robot1")
+        assert inspected[0].name == "move" and system.perceived("inspect_received(i1,")
 
         assert system.interrupt() == 0      # Ctrl-C stops everything cleanly

@@ -54,3 +54,23 @@ def test_a_goal_cancelled_while_its_retry_waits_is_not_started_again(
     mark = len(rcl.log)
     rcl.run_until(lambda: not agent.snapshot()["intentions"])
     assert rcl.since(mark) == [] and not rcl.open and agent.believes("free(robot1)")
+
+
+def test_an_inspection_is_addressed_to_a_role_and_a_reassignment_does_not_fail_it(
+        world: tuple[Agent, ScriptedHost]) -> None:
+    agent, rcl = world
+    rcl.feed("inspect_received(i1, 48.2086, 16.3742)")
+    assert list(rcl.open.values()) == ["move(any([ground],at(48.2086,16.3742)),i1,48.2086,"
+                                       "16.3742)"]
+    rcl.feed("reassigned(move(any([ground],at(48.2086,16.3742)),i1,48.2086,16.3742),"
+             "robot1,robot2)")                                # the RCL handed it on
+    agent.run_until_idle()
+    assert len(rcl.open) == 1 and not agent.believes("reassigned(_, _, _)")
+    rcl.finish("move(any([ground]")
+    agent.run_until_idle()
+    assert not rcl.open and not agent.believes("inspect_received(i1, _, _)")
+
+    rcl.feed("inspect_received(i2, 48.2090, 16.3745)")
+    rcl.finish("move(any([ground]", ok=False, error="action_failed")  # failed for good
+    agent.run_until_idle()
+    assert not rcl.open and not agent.believes("inspect_received(i2, _, _)")

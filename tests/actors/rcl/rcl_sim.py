@@ -7,8 +7,10 @@ the test lets the robot arrive (`arrive(n)`), or, with `auto=True`, arrives at o
 
 from __future__ import annotations
 
+import sqlite3
 import threading
 from collections.abc import Callable
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -16,7 +18,7 @@ from typing import Any
 from mrss.actors.rcl.core import RclCore
 from mrss.actors.rcl.journal import ActionJournal
 from mrss.api import Action, Resource, RobotCommLayer, Skill
-from mrss.messages import ActionStatus, Message
+from mrss.messages import ActionStatus, AllocationState, Message, TaskAllocation
 
 
 class SimRobot:
@@ -172,11 +174,13 @@ class Layer(RobotCommLayer):
 class Statuses:
     """The publish side of an RCL under test: records every ActionStatus in order."""
 
-    def __init__(self, check: Callable[[ActionStatus], None] | None = None) -> None:
+    def __init__(self, check: Callable[[ActionStatus], None] | None = None,
+                 check_award: Callable[[TaskAllocation], None] | None = None) -> None:
         self.lock = threading.Lock()
         self.items: list[ActionStatus] = []
         self.others: list[Message] = []
         self.check = check
+        self.check_award = check_award
         self.check_failures: list[str] = []
 
     def __call__(self, message: Message) -> None:
@@ -189,6 +193,12 @@ class Statuses:
             with self.lock:
                 self.items.append(message)
         else:
+            if isinstance(message, TaskAllocation) and self.check_award is not None \
+                    and message.state is AllocationState.AWARDED:
+                try:
+                    self.check_award(message)
+                except AssertionError as exc:
+                    self.check_failures.append(str(exc))
             with self.lock:
                 self.others.append(message)
 
@@ -237,6 +247,8 @@ class RclEnv:
         RclService binds the links' states there)."""
         self.journal = ActionJournal(self.journal_path)
         self.statuses.check = self._journaled_before_publish if self.check_journal_first else None
+        self.statuses.check_award = self._award_journaled_before_publish \
+            if self.check_journal_first else None
         links = robots if robots is not None else self.robots
         self.core = RclCore(self.layer, self.journal, self.statuses, links,
                             clock=lambda: self.now, **options)
@@ -251,6 +263,15 @@ class RclEnv:
         if self.journal is not None:
             self.journal.close()
             self.journal = None
+
+    def _award_journaled_before_publish(self, award: TaskAllocation) -> None:
+        """At publish time, a separate connection must already see the award committed
+        (the task held by the robot it was awarded to)."""
+        with closing(sqlite3.connect(str(self.journal_path))) as db:
+            row = db.execute("SELECT robot FROM tasks WHERE uuid=?", (award.uuid,)).fetchone()
+        assert row is not None and row[0] == award.robot, (
+            f"{award.uuid} awarded to {award.robot} before the journal had it (it says "
+            f"{row[0] if row else 'no task'!r})")
 
     def _journaled_before_publish(self, status: ActionStatus) -> None:
         """At publish time, a separate connection must already see the committed row."""

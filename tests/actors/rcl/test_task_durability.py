@@ -3,7 +3,8 @@
 its action, so a restarted requester adopts it and a new run fails it explicitly; a
 decommission outlives any restart; a cancelled waiting task, an award for a task
 already done and a holder no longer configured lose no task and make no second
-holder; a journaled award waits for its robot's first link report after a restart,
+holder; a task decided at once is journaled held by its winner before the award goes
+out; a journaled award waits for its robot's first link report after a restart,
 and is bid for again when none comes."""
 
 from __future__ import annotations
@@ -167,6 +168,23 @@ def test_decommission_outlives_rcl_restarts_and_new_runs(rcl_env: RclEnv) -> Non
     core.availability.decommission("ugv1", False)
     rcl_env.stop()
     assert _start(rcl_env, out=()).availability.refusal("ugv1") is None
+
+
+def test_a_task_decided_at_once_is_journaled_held_by_its_winner_when_awarded(
+        rcl_env: RclEnv) -> None:
+    core = _start(rcl_env, out=("ugv2",))
+    core.submit(_patrol("a1", points=3), REASONER)
+    # decided on the submitting thread: awarded before submit returns, the task and its
+    # award in the journal before the AWARDED went out (checked on every award published)
+    assert _awards(rcl_env, "a1") == ["ugv1"]
+    assert _tasks(rcl_env) == {"a1": "ugv1"}
+    wait_until(rcl_env.statuses.reached("a1", "running"), timeout=30, message="a1 runs")
+    rcl_env.stop()  # a restart: the task stays with ugv1, never decided again
+    rcl_env.robots["ugv1"].auto = True
+    _start(rcl_env, out=("ugv2",))
+    wait_until(rcl_env.statuses.reached("a1", "succeeded"), timeout=30, message="a1 done")
+    assert _awards(rcl_env, "a1") == ["ugv1"]
+    assert {s.robot for s in rcl_env.statuses.of("a1")} == {"ugv1"}
 
 
 def test_a_task_held_by_a_robot_no_longer_configured_goes_to_another(

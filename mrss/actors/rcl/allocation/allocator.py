@@ -14,8 +14,9 @@ Rules:
   board knows at once whatever the core told an actor); the ranking
   (`evaluators.BidRanking`) picks the winner, deterministically;
 - a new task is decided at once on the thread that submits it when no other task is
-  open (no hand-over to the allocation thread); otherwise, and for every task given
-  back, the allocation thread runs the rounds;
+  open (no hand-over to the allocation thread), and a winner is journaled with the
+  task in one commit; otherwise, and for every task given back, the allocation thread
+  runs the rounds;
 - a winner: the task is awarded (a `TaskAllocation` AWARDED with why it won), and the
   request goes on as one addressed to that robot (`award`); no winner: the task waits
   (a `TaskAllocation` WAITING with the reason as an enum, sent when it changes);
@@ -23,7 +24,8 @@ Rules:
   its progress); it is bid for again, the robots that lost it being unavailable; the
   next award goes out as an AWARDED naming both, and `reassigned` tells the core (the
   agent's `reassigned(Task, From, To)` percept);
-- every open, award, loss and end is journaled first (`book.TaskBook`);
+- every open, award, loss and end is journaled first (`book.TaskBook`): before it is
+  published, before any action starts;
 - rounds run for every open task, highest priority and then oldest first, when a task
   arrives, whenever a robot's state changes or an action ends (`kick`), and every
   `retry_every` seconds (a robot's battery or position changes without an event); the
@@ -134,9 +136,14 @@ class Allocator:
             return
         task = Task.of(request)
         self.check_capable(task)
-        self.book.opened(request, requester,  # journaled before anything is decided
-                         f"waiting for {task.describe()}")
-        self._open_task(OpenTask(request, requester, task, self.clock()), at_once=True)
+        open_task = OpenTask(request, requester, task, self.clock())
+        why = f"waiting for {task.describe()}"
+        with self._decision:
+            if self._decides_at_once():
+                self._first_round(open_task, why)
+                return
+        self.book.opened(request, requester, why)  # journaled before anything is decided
+        self._open_task(open_task)
 
     def reopen(self, request: ActionRequest, requester: Any, lost_from: str,
                progress: dict[str, JsonValue]) -> None:
@@ -144,17 +151,41 @@ class Allocator:
         self._open_task(OpenTask(request, requester, Task.of(request), self.clock(),
                                  progress=dict(progress), lost_from=lost_from))
 
-    def _open_task(self, open_task: OpenTask, at_once: bool = False) -> None:
+    def _decides_at_once(self) -> bool:
+        """A new task is decided on the thread that submits it when no other task is
+        open (nothing goes before it) and the allocation runs (the decision lock held)."""
+        with self._lock:
+            alone = not self._open
+        return alone and self._thread is not None and not self._stop.is_set()
+
+    def _first_round(self, open_task: OpenTask, why: str) -> None:
+        """A new task's first round, on the submitting thread under the decision lock:
+        a winner is journaled with the task in one commit (the task opened and awarded:
+        nothing was said of it nor started before), else the task is journaled waiting."""
+        request, requester = open_task.request, open_task.requester
+        try:
+            choice = self._choose(open_task)
+        except Exception:  # a bug: the task waits for the allocation thread's rounds
+            log.exception("allocation round for %s failed", open_task.task.uuid)
+            self.book.opened(request, requester, why)
+            self._open_task(open_task)
+            return
+        if choice.winner is not None:
+            self.book.opened(request, requester, why, holder=choice.winner.robot)
+            self._awarded(open_task, choice.winner, choice, journaled=True)
+            return
+        self.book.opened(request, requester, why)
+        self._open_task(open_task, wake=False)
+        self._waits(open_task, choice)
+
+    def _open_task(self, open_task: OpenTask, wake: bool = True) -> None:
         with self._lock:
             self._open[open_task.task.uuid] = open_task
-            alone = len(self._open) == 1
         log.info("task %s %s opened%s: %s", open_task.task.uuid,
                  open_task.request.literal or open_task.request.name,
                  f" again ({open_task.lost_from} lost it)" if open_task.lost_from else "",
                  open_task.task.describe())
-        if at_once and alone and self._thread is not None and not self._stop.is_set():
-            self._decide(open_task)  # nothing goes before it: decided on this thread
-        else:
+        if wake:
             self._wake.set()
 
     def withdraw(self, uuid: str) -> bool:
@@ -211,13 +242,22 @@ class Allocator:
             log.exception("allocation round for %s failed", open_task.task.uuid)
 
     def _round(self, open_task: OpenTask) -> None:
-        task = open_task.task
-        fleet = FleetRound(self._unavailable(), self.board.states(), self._where, self._bases)
-        choice = fleet.choose(task, self._capable_of(task), self.ranking)
-        open_task.rounds += 1
+        choice = self._choose(open_task)
         if choice.winner is not None:
             self._awarded(open_task, choice.winner, choice)
-        elif open_task.said != (choice.wait, choice.why):
+        else:
+            self._waits(open_task, choice)
+
+    def _choose(self, open_task: OpenTask) -> Choice:
+        """One round's choice for `open_task` (the decision lock held)."""
+        task = open_task.task
+        fleet = FleetRound(self._unavailable(), self.board.states(), self._where, self._bases)
+        open_task.rounds += 1
+        return fleet.choose(task, self._capable_of(task), self.ranking)
+
+    def _waits(self, open_task: OpenTask, choice: Choice) -> None:
+        """No winner: the task waits, said when the reason changes."""
+        if open_task.said != (choice.wait, choice.why):
             open_task.said = (choice.wait, choice.why)
             open_task.choice = choice
             self._say_waiting(open_task, choice.wait, choice.why)
@@ -230,14 +270,18 @@ class Allocator:
                 p for _, p in sorted(self.profiles.items()) if p.can(task.capabilities)]
         return capable
 
-    def _awarded(self, open_task: OpenTask, winner: Bid, choice: Choice) -> None:
+    def _awarded(self, open_task: OpenTask, winner: Bid, choice: Choice,
+                 journaled: bool = False) -> None:
+        """The award: committed (unless `journaled` with the task already) before it is
+        published and before the action on the winner is."""
         task, request = open_task.task, open_task.request
         with self._lock:
             self._open.pop(task.uuid, None)
+        if not journaled:
+            self.book.awarded(task.uuid, winner.robot)
         latency = self.clock() - open_task.since
         self.award_latencies.append(latency)
         del self.award_latencies[:-10000]
-        self.book.awarded(task.uuid, winner.robot)  # committed before the action is
         self._send(published.allocation(request, task, choice, evaluator=self.ranking.name,
                                         profiles=self.profiles,
                                         lost_from=open_task.lost_from))

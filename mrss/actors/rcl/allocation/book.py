@@ -2,11 +2,13 @@
 
 One object of the allocator, kept in memory and in the action journal (the `tasks`
 table, mrss.actors.rcl.journal), every change committed before it takes effect:
-- a task is opened (waiting) before it is bid for, with its action (PENDING on no
-  robot: a restarted requester finds it in its inventory and adopts it; a new run fails
-  it); an award is committed before the action on the winner is, so after a restart a
-  recorded award is carried out, never decided again (`TaskRow.robot` set, no action
-  on that robot yet);
+- a task is opened (waiting) before it is bid for by the allocation thread, with its
+  action (PENDING on no robot: a restarted requester finds it in its inventory and
+  adopts it; a new run fails it); a task decided at once, on the thread that submits
+  it, is opened and awarded in one commit (nothing was said of it or started before);
+  an award is committed before it is published and before the action on the winner is,
+  so after a restart a recorded award is carried out, never decided again
+  (`TaskRow.robot` set, no action on that robot yet);
 - a holder that is lost (`LOSSES`: its link, its failsafe, its node, a quarantine, the
   operator's decommission, its battery below its critical level) gives the task back:
   it waits again, the robot is added to those that lost it, and its progress goes with
@@ -56,15 +58,18 @@ class TaskBook:
                                           r.robot, list(r.lost)) for r in rows}
         return rows
 
-    def opened(self, request: ActionRequest, requester: Requester, why: str = "") -> None:
-        """A new task waits (journaled with its action, PENDING on no robot: `why`)."""
+    def opened(self, request: ActionRequest, requester: Requester, why: str = "",
+               holder: str = "") -> None:
+        """A new task waits (journaled with its action, PENDING on no robot: `why`), or,
+        decided at once, is held by `holder` already: opened and awarded in one commit."""
         if self.journal is not None:
             self.journal.open_task(Action(uuid=request.uuid, name=request.name,
                                           args=list(request.args), goal=request.goal,
                                           priority=request.priority, literal=request.literal,
-                                          reason=why), _wire(request), requester)
+                                          reason=why), _wire(request), requester,
+                                   holder=holder)
         with self._lock:
-            self._held.setdefault(request.uuid, Holding(request, requester))
+            self._held.setdefault(request.uuid, Holding(request, requester, holder))
 
     def awarded(self, uuid: str, robot: str) -> None:
         if self.journal is not None:

@@ -62,6 +62,10 @@ READS: dict[Evaluator, tuple[bool, bool]] = {
 }
 
 
+#: The named evaluators whose score reads battery_after.
+READS_BATTERY = frozenset({Evaluator.BATTERY_AWARE})
+
+
 def _bid_score(figures: FigureScore) -> BidScore:
     return lambda _t, b: figures(b.finish_s, b.travel_m, b.home_m, b.back_m, b.battery_after)
 
@@ -113,6 +117,12 @@ class BidRanking:
         """(home_m, back_m): whether the score reads them (a project's own: both)."""
         e = self.evaluator
         return READS[e] if isinstance(e, Evaluator) else (True, True)
+
+    @property
+    def reads_battery(self) -> bool:
+        """Whether the score reads battery_after (a project's own: yes)."""
+        e = self.evaluator
+        return e in READS_BATTERY if isinstance(e, Evaluator) else True
 
     def choose(self, task: Task, bids: Sequence[Bid]) -> Choice:
         """The winner among `bids` (deterministic), or why the task waits."""

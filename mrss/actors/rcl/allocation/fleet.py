@@ -6,7 +6,10 @@ one read under its lock), and each robot's position and battery from its link, r
 most once per round. Then, for a named evaluator, each capable robot is scored from its
 figures (`bids.figures`, the numbers `compute_bid` makes a `Bid` of) without making a
 `Bid`: only the best few (`bid_reports.LIMIT`, what the award publishes and its reason
-names) are made whole (`compute_bid`, so they say what a single bid would). The
+names) are made whole (`compute_bid`, so they say what a single bid would). A score
+that reads neither the way home nor the battery (quickest_finish) ranks without them:
+the battery after the way home is checked in rank order, only until the best few fit
+ones are found (every robot is counted all the same). The
 ranking is the one of `evaluators.BidRanking.choose` (idle before pre-empting, the
 score, the robot id), so both give the same choice. The general path
 (`BidRanking.choose` over every bid) is taken for a project's own evaluator (it is
@@ -76,11 +79,16 @@ class FleetRound:
         score = ranking.figure_score
         if score is None:
             return ranking.choose(task, [self.bid(task, p) for p in capable])
-        # (pre-empts, score, robot, its profile): rank order (robot ids are unique)
-        fit: list[tuple[bool, float, str, RobotProfile]] = []
+        # (pre-empts, score, robot, its profile, its battery to check): rank order (robot
+        # ids are unique)
+        ranked: list[tuple[bool, float, str, RobotProfile, float | None]] = []
         unfit: list[tuple[WaitReason, str, RobotProfile]] = []
         priority = task.priority
         home_read, back_read = ranking.reads
+        # A score that reads neither the way home nor the battery ranks without them: the
+        # battery is checked (the way home measured) in rank order, for the robots that
+        # could be named only
+        later = not home_read and not ranking.reads_battery
         for profile in capable:
             robot = profile.robot
             state = self.states.get(robot)
@@ -92,23 +100,38 @@ class FleetRound:
                 unfit.append((WaitReason.BUSY, robot, profile))  # its work goes first
                 continue
             position, battery = self.where(robot)
+            deferred = battery if later else None
             travel, home, back, after = figures(task, profile, self.base(profile) or position,
-                                                position, battery, home_read=home_read,
-                                                back_read=back_read)
+                                                position, None if later else battery,
+                                                home_read=home_read, back_read=back_read)
             if after is not None and after < profile.battery_reserve:
                 unfit.append((WaitReason.BATTERY, robot, profile))
                 continue
             value = score(travel / profile.cruise_speed, travel, home, back, after)
             if math.isnan(value):  # the ranking's fallback decides, as for any bad score
                 return ranking.choose(task, [self.bid(task, p) for p in capable])
-            fit.append((top is not None, value, robot, profile))
-        if not fit:
+            ranked.append((top is not None, value, robot, profile, deferred))
+        ranked.sort(key=lambda f: f[:3])
+        named: list[RobotProfile] = []  # the best fit ones, in rank order
+        for _, _, robot, profile, battery in ranked:
+            if battery is not None and self._short(task, profile, battery):
+                unfit.append((WaitReason.BATTERY, robot, profile))
+                continue
+            named.append(profile)
+            if len(named) == LIMIT:
+                break  # every robot is counted; the rest need not be named
+        if not named:  # every robot ranked was checked: `unfit` has them all
             unfit.sort(key=lambda u: (wait_rank(u[0]), u[1]))
             return waiting({reason for reason, _, _ in unfit},
                            [self.bid(task, p) for _, _, p in unfit[:LIMIT]], len(unfit))
-        fit.sort(key=lambda f: f[:3])
-        named = [p for _, _, _, p in fit[:LIMIT]]
-        if len(named) < LIMIT:  # after the fit ones, the unfit ones by robot id
+        if len(named) < LIMIT:  # after the fit ones, the unfit ones by robot id (all known)
             named += [p for _, _, p in sorted(unfit, key=lambda u: u[1])][:LIMIT - len(named)]
         bids = [self.bid(task, p) for p in named]
-        return ranking.award(bids[0], bids[1:], len(fit) - 1 + len(unfit))
+        return ranking.award(bids[0], bids[1:], len(capable) - 1)  # every robot bid
+
+    def _short(self, task: Task, profile: RobotProfile, battery: float) -> bool:
+        """Whether the robot would come home below its reserve (its figures as a bid's)."""
+        position = self.where(profile.robot)[0]
+        after = figures(task, profile, self.base(profile) or position, position, battery,
+                        home_read=True, back_read=False)[3]
+        return after is not None and after < profile.battery_reserve
