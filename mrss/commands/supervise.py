@@ -36,24 +36,24 @@ from mrss import logfile, logs
 from mrss.bus import BusEndpoints, Publisher
 from mrss.bus.curve import load_keys, load_public
 from mrss.bus.settings import endpoints_from_config
-from mrss.commands import check
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
 from mrss.config.nodes import keys_dir, node_children, node_plan
 from mrss.config.operator import SECTION as OPERATOR_SECTION
 from mrss.config.operator import read_operator
 from mrss.config.project import ProjectConfig
-from mrss.errors import ConfigError
+from mrss.errors import ConfigError, SupervisionError
 from mrss.messages import IncarnationKey
 from mrss.runtime.incident_recorder import IncidentRecorder
 from mrss.runtime.operator_guard import OperatorGuard
 from mrss.runtime.remote import RemoteControl
-from mrss.supervision.children import ProcessSettings
+from mrss.supervision.children import ComponentStart, ProcessSettings
 from mrss.supervision.cpu_latency import cpu_latency
 from mrss.supervision.events import NODE_ENV, Publish
-from mrss.supervision.launchers import become_subreaper
+from mrss.supervision.launchers import ForkLauncher, become_subreaper, preload_modules
 from mrss.supervision.outbox import EventOutbox
 from mrss.supervision.process import ProcessSupervisor
+from mrss.supervision.spec import ChildSpec
 
 EXIT_GAVE_UP = 1
 EXIT_CONFIG = 2
@@ -99,13 +99,14 @@ def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
 def build_supervisor(
     config: ProjectConfig, run_dir: Path, *, launcher: str | None = None,
     publish: Publish | None = None, bus: dict[str, Any] | None = None, node: str = "",
-    key: IncarnationKey | None = None,
+    key: IncarnationKey | None = None, fork_server: ForkLauncher | None = None,
 ) -> ProcessSupervisor:
     """The root supervisor for a validated project (of one node's share, with `node`).
 
     `publish` receives every sup.* event (a bus Publisher's `publish`); `bus` is the
     endpoints dict handed to every component as `ctx.bus`; `key` the run's incarnation
-    key (its path is in `bus`), which proves each start it announces.
+    key (its path is in `bus`), which proves each start it announces; `fork_server` a
+    fork launcher started early for the same children.
     """
     s = config.supervisor
     settings = ProcessSettings(
@@ -113,10 +114,9 @@ def build_supervisor(
         heartbeat_interval=s.heartbeat_interval, heartbeat_misses=s.heartbeat_misses,
         launcher="exec" if (launcher or s.launcher) == "exec" else "fork", key=key,
     )
-    children = node_children(config, node_plan(config), node) if node else \
-        config.child_specs()
-    return ProcessSupervisor(config.name, s.spec, children, settings, publish=publish,
-                             node=node or None)
+    return ProcessSupervisor(config.name, s.spec, root_children(config, node), settings,
+                             publish=publish, node=node or None,
+                             fork_server=fork_server if settings.launcher == "fork" else None)
 
 
 def pick_node(config: ProjectConfig, wanted: str | None) -> str:
@@ -160,10 +160,10 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
-    if not check.verify(config):  # a deterministic mistake is reported, never crash-looped
-        print(f"mrss supervise: {config.name}: not started; fix the errors above "
-              f"(`mrss check {args.project}`)", file=sys.stderr)
-        return EXIT_CONFIG
+    tui = wants_tui(args)
+    forking = not tui and (args.launcher or config.supervisor.launcher) != "exec"
+    if not forking and not verify(config):
+        return not_started(config, args.project)
     try:
         node = pick_node(config, args.node)
         rotation = log_rotation(config)
@@ -171,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
     os.environ[logfile.ENV] = rotation.to_env()  # every process of the tree rotates alike
-    if wants_tui(args):
+    if tui:
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 
         return run_with_dashboard(args, config)
@@ -180,11 +180,18 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda signum, frame: early.append(signum))
     if node:
         os.environ[NODE_ENV] = node  # every process of this node's tree: SupEvent.node
+    # The fork server starts now (the environment above is what every component gets),
+    # imports the component code while the root sets up, and checks the project in a
+    # child of its own: the root never imports that code (docs/supervision.md, "Start").
+    server = early_fork_server(config, node) if forking else None
+    if server is not None and not checked_by(server, config):
+        server.close()
+        return not_started(config, args.project)
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
     try:
-        return _supervise(config, run_dir, args.launcher, early, node)
+        return _supervise(config, run_dir, args.launcher, early, node, server)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
@@ -198,8 +205,43 @@ def run(args: argparse.Namespace) -> int:
             shutil.rmtree(run_dir, ignore_errors=True)
 
 
+def verify(config: ProjectConfig) -> bool:
+    """`mrss check`'s checks in this process (imports every component's code)."""
+    from mrss.commands.check import verify as check_project
+
+    return check_project(config)
+
+
+def not_started(config: ProjectConfig, project: str) -> int:
+    """A deterministic mistake is reported, never crash-looped."""
+    print(f"mrss supervise: {config.name}: not started; fix the errors above "
+          f"(`mrss check {project}`)", file=sys.stderr)
+    return EXIT_CONFIG
+
+
+def root_children(config: ProjectConfig, node: str) -> list[ChildSpec[ComponentStart]]:
+    """The root's children: the project's components, or one node's share of them."""
+    return node_children(config, node_plan(config), node) if node else config.child_specs()
+
+
+def early_fork_server(config: ProjectConfig, node: str) -> ForkLauncher:
+    """The fork server of this run, started before the supervisor (which takes it over)."""
+    return ForkLauncher.early(
+        preload_modules(c.start.target for c in root_children(config, node)),
+        path=[config.directory])
+
+
+def checked_by(server: ForkLauncher, config: ProjectConfig) -> bool:
+    """Whether the project may start, checked by the fork server (here if it cannot)."""
+    try:
+        return server.check(config.file)
+    except SupervisionError as exc:
+        logging.getLogger("mrss.supervise").warning("%s: checking here", exc)
+        return verify(config)
+
+
 def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
-               early: list[int], node: str = "") -> int:
+               early: list[int], node: str = "", server: ForkLauncher | None = None) -> int:
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
                                       file=str(config.file))
     # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
@@ -219,7 +261,9 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
     publish = incident.publishing(publish)
     try:
         sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
-                               bus=endpoints.to_dict(), node=node, key=key)
+                               bus=endpoints.to_dict(), node=node, key=key,
+                               fork_server=server)
+        server = None  # the supervisor's now
         remote = RemoteControl(sup, endpoints, publisher.publish,  # ctl.tree, ctl.fault
                                OperatorGuard(config.directory,
                                              logging.getLogger("mrss.supervise"))).start()
@@ -229,6 +273,8 @@ def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
         finally:
             remote.close()
     finally:
+        if server is not None:
+            server.close()
         incident.close()
         if outbox is not None:
             outbox.close()

@@ -6,8 +6,15 @@ SOCK_SEQPACKET pair, imports the component modules ahead of time, then serves:
 
   supervisor -> server: {"op": "spawn", "req": N, "target", "name", "inc", "context"}
                         plus the child's control socket (SCM_RIGHTS)
+                        {"op": "check", "req": N, "file": PROJECT_TOML}
   server -> supervisor: {"op": "spawned", "req": N, "pid": P} | {"op": "error", ...}
                         {"op": "exit", "pid": P, "status": S}  (raw waitpid status)
+                        {"op": "checked", "req": N, "ok": BOOL}
+
+A check (what `mrss check` does, before `mrss supervise` starts anything) runs in a
+forked child too, so it finds the project's classes already imported and leaves the
+server's own memory as it was; the child prints its findings on the inherited stderr.
+The root therefore never imports component code itself.
 
 Forked children get their own process group; the server exits when the supervisor's end
 closes, and a child whose supervisor is gone stops itself (its control channel closes).
@@ -18,6 +25,7 @@ from a clean template.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import json
 import logging
@@ -85,6 +93,37 @@ def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: 
             os._exit(code)
 
 
+def _check(sock: socket.socket, wake: tuple[int, int], file: str) -> None:
+    """In a forked child: check the project as `mrss supervise` must before it starts
+    anything; exit 0 when it may start, 2 when not (the findings are on stderr)."""
+    code = 1
+    try:
+        signal.set_wakeup_fd(-1)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        sock.close()
+        os.close(wake[0])
+        os.close(wake[1])
+        from pathlib import Path
+
+        from mrss.commands.check import verify
+        from mrss.config.loader import load_file
+        from mrss.errors import ConfigError
+
+        try:
+            code = 0 if verify(load_file(Path(file))) else 2
+        except ConfigError as exc:
+            print(f"mrss supervise: {exc}", file=sys.stderr)
+            code = 2
+    except BaseException:  # anything, in a forked child, must end in os._exit
+        logging.getLogger("mrss.runtime.forkserver").exception("project check failed")
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
 def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
     try:
         sock.send(json.dumps(msg).encode())
@@ -95,6 +134,7 @@ def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
 
 def serve(sock: socket.socket) -> int:
     """The server loop: spawn on request, report exits, stop when the supervisor goes."""
+    checks: dict[int, Any] = {}  # pid of a check child -> its request's id
     wake = os.pipe()
     os.set_blocking(wake[1], False)
     os.set_blocking(wake[0], False)
@@ -113,7 +153,7 @@ def serve(sock: socket.socket) -> int:
                 os.read(wake[0], 4096)
             except BlockingIOError:
                 pass
-            _reap(sock)
+            _reap(sock, checks)
         if sock.fileno() in readable:
             try:
                 data, fds, _, _ = socket.recv_fds(sock, 1 << 20, 1)
@@ -121,10 +161,10 @@ def serve(sock: socket.socket) -> int:
                 data, fds = b"", []
             if not data:
                 return 0
-            _handle(sock, wake, data, fds)
+            _handle(sock, wake, data, fds, checks)
 
 
-def _reap(sock: socket.socket) -> None:
+def _reap(sock: socket.socket, checks: dict[int, Any]) -> None:
     while True:
         try:
             pid, status = os.waitpid(-1, os.WNOHANG)
@@ -132,15 +172,28 @@ def _reap(sock: socket.socket) -> None:
             return
         if pid == 0:
             return
-        _send(sock, {"op": "exit", "pid": pid, "status": status})
+        if pid in checks:
+            ok = os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
+            _send(sock, {"op": "checked", "req": checks.pop(pid), "ok": ok})
+        else:
+            _send(sock, {"op": "exit", "pid": pid, "status": status})
 
 
-def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[int]) -> None:
+def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[int],
+            checks: dict[int, Any]) -> None:
     try:
         req = json.loads(data)
+        if req.get("op") == "check" and not fds:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            pid = os.fork()
+            if pid == 0:
+                _check(sock, wake, str(req["file"]))
+            checks[pid] = req.get("req")
+            return
         if req.get("op") != "spawn" or len(fds) != 1:
             raise ValueError("expected a spawn request with one control socket")
-    except ValueError as exc:
+    except (ValueError, KeyError) as exc:
         for fd in fds:
             os.close(fd)
         _send(sock, {"op": "error", "req": None, "error": str(exc)})
@@ -172,7 +225,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--preload", default="", help="comma-separated modules to import")
     p.add_argument("--path", action="append", default=[], help="prepend to sys.path")
     args = p.parse_args(argv)
+    gc.disable()  # no collection while importing: fewer freed holes in the shared pages
     preload([m for m in args.preload.split(",") if m], args.path)
+    gc.freeze()  # what the children share is never traversed by their collections
+    gc.enable()
     return serve(socket.socket(fileno=args.fd))
 
 
