@@ -40,6 +40,9 @@ from typing import Any
 log = logging.getLogger("mrss.runtime.forkserver")
 
 PRELOAD = ("mrss.runtime.main", "mrss.messages", "pykka", "msgpack", "zmq")
+# Called after the imports when their module was imported: what children would each build
+# on their own (the AgentSpeak parser: the reasoner, the check, percept parsing).
+WARM = (("mrss.agentspeak.parser", "warm"),)
 
 
 COMPONENT_COMM_PREFIX = "mrss:"  # a forked component's process name: "mrss:reasoner"
@@ -217,6 +220,12 @@ def preload(modules: Sequence[str], path: Sequence[str]) -> None:
             importlib.import_module(name)
         except Exception as exc:  # the child will import again and report properly
             log.debug("preload of %s failed: %s", name, exc)
+    for name, function in WARM:
+        if name in sys.modules:
+            try:
+                getattr(sys.modules[name], function)()
+            except Exception as exc:  # the children build it themselves
+                log.debug("%s.%s() failed: %s", name, function, exc)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
