@@ -14,9 +14,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from mrss.check import Report, check_project
-from mrss.config.loader import load_project
+from mrss.config.loader import load_file, load_project
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.supervision.spec import OnExceeded
@@ -69,6 +70,17 @@ def print_findings(report: Report) -> None:
         print(f"mrss check: {finding.text()}", file=sys.stderr)
     if report.errors:
         print(f"mrss check: {report.project}: {len(report.errors)} error(s)", file=sys.stderr)
+
+
+def verify_file(path: str) -> bool:
+    """`verify` a project.toml (for the fork server, which checks before `mrss supervise`
+    starts anything); a project that does not load is reported too."""
+    try:
+        config = load_file(Path(path))
+    except ConfigError as exc:
+        print(f"mrss supervise: {exc}", file=sys.stderr)
+        return False
+    return verify(config)
 
 
 def verify(config: ProjectConfig) -> bool:

@@ -247,3 +247,8 @@ def _ip(text: str) -> bool:
 
 def _tcp(host: str, port: int) -> str:
     return f"tcp://[{host}]:{port}" if ":" in host else f"tcp://{host}:{port}"
+
+
+def root_children(config: ProjectConfig, node: str) -> list[ChildSpec[ComponentStart]]:
+    """The root's children: the project's components, or one node's share of them."""
+    return node_children(config, node_plan(config), node) if node else config.child_specs()

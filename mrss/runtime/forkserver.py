@@ -6,12 +6,12 @@ SOCK_SEQPACKET pair, imports the component modules ahead of time, then serves:
 
   supervisor -> server: {"op": "spawn", "req": N, "target", "name", "inc", "context"}
                         plus the child's control socket (SCM_RIGHTS)
-                        {"op": "check", "req": N, "file": PROJECT_TOML}
+                        {"op": "check", "req": N, "target": "pkg.mod:fn", "file": F}
   server -> supervisor: {"op": "spawned", "req": N, "pid": P} | {"op": "error", ...}
                         {"op": "exit", "pid": P, "status": S}  (raw waitpid status)
                         {"op": "checked", "req": N, "ok": BOOL}
 
-A check (what `mrss check` does, before `mrss supervise` starts anything) runs in a
+A check (`mrss supervise` names `mrss check`'s, run before anything starts) runs in a
 forked child too, so it finds the project's classes already imported and leaves the
 server's own memory as it was; the child prints its findings on the inherited stderr.
 The root therefore never imports component code itself.
@@ -96,9 +96,10 @@ def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: 
             os._exit(code)
 
 
-def _check(sock: socket.socket, wake: tuple[int, int], file: str) -> None:
-    """In a forked child: check the project as `mrss supervise` must before it starts
-    anything; exit 0 when it may start, 2 when not (the findings are on stderr)."""
+def _check(sock: socket.socket, wake: tuple[int, int], target: str, file: str) -> None:
+    """In a forked child: run the check `target` ("pkg.mod:function", called with the
+    project file; True when it may start, its findings printed on stderr); exit 0 when
+    the project may start, 2 when not."""
     code = 1
     try:
         signal.set_wakeup_fd(-1)
@@ -106,17 +107,8 @@ def _check(sock: socket.socket, wake: tuple[int, int], file: str) -> None:
         sock.close()
         os.close(wake[0])
         os.close(wake[1])
-        from pathlib import Path
-
-        from mrss.commands.check import verify
-        from mrss.config.loader import load_file
-        from mrss.errors import ConfigError
-
-        try:
-            code = 0 if verify(load_file(Path(file))) else 2
-        except ConfigError as exc:
-            print(f"mrss supervise: {exc}", file=sys.stderr)
-            code = 2
+        module, _, function = target.partition(":")
+        code = 0 if getattr(importlib.import_module(module), function)(file) else 2
     except BaseException:  # anything, in a forked child, must end in os._exit
         logging.getLogger("mrss.runtime.forkserver").exception("project check failed")
     finally:
@@ -186,12 +178,12 @@ def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[i
             checks: dict[int, Any]) -> None:
     try:
         req = json.loads(data)
-        if req.get("op") == "check" and not fds:
+        if req.get("op") == "check" and not fds and "target" in req and "file" in req:
             sys.stdout.flush()
             sys.stderr.flush()
             pid = os.fork()
             if pid == 0:
-                _check(sock, wake, str(req["file"]))
+                _check(sock, wake, str(req["target"]), str(req["file"]))
             checks[pid] = req.get("req")
             return
         if req.get("op") != "spawn" or len(fds) != 1:

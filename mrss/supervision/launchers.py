@@ -147,16 +147,16 @@ class ForkLauncher(Launcher):
         self.selector.close()
         self.selector, self.on_exit, self.on_server_lost = selector, on_exit, on_server_lost
 
-    def check(self, project_file: Path) -> bool:
-        """Have the fork server check the project as `mrss check` does, in a child of its
-        own (the findings go to stderr); True when it may start. SupervisionError if the
-        server cannot answer."""
+    def check(self, target: str, project_file: Path) -> bool:
+        """Have the fork server run the check `target` ("pkg.mod:function", called with the
+        project file, True when it may start) in a child of its own (its findings go to
+        stderr). SupervisionError if the server cannot answer."""
         self.start()
         assert self._sock is not None
         self._req += 1
         n = self._req
         try:
-            self._sock.send(json.dumps({"op": "check", "req": n,
+            self._sock.send(json.dumps({"op": "check", "req": n, "target": target,
                                         "file": str(project_file)}).encode())
         except OSError as exc:
             self._server_lost(f"send failed: {exc}")
