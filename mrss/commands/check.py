@@ -6,7 +6,8 @@ skills with the right hooks, queries the data layer answers, percepts the agent 
 Every error is printed as `file:line:col: message` and the exit code is 2; warnings are
 printed and do not change it. `--json` prints the findings as one JSON object for
 editors and CI (same exit codes). OK: a summary and exit 0.
-`mrss supervise` calls `verify` first and refuses to start a project with an error.
+`mrss supervise` runs the same checks first (`verify`, or `verify_file` in its fork
+server) and refuses to start a project with an error.
 """
 
 from __future__ import annotations

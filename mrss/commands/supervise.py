@@ -10,6 +10,11 @@ Bad config exits 2. While it runs, the root answers `ctl.tree` and executes `ctl
 commands from the bus (`mrss.runtime.remote`, for the TUI). Its `sup.*` events go
 through an `EventOutbox`, which holds them while the bus proxy is down.
 
+The fork server starts first, imports the components while the root imports its own
+modules (`mrss.commands.supervise_root`), and checks the project in a child of its own
+(docs/supervision.md, "Start"); with the exec launcher or the dashboard the check runs
+here.
+
 Every record of the run (the root's and every component's) is written to stderr and to
 `<run_dir>/mrss.log` in one line format (rotated by size, `[logs]`: `mrss.logfile`;
 the root hands the settings to its tree in `$MRSS_LOG_ROTATION`), and those at INFO and
