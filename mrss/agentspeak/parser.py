@@ -63,6 +63,12 @@ def _lark() -> lark.Lark:
                      cache=_cache_file())
 
 
+def warm() -> None:
+    """Build the parser now. The fork server does (`mrss.runtime.forkserver.WARM`), so the
+    processes it forks share its parser instead of each loading one of its own."""
+    _lark()
+
+
 # ------------------------------------------------------------------------------ splitting
 
 def split_statements(text: str) -> list[tuple[int, int]]:

@@ -20,5 +20,7 @@ BENCHES: dict[str, str] = {
     "record": "the MCAP recorder at 10,000 msgs/s: drops, CPU, bytes/msg; its top rate vs the "
               "mcap library's writer; seeking in a 1 GB recording; a 30-minute what-if",
     "replay": "the dashboard's replay of a 30-minute mission: load, index, seek",
+    "memory": "the wildfire system's memory (PSS per process, the total) and its start to a "
+              "running reasoner",
     "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

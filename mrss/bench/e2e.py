@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mrss.api import Action, RobotCommLayer, Skill
+from mrss.bench import e2e_floor
 from mrss.bench.harness import SupervisedProject, favour
 from mrss.bench.report import BenchReport, Relation
 from mrss.bench.restart import percentile
@@ -200,6 +201,7 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
     rates = [200, 800, 1600, 3200] if quick else \
         [200, 400, 600, 800, 1000, 1200, 1600, 2000, 2400, 3200]
     load_before = os.getloadavg()[0]
+    floor = e2e_floor.measure(200 if quick else 2000)  # quiet, before the system starts
     harness = Harness(ROBOTS)
     try:
         harness.wait_ready()
@@ -228,6 +230,7 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
         _row(report, f"baseline, {ROBOTS} robots, direct bus", direct_base)
     finally:
         direct.close()
+    e2e_floor.report(report, floor, base.p50 if base.missing == 0 else math.inf)
     report.target(f"p99 percept -> first skill start <= 5 ms ({base_count:,} events, "
                   f"{ROBOTS} robots)", base.p99 if base.missing == 0 else math.inf,
                   Relation.AT_MOST, 5.0, "the baseline row; a lost event fails it")

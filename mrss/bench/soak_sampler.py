@@ -103,7 +103,7 @@ class Sampler:
         if self.t0 is None:
             self.t0 = now
         t = now - self.t0
-        for name, proc in _processes(root).items():
+        for name, proc in tree_processes(root).items():
             try:
                 with proc.oneshot():
                     rss, fds, threads = proc.memory_info().rss, proc.num_fds(), \
@@ -152,7 +152,7 @@ class Sampler:
         return sizes
 
 
-def _processes(root: psutil.Process) -> dict[str, psutil.Process]:
+def tree_processes(root: psutil.Process) -> dict[str, psutil.Process]:
     """The root, its fork server and the components under it, by name."""
     found = {ROOT: root}
     try:

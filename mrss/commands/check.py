@@ -6,7 +6,8 @@ skills with the right hooks, queries the data layer answers, percepts the agent 
 Every error is printed as `file:line:col: message` and the exit code is 2; warnings are
 printed and do not change it. `--json` prints the findings as one JSON object for
 editors and CI (same exit codes). OK: a summary and exit 0.
-`mrss supervise` calls `verify` first and refuses to start a project with an error.
+`mrss supervise` runs the same checks first (`verify`, or `verify_file` in its fork
+server) and refuses to start a project with an error.
 """
 
 from __future__ import annotations
@@ -14,9 +15,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from mrss.check import Report, check_project
-from mrss.config.loader import load_project
+from mrss.config.loader import load_file, load_project
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
 from mrss.supervision.spec import OnExceeded
@@ -69,6 +71,17 @@ def print_findings(report: Report) -> None:
         print(f"mrss check: {finding.text()}", file=sys.stderr)
     if report.errors:
         print(f"mrss check: {report.project}: {len(report.errors)} error(s)", file=sys.stderr)
+
+
+def verify_file(path: str) -> bool:
+    """`verify` a project.toml (for the fork server, which checks before `mrss supervise`
+    starts anything); a project that does not load is reported too."""
+    try:
+        config = load_file(Path(path))
+    except ConfigError as exc:
+        print(f"mrss supervise: {exc}", file=sys.stderr)
+        return False
+    return verify(config)
 
 
 def verify(config: ProjectConfig) -> bool:

@@ -10,6 +10,11 @@ Bad config exits 2. While it runs, the root answers `ctl.tree` and executes `ctl
 commands from the bus (`mrss.runtime.remote`, for the TUI). Its `sup.*` events go
 through an `EventOutbox`, which holds them while the bus proxy is down.
 
+The fork server starts first, imports the components while the root imports its own
+modules (`mrss.commands.supervise_root`), and checks the project in a child of its own
+(docs/supervision.md, "Start"); with the exec launcher or the dashboard the check runs
+here.
+
 Every record of the run (the root's and every component's) is written to stderr and to
 `<run_dir>/mrss.log` in one line format (rotated by size, `[logs]`: `mrss.logfile`;
 the root hands the settings to its tree in `$MRSS_LOG_ROTATION`), and those at INFO and
@@ -29,34 +34,18 @@ import signal
 import sys
 import tempfile
 from pathlib import Path
-from types import FrameType
-from typing import Any
 
 from mrss import logfile, logs
-from mrss.bus import BusEndpoints, Publisher
-from mrss.bus.curve import load_keys, load_public
-from mrss.bus.settings import endpoints_from_config
-from mrss.commands import check
-from mrss.config.kinds import ComponentKind
 from mrss.config.loader import load_project
-from mrss.config.nodes import keys_dir, node_children, node_plan
-from mrss.config.operator import SECTION as OPERATOR_SECTION
-from mrss.config.operator import read_operator
+from mrss.config.nodes import keys_dir, node_plan, root_children
 from mrss.config.project import ProjectConfig
-from mrss.errors import ConfigError
-from mrss.messages import IncarnationKey
-from mrss.runtime.incident_recorder import IncidentRecorder
-from mrss.runtime.operator_guard import OperatorGuard
-from mrss.runtime.remote import RemoteControl
-from mrss.supervision.children import ProcessSettings
-from mrss.supervision.cpu_latency import cpu_latency
-from mrss.supervision.events import NODE_ENV, Publish
-from mrss.supervision.launchers import become_subreaper
-from mrss.supervision.outbox import EventOutbox
-from mrss.supervision.process import ProcessSupervisor
+from mrss.errors import ConfigError, SupervisionError
+from mrss.supervision.events import NODE_ENV
+from mrss.supervision.launchers import ForkLauncher, preload_modules
 
-EXIT_GAVE_UP = 1
+EXIT_GAVE_UP = 1  # mrss.commands.supervise_root
 EXIT_CONFIG = 2
+CHECK = "mrss.commands.check:verify_file"  # what the fork server runs before a start
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -96,29 +85,6 @@ def run_dir_for(config: ProjectConfig, override: Path | None) -> Path:
     return path.resolve()
 
 
-def build_supervisor(
-    config: ProjectConfig, run_dir: Path, *, launcher: str | None = None,
-    publish: Publish | None = None, bus: dict[str, Any] | None = None, node: str = "",
-    key: IncarnationKey | None = None,
-) -> ProcessSupervisor:
-    """The root supervisor for a validated project (of one node's share, with `node`).
-
-    `publish` receives every sup.* event (a bus Publisher's `publish`); `bus` is the
-    endpoints dict handed to every component as `ctx.bus`; `key` the run's incarnation
-    key (its path is in `bus`), which proves each start it announces.
-    """
-    s = config.supervisor
-    settings = ProcessSettings(
-        project_dir=config.directory, run_dir=run_dir, bus=dict(bus or {}),
-        heartbeat_interval=s.heartbeat_interval, heartbeat_misses=s.heartbeat_misses,
-        launcher="exec" if (launcher or s.launcher) == "exec" else "fork", key=key,
-    )
-    children = node_children(config, node_plan(config), node) if node else \
-        config.child_specs()
-    return ProcessSupervisor(config.name, s.spec, children, settings, publish=publish,
-                             node=node or None)
-
-
 def pick_node(config: ProjectConfig, wanted: str | None) -> str:
     """The node to run: "" for a single-host project; ConfigError for a missing, unknown
     or superfluous --node."""
@@ -137,6 +103,8 @@ def pick_node(config: ProjectConfig, wanted: str | None) -> str:
                           "bus through each node's proxy: remove delivery = \"direct\"",
                           file=str(config.file), key="bus.delivery")
     name = plan.check_node(wanted).name
+    from mrss.bus.curve import load_keys, load_public  # CurveZMQ: for [nodes] only
+
     folder = keys_dir(config)
     load_keys(folder, name)  # this node's keys, and every peer's public key: now, not in
     for peer in plan.nodes:  # the bus proxy's start
@@ -160,10 +128,10 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
-    if not check.verify(config):  # a deterministic mistake is reported, never crash-looped
-        print(f"mrss supervise: {config.name}: not started; fix the errors above "
-              f"(`mrss check {args.project}`)", file=sys.stderr)
-        return EXIT_CONFIG
+    tui = wants_tui(args)
+    forking = not tui and (args.launcher or config.supervisor.launcher) != "exec"
+    if not forking and not verify(config):
+        return not_started(config, args.project)
     try:
         node = pick_node(config, args.node)
         rotation = log_rotation(config)
@@ -171,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
     os.environ[logfile.ENV] = rotation.to_env()  # every process of the tree rotates alike
-    if wants_tui(args):
+    if tui:
         from mrss.commands.supervise_tui import run_with_dashboard  # imports Textual
 
         return run_with_dashboard(args, config)
@@ -180,11 +148,20 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda signum, frame: early.append(signum))
     if node:
         os.environ[NODE_ENV] = node  # every process of this node's tree: SupEvent.node
+    # The fork server starts now (the environment above is what every component gets),
+    # imports the component code while the root sets up, and checks the project in a
+    # child of its own: the root never imports that code (docs/supervision.md, "Start").
+    server = early_fork_server(config, node) if forking else None
+    from mrss.commands.supervise_root import supervise  # meanwhile (bus, supervisor, ...)
+
+    if server is not None and not checked_by(server, config):
+        server.close()
+        return not_started(config, args.project)
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
     try:
-        return _supervise(config, run_dir, args.launcher, early, node)
+        return supervise(config, run_dir, args.launcher, early, node, server)
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return EXIT_CONFIG
@@ -198,78 +175,31 @@ def run(args: argparse.Namespace) -> int:
             shutil.rmtree(run_dir, ignore_errors=True)
 
 
-def _supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
-               early: list[int], node: str = "") -> int:
-    endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
-                                      file=str(config.file))
-    # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
-    # may claim an incarnation"). With [nodes], each node's root has its own, and the
-    # nodes' proxies translate proofs at the border (mrss/bus/border.py).
-    key = IncarnationKey.create(run_dir)
-    endpoints = endpoints.keyed(key.path)
-    publisher = Publisher(endpoints, src="supervisor", watch_subscriptions=True)
-    to_bus = logs.install_bus_handler(logs.BusLogHandler(config.name, publisher.publish))
-    outbox = None
-    publish: Publish = publisher.publish
-    bus_child = proxy_child(config)
-    if bus_child:
-        outbox = EventOutbox(publisher.publish, bus_child, publisher.subscriptions)
-        publish = outbox
-    incident = incident_recorder(config, run_dir, endpoints)
-    publish = incident.publishing(publish)
+def verify(config: ProjectConfig) -> bool:
+    """`mrss check`'s checks in this process (imports every component's code)."""
+    from mrss.commands.check import verify as check_project
+
+    return check_project(config)
+
+
+def not_started(config: ProjectConfig, project: str) -> int:
+    """A deterministic mistake is reported, never crash-looped."""
+    print(f"mrss supervise: {config.name}: not started; fix the errors above "
+          f"(`mrss check {project}`)", file=sys.stderr)
+    return EXIT_CONFIG
+
+
+def early_fork_server(config: ProjectConfig, node: str) -> ForkLauncher:
+    """The fork server of this run, started before the supervisor (which takes it over)."""
+    return ForkLauncher.early(
+        preload_modules(c.start.target for c in root_children(config, node)),
+        path=[config.directory])
+
+
+def checked_by(server: ForkLauncher, config: ProjectConfig) -> bool:
+    """Whether the project may start, checked by the fork server (here if it cannot)."""
     try:
-        sup = build_supervisor(config, run_dir, launcher=launcher, publish=publish,
-                               bus=endpoints.to_dict(), node=node, key=key)
-        remote = RemoteControl(sup, endpoints, publisher.publish,  # ctl.tree, ctl.fault
-                               OperatorGuard(config.directory,
-                                             logging.getLogger("mrss.supervise"))).start()
-        try:
-            with cpu_latency(config.supervisor.cpu_latency_us):
-                return _run_root(config, run_dir, sup, early)
-        finally:
-            remote.close()
-    finally:
-        incident.close()
-        if outbox is not None:
-            outbox.close()
-        logs.remove_bus_handler(to_bus)
-        publisher.close()
-
-
-def incident_recorder(config: ProjectConfig, run_dir: Path,
-                      endpoints: BusEndpoints) -> IncidentRecorder:
-    """The run's incident recorder, started (docs/mission.md, "The incident record")."""
-    operator = read_operator(config.sections.get(OPERATOR_SECTION), file=str(config.file))
-    topics = [*operator.topics.values(), *(c.topic for c in operator.commands.values())]
-    return IncidentRecorder(run_dir, endpoints, project=config.name, operator_topics=topics,
-                            components=[c.id for c in config.components],
-                            project_dir=config.directory).start()
-
-
-def proxy_child(config: ProjectConfig) -> str:
-    """The id of the component that runs the bus proxy ("" if the project has none)."""
-    return next((c.id for c in config.components
-                 if c.enabled and c.kind is ComponentKind.BUS), "")
-
-
-def _run_root(config: ProjectConfig, run_dir: Path, sup: ProcessSupervisor,
-              interrupts: list[int]) -> int:
-
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        interrupts.append(signum)
-        sup.request_stop(force=len(interrupts) > 1)  # a second signal kills at once
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    become_subreaper()  # a lost fork server's children stay ours (and in our tree)
-    if interrupts:  # signalled while starting up: stop (or kill, if twice) at once
-        sup.request_stop(force=len(interrupts) > 1)
-    logging.getLogger("mrss.supervise").info(
-        "supervising %s (%d components), run dir %s", config.name,
-        len(config.child_specs()), run_dir)
-    outcome = sup.run()
-    if outcome.gave_up:
-        print(f"mrss supervise: {config.name}: {outcome}", file=sys.stderr)
-        return EXIT_GAVE_UP
-    logging.getLogger("mrss.supervise").info("all components stopped")
-    return 0
+        return server.check(CHECK, config.file)
+    except SupervisionError as exc:
+        logging.getLogger("mrss.supervise").warning("%s: checking here", exc)
+        return verify(config)

@@ -28,7 +28,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from mrss.bus.mesh import MeshSettings
 from mrss.config.kinds import ComponentKind
 from mrss.config.loader import ID_PATTERN
 from mrss.config.project import ProjectConfig
@@ -158,6 +157,8 @@ def node_children(config: ProjectConfig, plan: NodePlan,
     bus = config.sections.get("bus", {})
     bus = bus if isinstance(bus, Mapping) else {}
     components = {n: [c for c, at in plan.placement.items() if at == n] for n in plan.nodes}
+    from mrss.bus.mesh import MeshSettings  # the mesh (asyncio, CurveZMQ) for [nodes] only
+
     mesh = MeshSettings(
         node=node, inbox=me.bind_endpoint, keys_dir=str(keys_dir(config)),
         peers={n.name: n.endpoint for n in plan.nodes.values() if n.name != node},
@@ -246,3 +247,8 @@ def _ip(text: str) -> bool:
 
 def _tcp(host: str, port: int) -> str:
     return f"tcp://[{host}]:{port}" if ":" in host else f"tcp://{host}:{port}"
+
+
+def root_children(config: ProjectConfig, node: str) -> list[ChildSpec[ComponentStart]]:
+    """The root's children: the project's components, or one node's share of them."""
+    return node_children(config, node_plan(config), node) if node else config.child_specs()

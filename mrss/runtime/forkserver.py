@@ -6,8 +6,15 @@ SOCK_SEQPACKET pair, imports the component modules ahead of time, then serves:
 
   supervisor -> server: {"op": "spawn", "req": N, "target", "name", "inc", "context"}
                         plus the child's control socket (SCM_RIGHTS)
+                        {"op": "check", "req": N, "target": "pkg.mod:fn", "file": F}
   server -> supervisor: {"op": "spawned", "req": N, "pid": P} | {"op": "error", ...}
                         {"op": "exit", "pid": P, "status": S}  (raw waitpid status)
+                        {"op": "checked", "req": N, "ok": BOOL}
+
+A check (`mrss supervise` names `mrss check`'s, run before anything starts) runs in a
+forked child too, so it finds the project's classes already imported and leaves the
+server's own memory as it was; the child prints its findings on the inherited stderr.
+The root therefore never imports component code itself.
 
 Forked children get their own process group; the server exits when the supervisor's end
 closes, and a child whose supervisor is gone stops itself (its control channel closes).
@@ -18,6 +25,7 @@ from a clean template.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import json
 import logging
@@ -32,6 +40,9 @@ from typing import Any
 log = logging.getLogger("mrss.runtime.forkserver")
 
 PRELOAD = ("mrss.runtime.main", "mrss.messages", "pykka", "msgpack", "zmq")
+# Called after the imports when their module was imported: what children would each build
+# on their own (the AgentSpeak parser: the reasoner, the check, percept parsing).
+WARM = (("mrss.agentspeak.parser", "warm"),)
 
 
 COMPONENT_COMM_PREFIX = "mrss:"  # a forked component's process name: "mrss:reasoner"
@@ -85,6 +96,29 @@ def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: 
             os._exit(code)
 
 
+def _check(sock: socket.socket, wake: tuple[int, int], target: str, file: str) -> None:
+    """In a forked child: run the check `target` ("pkg.mod:function", called with the
+    project file; True when it may start, its findings printed on stderr); exit 0 when
+    the project may start, 2 when not."""
+    code = 1
+    try:
+        signal.set_wakeup_fd(-1)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        sock.close()
+        os.close(wake[0])
+        os.close(wake[1])
+        module, _, function = target.partition(":")
+        code = 0 if getattr(importlib.import_module(module), function)(file) else 2
+    except BaseException:  # anything, in a forked child, must end in os._exit
+        logging.getLogger("mrss.runtime.forkserver").exception("project check failed")
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
 def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
     try:
         sock.send(json.dumps(msg).encode())
@@ -95,6 +129,7 @@ def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
 
 def serve(sock: socket.socket) -> int:
     """The server loop: spawn on request, report exits, stop when the supervisor goes."""
+    checks: dict[int, Any] = {}  # pid of a check child -> its request's id
     wake = os.pipe()
     os.set_blocking(wake[1], False)
     os.set_blocking(wake[0], False)
@@ -113,7 +148,7 @@ def serve(sock: socket.socket) -> int:
                 os.read(wake[0], 4096)
             except BlockingIOError:
                 pass
-            _reap(sock)
+            _reap(sock, checks)
         if sock.fileno() in readable:
             try:
                 data, fds, _, _ = socket.recv_fds(sock, 1 << 20, 1)
@@ -121,10 +156,10 @@ def serve(sock: socket.socket) -> int:
                 data, fds = b"", []
             if not data:
                 return 0
-            _handle(sock, wake, data, fds)
+            _handle(sock, wake, data, fds, checks)
 
 
-def _reap(sock: socket.socket) -> None:
+def _reap(sock: socket.socket, checks: dict[int, Any]) -> None:
     while True:
         try:
             pid, status = os.waitpid(-1, os.WNOHANG)
@@ -132,15 +167,28 @@ def _reap(sock: socket.socket) -> None:
             return
         if pid == 0:
             return
-        _send(sock, {"op": "exit", "pid": pid, "status": status})
+        if pid in checks:
+            ok = os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
+            _send(sock, {"op": "checked", "req": checks.pop(pid), "ok": ok})
+        else:
+            _send(sock, {"op": "exit", "pid": pid, "status": status})
 
 
-def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[int]) -> None:
+def _handle(sock: socket.socket, wake: tuple[int, int], data: bytes, fds: list[int],
+            checks: dict[int, Any]) -> None:
     try:
         req = json.loads(data)
+        if req.get("op") == "check" and not fds and "target" in req and "file" in req:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            pid = os.fork()
+            if pid == 0:
+                _check(sock, wake, str(req["target"]), str(req["file"]))
+            checks[pid] = req.get("req")
+            return
         if req.get("op") != "spawn" or len(fds) != 1:
             raise ValueError("expected a spawn request with one control socket")
-    except ValueError as exc:
+    except (ValueError, KeyError) as exc:
         for fd in fds:
             os.close(fd)
         _send(sock, {"op": "error", "req": None, "error": str(exc)})
@@ -164,6 +212,12 @@ def preload(modules: Sequence[str], path: Sequence[str]) -> None:
             importlib.import_module(name)
         except Exception as exc:  # the child will import again and report properly
             log.debug("preload of %s failed: %s", name, exc)
+    for name, function in WARM:
+        if name in sys.modules:
+            try:
+                getattr(sys.modules[name], function)()
+            except Exception as exc:  # the children build it themselves
+                log.debug("%s.%s() failed: %s", name, function, exc)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -172,7 +226,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--preload", default="", help="comma-separated modules to import")
     p.add_argument("--path", action="append", default=[], help="prepend to sys.path")
     args = p.parse_args(argv)
+    gc.disable()  # no collection while importing: fewer freed holes in the shared pages
     preload([m for m in args.preload.split(",") if m], args.path)
+    gc.freeze()  # what the children share is never traversed by their collections
+    gc.enable()
     return serve(socket.socket(fileno=args.fd))
 
 

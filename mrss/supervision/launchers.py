@@ -16,7 +16,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -105,6 +105,10 @@ class ForkLauncher(Launcher):
     (reported as unknown where the supervisor is not their subreaper). A new fork server
     is started at once for the next spawn; `on_server_lost(why, kept)` tells the
     supervisor.
+
+    Made before its supervisor (`ForkLauncher.early`), it starts the fork server at once,
+    so that the server imports the component code while the root sets itself up; `check`
+    then has it check the project, and the supervisor takes it over (`attach`).
     """
 
     def __init__(self, selector: selectors.BaseSelector, on_exit: OnExit,
@@ -125,6 +129,40 @@ class ForkLauncher(Launcher):
         self._orphans: dict[int, int] = {}  # pidfd -> pid of a lost server's child
         self._req = 0
         self._exits: list[tuple[int, ExitReason]] = []
+
+    @classmethod
+    def early(cls, preload: Sequence[str], path: Sequence[str | Path]) -> ForkLauncher:
+        """A launcher whose fork server starts now, before there is a supervisor (which
+        `attach`es it); it has no children until then."""
+        launcher = cls(selectors.DefaultSelector(), _no_children, preload=preload, path=path)
+        launcher._launch()
+        return launcher
+
+    def attach(self, selector: selectors.BaseSelector, on_exit: OnExit,
+               on_server_lost: OnServerLost | None) -> None:
+        """Hand this launcher (made `early`) to a supervisor's loop."""
+        if self._sock is not None:
+            self.selector.unregister(self._sock)
+            selector.register(self._sock, selectors.EVENT_READ, self._readable)
+        self.selector.close()
+        self.selector, self.on_exit, self.on_server_lost = selector, on_exit, on_server_lost
+
+    def check(self, target: str, project_file: Path) -> bool:
+        """Have the fork server run the check `target` ("pkg.mod:function", called with the
+        project file, True when it may start) in a child of its own (its findings go to
+        stderr). SupervisionError if the server cannot answer."""
+        self.start()
+        assert self._sock is not None
+        self._req += 1
+        n = self._req
+        try:
+            self._sock.send(json.dumps({"op": "check", "req": n, "target": target,
+                                        "file": str(project_file)}).encode())
+        except OSError as exc:
+            self._server_lost(f"send failed: {exc}")
+            raise SupervisionError("cannot check the project: fork server is gone") from exc
+        reply = self._wait_reply(lambda m: m.get("op") == "checked" and m.get("req") == n)
+        return bool(reply.get("ok"))
 
     @property
     def server_pid(self) -> int:
@@ -308,6 +346,16 @@ class ForkLauncher(Launcher):
                 self._server.kill()
                 self._server.wait()
             self._server = None
+
+
+def _no_children(pid: int, reason: ExitReason) -> None:
+    """An early launcher's exit handler: it starts no component before it is attached."""
+    log.warning("exit of pid %d reported before the supervisor took over: %s", pid, reason)
+
+
+def preload_modules(targets: Iterable[str]) -> list[str]:
+    """The modules a fork server imports ahead for components `pkg.mod:Class`."""
+    return sorted({target.partition(":")[0] for target in targets})
 
 
 def become_subreaper() -> None:

@@ -35,7 +35,7 @@ from mrss.supervision import events as ev
 from mrss.supervision.child_states import ChildCause, move
 from mrss.supervision.children import ComponentStart, Proc, ProcessSettings
 from mrss.supervision.events import Publish, SupEvents
-from mrss.supervision.launchers import ExecLauncher, ForkLauncher, Launcher
+from mrss.supervision.launchers import ExecLauncher, ForkLauncher, Launcher, preload_modules
 from mrss.supervision.loop import EventLoop
 from mrss.supervision.policy import Action, Decision, RestartPolicy
 from mrss.supervision.reason import Cause, ExitReason
@@ -55,8 +55,10 @@ class ProcessSupervisor:
         self, name: str, spec: SupervisorSpec, children: Iterable[ChildSpec[ComponentStart]],
         settings: ProcessSettings, *, publish: Publish | None = None,
         clock: Callable[[], float] = time.monotonic, rand: Callable[[], float] = random.random,
-        node: str | None = None,
+        node: str | None = None, fork_server: ForkLauncher | None = None,
     ) -> None:
+        """`fork_server`: a launcher made `ForkLauncher.early` for these children (the
+        fork launcher only), taken over when the supervisor runs."""
         self.name = name
         self.spec = spec
         self.settings = settings
@@ -72,6 +74,7 @@ class ProcessSupervisor:
         self._lock = threading.RLock()
         self._loop = EventLoop()
         self._launcher: Launcher | None = None
+        self._early = fork_server
         self._by_pid: dict[int, Proc] = {}
         self._stop_queue: list[str] = []
         self._finishing: Outcome | None = None
@@ -202,10 +205,14 @@ class ProcessSupervisor:
     def _make_launcher(self) -> Launcher:
         if self.settings.launcher == "exec":
             return ExecLauncher(self._loop.selector, self._on_exit)
-        modules = sorted({p.spec.start.module for p in self._procs.values()})
-        launcher = ForkLauncher(self._loop.selector, self._on_exit, preload=modules,
-                                path=[self.settings.project_dir],
-                                on_server_lost=self._fork_server_lost)
+        if self._early is not None:
+            launcher, self._early = self._early, None
+            launcher.attach(self._loop.selector, self._on_exit, self._fork_server_lost)
+        else:
+            modules = preload_modules(p.spec.start.target for p in self._procs.values())
+            launcher = ForkLauncher(self._loop.selector, self._on_exit, preload=modules,
+                                    path=[self.settings.project_dir],
+                                    on_server_lost=self._fork_server_lost)
         launcher.start()
         return launcher
 
@@ -480,6 +487,9 @@ class ProcessSupervisor:
                 p.close()
             if self._launcher is not None:
                 self._launcher.close()
+            if self._early is not None:  # never taken over
+                self._early.close()
+                self._early = None
         self._loop.close()
 
     def _get(self, child: str) -> Proc:
