@@ -27,6 +27,7 @@ from mrss.world.topics import UNAVAILABLE_PREFIX, WM_REQUEST_TOPIC, wm_reply_top
 WORLD_MODEL_URL_FILE = "worldmodel.url"
 log = logging.getLogger("mrss.datalayer")
 MAX_BATCH = 200   # writes per `wm.upsert_many` request of the telemetry path
+PACE_TIMEOUT_S = 1.0  # a batch's answer waited for this long before the next is sent
 
 
 class WorldModelUnavailable(DependencyUnavailable):
@@ -55,7 +56,15 @@ class BusWorldModel:
         self._writer: threading.Thread | None = None
         self._closed = False
         self._unsent = False   # the last batch could not be sent (logged once)
+        self._paced = True   # the next batch waits for the last one's answer
+        self._answers_unpaced = 0   # the client's answered sends when pacing stopped
         self.batches = 0   # requests that carried queued writes
+
+    @property
+    def paced(self) -> bool:
+        """Whether the next batch waits for the last one's answer (the world model
+        answers); False after one went unanswered for PACE_TIMEOUT_S, until answers come."""
+        return self._paced
 
     def close(self) -> None:
         """Send the queued writes, then stop."""
@@ -93,10 +102,13 @@ class BusWorldModel:
         the data layer's telemetry path, which needs no answer, uses it.
 
         The write is queued; a writer thread sends what is queued as one
-        `wm.upsert_many` request (at most MAX_BATCH objects), so while one batch is on
-        its way the next records gather: one request and one reply per batch instead
-        of per record, and one transaction in the world model. An invalid object is
-        counted in `client.failed_sends`."""
+        `wm.upsert_many` request (at most MAX_BATCH objects) and waits for its answer
+        before it sends the next, so while one batch is on its way the next records
+        gather: one request, one reply and one transaction in the world model per batch
+        instead of per record, and the busier the world model the bigger its batches
+        (one in flight at a time). Without an answer within PACE_TIMEOUT_S (the world
+        model is away or stalled) the writer sends on without waiting until answers
+        come again. An invalid object is counted in `client.failed_sends`."""
         with self._wake:
             self._queued.append(obj)
             if self._writer is None and not self._closed:
@@ -129,7 +141,17 @@ class BusWorldModel:
                 if not batch:
                     return
                 self.batches += 1
-                self.client.send("wm.upsert_many", [batch])
+                self._send_paced(batch)
+
+    def _send_paced(self, batch: list[dict[str, Any]]) -> None:
+        """Send one batch; while the world model answers, wait for its answer."""
+        client = self.client
+        if not self._paced and client.answered_sends != self._answers_unpaced:
+            self._paced = True  # it answers again
+        request_id = client.send("wm.upsert_many", [batch], track=self._paced)
+        if self._paced and not client.wait_answered(request_id, PACE_TIMEOUT_S):
+            self._paced = False
+            self._answers_unpaced = client.answered_sends
 
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:
