@@ -11,7 +11,8 @@ handles the messages waiting, in order, then gives the thread back. So:
   never before its start hook (`on_start`) returned: what arrives meanwhile waits;
 * a handler may still block (wait for a skill to stop): the pool starts another thread
   when none is idle, so other actors never wait behind it, and idle threads beyond a
-  couple of spares end after `IDLE_TIMEOUT_S`;
+  couple of spares end after `IDLE_TIMEOUT_S` (the start hooks of a whole fleet, run
+  at once when the RCL starts, leave no threads behind);
 * a turn handles at most `TURN_MESSAGES` messages and then queues the actor's next turn
   behind the others', so one busy actor cannot keep a thread from the rest;
 * when the actor stopped, the turn answers what is left as pykka does (an ask gets
@@ -40,7 +41,7 @@ from mrss.supervision.threads import ThreadPool
 log = logging.getLogger("mrss.supervision.pooled")
 
 TURN_MESSAGES = 32  # messages one turn handles before the actor queues its next turn
-IDLE_TIMEOUT_S = 10.0  # an idle pool thread beyond the spares ends after this long
+IDLE_TIMEOUT_S = 2.0  # an idle pool thread beyond the spares ends after this long
 
 #: The threads that run pooled actors' turns (a thread per turn running, plus spares).
 TURN_THREADS = ThreadPool(spare=2, idle_timeout=IDLE_TIMEOUT_S)

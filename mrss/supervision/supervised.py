@@ -20,7 +20,13 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import pykka
 
-from mrss.supervision.pooled import TURN_MESSAGES, PooledInbox, answer_dead, run_envelope
+from mrss.supervision.pooled import (
+    TURN_MESSAGES,
+    TURN_THREADS,
+    PooledInbox,
+    answer_dead,
+    run_envelope,
+)
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildKind, ChildSpec, Restart
 from mrss.supervision.threads import ACTOR_THREADS
@@ -134,8 +140,10 @@ class SupervisedActor(pykka.ThreadingActor):
             self._actor_ref = pykka.ActorRef(self)  # it holds the inbox it was made with
 
     def _start_actor_loop(self) -> None:
-        # a pre-started thread: fast restarts
-        ACTOR_THREADS.submit(self._pooled_start if self.pooled else self._actor_loop)
+        if self.pooled:
+            TURN_THREADS.submit(self._pooled_start)
+            return
+        ACTOR_THREADS.submit(self._actor_loop)  # a pre-started thread: fast restarts
 
     def _pooled_start(self) -> None:
         """A pooled actor's start hook, then its first turn, on a pool thread."""

@@ -51,6 +51,7 @@ class BusWorldModel:
         self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
                                       reply_topic=reply_topic, default_timeout=timeout)
         self._queued: list[dict[str, Any]] = []   # writes not waited for, not yet sent
+        self._taken = 0   # writes taken off the queue to be sent, ever
         self._wake = threading.Condition()
         self._sending = threading.Lock()   # one batch (or call) at a time, in order
         self._writer: threading.Thread | None = None
@@ -77,7 +78,9 @@ class BusWorldModel:
         self.client.close()
 
     def _call(self, function: str, args: list[Any]) -> Any:
-        self._flush()   # the writes queued before this call go first
+        with self._wake:   # the writes queued before this call go first (not later ones:
+            due = self._taken + len(self._queued)   # the call must not wait for ever)
+        self._flush(due)
         try:
             return self.client.call(function, args)
         except DataLayerError as exc:
@@ -124,34 +127,48 @@ class BusWorldModel:
                 if self._closed:
                     return
             try:
-                self._flush()
+                self._send_next()
                 self._unsent = False
             except Exception:  # the writer outlives a bad moment of the bus; logged once
                 if not self._unsent:
                     log.exception("queued world model writes could not be sent")
                 self._unsent = True
 
-    def _flush(self) -> None:
-        """Send every queued write, in batches, in order."""
+    def _send_next(self) -> None:
+        """The writer: send one batch, then (not holding the send lock, so that a call
+        is not held up) wait for its answer while the world model answers."""
+        with self._sending:
+            with self._wake:
+                batch = self._queued[:MAX_BATCH]
+                del self._queued[:MAX_BATCH]
+                self._taken += len(batch)
+            if not batch:
+                return
+            client = self.client
+            if not self._paced and client.answered_sends != self._answers_unpaced:
+                self._paced = True  # it answers again
+            paced = self._paced
+            self.batches += 1
+            request_id = client.send("wm.upsert_many", [batch], track=paced)
+        if paced and not client.wait_answered(request_id, PACE_TIMEOUT_S):
+            self._paced = False
+            self._answers_unpaced = client.answered_sends
+
+    def _flush(self, due: int | None = None) -> None:
+        """Send the queued writes (every one, or those up to the `due`-th ever taken), in
+        batches, in order, without waiting for their answers (a call waits for its own,
+        which comes after theirs)."""
         with self._sending:
             while True:
                 with self._wake:
-                    batch = self._queued[:MAX_BATCH]
-                    del self._queued[:MAX_BATCH]
+                    size = MAX_BATCH if due is None else min(MAX_BATCH, due - self._taken)
+                    batch = self._queued[:max(size, 0)]
+                    del self._queued[:len(batch)]
+                    self._taken += len(batch)
                 if not batch:
                     return
                 self.batches += 1
-                self._send_paced(batch)
-
-    def _send_paced(self, batch: list[dict[str, Any]]) -> None:
-        """Send one batch; while the world model answers, wait for its answer."""
-        client = self.client
-        if not self._paced and client.answered_sends != self._answers_unpaced:
-            self._paced = True  # it answers again
-        request_id = client.send("wm.upsert_many", [batch], track=self._paced)
-        if self._paced and not client.wait_answered(request_id, PACE_TIMEOUT_S):
-            self._paced = False
-            self._answers_unpaced = client.answered_sends
+                self.client.send("wm.upsert_many", [batch])
 
     def near(self, lat: float, lon: float, radius_m: float,
              kind: str | None = None) -> list[dict[str, Any]]:

@@ -319,3 +319,25 @@ def test_writes_go_on_without_waiting_while_the_world_model_does_not_answer(
 
 def _size(events: list[tuple[str, str, int]], request_id: str) -> int:
     return next(n for kind, rid, n in events if kind == "request" and rid == request_id)
+
+
+def test_a_call_is_not_held_up_by_writes_that_keep_coming(edge: Edge) -> None:
+    world = edge.data._world
+    stop = threading.Event()
+
+    def flood() -> None:
+        n = 0
+        while not stop.wait(0.005):  # ~2,000 writes a second, as a big fleet's telemetry
+            for _ in range(10):
+                world.upsert_nowait({"id": f"ugv{n % 9}", "kind": "robot",
+                                     "attributes": {"n": n}})
+                n += 1
+
+    writer = threading.Thread(target=flood)
+    writer.start()
+    try:
+        for _ in range(5):  # each waits for the writes queued before it, not for later ones
+            assert edge.client.call("ground", ["lake"], timeout=10)["kind"] == "water_source"
+    finally:
+        stop.set()
+        writer.join()
