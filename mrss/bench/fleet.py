@@ -57,6 +57,7 @@ from mrss.runtime.forkserver import COMPONENT_COMM_PREFIX
 from mrss.testing import find_mosquitto, mosquitto_broker
 from mrss.world.topics import WM_REPLY_TOPIC, WM_REQUEST_TOPIC
 
+SIZES = (10, 50, 100, 200, 400)  # robots, the full run's rows
 WINDOWS = 5  # per size and scheduling: the N = 100 result is bimodal (docs/e2e.md)
 WINDOW_S = 10.0  # each robot is assigned one goal per window
 RATE_HZ = 5.0
@@ -237,9 +238,9 @@ def _cpu(p: psutil.Process) -> float:
 
 
 def run(quick: bool, sizes: list[int] | None = None) -> BenchReport:
-    """The fleet bench at `sizes` robots (default: 10 with `quick`, else 10 to 200): per
+    """The fleet bench at `sizes` robots (default: 10 with `quick`, else 10 to 400): per
     size, a system at the shipped defaults, then one tuned, `WINDOWS` windows each."""
-    sizes = sizes or ([10] if quick else [10, 50, 100, 200])
+    sizes = sizes or ([10] if quick else list(SIZES))
     window, windows = (2.0, 2) if quick else (WINDOW_S, WINDOWS)
     report = BenchReport("fleet", fleet_table.COLUMNS, quick=quick)
     binary = find_mosquitto()

@@ -30,6 +30,7 @@ Rules (the one place they are implemented):
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
@@ -63,14 +64,36 @@ def simulator_address(run_dir: Path | None, robot: str) -> str:
     return path.read_text(encoding="utf-8").strip()
 
 
+_sections_lock = threading.Lock()
+_sections_seen: dict[Path, tuple[tuple[int, int], Mapping[str, Any]]] = {}
+
+
+def project_sections(project_dir: Path | None) -> Mapping[str, Any]:
+    """The sections of the project's project.toml ({} without one), read again only when
+    the file changed (its size or modification time): an RCL connects every robot's link
+    with them, and reading a fleet's file once per robot made starting 400 links take
+    seconds (the parse grows with the fleet, so the reads grew with its square)."""
+    path = project_dir / PROJECT_FILE if project_dir is not None else None
+    if path is None or not path.is_file():
+        return {}
+    stat = path.stat()
+    stamp = (stat.st_size, stat.st_mtime_ns)
+    with _sections_lock:
+        seen = _sections_seen.get(path)
+        if seen is not None and seen[0] == stamp:
+            return seen[1]
+    sections = load_file(path).sections
+    with _sections_lock:
+        _sections_seen[path] = (stamp, sections)
+    return sections
+
+
 def project_broker_url(project_dir: Path | None, run_dir: Path | None,
                        robot: str = "") -> str | None:
     """The project's MQTT broker: `[broker] url` of project.toml, else the embedded one's
     (through a fault campaign's relay for `robot`, if one is in its path: detours),
     with the project's login (`[broker] username`, `password`/`password_env`) if any."""
-    sections: Mapping[str, Any] = {}
-    if project_dir is not None and (project_dir / PROJECT_FILE).is_file():
-        sections = load_file(project_dir / PROJECT_FILE).sections
+    sections = project_sections(project_dir)
     url = resolved_broker_url(sections, run_dir)
     broker = sections.get("broker", {})
     configured = isinstance(broker, Mapping) and bool(broker.get("url"))
@@ -83,9 +106,7 @@ def project_broker_url(project_dir: Path | None, run_dir: Path | None,
 def project_limits(project_dir: Path | None) -> dict[str, list[float]]:
     """The project's `[datalayer]` `*_range` limits, which its links apply too (a
     malformed one is left to the data layer and `mrss check` to report)."""
-    if project_dir is None or not (project_dir / PROJECT_FILE).is_file():
-        return {}
-    section = load_file(project_dir / PROJECT_FILE).sections.get("datalayer", {})
+    section = project_sections(project_dir).get("datalayer", {})
     try:
         return limit_overrides(section) if isinstance(section, Mapping) else {}
     except Rejected:

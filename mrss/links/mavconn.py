@@ -118,9 +118,10 @@ class MavConnection:
         """
         if self._queued:
             return self._queued.popleft()
-        readable, _, _ = select.select([self.conn.port], [], [], timeout)
-        if not readable:
-            return None
+        if timeout > 0:  # the socket does not block: without a wait, read at once
+            readable, _, _ = select.select([self.conn.port], [], [], timeout)
+            if not readable:
+                return None
         try:
             data, sender = self.conn.port.recvfrom(65535)
         except OSError as exc:

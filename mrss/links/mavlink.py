@@ -300,10 +300,12 @@ class MavlinkLink(RobotLink):
         if conn is None or self._stop.is_set():
             return None
         now = time.monotonic()
-        # Data waiting (after a stall of this process, say) is read before a timeout.
-        self._duties(now, conn.pending())
-        wake = min(self._next_gcs_heartbeat, now + self.heartbeat_timeout)
         last = self._last_heartbeat
+        # Data waiting (after a stall of this process, say) is read before a timeout; the
+        # socket is looked at only when a timeout is due (not on every GCS heartbeat).
+        due = self.up and last is not None and now - last > self.heartbeat_timeout
+        self._duties(now, due and conn.pending())
+        wake = min(self._next_gcs_heartbeat, now + self.heartbeat_timeout)
         if self.up and last is not None:
             wake = min(wake, last + self.heartbeat_timeout + TICK_SLACK_S)
         if not self.up and conn.signing is not None:

@@ -15,7 +15,7 @@ whether it hears heartbeats now.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 from mrss.edge import record_declarations, validation
@@ -62,7 +62,7 @@ class UgvHeartbeat:
     timeout: float | None = None
 
     def to_json(self) -> bytes:
-        return json.dumps({k: v for k, v in asdict(self).items() if v is not None}).encode()
+        return json.dumps({k: v for k, v in _fields_of(self).items() if v is not None}).encode()
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ class UgvCommand:
     instrument: str | None = None
 
     def to_json(self) -> bytes:
-        return json.dumps({k: v for k, v in asdict(self).items() if v is not None}).encode()
+        return json.dumps({k: v for k, v in _fields_of(self).items() if v is not None}).encode()
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,7 @@ class UgvAck:
     reason: str = ""
 
     def to_json(self) -> bytes:
-        return json.dumps(asdict(self)).encode()
+        return json.dumps(_fields_of(self)).encode()
 
     @property
     def terminal(self) -> bool:
@@ -120,7 +120,14 @@ class UgvTelemetry:
     controller: bool = True    # hears the controller's heartbeats now
 
     def to_json(self) -> bytes:
-        return json.dumps(asdict(self)).encode()
+        return json.dumps(_fields_of(self)).encode()
+
+
+def _fields_of(message: Any) -> dict[str, Any]:
+    """A message's fields by name: what `dataclasses.asdict` gives for these messages
+    (every field a scalar), without its deep copy (a fleet's telemetry and heartbeats
+    are encoded hundreds of times a second)."""
+    return {name: getattr(message, name) for name in message.__dataclass_fields__}
 
 
 def _object(payload: bytes, topic: str | None) -> dict[str, Any]:

@@ -66,6 +66,8 @@ class DataLayerClient:
         self._lock = threading.Lock()
         self.unmatched_replies = 0
         self.failed_sends = 0
+        self.answered_sends = 0  # replies to `send`s (every one, tracked or not)
+        self._tracked: dict[str, threading.Event] = {}  # `send(track=True)` not answered
         self._send_logged = -60.0
         self._sub = bus.subscribe([reply_topic], self._on_reply)
 
@@ -90,14 +92,29 @@ class DataLayerClient:
             raise kind(function, reply.error or "error reply", request_id=reply.request_id)
         return reply.result
 
-    def send(self, function: str, args: Sequence[Any] = ()) -> str:
+    def send(self, function: str, args: Sequence[Any] = (), *, track: bool = False) -> str:
         """Send a request without waiting for its reply (requests of one client are
         handled in the order sent); its request id. An error reply is counted in
-        `failed_sends` and logged, at most once a minute."""
+        `failed_sends` and logged, at most once a minute. With `track`, `wait_answered`
+        can wait for its reply (it must be called once for that id)."""
         request_id = NO_WAIT + new_id()
+        if track:
+            with self._lock:
+                self._tracked[request_id] = threading.Event()
         self._bus.publish(DataRequest(request_id=request_id, function=function,
                                       args=list(args)), topic=self.request_topic)
         return request_id
+
+    def wait_answered(self, request_id: str, timeout: float) -> bool:
+        """Wait until the reply to a `send(track=True)` came; False after `timeout`
+        (the id is forgotten either way)."""
+        with self._lock:
+            answered = self._tracked.get(request_id)
+        try:
+            return answered is not None and answered.wait(timeout)
+        finally:
+            with self._lock:
+                self._tracked.pop(request_id, None)
 
     def _exchange(self, function: str, args: Sequence[Any],
                   timeout: float | None) -> tuple[DataReply, bool]:
@@ -123,6 +140,11 @@ class DataLayerClient:
         if env.topic != self.reply_topic or not isinstance(body, DataReply):
             return
         if body.request_id.startswith(NO_WAIT):
+            with self._lock:
+                self.answered_sends += 1
+                answered = self._tracked.get(body.request_id)
+            if answered is not None:
+                answered.set()
             failed = [body.error] if not body.ok else _entry_errors(body.result)
             if failed:
                 self.failed_sends += len(failed)

@@ -20,6 +20,13 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import pykka
 
+from mrss.supervision.pooled import (
+    TURN_MESSAGES,
+    TURN_THREADS,
+    PooledInbox,
+    answer_dead,
+    run_envelope,
+)
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import ChildKind, ChildSpec, Restart
 from mrss.supervision.threads import ACTOR_THREADS
@@ -119,14 +126,47 @@ class SupervisedActor(pykka.ThreadingActor):
     """Base of actors under an ActorSupervisor; override `setup` and `teardown`."""
 
     caller_errors: ClassVar[tuple[type[Exception], ...]] = ()
+    #: Run only while there is mail, on the shared threads of mrss.supervision.pooled,
+    #: instead of on a thread of its own for its whole life (the RCL's robot actors).
+    pooled: ClassVar[bool] = False
 
     def __init__(self, ctx: ActorContext | None = None) -> None:
         super().__init__()
         self.ctx = ctx or ActorContext.standalone(type(self).__name__)
         self.ctx.liveness.actor = self
+        if self.pooled:
+            self.actor_inbox = PooledInbox(
+                self._pooled_turn, lambda envelope: answer_dead(self, envelope))
+            self._actor_ref = pykka.ActorRef(self)  # it holds the inbox it was made with
 
     def _start_actor_loop(self) -> None:
+        if self.pooled:
+            TURN_THREADS.submit(self._pooled_start)
+            return
         ACTOR_THREADS.submit(self._actor_loop)  # a pre-started thread: fast restarts
+
+    def _pooled_start(self) -> None:
+        """A pooled actor's start hook, then its first turn, on a pool thread."""
+        self._actor_loop_setup()
+        inbox = self.actor_inbox
+        assert isinstance(inbox, PooledInbox)
+        inbox.open()
+        self._pooled_turn()
+
+    def _pooled_turn(self) -> None:
+        """Handle the mail waiting (up to TURN_MESSAGES), as pykka's loop would."""
+        inbox = self.actor_inbox
+        assert isinstance(inbox, PooledInbox)
+        for _ in range(TURN_MESSAGES):
+            if self.actor_stopped.is_set():
+                for envelope in inbox.end():
+                    answer_dead(self, envelope)
+                return
+            envelope = inbox.take()
+            if envelope is None:
+                return
+            run_envelope(self, envelope)
+        inbox.again()
 
     # -- hooks for subclasses ----------------------------------------------------------
     def setup(self) -> None:

@@ -27,6 +27,7 @@ from mrss.world.topics import UNAVAILABLE_PREFIX, WM_REQUEST_TOPIC, wm_reply_top
 WORLD_MODEL_URL_FILE = "worldmodel.url"
 log = logging.getLogger("mrss.datalayer")
 MAX_BATCH = 200   # writes per `wm.upsert_many` request of the telemetry path
+PACE_TIMEOUT_S = 1.0  # a batch's answer waited for this long before the next is sent
 
 
 class WorldModelUnavailable(DependencyUnavailable):
@@ -50,12 +51,21 @@ class BusWorldModel:
         self.client = DataLayerClient(bus, request_topic=WM_REQUEST_TOPIC,
                                       reply_topic=reply_topic, default_timeout=timeout)
         self._queued: list[dict[str, Any]] = []   # writes not waited for, not yet sent
+        self._taken = 0   # writes taken off the queue to be sent, ever
         self._wake = threading.Condition()
         self._sending = threading.Lock()   # one batch (or call) at a time, in order
         self._writer: threading.Thread | None = None
         self._closed = False
         self._unsent = False   # the last batch could not be sent (logged once)
+        self._paced = True   # the next batch waits for the last one's answer
+        self._answers_unpaced = 0   # the client's answered sends when pacing stopped
         self.batches = 0   # requests that carried queued writes
+
+    @property
+    def paced(self) -> bool:
+        """Whether the next batch waits for the last one's answer (the world model
+        answers); False after one went unanswered for PACE_TIMEOUT_S, until answers come."""
+        return self._paced
 
     def close(self) -> None:
         """Send the queued writes, then stop."""
@@ -68,7 +78,9 @@ class BusWorldModel:
         self.client.close()
 
     def _call(self, function: str, args: list[Any]) -> Any:
-        self._flush()   # the writes queued before this call go first
+        with self._wake:   # the writes queued before this call go first (not later ones:
+            due = self._taken + len(self._queued)   # the call must not wait for ever)
+        self._flush(due)
         try:
             return self.client.call(function, args)
         except DataLayerError as exc:
@@ -93,10 +105,13 @@ class BusWorldModel:
         the data layer's telemetry path, which needs no answer, uses it.
 
         The write is queued; a writer thread sends what is queued as one
-        `wm.upsert_many` request (at most MAX_BATCH objects), so while one batch is on
-        its way the next records gather: one request and one reply per batch instead
-        of per record, and one transaction in the world model. An invalid object is
-        counted in `client.failed_sends`."""
+        `wm.upsert_many` request (at most MAX_BATCH objects) and waits for its answer
+        before it sends the next, so while one batch is on its way the next records
+        gather: one request, one reply and one transaction in the world model per batch
+        instead of per record, and the busier the world model the bigger its batches
+        (one in flight at a time). Without an answer within PACE_TIMEOUT_S (the world
+        model is away or stalled) the writer sends on without waiting until answers
+        come again. An invalid object is counted in `client.failed_sends`."""
         with self._wake:
             self._queued.append(obj)
             if self._writer is None and not self._closed:
@@ -112,20 +127,44 @@ class BusWorldModel:
                 if self._closed:
                     return
             try:
-                self._flush()
+                self._send_next()
                 self._unsent = False
             except Exception:  # the writer outlives a bad moment of the bus; logged once
                 if not self._unsent:
                     log.exception("queued world model writes could not be sent")
                 self._unsent = True
 
-    def _flush(self) -> None:
-        """Send every queued write, in batches, in order."""
+    def _send_next(self) -> None:
+        """The writer: send one batch, then (not holding the send lock, so that a call
+        is not held up) wait for its answer while the world model answers."""
+        with self._sending:
+            with self._wake:
+                batch = self._queued[:MAX_BATCH]
+                del self._queued[:MAX_BATCH]
+                self._taken += len(batch)
+            if not batch:
+                return
+            client = self.client
+            if not self._paced and client.answered_sends != self._answers_unpaced:
+                self._paced = True  # it answers again
+            paced = self._paced
+            self.batches += 1
+            request_id = client.send("wm.upsert_many", [batch], track=paced)
+        if paced and not client.wait_answered(request_id, PACE_TIMEOUT_S):
+            self._paced = False
+            self._answers_unpaced = client.answered_sends
+
+    def _flush(self, due: int | None = None) -> None:
+        """Send the queued writes (every one, or those up to the `due`-th ever taken), in
+        batches, in order, without waiting for their answers (a call waits for its own,
+        which comes after theirs)."""
         with self._sending:
             while True:
                 with self._wake:
-                    batch = self._queued[:MAX_BATCH]
-                    del self._queued[:MAX_BATCH]
+                    size = MAX_BATCH if due is None else min(MAX_BATCH, due - self._taken)
+                    batch = self._queued[:max(size, 0)]
+                    del self._queued[:len(batch)]
+                    self._taken += len(batch)
                 if not batch:
                     return
                 self.batches += 1

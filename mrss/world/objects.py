@@ -29,6 +29,25 @@ MAX_ID = 200
 ChangeOp = Literal["insert", "update", "unchanged"]
 
 
+_JSON_SCALARS = (str, int, bool, type(None))
+
+
+def _plain_scalars(attributes: dict[str, Any]) -> bool:
+    """Whether every key is a str and every value a str, int, bool, None or finite float
+    (exactly these types): such attributes are plain JSON, as `json.dumps(...,
+    allow_nan=False)` would find at a greater cost."""
+    for key, value in attributes.items():
+        if type(key) is not str:
+            return False
+        kind = type(value)
+        if kind is float:
+            if not math.isfinite(value):
+                return False
+        elif kind not in _JSON_SCALARS:
+            return False
+    return True
+
+
 def _finite(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"{name} must be a number, not {type(value).__name__}")
@@ -103,6 +122,8 @@ class WorldObject:
                 self.position is not None or self.geometry.type is GeometryType.POINT):
             raise ValueError(f"object {self.id!r}: a point is a position; geometry is for "
                              "a LineString or a Polygon")
+        if _plain_scalars(self.attributes):
+            return  # plain JSON for sure (a robot's telemetry): no encoding to find out
         try:
             json.dumps(self.attributes, allow_nan=False)
         except (TypeError, ValueError) as exc:

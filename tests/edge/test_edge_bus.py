@@ -6,6 +6,7 @@ supervisor would give it (name, folders, configuration, its own Publisher, endpo
 
 from __future__ import annotations
 
+import itertools
 import json
 import shutil
 import tempfile
@@ -252,3 +253,91 @@ def test_writes_sent_without_waiting_are_applied_in_order_and_failures_counted(
         assert world.client.unmatched_replies == 0
     finally:
         sub.close()
+
+
+class _WriteTraffic:
+    """Requests for `wm.upsert_many` and their replies, in the order the bus carried them."""
+
+    def __init__(self, endpoints: BusEndpoints) -> None:
+        self.events: list[tuple[str, str, int]] = []  # ("request" | "reply", id, objects)
+        self._lock = threading.Lock()
+        self.sub = Subscriber(endpoints, prefixes=["dl.request.wm", "dl.reply.wm"])
+        self.sub.start(self._on)
+        assert self.sub.wait_connected(10)
+
+    def _on(self, env: Envelope) -> None:
+        body = env.body
+        with self._lock:
+            if isinstance(body, DataRequest) and body.function == "wm.upsert_many":
+                self.events.append(("request", body.request_id, len(body.args[0])))
+            elif isinstance(body, DataReply):
+                self.events.append(("reply", body.request_id, 0))
+
+    def snapshot(self) -> list[tuple[str, str, int]]:
+        with self._lock:
+            return list(self.events)
+
+    def sent(self) -> int:
+        return sum(n for kind, _, n in self.snapshot() if kind == "request")
+
+
+def test_a_batch_of_writes_waits_for_the_answer_to_the_last(edge: Edge) -> None:
+    world = edge.data._world
+    traffic = _WriteTraffic(edge.endpoints)
+    try:
+        for n in range(300):
+            world.upsert_nowait({"id": f"ugv{n % 7}", "kind": "robot", "attributes": {"n": n}})
+        wait_until(lambda: traffic.sent() == 300, timeout=15, message="every write sent")
+        events = traffic.snapshot()
+        requests = [rid for kind, rid, _ in events if kind == "request"]
+        wait_until(lambda: {rid for kind, rid, _ in traffic.snapshot() if kind == "reply"}
+                   >= set(requests), timeout=15, message="every batch answered")
+        for first, second in itertools.pairwise(requests):  # one batch in flight at a time
+            assert events.index(("reply", first, 0)) < events.index(("request", second,
+                                                                     _size(events, second)))
+        assert world.paced
+    finally:
+        traffic.sub.close()
+
+
+def test_writes_go_on_without_waiting_while_the_world_model_does_not_answer(
+        edge: Edge) -> None:
+    world = edge.data._world
+    traffic = _WriteTraffic(edge.endpoints)
+    try:
+        edge.world.stop()  # nobody answers now
+        world.upsert_nowait({"id": "ugv1", "kind": "robot", "attributes": {"n": 0}})
+        wait_until(lambda: not world.paced, timeout=15, message="pacing given up")
+        for n in range(1, 6):
+            world.upsert_nowait({"id": "ugv1", "kind": "robot", "attributes": {"n": n}})
+            wait_until(lambda n=n: traffic.sent() == n + 1, timeout=15,
+                       message=f"write {n} sent without an answer to the last")
+        assert not world.paced and all(kind == "request" for kind, _, _ in traffic.snapshot())
+    finally:
+        traffic.sub.close()
+
+
+def _size(events: list[tuple[str, str, int]], request_id: str) -> int:
+    return next(n for kind, rid, n in events if kind == "request" and rid == request_id)
+
+
+def test_a_call_is_not_held_up_by_writes_that_keep_coming(edge: Edge) -> None:
+    world = edge.data._world
+    stop = threading.Event()
+
+    def flood() -> None:
+        n = 0
+        while not stop.wait(0.005):  # ~2,000 writes a second, as a big fleet's telemetry
+            for _ in range(10):
+                world.upsert_nowait({"id": f"ugv{n % 9}", "kind": "robot",
+                                     "attributes": {"n": n}})
+                n += 1
+
+    writer = threading.Thread(target=flood)
+    writer.start()
+    try:
+        for _ in range(5):  # each waits for the writes queued before it, not for later ones
+            assert edge.client.call("ground", ["lake"], timeout=10)["kind"] == "water_source"
+    finally:
+        stop.set()
+        writer.join()

@@ -142,7 +142,10 @@ class _Tracked:
 
 
 class RobotActor(SupervisedActor):
-    """Runs the actions of one robot."""
+    """Runs the actions of one robot (on the shared threads of mrss.supervision.pooled
+    while it has mail: a fleet's robot actors hold no thread each)."""
+
+    pooled = True
 
     def __init__(self, ctx: ActorContext, robot: str, link: Any, layer: RobotCommLayer,
                  broker: ResourceBroker, host: RobotHost) -> None:
