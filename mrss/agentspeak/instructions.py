@@ -17,7 +17,7 @@ from mrss.agentspeak import ownevent
 from mrss.agentspeak.closures import Tester, resolver, tester
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.formulas import LiteralQuery, Query
-from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
+from mrss.agentspeak.intentions import PENDING_EVENT, Event, IntendedMeans
 from mrss.agentspeak.ownevent import OwnEvent, belief_event
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
@@ -119,11 +119,7 @@ class Achieve(Instr):
                         it.stack.append(IntendedMeans(chosen, frame, lit, ADD_ACH))
                     if chosen.atomic:
                         rt.atomic = it
-                    it.state = RUNNABLE
-                    if (not it.in_queue and not it.suspended and not it.dropped
-                            and it is not rt.atomic):
-                        it.in_queue = True
-                        rt.runq.append(it)
+                    rt.make_runnable(it)
                     return True
                 errors.clear()
         it.state = PENDING_EVENT  # `Runtime.post_subgoal` when nothing else is to be done

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from mrss.agentspeak.intentions import PENDING_EVENT, RUNNABLE, Event, IntendedMeans
+from mrss.agentspeak.intentions import PENDING_EVENT, Event, IntendedMeans
 from mrss.agentspeak.terms import DEL_ACH, DEL_BEL, Struct
 
 # A formula's own event (`!g`, `+b`, `-b`) is handled in its step when that is the same
@@ -79,11 +79,7 @@ def belief_event(rt: Runtime, own: OwnEvent, lit: Struct, it: Intention) -> bool
                     it.stack.append(IntendedMeans(chosen, frame, lit, own.key[0]))
                     if chosen.atomic:
                         rt.atomic = it
-                    it.state = RUNNABLE
-                    if (not it.in_queue and not it.suspended and not it.dropped
-                            and it is not rt.atomic):
-                        it.in_queue = True
-                        rt.runq.append(it)
+                    rt.make_runnable(it)
                     return True
                 errors.clear()
             it.state = PENDING_EVENT

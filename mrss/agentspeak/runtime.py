@@ -309,10 +309,7 @@ class Runtime:
             stack.append(IntendedMeans(chosen, frame, lit, key[0]))
         if chosen.atomic:
             self.atomic = it
-        it.state = RUNNABLE
-        if not it.in_queue and not it.suspended and not it.dropped and it is not self.atomic:
-            it.in_queue = True
-            self.runq.append(it)
+        self.make_runnable(it)
         return True
 
     # ------------------------------------------------------------------ acting
