@@ -34,7 +34,7 @@ import select
 import signal
 import socket
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 log = logging.getLogger("mrss.runtime.forkserver")
@@ -68,16 +68,33 @@ def _name_process(name: str) -> None:
         pass
 
 
-def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: int) -> None:
-    """In the forked child: become a component; never returns."""
+def _forked(sock: socket.socket, wake: tuple[int, int], what: str,
+            body: Callable[[], int]) -> None:
+    """In a forked child: drop the server's signal handling and descriptors, run `body`,
+    exit with its code; anything raised is logged as `what` failed and exits 1. Never
+    returns: a forked child must end in os._exit."""
     code = 1
     try:
-        _name_process(str(req["name"]))
         signal.set_wakeup_fd(-1)
         signal.signal(signal.SIGCHLD, signal.SIG_DFL)
         sock.close()
         os.close(wake[0])
         os.close(wake[1])
+        code = body()
+    except BaseException:  # anything, in a forked child, must end in os._exit
+        logging.getLogger("mrss.runtime.forkserver").exception("%s failed", what)
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
+def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: int) -> None:
+    """In the forked child: become a component; never returns."""
+    def component() -> int:
+        _name_process(str(req["name"]))
         os.setpgid(0, 0)
         from mrss.runtime.main import run_component
 
@@ -85,38 +102,20 @@ def _child(sock: socket.socket, wake: tuple[int, int], req: dict[str, Any], fd: 
         logging.basicConfig(
             level=logging.INFO, force=True,
             format=f"%(asctime)s {req['name']}[{os.getpid()}] %(levelname)s %(message)s")
-        code = run_component(req["target"], req["name"], int(req["inc"]), req["context"], fd)
-    except BaseException:  # anything, in a forked child, must end in os._exit
-        logging.getLogger("mrss.runtime.forkserver").exception("forked child failed")
-    finally:
-        try:
-            sys.stdout.flush()
-            sys.stderr.flush()
-        finally:
-            os._exit(code)
+        return run_component(req["target"], req["name"], int(req["inc"]), req["context"], fd)
+
+    _forked(sock, wake, "forked child", component)
 
 
 def _check(sock: socket.socket, wake: tuple[int, int], target: str, file: str) -> None:
     """In a forked child: run the check `target` ("pkg.mod:function", called with the
     project file; True when it may start, its findings printed on stderr); exit 0 when
     the project may start, 2 when not."""
-    code = 1
-    try:
-        signal.set_wakeup_fd(-1)
-        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
-        sock.close()
-        os.close(wake[0])
-        os.close(wake[1])
+    def check() -> int:
         module, _, function = target.partition(":")
-        code = 0 if getattr(importlib.import_module(module), function)(file) else 2
-    except BaseException:  # anything, in a forked child, must end in os._exit
-        logging.getLogger("mrss.runtime.forkserver").exception("project check failed")
-    finally:
-        try:
-            sys.stdout.flush()
-            sys.stderr.flush()
-        finally:
-            os._exit(code)
+        return 0 if getattr(importlib.import_module(module), function)(file) else 2
+
+    _forked(sock, wake, "project check", check)
 
 
 def _send(sock: socket.socket, msg: dict[str, Any]) -> bool:
