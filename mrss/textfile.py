@@ -1,14 +1,19 @@
-"""Reading a source file as UTF-8 text, with an error that says where it is not UTF-8.
+"""Text files: read as UTF-8 with an error that says where it is not, written whole.
 
 `read_text(path)` is `Path.read_text(encoding="utf-8")` whose UnicodeDecodeError becomes a
 `NotUtf8Error` naming the file, the line and the byte offset of the first bad byte, so
 every command reports a stray Latin-1 byte the same way instead of with a traceback; a
 file larger than `MAX_BYTES` (16 MiB, or an endless one such as /dev/zero) is an OSError.
+
+`write_whole(path, text)` writes a file another process reads (an address, a URL): the
+reader sees the old text or the new, never a partial one.
 """
 
 from __future__ import annotations
 
 import errno
+import os
+import threading
 from pathlib import Path
 
 from mrss.errors import MrssError
@@ -56,3 +61,16 @@ def read_text(path: Path) -> str:
     if len(data) > MAX_BYTES:
         raise OSError(errno.EFBIG, f"larger than {MAX_BYTES // (1024 * 1024)} MiB", str(path))
     return decode(data, str(path))
+
+
+def write_whole(path: Path, text: str) -> None:
+    """Write `text` to `path` as one step for any reader: into a partial file of this
+    process and thread beside it, then renamed over `path` (a reader polling for the
+    file never finds it empty or half written)."""
+    partial = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.partial")
+    try:
+        partial.write_text(text, encoding="utf-8")
+        os.replace(partial, path)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise

@@ -36,6 +36,7 @@ from mrss.config.project import ProjectConfig
 from mrss.errors import MrssError
 from mrss.links.connect import ADDRESS_SUFFIX
 from mrss.links.mqtt_url import parse_broker_url
+from mrss.textfile import write_whole
 
 Heal = Callable[[], None]
 NFT_TABLE = "mrss_chaos"
@@ -89,8 +90,7 @@ class Relays:
         for robot, relay in self.relays.items():
             relay.start()
             host, port = relay.address
-            via_file(self.run_dir, robot, self.links[robot]).write_text(
-                f"{host}:{port}\n", encoding="utf-8")
+            write_whole(via_file(self.run_dir, robot, self.links[robot]), f"{host}:{port}\n")
         return self
 
     def close(self) -> None:

@@ -43,6 +43,7 @@ from mrss.edge.validation import Rejected, limit_overrides
 from mrss.errors import ConfigError
 from mrss.links.base import LinkStateCallback, RobotLink, TelemetryCallback
 from mrss.links.factory import create_link
+from mrss.textfile import write_whole
 
 #: The key naming a robot's link kind.
 LINK_KEY = "link"
@@ -52,6 +53,15 @@ SIGNING_KEY = "signing_key"
 MQTT_FILES = ("password_file", "ca_certs", "certfile", "keyfile")
 #: A simulated copter writes the address a ground station uses to `<run_dir>/<id>` + this.
 ADDRESS_SUFFIX = ".mavlink"
+
+
+def write_simulator_address(run_dir: Path, robot: str, url: str) -> Path:
+    """Write `url` as `robot`'s simulator address in `run_dir`, atomically (a partial file
+    renamed over the old one): an RCL or a test reading it while it is written sees the
+    old address or the new one, never an empty file."""
+    path = run_dir / f"{robot}{ADDRESS_SUFFIX}"
+    write_whole(path, url + "\n")
+    return path
 
 
 def simulator_address(run_dir: Path | None, robot: str) -> str:

@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from mrss.errors import ConfigError
-from mrss.links.connect import ADDRESS_SUFFIX
+from mrss.links.connect import ADDRESS_SUFFIX, write_simulator_address
 from mrss.links.connect import project_broker_url as links_broker_url
 from mrss.links.failsafe import policy_of
 from mrss.links.geo import distance_m
@@ -199,7 +199,7 @@ class SimUavComponent(Component):
                                   key="port")
             time.sleep(0.01)
         self.uav = uav
-        self.address_file.write_text(f"udpout:127.0.0.1:{port}\n", encoding="utf-8")
+        write_simulator_address(ctx.run_dir, robot, f"udpout:127.0.0.1:{port}")
         ctx.log.info("simulated %s: MAVLink on udp 127.0.0.1:%d (link url in %s), home %.6f,"
                      "%.6f, %d hidden hotspots, speedup %g", robot, port, self.address_file,
                      home[0], home[1], len(uav.camera.hotspots), uav.speedup)

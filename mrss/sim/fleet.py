@@ -32,7 +32,7 @@ from types import FrameType
 
 from paho.mqtt import client as mqtt
 
-from mrss.links.connect import ADDRESS_SUFFIX
+from mrss.links.connect import write_simulator_address
 from mrss.links.geo import offset
 from mrss.links.mavconn import MAV
 from mrss.links.ugv_protocol import DEFAULT_PREFIX
@@ -212,8 +212,7 @@ class SimFleet:
         if run_dir is None:
             return
         for robot in self.uavs:
-            (run_dir / f"{robot}{ADDRESS_SUFFIX}").write_text(self.address(robot) + "\n",
-                                                             encoding="utf-8")
+            write_simulator_address(run_dir, robot, self.address(robot))
 
 
 # -- command line ----------------------------------------------------------------------------

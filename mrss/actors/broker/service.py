@@ -68,6 +68,7 @@ from mrss.options import Check, Option, OptionValues
 from mrss.ports import free_port
 from mrss.programs import find_mosquitto
 from mrss.runtime.component import Component, ComponentContext
+from mrss.textfile import write_whole
 
 log = logging.getLogger("mrss.broker")
 #: The embedded Mosquitto's folder under the run folder: its configuration, database, pid.
@@ -267,9 +268,7 @@ class EmbeddedBroker(Component):
                         "clients", "a password file is set" if password_file else
                         "no mosquitto installed" if binary is None else "engine = amqtt")
             self.serve_at(url, password_file=password_file)
-        partial = url_file.with_suffix(".tmp")
-        partial.write_text(url + "\n", encoding="utf-8")
-        partial.replace(url_file)
+        write_whole(url_file, url + "\n")
 
     def serve_at(self, url: str, timeout: float = 20.0, *,
                  password_file: str | None = None) -> None:

@@ -38,6 +38,7 @@ from mrss.errors import ConfigError
 from mrss.options import Option
 from mrss.recording.recorder import BusRecorder
 from mrss.runtime.component import Component, ComponentContext
+from mrss.textfile import write_whole
 
 log = logging.getLogger("mrss.foxglove")
 URL_FILE = "foxglove.url"
@@ -114,6 +115,4 @@ def write_url(run_dir: Path | None, url: str) -> None:
     """`<run_dir>/foxglove.url`, written whole (a reader never sees half of it)."""
     if run_dir is None:
         return
-    partial = run_dir / (URL_FILE + ".tmp")
-    partial.write_text(url + "\n", encoding="utf-8")
-    partial.replace(run_dir / URL_FILE)
+    write_whole(run_dir / URL_FILE, url + "\n")

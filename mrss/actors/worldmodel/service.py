@@ -56,6 +56,7 @@ from mrss.runtime.component import Component, ComponentContext
 from mrss.runtime.edge import edge_config
 from mrss.runtime.operator_guard import OperatorGuard
 from mrss.runtime.percept_channel import PerceptChannel
+from mrss.textfile import write_whole
 from mrss.world.access import WORLD_MODEL_URL_FILE
 from mrss.world.topics import WM_REQUEST_TOPIC, wm_reply_topic
 
@@ -92,9 +93,7 @@ def serve_http(world: WorldModel, host: str, port: int, run_dir: Path | None, *,
         http = WorldModelHttp(world, host, 0, token=token, timeout=timeout,
                               operators=operators)
     if run_dir is not None:
-        partial = run_dir / (URL_FILE + ".tmp")
-        partial.write_text(http.url + "\n", encoding="utf-8")
-        partial.replace(run_dir / URL_FILE)
+        write_whole(run_dir / URL_FILE, http.url + "\n")
     return http
 
 
