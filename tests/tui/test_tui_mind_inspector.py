@@ -88,3 +88,38 @@ def test_a_new_snapshot_changes_only_the_nodes_that_differ() -> None:
             assert _labels(_branch(mind, "intentions")) == []
             assert _labels(_branch(mind, "events")) == ["+e2"]
     asyncio.run(body())
+
+
+def test_the_measured_width_of_every_line_is_the_width_of_its_rendered_label() -> None:
+    """The inspector measures a line without rendering its label; the measure must be
+    what Textual's Tree gets by rendering it (a branch open or closed, a leaf, a fresh
+    belief's style, wide characters), or the panel scrolls too little or too far."""
+    from textual.widgets import Tree
+
+    async def body() -> None:
+        app = _Host()
+        async with app.run_test(size=(100, 60)) as pilot:
+            mind = app.query_one(MindInspector)
+            mind.show_snapshot(MindSnapshot(
+                agent="r", beliefs=["a", "pos(uav1, 47.1, 15.4)", "note(\"火災 near 川\")"],
+                intentions=[_intention(1, "running", "+!x"), _intention(2, "suspended", "+!y")],
+                events=["+e1"]), 1.0, 1)
+            await pilot.pause()
+            mind.show_snapshot(MindSnapshot(
+                agent="r", beliefs=["a", "b", "note(\"火災 near 川\")"],
+                intentions=[_intention(1, "running", "+!x")], events=[]), 2.0, 1)
+            await pilot.pause()
+            _branch(mind, "intentions").children[0].collapse()
+            await pilot.pause()
+            nodes, stack = [], [mind.root]
+            while stack:
+                node = stack.pop()
+                nodes.append(node)
+                stack.extend(node.children)
+            kinds = {(node.allow_expand, node.is_expanded) for node in nodes}
+            assert {(True, True), (True, False), (False, False)} <= kinds
+            for node in nodes:
+                assert mind.get_label_width(node) == Tree.get_label_width(mind, node), \
+                    str(node.label)
+
+    asyncio.run(body())
