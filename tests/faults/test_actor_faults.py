@@ -12,7 +12,7 @@ from mrss.supervision.actors import ActorSupervisor, CrashNow, actor_child
 from mrss.supervision.events import EventLog
 from mrss.supervision.spec import Backoff, ChildKind, OnExceeded, SupervisorSpec
 from mrss.testing import wait_until
-from tests.projects.actorkit import Store, counter, nested
+from tests.projects.actorkit import Store, counter, nested, stop_every_actor
 
 FAST = Backoff(initial=0.0)
 
@@ -22,7 +22,7 @@ def stop_all_actors() -> Iterator[None]:
     try:
         yield
     finally:
-        pykka.ActorRegistry.stop_all(block=True, timeout=30)
+        stop_every_actor()
 
 
 def robot(name: str, store: Store, intensity: int = 3) -> Any:

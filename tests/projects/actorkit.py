@@ -10,6 +10,8 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
+import pykka
+
 from mrss.supervision.actors import ActorContext, ActorSupervisor, SupervisedActor
 from mrss.supervision.spec import SupervisorSpec
 
@@ -80,3 +82,16 @@ def counter(store: Store) -> Any:
 def nested(spec: SupervisorSpec, children: list[Any]) -> Any:
     """A factory for a nested ActorSupervisor child."""
     return lambda ctx: ActorSupervisor.start(spec, children, ctx=ctx)
+
+
+def stop_every_actor(timeout: float = 30.0) -> None:
+    """End a test's actors from the top: its supervisors first, oldest (the root) first,
+    each stopping its own children, then whatever is left. `ActorRegistry.stop_all`
+    alone stops the newest first, children before their supervisor, and a supervisor
+    still running restarts a child it sees go: that child outlived the test and logged
+    its start into a closed stream. None may be left afterwards."""
+    for ref in pykka.ActorRegistry.get_by_class(ActorSupervisor):
+        ref.stop(block=True, timeout=timeout)
+    pykka.ActorRegistry.stop_all(block=True, timeout=timeout)
+    left = pykka.ActorRegistry.get_all()
+    assert not left, f"actors left running after the test: {left}"

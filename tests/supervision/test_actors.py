@@ -14,7 +14,7 @@ from mrss.supervision.events import EventLog
 from mrss.supervision.reason import Cause, ExitReason
 from mrss.supervision.spec import Backoff, OnExceeded, Restart, Strategy, SupervisorSpec
 from mrss.testing import wait_until
-from tests.projects.actorkit import Counter, Store, counter
+from tests.projects.actorkit import Counter, Store, counter, stop_every_actor
 
 NO_BACKOFF = Backoff(initial=0.0)
 
@@ -24,7 +24,7 @@ def stop_all_actors() -> Iterator[None]:
     try:
         yield
     finally:
-        pykka.ActorRegistry.stop_all(block=True, timeout=30)
+        stop_every_actor()
 
 
 @pytest.fixture()
