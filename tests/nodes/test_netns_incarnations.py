@@ -53,7 +53,9 @@ class Bus:
         self._lock = threading.Lock()
         self.sub = Subscriber(self.endpoints, prefixes=prefixes, stale=Stale.KEEP)
         self.sub.start(self._add)
-        assert self.sub.wait_connected(10)
+        # a node started again finds its last run's socket files in place: the wait for
+        # its new proxy is here, as long as a root's start may take on a loaded machine
+        assert self.sub.wait_connected(60), f"no bus proxy greeted in {run_dir}"
 
     def _add(self, env: Envelope) -> None:
         with self._lock:
