@@ -13,6 +13,9 @@ posted as `ShapeDrawn` (the app opens a command whose form has such a field, pre
 a bad one (a polygon that crosses itself, too many vertices) is said and nothing opens.
 `l` lists the robots in the cursor's cell (several robots at one spot show as
 `uav1+2`).
+
+The title (scale, mode) is known only once the map is drawn; it is set only when it
+changed, as setting it makes Textual paint the panel again (a frame of its own).
 """
 
 from __future__ import annotations
@@ -97,6 +100,7 @@ class MapPanel(Widget, can_focus=True):
         return text
 
     def _retitle(self, width: int) -> None:
+        """Set the title for the map just drawn, if it changed (a repaint comes)."""
         mode = (f"following {self.following}" if self.following
                 else "fit" if self.auto_fit else "free")
         plan = self.model.plans.get(self.following or "")
@@ -109,8 +113,10 @@ class MapPanel(Widget, can_focus=True):
         if self.sketch.cursor is not None:
             lat, lon = self.sketch.cursor
             drawing = f" · cursor {lat:.5f},{lon:.5f} · {len(self.sketch.vertices)} vertices"
-        self.border_title = (f"Map {self.view.describe(width)} · {mode}{empty}{drawing} "
-                             f"({'↑↓←→ Enter P R Z l Del' if drawing else '+ - ← → f 0'})")
+        title = (f"Map {self.view.describe(width)} · {mode}{empty}{drawing} "
+                 f"({'↑↓←→ Enter P R Z l Del' if drawing else '+ - ← → f 0'})")
+        if title != self.border_title:
+            self.border_title = title
 
     def _draw_sketch(self, canvas: BrailleCanvas, width: int, height: int) -> None:
         sketch = self.sketch

@@ -78,10 +78,12 @@ class MindInspector(SteadyScroll, Tree[str]):
         it does at every snapshot that changed anything (~200 labels a second was a
         third of what the mind panel cost). The same width as `render_label`'s: the
         toggle icon of a branch, then the label."""
+        label = node.label
+        width = label.cell_len if isinstance(label, Text) else cell_len(label)
         if node.allow_expand:
             icon = self.ICON_NODE_EXPANDED if node.is_expanded else self.ICON_NODE
-            return cell_len(icon) + node.label.cell_len
-        return node.label.cell_len
+            return cell_len(icon) + width
+        return width
 
     def show_snapshot(self, snap: MindSnapshot, when: float, incarnation: int = 0) -> None:
         """A snapshot arrived: kept in the history, shown if the inspector is live."""
