@@ -4,6 +4,11 @@ The source is first split into statements at each top-level terminating `.` (out
 brackets, strings and comments, and followed by white space or the end); each
 statement is parsed on its own with the LALR grammar in `grammar.lark`, so one bad
 statement does not hide the errors of the others.
+
+lark (and the tree builder made on it) is imported when a statement is first parsed
+with the grammar, not with this module: a literal the fast reader takes (a percept, a
+goal pattern in project.toml) needs neither, and the root supervisor, which reads such
+patterns, then never holds the parser's megabytes.
 """
 
 from __future__ import annotations
@@ -14,16 +19,17 @@ import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import lark
-
-from mrss.agentspeak.builder import TreeBuilder
 from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
 from mrss.agentspeak.fastread import read_simple
 from mrss.agentspeak.syntax import BeliefSrc, Program
 from mrss.agentspeak.terms import Struct, Term
 from mrss.agentspeak.unify import resolve
+
+if TYPE_CHECKING:
+    import lark
 
 _TOKEN_TEXT = {
     "DOT": ".", "SEMICOLON": ";", "COMMA": ",", "LPAR": "(", "RPAR": ")", "LSQB": "[",
@@ -42,6 +48,8 @@ def _cache_file() -> str | bool:
     """Where lark keeps the parser tables it builds from the grammar (building them is
     most of the start-up of `mrss agent`): a folder of this user only, never a shared
     temporary folder (the cache is a pickle). False (no cache) when it cannot be made."""
+    import lark
+
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     folder = Path(base) / "mrss"
     try:
@@ -56,6 +64,8 @@ def _cache_file() -> str | bool:
 
 @functools.lru_cache(maxsize=1)
 def _lark() -> lark.Lark:
+    import lark
+
     grammar = (Path(__file__).parent / "grammar.lark").read_text(encoding="utf-8")
     # the cache holds a digest of the grammar and options: a changed grammar rebuilds it;
     # an unreadable or half-written one is rebuilt too (lark logs nothing at its level)
@@ -66,6 +76,8 @@ def _lark() -> lark.Lark:
 def warm() -> None:
     """Build the parser now. The fork server does (`mrss.runtime.forkserver.WARM`), so the
     processes it forks share its parser instead of each loading one of its own."""
+    import mrss.agentspeak.builder  # noqa: F401 (shared with the forked, as lark is)
+
     _lark()
 
 
@@ -132,6 +144,8 @@ def _position(text: str, offset: int) -> tuple[int, int]:
 
 
 def _describe(exc: lark.exceptions.LarkError) -> str:
+    import lark
+
     if isinstance(exc, lark.exceptions.UnexpectedToken):
         tok = exc.token
         got = "end of statement" if tok.type == "$END" else repr(str(tok))
@@ -268,6 +282,10 @@ def parse_program(text: str, file: str = "<string>",
     """Parse a whole source; raise `AslSyntaxError` listing every error found (or, with
     `collect`, append them there and return the statements that parsed).
     `{include("f.asl")}` parses f.asl (relative to `file`) in its place."""
+    import lark
+
+    from mrss.agentspeak.builder import TreeBuilder
+
     lines = text.splitlines()
     problems: list[SyntaxProblem] = [] if collect is None else collect
     program = Program(file)

@@ -21,7 +21,7 @@ from mrss.bus.settings import endpoints_from_config
 from mrss.config.kinds import ComponentKind
 from mrss.config.nodes import root_children
 from mrss.config.operator import SECTION as OPERATOR_SECTION
-from mrss.config.operator import read_operator
+from mrss.config.operator import operator_topics
 from mrss.config.project import ProjectConfig
 from mrss.messages import IncarnationKey
 from mrss.runtime.incident_recorder import IncidentRecorder
@@ -106,8 +106,7 @@ def supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
 def incident_recorder(config: ProjectConfig, run_dir: Path,
                       endpoints: BusEndpoints) -> IncidentRecorder:
     """The run's incident recorder, started (docs/mission.md, "The incident record")."""
-    operator = read_operator(config.sections.get(OPERATOR_SECTION), file=str(config.file))
-    topics = [*operator.topics.values(), *(c.topic for c in operator.commands.values())]
+    topics = operator_topics(config.sections.get(OPERATOR_SECTION))
     return IncidentRecorder(run_dir, endpoints, project=config.name, operator_topics=topics,
                             components=[c.id for c in config.components],
                             project_dir=config.directory).start()

@@ -39,13 +39,14 @@ import difflib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from mrss.agentspeak import AslSyntaxError, parse_literal
-from mrss.agentspeak.terms import Struct, Var
 from mrss.config.operator_commands import CommandSpec
-from mrss.config.operator_declarations import COMMANDS_KEY, read_commands
+from mrss.config.operator_declarations import COMMANDS_KEY, command_topic, read_commands
 from mrss.errors import ConfigError
+
+if TYPE_CHECKING:
+    from mrss.agentspeak.terms import Struct
 
 SECTION = "operator"
 
@@ -103,7 +104,12 @@ class GoalPattern:
 
 
 def parse_pattern(text: str) -> GoalPattern:
-    """A goal pattern; ValueError saying what is wrong."""
+    """A goal pattern; ValueError saying what is wrong. (The AgentSpeak parser is
+    imported here, not with this module: the root supervisor reads the operator's
+    topics and never a pattern, and the parser is megabytes it would hold all run.)"""
+    from mrss.agentspeak import AslSyntaxError, parse_literal
+    from mrss.agentspeak.terms import Var
+
     try:
         literal = parse_literal(text)
     except (AslSyntaxError, AssertionError, ValueError, RecursionError) as exc:
@@ -153,6 +159,22 @@ def read_operator(section: Any, *, file: str = "") -> OperatorConfig:
         else:
             raise ConfigError(f"unknown key{_hint(key, known)}", file=file, key=where)
     return OperatorConfig(topics, goals, commands)
+
+
+def operator_topics(section: Any) -> list[str]:
+    """The MQTT topics of the `[operator]` table's commands, built-in and declared, read
+    without checking the rest (the goal patterns, the commands' percepts): for the root
+    supervisor's incident recorder, in a project `read_operator` has accepted (`mrss
+    check`, the start's check). It leaves the AgentSpeak parser unimported."""
+    if not isinstance(section, Mapping):
+        return []
+    topics = [value.strip() for key, value in section.items()
+              if key in OperatorCommand.__members__.values() and isinstance(value, str)]
+    declared = section.get(COMMANDS_KEY)
+    if isinstance(declared, Mapping):
+        topics += [command_topic(name, table) for name, table in declared.items()
+                   if isinstance(table, Mapping)]
+    return topics
 
 
 def _goals(value: Any, file: str) -> dict[GoalState, GoalPattern]:

@@ -31,6 +31,17 @@ FIELD_KEYS = ("name", "type", "label", "units", "default", "min", "max", "intege
 ROLES = ("commander", "operator", "observer")
 
 
+def default_topic(name: str) -> str:
+    """The topic of command `name` when its table names none."""
+    return f"{DEFAULT_TOPIC_PREFIX}/{name}"
+
+
+def command_topic(name: str, table: Mapping[str, Any]) -> str:
+    """The topic of command `name`, its table not checked (a table `read_commands` took)."""
+    topic = table.get("topic")
+    return topic.strip() if isinstance(topic, str) else default_topic(name)
+
+
 def read_commands(value: Any, *, file: str = "",
                   section: str = "operator") -> dict[str, CommandSpec]:
     """`[operator.commands]`: every command, or ConfigError naming the key at fault."""
@@ -99,7 +110,7 @@ def _command(name: str, table: Any, file: str, where: str) -> CommandSpec:
     if role not in ROLES:
         raise ConfigError(f"role {role!r} is not one of {', '.join(ROLES)}"
                           f"{did_you_mean(str(role), ROLES)}", file=file, key=f"{where}.role")
-    topic = table.get("topic", f"{DEFAULT_TOPIC_PREFIX}/{name}")
+    topic = table.get("topic", default_topic(name))
     if not isinstance(topic, str) or not topic.strip() or any(c in topic for c in "#+"):
         raise ConfigError("must be an MQTT topic (no wildcards)", file=file, key=f"{where}.topic")
     goal = table.get("goal", "")
