@@ -93,7 +93,8 @@ class UavSkill(RobotSkill):
 
 
 class CoverArea(UavSkill):
-    """Fly lawnmower waypoints; progress `waypoint` = how many were reached."""
+    """Fly lawnmower waypoints; progress `waypoint` = how many were reached, `first` =
+    the waypoint this run started from."""
 
     progress_bound = 120.0  # s from the start (take-off) or a waypoint to the next one
 
@@ -104,6 +105,9 @@ class CoverArea(UavSkill):
 
     def run(self) -> bool:
         done = max(self.first, int(self.progress.get("waypoint", 0) or 0))
+        # where this run starts: 0, or the waypoint an earlier run of the area reached (on
+        # this UAV before a suspension, or on one lost mid-cover whose task it took over)
+        self.record_progress(first=done, waypoints=len(self.waypoints))
         self.publish_plan(self.waypoints, done)  # the dashboard's map: lanes done and left
         if not self.airborne(self.altitude):
             return False
