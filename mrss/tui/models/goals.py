@@ -5,7 +5,8 @@ is running, ...; `mrss.config.operator`). Each mind snapshot is matched against 
 patterns: a goal found is queued, running, suspended or failed, with its robot and
 priority. A pattern with no `Robot` (a goal the agent asks of a role, `task(_, Goal,
 Priority)`: the RCL picks the robot) takes the robot from the goal's newest action, and
-a running goal whose newest action is suspended in the RCL shows as suspended. Projects that declare `done` and `cancelled` patterns say how a goal ended;
+a running goal whose newest action is suspended in the RCL shows as suspended.
+Projects that declare `done` and `cancelled` patterns say how a goal ended;
 otherwise a goal that was seen and is no longer in any pattern has ended, and how is
 inferred: cancelled if the operator cancelled it from here, failed if its last action
 failed, else done.
