@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Hashable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from mrss.agentspeak.terms import Struct
 from mrss.api.testing import Agent, ScriptedHost
 
 AGENT = Path(__file__).resolve().parent.parent / "agent.asl"
@@ -31,10 +31,10 @@ class Host(ScriptedHost):
         super().__init__(virtual_time=True)  # the retries' .wait pauses are not waited out
         self.priorities: list[tuple[str, int]] = []
 
-    def execute(self, action: Struct, intention_id: int) -> Hashable:
+    def execute(self, action: Any, intention_id: int) -> Hashable:
         handle = super().execute(action, intention_id)
         priority = next((int(str(a.args[0])) for a in action.annots or ()
-                         if isinstance(a, Struct) and a.functor == "priority"), 0)
+                         if getattr(a, "functor", None) == "priority"), 0)
         self.priorities.append((self.log[-1], priority))
         return handle
 

@@ -4,11 +4,11 @@ which finishes it from where the first one stopped.
 `mrss supervise wildfire` as a real process: three simulated UAVs and two UGVs, each its
 own process. The agent asks for the cover of an operator's area with a task addressed to
 a role (`cover(any([uav, camera]), a1)`); the RCL awards it to uav1 (all three idle and
-no place to rank them by: the tie goes to the smallest id). Each UAV's MAVLink link
-passes a relay of the chaos tools (`mrss chaos`'s network faults, the `robot_loss`
-kind): once uav1 has reached a few waypoints its relay is partitioned for good, as a
-robot out of radio range. Its simulator runs on, so no supervisor brings it back: the
-link hears no heartbeat past its timeout and uav1 is lost. The RCL hands the same action
+no place to rank them by: the tie goes to the smallest id). Once uav1 has reached a few
+waypoints its simulator process is killed (SIGKILL), as a UAV lost for good: the project
+runs from a copy whose uav1 simulator is `restart = "temporary"`, so no supervisor
+brings it back. uav1's MAVLink link hears no heartbeat past its timeout and uav1 is
+lost. The RCL hands the same action
 to another UAV (uav2: the next tie), which starts at the waypoint uav1 had reached and
 flies the rest; the agent hears `reassigned(...)` and its intention never sees the cover
 fail.
@@ -16,15 +16,14 @@ fail.
 
 from __future__ import annotations
 
+import shutil
+import signal
 from pathlib import Path
 
 import pytest
 
 from mrss.api import distance_m
 from mrss.api.testing import RunningProject
-from mrss.chaos.network import Relays
-from mrss.chaos.relay import Impairment
-from mrss.config.loader import load_project
 
 PROJECT = Path(__file__).resolve().parent.parent
 AREA = {"goal": "a1", "priority": 2, "center": [-35.360567, 149.165237], "radius": 100}
@@ -34,22 +33,23 @@ def waypoint(progress: dict[str, object], key: str = "waypoint") -> int:
     return int(str(progress.get(key, 0) or 0))
 
 
+def lost_for_good(tmp_path: Path) -> Path:
+    """A copy of the project whose uav1 simulator is not restarted once it dies."""
+    copy = tmp_path / "projects" / PROJECT.name
+    shutil.copytree(PROJECT, copy, ignore=shutil.ignore_patterns("__pycache__", "procedures"))
+    toml = copy / "project.toml"
+    head = '[components.sim_uav]\nkind = "sim_uav"\n'
+    text = toml.read_text(encoding="utf-8")
+    assert head in text
+    toml.write_text(text.replace(head, head + 'restart = "temporary"\n'), encoding="utf-8")
+    return copy
+
+
 @pytest.mark.slow
 def test_a_uav_lost_mid_cover_hands_the_area_to_another_that_goes_on_from_there(
         tmp_path: Path) -> None:
-    run = tmp_path / "run"
-    run.mkdir()
-    # relays in the robots' links before anything resolves their addresses
-    relays = Relays(load_project(PROJECT.name, PROJECT.parent), run, seed=0).start()
-    try:
-        fly(relays, tmp_path)
-    finally:
-        relays.close()
-    assert relays.counts()["uav1"]["dropped"] > 0  # the partition took effect
-
-
-def fly(relays: Relays, tmp_path: Path) -> None:
-    with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+    with RunningProject(lost_for_good(tmp_path), tmp_path / "run",
+                        env={"MRSS_SIM_SPEEDUP": "20"}) as system:
         system.wait_ready()
         system.wait_for(lambda: all((system.world(r) or {}).get("position")
                                     for r in ("uav1", "uav2", "uav3")), 30,
@@ -60,7 +60,7 @@ def fly(relays: Relays, tmp_path: Path) -> None:
         system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
                         "uav1 past its second waypoint")
 
-        relays.impair("uav1", Impairment.PARTITION, 1.0)  # for good: never healed
+        system.signal("sim_uav", signal.SIGKILL)  # uav1 is gone, its link silent
         handed = system.wait_for(
             lambda: [s for s in system.statuses("uav2", "running") if s.uuid == cover.uuid],
             30, "the cover to run on uav2")[0]
@@ -94,4 +94,5 @@ def fly(relays: Relays, tmp_path: Path) -> None:
         assert uav2 is not None
         home = (-35.363262, 149.166118)
         assert distance_m(uav2["position"]["lat"], uav2["position"]["lon"], *home) > 150
+        assert system.component_pid("sim_uav") == 0  # not brought back: lost for good
         assert system.interrupt() == 0, system.log()
