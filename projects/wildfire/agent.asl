@@ -133,8 +133,9 @@ tries(G, 0) :- not tried(G, _).
       !service(R, water, refill).
 
 // Teleoperation (paper VI): the operator's wish is the percept teleop(R, on|off). On:
-// suspend the robot's actions and switch it to direct control with a skill (the RCL
-// awards it no new task meanwhile); off: switch it back, then resume them. Every change
+// suspend the robot's actions and switch it to direct control with a skill (a task
+// awarded to it meanwhile waits in its skill until the robot is handed back,
+// skills.py); off: switch it back, then resume them. Every change
 // of the wish starts its own switch. One that fails for a cause worth a retry (the link
 // is down, the RCL restarted) is tried again every 2 s, at most max_switch_tries times,
 // for as long as the operator still wants that mode, and not once the wish has changed:
