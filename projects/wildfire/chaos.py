@@ -14,7 +14,7 @@ from typing import Any
 
 PREFIX = "mrss/ui"                                  # [events] topic_prefix in project.toml
 REPLY_TOPICS = [f"{PREFIX}/+/reply"]                  # [events] reply_topic "{topic}/reply"
-PENDING_BELIEFS = ["queued", "waiting", "task", "retrying"]  # agent.asl: a goal not ended
+PENDING_BELIEFS = ["on_hold", "task", "retrying"]  # agent.asl: a goal not ended
 MODE_BELIEFS = {"teleop": "paused({robot},teleop)"}
 HOME = (-35.363262, 149.165237)
 SPOTS = [(-35.360567, 149.165237), (-35.361196, 149.164576), (-35.366500, 149.167500),

@@ -15,16 +15,22 @@ going down makes its robot unavailable (the reasoner perceives `robot_unavailabl
 Recipes (action -> skills), actions being `name(Robot, Goal, ...)`:
 
     cover(uav1, Area)                         CoverArea over area_polygon(Area) (data layer)
+                                              (agent.asl asks it of any([uav, camera]))
     recharge(uav1, G)                         ReturnHome, then wait for the battery swap
     return_home(uav1, G), land(uav1, G)       ReturnHome, Land
     supply_water(ugv1, H, Lat, Lon, Litres)   SupplyWater (drive, then pump)
+                                              (asked of any([ugv, water], at(Lat, Lon)))
     goto(ugv1, G, Lat, Lon), pump(ugv1, G, L) GotoPoint, Pump
     refill(ugv1, G), return_to_base(ugv1, G)  ReturnToBase (waiting for a full tank), ReturnToBase
     teleop_mode(ugv1, on|off)                 TeleopSwitch
 
 A cover action that ends unfinished (cancelled, failed) leaves its last waypoint
-behind: the next cover action of the same goal starts from there (the paper's "data
-from a previous execution").
+behind: the next cover action of the same goal starts from there, on whichever UAV the
+RCL awards it to (the paper's "data from a previous execution"). A cover or supply
+addressed to a role (`cover(any([uav, camera]), Area)`, docs/rcl.md "Allocation") is
+refined once the RCL has awarded it: `action.robot` is the winner; one handed on from a
+lost robot keeps its progress (`Skill.progress`), so the next UAV starts at the
+waypoint the lost one had reached.
 """
 
 from __future__ import annotations
@@ -61,14 +67,14 @@ def _number(value: Any, what: str, uuid: str) -> float:
 
 
 class WildfireRcl(RobotCommLayer):
-    """Links to the UAV (MAVLink) and the UGV (MQTT), and the recipes of the scenario."""
+    """Links to the UAVs (MAVLink) and the UGVs (MQTT), and the recipes of the scenario."""
 
     interrupt_timeout = 10.0  # a MAVLink mode change may take a few retries
     robot_settings = tuple(ROBOT_SETTINGS)  # not link options (set aside, and `mrss check`)
 
     def __init__(self) -> None:
         self.settings: dict[str, dict[str, float]] = {}
-        self._covered: dict[tuple[str, str], int] = {}  # (robot, area) -> waypoints reached
+        self._covered: dict[str, int] = {}  # area (goal) -> waypoints reached, by any UAV
         self._lock = threading.Lock()
 
     # -- links ----------------------------------------------------------------------------
@@ -86,7 +92,7 @@ class WildfireRcl(RobotCommLayer):
             polygon = self.data_call("area_polygon", action.goal)
             waypoints = sweep.lawnmower(polygon, s["lane_spacing"])
             with self._lock:
-                start = self._covered.get((action.robot, action.goal), 0)
+                start = self._covered.get(action.goal, 0)
             return [skills.CoverArea(waypoints, s["altitude"], start)]
         if name == "recharge":
             return [skills.ReturnHome(charge_to=s["charge_to"])]
@@ -115,7 +121,7 @@ class WildfireRcl(RobotCommLayer):
         """Remember how far an unfinished cover got, for the next try of that area."""
         if action.name != "cover":
             return
-        key = (action.robot, action.goal)
+        key = action.goal
         with self._lock:
             if action.state is ActionState.SUCCEEDED:
                 self._covered.pop(key, None)

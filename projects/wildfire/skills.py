@@ -32,6 +32,7 @@ MOTION = Resource("motion", per_robot=True)
 POLL_S = 0.05
 ARRIVED_M = 3.0
 STALE_S = 5.0  # no new tank record while pumping for this long: TransientError
+TELEOP_WAIT_S = 3600.0  # a UGV skill waits this long for the operator to hand the robot back
 
 
 class RobotSkill(Skill):
@@ -93,7 +94,8 @@ class UavSkill(RobotSkill):
 
 
 class CoverArea(UavSkill):
-    """Fly lawnmower waypoints; progress `waypoint` = how many were reached."""
+    """Fly lawnmower waypoints; progress `waypoint` = how many were reached, `first` =
+    the waypoint this run started from."""
 
     progress_bound = 120.0  # s from the start (take-off) or a waypoint to the next one
 
@@ -104,6 +106,9 @@ class CoverArea(UavSkill):
 
     def run(self) -> bool:
         done = max(self.first, int(self.progress.get("waypoint", 0) or 0))
+        # where this run starts: 0, or the waypoint an earlier run of the area reached (on
+        # this UAV before a suspension, or on one lost mid-cover whose task it took over)
+        self.record_progress(first=done, waypoints=len(self.waypoints))
         self.publish_plan(self.waypoints, done)  # the dashboard's map: lanes done and left
         if not self.airborne(self.altitude):
             return False
@@ -153,14 +158,24 @@ class Land(UavSkill):
 class UgvSkill(RobotSkill):
     """A UGV skill: the robot stops (pump too) when the skill is interrupted.
 
-    Like the UAV's, it waits for the link before its first command (`connected`): an
+    Like the UAV's, it waits for the link before its first command (`ready`): an
     action restored by a restarted RCL starts while the new link still connects to the
-    broker, and would otherwise fail at once ("connecting to ...")."""
+    broker, and would otherwise fail at once ("connecting to ..."). And it waits while
+    the robot is in the operator's hands (its `status` says teleop): a task awarded to
+    a UGV the operator drives (the RCL's allocation does not see a teleop switched by
+    a skill) starts when the operator hands it back, instead of failing on the robot's
+    refusal ("teleop is on")."""
 
     resources = (MOTION,)
 
-    def connected(self) -> None:
+    def ready(self) -> bool:
+        """The link up and the robot not in teleop; False if interrupted meanwhile."""
         self.link.wait_up(10.0)
+        if self.latest("status", "teleop", False):
+            log.info("%s: in teleop: %s waits until it is handed back", self.robot,
+                     self.action.goal)
+        return self.until(lambda: not self.latest("status", "teleop", False), TELEOP_WAIT_S,
+                          "the end of teleop")
 
     def finish(self, outcome: SkillOutcome) -> None:
         if outcome is SkillOutcome.INTERRUPTED:
@@ -170,7 +185,8 @@ class UgvSkill(RobotSkill):
                 self.reason = f"could not stop the robot: {exc}"
 
     def drive_to(self, lat: float, lon: float) -> bool:
-        self.connected()
+        if not self.ready():
+            return False
         if self.near(lat, lon):
             return True
         log.info("%s: driving to %.6f,%.6f", self.robot, lat, lon)
@@ -191,7 +207,8 @@ class UgvSkill(RobotSkill):
         wanted = litres - pumped
         if wanted <= 0.5:
             return True
-        self.connected()
+        if not self.ready():
+            return False
         # the link is up on a robot's first telemetry, a moment before its tank record
         if not self.until(lambda: self.link.latest("tank") is not None, stale_s,
                           "tank telemetry"):
@@ -284,7 +301,8 @@ class ReturnToBase(UgvSkill):
         self.refill = refill
 
     def run(self) -> bool:
-        self.connected()
+        if not self.ready():
+            return False
         log.info("%s: returning to base%s", self.robot, " to refill" if self.refill else "")
         self.link.return_to_base(wait=False)
         if not self.until(lambda: bool(self.latest("status", "at_base", False))

@@ -48,7 +48,8 @@ def campaign(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[int, Hi
 @pytest.mark.timeout(450)
 def test_network_faults_hit_real_traffic_and_the_campaign_holds(campaign) -> None:  # type: ignore[no-untyped-def]
     code, h, report = campaign
-    assert h.campaign["relayed"] == {"uav1": "mavlink", "ugv1": "mqtt"}
+    assert h.campaign["relayed"] == {"uav1": "mavlink", "uav2": "mavlink", "uav3": "mavlink",
+                                     "ugv1": "mqtt", "ugv2": "mqtt"}  # the fleet
     assert [f.ok for f in h.faults] == [True] * 4, h.faults
     assert {f.kind for f in h.faults} <= {"delay", "loss", "reorder", "partition"}
     assert len(h.heals) == 4

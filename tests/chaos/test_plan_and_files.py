@@ -59,7 +59,7 @@ def test_wildfire_offers_a_target_for_every_fault_kind() -> None:
     found = targets(load_project("wildfire", WILDFIRE.parent))
     assert found[FaultKind.BLACKOUT] == ["bus"]
     assert found[FaultKind.BROKER] == ["broker"]
-    assert found[FaultKind.LINK] == ["sim_uav", "sim_ugv"]
+    assert found[FaultKind.LINK] == ["sim_uav", "sim_uav2", "sim_uav3", "sim_ugv", "sim_ugv2"]
     assert found[FaultKind.DISK_FULL] == ["rcl"]
     assert found[FaultKind.FORKSERVER] == ["forkserver"]
     assert "reasoner" in found[FaultKind.KILL]

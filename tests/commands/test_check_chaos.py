@@ -13,7 +13,7 @@ from mrss.check.findings import Finding, Severity
 from mrss.config.loader import load_project
 
 PROJECTS = Path(__file__).resolve().parents[2] / "projects"
-DECLARED = 'PENDING_BELIEFS = ["queued", "waiting", "task", "retrying"]'
+DECLARED = 'PENDING_BELIEFS = ["on_hold", "task", "retrying"]'
 
 
 @pytest.fixture
@@ -49,12 +49,12 @@ def test_an_operator_sending_goals_without_pending_beliefs_is_told_to_declare_th
     assert found.severity is Severity.WARNING and found.key == "PENDING_BELIEFS"
     assert (found.file, found.line) == (str(wildfire / "chaos.py"), line)
     assert "the operator sends goals (a1, ...)" in found.message
-    # the example is the project's own [operator.goals] queued / running / suspended
-    assert "PENDING_BELIEFS = ['queued', 'task', 'waiting']" in found.message
+    # the example is the project's own [operator.goals] queued / running
+    assert "PENDING_BELIEFS = ['on_hold', 'task']" in found.message
 
 
 def test_a_pending_belief_agent_asl_never_names_is_reported(wildfire: Path) -> None:
-    edit_chaos(wildfire, DECLARED, 'PENDING_BELIEFS = ["queued", "taks"]')
+    edit_chaos(wildfire, DECLARED, 'PENDING_BELIEFS = ["task", "taks"]')
     [found] = chaos_findings(wildfire)
     assert "agent.asl never names taks(...)" in found.message
 

@@ -157,16 +157,22 @@ def secured_copy(root: Path) -> Path:
     shutil.copytree(WILDFIRE, folder, ignore=shutil.ignore_patterns("__pycache__",
                                                                      "procedures"))
     (folder / "keys").mkdir()
-    (folder / "keys" / "uav1.key").write_text(secrets.token_hex(32) + "\n")
+    uavs = ("uav1", "uav2", "uav3")  # the fleet's UAVs: each signs with its own key
+    for uav in uavs:
+        (folder / "keys" / f"{uav}.key").write_text(secrets.token_hex(32) + "\n")
     (folder / "secrets").mkdir()
     (folder / "secrets" / "worldmodel.token").write_text(secrets.token_urlsafe(32) + "\n")
     add_user(folder / "secrets" / "mqtt.passwd", "ops", PASSWORD)
     for path in (*folder.glob("keys/*"), *folder.glob("secrets/*")):
         path.chmod(0o600)
     toml = (folder / "project.toml").read_text()
+    signing = [(f'id = "{uav}"\n', f'id = "{uav}"\nsigning_key = "keys/{uav}.key"\n')
+               for uav in uavs] + \
+        [(f'[components.rcl.robots.{uav}]\nlink = "mavlink"',
+          f'[components.rcl.robots.{uav}]\nsigning_key = "keys/{uav}.key"\nlink = "mavlink"')
+         for uav in uavs]
     for old, new in (
-        ('id = "uav1"\n', 'id = "uav1"\nsigning_key = "keys/uav1.key"\n'),
-        ('link = "mavlink"', 'signing_key = "keys/uav1.key"\nlink = "mavlink"'),
+        *signing,
         ('[worldmodel]\n', '[worldmodel]\nhttp_host = "0.0.0.0"\n'
                            'token_file = "secrets/worldmodel.token"\n'),
         ('[events]\n', '[broker]\nusername = "ops"\npassword_env = "MRSS_TEST_MQTT_PASSWORD"\n'

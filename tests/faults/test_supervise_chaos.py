@@ -22,8 +22,8 @@ from mrss.testing import wait_until
 from tests.faults.supervised import TEST_PROJECTS, Supervised
 
 FAST_SIMS = {"MRSS_SIM_SPEEDUP": "20"}
-WILDFIRE = ("bus", "broker", "worldmodel", "datalayer", "events", "sim_uav", "sim_ugv", "rcl",
-            "reasoner")
+WILDFIRE = ("bus", "broker", "worldmodel", "datalayer", "events", "sim_uav", "sim_uav2",
+            "sim_uav3", "sim_ugv", "sim_ugv2", "rcl", "reasoner")
 
 
 @pytest.fixture()

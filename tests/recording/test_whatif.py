@@ -17,8 +17,10 @@ from mrss.recording.whatif_timeline import timeline
 from tests.commands.cli_bus import mrss
 from tests.recording.conftest import WILDFIRE
 
-RECORDED_PLAN = "supply_water(R, G, Lat, Lon, L)[priority(P)];"
-EDITED_PLAN = "supply_water(R, G, Lat, Lon, L / 2)[priority(P)];"
+RECORDED_PLAN = "supply_water(Role, G, Lat, Lon, L)[priority(P)];"
+EDITED_PLAN = "supply_water(Role, G, Lat, Lon, L / 2)[priority(P)];"
+# what the agent decides is asked of a role (the RCL's award names ugv1, not the agent)
+UGV_NEAR_HS1 = "any([ugv,water],at(-35.360387,149.165678))"
 
 
 def _line(path: Path):  # type: ignore[no-untyped-def]
@@ -51,8 +53,8 @@ def test_a_changed_plans_action_is_the_first_difference(wildfire_recording: Path
     first = result.first_difference
     assert first is not None
     was, now = result.recorded[first], result.edited[first]
-    assert (was.name, was.robot, was.args[1]) == ("supply_water", "ugv1", "hs1")
-    assert (now.name, now.robot, now.args[1]) == ("supply_water", "ugv1", "hs1")
+    assert (was.name, was.robot, was.args[1]) == ("supply_water", UGV_NEAR_HS1, "hs1")
+    assert (now.name, now.robot, now.args[1]) == ("supply_water", UGV_NEAR_HS1, "hs1")
     assert float(was.args[-1]) == 60 and float(now.args[-1]) == 30
     assert [d.text for d in result.edited[:first]] == [d.text for d in result.recorded[:first]]
 
@@ -63,7 +65,7 @@ def test_a_changed_plans_action_is_the_first_difference(wildfire_recording: Path
     said = {line[:12]: line for line in lines if line.startswith(("  recorded: ", "  edited:   "))}
     for who, water in (("  recorded: ", 60), ("  edited:   ", 30)):
         head, _, rest = said[who].partition(" arguments ")
-        assert head == f"{who}supply_water on ugv1,", said
+        assert head == f"{who}supply_water on {UGV_NEAR_HS1},", said
         args = json.loads(rest.split(" at +")[0])
         assert args[0] == "hs1" and float(args[-1]) == water, said
 

@@ -47,3 +47,26 @@ def test_each_goal_says_why_it_stands_where_it_does() -> None:
     assert why == "link lost (link_down)"
     alert = AlertsModel().goal_failed("a1", "uav1", 6.0, why)
     assert "link lost (link_down)" in alert.line()
+
+
+def test_a_goal_asked_of_a_role_shows_the_robot_its_action_went_to() -> None:
+    """`task(_, Goal, Priority)`: the agent asked a role, the RCL awarded the robot. The
+    goal shows the robot of its newest action (none before the award, the new one after a
+    reassignment), and suspended while the RCL holds that action suspended."""
+    goals = GoalsModel(read_operator({"goals": {"running": "task(_, Goal, Priority)"}}).goals)
+    actions = ActionsModel()
+    actions.apply_request(ActionRequest(uuid="u1", name="cover", args=["any([uav])", "a1"],
+                                        robot="", goal="a1"), 1.0, "reasoner")
+    goals.apply_beliefs(["task(any([uav]),a1,2)"], 1.5, actions)
+    [a1] = goals.newest_first()
+    assert (a1.state, a1.robot, a1.priority) == (GoalState.RUNNING, "", 2)  # not awarded yet
+    actions.apply_status(ActionStatus(uuid="u1", state=ActionState.RUNNING, robot="uav1"), 2.0)
+    goals.apply_beliefs(["task(any([uav]),a1,2)"], 2.5, actions)
+    assert (a1.state, a1.robot) == (GoalState.RUNNING, "uav1")
+    actions.apply_status(ActionStatus(uuid="u1", state=ActionState.SUSPENDED, robot="uav1"),
+                         3.0)
+    goals.apply_beliefs(["task(any([uav]),a1,2)"], 3.5, actions)
+    assert (a1.state, a1.robot) == (GoalState.SUSPENDED, "uav1")
+    actions.apply_status(ActionStatus(uuid="u1", state=ActionState.RUNNING, robot="uav2"), 4.0)
+    goals.apply_beliefs(["task(any([uav]),a1,2)"], 4.5, actions)
+    assert (a1.state, a1.robot) == (GoalState.RUNNING, "uav2")   # handed on

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from mrss.commands.tui_replay import dashboard_settings
-from mrss.messages import ActionRequest, ActionState, Percept
+from mrss.messages import ActionRequest, ActionState, ActionStatus, Percept
 from mrss.tui.models.alerts import AlertKind
 from mrss.tui.replay.app import ReplayApp
 from mrss.tui.replay.index import MarkKind
@@ -42,13 +42,22 @@ def replay_app(path: Path, **kwargs: object) -> ReplayApp:
 
 
 def dispatch_of_the_hotspot(tape: Tape) -> tuple[float, float, ActionRequest]:
-    """From the recording itself: when hs1 was found, and the UGV's action sent for it."""
+    """From the recording itself: when hs1 was found, and the action sent for it (asked
+    of any UGV with water near hs1: the RCL's award names the robot)."""
     found = next(f.t for f in tape.frames if isinstance(f.env.body, Percept)
                  and f.env.body.literal.startswith("hotspot_detected(hs1,"))
     dispatch = next(f for f in tape.frames if isinstance(f.env.body, ActionRequest)
-                    and f.env.body.robot == "ugv1" and f.t >= found)
+                    and f.env.body.goal == "hs1" and f.t >= found)
     assert isinstance(dispatch.env.body, ActionRequest)
+    assert dispatch.env.body.robot == "" and \
+        dispatch.env.body.role.get("capabilities") == ["ugv", "water"]
     return found, dispatch.t, dispatch.env.body
+
+
+def award_of(tape: Tape, uuid: str) -> float:
+    """When the RCL's first status named the robot the action went to (ugv1)."""
+    return next(f.t for f in tape.frames if isinstance(f.env.body, ActionStatus)
+                and f.env.body.uuid == uuid and f.env.body.robot == "ugv1")
 
 
 @pytest.mark.slow
@@ -79,9 +88,12 @@ def test_seeking_to_the_hotspot_shows_the_ugv_dispatched_and_the_hotspot_on_the_
             app.seek_to(dispatched)
             await until(pilot, lambda: supply.uuid in table.shown_keys(),
                         message="the UGV's supply action in the actions table")
-            cells = " ".join(row_text(table, supply.uuid))
-            assert "supply_water" in cells and "ugv1" in cells
+            assert "supply_water" in " ".join(row_text(table, supply.uuid))
             assert app.actions.actions[supply.uuid].state == "requested"  # just sent
+            app.seek_to(award_of(app.tape, supply.uuid))   # awarded: the robot is known
+            await until(pilot, lambda: "ugv1" in " ".join(row_text(table, supply.uuid)),
+                        message="the supply's robot, ugv1, in the actions table")
+            app.seek_to(dispatched)
             hs1 = app.map_model.objects["hs1"]
             assert hs1.kind == "hotspot" and hs1.point is not None
             assert abs(hs1.point[0] - -35.360387) < 1e-6 and abs(hs1.point[1] - 149.165678) < 1e-6

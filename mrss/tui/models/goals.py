@@ -3,7 +3,10 @@
 The project names its goal beliefs in `[operator.goals]` (`task(Robot, Goal, Priority)`
 is running, ...; `mrss.config.operator`). Each mind snapshot is matched against those
 patterns: a goal found is queued, running, suspended or failed, with its robot and
-priority. Projects that declare `done` and `cancelled` patterns say how a goal ended;
+priority. A pattern with no `Robot` (a goal the agent asks of a role, `task(_, Goal,
+Priority)`: the RCL picks the robot) takes the robot from the goal's newest action while
+it is open, and a running goal whose newest action is suspended in the RCL shows as
+suspended. Projects that declare `done` and `cancelled` patterns say how a goal ended;
 otherwise a goal that was seen and is no longer in any pattern has ended, and how is
 inferred: cancelled if the operator cancelled it from here, failed if its last action
 failed, else done.
@@ -80,7 +83,14 @@ class GoalsModel:
             if view is None:
                 view = self.goals[goal] = GoalView(goal, next(self._seq), state, since=when)
                 changed = True
-            robot = _text(named["Robot"]) if "Robot" in named else view.robot
+            # an open goal with no Robot in its pattern: its newest action's robot (an
+            # ended one keeps the robot it was last seen on)
+            last = None if "Robot" in named or state.ended else \
+                self.last_action(goal, actions)
+            robot = _text(named["Robot"]) if "Robot" in named else \
+                (last.robot if last is not None and last.robot else view.robot)
+            if state is GoalState.RUNNING and last is not None and last.state == "suspended":
+                state = GoalState.SUSPENDED  # a task addressed to a role, held in the RCL
             priority = named.get("Priority")
             prio = priority if isinstance(priority, int) else view.priority
             if "Why" in named and _text(named["Why"]) != view.why:

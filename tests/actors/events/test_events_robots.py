@@ -35,12 +35,12 @@ class Recorder:
 
 
 def test_a_projects_robots_are_its_rcls_robots_tables(tmp_path: Path) -> None:
-    assert project_robots(WILDFIRE) == {"uav1", "ugv1"}
+    assert project_robots(WILDFIRE) == {"uav1", "uav2", "uav3", "ugv1", "ugv2"}
     assert project_robots(tmp_path) == frozenset()  # no project.toml: none known
 
 
 @pytest.mark.parametrize(("events", "known"), [
-    ({}, "uav1, ugv1"),                         # the RCL's robots
+    ({}, "uav1, uav2, uav3, ugv1, ugv2"),       # the RCL's robots
     ({"robots": ["ugv1"]}, "ugv1"),             # [events] robots
 ])
 def test_the_wildfire_adapter_refuses_teleop_of_a_robot_the_project_has_not(

@@ -1,0 +1,98 @@
+"""Fleet procedure: a UAV whose link is lost mid-cover hands its area to another UAV,
+which finishes it from where the first one stopped.
+
+`mrss supervise wildfire` as a real process: three simulated UAVs and two UGVs, each its
+own process. The agent asks for the cover of an operator's area with a task addressed to
+a role (`cover(any([uav, camera]), a1)`); the RCL awards it to uav1 (all three idle and
+no place to rank them by: the tie goes to the smallest id). Once uav1 has reached a few
+waypoints its simulator process is killed (SIGKILL), as a UAV lost for good: the project
+runs from a copy whose uav1 simulator is `restart = "temporary"`, so no supervisor
+brings it back. uav1's MAVLink link hears no heartbeat past its timeout and uav1 is
+lost. The RCL hands the same action
+to another UAV (uav2: the next tie), which starts at the waypoint uav1 had reached and
+flies the rest; the agent hears `reassigned(...)` and its intention never sees the cover
+fail.
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+from pathlib import Path
+
+import pytest
+
+from mrss.api import distance_m
+from mrss.api.testing import RunningProject
+
+PROJECT = Path(__file__).resolve().parent.parent
+AREA = {"goal": "a1", "priority": 2, "center": [-35.360567, 149.165237], "radius": 100}
+
+
+def waypoint(progress: dict[str, object], key: str = "waypoint") -> int:
+    return int(str(progress.get(key, 0) or 0))
+
+
+def lost_for_good(tmp_path: Path) -> Path:
+    """A copy of the project whose uav1 simulator is not restarted once it dies."""
+    copy = tmp_path / "projects" / PROJECT.name
+    shutil.copytree(PROJECT, copy, ignore=shutil.ignore_patterns("__pycache__", "procedures"))
+    toml = copy / "project.toml"
+    head = '[components.sim_uav]\nkind = "sim_uav"\n'
+    text = toml.read_text(encoding="utf-8")
+    assert head in text
+    toml.write_text(text.replace(head, head + 'restart = "temporary"\n'), encoding="utf-8")
+    return copy
+
+
+@pytest.mark.slow
+def test_a_uav_lost_mid_cover_hands_the_area_to_another_that_goes_on_from_there(
+        tmp_path: Path) -> None:
+    with RunningProject(lost_for_good(tmp_path), tmp_path / "run",
+                        env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+        system.wait_ready()
+        system.wait_for(lambda: all((system.world(r) or {}).get("position")
+                                    for r in ("uav1", "uav2", "uav3")), 30,
+                        "the three UAVs' telemetry in the world model")
+        system.publish("mrss/ui/area", AREA)
+        cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
+                                "the cover to run on uav1")[0]
+        system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
+                        "uav1 past its second waypoint")
+
+        system.signal("sim_uav", signal.SIGKILL)  # uav1 is gone, its link silent
+        handed = system.wait_for(
+            lambda: [s for s in system.statuses("uav2", "running") if s.uuid == cover.uuid],
+            30, "the cover to run on uav2")[0]
+
+        # the same action went back to allocation with the progress uav1 recorded ...
+        gone = [s for s in system.statuses() if s.uuid == cover.uuid
+                and s.state == "pending" and not s.robot]
+        assert gone, [(s.state, s.robot, s.reason) for s in system.statuses()]
+        assert gone[0].reason.startswith("reassigning: robot uav1 unreachable"), gone[0]
+        reached = waypoint(gone[0].progress)
+        total = waypoint(gone[0].progress, "waypoints")
+        assert 2 <= reached < total, gone[0].progress
+        assert waypoint(gone[0].progress, "first") == 0  # uav1 had started the area
+        assert handed.uuid == cover.uuid
+
+        done = system.wait_for(lambda: [s for s in system.statuses("uav2", "succeeded")
+                                        if s.uuid == cover.uuid], 60,
+                               "uav2 to finish the area")[0]
+        assert waypoint(done.progress) == waypoint(done.progress, "waypoints") == total
+        assert waypoint(done.progress, "first") == reached  # uav2 started where uav1 stopped
+        # the agent was told, and its intention went on waiting: one cover, never failed
+        assert system.perceived("reassigned(cover(any([uav,camera]),a1), uav1, uav2)"), \
+            system.perceived("reassigned")
+        assert {s.uuid for s in system.statuses() if s.uuid == cover.uuid} == {cover.uuid}
+        assert not [s for s in system.statuses() if s.uuid == cover.uuid
+                    and s.state in ("failed", "cancelled")], system.log()
+        assert len({s.uuid for s in system.statuses("uav2")}) == 1  # no second cover
+        assert not system.statuses("uav3")                          # uav3 was not needed
+        # uav2 flew the rest: it is at the area's last waypoint, far from its home
+        uav2 = system.world("uav2")
+        assert uav2 is not None
+        home = (-35.363262, 149.166118)
+        assert distance_m(uav2["position"]["lat"], uav2["position"]["lon"], *home) > 150
+        assert system.component_pid("sim_uav") == 0  # not brought back: lost for good
+        assert system.interrupt() == 0, system.log()
