@@ -27,13 +27,14 @@ from typing import IO, NamedTuple
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
-from mcap.records import Channel, Schema, Statistics
+from mcap.records import Channel, Metadata, MetadataIndex, Schema, Statistics
 
 from mrss.recording.format import RecordingError
 from mrss.recording.mcap_reader import MAGIC, McapEntry
 from mrss.recording.mcap_writer import PROFILE
 
 _HEADER, _FOOTER, _SCHEMA, _CHANNEL, _CHUNK_INDEX, _STATISTICS = 0x01, 0x02, 0x03, 0x04, 0x08, 0x0B
+_METADATA, _METADATA_INDEX = 0x0C, 0x0D
 _FOOTER_RECORD = 1 + 8 + 8 + 8 + 4  # opcode, length, summary start, offsets start, crc
 _CHUNK_SPAN = struct.Struct("<QQQQ")  # a Chunk Index's start, end, offset and length
 _CHUNK_HEAD = struct.Struct("<BQQQQIIs")  # up to the compression name's first byte
@@ -76,6 +77,7 @@ class IndexedRecording:
         schemas: dict[int, str] = {}
         channels: dict[int, tuple[str, int]] = {}
         stats: Statistics | None = None
+        self._metadata_at: dict[str, tuple[int, int]] = {}  # name -> offset, length
         try:
             for opcode, body in _records(summary):
                 if opcode == _CHUNK_INDEX:
@@ -88,6 +90,9 @@ class IndexedRecording:
                     channels[channel.id] = (channel.topic, channel.schema_id)
                 elif opcode == _STATISTICS:
                     stats = Statistics.read(ReadDataStream(io.BytesIO(body)))
+                elif opcode == _METADATA_INDEX:
+                    found = MetadataIndex.read(ReadDataStream(io.BytesIO(body)))
+                    self._metadata_at[found.name] = (found.offset, found.length)
         except (struct.error, ValueError, UnicodeDecodeError, McapError) as exc:
             raise RecordingError(f"corrupt summary ({type(exc).__name__})",
                                  offset=summary_start) from None
@@ -115,6 +120,29 @@ class IndexedRecording:
     @property
     def chunks(self) -> int:
         return len(self._chunks)
+
+    def metadata(self, name: str) -> dict[str, str]:
+        """The metadata record `name` ({} if the file has none), read by its index."""
+        at = self._metadata_at.get(name)
+        if at is None:
+            return {}
+        body = self._record(at[0], _METADATA)
+        try:
+            return dict(Metadata.read(ReadDataStream(io.BytesIO(body))).metadata)
+        except (struct.error, ValueError, UnicodeDecodeError, McapError):
+            raise RecordingError("corrupt metadata record", offset=at[0]) from None
+
+    def chunk_span(self, index: int) -> tuple[int, int]:
+        """The log-time span (ns) of the `index`-th chunk, chunks sorted by start."""
+        chunk = self._chunks[index]
+        return chunk.start, chunk.end
+
+    def chunk_entries(self, index: int) -> list[McapEntry]:
+        """The messages of the `index`-th chunk (chunks sorted by start), in log-time
+        order: one chunk read and decompressed (RecordingError if it is damaged)."""
+        chunk = self._chunks[index]
+        data, messages = self._messages(chunk, 0)
+        return [self._entry(data, at, chunk.offset) for _, at in messages]
 
     def seek(self, log_time: int) -> Iterator[McapEntry]:
         """The messages logged at or after `log_time` (ns), in log-time order; only the
