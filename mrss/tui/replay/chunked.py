@@ -61,7 +61,7 @@ class ChunkedFrames(Sequence[Frame]):
         self._on_damage = on_damage
         self._plans: list[_ChunkPlan] = []
         self._planned = False
-        self._cache: OrderedDict[int, list[Frame]] = OrderedDict()
+        self._cache: OrderedDict[int, Sequence[Frame]] = OrderedDict()
         self._positions: list[int] = []  # per planned chunk with frames: its position
         self._chunks: list[int] = []  # ... and its index
         self._times: list[float] = []  # ... and its first frame's time
@@ -137,30 +137,18 @@ class ChunkedFrames(Sequence[Frame]):
         return self._recording.chunk_entries(chunk)
 
     # -- frames of a planned chunk -----------------------------------------------------------
-    def _remember(self, chunk: int, frames: list[Frame]) -> None:
+    def _remember(self, chunk: int, frames: Sequence[Frame]) -> None:
         self._cache[chunk] = frames
         self._cache.move_to_end(chunk)
         while len(self._cache) > CACHED_CHUNKS:
             self._cache.popitem(last=False)
 
-    def _frames(self, chunk: int) -> list[Frame]:
+    def _frames(self, chunk: int) -> Sequence[Frame]:
         frames = self._cache.get(chunk)
         if frames is not None:
             self._cache.move_to_end(chunk)
             return frames
-        plan = self._plans[chunk]
-        frames = []
-        ignored: dict[str, int] = {}
-        keep = Keep(ignored)  # copies were decided by the first pass: left_out has them
-        for place, entry in enumerate(self._entries(chunk)):
-            if place in plan.left_out:
-                continue
-            message = recorded_message(entry)
-            if message is not None:
-                frames.extend(keep.frames_of(message))
-            answer = plan.answers.get(place)
-            if answer is not None:
-                frames.append(answer)
+        frames = _LazyChunk(self._entries(chunk), self._plans[chunk])
         self._remember(chunk, frames)
         return frames
 
@@ -214,4 +202,50 @@ class ChunkedFrames(Sequence[Frame]):
         if at < 0:
             return 0
         frames = self._frames(self._chunks[at])
-        return self._positions[at] + bisect.bisect_right([f.t for f in frames], t)
+        times = frames.times() if isinstance(frames, _LazyChunk) else [f.t for f in frames]
+        return self._positions[at] + bisect.bisect_right(times, t)
+
+
+class _LazyChunk(Sequence[Frame]):
+    """A planned chunk's frames, each decoded when first asked for: a seek applies a
+    few hundred messages, not the chunk's thousands. Each message the plan kept is one
+    frame (the recorder writes each envelope of a batch as a message of its own)."""
+
+    def __init__(self, entries: list[McapEntry], plan: _ChunkPlan) -> None:
+        self._entries = entries
+        self._slots: list[int | Frame] = []  # a message's place in the chunk, or an answer
+        for place in range(len(entries)):
+            if place not in plan.left_out:
+                self._slots.append(place)
+                answer = plan.answers.get(place)
+                if answer is not None:
+                    self._slots.append(answer)
+        self._decoded: dict[int, Frame] = {}
+        self._keep = Keep({})  # copies were decided by the first pass: none left here
+
+    def times(self) -> list[float]:
+        """Each frame's time, without decoding the messages."""
+        return [slot.t if isinstance(slot, Frame) else self._entries[slot].log_time / 1e9
+                for slot in self._slots]
+
+    def __len__(self) -> int:
+        return len(self._slots)
+
+    @overload
+    def __getitem__(self, index: int) -> Frame: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Frame]: ...
+
+    def __getitem__(self, index: int | slice) -> Frame | list[Frame]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self._slots)))]
+        slot = self._slots[index]
+        if isinstance(slot, Frame):
+            return slot
+        frame = self._decoded.get(slot)
+        if frame is None:
+            message = recorded_message(self._entries[slot])
+            assert message is not None  # the plan kept it: a bus message
+            frame = self._decoded[slot] = self._keep.frames_of(message)[0]
+        return frame
