@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import overload
 
 from mrss.recording.format import RecordingError
-from mrss.recording.mcap_reader import McapEntry, recorded_message
+from mrss.recording.mcap_reader import McapEntry
 from mrss.recording.mcap_seek import IndexedRecording
 from mrss.tui.replay.tape import Frame, Keep, WorldAnswers
 
@@ -102,8 +102,7 @@ class ChunkedFrames(Sequence[Frame]):
                 self._on_damage(exc)
                 break
             for place, entry in enumerate(entries):
-                message = recorded_message(entry)
-                kept = [] if message is None else keep.frames_of(message)
+                kept = keep.frames_of_entry(entry)
                 if not kept:  # a derived channel's (LocationFix), or left out
                     plan.left_out.add(place)
                     continue
@@ -244,8 +243,6 @@ class _LazyChunk(Sequence[Frame]):
         if isinstance(slot, Frame):
             return slot
         frame = self._decoded.get(slot)
-        if frame is None:
-            message = recorded_message(self._entries[slot])
-            assert message is not None  # the plan kept it: a bus message
-            frame = self._decoded[slot] = self._keep.frames_of(message)[0]
+        if frame is None:  # the plan kept it: one bus message
+            frame = self._decoded[slot] = self._keep.frames_of_entry(self._entries[slot])[0]
         return frame

@@ -30,8 +30,10 @@ from mrss.errors import DecodeError
 from mrss.messages import DataReply, Envelope, decode
 from mrss.recording.files import is_mcap
 from mrss.recording.format import RecordedMessage, RecordingError, RecordingReader
-from mrss.recording.mcap_reader import McapRecording
+from mrss.recording.mcap_reader import McapEntry, McapRecording, recorded_message
 from mrss.recording.mcap_seek import IndexedRecording
+from mrss.recording.schemas import MALFORMED_SCHEMA, SCHEMA_PREFIX
+from mrss.recording.transcode import envelope_of_json
 from mrss.tui import operator
 from mrss.tui.replay.world import RecordedWorld, WorldChange
 from mrss.world.topics import wm_reply_topic
@@ -168,6 +170,20 @@ class Keep:
         except DecodeError:
             self._leave_out("undecodable")
             return []
+        return self._kept(message.t, envs)
+
+    def frames_of_entry(self, entry: McapEntry) -> list[Frame]:
+        """`frames_of` the bus message an MCAP recording's message holds (none for a
+        derived channel's, LocationFix, GeoJSON); its JSON read straight into the
+        envelope where the fast path vouches for it."""
+        if entry.schema.startswith(SCHEMA_PREFIX) and entry.schema != MALFORMED_SCHEMA:
+            env = envelope_of_json(entry.topic, entry.data)
+            if env is not None:
+                return self._kept(entry.log_time / 1e9, [env])
+        message = recorded_message(entry)
+        return [] if message is None else self.frames_of(message)
+
+    def _kept(self, t: float, envs: list[Envelope]) -> list[Frame]:
         kept = []
         seen = self._seen
         for env in envs:
@@ -180,7 +196,7 @@ class Keep:
                 seen[key] = None
                 if len(seen) > SEEN_LIMIT:
                     del seen[next(iter(seen))]
-                kept.append(Frame(message.t, env))
+                kept.append(Frame(t, env))
         return kept
 
     def _leave_out(self, why: str) -> None:
