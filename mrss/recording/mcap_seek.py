@@ -21,8 +21,8 @@ import io
 import itertools
 import struct
 import zlib
-from collections.abc import Iterator
-from typing import IO, NamedTuple
+from collections.abc import Iterator, Sequence
+from typing import IO, NamedTuple, overload
 
 import zstandard
 from mcap.data_stream import ReadDataStream
@@ -137,12 +137,12 @@ class IndexedRecording:
         chunk = self._chunks[index]
         return chunk.start, chunk.end
 
-    def chunk_entries(self, index: int) -> list[McapEntry]:
+    def chunk_entries(self, index: int) -> ChunkEntries:
         """The messages of the `index`-th chunk (chunks sorted by start), in log-time
         order: one chunk read and decompressed (RecordingError if it is damaged)."""
         chunk = self._chunks[index]
         data, messages = self._messages(chunk, 0)
-        return [self._entry(data, at, chunk.offset) for _, at in messages]
+        return ChunkEntries(self, data, messages, chunk.offset)
 
     def seek(self, log_time: int) -> Iterator[McapEntry]:
         """The messages logged at or after `log_time` (ns), in log-time order; only the
@@ -207,6 +207,33 @@ class IndexedRecording:
             at += 9 + length
         found.sort()
         return data, found
+
+
+class ChunkEntries(Sequence[McapEntry]):
+    """One chunk's messages in log-time order, each made an entry when asked for."""
+
+    def __init__(self, recording: IndexedRecording, data: bytes,
+                 messages: list[tuple[int, int]], offset: int) -> None:
+        self._recording, self._data, self._messages = recording, data, messages
+        self._offset = offset
+
+    def log_time(self, index: int) -> int:
+        """The `index`-th message's log time (ns), without making its entry."""
+        return self._messages[index][0]
+
+    def __len__(self) -> int:
+        return len(self._messages)
+
+    @overload
+    def __getitem__(self, index: int) -> McapEntry: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[McapEntry]: ...
+
+    def __getitem__(self, index: int | slice) -> McapEntry | list[McapEntry]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self._messages)))]
+        return self._recording._entry(self._data, self._messages[index][1], self._offset)
 
 
 def _decompress(compression: str, body: bytes, size: int) -> bytes:

@@ -26,8 +26,7 @@ from dataclasses import dataclass, field
 from typing import overload
 
 from mrss.recording.format import RecordingError
-from mrss.recording.mcap_reader import McapEntry
-from mrss.recording.mcap_seek import IndexedRecording
+from mrss.recording.mcap_seek import ChunkEntries, IndexedRecording
 from mrss.tui.replay.tape import Frame, Keep, WorldAnswers
 
 CACHED_CHUNKS = 4  # chunks whose frames are kept decoded
@@ -131,7 +130,7 @@ class ChunkedFrames(Sequence[Frame]):
             for _ in self._plan():
                 pass
 
-    def _entries(self, chunk: int) -> list[McapEntry]:
+    def _entries(self, chunk: int) -> ChunkEntries:
         self.reads += 1
         return self._recording.chunk_entries(chunk)
 
@@ -210,7 +209,7 @@ class _LazyChunk(Sequence[Frame]):
     few hundred messages, not the chunk's thousands. Each message the plan kept is one
     frame (the recorder writes each envelope of a batch as a message of its own)."""
 
-    def __init__(self, entries: list[McapEntry], plan: _ChunkPlan) -> None:
+    def __init__(self, entries: ChunkEntries, plan: _ChunkPlan) -> None:
         self._entries = entries
         self._slots: list[int | Frame] = []  # a message's place in the chunk, or an answer
         for place in range(len(entries)):
@@ -224,7 +223,8 @@ class _LazyChunk(Sequence[Frame]):
 
     def times(self) -> list[float]:
         """Each frame's time, without decoding the messages."""
-        return [slot.t if isinstance(slot, Frame) else self._entries[slot].log_time / 1e9
+        log_time = self._entries.log_time
+        return [slot.t if isinstance(slot, Frame) else log_time(slot) / 1e9
                 for slot in self._slots]
 
     def __len__(self) -> int:
