@@ -35,7 +35,7 @@ from mrss.commands.busargs import (
 from mrss.config.projects import PROJECT_FILE, project_path
 from mrss.errors import MrssError
 from mrss.recording.mcap_writer import McapRecordingWriter, ProjectFiles
-from mrss.recording.recorder import BusRecorder
+from mrss.recording.recorder import GATHER, BusRecorder
 
 EXIT_ERROR = 2
 
@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
                                          project=project)
             print(f"recording {endpoints.backend} to {out}", flush=True)
             deadline = None if args.duration is None else time.monotonic() + args.duration
-            recorder.record(writer, stop, deadline)
+            recorder.record(writer, stop, deadline, gather=GATHER)
             writer.finish()
     finally:
         recorder.close()

@@ -37,12 +37,6 @@ def run_replay(args: argparse.Namespace) -> int:
     except RecordingError as exc:
         print(f"mrss tui: {path}: {exc}", file=sys.stderr)
         return EXIT_ERROR
-    if tape.damage is not None:
-        print(f"mrss tui: {path}: {tape.damage} (shown up to there)", file=sys.stderr)
-    if not tape.frames:
-        print(f"mrss tui: {path}: the recording holds no bus messages to show",
-              file=sys.stderr)
-        return EXIT_ERROR
     try:
         settings = dashboard_settings(args.project, tape.sections(), str(path))
     except (ConfigError, UnknownProjectError) as exc:
@@ -50,9 +44,17 @@ def run_replay(args: argparse.Namespace) -> int:
         return EXIT_ERROR
     from mrss.tui.replay.app import ReplayApp
 
+    # made first: its index pass reads the file once (a finished recording is read a
+    # chunk at a time, and its damage found then)
     app = ReplayApp(tape, name=path.name, speed=speed, play=not args.paused,
                     project=args.project or tape.project, agent=args.agent,
                     quiet_gc=True, **settings)
+    if tape.damage is not None:
+        print(f"mrss tui: {path}: {tape.damage} (shown up to there)", file=sys.stderr)
+    if not tape.frames:
+        print(f"mrss tui: {path}: the recording holds no bus messages to show",
+              file=sys.stderr)
+        return EXIT_ERROR
     app.run()
     return 0
 

@@ -153,21 +153,30 @@ class McapRecording:
         (LocationFix) are left out; a message that is not an envelope in JSON raises
         RecordingError at its chunk's offset."""
         for entry in self.entries():
-            if entry.schema == MALFORMED_SCHEMA and entry.topic == MALFORMED_TOPIC:
-                value = _json(entry)
-                frames = tuple(base64.b64decode(f) for f in value["frames"])
-                yield RecordedMessage(entry.log_time / 1e9, frames, value["note"] or "malformed",
-                                      entry.offset)
-            elif entry.schema.startswith(SCHEMA_PREFIX):
-                env = from_json(_json(entry))
-                if not isinstance(env, dict):
-                    raise RecordingError(f"a message on {entry.topic!r} is not an envelope",
-                                         offset=entry.offset)
-                if isinstance(env.get("cred"), str):
-                    env["cred"] = base64.b64decode(env["cred"])
-                payload = msgpack.packb(env, use_bin_type=True)
-                yield RecordedMessage(entry.log_time / 1e9, (entry.topic.encode(), payload),
-                                      "", entry.offset)
+            message = recorded_message(entry)
+            if message is not None:
+                yield message
+
+
+def recorded_message(entry: McapEntry) -> RecordedMessage | None:
+    """One MCAP message of a recording as the bus message it recorded (`recorded`); None
+    for a channel MRSS derived (LocationFix, GeoJSON)."""
+    if entry.schema == MALFORMED_SCHEMA and entry.topic == MALFORMED_TOPIC:
+        value = _json(entry)
+        frames = tuple(base64.b64decode(f) for f in value["frames"])
+        return RecordedMessage(entry.log_time / 1e9, frames, value["note"] or "malformed",
+                               entry.offset)
+    if not entry.schema.startswith(SCHEMA_PREFIX):
+        return None
+    env = from_json(_json(entry))
+    if not isinstance(env, dict):
+        raise RecordingError(f"a message on {entry.topic!r} is not an envelope",
+                             offset=entry.offset)
+    if isinstance(env.get("cred"), str):
+        env["cred"] = base64.b64decode(env["cred"])
+    payload = msgpack.packb(env, use_bin_type=True)
+    return RecordedMessage(entry.log_time / 1e9, (entry.topic.encode(), payload), "",
+                           entry.offset)
 
 
 def _json(entry: McapEntry) -> Any:

@@ -21,19 +21,20 @@ import io
 import itertools
 import struct
 import zlib
-from collections.abc import Iterator
-from typing import IO, NamedTuple
+from collections.abc import Iterator, Sequence
+from typing import IO, NamedTuple, overload
 
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
-from mcap.records import Channel, Schema, Statistics
+from mcap.records import Channel, Metadata, MetadataIndex, Schema, Statistics
 
 from mrss.recording.format import RecordingError
 from mrss.recording.mcap_reader import MAGIC, McapEntry
 from mrss.recording.mcap_writer import PROFILE
 
 _HEADER, _FOOTER, _SCHEMA, _CHANNEL, _CHUNK_INDEX, _STATISTICS = 0x01, 0x02, 0x03, 0x04, 0x08, 0x0B
+_METADATA, _METADATA_INDEX = 0x0C, 0x0D
 _FOOTER_RECORD = 1 + 8 + 8 + 8 + 4  # opcode, length, summary start, offsets start, crc
 _CHUNK_SPAN = struct.Struct("<QQQQ")  # a Chunk Index's start, end, offset and length
 _CHUNK_HEAD = struct.Struct("<BQQQQIIs")  # up to the compression name's first byte
@@ -76,6 +77,7 @@ class IndexedRecording:
         schemas: dict[int, str] = {}
         channels: dict[int, tuple[str, int]] = {}
         stats: Statistics | None = None
+        self._metadata_at: dict[str, tuple[int, int]] = {}  # name -> offset, length
         try:
             for opcode, body in _records(summary):
                 if opcode == _CHUNK_INDEX:
@@ -88,6 +90,9 @@ class IndexedRecording:
                     channels[channel.id] = (channel.topic, channel.schema_id)
                 elif opcode == _STATISTICS:
                     stats = Statistics.read(ReadDataStream(io.BytesIO(body)))
+                elif opcode == _METADATA_INDEX:
+                    found = MetadataIndex.read(ReadDataStream(io.BytesIO(body)))
+                    self._metadata_at[found.name] = (found.offset, found.length)
         except (struct.error, ValueError, UnicodeDecodeError, McapError) as exc:
             raise RecordingError(f"corrupt summary ({type(exc).__name__})",
                                  offset=summary_start) from None
@@ -115,6 +120,29 @@ class IndexedRecording:
     @property
     def chunks(self) -> int:
         return len(self._chunks)
+
+    def metadata(self, name: str) -> dict[str, str]:
+        """The metadata record `name` ({} if the file has none), read by its index."""
+        at = self._metadata_at.get(name)
+        if at is None:
+            return {}
+        body = self._record(at[0], _METADATA)
+        try:
+            return dict(Metadata.read(ReadDataStream(io.BytesIO(body))).metadata)
+        except (struct.error, ValueError, UnicodeDecodeError, McapError):
+            raise RecordingError("corrupt metadata record", offset=at[0]) from None
+
+    def chunk_span(self, index: int) -> tuple[int, int]:
+        """The log-time span (ns) of the `index`-th chunk, chunks sorted by start."""
+        chunk = self._chunks[index]
+        return chunk.start, chunk.end
+
+    def chunk_entries(self, index: int) -> ChunkEntries:
+        """The messages of the `index`-th chunk (chunks sorted by start), in log-time
+        order: one chunk read and decompressed (RecordingError if it is damaged)."""
+        chunk = self._chunks[index]
+        data, messages = self._messages(chunk, 0)
+        return ChunkEntries(self, data, messages, chunk.offset)
 
     def seek(self, log_time: int) -> Iterator[McapEntry]:
         """The messages logged at or after `log_time` (ns), in log-time order; only the
@@ -179,6 +207,33 @@ class IndexedRecording:
             at += 9 + length
         found.sort()
         return data, found
+
+
+class ChunkEntries(Sequence[McapEntry]):
+    """One chunk's messages in log-time order, each made an entry when asked for."""
+
+    def __init__(self, recording: IndexedRecording, data: bytes,
+                 messages: list[tuple[int, int]], offset: int) -> None:
+        self._recording, self._data, self._messages = recording, data, messages
+        self._offset = offset
+
+    def log_time(self, index: int) -> int:
+        """The `index`-th message's log time (ns), without making its entry."""
+        return self._messages[index][0]
+
+    def __len__(self) -> int:
+        return len(self._messages)
+
+    @overload
+    def __getitem__(self, index: int) -> McapEntry: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[McapEntry]: ...
+
+    def __getitem__(self, index: int | slice) -> McapEntry | list[McapEntry]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self._messages)))]
+        return self._recording._entry(self._data, self._messages[index][1], self._offset)
 
 
 def _decompress(compression: str, body: bytes, size: int) -> bytes:

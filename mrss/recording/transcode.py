@@ -13,6 +13,10 @@ unescaped; tests/recording/test_transcode.py compares them): anything else, whet
 msgpack, unknown kind, a bad field) or merely unusual (bytes or NaN in free data, which
 JSON must tag; an operator's credential, which is dropped; a wrong topic), gives None,
 and the caller takes the exact path, which writes it or names what is wrong with it.
+
+The other way, `envelope_of_json` reads a recording's JSON back into the envelope with
+the same structs (the replay dashboard's tape); JSON that may hold a tag, or that does
+not decode, is the exact path's (`mcap_reader.recorded_message`, then the codec).
 """
 
 from __future__ import annotations
@@ -107,17 +111,19 @@ def _envelope_struct(kind: str, body: type[msgspec.Struct]) -> type[msgspec.Stru
         tag_field="kind", tag=kind, forbid_unknown_fields=True, omit_defaults=True)
 
 
-def _build() -> tuple[msgspec.msgpack.Decoder[Any], dict[type, _Kind]]:
+def _build() -> tuple[msgspec.msgpack.Decoder[Any], msgspec.json.Decoder[Any],
+                      dict[type, _Kind]]:
     envelopes: list[Any] = []
     kinds: dict[type, _Kind] = {}
     for kind, cls in KINDS.items():
         envelope = _envelope_struct(kind, _body_struct(cls))
         envelopes.append(envelope)
         kinds[envelope] = _Kind(cls, not hasattr(cls, "__post_init__"))
-    return msgspec.msgpack.Decoder(_union(envelopes)), kinds
+    union = _union(envelopes)
+    return msgspec.msgpack.Decoder(union), msgspec.json.Decoder(union), kinds
 
 
-_DECODER, _KINDS = _build()
+_DECODER, _JSON_DECODER, _KINDS = _build()
 _ENCODE = msgspec.json.Encoder().encode
 _asdict = msgspec.structs.asdict
 
@@ -130,6 +136,25 @@ def transcode(topic: bytes, payload: bytes) -> tuple[bytes, Envelope] | None:
         topic_text = topic.decode()
     except (msgspec.DecodeError, UnicodeDecodeError):
         return None
+    envelope = _envelope(env, topic_text)
+    return None if envelope is None else (_ENCODE(env), envelope)
+
+
+def envelope_of_json(topic: str, data: bytes) -> Envelope | None:
+    """The envelope a recording's JSON of a bus message on `topic` holds, decoded and
+    checked as `transcode` does (the other way), or None when the exact path must decide:
+    JSON that a tag may be in (bytes, NaN: `$bytes`, `$float`), or that does not decode."""
+    if b'"$bytes"' in data or b'"$float"' in data:
+        return None
+    try:
+        env = _JSON_DECODER.decode(data)
+    except msgspec.DecodeError:
+        return None
+    return _envelope(env, topic)
+
+
+def _envelope(env: Any, topic_text: str) -> Envelope | None:
+    """The message `env` (a generated envelope struct) holds, validated, on its topic."""
     kind = _KINDS[type(env)]
     fields = _asdict(env.body)
     try:
@@ -148,7 +173,7 @@ def transcode(topic: bytes, payload: bytes) -> tuple[bytes, Envelope] | None:
     envelope.__dict__.update(topic=topic_text, id=env.id, ts=float(env.ts), src=env.src,
                              inc=env.inc, body=msg, v=SCHEMA_VERSION, cred=env.cred,
                              replayed=env.replayed, op="")
-    return _ENCODE(env), envelope
+    return envelope
 
 
 def recording_json(topic: bytes, payload: bytes) -> tuple[bytes, Envelope]:

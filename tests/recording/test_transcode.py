@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from mrss.errors import DecodeError
 from mrss.messages import KINDS, EventStatus, Message, Percept, RobotData, decode_raw, encode
-from mrss.recording.transcode import _exact, transcode
+from mrss.recording.transcode import _exact, envelope_of_json, transcode
 
 
 def _sample_value(hint: Any) -> Any:
@@ -63,6 +63,25 @@ def test_every_kind_takes_the_fast_path_and_writes_the_exact_json(kind: str) -> 
     assert same_as_exact(topic, payload) is not None
     _, envelope = decode_raw(topic, payload)
     assert envelope.body == message
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_every_kinds_recording_json_reads_back_into_the_exact_envelope(kind: str) -> None:
+    topic, payload = encode(sample(KINDS[kind]), src="rcl", inc=2, cred=b"\xc4proof")
+    data, envelope = _exact(topic, payload)
+    assert envelope_of_json(topic.decode(), data) == envelope
+
+
+@pytest.mark.parametrize("data", [
+    pytest.param({"raw": b"\x01"}, id="bytes"),
+    pytest.param({"x": math.nan}, id="nan"),
+])
+def test_recording_json_with_a_tag_is_left_to_the_exact_path(data: dict[str, Any]) -> None:
+    topic, payload = encode(RobotData(robot="r", data=data), src="s")
+    json_data, _ = _exact(topic, payload)
+    assert envelope_of_json(topic.decode(), json_data) is None
+    assert envelope_of_json("robot.other.data", _exact(*encode(
+        RobotData(robot="r", data={}), src="s"))[0]) is None  # not its robot's topic
 
 
 def test_an_int_stays_an_int_and_cred_is_base64_text() -> None:

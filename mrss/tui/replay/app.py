@@ -29,6 +29,7 @@ from mrss.tui.intake import BusIntake, Mind
 from mrss.tui.redraws import SCHEDULED
 from mrss.tui.replay.index import (
     KEYFRAME_EVERY,
+    TOPICS_WINDOW,
     MarkKind,
     ReplayIndex,
     fresh_models,
@@ -36,7 +37,7 @@ from mrss.tui.replay.index import (
     restore,
 )
 from mrss.tui.replay.link import NO_BUS, ReplayLink
-from mrss.tui.replay.player import Player, PlayState
+from mrss.tui.replay.player import Player, PlayState, speed_in_range
 from mrss.tui.replay.seek_form import SeekScreen
 from mrss.tui.replay.tape import Tape
 from mrss.tui.widgets.alerts_strip import AlertsStrip
@@ -70,22 +71,28 @@ class ReplayApp(MrssApp):
 
     def __init__(self, tape: Tape, *, name: str, speed: float = 1.0, play: bool = True,
                  keyframe_every: int = KEYFRAME_EVERY, **kwargs: Any) -> None:
-        player = Player(tape.frames, speed=speed)
+        speed_in_range(speed)
         link = ReplayLink(f"replay of {name}")
-        super().__init__(NO_BUS, link=link, readonly=True, clock=player.now,
+        super().__init__(NO_BUS, link=link, readonly=True, clock=self._recorded_now,
                          mind_every=0, tree_every=0, world_every=0,
                          stale_after=math.inf, **kwargs)
         self.tape = tape
-        self.player = player
-        self.topics.clock = player.now  # the Messages screen's rates: per recorded second
         self.replay_link = link
         self.autoplay = play
         self.seeks = 0  # rebuilds done (tests wait on it)
         shadow = BusIntake(self, ReplayLink(name), fresh_models(self.intake.models),
                            agent=self.intake.agent, min_refresh=0.0,
                            deliver=lambda _: None, system_event=lambda _e, _s: None)
+        # the index pass first: a chunked tape decides its frames in it (one read of the
+        # file), which the player's look at its ends would otherwise make a pass of its own
         self.index = ReplayIndex.build(tape.frames, shadow, every=keyframe_every)
+        self.player = Player(tape.frames, speed=speed)
+        self.topics.clock = self.player.now  # the Messages screen's rates: per recorded s
         self._last_step = time.monotonic()
+
+    def _recorded_now(self) -> float:
+        """The dashboard's clock: the recorded time at the cursor."""
+        return self.player.now()
 
     def compose(self) -> ComposeResult:
         for widget in super().compose():
@@ -171,7 +178,7 @@ class ReplayApp(MrssApp):
         self.picture.replayed_back()
         models = self.intake.models
         restore(models, keyframe.state)
-        recount_topics(models, self.tape.frames[:target])
+        recount_topics(models, self.tape.frames[max(0, target - TOPICS_WINDOW):target])
         mind = keyframe.mind
         envelopes = [f.env for f in self.tape.frames[keyframe.index:target]]
         for batch in _up_to_each_mind(envelopes):

@@ -9,8 +9,9 @@ and what moves between them are one table, `TRANSITIONS`.
 
 from __future__ import annotations
 
+import functools
 from bisect import bisect_right
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from enum import StrEnum
 
 from mrss.messages import Envelope
@@ -57,7 +58,13 @@ class Player:
 
     def __init__(self, frames: Sequence[Frame], *, speed: float = 1.0) -> None:
         self.frames = frames
-        self._times = [f.t for f in frames]
+        # where a time falls on the tape: a chunked tape bisects its chunks, then one
+        # chunk's frames; a list, the times of all its frames
+        bisect_time = getattr(frames, "bisect_time", None)
+        if bisect_time is None:
+            times = [f.t for f in frames]
+            bisect_time = functools.partial(bisect_right, times)
+        self._bisect_time: Callable[[float], int] = bisect_time
         self.start = frames[0].t if frames else 0.0
         self.end = frames[-1].t if frames else 0.0
         self.time = self.start
@@ -91,7 +98,7 @@ class Player:
         if self.state is not PlayState.PLAYING:
             return []
         self.time = min(self.end, self.time + seconds * self.speed)
-        upto = bisect_right(self._times, self.time)
+        upto = self._bisect_time(self.time)
         passed = [f.env for f in self.frames[self.index:upto]]
         self.index = upto
         if upto >= len(self.frames):
@@ -103,7 +110,7 @@ class Player:
         """Put the cursor at `t` (clamped to the recording): every message recorded up to
         then is given; the new index."""
         self.time = min(max(t, self.start), self.end)
-        return self._seek(bisect_right(self._times, self.time))
+        return self._seek(self._bisect_time(self.time))
 
     def seek_mark(self, mark: Mark) -> int:
         """Put the cursor just after the message that made `mark`; the new index."""
