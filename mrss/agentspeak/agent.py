@@ -98,6 +98,8 @@ class Agent(Runtime):
         self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
         self._woken = False
         self.society: Any = None  # the `society.Society` this agent talks in, if any
+        self._rounds: Any = None  # its `rounds.Rounds`, told of each input
+        self._slot = 0  # this agent's position in the society
 
     def _add_initial(self, clauses: list[Struct | Any]) -> list[Struct]:
         """Add the program's facts and rules as Jason's `Agent.addInitialBelsInBB` does:
@@ -138,12 +140,17 @@ class Agent(Runtime):
     def _put(self, item: tuple[str, Any, Any, Any]) -> None:
         with self._cond:
             self._inbox.append(item)
+            if self._rounds is not None:
+                self._rounds.mark(self._slot)
             self._cond.notify_all()
 
     def wake(self) -> None:
-        """Make a `wait_for_work` in the loop thread return now (e.g. to stop)."""
+        """Make a `wait_for_work` in the loop thread (the agent's, or its society's)
+        return now (e.g. to stop)."""
         with self._cond:
             self._woken = True
+            if self.society is not None:
+                self.society.woken = True
             self._cond.notify_all()
 
     def add_percept(self, literal: str | Struct) -> None:
