@@ -16,6 +16,7 @@ heap of agent positions.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import threading
 from typing import TYPE_CHECKING
@@ -38,11 +39,13 @@ class Rounds:
         self._timers: list[tuple[float, int]] = []  # (deadline, position) of idle agents
 
     def add(self, agent: Agent) -> None:
-        """A new agent, ready (its initial goals and beliefs are work)."""
+        """A new agent, ready (its initial goals and beliefs are work); its input marks
+        it (`mark`)."""
         with self._cond:
-            agent._slot = len(self.agents)
+            slot = len(self.agents)
             self.agents.append(agent)
-            self._ready.add(agent._slot)
+            self._ready.add(slot)
+            agent._mark = functools.partial(self.mark, slot)
 
     def mark(self, slot: int) -> None:
         """The agent at `slot` may have work (the caller holds the lock)."""

@@ -128,7 +128,6 @@ class Society:
         agent._cond = self._cond
         self.agents[agent.name] = agent
         self.rounds.add(agent)
-        agent._rounds = self.rounds
         return agent
 
     def wait_for_work(self, timeout: float) -> bool:
