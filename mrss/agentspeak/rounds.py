@@ -9,9 +9,10 @@ may have work until a step of it finds none: when it joins (its initial goals),
 when input is put in its inbox (a message, a percept, a finished action: any thread,
 under the society's lock, `mark`), and while its steps are busy. An agent found idle
 with a `.wait`/`.at` timer is kept in a heap by deadline and made ready when the
-deadline passes. Input for an agent later in the order than the one being stepped is
-handled in the same round, as when every agent was stepped: the current round is a
-heap of agent positions.
+deadline passes. A message from the agent being stepped to one later in the order is
+handled in the same round, as when every agent was stepped (the current round is a
+heap of agent positions); input from another thread waits for the next round. The
+loop's thread takes the lock once a round, not once a step.
 """
 
 from __future__ import annotations
@@ -26,16 +27,18 @@ if TYPE_CHECKING:
 
 
 class Rounds:
-    """The ready agents of one society and their rounds; `cond` is the society's lock
-    (the agents' inputs take it), held here only around the shared sets."""
+    """The ready agents of one society and their rounds. `cond` is the society's lock:
+    input from any thread takes it to mark its agent; the thread running the rounds
+    (the loop) takes it once a round, and owns the round's heap and the timers."""
 
     def __init__(self, cond: threading.Condition) -> None:
         self._cond = cond
         self.agents: list[Agent] = []
-        self._ready: set[int] = set()  # positions for the next round
+        self._ready: set[int] = set()  # positions for the next round (under the lock)
         self._current: list[int] = []  # the round being run: a heap of positions
         self._queued: set[int] = set()  # what is in _current
         self._pos = -1  # the position being stepped (-1: between rounds)
+        self._owner = 0  # the thread running the round
         self._timers: list[tuple[float, int]] = []  # (deadline, position) of idle agents
 
     def add(self, agent: Agent) -> None:
@@ -48,8 +51,10 @@ class Rounds:
             agent._mark = functools.partial(self.mark, slot)
 
     def mark(self, slot: int) -> None:
-        """The agent at `slot` may have work (the caller holds the lock)."""
-        if self._pos >= 0 and slot > self._pos:
+        """The agent at `slot` may have work (the caller holds the lock). Sent by an
+        agent of the round to one later in the order: this round, as if every agent
+        were stepped; from another thread (a percept, an action's outcome): the next."""
+        if slot > self._pos >= 0 and threading.get_ident() == self._owner:
             if slot not in self._queued:
                 self._queued.add(slot)
                 heapq.heappush(self._current, slot)
@@ -57,7 +62,8 @@ class Rounds:
             self._ready.add(slot)
 
     def has_work(self) -> bool:
-        """Whether some agent is ready or has a deadline that passed (under the lock)."""
+        """Whether some agent is ready or has a deadline that passed (under the lock,
+        in the loop's thread)."""
         if self._ready:
             return True
         timers = self._timers
@@ -65,32 +71,29 @@ class Rounds:
 
     def next_deadline(self) -> float | None:
         """The earliest deadline of an idle agent's timer (on the agents' clock)."""
-        with self._cond:
-            return self._timers[0][0] if self._timers else None
+        return self._timers[0][0] if self._timers else None
 
     def round(self) -> bool:
         """One cycle of each ready agent, in order; True if one was busy."""
-        cond = self._cond
         agents = self.agents
-        with cond:
-            timers = self._timers
+        timers = self._timers
+        with self._cond:
             while timers and timers[0][0] <= agents[timers[0][1]].clock():
                 self._ready.add(heapq.heappop(timers)[1])
             if not self._ready:
                 return False
             current = self._current = sorted(self._ready)  # a sorted list is a heap
-            self._queued = set(current)
+            queued = self._queued = set(current)
             self._ready = set()
+            self._owner = threading.get_ident()
         busy = False
         again: list[int] = []
+        pop = heapq.heappop
         try:
-            while True:
-                with cond:
-                    if not current:
-                        break
-                    slot = heapq.heappop(current)
-                    self._queued.discard(slot)
-                    self._pos = slot
+            while current:
+                slot = pop(current)
+                queued.discard(slot)
+                self._pos = slot
                 agent = agents[slot]
                 if agent.step():
                     busy = True
@@ -98,13 +101,12 @@ class Rounds:
                 elif agent.timers:
                     deadline = agent.next_deadline()
                     if deadline is not None:
-                        with cond:
-                            heapq.heappush(self._timers, (deadline, slot))
+                        heapq.heappush(timers, (deadline, slot))
         finally:
-            with cond:
+            with self._cond:
                 self._pos = -1
                 self._ready.update(again)
-                self._ready.update(self._current)  # left by an exception
+                self._ready.update(current)  # left by an exception
                 self._current = []
                 self._queued = set()
         return busy
