@@ -97,7 +97,8 @@ class Agent(Runtime):
         self._cond = threading.Condition()
         self._inbox: deque[tuple[str, Any, Any, Any]] = deque()
         self._woken = False
-        self.society: Any = None  # the `society.Society` this agent talks in, if any
+        # told of each input, in a society (`rounds.Rounds.mark` of this agent)
+        self._mark: Callable[[], None] | None = None
 
     def _add_initial(self, clauses: list[Struct | Any]) -> list[Struct]:
         """Add the program's facts and rules as Jason's `Agent.addInitialBelsInBB` does:
@@ -130,6 +131,15 @@ class Agent(Runtime):
             self.bb.add(c, front=False)
         return new
 
+    @property
+    def society(self) -> Any:
+        """The `society.Society` this agent talks in, if any (kept in `extras`)."""
+        return self.extras.society
+
+    @society.setter
+    def society(self, society: Any) -> None:
+        self.extras.society = society
+
     @classmethod
     def from_file(cls, path: str | Path, **kwargs: Any) -> Agent:
         return cls(file=path, **kwargs)
@@ -138,12 +148,17 @@ class Agent(Runtime):
     def _put(self, item: tuple[str, Any, Any, Any]) -> None:
         with self._cond:
             self._inbox.append(item)
+            if self._mark is not None:
+                self._mark()
             self._cond.notify_all()
 
     def wake(self) -> None:
-        """Make a `wait_for_work` in the loop thread return now (e.g. to stop)."""
+        """Make a `wait_for_work` in the loop thread (the agent's, or its society's)
+        return now (e.g. to stop)."""
         with self._cond:
             self._woken = True
+            if self.society is not None:
+                self.society.woken = True
             self._cond.notify_all()
 
     def add_percept(self, literal: str | Struct) -> None:

@@ -17,6 +17,7 @@ lists, annotation tails, functions like `.count`) use the general function whole
 from __future__ import annotations
 
 from collections.abc import Callable
+from types import CodeType
 from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.arith import BINARY
@@ -219,8 +220,24 @@ def _pure(e: Expr) -> bool:
     return True
 
 
+_CODE: dict[tuple[str, str], CodeType] = {}  # agents of one program share the code
+MAX_CODE = 4096
+
+
+def compiled(source: str, name: str) -> CodeType:
+    """`source` compiled, once per process: its constants are names bound when it is
+    run (`_Gen.const`), so many agents of the same program compile each function once
+    and share its code object (memory, and the interpreter's specialisation of it)."""
+    code = _CODE.get((source, name))
+    if code is None:
+        if len(_CODE) >= MAX_CODE:
+            _CODE.clear()
+        code = _CODE[(source, name)] = compile(source, name, "exec")
+    return code
+
+
 def _build(name: str, params: str, body: str, env: dict[str, Any]) -> Any:
-    code = compile(f"def {name}({params}):\n    return {body}\n", f"<asl {name}>", "exec")
+    code = compiled(f"def {name}({params}):\n    return {body}\n", f"<asl {name}>")
     exec(code, env)  # noqa: S102 -- our own generated code
     return env[name]
 
@@ -259,7 +276,7 @@ def resolver(t: Term) -> Resolver:
         if type(t) is Struct and all(_is_ground_const(a) for a in t.annots):
             g.env.update(_new=object.__new__, _all_ground=_all_ground)
             src = "def resolve_template(f):\n" + "\n".join(_struct_lines(g, t)) + "\n"
-            exec(compile(src, "<asl resolve_template>", "exec"), g.env)  # noqa: S102
+            exec(compiled(src, "<asl resolve_template>"), g.env)  # noqa: S102
             fn: Resolver = g.env["resolve_template"]
         else:
             fn = _build("resolve_template", "f", g.term(t), g.env)
@@ -284,7 +301,7 @@ def tester(q: Query | None) -> Tester | None:
         if depth > 1:
             lines.append("    return False")
         src = "def test_context(rt, f):\n" + "\n".join(lines) + "\n"
-        code = compile(src, "<asl test_context>", "exec")
+        code = compiled(src, "<asl test_context>")
     except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: loops nested too deep
         return None
     exec(code, g.env)  # noqa: S102 -- our own generated code

@@ -19,7 +19,7 @@ import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.depth import PARSE_DEPTH, deep_recursion
 from mrss.agentspeak.errors import AslRuntimeError, AslSyntaxError, SyntaxProblem
@@ -277,6 +277,27 @@ def _include(name: str, file: str, depth: int, add: Callable[[str], None],
         program.statements.append(st)
 
 
+TERM_FILE = "<term>"  # what `parse_term` parses: terms read at run time
+_TREES: dict[str, lark.Tree[Any]] = {}  # statement text -> its parse tree
+MAX_TREES = 1024
+
+
+def _tree(chunk: str, keep: bool) -> lark.Tree[Any]:
+    """The parse tree of one statement's text; with `keep` (a program's statement, not
+    a term read at run time), parsed once per process: many agents of one program (a
+    society of a thousand) parse it once, and build their statements from the same
+    tree (`TreeBuilder` makes new objects; the tree is not changed)."""
+    tree = _TREES.get(chunk)
+    if tree is None:
+        tree = _lark().parse(chunk)
+        if not keep:
+            return tree
+        if len(_TREES) >= MAX_TREES:
+            _TREES.clear()
+        _TREES[chunk] = tree
+    return tree
+
+
 def parse_program(text: str, file: str = "<string>",
                   collect: list[SyntaxProblem] | None = None, _depth: int = 0) -> Program:
     """Parse a whole source; raise `AslSyntaxError` listing every error found (or, with
@@ -318,7 +339,7 @@ def parse_program(text: str, file: str = "<string>",
             continue
         try:
             with deep_recursion():
-                tree = _lark().parse(chunk)
+                tree = _tree(chunk, file != TERM_FILE)
                 statement = TreeBuilder(line0, local, col0).transform(tree)
         except RecursionError:
             line, col = _position(chunk, len(chunk) - len(chunk.lstrip()))
@@ -347,16 +368,16 @@ def parse_program(text: str, file: str = "<string>",
 
 def parse_term(text: str) -> Term:
     """A runtime term from text such as `area_goal_received(g1, 3)` (variables free)."""
-    program = parse_program(text.strip().rstrip(".") + ".", "<term>")
+    program = parse_program(text.strip().rstrip(".") + ".", TERM_FILE)
     if len(program.statements) != 1 or not isinstance(program.statements[0], BeliefSrc):
-        raise AslSyntaxError([SyntaxProblem("<term>", 1, 1, "expected one literal", text)])
+        raise AslSyntaxError([SyntaxProblem(TERM_FILE, 1, 1, "expected one literal", text)])
     lit = program.statements[0].lit
     if lit.ground:
         return lit
     try:
         return resolve(lit, [None] * 64)
     except AslRuntimeError as exc:  # e.g. b(X+1): arithmetic on an unbound variable
-        raise AslSyntaxError([SyntaxProblem("<term>", 1, 1, exc.message, text)]) from None
+        raise AslSyntaxError([SyntaxProblem(TERM_FILE, 1, 1, exc.message, text)]) from None
 
 
 def parse_literal(text: str | Struct) -> Struct:

@@ -78,9 +78,10 @@ class Extras:
     gives an object of more than about 30 attributes slower attribute access, which
     costs every reasoning cycle some 10% (measured with `mrss bench reasoner`)."""
 
-    __slots__ = ("suspended_events", "ns_props", "context_errors")
+    __slots__ = ("suspended_events", "ns_props", "context_errors", "society")
 
     def __init__(self) -> None:
+        self.society: Any = None  # the `society.Society` the agent talks in, if any
         # the context errors of a selection by `Runtime.intend_now`, not warned there
         # (the event then goes through the queue, where they are warned once)
         self.context_errors: list[Any] = []

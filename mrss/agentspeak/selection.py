@@ -21,10 +21,9 @@ is added or removed (`PlanLibrary.selector`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from types import CodeType
 from typing import TYPE_CHECKING, Any
 
-from mrss.agentspeak.closures import MAX_NODES, _conjuncts, _Gen, _TooBig
+from mrss.agentspeak.closures import MAX_NODES, _conjuncts, _Gen, _TooBig, compiled
 from mrss.agentspeak.errors import AslRuntimeError
 from mrss.agentspeak.terms import OP_TEXT
 from mrss.agentspeak.unify import undo, unify
@@ -124,21 +123,6 @@ def _test(g: _Gen, plan: Plan, p: str) -> list[str]:
     return lines
 
 
-_CODE: dict[tuple[str, str], CodeType] = {}  # agents of one program share the code
-MAX_CODE = 4096
-
-
-def _compiled(source: str, name: str) -> CodeType:
-    """`source` compiled, once per process: its constants are names bound when it is
-    run, so many agents of the same program compile each selection once."""
-    code = _CODE.get((source, name))
-    if code is None:
-        if len(_CODE) >= MAX_CODE:
-            _CODE.clear()
-        code = _CODE[(source, name)] = compile(source, name, "exec")
-    return code
-
-
 def selector(plans: list[Plan], arity: int) -> Selector:
     """One generated function selecting among `plans` (all of one key, of `arity`
     arguments), or the general loop when they are too many or too large."""
@@ -166,7 +150,7 @@ def selector(plans: list[Plan], arity: int) -> Selector:
         lines.append("    return relevant")
         first = plans[0]  # named for its key: profiles tell the keys apart
         name = f"<asl select {OP_TEXT[first.op]}{first.trigger.functor}/{arity}>"
-        code = _compiled("\n".join(lines) + "\n", name)
+        code = compiled("\n".join(lines) + "\n", name)
     except (_TooBig, RecursionError, SyntaxError):  # SyntaxError: blocks nested too deep
         return select_general(plans)
     exec(code, g.env)  # noqa: S102 -- our own generated code

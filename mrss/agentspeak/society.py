@@ -1,6 +1,8 @@
 """Several agents in one process, talking with `.send` and `.broadcast` (Jason's KQML
 performatives), run in deterministic round-robin: one reasoning cycle of each agent in
-the order given, then again, so a run always prints the same.
+the order given, then again, so a run always prints the same. A round steps only the
+agents that may have work (`rounds`): its cost is that of the busy agents, whatever
+the number of idle ones.
 
 A message is put in the receiver's inbox and handled at the start of its next cycle:
 `tell`/`untell` add/remove the belief annotated `source(sender)`, `achieve` posts the
@@ -23,6 +25,7 @@ from mrss.agentspeak.directory import DF_NAME, Directory
 from mrss.agentspeak.formulas import compile_query
 from mrss.agentspeak.host import ConsoleHost
 from mrss.agentspeak.registry import IAContext, Registry
+from mrss.agentspeak.rounds import Rounds
 from mrss.agentspeak.termorder import add_annot
 from mrss.agentspeak.terms import (
     ADD_BEL,
@@ -105,6 +108,8 @@ class Society:
         self.out = out
         self.registry = self._registry()
         self._cond = threading.Condition()  # shared by the agents: input to any wakes
+        self.rounds = Rounds(self._cond)  # which agents a round steps
+        self.woken = False  # an agent's `wake`: `wait_for_work` returns
 
     def add(self, path: Path, source: str, name: str) -> Agent:
         prefix = f"[{name}] "
@@ -122,44 +127,43 @@ class Society:
         agent.society = self
         agent._cond = self._cond
         self.agents[agent.name] = agent
+        self.rounds.add(agent)
         return agent
 
     def wait_for_work(self, timeout: float) -> bool:
         """Block until some agent has work (input, a due `.wait`), one is woken, or
         `timeout` seconds pass; True if there is work."""
-        agents = list(self.agents.values())
+        rounds = self.rounds
         end = time.monotonic() + timeout
         with self._cond:
-            while not any(a.has_work() for a in agents):
-                woken = [a for a in agents if a._woken]
-                if woken:
-                    for a in woken:
+            while not rounds.has_work():
+                if self.woken:
+                    self.woken = False
+                    for a in self.agents.values():
                         a._woken = False
                     return False
                 remaining = end - time.monotonic()
-                for a in agents:
-                    deadline = a.next_deadline()
-                    if deadline is not None:
-                        remaining = min(remaining, max(deadline - a.clock(), 0.0))
+                deadline = rounds.next_deadline()
+                if deadline is not None:
+                    remaining = min(remaining, max(deadline - time.monotonic(), 0.0))
                 if remaining <= 0:
-                    return any(a.has_work() for a in agents)
+                    return rounds.has_work()
                 self._cond.wait(remaining)
             return True
 
+    def next_deadline(self) -> float | None:
+        """The earliest `.wait`/`.at` deadline of an agent with nothing else to do."""
+        return self.rounds.next_deadline()
+
     def run_cycles(self, max_rounds: int | None = None) -> int:
-        """Round-robin cycles (one of each agent, in order) until none is busy; returns
-        the number of rounds in which one was."""
-        agents = list(self.agents.values())
+        """Round-robin cycles (one of each agent with work, in order) until none is
+        busy; returns the number of rounds in which one was."""
         rounds = 0
-        while True:
-            busy = False
-            for agent in agents:
-                busy = agent.step() or busy
-            if not busy:
-                return rounds
+        while self.rounds.round():
             rounds += 1
             if max_rounds is not None and rounds >= max_rounds:
                 return rounds
+        return rounds
 
     def deliver(self, sender: str, receiver: str, perf: Performative, content: Term) -> bool:
         agent = self.agents.get(receiver)
@@ -172,23 +176,18 @@ class Society:
     def run(self, max_time: float | None = None) -> bool:
         """Round-robin cycles until every agent is idle (True) or `max_time` passes."""
         start = time.monotonic()
-        agents = list(self.agents.values())
+        rounds = self.rounds
         while True:
-            busy = False
-            for agent in agents:
-                busy = agent.step() or busy
-            if busy:
+            if rounds.round():
                 if max_time is not None and time.monotonic() - start >= max_time:
                     return False
                 continue
-            if all(a.is_idle() for a in agents):
+            if rounds.idle():
                 return True
             waited = time.monotonic() - start
             if max_time is not None and waited >= max_time:
                 return False
-            waiting = [a for a in agents if not a.is_idle()]
-            waiting[0].wait_for_work(0.01 if len(waiting) > 1 else
-                                     (1.0 if max_time is None else min(1.0, max_time - waited)))
+            self.wait_for_work(1.0 if max_time is None else min(1.0, max_time - waited))
 
     # ------------------------------------------------------------------ actions
     def _registry(self) -> Registry:

@@ -22,5 +22,7 @@ BENCHES: dict[str, str] = {
     "replay": "the dashboard's replay of a 30-minute mission: load, index, seek",
     "memory": "the wildfire system's memory (PSS per process, the total) and its start to a "
               "running reasoner",
+    "agents": "1..10,000 small agents in one process exchanging .send messages: cycles/s and "
+              "memory per agent",
     "soak": "hours of simulated mission with operator traffic and faults: does anything grow",
 }

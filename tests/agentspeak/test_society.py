@@ -93,3 +93,23 @@ def test_an_agent_waiting_on_a_timer_keeps_the_society_running(tmp_path: Path) -
         society.add(path, read_program(path), stem)
     assert society.run(max_time=30)
     assert lines == ["[b] got(a)"]
+
+
+def test_agents_of_one_program_keep_their_own_plans_and_beliefs(tmp_path: Path) -> None:
+    """Agents of one program text share its parsing and compiled code, never their
+    state: one removing its plan and adding a belief leaves the other as loaded."""
+    source = ("count(0).\n"
+              "@greet +!greet <- ?count(N); .print(hello(N)).\n"
+              "+!forget <- .remove_plan(greet); -+count(1).\n")
+    lines: list[str] = []
+    society = Society(out=lines.append)
+    for stem in ("a", "b"):
+        society.add(tmp_path / f"{stem}.asl", source, stem)
+    a, b = society.agents.values()
+    a.add_goal("forget")
+    assert society.run(max_time=30)
+    a.add_goal("greet")
+    b.add_goal("greet")
+    assert society.run(max_time=30)
+    assert lines == ["[b] hello(0)"]
+    assert a.believes("count(1)") and not b.believes("count(1)")

@@ -184,10 +184,10 @@ class Reasoner:
             else society.wait_for_work
         while not self._stop.is_set():
             timeout = self._tick
-            for agent in agents:
-                deadline = agent.next_deadline()
-                if deadline is not None:
-                    timeout = max(0.0, min(timeout, deadline - agent.clock()))
+            deadline = agents[0].next_deadline() if society is None else \
+                society.next_deadline()  # a society's agents share the clock
+            if deadline is not None:
+                timeout = max(0.0, min(timeout, deadline - agents[0].clock()))
             wait(timeout)
             try:
                 if society is None:

@@ -124,3 +124,45 @@ def test_a_reasoner_process_runs_its_agents_together(tmp_path: Path) -> None:
     text = log.read_text()
     assert "reasoner: [ping] names([ping,pong])" in text
     assert "reasoner: [pong] ping_from(ping)" in text
+
+
+RING = """
++go[source(percept)] : starter & next(N) <- .send(N, achieve, ping(1)).
++!ping(K) : stop(K) <- +done; finished(K).
++!ping(K) : last_lap(L) & K >= L & next(N) <- +done; .send(N, achieve, ping(K + 1));
+    finished(K).
++!ping(K) : next(N) <- .send(N, achieve, ping(K + 1)).
+"""
+
+
+def test_hundreds_of_agents_pass_a_token_round_and_idle_ones_are_not_stepped(
+        tmp_path: Path) -> None:
+    """A token goes three times round a ring of 300 agents of one reasoner, started by
+    a percept; on its last lap every agent believes `done` and acts. A bystander with
+    no plan for the percept takes a cycle or two for it and is then never stepped:
+    a round costs its busy agents, not the number of agents."""
+    n, laps = 300, 3
+    hops = n * laps
+    (tmp_path / "ring.asl").write_text(textwrap.dedent(RING))
+    (tmp_path / "bystander.asl").write_text("")
+    specs = [AgentSpec(f"a{i + 1}", "ring.asl",
+                       [f"next(a{(i + 1) % n + 1})", f"stop({hops})",
+                        f"last_lap({hops - n + 1})"] + (["starter"] if i == 0 else []))
+             for i in range(n)]
+    specs.append(AgentSpec("bystander", "bystander.asl"))
+    requests: list[ActionRequest] = []
+    reasoner = Reasoner(None, name="reasoner", agents=specs, base=tmp_path,
+                        send_request=requests.append, send_control=lambda c: None,
+                        lease=300.0, tick=0.05)
+    reasoner.start()
+    try:
+        reasoner.on_message(env(Percept(literal="go"), src="events"))
+        wait_until(lambda: len(requests) >= n, timeout=60,
+                   message="every agent of the ring acts on its last lap")
+    finally:
+        reasoner.stop()
+    *ring, bystander = reasoner.agents
+    assert sorted(r.literal for r in requests) == sorted(
+        f"finished({k})" for k in range(hops - n + 1, hops + 1))
+    assert all(a.believes("done") for a in ring)
+    assert bystander.cycle <= 3, f"the bystander was stepped {bystander.cycle} times"
