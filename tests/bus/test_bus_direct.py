@@ -205,3 +205,25 @@ def test_mrss_record_given_only_a_run_dir_joins_a_direct_bus(run_dir: Path) -> N
         finally:
             rec.close()
     assert list(run_dir.glob("bus-m-*.sock")) == []
+
+
+def test_a_member_forgotten_and_learnt_again_keeps_getting_messages(
+        direct_ipc: BusEndpoints) -> None:
+    """The proxy withdraws a membership and gives it again (the member's link to the
+    proxy dropped and came back): the publisher disconnects, then connects anew, and the
+    echo of its own disconnect, read later, must not undo the new link."""
+    ep = direct_ipc
+    with ProxyThread(ep), Subscriber(ep, prefixes=["percept"]) as sub, \
+            Publisher(ep, src="p") as pub:
+        assert sub.wait_connected(5) and pub.wait_connected(5)
+        route = pub._route
+        assert route is not None
+        membership = b"\x01" + sub._membership
+        with pub._lock:  # as the proxy's notices would arrive: withdrawn, then given
+            route.on_control(b"\x00" + membership[1:])
+            route.on_control(membership)
+        assert pub.wait_connected(5)  # joined again
+        for k in range(50):  # meanwhile the watcher reads the old link's leave
+            pub.publish(_percept(k))
+            assert sub.recv(timeout=5) is not None, f"message {k} lost after the relearn"
+        assert route.members == 1
