@@ -4,6 +4,7 @@ endpoints of conftest.py)."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import msgpack
@@ -11,7 +12,8 @@ import pytest
 import zmq
 
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
-from mrss.bus.direct import MEMBER, subscriber_socket
+from mrss.bus.direct import MARKER, MEMBER, subscriber_socket
+from mrss.bus.introducer import GRACE, Introducer
 from mrss.bus.settings import endpoints_from_config
 from mrss.errors import ConfigError
 from mrss.messages import Percept, RobotData
@@ -227,3 +229,32 @@ def test_a_member_forgotten_and_learnt_again_keeps_getting_messages(
             pub.publish(_percept(k))
             assert sub.recv(timeout=5) is not None, f"message {k} lost after the relearn"
         assert route.members == 1
+
+
+def test_a_fresh_direct_proxy_introduces_at_once_and_a_restarted_one_waits() -> None:
+    """A restarted proxy waits GRACE for its clients to reconnect before its marker; the
+    first on its endpoints has none to wait for, and its marker goes out at its start."""
+    ctx = zmq.Context.instance()
+    sockets_made: list[zmq.Socket[bytes]] = []
+
+    def proxy_and_publisher(name: str) -> tuple[zmq.Socket[bytes], zmq.Socket[bytes],
+                                                zmq.Socket[bytes]]:
+        frontend, backend, publisher = (ctx.socket(zmq.XSUB), ctx.socket(zmq.XPUB),
+                                        ctx.socket(zmq.XPUB))
+        sockets_made.extend((frontend, backend, publisher))
+        frontend.bind(f"inproc://{name}-front")
+        backend.bind(f"inproc://{name}-back")
+        publisher.connect(f"inproc://{name}-front")
+        return frontend, backend, publisher
+
+    try:
+        frontend, backend, publisher = proxy_and_publisher("fresh")
+        Introducer(frontend, backend, fresh=True).look()
+        assert publisher.poll(5000) and publisher.recv() == b"\x01" + MARKER
+        frontend, backend, publisher = proxy_and_publisher("restarted")
+        made = time.monotonic()
+        restarted = Introducer(frontend, backend)
+        assert restarted.marker_due is not None and restarted.marker_due >= made + GRACE
+    finally:
+        for sock in sockets_made:
+            sock.close(0)
