@@ -264,7 +264,8 @@ class RunningProject:
         """Put robot data on the bus (`robot.<robot>.data`) as any bus client could: a
         forged or broken record, to see what the system makes of it."""
         if self._pub is None:
-            self._pub = Publisher(endpoints_from_config({}, self.run_dir, nodes=bool(self.node)), src="procedure")
+            self._pub = Publisher(endpoints_from_config({}, self.run_dir, nodes=bool(self.node)),
+                                  src="procedure")
         self._pub.publish(RobotData(robot=robot, data=dict(data)))
 
     def link_data(self, robot: str, data: Mapping[str, JsonValue], *, owner: str = "rcl"

@@ -90,7 +90,7 @@ def test_10000_reliable_messages_survive_two_proxy_kills_exactly_once(
         return [line.split()[1] for line in list(receiver.lines[1:])]
 
     spawned = time.monotonic()
-    for mark, gate in zip(marks, gates[1:]):
+    for mark, gate in zip(marks, gates[1:], strict=True):
         wait_until(lambda mark=mark: len(handled()) >= mark, 30, message=f"{mark} handled")
         proxy.kill()
         killed = time.monotonic()
