@@ -10,7 +10,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from mrss.bus import Publisher, Subscriber
+import zmq
+
+from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Envelope, Message
 from mrss.testing import wait_until
 
@@ -140,3 +142,15 @@ def drain_until(sub: Subscriber, *ends: Message, timeout: float = 10.0) -> list[
         return not missing
 
     return receive_until(sub, all_ends_in, timeout, what=f"the end markers {ends}")
+
+
+def reach_every_subscriber(sock: zmq.Socket[bytes], endpoints: BusEndpoints) -> None:
+    """Connect a raw ZeroMQ PUB socket where it reaches every subscriber of the bus, as
+    any process on the host could: the proxy's frontend (a bus that forwards) and, on a
+    direct bus over ipc, each member's socket beside it (docs/bus.md, "Direct
+    delivery"). Members that bind after this are not reached."""
+    sock.connect(endpoints.frontend)
+    if endpoints.backend.startswith("ipc://"):
+        folder = Path(endpoints.backend[len("ipc://"):]).parent
+        for member in sorted(folder.glob("bus-m-*.sock")):
+            sock.connect(f"ipc://{member}")

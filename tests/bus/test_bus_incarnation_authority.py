@@ -24,6 +24,7 @@ from mrss.bus import BusEndpoints, Stale, Subscriber
 from mrss.messages import Envelope, Heartbeat, LogRecord, Message, Rejections, SupEvent, encode
 from mrss.recording.format import RecordedMessage, RecordingWriter
 from mrss.testing import stop_supervised, wait_until
+from tests.bus.bus_helpers import reach_every_subscriber
 from tests.commands.cli_bus import short_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -65,7 +66,7 @@ class System:
         (project / "project.toml").write_text(PROJECT_TOML)
         self.run_dir = root / "run"
         self.run_dir.mkdir()
-        self.endpoints = BusEndpoints.ipc(self.run_dir)
+        self.endpoints = BusEndpoints.ipc(self.run_dir, direct=True)  # the default [bus]
         self._lock = threading.Lock()
         self._seen: list[Envelope] = []
         self.sub = Subscriber(self.endpoints, prefixes=["log.listener", "edge.rejections"],
@@ -120,7 +121,7 @@ def forger(system: System) -> Iterator[zmq.Socket[bytes]]:
     ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
     sock = ctx.socket(zmq.PUB)
     sock.setsockopt(zmq.LINGER, 0)
-    sock.connect(system.endpoints.frontend)
+    reach_every_subscriber(sock, system.endpoints)
     try:
         yield sock
     finally:

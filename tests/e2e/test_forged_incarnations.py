@@ -12,6 +12,7 @@ import zmq
 
 from mrss.messages import Command, Rejections, SupEvent, encode
 from mrss.testing import wait_until
+from tests.bus.bus_helpers import reach_every_subscriber
 from tests.e2e.system import System
 
 pytestmark = pytest.mark.slow
@@ -25,7 +26,7 @@ def forger(system: System) -> Iterator[zmq.Socket[bytes]]:
     ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
     sock = ctx.socket(zmq.PUB)
     sock.setsockopt(zmq.LINGER, 0)
-    sock.connect(system.endpoints.frontend)
+    reach_every_subscriber(sock, system.endpoints)
     try:
         yield sock
     finally:

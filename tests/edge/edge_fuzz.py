@@ -31,6 +31,7 @@ from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import UgvTopics
 from mrss.messages import Heartbeat, Percept, RobotData, encode
 from mrss.recording.format import RecordedMessage, RecordingWriter
+from tests.bus.bus_helpers import reach_every_subscriber
 
 FORGED_IDS = range(900, 1000)  # hotspot ids of forged reports
 FORGED_LAT = 95.0  # an impossible latitude
@@ -97,12 +98,13 @@ class Sent:
 
 
 class RawBus:
-    """A raw ZeroMQ PUB socket on the proxy's frontend: any frames at all."""
+    """A raw ZeroMQ PUB socket that reaches every subscriber of the bus (the proxy's
+    frontend; on a direct bus each member's socket too): any frames at all."""
 
     def __init__(self, endpoints: BusEndpoints) -> None:
         self.sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.PUB)
         self.sock.setsockopt(zmq.LINGER, 1000)
-        self.sock.connect(endpoints.frontend)
+        reach_every_subscriber(self.sock, endpoints)
         self._pids = iter(range(1, 10**9))  # across syncs: a probe is never taken for another's
 
     def send(self, frames: list[bytes]) -> None:
