@@ -3,11 +3,9 @@
 For each transport a driver and a responder process (`mrss.bench.bus_peers`) measure
 sequential round trips (p50, p99) and then a one-way stream (messages per second at the
 receiver, first to last message). Every message is an MRSS envelope, encoded and
-decoded/validated on both transports alike. Our bus runs as a project gets it by default
-(direct delivery: the proxy process only introduces) and, in the `via proxy` rows, with
-`[bus] delivery = "proxy"` (every message through the proxy), over ipc and tcp; MQTT
-through a private Mosquitto at QoS 0 and QoS 1. The reliable channel is measured too:
-messages per second until every one is acknowledged.
+decoded/validated on both transports alike. Our bus runs through its proxy process over
+ipc and tcp; MQTT through a private Mosquitto at QoS 0 and QoS 1. The reliable channel
+is measured too: messages per second until every one is acknowledged.
 """
 
 from __future__ import annotations
@@ -32,10 +30,9 @@ QOS0 = "MQTT QoS 0"
 RAW = "raw zmq"  # + " ipc" / " tcp": pyzmq + msgpack between the two processes, no proxy
 BATCHED = ", batched"  # + the raw row batched as our publisher batches, no poll per message
 BARE = f"{RAW} ipc, bare proxy"  # the same through libzmq's zmq.proxy: the cost of a hop
-DIRECT = "bus ipc, no proxy"  # our Publisher (bind=True) and Subscriber, connected directly
-# "bus ipc", "bus tcp": the default, [bus] delivery = "direct" (the proxy only introduces)
-PROXY_IPC = "bus ipc, via proxy"  # [bus] delivery = "proxy": every message through it
-PROXY_TCP = "bus tcp, via proxy"
+DIRECT = "bus ipc, no proxy"
+DIRECT_IPC = "bus ipc, direct"  # [bus] delivery = "direct": the proxy only introduces
+DIRECT_TCP = "bus tcp, direct"  # our Publisher (bind=True) and Subscriber, connected directly
 
 
 class _Child:
@@ -186,21 +183,20 @@ def run(quick: bool) -> BenchReport:
         tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="mrss-bench-"))
         # One proxy per transport, as each MQTT variant gets its own broker: the peers of
         # different transports use the same topics.
-        ipc = BusEndpoints.ipc(tmp, direct=True)
-        tcp = BusEndpoints.tcp_loopback(direct=True)
-        ipc_plain = BusEndpoints.ipc(os.path.join(tmp, "plain"), direct=True)
-        ipc_proxy = BusEndpoints.ipc(os.path.join(tmp, "proxy"))
-        tcp_proxy = BusEndpoints.tcp_loopback()
-        for ep in (ipc, tcp, ipc_plain, ipc_proxy, tcp_proxy):
-            _spawn(stack, "mrss.bus.proxy", "--frontend", ep.frontend, "--backend",
-                   ep.backend, *(["--direct", "--fresh"] if ep.direct else [])).wait_ready()
+        ipc, tcp = BusEndpoints.ipc(tmp), BusEndpoints.tcp_loopback()
+        ipc_plain = BusEndpoints.ipc(os.path.join(tmp, "plain"))
+        ipc_direct = BusEndpoints.ipc(os.path.join(tmp, "direct"), direct=True)
+        tcp_direct = BusEndpoints.tcp_loopback(direct=True)
+        for ep in (ipc, tcp, ipc_plain, ipc_direct, tcp_direct):
+            _spawn(stack, "mrss.bus.proxy", "--frontend", ep.frontend,
+                   "--backend", ep.backend, *(["--direct"] if ep.direct else [])).wait_ready()
         specs: dict[str, dict[str, Any]] = {
             "bus ipc": {"kind": "bus", "endpoints": ipc.to_dict()},
             "bus tcp": {"kind": "bus", "endpoints": tcp.to_dict()},
             "bus ipc, no batching": {"kind": "bus", "endpoints": ipc_plain.to_dict(),
                                      "batching": False},
-            PROXY_IPC: {"kind": "bus", "endpoints": ipc_proxy.to_dict()},
-            PROXY_TCP: {"kind": "bus", "endpoints": tcp_proxy.to_dict()},
+            DIRECT_IPC: {"kind": "bus", "endpoints": ipc_direct.to_dict()},
+            DIRECT_TCP: {"kind": "bus", "endpoints": tcp_direct.to_dict()},
         }
         raw_tcp = BusEndpoints.tcp_loopback()
         specs[f"{RAW} ipc"] = {"kind": "raw", "driver": f"ipc://{tmp}/raw-driver.sock",
@@ -240,7 +236,7 @@ def run(quick: bool) -> BenchReport:
         reliable_pairs = {
             f"bus reliable {name[4:]}": (_peer(stack, "reliable-tx", specs[name]),
                                          _peer(stack, "reliable-rx", specs[name]))
-            for name in ("bus ipc", "bus tcp", PROXY_IPC)}
+            for name in ("bus ipc", "bus tcp", DIRECT_IPC)}
         for driver, responder in [*pairs.values(), *reliable_pairs.values()]:
             responder.wait_ready()
             driver.wait_ready()
@@ -285,8 +281,8 @@ def _pair(r: dict[str, Any], base: dict[str, Any] | None) -> str | None:
     return f"{r['p50'] / base['p50']:.2f}, {r['p99'] / base['p99']:.2f}"
 
 
-BUS_ROWS = ("bus ipc", "bus tcp")  # the default's rows: the ones with targets
-RELIABLE_ROWS = ("bus reliable ipc", "bus reliable tcp")
+BUS_ROWS = ("bus ipc", "bus tcp", DIRECT_IPC, DIRECT_TCP)  # the rows with targets
+RELIABLE_ROWS = ("bus reliable ipc", "bus reliable tcp", "bus reliable ipc, direct")
 # The performance issue's targets against the best raw row of the transport.
 RTT_WITHIN = 1.2
 RATE_AT_LEAST = 0.9

@@ -50,11 +50,11 @@ class Rcl(BenchLayer):
 
 
 def _toml(robots: int, nice: int | None = None, realtime: int | None = None,
-          via_proxy: bool = False) -> str:
+          direct: bool = False) -> str:
     table = ", ".join(f"r{i} = {{}}" for i in range(robots))
     favoured = ("" if nice is None else f"nice = {nice}\n") + \
         ("" if realtime is None else f"realtime = {realtime}\n")
-    bus = '[bus]\ndelivery = "proxy"\n' if via_proxy else ""
+    bus = '[bus]\ndelivery = "direct"\n' if direct else ""
     return f"""\
 [project]
 name = "{PROJECT}"
@@ -126,17 +126,16 @@ class Harness:
     """The supervised system plus the bench's own bus endpoints."""
 
     def __init__(self, robots: int, nice: int | None = None,
-                 realtime: int | None = None, via_proxy: bool = False) -> None:
+                 realtime: int | None = None, direct: bool = False) -> None:
         self.robots = robots
         self._cond = threading.Condition()
         self.starts: dict[int, int] = {}  # seq -> skill start, ns
         self.minds = 0
         self.system = SupervisedProject(
-            PROJECT, {"project.toml": _toml(robots, nice, realtime, via_proxy),
-                      "agent.asl": AGENT,
+            PROJECT, {"project.toml": _toml(robots, nice, realtime, direct), "agent.asl": AGENT,
                       "rcl.py": RCL},
             prefixes=["action.status", "mind."], on_message=self._on,
-            tmp_prefix="mrss-bench-e2e-", nice=nice, realtime=realtime)
+            tmp_prefix="mrss-bench-e2e-", nice=nice, realtime=realtime, direct=direct)
         self.tmp, self.run_dir = self.system.tmp, self.system.run_dir
         self.endpoints, self.proc = self.system.endpoints, self.system.proc
         self.sub, self.pub = self.system.sub, self.system.pub
@@ -222,15 +221,15 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
             sustained = rate
     finally:
         harness.close()
-    proxied = Harness(ROBOTS, via_proxy=True)  # [bus] delivery = "proxy": two more hops
+    direct = Harness(ROBOTS, direct=True)  # [bus] delivery = "direct": no proxy hop
     try:
-        proxied.wait_ready()
-        proxied.run_step(Step(base_rate, 100), 0)  # warm-up, not reported
-        proxied_base = Step(base_rate, base_count)
-        proxied.run_step(proxied_base, 100)
-        _row(report, f"baseline, {ROBOTS} robots, bus via proxy", proxied_base)
+        direct.wait_ready()
+        direct.run_step(Step(base_rate, 100), 0)  # warm-up, not reported
+        direct_base = Step(base_rate, base_count)
+        direct.run_step(direct_base, 100)
+        _row(report, f"baseline, {ROBOTS} robots, direct bus", direct_base)
     finally:
-        proxied.close()
+        direct.close()
     e2e_floor.report(report, floor, base.p50 if base.missing == 0 else math.inf)
     report.target(f"p99 percept -> first skill start <= 5 ms ({base_count:,} events, "
                   f"{ROBOTS} robots)", base.p99 if base.missing == 0 else math.inf,
@@ -240,8 +239,8 @@ def run(quick: bool, under_load: bool = False) -> BenchReport:
         f"baseline p99 ({limit:.2f} ms) and nothing lost")
     report.notes.append(
         "latency = CLOCK_MONOTONIC at the skill's start() (RCL process) minus the same "
-        "clock just before the bench publishes the percept; path (direct delivery, the "
-        "default): bench -> reasoner (agent cycle) -> reliable channel -> RCL (journal commit, "
+        "clock just before the bench publishes the percept; path: bench -> proxy -> "
+        "reasoner (agent cycle) -> reliable channel -> proxy -> RCL (journal commit, "
         "robot actor, skill actor + worker thread) -> start()")
     report.notes.append(f"{os.cpu_count()} CPUs, load average {load_before:.2f} before the "
                         f"run, {os.getloadavg()[0]:.2f} after; processes: root supervisor, "

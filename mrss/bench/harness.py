@@ -7,12 +7,10 @@ import shutil
 import signal
 import subprocess
 import tempfile
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from mrss.bus import Publisher, Subscriber
-from mrss.bus.settings import endpoints_from_config
+from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.interpreter import python_module
 from mrss.messages import Envelope
 
@@ -27,7 +25,8 @@ class SupervisedProject:
 
     def __init__(self, name: str, files: Mapping[str, str], *, prefixes: Sequence[str],
                  on_message: Callable[[Envelope], None], tmp_prefix: str,
-                 nice: int | None = None, realtime: int | None = None) -> None:
+                 nice: int | None = None, realtime: int | None = None,
+                 direct: bool = False) -> None:
         self.tmp = Path(tempfile.mkdtemp(prefix=tmp_prefix))
         project = self.tmp / "projects" / name
         project.mkdir(parents=True)
@@ -35,8 +34,7 @@ class SupervisedProject:
             (project / file_name).write_text(text)
         self.run_dir = self.tmp / "run"
         self.run_dir.mkdir()
-        bus = tomllib.loads(files["project.toml"]).get("bus", {})
-        self.endpoints = endpoints_from_config(bus, self.run_dir)  # as its [bus] says
+        self.endpoints = BusEndpoints.ipc(self.run_dir, direct=direct)  # as its [bus] says
         self.sub = Subscriber(self.endpoints, prefixes=list(prefixes), name="bench")
         self.sub.start(on_message)
         self.pub = Publisher(self.endpoints, src="bench", batching=False)

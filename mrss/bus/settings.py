@@ -1,8 +1,8 @@
 """The `[bus]` table of project.toml: the endpoints every component is handed.
 
 `transport = "ipc"` (sockets in the run folder) or `"tcp"` (host and ports);
-`delivery = "direct"` (the default on one host, mrss/bus/direct.py) or `"proxy"` (every
-message through the proxy; what a project on `[nodes]` runs); the keys of several nodes.
+`delivery = "proxy"` (the default: every message through the proxy; what a project on
+`[nodes]` runs) or `"direct"` (one host, mrss/bus/direct.py); the keys of several nodes.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ BUS_OPTIONS: tuple[Option, ...] = (
     Option("transport", str, "ipc", "ipc: sockets in the run folder; tcp: host and ports",
            choices=("ipc", "tcp")),
     Option("host", str, "127.0.0.1", "tcp: the proxy's address"),
-    Option("delivery", str, "direct", "direct: publisher to subscriber, the proxy only "
-           "introduces (one host; with [nodes], proxy unless said); proxy: every message "
-           "through the proxy", choices=("direct", "proxy")),
+    Option("delivery", str, "proxy", "proxy: every message through the proxy; direct: "
+           "publisher to subscriber, the proxy only introduces (one host)",
+           choices=("proxy", "direct")),
     Option("frontend_port", int, None, "tcp: the port publishers connect to", Check.PORT),
     Option("backend_port", int, None, "tcp: the port subscribers connect to", Check.PORT),
     Option("keys_dir", str, "keys", "[nodes]: the folder of the nodes' CurveZMQ keys "
@@ -41,13 +41,14 @@ def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = 
                           nodes: bool = False) -> BusEndpoints:
     """The `[bus]` table: `transport = "ipc"` (default, sockets in the run directory) or
     `"tcp"` with `host` (default 127.0.0.1), `frontend_port`, `backend_port`; `delivery`
-    `"direct"` (the declared default, mrss/bus/direct.py) or `"proxy"`. `nodes`: the
+    `"proxy"` (the declared default) or `"direct"` (mrss/bus/direct.py). `nodes`: the
     project runs on `[nodes]`, whose proxies link the hosts: delivery through them unless
-    the table says otherwise (`mrss supervise --node` refuses `"direct"` there)."""
+    the table says otherwise (`mrss supervise --node` refuses `"direct"` there), whatever
+    the declared default."""
     transport = section.get("transport", "ipc")
     delivery = section.get("delivery", "proxy" if nodes else _DELIVERY.default)
     if delivery not in _DELIVERY.choices:
-        raise ConfigError(f"must be 'direct' or 'proxy', not {delivery!r}", file=file,
+        raise ConfigError(f"must be 'proxy' or 'direct', not {delivery!r}", file=file,
                           key="bus.delivery")
     direct = delivery == "direct"
     if transport == "ipc":

@@ -150,12 +150,12 @@ def test_a_raw_member_socket_joins_while_it_reads_itself(direct_ipc: BusEndpoint
 
 def test_delivery_is_a_bus_key_and_direct_is_for_one_host(tmp_path: Path) -> None:
     assert endpoints_from_config({"delivery": "direct"}, tmp_path).direct
-    assert endpoints_from_config({}, tmp_path).direct  # the default on one host
-    assert not endpoints_from_config({"delivery": "proxy"}, tmp_path).direct  # as before
+    assert not endpoints_from_config({}, tmp_path).direct  # the declared default: proxy
+    assert not endpoints_from_config({"delivery": "proxy"}, tmp_path).direct
     # On [nodes] the nodes' proxies link the hosts: through them unless the table says.
     assert not endpoints_from_config({}, tmp_path, nodes=True).direct
     assert endpoints_from_config({"delivery": "direct"}, tmp_path, nodes=True).direct
-    with pytest.raises(ConfigError, match="'direct' or 'proxy'"):
+    with pytest.raises(ConfigError, match="'proxy' or 'direct'"):
         endpoints_from_config({"delivery": "fast"}, tmp_path, file="project.toml")
     with pytest.raises(ConfigError, match="one host"):
         endpoints_from_config({"delivery": "direct", "transport": "tcp", "host": "10.1.2.3",

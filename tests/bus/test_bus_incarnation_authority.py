@@ -65,7 +65,7 @@ class System:
         (project / "project.toml").write_text(PROJECT_TOML)
         self.run_dir = root / "run"
         self.run_dir.mkdir()
-        self.endpoints = BusEndpoints.ipc(self.run_dir, direct=True)  # the default [bus]
+        self.endpoints = BusEndpoints.ipc(self.run_dir)
         self._lock = threading.Lock()
         self._seen: list[Envelope] = []
         self.sub = Subscriber(self.endpoints, prefixes=["log.listener", "edge.rejections"],
