@@ -85,7 +85,7 @@ class RunningProject:
                 stdout=sink, stderr=subprocess.STDOUT, env=self.env)
         self.wait_for(lambda: (self.run_dir / "bus-pub.sock").exists(), timeout,
                       "the bus proxy")
-        self._sub = Subscriber(endpoints_from_config({}, self.run_dir),
+        self._sub = Subscriber(endpoints_from_config({}, self.run_dir, nodes=bool(self.node)),
                                prefixes=["percept", "action.status", "sup.heartbeat."])
         self._sub.start(self._on_message)
         return self
@@ -264,7 +264,8 @@ class RunningProject:
         """Put robot data on the bus (`robot.<robot>.data`) as any bus client could: a
         forged or broken record, to see what the system makes of it."""
         if self._pub is None:
-            self._pub = Publisher(endpoints_from_config({}, self.run_dir), src="procedure")
+            self._pub = Publisher(endpoints_from_config({}, self.run_dir, nodes=bool(self.node)),
+                                  src="procedure")
         self._pub.publish(RobotData(robot=robot, data=dict(data)))
 
     def link_data(self, robot: str, data: Mapping[str, JsonValue], *, owner: str = "rcl"
@@ -275,7 +276,7 @@ class RunningProject:
         (`robot_data` is a stranger's, refused before it is read)."""
         inc = self.incarnation(owner)
         assert inc, f"no heartbeat from {owner} yet"
-        endpoints = endpoints_from_config({}, self.run_dir)
+        endpoints = endpoints_from_config({}, self.run_dir, nodes=bool(self.node))
         key = self.run_dir / KEY_FILE
         if key.is_file():
             endpoints = endpoints.keyed(key)

@@ -140,17 +140,22 @@ class DirectRoute:
                 pass  # woken already
 
     def _on_data(self, notice: bytes) -> None:
+        """A member's subscription on the data socket: it has joined.
+
+        Unsubscriptions are ignored: a member never withdraws its membership (its socket
+        just closes, and our connecting pipe to it lives on), so the only ones here are
+        the echo of our own `disconnect` in `_forget`, read later. Taken as a leave, that
+        echo undid a member forgotten and learnt again meanwhile (its proxy link dropped
+        and came back): the publisher disconnected it for good and sent it nothing more.
+        """
         topic = notice[1:]
-        if topic[:1] != MEMBER:
+        if topic[:1] != MEMBER or notice[:1] != _SUBSCRIBE:
             return
-        if notice[:1] == _SUBSCRIBE:
-            member = self._members.get(topic)
-            if member is not None and not member.joined:
-                member.joined = True
-                self._waiting.pop(topic, None)
-                self._joined(topic)
-        elif topic in self._members:
-            self._forget(topic)
+        member = self._members.get(topic)
+        if member is not None and not member.joined:
+            member.joined = True
+            self._waiting.pop(topic, None)
+            self._joined(topic)
 
     def _forget(self, topic: bytes) -> None:
         member = self._members.pop(topic)

@@ -33,12 +33,14 @@ log = sockets.log
 def run_proxy(
     endpoints: BusEndpoints, *, stop: threading.Event | None = None,
     ready: Callable[[], None] | None = None, hwm: int = sockets.DEFAULT_HWM,
-    context: sockets.Context | None = None,
+    context: sockets.Context | None = None, fresh: bool = False,
 ) -> None:
     """Bind both endpoints and forward messages until `stop` is set (forever if None).
 
     `ready` is called once both endpoints are bound. Raises BusError when an endpoint
-    cannot be bound (in use, bad address).
+    cannot be bound (in use, bad address). `fresh`: no earlier proxy served these
+    endpoints in this run, so a direct proxy need not wait for clients to reconnect
+    (mrss/bus/introducer.py); leave it False when unsure (a restart), which is safe.
     """
     ctx = sockets.context(context)
     for path in endpoints.ipc_paths():
@@ -70,8 +72,8 @@ def run_proxy(
         steer.connect(control_ep)
         forwarder = threading.Thread(
             target=introduce if endpoints.direct else _forward,
-            args=(frontend, backend, control), name="mrss-bus-proxy",
-            daemon=True)
+            args=(frontend, backend, control, *((fresh,) if endpoints.direct else ())),
+            name="mrss-bus-proxy", daemon=True)
         forwarder.start()
         log.info("bus proxy: frontend %s, backend %s", endpoints.frontend, endpoints.backend)
         if ready is not None:
@@ -90,9 +92,10 @@ class ProxyThread:
     """A proxy on a background thread of this process, e.g. for tests: a context manager."""
 
     def __init__(self, endpoints: BusEndpoints, *, context: sockets.Context | None = None,
-                 ) -> None:
+                 fresh: bool = False) -> None:
         self.endpoints = endpoints
         self._context = context
+        self._fresh = fresh
         self._stop = threading.Event()
         self._ready = threading.Event()
         self._error: BaseException | None = None
@@ -102,7 +105,7 @@ class ProxyThread:
     def _run(self) -> None:
         try:
             run_proxy(self.endpoints, stop=self._stop, ready=self._ready.set,
-                      context=self._context)
+                      context=self._context, fresh=self._fresh)
         except BaseException as exc:
             self._error = exc
             self._ready.set()

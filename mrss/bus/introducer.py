@@ -3,11 +3,14 @@
 mrss/bus/direct.py states the rules; this is rules 2 and 5 on the proxy's side:
 
 * Every subscription from the backend is passed on to the publishers, except `""`.
-* A (re)started proxy first lets its clients reconnect, which ZeroMQ does within
+* A restarted proxy first lets its clients reconnect, which ZeroMQ does within
   `RECONNECT_IVL_MAX_MS`: only after `GRACE` seconds does it subscribe its marker, which
   introduces it to its publishers with every member it has by then (ZeroMQ replays a
   proxy's subscriptions in byte order, the marker last). A publisher that hears of it
-  earlier holds what it publishes meanwhile (its first words).
+  earlier holds what it publishes meanwhile (its first words). A *fresh* proxy (the
+  first on its endpoints: no earlier one answered any member, so there is no member it
+  could miss that was promised anything) subscribes its marker at once; a member that
+  connects later is introduced as it comes, as on a proxy that forwards.
 * A publisher says `HELLO` (its id and pid) on the marker, `JOINED` (its id, a membership
   topic) when a member has joined it (again for all its members on a new marker), `BYE`
   when it closes.
@@ -46,14 +49,21 @@ class _Member:
 class Introducer:
     """The state of a direct proxy: its publishers, and the members not answered yet."""
 
-    def __init__(self, frontend: sockets.Socket, backend: sockets.Socket) -> None:
+    def __init__(self, frontend: sockets.Socket, backend: sockets.Socket, *,
+                 fresh: bool = False) -> None:
         self.frontend = frontend
         self.backend = backend
         self.publishers: dict[bytes, int] = {}  # id -> pid
         self.waiting: dict[bytes, _Member] = {}  # membership topic -> not answered yet
+        grace = 0.0 if fresh else GRACE  # a fresh proxy has no clients to wait for
         now = time.monotonic()
-        self._marker_at: float | None = now + GRACE  # None once subscribed
-        self._answer_from = now + GRACE + SETTLE
+        self._marker_at: float | None = now + grace  # None once subscribed
+        self._answer_from = now + grace + SETTLE
+
+    @property
+    def marker_due(self) -> float | None:
+        """When the marker goes out (monotonic seconds); None once it has."""
+        return self._marker_at
 
     @property
     def busy(self) -> bool:
@@ -129,10 +139,12 @@ class Introducer:
         self.backend.send(topic)
 
 
-def introduce(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket
-              ) -> None:
-    """Run the direct proxy until a message on `control` (its stop)."""
-    state = Introducer(frontend, backend)
+def introduce(frontend: sockets.Socket, backend: sockets.Socket, control: sockets.Socket,
+              fresh: bool = False) -> None:
+    """Run the direct proxy until a message on `control` (its stop); `fresh`: the first
+    proxy on its endpoints (introduce at once)."""
+    state = Introducer(frontend, backend, fresh=fresh)
+    state.look()  # a fresh proxy's marker: now, not after the first poll
     poller = zmq.Poller()
     for sock in (frontend, backend, control):
         poller.register(sock, zmq.POLLIN)

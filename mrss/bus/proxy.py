@@ -35,6 +35,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--direct", action="store_true",
                         help="deliver directly: introduce publishers to subscribers and "
                         "forward nothing (docs/bus.md, 'Direct delivery')")
+    parser.add_argument("--fresh", action="store_true",
+                        help="direct: the first proxy on these endpoints (no clients to "
+                        "wait for): introduce publishers at once")
     args = parser.parse_args(argv)
     try:
         if args.run_dir and not (args.frontend or args.backend):
@@ -58,7 +61,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("ready " + json.dumps(endpoints.to_dict()), flush=True)
 
     try:
-        run_proxy(endpoints, stop=stop, ready=announce)
+        run_proxy(endpoints, stop=stop, ready=announce, fresh=args.fresh)
     except BusError as exc:
         print(f"mrss bus proxy: {exc}", file=sys.stderr)
         return 1

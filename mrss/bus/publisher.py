@@ -334,6 +334,9 @@ class Publisher:
     def _go_direct(self, control: sockets.Socket) -> None:
         """The proxy said the bus is direct: deliver to its members (lock held)."""
         data = sockets.connecting(self._ctx, zmq.XPUB, hwm=self._hwm, linger_ms=self._linger_ms)
+        # Every join reported, even one whose topic the socket still holds from a link
+        # it is dropping: a member learnt again must not wait out the patience.
+        data.setsockopt(zmq.XPUB_VERBOSE, 1)
         control.setsockopt(zmq.XPUB_VERBOSE, 1)  # a restarted proxy's repeats too
         watched = self._subscribed if self._watch else deque(maxlen=0)
         route = DirectRoute(control, data, self._lock, self._release_direct, self.src, watched)

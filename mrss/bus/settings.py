@@ -1,7 +1,8 @@
 """The `[bus]` table of project.toml: the endpoints every component is handed.
 
 `transport = "ipc"` (sockets in the run folder) or `"tcp"` (host and ports);
-`delivery = "proxy"` or `"direct"` (mrss/bus/direct.py); the keys of several nodes.
+`delivery = "proxy"` (the default: every message through the proxy; what a project on
+`[nodes]` runs) or `"direct"` (one host, mrss/bus/direct.py); the keys of several nodes.
 """
 
 from __future__ import annotations
@@ -33,14 +34,20 @@ BUS_OPTIONS: tuple[Option, ...] = (
 )
 
 
-def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = ""
-                          ) -> BusEndpoints:
+_DELIVERY = next(option for option in BUS_OPTIONS if option.name == "delivery")
+
+
+def endpoints_from_config(section: dict[str, Any], run_dir: Any, *, file: str = "",
+                          nodes: bool = False) -> BusEndpoints:
     """The `[bus]` table: `transport = "ipc"` (default, sockets in the run directory) or
     `"tcp"` with `host` (default 127.0.0.1), `frontend_port`, `backend_port`; `delivery`
-    `"proxy"` (default) or `"direct"` (mrss/bus/direct.py)."""
+    `"proxy"` (the declared default) or `"direct"` (mrss/bus/direct.py). `nodes`: the
+    project runs on `[nodes]`, whose proxies link the hosts: delivery through them unless
+    the table says otherwise (`mrss supervise --node` refuses `"direct"` there), whatever
+    the declared default."""
     transport = section.get("transport", "ipc")
-    delivery = section.get("delivery", "proxy")
-    if delivery not in ("proxy", "direct"):
+    delivery = section.get("delivery", "proxy" if nodes else _DELIVERY.default)
+    if delivery not in _DELIVERY.choices:
         raise ConfigError(f"must be 'proxy' or 'direct', not {delivery!r}", file=file,
                           key="bus.delivery")
     direct = delivery == "direct"

@@ -64,7 +64,7 @@ def supervise(config: ProjectConfig, run_dir: Path, launcher: str | None,
               early: list[int], node: str = "", server: ForkLauncher | None = None) -> int:
     """Run the root supervisor of a checked project until it stops; the exit code."""
     endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
-                                      file=str(config.file))
+                                      file=str(config.file), nodes=bool(node))
     # The root is the authority for incarnations: a fresh key per run (docs/bus.md, "Who
     # may claim an incarnation"). With [nodes], each node's root has its own, and the
     # nodes' proxies translate proofs at the border (mrss/bus/border.py).

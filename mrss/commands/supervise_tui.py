@@ -151,7 +151,8 @@ def run_with_dashboard(args: argparse.Namespace, config: ProjectConfig) -> int:
     log_path = logs.log_file(run_dir)
     try:
         endpoints = endpoints_from_config(config.sections.get("bus", {}), run_dir,
-                                          file=str(config.file))
+                                          file=str(config.file),
+                                          nodes=bool(getattr(args, "node", None)))
         map_config = project_map(config.file, config.sections)
         rotation = log_rotation(config)
     except ConfigError as exc:

@@ -33,7 +33,8 @@ def find_endpoints(project: str, *, run_dir: Path | None = None,
     if not isinstance(section, dict):
         raise ConfigError("must be a table", file=str(config.file), key="bus")
     if section.get("transport", "ipc") != "ipc":
-        return endpoints_from_config(section, None, file=str(config.file)), config.name
+        return endpoints_from_config(section, None, file=str(config.file),
+                                     nodes="nodes" in config.sections), config.name
     if run_dir is None and config.supervisor.run_dir:
         run_dir = config.directory / config.supervisor.run_dir
     if run_dir is None:
@@ -43,7 +44,8 @@ def find_endpoints(project: str, *, run_dir: Path | None = None,
             f"no running system of {config.name!r} found (no {SOCKET} in "
             f"{temp_dir or tempfile.gettempdir()}/mrss-{config.name}-*); pass --run-dir DIR "
             "(the run dir `mrss supervise` logs) or --endpoints FRONTEND BACKEND")
-    return endpoints_from_config(section, run_dir.resolve(), file=str(config.file)), config.name
+    return endpoints_from_config(section, run_dir.resolve(), file=str(config.file),
+                                 nodes="nodes" in config.sections), config.name
 
 
 def newest_run_dir(project: str, temp_dir: Path | None = None) -> Path | None:

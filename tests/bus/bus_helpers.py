@@ -10,7 +10,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from mrss.bus import Publisher, Subscriber
+import zmq
+
+from mrss.bus import BusEndpoints, Publisher, Subscriber
+from mrss.bus.direct import alive
 from mrss.messages import Envelope, Message
 from mrss.testing import wait_until
 
@@ -24,7 +27,8 @@ class BusProcess:
         self.argv = argv
         self.lines: list[str] = []
         self.proc = subprocess.Popen(
-            argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            argv, cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
 
@@ -32,6 +36,12 @@ class BusProcess:
         assert self.proc.stdout is not None
         for line in self.proc.stdout:
             self.lines.append(line.rstrip("\n"))
+
+    def tell(self, line: str) -> None:
+        """Write `line` to the process's stdin (a peer that reads it, e.g. a gated sender)."""
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
 
     @property
     def pid(self) -> int:
@@ -133,3 +143,47 @@ def drain_until(sub: Subscriber, *ends: Message, timeout: float = 10.0) -> list[
         return not missing
 
     return receive_until(sub, all_ends_in, timeout, what=f"the end markers {ends}")
+
+
+
+class RawPublisher:
+    """Raw ZeroMQ sockets that reach every subscriber of the bus, as any process on the
+    host could: one on the proxy's frontend (a bus that forwards) and, on a direct bus
+    over ipc, one on each member's socket beside it (docs/bus.md, "Direct delivery").
+    Each is an XPUB, so `wait_joined` can tell when every member's subscriptions are in
+    (a PUB drops what it sends before): from then on, what `send_multipart` sends
+    reaches each of them, in order. Members that bind after it is made are not reached."""
+
+    def __init__(self, endpoints: BusEndpoints, linger_ms: int = 0) -> None:
+        targets = [endpoints.frontend]
+        if endpoints.backend.startswith("ipc://"):
+            folder = Path(endpoints.backend[len("ipc://"):]).parent
+            targets += [f"ipc://{member}" for member in sorted(folder.glob("bus-m-*.sock"))
+                        if alive(int(member.name.split("-")[2]))]  # not a killed one's file
+        self.socks: list[zmq.Socket[bytes]] = []
+        for target in targets:
+            sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.XPUB)
+            sock.setsockopt(zmq.LINGER, linger_ms)
+            sock.connect(target)
+            self.socks.append(sock)
+        self._heard = [False] * len(self.socks)
+
+    def joined(self) -> bool:
+        """Whether every socket has had a subscription (its peer's are in)."""
+        for i, sock in enumerate(self.socks):
+            while sock.poll(0):
+                sock.recv()
+                self._heard[i] = True
+        return all(self._heard)
+
+    def wait_joined(self, timeout: float = 10.0) -> RawPublisher:
+        wait_until(self.joined, timeout, message="every member's subscriptions in")
+        return self
+
+    def send_multipart(self, frames: list[bytes] | tuple[bytes, ...]) -> None:
+        for sock in self.socks:
+            sock.send_multipart(frames)
+
+    def close(self) -> None:
+        for sock in self.socks:
+            sock.close()

@@ -4,6 +4,7 @@ endpoints of conftest.py)."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import msgpack
@@ -11,7 +12,8 @@ import pytest
 import zmq
 
 from mrss.bus import BusEndpoints, ProxyThread, Publisher, Subscriber
-from mrss.bus.direct import MEMBER, subscriber_socket
+from mrss.bus.direct import MARKER, MEMBER, subscriber_socket
+from mrss.bus.introducer import GRACE, Introducer
 from mrss.bus.settings import endpoints_from_config
 from mrss.errors import ConfigError
 from mrss.messages import Percept, RobotData
@@ -148,7 +150,11 @@ def test_a_raw_member_socket_joins_while_it_reads_itself(direct_ipc: BusEndpoint
 
 def test_delivery_is_a_bus_key_and_direct_is_for_one_host(tmp_path: Path) -> None:
     assert endpoints_from_config({"delivery": "direct"}, tmp_path).direct
-    assert not endpoints_from_config({}, tmp_path).direct
+    assert not endpoints_from_config({}, tmp_path).direct  # the declared default: proxy
+    assert not endpoints_from_config({"delivery": "proxy"}, tmp_path).direct
+    # On [nodes] the nodes' proxies link the hosts: through them unless the table says.
+    assert not endpoints_from_config({}, tmp_path, nodes=True).direct
+    assert endpoints_from_config({"delivery": "direct"}, tmp_path, nodes=True).direct
     with pytest.raises(ConfigError, match="'proxy' or 'direct'"):
         endpoints_from_config({"delivery": "fast"}, tmp_path, file="project.toml")
     with pytest.raises(ConfigError, match="one host"):
@@ -205,3 +211,54 @@ def test_mrss_record_given_only_a_run_dir_joins_a_direct_bus(run_dir: Path) -> N
         finally:
             rec.close()
     assert list(run_dir.glob("bus-m-*.sock")) == []
+
+
+def test_a_member_forgotten_and_learnt_again_keeps_getting_messages(
+        direct_ipc: BusEndpoints) -> None:
+    """The proxy withdraws a membership and gives it again (the member's link to the
+    proxy dropped and came back): the publisher disconnects, then connects anew, and the
+    echo of its own disconnect, read later, must not undo the new link."""
+    ep = direct_ipc
+    with ProxyThread(ep), Subscriber(ep, prefixes=["percept"]) as sub, \
+            Publisher(ep, src="p") as pub:
+        assert sub.wait_connected(5) and pub.wait_connected(5)
+        route = pub._route
+        assert route is not None
+        membership = b"\x01" + sub._membership
+        with pub._lock:  # as the proxy's notices would arrive: withdrawn, then given
+            route.on_control(b"\x00" + membership[1:])
+            route.on_control(membership)
+        assert pub.wait_connected(5)  # joined again
+        for k in range(50):  # meanwhile the watcher reads the old link's leave
+            pub.publish(_percept(k))
+            assert sub.recv(timeout=5) is not None, f"message {k} lost after the relearn"
+        assert route.members == 1
+
+
+def test_a_fresh_direct_proxy_introduces_at_once_and_a_restarted_one_waits() -> None:
+    """A restarted proxy waits GRACE for its clients to reconnect before its marker; the
+    first on its endpoints has none to wait for, and its marker goes out at its start."""
+    ctx = zmq.Context.instance()
+    sockets_made: list[zmq.Socket[bytes]] = []
+
+    def proxy_and_publisher(name: str) -> tuple[zmq.Socket[bytes], zmq.Socket[bytes],
+                                                zmq.Socket[bytes]]:
+        frontend, backend, publisher = (ctx.socket(zmq.XSUB), ctx.socket(zmq.XPUB),
+                                        ctx.socket(zmq.XPUB))
+        sockets_made.extend((frontend, backend, publisher))
+        frontend.bind(f"inproc://{name}-front")
+        backend.bind(f"inproc://{name}-back")
+        publisher.connect(f"inproc://{name}-front")
+        return frontend, backend, publisher
+
+    try:
+        frontend, backend, publisher = proxy_and_publisher("fresh")
+        Introducer(frontend, backend, fresh=True).look()
+        assert publisher.poll(5000) and publisher.recv() == b"\x01" + MARKER
+        frontend, backend, publisher = proxy_and_publisher("restarted")
+        made = time.monotonic()
+        restarted = Introducer(frontend, backend)
+        assert restarted.marker_due is not None and restarted.marker_due >= made + GRACE
+    finally:
+        for sock in sockets_made:
+            sock.close(0)

@@ -18,12 +18,12 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import zmq
 
 from mrss.bus import BusEndpoints, Stale, Subscriber
 from mrss.messages import Envelope, Heartbeat, LogRecord, Message, Rejections, SupEvent, encode
 from mrss.recording.format import RecordedMessage, RecordingWriter
 from mrss.testing import stop_supervised, wait_until
+from tests.bus.bus_helpers import RawPublisher
 from tests.commands.cli_bus import short_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -115,12 +115,9 @@ def system() -> Iterator[System]:
 
 
 @pytest.fixture()
-def forger(system: System) -> Iterator[zmq.Socket[bytes]]:
-    """A raw ZeroMQ publisher on the system's bus: anything may say anything."""
-    ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
-    sock = ctx.socket(zmq.PUB)
-    sock.setsockopt(zmq.LINGER, 0)
-    sock.connect(system.endpoints.frontend)
+def forger(system: System) -> Iterator[RawPublisher]:
+    """Raw ZeroMQ publishing on the system's bus: anything may say anything."""
+    sock = RawPublisher(system.endpoints).wait_joined(30)
     try:
         yield sock
     finally:
@@ -141,7 +138,7 @@ def keeps_hearing_the_live_talker(system: System) -> None:
                message="the listener still hears the live talker")
 
 
-def forge(system: System, sock: zmq.Socket[bytes], message: Message, *, src: str,
+def forge(system: System, sock: RawPublisher, message: Message, *, src: str,
           inc: int) -> None:
     """Send `message` as (src, inc), then a marker tick of an unsupervised sender from the
     same socket (so after it, in order) until the listener has taken a marker: the forged
@@ -164,7 +161,7 @@ def heard_from(system: System, src: str) -> list[str]:
 
 
 def test_a_forged_heartbeat_with_a_huge_incarnation_silences_nobody(
-        system: System, forger: zmq.Socket[bytes]) -> None:
+        system: System, forger: RawPublisher) -> None:
     forge(system, forger, Heartbeat(component="talker", pid=1), src="talker", inc=HUGE)
     keeps_hearing_the_live_talker(system)
     forge(system, forger, tick("forged"), src="talker", inc=HUGE)
@@ -174,7 +171,7 @@ def test_a_forged_heartbeat_with_a_huge_incarnation_silences_nobody(
 
 
 def test_a_sup_start_not_sent_by_the_supervisor_silences_nobody(
-        system: System, forger: zmq.Socket[bytes]) -> None:
+        system: System, forger: RawPublisher) -> None:
     forged = SupEvent(event="start", child="talker", supervisor="door", pid=1,
                       detail={"inc": HUGE})
     forge(system, forger, forged, src="supervisor", inc=0)

@@ -8,10 +8,10 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-import zmq
 
 from mrss.messages import Command, Rejections, SupEvent, encode
 from mrss.testing import wait_until
+from tests.bus.bus_helpers import RawPublisher
 from tests.e2e.system import System
 
 pytestmark = pytest.mark.slow
@@ -20,12 +20,9 @@ HUGE = 10**9
 
 
 @pytest.fixture()
-def forger(system: System) -> Iterator[zmq.Socket[bytes]]:
-    """A raw ZeroMQ publisher on the system's bus: anything may say anything."""
-    ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
-    sock = ctx.socket(zmq.PUB)
-    sock.setsockopt(zmq.LINGER, 0)
-    sock.connect(system.endpoints.frontend)
+def forger(system: System) -> Iterator[RawPublisher]:
+    """Raw ZeroMQ publishing on the system's bus: anything may say anything."""
+    sock = RawPublisher(system.endpoints).wait_joined(30)
     try:
         yield sock
     finally:
@@ -39,7 +36,7 @@ def rcl_trees(system: System) -> int:
 
 
 def test_a_message_forged_as_the_reasoner_with_a_huge_incarnation_silences_it_nowhere(
-        system: System, forger: zmq.Socket[bytes]) -> None:
+        system: System, forger: RawPublisher) -> None:
     # The RCL hears `ctl.snapshot` (the test's observer does not): forged as the reasoner,
     # then the same command of an unsupervised sender from the same socket, after it.
     forged = encode(Command(command="snapshot"), src="reasoner", inc=HUGE)

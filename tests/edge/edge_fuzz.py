@@ -22,8 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import zmq
-
 from mrss.bus import BusEndpoints
 from mrss.links.ardupilot import HOTSPOT_PREFIX
 from mrss.links.mavconn import MAV, MavConnection
@@ -31,6 +29,7 @@ from mrss.links.mqtt_url import new_client, parse_broker_url
 from mrss.links.ugv_protocol import UgvTopics
 from mrss.messages import Heartbeat, Percept, RobotData, encode
 from mrss.recording.format import RecordedMessage, RecordingWriter
+from tests.bus.bus_helpers import RawPublisher
 
 FORGED_IDS = range(900, 1000)  # hotspot ids of forged reports
 FORGED_LAT = 95.0  # an impossible latitude
@@ -97,12 +96,12 @@ class Sent:
 
 
 class RawBus:
-    """A raw ZeroMQ PUB socket on the proxy's frontend: any frames at all."""
+    """Raw ZeroMQ sockets that reach every subscriber of the bus (the proxy's frontend;
+    on a direct bus each member's socket too, each joined before anything is sent):
+    any frames at all."""
 
     def __init__(self, endpoints: BusEndpoints) -> None:
-        self.sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.PUB)
-        self.sock.setsockopt(zmq.LINGER, 1000)
-        self.sock.connect(endpoints.frontend)
+        self.sock = RawPublisher(endpoints, linger_ms=1000).wait_joined(30)
         self._pids = iter(range(1, 10**9))  # across syncs: a probe is never taken for another's
 
     def send(self, frames: list[bytes]) -> None:

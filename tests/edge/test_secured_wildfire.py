@@ -54,6 +54,9 @@ class BusWatch:
             "robot.", "sup.", "edge.rejections", "action.request", "rel.action", "percept",
             "rel.percept"])
         self.sub.start(self._keep)
+        # Joined before anything raw is sent: on a direct bus it is a member, with a
+        # socket of its own that the raw publisher must find (tests/bus/bus_helpers.py).
+        assert self.sub.wait_connected(30), "the watch never joined the bus"
 
     def _keep(self, env: Envelope) -> None:
         with self.lock:

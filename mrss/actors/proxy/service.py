@@ -28,8 +28,8 @@ class ProxyComponent(Component):
             raise ConfigError("the bus component needs bus endpoints", key="bus")
         endpoints = BusEndpoints.from_dict(ctx.bus)
         mesh = ctx.options.get("mesh")
-        if mesh is None:
-            self._proxy = ProxyThread(endpoints).start()
+        if mesh is None:  # the first incarnation of a run: no clients to wait for
+            self._proxy = ProxyThread(endpoints, fresh=ctx.incarnation <= 1).start()
         else:
             self._proxy = MeshThread(endpoints, MeshSettings.from_dict(mesh)).start()
 
