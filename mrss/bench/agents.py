@@ -26,9 +26,7 @@ from __future__ import annotations
 import enum
 import gc
 import os
-import subprocess
 import tempfile
-import threading
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -169,33 +167,22 @@ def jason_span_ms(pattern: Pattern, n: int, messages: int, java: str, classpath:
                   timeout: float) -> float:
     """ms from the first agent's start to the last agent's `done` under Jason's Local
     infrastructure (the JVM's start and the agents' creation are not in it)."""
+    starts: list[int] = []
+    dones: list[int] = []
+
+    def take(line: str) -> bool:
+        words = line.split()
+        if len(words) < 3 or words[-2] not in ("start", "done"):
+            return False
+        (starts if words[-2] == "start" else dones).append(int(float(words[-1])))
+        return True
+
     with tempfile.TemporaryDirectory(prefix="mrss-bench-jason-") as tmp:
         work = Path(tmp)
         (work / "ring.asl").write_text(RING, encoding="utf-8")
         (work / "ring.mas2j").write_text(mas2j(pattern, n, messages), encoding="utf-8")
-        (work / "logging.properties").write_text(jason._LOGGING)
-        proc = subprocess.Popen([java, "-cp", classpath, "jason.infra.local.RunLocalMAS",
-                                 "ring.mas2j", "--log-conf", "logging.properties"], cwd=work,
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        starts: list[int] = []
-        dones: list[int] = []
-        tail: list[str] = []
-        watchdog = threading.Timer(timeout, proc.kill)
-        watchdog.start()
-        try:
-            assert proc.stdout is not None
-            for line in proc.stdout:  # Jason's MAS does not stop by itself
-                words = line.split()
-                if len(words) >= 3 and words[-2] in ("start", "done"):
-                    (starts if words[-2] == "start" else dones).append(int(float(words[-1])))
-                    if len(dones) == n:
-                        break
-                else:
-                    tail = (tail + [line.strip()])[-5:]
-        finally:
-            watchdog.cancel()
-            proc.kill()
-            proc.wait()
+        tail = jason.run_local_mas(java, classpath, work, "ring.mas2j", take,
+                                   lambda: len(dones) == n, timeout)
     if len(dones) != n or not starts:
         raise RuntimeError(f"Jason printed {len(dones)} of {n} done lines: "
                            + " | ".join(tail)[-300:])

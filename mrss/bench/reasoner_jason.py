@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 JAR_ENV = "MRSS_BENCH_JASON_JAR"
@@ -49,35 +50,51 @@ def jason_classpath() -> tuple[str | None, str | None, str]:
     return java, jar, f"Jason: {jar} run by {java}"
 
 
+def run_local_mas(java: str, classpath: str, work: Path, mas2j: str,
+                  take: Callable[[str], bool], enough: Callable[[], bool],
+                  timeout: float) -> list[str]:
+    """Run `work/mas2j` on Jason's Local infrastructure, handing each line it prints to
+    `take` (True: a line of results) until `enough()`, Jason exits or `timeout` seconds
+    pass (its MAS does not stop by itself; a silent one is ended too). Returns the last
+    lines that were not results, for an error message."""
+    (work / "logging.properties").write_text(_LOGGING)
+    proc = subprocess.Popen([java, "-cp", classpath, "jason.infra.local.RunLocalMAS",
+                             mas2j, "--log-conf", "logging.properties"], cwd=work,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    tail: list[str] = []
+    watchdog = threading.Timer(timeout, proc.kill)
+    watchdog.start()
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if not take(line):
+                tail = (tail + [line.strip()])[-5:]
+            elif enough():
+                break
+    finally:
+        watchdog.cancel()
+        proc.kill()
+        proc.wait()
+    return tail
+
+
 def best_round_ms(program: str, n: int, rounds: int, java: str, classpath: str,
                   timeout: float) -> float:
     """The fastest round, in ms, of `program` (reasoner_agent.COUNT or SEEN) on Jason."""
+    times: list[float] = []
+
+    def take(line: str) -> bool:
+        m = _ROUND.match(line.strip())
+        if m:
+            times.append(float(m.group(1)))
+        return m is not None
+
     with tempfile.TemporaryDirectory(prefix="mrss-bench-jason-") as tmp:
         work = Path(tmp)
         (work / "bench.asl").write_text(program.format(n=n, rounds=rounds), encoding="utf-8")
         (work / "bench.mas2j").write_text("MAS bench { agents: bench bench.asl; }\n")
-        (work / "logging.properties").write_text(_LOGGING)
-        proc = subprocess.Popen([java, "-cp", classpath, "jason.infra.local.RunLocalMAS",
-                                 "bench.mas2j", "--log-conf", "logging.properties"], cwd=work,
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        times: list[float] = []
-        tail: list[str] = []
-        watchdog = threading.Timer(timeout, proc.kill)  # a silent Jason is ended too
-        watchdog.start()
-        try:
-            assert proc.stdout is not None
-            for line in proc.stdout:  # ends when Jason exits (it does not by itself)
-                m = _ROUND.match(line.strip())
-                if m:
-                    times.append(float(m.group(1)))
-                    if len(times) == rounds:
-                        break
-                else:
-                    tail = (tail + [line.strip()])[-5:]
-        finally:
-            watchdog.cancel()
-            proc.kill()
-            proc.wait()
+        tail = run_local_mas(java, classpath, work, "bench.mas2j", take,
+                             lambda: len(times) == rounds, timeout)
     if len(times) != rounds:
         raise RuntimeError(f"Jason printed {len(times)} of {rounds} rounds: "
                            + " | ".join(tail)[-300:])
