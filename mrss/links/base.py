@@ -65,6 +65,7 @@ class RobotLink(ABC):
         self._closed = False
         self._latest: dict[str, Telemetry] = {}
         self._whereabouts: Whereabouts = (None, None)
+        self._teleop = False  # the last `status` record says the robot is teleoperated
         self._controller_check: Callable[[], bool] | None = None
         self._controller_was = True
         self._failsafe_reported = False  # the robot's current failsafe was reported
@@ -131,6 +132,12 @@ class RobotLink(ABC):
         record), None for what has not come: what a robot's bids for tasks are computed
         from, kept as the records arrive so that reading it takes no lock and no copy."""
         return self._whereabouts
+
+    def reports_teleop(self) -> bool:
+        """Whether the robot's last `status` record says it is in teleoperation
+        (`"teleop": true`): the robot itself says so, whoever switched it (an operator at
+        the robot, a project's skill), and allocation does not give it tasks meanwhile."""
+        return self._teleop
 
     def require_up(self) -> None:
         """Raise LinkDown with the current reason unless the link is up."""
@@ -262,6 +269,8 @@ class RobotLink(ABC):
             self._latest[kind] = record
             if kind in ("position", "battery"):
                 self._whereabouts = _whereabouts(self._whereabouts, kind, record)
+            elif kind == "status":
+                self._teleop = record.get("teleop") is True
             self._changed.notify_all()
         with self._dispatch:
             for callback in list(self._telemetry_callbacks):

@@ -161,10 +161,10 @@ class UgvSkill(RobotSkill):
     Like the UAV's, it waits for the link before its first command (`ready`): an
     action restored by a restarted RCL starts while the new link still connects to the
     broker, and would otherwise fail at once ("connecting to ..."). And it waits while
-    the robot is in the operator's hands (its `status` says teleop): a task awarded to
-    a UGV the operator drives (the RCL's allocation does not see a teleop switched by
-    a skill) starts when the operator hands it back, instead of failing on the robot's
-    refusal ("teleop is on")."""
+    the robot is in the operator's hands (its `status` says teleop): the RCL gives a
+    robot that says so no task addressed to a role, but an action addressed to it by
+    name, or one it held when teleop began, starts when the operator hands it back,
+    instead of failing on the robot's refusal ("teleop is on")."""
 
     resources = (MOTION,)
 

@@ -31,3 +31,16 @@ def test_whereabouts_follow_the_position_and_battery_records() -> None:
     assert link.whereabouts() == ((48.2, 16.3), None)
     position = link.latest("position")  # the records themselves are as they were
     assert position is not None and (position["lat"], position["alt"]) == (48.2, 10.0)
+
+
+def test_a_link_says_its_robot_is_teleoperated_while_its_last_status_says_so() -> None:
+    link = Link("ugv1")
+    assert link.reports_teleop() is False
+    link._publish_telemetry("status", {"mode": "teleop", "teleop": True})
+    assert link.reports_teleop() is True
+    link._publish_telemetry("battery", {"remaining": 50})  # another kind: unchanged
+    assert link.reports_teleop() is True
+    link._publish_telemetry("status", {"mode": "idle", "teleop": False})
+    assert link.reports_teleop() is False
+    link._publish_telemetry("status", {"mode": "idle", "teleop": "yes"})  # not true
+    assert link.reports_teleop() is False

@@ -26,6 +26,10 @@ robot's availability; it reaches robot actors and ends actions through the core'
   RCL restart would look available and be given tasks. Past its link's timeout without
   a first report it is lost like a link going down (`first_reports_due`): its open
   actions fail with `link_down` and its tasks addressed to a role go to others;
+- a robot whose own `status` says it is teleoperated (`"teleop": true`: switched at the
+  robot, or by a project's skill, not by the RCL's `teleop`) is given no task addressed
+  to a role until its status says otherwise (`teleoperated`); actions addressed to it
+  by name are not refused for it (its skills decide);
 - every change, and every restart of a requester, is announced as a `RobotState`
   (level-triggered: availability, reason, link, teleop).
 """
@@ -59,6 +63,7 @@ LINK_DOWN = "link down"  # how an unavailable robot's reason starts when its lin
 NODE_DOWN = "node down"  # ... when the node it is reached through is lost
 DECOMMISSIONED = "decommissioned by the operator"  # ... when the operator took it out
 FIRST_REPORT = "waiting for its link's first report"  # ... at start, until its link is up
+IN_TELEOP = "in teleop (the robot's status says so)"  # ... a robot teleoperated, not by the RCL
 #: The attributes by which a link says how long its robot may be silent (MAVLink, MQTT,
 #: HTTP), and the wait for a first report of a link that says none.
 SILENCE_TIMEOUTS = ("heartbeat_timeout", "telemetry_timeout", "timeout")
@@ -94,6 +99,16 @@ class RobotAvailability:
         """robot -> why a new action for it is refused now, of every such robot."""
         with self.actions.lock:
             return dict(self._unavailable)
+
+    def teleoperated(self) -> dict[str, str]:
+        """robot -> IN_TELEOP, of every robot whose link says it is teleoperated now
+        (`reports_teleop`; a project's link without it never is)."""
+        found = {}
+        for robot, link in self.links.items():
+            reports = getattr(link, "reports_teleop", None)
+            if callable(reports) and reports() is True:
+                found[robot] = IN_TELEOP
+        return found
 
     def announce_robots(self) -> None:
         """Publish every robot's state (availability, link, teleop): level-triggered, so a

@@ -150,18 +150,29 @@ class RclCore:
         self.allocator = Allocator(  # tasks addressed to a role (mrss/actors/rcl/allocation)
             {r: profiles.get(r) or RobotProfile(r) for r in self.links},
             board=self.bid_board, where=lambda r: bid_link_state(self.links[r]),
-            unavailable=lambda: {**self.stand_downs.not_bidding(),
+            unavailable=lambda: {**self.availability.teleoperated(),
+                                 **self.stand_downs.not_bidding(),
                                  **self.availability.unavailable()},
             award=self.award, publish=publish, ranking=ranking, book=TaskBook(journal),
             reassigned=lambda request, lost, to: self.reallocation.reassigned(request, lost, to),
             decision_lock=self._lock)  # a round and its award: one step of the core
         self.reallocation = Reallocation(self.allocator, journal, self.actions, self, publish)
         self.availability.on_change = self.allocator.kick
+        for link in self.links.values():  # a robot's status (teleop) changed: a round soon
+            add = getattr(link, "add_telemetry_callback", None)
+            if callable(add):
+                add(self._status_changed)
         self.stand_downs = StandDowns(  # the operator's stand-downs by area
             self.links, {r: p.capabilities for r, p in profiles.items()},
             lambda r: bid_link_state(self.links[r])[0], journal, self.actions, self, publish)
         self.stand_downs.on_change = self.allocator.kick
         self.availability.on_teleop = self.bid_board.teleop
+
+    def _status_changed(self, record: Mapping[str, Any]) -> None:
+        """A robot's telemetry record: a `status` (sent when it changes, e.g. its
+        teleop) may make it fit for a waiting task."""
+        if record.get("type") == "status":
+            self.allocator.kick()
 
     # -- lifecycle of the core ----------------------------------------------------------
     def start(self, *, new_run: bool = False) -> None:

@@ -12,6 +12,10 @@ lost. The RCL hands the same action
 to another UAV (uav2: the next tie), which starts at the waypoint uav1 had reached and
 flies the rest; the agent hears `reassigned(...)` and its intention never sees the cover
 fail.
+
+A UGV the operator drives (switched by the project's `teleop_mode` skill, its status
+saying teleop) is given no supply task: it goes to the other UGV, and once handed back
+the UGV is given the next one.
 """
 
 from __future__ import annotations
@@ -99,4 +103,45 @@ def test_a_uav_lost_mid_cover_hands_the_area_to_another_that_goes_on_from_there(
         home = (-35.363262, 149.166118)
         assert distance_m(uav2["position"]["lat"], uav2["position"]["lon"], *home) > 150
         assert system.component_pid("sim_uav") == 0  # not brought back: lost for good
+        assert system.interrupt() == 0, system.log()
+
+
+def hotspot(system: RunningProject, ident: int, lat: float, lon: float) -> None:
+    """uav1's thermal camera reports a hotspot (as its link would)."""
+    system.link_data("uav1", {"type": "hotspot", "id": ident, "lat": lat, "lon": lon,
+                              "temperature": 450.0})
+
+
+def teleop(system: RunningProject, on: bool) -> None:
+    """The operator switches ugv1 to teleoperation and back: the agent's plan runs the
+    project's teleop skill, and the robot's own status says so."""
+    system.publish("mrss/ui/teleop", {"robot": "ugv1", "on": on})
+    system.wait_for(lambda: (system.world("ugv1") or {}).get("attributes", {})
+                    .get("teleop") is on, 20, f"ugv1 to report teleop {on}")
+
+
+@pytest.mark.slow
+def test_a_ugv_teleoperated_by_the_projects_skill_is_given_no_task_until_handed_back(
+        tmp_path: Path) -> None:
+    with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+        system.wait_ready()
+        system.wait_for(lambda: all((system.world(r) or {}).get("position")
+                                    for r in ("uav1", "ugv1", "ugv2")), 30,
+                        "the robots' telemetry in the world model")
+        teleop(system, True)
+        # far from the pond, and nearer ugv1 (350 m) than ugv2 (500 m): ugv2 takes it,
+        # for ugv1 is in its operator's hands (its skill would only wait)
+        hotspot(system, 1, -35.360387, 149.165678)
+        first = system.wait_for(lambda: [s for s in system.statuses("ugv2", "running")
+                                         if s.name == "supply_water"], 30,
+                                "the supply of hs1 to run on ugv2")[0]
+        assert not [s for s in system.statuses("ugv1") if s.name == "supply_water"]
+        teleop(system, False)
+        # next to ugv1's base: back in autonomy, it is given the next one
+        hotspot(system, 5, -35.3630, 149.1650)
+        second = system.wait_for(lambda: [s for s in system.statuses("ugv1", "running")
+                                          if s.name == "supply_water"], 30,
+                                 "the supply of hs5 to run on ugv1")[0]
+        assert second.uuid != first.uuid
+        assert not system.statuses(state="failed"), system.log()
         assert system.interrupt() == 0, system.log()
