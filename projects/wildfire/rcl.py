@@ -26,7 +26,10 @@ Recipes (action -> skills), actions being `name(Robot, Goal, ...)`:
 
 A cover action that ends unfinished (cancelled, failed) leaves its last waypoint
 behind: the next cover action of the same goal starts from there, on whichever UAV the
-RCL awards it to (the paper's "data from a previous execution"). A cover or supply
+RCL awards it to (the paper's "data from a previous execution"). A cover asked again
+while the area's earlier cover is still stopping (a priority change: the agent cancels
+and asks anew, and another UAV may be given it at once) waits for that one to end
+before it reads where to start (`CoveredAreas`), at most `SETTLE_S`. A cover or supply
 addressed to a role (`cover(any([uav, camera]), Area)`, docs/rcl.md "Allocation") is
 refined once the RCL has awarded it: `action.robot` is the winner; one handed on from a
 lost robot keeps its progress (`Skill.progress`), so the next UAV starts at the
@@ -66,6 +69,45 @@ def _number(value: Any, what: str, uuid: str) -> float:
     return float(value)
 
 
+#: How long a cover waits for the area's earlier cover to end before it starts anyway
+#: (from what is known then): the RCL's interrupt_timeout, and a little more.
+SETTLE_S = 12.0
+
+
+class CoveredAreas:
+    """Per area (the goal): how many waypoints its unfinished covers reached, and which
+    of its covers are open, so a new one starts where the last one stopped."""
+
+    def __init__(self) -> None:
+        self._reached: dict[str, int] = {}
+        self._open: dict[str, set[str]] = {}  # goal -> uuids of its open covers
+        self._lock = threading.Lock()
+
+    def opened(self, goal: str, uuid: str) -> None:
+        with self._lock:
+            self._open.setdefault(goal, set()).add(uuid)
+
+    def ended(self, action: Action) -> None:
+        """A cover ended: done, the area is forgotten; unfinished, its reach is kept."""
+        with self._lock:
+            self._open.get(action.goal, set()).discard(action.uuid)
+            if action.state is ActionState.SUCCEEDED:
+                self._reached.pop(action.goal, None)
+                return
+            reached = action.progress.get("waypoint", 0)
+            if isinstance(reached, int) and reached > self._reached.get(action.goal, 0):
+                self._reached[action.goal] = reached
+
+    def settled(self, goal: str, uuid: str) -> bool:
+        """No cover of `goal` but `uuid` is open: where the area stands is final."""
+        with self._lock:
+            return not self._open.get(goal, set()) - {uuid}
+
+    def start(self, goal: str) -> int:
+        with self._lock:
+            return self._reached.get(goal, 0)
+
+
 class WildfireRcl(RobotCommLayer):
     """Links to the UAVs (MAVLink) and the UGVs (MQTT), and the recipes of the scenario."""
 
@@ -74,8 +116,7 @@ class WildfireRcl(RobotCommLayer):
 
     def __init__(self) -> None:
         self.settings: dict[str, dict[str, float]] = {}
-        self._covered: dict[str, int] = {}  # area (goal) -> waypoints reached, by any UAV
-        self._lock = threading.Lock()
+        self.areas = CoveredAreas()  # how far each area's covers got, by any UAV
 
     # -- links ----------------------------------------------------------------------------
     def connect_robot(self, robot: str, options: Mapping[str, Any]) -> Any:
@@ -91,9 +132,12 @@ class WildfireRcl(RobotCommLayer):
         if name == "cover":
             polygon = self.data_call("area_polygon", action.goal)
             waypoints = sweep.lawnmower(polygon, s["lane_spacing"])
-            with self._lock:
-                start = self._covered.get(action.goal, 0)
-            return [skills.CoverArea(waypoints, s["altitude"], start)]
+            goal, areas = action.goal, self.areas
+            areas.opened(goal, uuid)
+            return [skills.CoverArea(waypoints, s["altitude"],
+                                     start_at=lambda: areas.start(goal),
+                                     settled=lambda: areas.settled(goal, uuid),
+                                     settle_s=SETTLE_S)]
         if name == "recharge":
             return [skills.ReturnHome(charge_to=s["charge_to"])]
         if name == "return_home":
@@ -119,13 +163,5 @@ class WildfireRcl(RobotCommLayer):
 
     def on_action_end(self, action: Action) -> None:
         """Remember how far an unfinished cover got, for the next try of that area."""
-        if action.name != "cover":
-            return
-        key = action.goal
-        with self._lock:
-            if action.state is ActionState.SUCCEEDED:
-                self._covered.pop(key, None)
-            else:
-                reached = action.progress.get("waypoint", 0)
-                if isinstance(reached, int) and reached > 0:
-                    self._covered[key] = reached
+        if action.name == "cover":
+            self.areas.ended(action)

@@ -99,13 +99,26 @@ class CoverArea(UavSkill):
 
     progress_bound = 120.0  # s from the start (take-off) or a waypoint to the next one
 
-    def __init__(self, waypoints: list[list[float]], altitude: float, start: int = 0) -> None:
+    def __init__(self, waypoints: list[list[float]], altitude: float,
+                 start_at: Callable[[], int] = lambda: 0,
+                 settled: Callable[[], bool] = lambda: True, settle_s: float = 0.0) -> None:
         self.waypoints = waypoints
         self.altitude = altitude
-        self.first = start
+        self.start_at, self.settled, self.settle_s = start_at, settled, settle_s
 
     def run(self) -> bool:
-        done = max(self.first, int(self.progress.get("waypoint", 0) or 0))
+        # the area's earlier cover may still be stopping: where it stopped is known once
+        # it has ended (at most settle_s, then from what is known)
+        deadline = time.monotonic() + self.settle_s
+        while not self.settled() and time.monotonic() < deadline:
+            if self.interrupted:
+                return False
+            self.wait(POLL_S)
+        if not self.settled():
+            log.warning("%s: %s: the area's earlier cover has not ended after %.0f s; "
+                        "starting from what is known", self.robot, self.action.goal,
+                        self.settle_s)
+        done = max(self.start_at(), int(self.progress.get("waypoint", 0) or 0))
         # where this run starts: 0, or the waypoint an earlier run of the area reached (on
         # this UAV before a suspension, or on one lost mid-cover whose task it took over)
         self.record_progress(first=done, waypoints=len(self.waypoints))

@@ -145,3 +145,43 @@ def test_a_ugv_teleoperated_by_the_projects_skill_is_given_no_task_until_handed_
         assert second.uuid != first.uuid
         assert not system.statuses(state="failed"), system.log()
         assert system.interrupt() == 0, system.log()
+
+
+@pytest.mark.slow
+def test_a_cover_asked_again_at_a_new_priority_goes_on_from_the_waypoint_reached(
+        tmp_path: Path) -> None:
+    with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
+        system.wait_ready()
+        system.wait_for(lambda: all((system.world(r) or {}).get("position")
+                                    for r in ("uav1", "uav2", "uav3")), 30,
+                        "the three UAVs' telemetry in the world model")
+        system.publish("mrss/ui/area", AREA)
+        cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
+                                "the cover to run on uav1")[0]
+        system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
+                        "uav1 past its second waypoint")
+        # uav1 answers nothing for a while (its simulator frozen): its cover, withdrawn,
+        # takes that long to stop. The agent withdraws it and asks it again at priority
+        # 5; an idle UAV is given the new one at once, while uav1's is still stopping
+        system.signal("sim_uav", signal.SIGSTOP)
+        try:
+            system.publish("mrss/ui/priority", {"goal": "a1", "priority": 5})
+            again = system.wait_for(lambda: [s for s in system.statuses(state="running")
+                                             if s.name == "cover" and s.uuid != cover.uuid],
+                                    30, "the cover asked again to run")[0]
+        finally:
+            system.signal("sim_uav", signal.SIGCONT)
+        ended = system.wait_for(lambda: [s for s in system.statuses("uav1")
+                                         if s.uuid == cover.uuid and s.state in
+                                         ("cancelled", "failed")], 30,
+                                "uav1's cover withdrawn")[-1]
+        reached = waypoint(ended.progress)
+        assert reached >= 2, ended.progress
+        done = system.wait_for(lambda: [s for s in system.statuses(state="succeeded")
+                                        if s.uuid == again.uuid], 60,
+                               "the cover asked again to finish")[0]
+        # it started where uav1 had stopped: it waited for uav1's cover to end
+        assert waypoint(done.progress, "first") == reached, (done.robot, done.progress)
+        assert waypoint(done.progress) == waypoint(done.progress, "waypoints")
+        assert done.robot != "uav1"
+        assert system.interrupt() == 0, system.log()
