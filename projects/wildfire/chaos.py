@@ -2,8 +2,8 @@
 
 Every `every` seconds or so the operator draws a new area goal (a1, a2, ...) near one of
 the hidden hotspots or elsewhere around home, small enough for a short cover; now and
-then instead it cancels an earlier goal, changes one's priority, or takes the UGV into
-teleoperation and hands it back a little later (always both, in that order).
+then instead it cancels an earlier goal, changes one's priority, or takes one of the
+UGVs into teleoperation and hands it back a little later (always both, in that order).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ HOME = (-35.363262, 149.165237)
 SPOTS = [(-35.360567, 149.165237), (-35.361196, 149.164576), (-35.366500, 149.167500),
          (-35.365500, 149.169000), HOME]
 DEG_PER_M = 1.0 / 111_320.0
+UGVS = ("ugv1", "ugv2")                             # project.toml's [components.rcl.robots]
 
 
 def operator_traffic(rng: random.Random, every: float) -> Iterator[dict[str, Any]]:
@@ -39,10 +40,11 @@ def operator_traffic(rng: random.Random, every: float) -> Iterator[dict[str, Any
             yield {"after": pause, "intent": "priority", "goal": goal,
                    "topic": f"{PREFIX}/priority", "payload": {"goal": goal, "priority": priority}}
         elif roll < 0.45:
+            robot = rng.choice(UGVS)
             for after, on in ((pause, True), (rng.uniform(0.3, 0.8) * every, False)):
-                yield {"after": after, "intent": "mode", "robot": "ugv1", "mode": "teleop",
+                yield {"after": after, "intent": "mode", "robot": robot, "mode": "teleop",
                        "on": on, "topic": f"{PREFIX}/teleop",
-                       "payload": {"robot": "ugv1", "on": on}}
+                       "payload": {"robot": robot, "on": on}}
         else:
             number += 1
             goal = f"a{number}"
