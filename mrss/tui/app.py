@@ -35,7 +35,8 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal
 from textual.css.query import NoMatches
-from textual.widgets import Footer, Header, Input, Static
+from textual.timer import Timer
+from textual.widgets import Footer, Input, Static
 
 from mrss.bus import BusEndpoints
 from mrss.config.alerts import AlertRule
@@ -80,6 +81,12 @@ from mrss.tui.widgets.operator_bar import OperatorBar
 from mrss.tui.widgets.robots_table import RobotsTable
 from mrss.tui.widgets.strip_table import StripTable
 from mrss.tui.widgets.supervision_table import SupervisionTable
+from mrss.tui.widgets.ticked_header import TickedHeader
+
+#: Seconds between two drains of the bus (at least): one frame a second at a steady rate.
+MIN_REFRESH = 1.0
+TICK_EVERY = 1.0  # the tick: ages, uptimes, the clock
+TICK_DUE = 0.5 * TICK_EVERY  # a drain this long after the last tick runs the tick too
 
 
 class MrssApp(App[None]):
@@ -127,7 +134,7 @@ class MrssApp(App[None]):
     def __init__(self, endpoints: BusEndpoints, *, project: str = "", agent: str = "",
                  mind_every: float = DEFAULT_POLLS.mind_every,
                  tree_every: float = DEFAULT_POLLS.tree_every,
-                 min_refresh: float = 0.5, readonly: bool = False,
+                 min_refresh: float = MIN_REFRESH, readonly: bool = False,
                  stale_after: float = DEFAULT_POLLS.stale_after,
                  world_every: float = DEFAULT_POLLS.world_every,
                  operator_config: OperatorConfig | None = None,
@@ -173,7 +180,9 @@ class MrssApp(App[None]):
                                     self.questions),
             agent=agent, min_refresh=min_refresh, deliver=self._deliver,
             system_event=self.picture.system_event)
-        self.redraws = Redraws(self, table_every=2 * min_refresh, clock=clock)
+        self.redraws = Redraws(self, table_every=max(TICK_EVERY, min_refresh), clock=clock)
+        self._tick_timer: Timer | None = None
+        self._ticked = 0.0  # when the last tick ran (monotonic)
         self.steering = Steering(self, self.link, self.say, readonly=readonly,
                                  project=project, mission=mission,
                                  supervision=self.supervision, robots=self.robots,
@@ -221,7 +230,7 @@ class MrssApp(App[None]):
 
     # -- layout -----------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
-        yield Header(show_clock=self.header_clock)
+        yield TickedHeader(show_clock=self.header_clock)
         yield Static("", id="banner")
         yield Static("", id="tabs")
         yield AlertsStrip(self.alerts, id="alerts")
@@ -260,7 +269,7 @@ class MrssApp(App[None]):
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))
-        self.set_interval(1.0, self.tick)
+        self._tick_timer = self.set_interval(TICK_EVERY, self._tick_due)
         self.picture.start()
         self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
@@ -294,9 +303,21 @@ class MrssApp(App[None]):
             self.answers.on_reply(reply)
         if "mission" in changes.panels and self.steering.awaiting:
             self.steering.follow_answers()
+        if self._tick_timer is not None and time.monotonic() - self._ticked >= TICK_DUE:
+            self.tick()  # due anyway: in this drain's frame, not one of its own
+
+    def _tick_due(self) -> None:
+        """The second's timer: tick, unless a drain is pending (it comes within
+        `min_refresh` and ticks in its own frame: one frame, not two)."""
+        if not self.intake.pending:
+            self.tick()
 
     def tick(self) -> None:
-        """Once a second: uptimes, ages and the connection state move on."""
+        """Once a second: uptimes, ages and the connection state move on. Run by the
+        drains while messages flow (at most every `TICK_DUE`), else by its timer."""
+        self._ticked = time.monotonic()
+        with suppress(NoMatches):
+            self.query_one(TickedHeader).tick()
         self.incident.poll()  # the record's rows since: `incident.entries` is all of it
         self.answers.resend()
         with suppress(NoMatches):  # the panels are gone: the app is closing

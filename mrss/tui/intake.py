@@ -105,6 +105,11 @@ class BusIntake:
         self._drain_pending = False
 
     # -- when -------------------------------------------------------------------------------
+    @property
+    def pending(self) -> bool:
+        """Whether a drain is set for when `min_refresh` is up (messages are waiting)."""
+        return self._drain_pending
+
     def drain(self) -> None:
         """Take the inbox now, or (drained less than `min_refresh` ago) when that is up."""
         wait = self._last_drain + self.min_refresh - time.monotonic()

@@ -2,9 +2,10 @@
 
 Each redraw is a frame, so a table (and the map) is redrawn at most about once a
 `table_every` seconds (`mrss bench tui`): a drain that changes what it shows redraws
-it at once if it was drawn longer ago than that, else when the one pending redraw
-comes, which draws every panel that became due meanwhile in the same frame. Once a
-second the tick redraws the tables not drawn recently (ages and uptimes move on).
+it at once if it was drawn longer ago than that (or within a tenth of it: drains come
+about as often), else when the one pending redraw comes, which draws every panel
+that became due meanwhile in the same frame. Once a second the tick redraws the
+tables not drawn recently (ages and uptimes move on).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from mrss.tui.widgets.supervision_table import SupervisionTable
 
 TABLES = ("supervision", "robots", "actions", "mission")  # ticked: their ages move on
 SCHEDULED = (*TABLES, "map")  # redrawn at most every table_every
+#: A change this close (x table_every) to a table's next redraw redraws it now, in the
+#: frame of the drain that brought it (drains come about as often as redraws may)
+DUE_SLACK = 0.1
 TICK_SKIP = 0.9  # the second's tick leaves a table redrawn this recently (x table_every)
 WIDGETS: dict[str, type[ActionsTable | RobotsTable | SupervisionTable | MissionPanel]] = {
     "actions": ActionsTable, "robots": RobotsTable, "supervision": SupervisionTable,
@@ -65,7 +69,7 @@ class Redraws:
         """Redraw `table` (or the map) now, or (drawn less than `table_every` ago) with
         the pending redraw, set for when its time is up."""
         wait = self._drawn.get(table, -self.table_every) + self.table_every - time.monotonic()
-        if wait <= 0 and table not in self._due:
+        if wait <= DUE_SLACK * self.table_every and table not in self._due:
             self._draw(table, now)
             return
         self._due.add(table)
