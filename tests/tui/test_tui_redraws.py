@@ -106,3 +106,30 @@ def test_the_dashboard_process_quiets_its_garbage_collector_once_the_screen_is_u
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True", "True"]  # thresholds set, the widget tree frozen
+
+
+def test_the_clock_moves_on_with_the_tick_and_a_pending_drain_takes_the_tick(
+        endpoints: BusEndpoints, peer: Peer) -> None:
+    """One frame a second: the header's clock has no timer of its own (Textual's did,
+    a frame of its own each second), the tick repaints it; the second's timer leaves
+    the tick to a drain that is pending, which runs it in its own frame."""
+    from mrss.tui.widgets.ticked_header import TickedClock
+
+    async def body() -> None:
+        app = MrssApp(endpoints, project="demo", mind_every=0, tree_every=0, world_every=0)
+        async with app.run_test(size=(180, 50)) as pilot:
+            await connected(pilot, peer)
+            clock = app.query_one(TickedClock)
+            assert not clock._timers  # nothing repaints it on its own
+            painted: list[int] = []
+            clock.refresh = lambda *a, **k: painted.append(1) or clock  # type: ignore[method-assign]
+            app.tick()
+            assert painted == [1]
+            ticked = app._ticked
+            app.intake._drain_pending = True  # a drain is set: it will tick
+            app._tick_due()
+            assert app._ticked == ticked and painted == [1]
+            app.intake._drain_pending = False
+            app._tick_due()
+            assert app._ticked > ticked and painted == [1, 1]
+    run(body())
