@@ -170,9 +170,13 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
         if type(lit) is not Struct:
             self.problems.append((meta.line, meta.column, "a triggering event needs a literal"))
             lit = Struct("invalid")
+        anon = label == ("anon_label",)
+        if anon:
+            label = None
         return PlanTerm(PlanSrc(label[1] if label else None, op, lit,
                                 ctx[1] if ctx else None, body[1] if body else [],
-                                self._line(meta), 0, label[2] if label else ()), False)
+                                self._line(meta), 0, label[2] if label else (),
+                                anon_label=anon), False)
 
     def rule_term(self, c: list[Any]) -> Term:
         return Struct(":-", (c[0], c[2]))
@@ -287,6 +291,17 @@ class TreeBuilder(Transformer):  # type: ignore[type-arg]
             ann = list(lit.annots) + list(ann)
             lit = Struct(lit.functor, lit.args, (), lit.neg)
         return ("label", lit, tuple(ann))
+
+    @v_args(meta=True)
+    def var_label(self, meta: Any, c: list[Any]) -> tuple[str]:
+        """`@_` in a plan term: no label of its own (the plan library gives it one when
+        it is added, as Jason does). A named variable would be a label computed at run
+        time, which is not supported: said where it is."""
+        if not str(c[0]).startswith("_"):
+            self.problems.append((meta.line, meta.column,
+                                  f"a plan term's label may be a variable only as `@_` "
+                                  f"(no label); `@{c[0]}` is not supported"))
+        return ("anon_label",)
 
     def trigger(self, c: list[Any]) -> tuple[str, int, Term]:
         return ("trigger", TRIGGER_OPS[str(c[0])], c[1])

@@ -14,8 +14,10 @@ from typing import TYPE_CHECKING, Any
 
 from mrss.agentspeak.beliefs import NO_KEY, first_key
 from mrss.agentspeak.errors import AslRuntimeError
+from mrss.agentspeak.planterms import plan_text_unlabelled
 from mrss.agentspeak.terms import (
     AnnotTail,
+    PlanTerm,
     Slot,
     Struct,
     Term,
@@ -293,6 +295,8 @@ def equal(a: Term, b: Term) -> bool:
     if type(a) is tuple:
         return len(a) == len(b) and all(  # type: ignore[arg-type]
             equal(x, y) for x, y in zip(a, b, strict=False))  # type: ignore[arg-type]
+    if type(a) is PlanTerm:  # Jason's Plan.equals: event, context and body, not the label
+        return plan_text_unlabelled(a.src) == plan_text_unlabelled(b.src)  # type: ignore[union-attr]
     return bool(a == b)
 
 

@@ -7,6 +7,7 @@ variables inside those values) become the plan's own slots, numbered from 0.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from mrss.agentspeak.syntax import BodyItem, BodyNode, IfItem, LoopItem, PlanSrc
@@ -98,7 +99,7 @@ class _Closer:
         body = self.body(p.body)
         annots = tuple([self.term(a) for a in p.annots])
         return PlanSrc(label, p.op, trigger, context, body, p.line, 0,  # type: ignore[arg-type]
-                       annots)
+                       annots, anon_label=p.anon_label)
 
 
 def close(t: PlanTerm, frame: list[Any] | None) -> PlanTerm:
@@ -137,6 +138,12 @@ def _body_text(nodes: list[BodyNode]) -> str:
         else:
             parts.append(f"{n.kind} {_cond(n.cond)} {{ {_body_text(n.body)} }}")
     return "; ".join(parts)
+
+
+def plan_text_unlabelled(p: PlanSrc) -> str:
+    """A plan term's text without its label: what Jason's `==` on plans compares (its
+    Plan.equals: the triggering event, the context (`true` as none) and the body)."""
+    return plan_term_text(replace(p, label=None, annots=()))
 
 
 def plan_term_text(p: PlanSrc) -> str:

@@ -73,6 +73,7 @@ class PlanSrc:
     annots: tuple[Term, ...] = ()
     varnames: list[str] = field(default_factory=list)
     file: str | None = None  # the included file it comes from, if not the agent's own
+    anon_label: bool = False  # a plan term labelled `@_`: a label left free (label None)
 
 
 @dataclass

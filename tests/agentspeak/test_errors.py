@@ -294,3 +294,15 @@ def test_a_belief_update_through_a_variable_that_is_no_literal_fails_with_the_re
     assert "bv.asl:2: unbound variable S used as a belief in +S" in messages
     assert "bv.asl:3: -X: 3 is not a literal" in messages
     assert 'bv.asl:4: -+Y: "s" is not a literal' in messages
+
+
+def test_a_named_variable_as_a_plan_terms_label_is_a_load_error_that_says_so() -> None:
+    """`{ @_ +!g }` is a plan term without a label of its own (Jason's grammar); a named
+    variable would be a label computed at run time, which is refused where it is."""
+    with pytest.raises(AslSyntaxError, match=r"p.asl:1:20: a plan term's label may be a "
+                                             r"variable only as `@_`"):
+        Agent("+!g <- .add_plan({ @L +!p <- x }).", file="p.asl")
+    out: list[str] = []
+    assert Agent("!g.\n+!g <- .add_plan({ @_ +!p <- .print(x) }); !p.\n",
+                 out=out.append).run_until_idle() is not False
+    assert out == ["x"]

@@ -176,6 +176,23 @@ c(2)[source(self)].
    .findall([P,E], .substring("bc", "abcbc", P, E), L2); .print(L2);
    .findall(P, .substring("b", "abcb", P, 3), L3); .print(L3).
 """, ["[]", "[[1,2],[3,4]]", "[3]"]),
+    # Jason: Plan.equals compares the event, context and body, never the label; a plan
+    # term's label may be `@_` (AS2JavaParser.jj, plan_term_annotation), which
+    # .plan_label leaves free; .current_intention warns at each use (deprecated)
+    "plan_terms_compared": ("""\
+!g.
++!g <- .add_plan({ @l1 +!p1 : true <- +p1 }, bob);
+   .plan_label(P, l1); .print(P);
+   if (P == { @l1[source(bob)] +!p1 <- +p1 }) { .print(same1) } else { .print(differ1) };
+   if ({ @a +!q <- x } == { @b +!q <- x }) { .print(same2) } else { .print(differ2) };
+   if ({ +!q <- x } == { +!q <- y }) { .print(same3) } else { .print(differ3) };
+   .plan_label({ @_ +!p2 : true <- +p2 }, L);
+   if (.ground(L)) { .print(bound) } else { .print(free) };
+   .add_plan({ @_ +!p3 <- .print(p3) }); !p3;
+   .current_intention(intention(I, _)); .print(ok).
+""", ["{ @l1[source(bob)] +!p1 <- +p1 }", "same1", "same2", "differ3", "free",
+        "p3", ".current_intention( intention(I,S) ) was replaced by "
+        ".intention(I,_,S,current)", "ok"]),
 }
 
 

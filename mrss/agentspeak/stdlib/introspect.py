@@ -108,6 +108,10 @@ def intention(ctx: IAContext, args: list[Any]) -> Iterator[None]:
 
 @STDLIB.action(".current_intention", min_args=1, max_args=1)
 def current_intention(ctx: IAContext, args: list[Any]) -> bool:
-    """`.current_intention(I)`: I is `intention(Id, Stack)` of the intention running it."""
+    """`.current_intention(I)`: I is `intention(Id, Stack)` of the intention running it.
+    Deprecated in Jason 3, which warns at each use (current_intention.java): so does
+    this, in the agent's output as `.log(warning, ...)`."""
+    ctx.runtime.out(".current_intention( intention(I,S) ) was replaced by "
+                    ".intention(I,_,S,current)")
     it = _current_of(ctx)
     return ctx.unify(args[0], Struct("intention", (it.id, stack_term(it))))

@@ -197,8 +197,8 @@ def list_plans(ctx: IAContext, args: list[Any]) -> bool:
 def plan_label(ctx: IAContext, args: list[Any]) -> Iterator[None]:
     """`.plan_label(P, L)` as Jason's plan_label.java: with L given, P is the plan term of
     the plan labelled L (its label annotated with its sources); with P a plan term and L
-    free, L is P's own label; otherwise each plan of the library whose label and term
-    unify with L and P, in library order."""
+    free, L is P's own label (left free for a plan term labelled `@_`); otherwise each
+    plan of the library whose label and term unify with L and P, in library order."""
     plan_arg = deref(args[0])
     label = deref(args[1])
     rt = ctx.runtime
@@ -215,6 +215,8 @@ def plan_label(ctx: IAContext, args: list[Any]) -> Iterator[None]:
             own = Struct(src.label.functor, src.label.args, tuple(src.annots), src.label.neg)
             if ctx.unify(label, own):
                 yield
+        elif src.anon_label:  # `@_`: its label is a free variable, L stays free
+            yield
         return
     trail = rt.trail
     for plan in list(rt.plans.plans):
