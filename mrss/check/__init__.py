@@ -9,7 +9,25 @@ agent's triggers), `robots` (robot tables and link options); `runner` orders the
 suppresses the errors that only follow from another (no cascades).
 """
 
-from mrss.check.findings import Finding, Report, Severity
-from mrss.check.runner import check_project
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mrss.check.findings import Finding, Report, Severity
+    from mrss.check.runner import check_project
 
 __all__ = ["Finding", "Report", "Severity", "check_project"]
+
+# Exported lazily (PEP 562): the root supervisor reads `mrss.check.passed` without
+# importing every check (and the code of every component they import).
+_HOMES = {"Finding": "findings", "Report": "findings", "Severity": "findings",
+          "check_project": "runner"}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{home}"), name)

@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from mrss.check import Report, check_project
+from mrss.check import Report, check_project, passed
 from mrss.config.loader import load_file, load_project
 from mrss.config.project import ProjectConfig
 from mrss.errors import ConfigError
@@ -81,7 +81,11 @@ def verify_file(path: str) -> bool:
     except ConfigError as exc:
         print(f"mrss supervise: {exc}", file=sys.stderr)
         return False
-    return verify(config)
+    report = check_project(config)
+    print_findings(report)
+    if not report.errors and not report.warnings and "nodes" not in config.sections:
+        passed.remember(config.directory)  # the next start of it as it is skips this
+    return not report.errors
 
 
 def verify(config: ProjectConfig) -> bool:

@@ -36,6 +36,7 @@ import tempfile
 from pathlib import Path
 
 from mrss import logfile, logs
+from mrss.check import passed
 from mrss.config.loader import load_project
 from mrss.config.nodes import keys_dir, node_plan, root_children
 from mrss.config.project import ProjectConfig
@@ -151,15 +152,22 @@ def run(args: argparse.Namespace) -> int:
     # The fork server starts now (the environment above is what every component gets),
     # imports the component code while the root sets up, and checks the project in a
     # child of its own: the root never imports that code (docs/supervision.md, "Start").
+    remembered = False
+    if forking:  # what the check would read, as seen here (docs/supervision.md, "Start")
+        os.environ[passed.ENV] = digest = passed.key(config.directory)
+        remembered = passed.remembered(digest)
     server = early_fork_server(config, node) if forking else None
     from mrss.commands.supervise_root import supervise  # meanwhile (bus, supervisor, ...)
 
-    if server is not None and not checked_by(server, config):
+    if server is not None and not remembered and not checked_by(server, config):
         server.close()
         return not_started(config, args.project)
     run_dir = run_dir_for(config, args.run_dir)
     temporary = args.run_dir is None and not config.supervisor.run_dir
     logs.configure(config.name, level=level, file=logs.log_file(run_dir))
+    if remembered:
+        logging.getLogger("mrss.supervise").info(
+            "check skipped: an earlier start checked the project as it is now")
     try:
         return supervise(config, run_dir, args.launcher, early, node, server)
     except ConfigError as exc:
