@@ -1,9 +1,12 @@
 """`mrss bench memory`: the shipped wildfire system's memory, and how long it takes to start.
 
 `mrss supervise wildfire --no-tui` runs as a real process (a fresh run folder, the
-project as shipped). Its start is the time from just before the command is started to
-the root's `start reasoner` line in the run's `mrss.log` (its own ms clock): the root
-supervisor, the fork server's imports and project check, then every component in order,
+project as shipped), six times (twice with `--quick`) with one user cache folder of its
+own: the first start checks the project, the later ones find that check remembered (an
+unchanged project), and both are reported. Its start is the time from just before the
+command is started to the root's `start reasoner` line in the run's `mrss.log` (its own
+ms clock): the root supervisor, the fork server's imports and project check (the first
+start's), then every component in order,
 each ready before the next, the reasoner last. Then, once the system has run for a few
 seconds, the proportional set size (PSS, from /proc/PID/smaps_rollup: a page shared by n
 processes counts 1/n in each, so the column adds up to what the system takes) of every
@@ -113,13 +116,14 @@ def _read_start(log: Path, began: float, run: Run) -> bool:
     return done
 
 
-def start_once(settle: float, timeout: float = 120.0) -> Run:
-    """Start the system, time it to a running reasoner, measure its memory, stop it."""
+def start_once(settle: float, cache: Path, timeout: float = 120.0) -> Run:
+    """Start the system, time it to a running reasoner, measure its memory, stop it;
+    `cache` is the user's cache folder it sees (where a clean check is remembered)."""
     source = project_path(PROJECT)
     tmp = Path(tempfile.mkdtemp(prefix="mrss-bench-memory-"))
     run_dir = tmp / "run"
     run_dir.mkdir()
-    env = {**os.environ, "MRSS_PROJECTS": str(source.parent)}
+    env = {**os.environ, "MRSS_PROJECTS": str(source.parent), "XDG_CACHE_HOME": str(cache)}
     argv = python_module("mrss", "supervise", PROJECT, "--run-dir", str(run_dir), "--no-tui")
     run = Run(start_s=float("inf"))
     with (tmp / "supervise.log").open("w") as sink:
@@ -174,11 +178,16 @@ def bare_interpreter() -> tuple[float, float]:
 
 
 def run(quick: bool) -> BenchReport:
-    starts = 1 if quick else 5
+    starts = 2 if quick else 6
     settle = 2.0 if quick else 8.0
     load_before = os.getloadavg()[0]
     bare_s, bare_pss = bare_interpreter()
-    runs = [start_once(settle) for _ in range(starts)]
+    cache = Path(tempfile.mkdtemp(prefix="mrss-bench-memory-cache-"))
+    try:  # the first start checks the project; the later ones find that check remembered
+        runs = [start_once(settle, cache) for _ in range(starts)]
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+    first, later = runs[0], runs[1:]
     report = BenchReport("memory", ["what", "n", "PSS MiB", "threads", "p50 s", "max s"],
                          quick=quick)
     labels = list(runs[-1].pss_mib)
@@ -191,23 +200,30 @@ def run(quick: bool) -> BenchReport:
                    statistics.median(totals), sum(runs[-1].threads.values()), None, None)
     report.add_row("reference: a bare interpreter (python -P), sleeping", 1, bare_pss, 1,
                    None, None)
-    start = [r.start_s for r in runs]
-    report.add_row(f"start: `mrss supervise {PROJECT}` -> {LAST} running", len(runs), None,
-                   None, statistics.median(start), max(start))
-    report.add_row("  ... -> the root's first line (after its imports, the project check)",
-                   len(runs), None,
-                   None, statistics.median(r.root_up_s for r in runs),
-                   max(r.root_up_s for r in runs))
+    start = [r.start_s for r in later]
+    report.add_row(f"start: `mrss supervise {PROJECT}` -> {LAST} running (its check "
+                   f"remembered)", len(later), None, None, statistics.median(start),
+                   max(start))
+    report.add_row("  ... -> the root's first line (after its imports)", len(later), None,
+                   None, statistics.median(r.root_up_s for r in later),
+                   max(r.root_up_s for r in later))
     report.add_row("  ... -> the first component (bus proxy) ready",
-                   len(runs), None, None, statistics.median(r.first_start_s for r in runs),
-                   max(r.first_start_s for r in runs))
+                   len(later), None, None, statistics.median(r.first_start_s for r in later),
+                   max(r.first_start_s for r in later))
+    report.add_row(f"first start -> {LAST} running (the project checked)", 1, None, None,
+                   first.start_s, None)
+    report.add_row("  ... -> the root's first line (after its imports and the check)", 1,
+                   None, None, first.root_up_s, None)
     report.add_row("reference: a bare interpreter, `python -P -c pass`", 5, None, None,
                    bare_s, None)
     report.target(f"the {PROJECT} system's PSS, all processes (MiB, median of {len(runs)})",
                   statistics.median(totals), Relation.AT_MOST, TOTAL_MIB,
                   "the performance issue, on this machine")
-    report.target(f"start to a running {LAST} (s, median of {len(runs)})",
-                  statistics.median(start), Relation.AT_MOST, START_S,
+    report.target(f"start to a running {LAST}, its check remembered (s, median of "
+                  f"{len(later)})", statistics.median(start), Relation.AT_MOST, START_S,
+                  "the performance issue, on this machine")
+    report.target(f"first start to a running {LAST}, the project checked (s)",
+                  first.start_s, Relation.AT_MOST, START_S,
                   "the performance issue, on this machine")
     last = runs[-1]
     report.notes.append(
