@@ -17,17 +17,15 @@ import pytest
 
 from mrss.check import passed
 from mrss.testing import wait_until
-from tests.commands.test_check_mistakes import MISTAKES, TEMPLATE, inject
+from tests.commands.test_check_mistakes import MISTAKES, inject, project
+
+__all__ = ["project"]  # the fixture: a copy of the template, as `flood`
 
 
-@pytest.fixture()
-def project(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    folder = tmp_path / "projects" / "flood"
-    shutil.copytree(TEMPLATE, folder, ignore=shutil.ignore_patterns("__pycache__",
-                                                                     "procedures"))
-    monkeypatch.setenv("MRSS_PROJECTS", str(folder.parent))
+@pytest.fixture(autouse=True)
+def own_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The user's cache folder, where clean checks are remembered: this test's own."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    return folder
 
 
 def test_the_key_follows_everything_the_check_reads(

@@ -24,6 +24,7 @@ import re
 import shutil
 import signal
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -50,20 +51,27 @@ def lost_for_good(tmp_path: Path) -> Path:
     return copy
 
 
+def covering(system: RunningProject) -> Any:
+    """The system up, the operator's area asked, and its cover on uav1 past its second
+    waypoint: that cover's status."""
+    system.wait_ready()
+    system.wait_for(lambda: all((system.world(r) or {}).get("position")
+                                for r in ("uav1", "uav2", "uav3")), 30,
+                    "the three UAVs' telemetry in the world model")
+    system.publish("mrss/ui/area", AREA)
+    cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
+                            "the cover to run on uav1")[0]
+    system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
+                    "uav1 past its second waypoint")
+    return cover
+
+
 @pytest.mark.slow
 def test_a_uav_lost_mid_cover_hands_the_area_to_another_that_goes_on_from_there(
         tmp_path: Path) -> None:
     with RunningProject(lost_for_good(tmp_path), tmp_path / "run",
                         env={"MRSS_SIM_SPEEDUP": "20"}) as system:
-        system.wait_ready()
-        system.wait_for(lambda: all((system.world(r) or {}).get("position")
-                                    for r in ("uav1", "uav2", "uav3")), 30,
-                        "the three UAVs' telemetry in the world model")
-        system.publish("mrss/ui/area", AREA)
-        cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
-                                "the cover to run on uav1")[0]
-        system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
-                        "uav1 past its second waypoint")
+        cover = covering(system)
 
         system.signal("sim_uav", signal.SIGKILL)  # uav1 is gone, its link silent
         handed = system.wait_for(
@@ -151,15 +159,7 @@ def test_a_ugv_teleoperated_by_the_projects_skill_is_given_no_task_until_handed_
 def test_a_cover_asked_again_at_a_new_priority_goes_on_from_the_waypoint_reached(
         tmp_path: Path) -> None:
     with RunningProject(PROJECT, tmp_path / "run", env={"MRSS_SIM_SPEEDUP": "20"}) as system:
-        system.wait_ready()
-        system.wait_for(lambda: all((system.world(r) or {}).get("position")
-                                    for r in ("uav1", "uav2", "uav3")), 30,
-                        "the three UAVs' telemetry in the world model")
-        system.publish("mrss/ui/area", AREA)
-        cover = system.wait_for(lambda: system.statuses("uav1", "running"), 30,
-                                "the cover to run on uav1")[0]
-        system.wait_for(lambda: waypoint(system.progress(cover.uuid)) >= 2, 30,
-                        "uav1 past its second waypoint")
+        cover = covering(system)
         # uav1 answers nothing for a while (its simulator frozen): its cover, withdrawn,
         # takes that long to stop. The agent withdraws it and asks it again at priority
         # 5; an idle UAV is given the new one at once, while uav1's is still stopping
