@@ -27,8 +27,9 @@ def _operator(run_dir: Path, *command: str) -> None:
 @pytest.fixture(scope="session")
 def wildfire_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """`mrss record --project wildfire` of the procedure: the operator's area goal a1,
-    the events manager SIGKILLed (restarted), the operator's teleop of the UGV (on), the
-    UAV finding hotspot hs1 while covering, teleop off, the UGV's supply, the cover done."""
+    the events manager SIGKILLed (restarted), the operator's teleop of ugv1 (on), the
+    UAV finding hotspot hs1 while covering, teleop off, the supply of hs1 by ugv2 (ugv1
+    was in the operator's hands when it was asked), the cover done."""
     tmp_path = tmp_path_factory.mktemp("wildfire-recording")
     out = tmp_path / "wildfire.mcap"
     run_dir = tmp_path / "run"
@@ -47,14 +48,16 @@ def wildfire_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
             killed = system.signal("events", signal.SIGKILL)  # a fault: restarted
             system.wait_for(lambda: system.component_pid("events") not in (0, killed), 60,
                             "the events manager restarted")
-            # the operator takes the UGV over before the UAV finds the hotspot: its goal
-            # waits until the UGV is back in autonomy
+            # the operator takes ugv1 over before the UAV finds the hotspot: the RCL gives
+            # the supply to ugv2 (ugv1's status says teleop)
             _operator(run_dir, "teleop", "ugv1", "on")
+            system.wait_for(lambda: (system.world("ugv1") or {}).get("attributes", {})
+                            .get("teleop"), 30, "ugv1 to report teleoperation")
             system.wait_for(lambda: system.perceived("hotspot_detected(hs1,"), 90,
                             "the hotspot found")
             _operator(run_dir, "teleop", "ugv1", "off")
             system.wait_for(lambda: system.statuses("uav1", "succeeded"), 90, "the cover")
-            system.wait_for(lambda: [s for s in system.statuses("ugv1", "succeeded")
+            system.wait_for(lambda: [s for s in system.statuses("ugv2", "succeeded")
                                      if s.name == "supply_water"], 90, "the supply done")
             rec.proc.send_signal(signal.SIGINT)
             assert rec.finish() == 0, rec.stderr()

@@ -31,7 +31,7 @@ def test_report_of_a_wildfire_recording(wildfire_recording: Path) -> None:
     goals = {g["goal"]: g for g in data["goals"] if g["reported"] is not None}
     assert set(goals) == {"a1", "hs1"}, data["goals"]
     area, hotspot = goals["a1"], goals["hs1"]
-    assert area["robots"] == ["uav1"] and hotspot["robots"] == ["ugv1"]
+    assert area["robots"] == ["uav1"] and hotspot["robots"] == ["ugv2"]  # ugv1: teleop
     for goal in (area, hotspot):
         assert goal["outcome"] == "done"
         assert 0 <= goal["to_first_action"] < goal["to_done"]
@@ -50,15 +50,16 @@ def test_report_of_a_wildfire_recording(wildfire_recording: Path) -> None:
     assert data["interventions_per_hour"] == pytest.approx(2 / (data["span_s"] / 3600))
     actions = {(a["robot"], a["state"]): a["count"] for a in data["actions"]}
     assert actions[("uav1", "succeeded")] >= 1
-    assert actions[("ugv1", "succeeded")] >= 3  # the supply, teleop on, teleop off
+    assert actions[("ugv1", "succeeded")] >= 2  # teleop on, teleop off
+    assert actions[("ugv2", "succeeded")] >= 1  # the supply
     assert data["restarts"].get("events") == 1
     assert {"event": "exit", "component": "events", "count": 1} in data["faults"]
     assert data["robot_losses"] == []
 
     text = mrss("recording", "report", str(out))
     assert text.returncode == 0, text.stderr
-    assert "goals: 2 reported, 2 done, 1 done without an operator (50 % of the goals " \
-           "reported)" in text.stdout
+    assert f"goals: 2 reported, 2 done, {without} done without an operator " \
+           f"({100 * without // 2} % of the goals reported)" in text.stdout
     assert "operator interventions: 2 (" in text.stdout
 
     # The map's channel: the operator's area and the hotspot the UAV found, latest state.

@@ -19,7 +19,7 @@ from tests.recording.conftest import WILDFIRE
 
 RECORDED_PLAN = "supply_water(Role, G, Lat, Lon, L)[priority(P)];"
 EDITED_PLAN = "supply_water(Role, G, Lat, Lon, L / 2)[priority(P)];"
-# what the agent decides is asked of a role (the RCL's award names ugv1, not the agent)
+# what the agent decides is asked of a role (the RCL's award names the UGV, not the agent)
 UGV_NEAR_HS1 = "any([ugv,water],at(-35.360387,149.165678))"
 
 
