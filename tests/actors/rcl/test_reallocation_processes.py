@@ -50,9 +50,12 @@ class System(Bus):
                         intensity=10, heartbeat_misses=100)
         self.sup.start()
         assert self.sup.wait_started(60), "the simulators and the RCL did not start"
-        for robot in HOMES:  # telemetry flows: its link is up, its position known
-            wait_until(lambda r=robot: bool(self.bodies(RobotData, robot=r)),  # type: ignore[misc]
-                       timeout=30, message=f"{robot}'s telemetry")
+        for robot in HOMES:  # telemetry flows: its link is up, its position known (a
+            # position record: the link keeps it before it goes on the bus; a first status
+            # or battery record alone left a bid "position unknown": a run under load)
+            wait_until(lambda r=robot: any(  # type: ignore[misc]
+                b.data.get("type") == "position" for b in self.bodies(RobotData, robot=r)),
+                timeout=30, message=f"{robot}'s position")
 
     def close(self) -> None:
         self.sup.stop(timeout=30)
