@@ -35,6 +35,7 @@ from pathlib import Path
 
 import psutil
 
+from mrss import usercache
 from mrss.bench.report import BenchReport, Relation
 from mrss.bench.soak_sampler import tree_processes
 from mrss.config.projects import project_path
@@ -166,8 +167,7 @@ def seeded_cache() -> Path:
     AgentSpeak parser tables the user's has (built once per grammar, not per start)."""
     cache = Path(tempfile.mkdtemp(prefix="mrss-bench-memory-cache-"))
     (cache / "mrss").mkdir(mode=0o700)
-    mine = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mrss"
-    for tables in mine.glob("agentspeak-grammar-*.cache"):
+    for tables in usercache.folder().glob("agentspeak-grammar-*.cache"):
         shutil.copy2(tables, cache / "mrss" / tables.name)
     return cache
 

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import fcntl
 import json
-import os
 import subprocess
 import sys
 import time
 from collections.abc import Hashable
 from pathlib import Path
 
+from mrss import usercache
 from mrss.agentspeak.agent import Agent
 from mrss.agentspeak.terms import Struct
 from mrss.bench import reasoner_agent as ia
@@ -150,8 +150,7 @@ def ours_c(blocked: int, spin: int) -> tuple[float, float]:
 
 
 def _cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mrss-bench" / "peer-agentspeak-0.2.2"
+    return usercache.base() / "mrss-bench" / "peer-agentspeak-0.2.2"
 
 
 def peer_python(timeout: float) -> tuple[Path | None, str]:

@@ -34,6 +34,8 @@ import sys
 import sysconfig
 from pathlib import Path
 
+from mrss import usercache
+
 SKIPPED = {"__pycache__", ".mypy_cache", ".pytest_cache", ".ruff_cache", ".git"}
 MRSS = Path(__file__).resolve().parent.parent  # the mrss package's folder
 KEEP = 64  # entries kept (the oldest go first)
@@ -41,8 +43,7 @@ ENV = "MRSS_CHECK_KEY"  # the key the root computed, for the check it asks for
 
 
 def folder() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mrss" / "checks"
+    return usercache.folder() / "checks"
 
 
 def key(project_dir: Path) -> str:
