@@ -35,7 +35,6 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal
 from textual.css.query import NoMatches
-from textual.timer import Timer
 from textual.widgets import Footer, Input, Static
 
 from mrss.bus import BusEndpoints
@@ -181,7 +180,7 @@ class MrssApp(App[None]):
             agent=agent, min_refresh=min_refresh, deliver=self._deliver,
             system_event=self.picture.system_event)
         self.redraws = Redraws(self, table_every=max(TICK_EVERY, min_refresh), clock=clock)
-        self._tick_timer: Timer | None = None
+        self._ticking = False  # the second's tick has started (the bus is watched)
         self._ticked = 0.0  # when the last tick ran (monotonic)
         self.steering = Steering(self, self.link, self.say, readonly=readonly,
                                  project=project, mission=mission,
@@ -269,7 +268,8 @@ class MrssApp(App[None]):
         self.picture.show()
         self.query_one(LogPane).add(self.incident.attach_lines())
         self.link.start(wake=lambda: self.post_message(BusActivity()))
-        self._tick_timer = self.set_interval(TICK_EVERY, self._tick_due)
+        self._ticking = True
+        self.set_interval(TICK_EVERY, self._tick_due)
         self.picture.start()
         self.query_one(AlertsStrip).show_alerts()
         self.query_one("#actions").focus()
@@ -303,7 +303,7 @@ class MrssApp(App[None]):
             self.answers.on_reply(reply)
         if "mission" in changes.panels and self.steering.awaiting:
             self.steering.follow_answers()
-        if self._tick_timer is not None and time.monotonic() - self._ticked >= TICK_DUE:
+        if self._ticking and time.monotonic() - self._ticked >= TICK_DUE:
             self.tick()  # due anyway: in this drain's frame, not one of its own
 
     def _tick_due(self) -> None:
