@@ -88,6 +88,6 @@ class Redraws:
     def _draw(self, table: str, now: float) -> None:
         self._drawn[table] = time.monotonic()
         if table == "map":
-            self.app.query_one(MapPanel).refresh()
+            self.app.query_one(MapPanel).redraw()
             return
         self.app.query_one(WIDGETS[table]).refresh_rows(now)

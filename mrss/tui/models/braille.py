@@ -24,6 +24,15 @@ class BrailleCanvas:
         self._styles = [[""] * self.width for _ in range(self.height)]
         self._glyphs: dict[tuple[int, int], tuple[str, str]] = {}
 
+    def copy(self) -> BrailleCanvas:
+        """A canvas with the same dots and glyphs, drawn into apart from this one."""
+        other = BrailleCanvas.__new__(BrailleCanvas)
+        other.width, other.height = self.width, self.height
+        other._bits = [row[:] for row in self._bits]
+        other._styles = [row[:] for row in self._styles]
+        other._glyphs = dict(self._glyphs)
+        return other
+
     def dot(self, x: float, y: float, style: str = "") -> None:
         """Set the dot at (x, y) in dots (x right, y down)."""
         if not (math.isfinite(x) and math.isfinite(y)):

@@ -131,6 +131,46 @@ def _geometry_lines(geometry: Any) -> list[list[tuple[float, float]]]:
     return lines
 
 
+class ObjectsLayer:
+    """The world objects' areas and rings alone, as a map panel last drew them: drawn
+    again only when the objects or the view changed (a world model answer every 2 s is
+    mostly the same, and its 40 areas were most of a map drawing, `mrss bench tui`).
+    Kept by the panel, not the model: it is how one view looks, not mission state."""
+
+    def __init__(self) -> None:
+        self._drawn: list[WorldShape] = []  # the objects with lines or a ring, drawn
+        self._key: tuple[float, float, float, int, int] | None = None
+        self._canvas = BrailleCanvas(0, 0)
+
+    def canvas(self, model: MapModel, view: Viewport, width: int, height: int,
+               dots: Callable[[list[tuple[float, float]]], list[tuple[float, float]]]
+               ) -> BrailleCanvas:
+        """The layer for `model`'s objects in `view` (not to be drawn into)."""
+        styles = model.styles
+        rings = {shape.id: styles.ring(shape.kind, shape.attributes)
+                 for shape in model.objects.values() if shape.point is not None}
+        drawn = [shape for shape in model.objects.values()
+                 if shape.lines or rings.get(shape.id) is not None]
+        key = (view.lat, view.lon, view.scale, width, height)
+        if self._key == key and len(drawn) == len(self._drawn) \
+                and all(a is b for a, b in zip(drawn, self._drawn, strict=True)):
+            return self._canvas  # the same objects (`MapModel.apply_world` keeps them)
+        canvas = BrailleCanvas(width, height)
+        for shape in drawn:
+            style = styles.line_style(shape.kind, shape.attributes)
+            fill = styles.kind(shape.kind).polygon is PolygonDraw.FILL
+            for line in shape.lines:
+                if fill and len(line) >= 3:
+                    canvas.fill_polygon(dots(line), style)
+                canvas.polyline(dots(line), style)
+        for shape in drawn:
+            ring = rings.get(shape.id)
+            if shape.point is not None and ring is not None:
+                canvas.polyline(dots(ring_points(*shape.point, ring[0])), ring[1])
+        self._drawn, self._key, self._canvas = drawn, key, canvas
+        return canvas
+
+
 class MapModel:
     """Robots by id (first heard first) and the world model's objects by id."""
 
@@ -212,7 +252,10 @@ class MapModel:
                     shape.point = (lat, lon)
             shape.lines = _geometry_lines(obj.get("geometry"))
             if shape.point is not None or shape.lines:
-                shapes[shape.id] = shape
+                before = self.objects.get(shape.id)
+                # an object as it was is kept as it was (the map's drawn layer of the
+                # areas stays while only the robots move)
+                shapes[shape.id] = before if before == shape else shape
         self.objects = shapes
         self.world_error = ""
         return True
@@ -231,26 +274,15 @@ class MapModel:
             pts.extend(p for line in shape.lines for p in line)
         return pts
 
-    def draw(self, view: Viewport, width: int, height: int) -> BrailleCanvas:
+    def draw(self, view: Viewport, width: int, height: int,
+             layer: ObjectsLayer | None = None) -> BrailleCanvas:
         """Areas and rings, then tracks and plans (dots), then the characters: robots
         with their names first, so that they are on top and their names whole, then
         objects and their names, then areas' names, each where the cell is still free."""
-        canvas = BrailleCanvas(width, height)
-
         def dots(line: list[tuple[float, float]]) -> list[tuple[float, float]]:
             return [view.to_dots(lat, lon, width, height) for lat, lon in line]
 
-        for shape in self.objects.values():
-            style = self.styles.line_style(shape.kind, shape.attributes)
-            fill = self.styles.kind(shape.kind).polygon is PolygonDraw.FILL
-            for line in shape.lines:
-                if fill and len(line) >= 3:
-                    canvas.fill_polygon(dots(line), style)
-                canvas.polyline(dots(line), style)
-        for shape in self.objects.values():
-            ring = self.styles.ring(shape.kind, shape.attributes) if shape.point else None
-            if shape.point is not None and ring is not None:
-                canvas.polyline(dots(ring_points(*shape.point, ring[0])), ring[1])
+        canvas = (layer or ObjectsLayer()).canvas(self, view, width, height, dots).copy()
         for held in self.stand_downs.values():  # the operator's stand-downs, in red
             for line in _geometry_lines(held.area):
                 canvas.polyline(dots(line), STAND_DOWN_STYLE)

@@ -22,6 +22,7 @@ from mrss.tui import operator
 from mrss.tui.events import Note, SendRequested
 from mrss.tui.models.actions import ActionsModel, ActionView
 from mrss.tui.models.robots import RobotsModel
+from mrss.tui.widgets.border_text import set_border_subtitle
 from mrss.tui.widgets.keyed_table import KeyedTable, Row, age_text, cell
 
 STATE_STYLES = {
@@ -59,8 +60,8 @@ class ActionsTable(KeyedTable):
         if len(self._cells) > 2 * self.MAX_ROWS:  # forget the rows no longer drawn
             keep = {view.uuid for view in shown}
             self._cells = {k: v for k, v in self._cells.items() if k in keep}
-        self.border_subtitle = (f"newest {self.MAX_ROWS} of {len(views)}"
-                                if len(views) > self.MAX_ROWS else "")
+        set_border_subtitle(self, f"newest {self.MAX_ROWS} of {len(views)}"
+                            if len(views) > self.MAX_ROWS else "")
 
     def _row(self, view: ActionView, now: float) -> Row:
         """The row's cells; rebuilt only when what they show changed (making `Text`
@@ -80,10 +81,13 @@ class ActionsTable(KeyedTable):
         cached = self._cells.get(view.uuid)
         if cached is not None and cached[0] == shown:
             return view.uuid, cached[1]
-        name, robot, goal, state, reason, progress, age_cell = shown
-        cells = (cell(view.uuid[:8], "dim"), cell(name, "bold"), cell(robot), cell(goal),
-                 cell(state, STATE_STYLES.get(state, "")), cell(reason, "italic"),
-                 cell(progress), cell(age_cell, "dim"))
+        if cached is not None:  # most often the age alone: the other cells are kept
+            before, old = cached
+            cells = (old[0], *(old[i + 1] if before[i] == value else
+                               cell(value, _style(i, value)) for i, value in enumerate(shown)))
+        else:
+            cells = (cell(view.uuid[:8], "dim"),
+                     *(cell(value, _style(i, value)) for i, value in enumerate(shown)))
         self._cells[view.uuid] = (shown, cells)
         return view.uuid, cells
 
@@ -114,3 +118,13 @@ class ActionsTable(KeyedTable):
         self.post_message(SendRequested(operator.action_control(command, uuid), what,
                                         confirm=confirm, details=details,
                                         history=(uuid, note)))
+
+
+#: each shown value's cell style, by its place in the row (after the uuid); the state's
+#: by the state
+_STYLES = ("bold", "", "", None, "italic", "", "dim")
+
+
+def _style(index: int, value: str) -> str:
+    style = _STYLES[index]
+    return STATE_STYLES.get(value, "") if style is None else style

@@ -27,6 +27,7 @@ from textual.widgets import Input, RichLog
 
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
 from mrss.tui.models.logfilter import LogEntry, LogFilter, LogFilterError, level_of
+from mrss.tui.widgets.border_text import set_border_subtitle
 from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 MAX_LINES = 2000
@@ -191,7 +192,7 @@ class LogPane(Vertical):
         try:
             new = LogFilter.parse(text)
         except LogFilterError as exc:
-            self.border_subtitle = f"filter not applied: {exc}"
+            set_border_subtitle(self, f"filter not applied: {exc}")
             return str(exc)
         self.filter = new
         view = self.view
@@ -225,4 +226,4 @@ class LogPane(Vertical):
             parts.append(f"filter: {self.filter.text}")
         if not self.following:
             parts.append(f"paused, {self.missed} new (End follows)")
-        self.border_subtitle = " · ".join(parts)
+        set_border_subtitle(self, " · ".join(parts))

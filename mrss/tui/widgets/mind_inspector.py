@@ -22,11 +22,14 @@ from typing import Any, ClassVar
 from rich.cells import cell_len
 from rich.text import Text
 from textual.binding import Binding, BindingType
+from textual.geometry import Region, Size
+from textual.reactive import Reactive
 from textual.widgets import Tree
 from textual.widgets.tree import TreeNode
 
 from mrss.messages import MindSnapshot
 from mrss.tui.models.mind_history import MindEntry, MindHistory
+from mrss.tui.widgets.border_text import set_border_subtitle
 from mrss.tui.widgets.steady_scroll import SteadyScroll
 
 OPEN_BY_DEFAULT = ("beliefs", "intentions", "events", "removed")
@@ -35,6 +38,9 @@ OPEN_BY_DEFAULT = ("beliefs", "intentions", "events", "removed")
 class MindInspector(SteadyScroll, Tree[str]):
     """A tree: agent > beliefs / intentions > stack frames / events."""
 
+    #: its size changing repaints nothing by itself: `_invalidate` repaints the lines
+    #: that changed (SteadyScroll still lays out when a scrollbar comes or goes)
+    virtual_size: Reactive[Size] = Reactive(Size(0, 0), layout=False, repaint=False)
     BINDINGS: ClassVar[list[BindingType]] = [
         Binding("left_square_bracket", "older", "Older snapshot"),
         Binding("right_square_bracket", "newer", "Newer snapshot"),
@@ -56,6 +62,7 @@ class MindInspector(SteadyScroll, Tree[str]):
         self._built: dict[int, Shape] = {}  # node id -> the shape it was made or set from
         self._intentions: dict[str, Shape] = {}  # an intention's data (repr) -> its shape
         self._leaf_shapes: dict[tuple[str, bool], Shape] = {}  # (key, fresh) -> leaf
+        self._painted: list[tuple[object, ...]] | None = None  # `_lines_in_view` painted
 
     def _invalidate(self) -> None:
         """Textual's Tree lays the whole screen out again at every node added or
@@ -70,7 +77,40 @@ class MindInspector(SteadyScroll, Tree[str]):
         self._clear_line_cache()
         self._updates += 1
         self.root._reset()
-        self.refresh()
+        # The lines now, not when the next frame paints them: building them sets the
+        # virtual size, and a scrollbar changed while a frame paints takes a frame of
+        # its own (one a snapshot, `mrss bench tui`); then only the lines in view that
+        # show another node, or the same one otherwise, are repainted (a snapshot that
+        # adds a belief below the view repaints nothing)
+        shown = self._lines_in_view()
+        before, self._painted = self._painted, shown
+        if before is None or len(before) != len(shown) or before[0] != shown[0]:
+            self.refresh()
+            return
+        for y, (old, new) in enumerate(zip(before[1:], shown[1:], strict=True)):
+            if old != new:
+                self.refresh(Region(0, y, self.size.width, 1))
+
+    def _relabel(self, node: TreeNode[str], label: Text) -> None:
+        """A node's new label while a snapshot is drawn: `TreeNode.set_label` without
+        its repaint of the node's whole subtree (a branch's count changing repainted
+        every belief in view); the line is repainted with the others that changed when
+        the drawing ends (`_invalidate` compares the labels in view)."""
+        node._updates += 1
+        node._label = self.process_label(label)
+        self._invalid = True
+
+    def _lines_in_view(self) -> list[tuple[object, ...]]:
+        """What each line in view draws: its node's label (compared by its text and
+        styles) and expansion, the path of nodes to it, each with whether it is its
+        parent's last (the guides), and whether the cursor is on it; the first entry is
+        the view (scrolled, resized: everything is repainted)."""
+        top, cursor = self.scroll_offset.y, self.cursor_line
+        lines = self._tree_lines[top:top + self.size.height]
+        return [(top, self.size), *(
+            (line.last, top + y == cursor, line.node._label, line.node.is_expanded,
+             line.node.allow_expand, *((id(node), node.is_last) for node in line.path))
+            for y, line in enumerate(lines))]
 
     def get_label_width(self, node: TreeNode[str]) -> int:
         """The width of a node's line without rendering its label: Textual's Tree
@@ -103,7 +143,7 @@ class MindInspector(SteadyScroll, Tree[str]):
         self._built.clear()
         self.clear()
         self.root.set_label("mind: no snapshot at this moment of the recording")
-        self.border_subtitle = ""
+        set_border_subtitle(self, "")
 
     def _subtitle(self) -> None:
         entry = self.history.current()
@@ -112,8 +152,8 @@ class MindInspector(SteadyScroll, Tree[str]):
         at, total = self.history.position() + 1, len(self.history.entries)
         mode = "live" if self.history.live else "frozen" if at == total else "history"
         stamp = time.strftime("%H:%M:%S", time.localtime(entry.ts))
-        self.border_subtitle = (f"{mode} · {at}/{total} · {stamp} · incarnation "
-                                f"{entry.incarnation} · [ ] step, f freeze")
+        set_border_subtitle(self, f"{mode} · {at}/{total} · {stamp} · incarnation "
+                                  f"{entry.incarnation} · [ ] step, f freeze")
 
     def _show_entry(self) -> None:
         entry = self.history.current()
@@ -154,7 +194,7 @@ class MindInspector(SteadyScroll, Tree[str]):
         self.snapshot = snap
         root_label = Text.assemble(("agent ", "dim"), (snap.agent, "bold"))
         if self.root.label != root_label:
-            self.root.set_label(root_label)
+            self._relabel(self.root, root_label)
         label = Text(f"beliefs ({len(snap.beliefs)})")
         if added or removed:
             label.append(f"  +{len(added)} -{len(removed)} since the one before", "dim")
@@ -179,7 +219,8 @@ class MindInspector(SteadyScroll, Tree[str]):
         self._drawing = True
         try:
             self._sync(self.root, shape)
-            self.root.expand()
+            if not self.root.is_expanded:  # (expanding again would repaint every line)
+                self.root.expand()
         finally:
             self._drawing = False
         if self._invalid:
@@ -210,7 +251,7 @@ class MindInspector(SteadyScroll, Tree[str]):
                 if self._built.get(node.id) is part:
                     continue  # made from this very shape: nothing in it changed
                 if node.label != part.label:
-                    node.set_label(part.label)
+                    self._relabel(node, part.label)
             else:
                 if node is not None:  # out of order: made again in its place
                     moved.add(id(node))

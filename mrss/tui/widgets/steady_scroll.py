@@ -55,11 +55,16 @@ class SteadyScroll(_Base):
     def watch_virtual_size(self, old: Size, size: Size) -> None:
         styles = self.styles
         # a panel sized by its content (`height: auto`) changes size with it (the extent
-        # that sizes it, not the other: a wider row does not make a table taller)
+        # that sizes it, not the other: a wider row does not make a table taller), unless
+        # its content overflows the panel before and after: it is at its `max-height`
+        # already (a table of actions growing a row at a time, `mrss bench tui`)
+        view = self.scrollable_content_region.size
         sized_by_content = any(
             scalar is not None and scalar.is_auto and before != after
-            for scalar, before, after in ((styles.width, old.width, size.width),
-                                          (styles.height, old.height, size.height)))
+            and not (before > shown and after > shown)
+            for scalar, before, after, shown in (
+                (styles.width, old.width, size.width, view.width),
+                (styles.height, old.height, size.height, view.height)))
         if (sized_by_content or not self.container_size
                 or scrollbars_for(self, size) != (self.show_horizontal_scrollbar,
                                                   self.show_vertical_scrollbar)):
