@@ -5,7 +5,11 @@ wakes the loop directly, and nothing wakes while nothing comes (a receiving thre
 looked for `close()` twenty times a second, which was most of an idle dashboard's CPU).
 What arrives goes to an inbox and, when the inbox goes from empty to non-empty, `wake`
 is called once (the app posts itself a message). The app drains everything queued in
-one go: a burst of a thousand statuses costs one redraw, not a thousand.
+one go: a burst of a thousand statuses costs one redraw, not a thousand. After a read
+the socket is not watched for `READ_EVERY` seconds: what comes meanwhile waits in it
+(its high-water mark is 10,000 messages) and is taken in one go then, or by a drain
+that comes first; not one wake of the loop per message (each was a wake, a read and a
+decode on cold caches: `mrss bench tui` at 1,000 msgs/s, 20 % of a core against 11 %).
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ PREFIXES = ("action.", "rel.action.", "robot.", "sup.", "log.", "mind.", "ctl.",
             "edge.rejections", "agent.", "question.", "fleet.")
 INBOX_LIMIT = 100_000  # beyond this the oldest messages are dropped (`dropped` counts them)
 BATCH = 2_000  # messages taken per turn of the loop
+READ_EVERY = 0.1  # seconds: after a read, the socket is read again at the earliest then
 
 
 class BusLink:
@@ -43,6 +48,7 @@ class BusLink:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._wake: Callable[[], object] = lambda: None
         self._woken = False
+        self._watching = False  # the loop calls `poll` when the socket is readable
         self.dropped = 0
         self.received = 0
         self._sub: Subscriber | None = None
@@ -56,7 +62,7 @@ class BusLink:
         self._sub = Subscriber(self.endpoints, prefixes=self._prefixes, name=self.src,
                                stale=Stale.KEEP)  # an observer, across system restarts too
         self._loop = asyncio.get_running_loop()
-        self._loop.add_reader(self._sub.fileno(), self.poll)
+        self._watch(True)
         self.poll()  # the descriptor is edge-triggered: take what came before
 
     def poll(self) -> None:
@@ -68,23 +74,52 @@ class BusLink:
         if self._sub is None:
             return
         envelopes = self._sub.take_ready(BATCH)
-        if len(envelopes) == BATCH and self._loop is not None:
-            self._loop.call_soon(self.poll)  # more waiting: the loop serves others between
         if not envelopes:
             return
-        self.received += len(envelopes)
-        self.dropped += max(0, len(self._inbox) + len(envelopes) - INBOX_LIMIT)
-        self._inbox.extend(envelopes)
+        self._keep(envelopes)
         if not self._woken:
             self._woken = True
             self._wake()
+        if self._loop is None:
+            return
+        if len(envelopes) == BATCH:
+            self._loop.call_soon(self.poll)  # more waiting: the loop serves others between
+        elif self._watching:  # the next read in a while
+            self._watch(False)
+            self._loop.call_later(READ_EVERY, self._resume)
+
+    def _keep(self, envelopes: list[Envelope]) -> None:
+        self.received += len(envelopes)
+        self.dropped += max(0, len(self._inbox) + len(envelopes) - INBOX_LIMIT)
+        self._inbox.extend(envelopes)
+
+    def _resume(self) -> None:
+        self._watch(True)
+        self.poll()  # edge-triggered: what came while it was not watched
 
     def drain(self) -> list[Envelope]:
-        """Everything received since the last drain, oldest first."""
+        """Everything received since the last drain, oldest first, with what waits on
+        the socket while it is not watched (at most `READ_EVERY` of it)."""
+        while not self._watching and self._sub is not None:
+            waiting = self._sub.take_ready(BATCH)
+            self._keep(waiting)
+            if len(waiting) < BATCH:
+                break
         items = list(self._inbox)
         self._inbox.clear()
         self._woken = False
         return items
+
+    def _watch(self, on: bool) -> None:
+        """Have the loop call `poll` when the socket is readable (or not)."""
+        if self._sub is None or self._loop is None or self._loop.is_closed() \
+                or on == self._watching:
+            return
+        self._watching = on
+        if on:
+            self._loop.add_reader(self._sub.fileno(), self.poll)
+        else:
+            self._loop.remove_reader(self._sub.fileno())
 
     @property
     def connected(self) -> bool:
@@ -110,8 +145,7 @@ class BusLink:
 
     def close(self) -> None:
         if self._sub is not None:
-            if self._loop is not None and not self._loop.is_closed():
-                self._loop.remove_reader(self._sub.fileno())
+            self._watch(False)
             self._loop = None
             self._sub.close()  # take_ready now returns nothing
         if self._pub is not None:
