@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.containers import Vertical
 from textual.widget import Widget
@@ -19,6 +20,7 @@ from mrss.tui.models.actions import ActionsModel
 from mrss.tui.models.map import MapModel
 from mrss.tui.widgets.actions_table import ActionsTable
 from mrss.tui.widgets.border_text import set_border_subtitle, set_border_title
+from mrss.tui.widgets.log_pane import LogView
 from mrss.tui.widgets.map_panel import MapPanel
 from mrss.tui.widgets.mind_inspector import MindInspector
 from tests.tui.tui_helpers import run
@@ -205,4 +207,54 @@ def test_a_table_at_its_max_height_gaining_a_row_does_not_lay_the_screen_out() -
                 await pilot.pause()
             assert table.relayouts == before
             assert table.row_count == 16
+    run(body())
+
+
+class _Log(App[None]):
+    CSS = "LogView { height: 10; width: 60; }"
+
+    def compose(self) -> ComposeResult:
+        yield LogView()
+
+
+def _bar_column(app: App[Any], view: LogView) -> list[str]:
+    region = view.region
+    rows = app.screen._compositor.render_strips()[region.y:region.bottom]
+    return [strip.text[region.right - 1] for strip in rows]
+
+
+def test_a_scrollbar_is_repainted_only_when_its_thumb_moves_an_eighth_of_a_cell() -> None:
+    async def body() -> None:
+        app = _Log()
+        async with app.run_test(size=(80, 20)) as pilot:
+            view = app.query_one(LogView)
+            for i in range(1000):  # a long log: its 10-line thumb is one cell
+                view.write(Text(f"line {i}"))
+            await pilot.pause()
+            view.auto_scroll = False  # paused on its last lines (the operator reads)
+            view.scroll_to(y=view.max_scroll_y - 200, animate=False)
+            await pilot.pause()
+            lines = _count_lines(view.vertical_scrollbar)
+            painted = 0
+            for i in range(1000, 1100):  # each line in its own frame: the thumb creeps up
+                view.write(Text(f"line {i}"))
+                await pilot.pause()
+                if i % 25 == 0:  # what is shown is what a full repaint shows
+                    shown = _bar_column(app, view)
+                    painted += len(lines)
+                    view.vertical_scrollbar.refresh()
+                    await pilot.pause()
+                    assert _bar_column(app, view) == shown, i
+                    lines.clear()
+            painted += len(lines)
+            assert painted < 200, painted  # a repaint of the 10-line bar per line: 1,000
+            lines.clear()
+            for _ in range(40):  # scrolling down a line at a time moves it now and then
+                view.scroll_to(y=view.scroll_y + 1, animate=False)
+                await pilot.pause()
+            shown = _bar_column(app, view)
+            view.vertical_scrollbar.refresh()
+            await pilot.pause()
+            assert _bar_column(app, view) == shown
+            assert len(lines) < 200, len(lines)  # a few moves of a thumb, not 40 repaints
     run(body())

@@ -14,10 +14,12 @@ Mix it in before the Textual class: `class LogView(SteadyScroll, RichLog)`.
 
 from __future__ import annotations
 
+from math import ceil
 from typing import TYPE_CHECKING
 
 from textual.geometry import Size
 from textual.reactive import Reactive
+from textual.scrollbar import ScrollBar
 from textual.widget import Widget
 
 # A plain mixin at run time: a Widget base would hide the Textual class's component
@@ -26,6 +28,9 @@ if TYPE_CHECKING:
     from textual.widget import Widget as _Base
 else:
     _Base = object
+
+
+EIGHTHS = 8  # the partial-cell glyphs a scrollbar's thumb ends in (Textual's bars)
 
 
 def _shown(overflow: str, over: bool) -> bool:
@@ -52,6 +57,18 @@ class SteadyScroll(_Base):
     virtual_size: Reactive[Size] = Reactive(Size(0, 0), layout=False)
     relayouts = 0  # virtual size changes that did lay the screen out (tests watch it)
 
+    def watch_scroll_y(self, old: float, new: float) -> None:
+        """Textual's, with the scrollbar repainted only if its thumb moves an eighth of
+        a cell (a log following its end scrolls a line each line)."""
+        if self.show_vertical_scrollbar:
+            _move_thumb(self.vertical_scrollbar, new)
+        super().watch_scroll_y(old, new)
+
+    def watch_scroll_x(self, old: float, new: float) -> None:
+        if self.show_horizontal_scrollbar:
+            _move_thumb(self.horizontal_scrollbar, new)
+        super().watch_scroll_x(old, new)
+
     def watch_virtual_size(self, old: Size, size: Size) -> None:
         styles = self.styles
         # a panel sized by its content (`height: auto`) changes size with it (the extent
@@ -72,10 +89,52 @@ class SteadyScroll(_Base):
             self.refresh(layout=True)
             return
         if self.show_vertical_scrollbar:
-            self.vertical_scrollbar.window_virtual_size = size.height
+            _resize_thumb(self.vertical_scrollbar, size.height)
         if self.show_horizontal_scrollbar:
-            self.horizontal_scrollbar.window_virtual_size = size.width
+            _resize_thumb(self.horizontal_scrollbar, size.width)
         if self.scroll_y > self.max_scroll_y:  # the content shrank under the view
             self.scroll_y = self.max_scroll_y
         if self.scroll_x > self.max_scroll_x:
             self.scroll_x = self.max_scroll_x
+
+
+def _thumb(bar: ScrollBar, virtual_size: float,
+           position: float | None = None) -> tuple[int, int] | None:
+    """Where a scrollbar's thumb is drawn, in eighths of a cell (start, end), for
+    `virtual_size` and `position` (default: the bar's; None: no thumb); as Textual's
+    `ScrollBarRender.render_bar` puts it."""
+    size = bar.size.height if bar.vertical else bar.size.width
+    virtual = ceil(virtual_size)
+    window = ceil(bar.window_size) if bar.window_size < virtual_size else 0
+    if not (window and size and virtual and size != virtual):
+        return None
+    thumb = max(1, window / (virtual / size))
+    at = bar.position if position is None else position
+    position = (size - thumb) * (at / (virtual - window))
+    start = int(position * EIGHTHS)
+    return start, start + ceil(thumb * EIGHTHS)
+
+
+def _resize_thumb(bar: ScrollBar, virtual_size: int) -> None:
+    """`bar.window_virtual_size = virtual_size`, repainting the scrollbar only if its
+    thumb moves or changes size by an eighth of a cell: a log or table a line longer
+    mostly leaves it where it was (a scrollbar repainted whole for it was the most
+    lines the dashboard painted, `mrss bench tui`)."""
+    if bar.window_virtual_size == virtual_size:
+        return
+    before = _thumb(bar, bar.window_virtual_size)
+    if before is not None and before == _thumb(bar, virtual_size):
+        bar.set_reactive(ScrollBar.window_virtual_size, virtual_size)
+    else:
+        bar.window_virtual_size = virtual_size
+
+
+def _move_thumb(bar: ScrollBar, position: float) -> None:
+    """Set `bar.position` without a repaint when its thumb stays where it is drawn (the
+    watcher that follows sets it again, to the same value: nothing happens)."""
+    value = bar.validate_position(position)
+    if value == bar.position:
+        return
+    before = _thumb(bar, bar.window_virtual_size)
+    if before is not None and before == _thumb(bar, bar.window_virtual_size, value):
+        bar.set_reactive(ScrollBar.position, value)
