@@ -73,9 +73,12 @@ def test_a_border_text_set_again_repaints_nothing_and_a_new_one_only_its_line() 
             await pilot.pause()
             assert lines == [7, 0]
             assert "another" in _screen_text(app)
+            set_border_subtitle(box, "[b]plain[/b] [ ] text")  # never markup
+            await pilot.pause()
+            assert "[b]plain[/b] [ ] text" in _screen_text(app)
             set_border_subtitle(box, "")
             await pilot.pause()
-            assert "second" not in _screen_text(app)
+            assert "second" not in _screen_text(app) and "plain" not in _screen_text(app)
     run(body())
 
 

@@ -5,14 +5,16 @@ is set, even to the same text: a table whose subtitle is set at every redraw, or
 mind panel whose subtitle names the snapshot's time, was painted whole each second
 (most of the lines the dashboard painted were unchanged, `mrss bench tui`). Here a
 text equal to the one shown changes nothing, and a new one repaints only the border
-line it is on (top for the title, bottom for the subtitle). A widget not mounted yet,
-or without a border, takes the text the ordinary way.
+line it is on (top for the title, bottom for the subtitle). The text is plain (no
+markup). A widget not mounted yet, or without a border, takes the text the ordinary way.
 """
 
 from __future__ import annotations
 
 from typing import Literal
 
+from rich.text import Text
+from textual.content import Content
 from textual.geometry import Region
 from textual.widget import Widget
 
@@ -38,10 +40,12 @@ def _set(widget: Widget, edge: Edge, text: str) -> None:
     top, _, bottom, _ = widget.styles.border.spacing
     has_line = top if edge == "title" else bottom
     if not widget.is_mounted or not has_line or not widget.size:
-        setattr(widget, f"border_{edge}", text or None)  # the descriptor: a full repaint
+        # the descriptor (a full repaint), given the text as plain text
+        setattr(widget, f"border_{edge}", Text(text) if text else None)
         return
-    setattr(widget, attribute,
-            widget.render_str(text).expand_tabs(4).split()[0] if text else None)
+    # plain text, its first line (as the descriptor keeps it), never markup: parsing
+    # markup was most of what setting a text cost
+    setattr(widget, attribute, Content(text.splitlines()[0]).expand_tabs(4) if text else None)
     # the line in the widget's own coordinates, given in its content's (refresh adds
     # the content offset back)
     outer = widget.outer_size
