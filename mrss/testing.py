@@ -68,6 +68,15 @@ def wait_until(
         time.sleep(interval)
 
 
+def process_gone(pid: int) -> bool:
+    """Whether process `pid` has ended: it is not there, or a zombie not reaped yet
+    (one reaped between looking it up and reading its status is gone too)."""
+    try:
+        return bool(psutil.Process(pid).status() == psutil.STATUS_ZOMBIE)
+    except psutil.NoSuchProcess:
+        return True
+
+
 def _stretched(started: float, timeout: float) -> str:
     waited = time.monotonic() - started
     return f" (waited {waited:.1f}s: the machine was loaded)" if waited > timeout * 1.05 else ""

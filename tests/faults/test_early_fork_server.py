@@ -16,6 +16,7 @@ from mrss.supervision.events import EventLog
 from mrss.supervision.launchers import ForkLauncher, preload_modules
 from mrss.supervision.process import ProcessSupervisor
 from mrss.supervision.spec import SupervisorSpec
+from mrss.testing import process_gone
 from tests.faults.conftest import HEARTBEAT, MISSES, WORKER, worker
 
 TARGETS = "tests.faults.check_targets"
@@ -35,8 +36,7 @@ def test_the_check_runs_in_a_child_of_the_fork_server_and_says_yes_or_no(
     assert early.check(f"{TARGETS}:accept", project)
     checker = int(project.with_suffix(".checked").read_text())
     assert checker not in (os.getpid(), early.server_pid)  # a child of the server, gone
-    assert not psutil.pid_exists(checker) or \
-        psutil.Process(checker).status() == psutil.STATUS_ZOMBIE
+    assert process_gone(checker)
     assert not early.check(f"{TARGETS}:refuse", project)
     assert not early.check(f"{TARGETS}:crash", project)  # a check that fails refuses
     assert psutil.Process(early.server_pid).is_running()  # the server itself goes on

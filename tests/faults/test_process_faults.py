@@ -11,7 +11,7 @@ import pytest
 
 from mrss.supervision import faults
 from mrss.supervision.spec import Backoff, Strategy
-from mrss.testing import wait_until
+from mrss.testing import process_gone, wait_until
 from tests.faults.conftest import MakeTree, worker
 
 
@@ -30,7 +30,7 @@ def test_sigkill_restarts_the_children_the_strategy_names(
     after = {c.id: c.pid for c in tree.sup.tree().children}
     for cid, inc in expected.items():
         assert (after[cid] == before[cid]) == (inc == 1), cid
-    assert not psutil.pid_exists(killed) or psutil.Process(killed).status() == "zombie"
+    assert process_gone(killed)
     (exit_b,) = [e for e in tree.log.of("exit", "b") if e.pid == killed]
     assert exit_b.reason == "killed: SIGKILL"
     (restart,) = tree.log.of("restart")

@@ -26,7 +26,7 @@ import paho.mqtt.client as mqtt
 import psutil
 import pytest
 
-from mrss.testing import find_mosquitto, wait_until
+from mrss.testing import find_mosquitto, process_gone, wait_until
 from tests.edge.supervised_edge import SupervisedEdge
 from tests.mosquitto import require_mosquitto
 
@@ -75,9 +75,7 @@ def kill_broker(edge: SupervisedEdge, target: str) -> None:
     """SIGKILL the Mosquitto process or the component; wait for the next incarnation."""
     first, old = edge.incarnation("broker"), mosquitto_pid(edge)
     os.kill(old if target == "mosquitto" else edge.pid("broker"), signal.SIGKILL)
-    wait_until(lambda: not psutil.pid_exists(old) or
-               psutil.Process(old).status() == psutil.STATUS_ZOMBIE, 30,
-               message="the old mosquitto gone")
+    wait_until(lambda: process_gone(old), 30, message="the old mosquitto gone")
     wait_until(lambda: edge.incarnation("broker") > first, 60, interval=0.05,
                message=f"a new broker incarnation\n{edge.log_text()[-3000:]}")
 
