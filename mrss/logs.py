@@ -36,6 +36,7 @@ import weakref
 from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from mrss.logfile import LogFile, Rotation
 from mrss.messages import LogRecord, Message
@@ -105,6 +106,24 @@ def stderr_is(path: str | os.PathLike[str]) -> bool:
         return False
 
 
+class StderrHandler(logging.StreamHandler):  # type: ignore[type-arg]
+    """A console handler that writes to whatever `sys.stderr` is when a record comes,
+    not the stream it was made with (as `logging.lastResort` does): a process whose
+    stderr is replaced and closed later (a test's captured output) never has a thread
+    log into a closed file ("I/O operation on closed file")."""
+
+    def __init__(self) -> None:
+        super().__init__(sys.stderr)
+
+    @property
+    def stream(self) -> Any:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: Any) -> None:
+        del value  # always the current sys.stderr
+
+
 def configure(component: str, *, level: int = logging.INFO, console: bool = True,
               file: str | os.PathLike[str] | None = None) -> None:
     """Give this process's root logger its console and file handlers (replacing others).
@@ -128,7 +147,7 @@ def configure(component: str, *, level: int = logging.INFO, console: bool = True
             appender.setFormatter(formatter)
             root.addHandler(appender)
     if console and not (appender is not None and stderr_is(appender.path)):
-        stream = logging.StreamHandler(sys.stderr)
+        stream = StderrHandler()
         stream.setFormatter(formatter)
         root.addHandler(stream)
     if problem is not None:

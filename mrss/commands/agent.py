@@ -38,6 +38,7 @@ from mrss.agentspeak.host import run_standalone, run_until_idle_by
 from mrss.agentspeak.parser import parse_literal
 from mrss.agentspeak.scripted import ScriptedHost
 from mrss.commands.agent_script import AgentScript, ScriptLineError, StillBusy, parse_value
+from mrss.logs import StderrHandler
 
 EXIT_BUSY, EXIT_BAD = 1, 2
 MAX_TIME = 1e6  # seconds (about 11.6 days): longer overflows the OS's timers
@@ -111,7 +112,9 @@ def _answers(pairs: list[str]) -> dict[str, str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
+    console = StderrHandler()  # the stderr of the moment (a test's capture closes)
+    console.setFormatter(logging.Formatter("%(message)s"))
+    logging.basicConfig(level=logging.WARNING, handlers=[console])
     if args.max_time is not None and not 0 <= args.max_time <= MAX_TIME:
         print(f"mrss agent: --max-time {args.max_time:g}: expected seconds from 0 to "
               f"{MAX_TIME:g}", file=sys.stderr)

@@ -306,3 +306,36 @@ def test_a_forked_child_never_waits_on_nor_publishes_through_its_parents_handler
             os.waitpid(pid, 0)
         os.close(r)
         os.close(w)
+
+
+def test_the_console_handler_writes_to_the_stderr_of_the_moment_never_a_closed_one(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process whose stderr was replaced and the old one closed (a test's captured
+    output) keeps logging: no 'I/O operation on closed file' from a thread that logs
+    later."""
+    import io
+
+    handler = logs.StderrHandler()
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    first = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", first)
+    handler.handle(logging.makeLogRecord({"msg": "one", "levelno": logging.WARNING}))
+    assert first.getvalue() == "one\n"
+    first.close()
+    second = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", second)
+    monkeypatch.setattr(logging, "raiseExceptions", True)  # a failure would be printed
+    handler.handle(logging.makeLogRecord({"msg": "two", "levelno": logging.WARNING}))
+    assert second.getvalue() == "two\n"
+    # the one `logs.configure` gives the root logger is such a handler
+    root = logging.getLogger()
+    saved = root.handlers[:], root.level
+    try:
+        logs.configure("c", console=True)
+        assert [type(h) for h in root.handlers] == [logs.StderrHandler]
+    finally:
+        for h in root.handlers[:]:
+            root.removeHandler(h)
+        for h in saved[0]:
+            root.addHandler(h)
+        root.setLevel(saved[1])
