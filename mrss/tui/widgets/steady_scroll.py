@@ -106,7 +106,7 @@ def _thumb(bar: ScrollBar, virtual_size: float,
     size = bar.size.height if bar.vertical else bar.size.width
     virtual = ceil(virtual_size)
     window = ceil(bar.window_size) if bar.window_size < virtual_size else 0
-    if not (window and size and virtual and size != virtual):
+    if not (window and size and virtual and size != virtual) or virtual <= window:
         return None
     thumb = max(1, window / (virtual / size))
     at = bar.position if position is None else position
