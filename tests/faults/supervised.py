@@ -23,7 +23,7 @@ import psutil
 from mrss.bus import BusEndpoints, Publisher, Subscriber
 from mrss.messages import Command, Envelope, LogRecord, SupEvent
 from mrss.runtime.forkserver import is_fork_server
-from mrss.testing import WaitTimeout, wait_until
+from mrss.testing import WaitTimeout, process_gone, wait_until
 
 REPO = Path(__file__).resolve().parent.parent.parent
 SHIPPED = REPO / "projects"  # wildfire and template, as shipped
@@ -178,7 +178,4 @@ class Supervised:
 
 
 def _alive(pid: int) -> bool:
-    try:
-        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
-        return False
+    return not process_gone(pid)
